@@ -1,0 +1,39 @@
+"""gloffset: the region within a distance of curves and polygons on the sphere.
+
+Exact vector offsets made of small-circle arcs, a float64 reference for distances
+and membership, and (in later modules) GPU rasters. Distances are angles inside;
+metres appear only through the ``radius`` keyword.
+"""
+
+from __future__ import annotations
+
+__version__ = "0.1.0"
+
+from .errors import (
+    GLContextError,
+    GloffsetError,
+    InputFormatError,
+    InvalidDistanceError,
+    InvalidGeometryError,
+)
+from .offset import Offset, offset
+from .reference import contains, distance
+from .shape import Shape, read
+from .units import EARTH_RADIUS, parse_distance
+
+__all__ = [
+    "EARTH_RADIUS",
+    "GLContextError",
+    "GloffsetError",
+    "InputFormatError",
+    "InvalidDistanceError",
+    "InvalidGeometryError",
+    "Offset",
+    "Shape",
+    "__version__",
+    "contains",
+    "distance",
+    "offset",
+    "parse_distance",
+    "read",
+]

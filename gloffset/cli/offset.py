@@ -1,0 +1,44 @@
+"""``gloffset offset``: the vector offset of a GeoJSON file, written as GeoJSON."""
+
+from __future__ import annotations
+
+import json
+
+import click
+
+from ..offset import offset as _offset
+from ..shape import read
+from . import main
+from .options import angle, distance_option, radius_option
+
+
+@main.command("offset")
+@click.argument("input", metavar="INPUT")
+@distance_option
+@radius_option
+@click.option(
+    "-o", "--output", default="-", show_default=True, help="Output GeoJSON file, - for stdout."
+)
+@click.option(
+    "--tolerance",
+    default="1e-6rad",
+    show_default=True,
+    help="Largest deviation of the written edges from the true arcs (a distance).",
+)
+@click.option("--digits", type=int, default=None, help="Round coordinates to this many decimals.")
+def offset_cmd(input, distance, radius, output, tolerance, digits):
+    """Offset the curves and polygons of INPUT (GeoJSON path, or - for stdin)."""
+    d = angle(distance, radius)
+    tol = angle(tolerance, radius)
+    shape = read(input)
+    feat = _offset(shape, d, radius=1.0).to_geojson(tolerance=tol, digits=digits)
+    feat["properties"]["distance"] = distance
+    text = json.dumps({"type": "FeatureCollection", "features": [feat]})
+    if output == "-":
+        click.echo(text)
+    else:
+        try:
+            with open(output, "w", encoding="utf-8") as fh:
+                fh.write(text)
+        except OSError as exc:
+            raise click.ClickException(f"cannot write {output!r}: {exc.strerror}") from None

@@ -1,0 +1,510 @@
+"""Input geometry as float64 unit vectors: closed rings (with holes) and open lines.
+
+A :class:`Shape` is what every other part of gloffset consumes. It is built once,
+here, from GeoJSON, a shapely object or lon/lat arrays, and validated once: NaN or
+infinite coordinates, latitudes outside [-90, 90], parts with fewer than two
+distinct points and consecutive antipodal points (whose great circle is undefined)
+raise :class:`~gloffset.errors.InvalidGeometryError` naming the feature, part and
+vertex. Repeated consecutive points are dropped.
+
+Seams. Real GeoJSON is cut at the antimeridian (RFC 7946) and polar polygons are
+drawn down to the pole along the +-90 deg latitude edge (Antarctica in Natural
+Earth). Such edges are *seams*, not boundaries: every vertex on +-180 deg and at
++-90 deg is snapped to the exact antimeridian or pole, an edge whose two ends both
+lie on the antimeridian half-circle (a pole included) is a seam, and the chains of
+real boundary that meet at a seam point are joined, so the pieces of a polygon on
+both sides of +-180 deg become one ring. A seam that has no partner on the other
+side stays in its ring, flagged: it still closes the ring for inside/outside tests
+but has no distance, offset or outline.
+
+Orientation. Every ring is stored with its interior on the left of its direction
+of travel on the sphere: exterior rings are made counter-clockwise and holes
+clockwise in lon/lat (as RFC 7946 asks; input winding is not trusted), which is
+the same as "interior on the left" on the sphere. A ring around a pole is
+therefore unambiguous.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import InputFormatError, InvalidGeometryError
+from .io import geojson as _gj
+from .sphere import SEAM_EPS_DEG, angle, arc_distance, lonlat_to_xyz, normalize, robust_cross
+
+__all__ = ["Shape", "Edges", "read"]
+
+# Two reference points with a known inside/outside status per region component;
+# a query uses the first unless it is nearly antipodal to it.
+_REF = normalize(np.array([[0.2897, -0.4671, 0.8353], [0.8071, 0.5663, -0.1672]]))
+#: Angle (rad) below which consecutive points count as repeated (0.6 micrometres on
+#: the Earth): shorter edges have no computable great circle in float64.
+MIN_EDGE = 1e-13
+# Angle (rad) below which two consecutive input points count as antipodal.
+_ANTIPODAL_EPS = 1e-12
+
+
+@dataclass(frozen=True)
+class Edges:
+    """All edges of a shape as flat arrays (what the reference and the GPU consume).
+
+    Attributes
+    ----------
+    a, b : (m, 3) float64
+        Start and end of each great-circle arc (``a == b`` for an isolated point).
+    boundary : (m,) bool
+        False for seams: they close rings for the inside test but have no distance.
+    group : (m,) int
+        Region component of ring edges (for crossing parity); -1 for edges of lines
+        and points, which bound no region.
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    boundary: np.ndarray
+    group: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.a)
+
+
+@dataclass
+class Shape:
+    """Curves and polygons on the unit sphere.
+
+    Attributes
+    ----------
+    rings : list of (n, 3) float64 arrays
+        Closed rings (first vertex not repeated), interior on the left.
+    ring_seams : list of (n,) bool arrays
+        ``ring_seams[k][i]`` is True when edge ``i -> i+1`` of ring ``k`` is a seam.
+    ring_groups : (len(rings),) int array
+        Region component of each ring: an exterior with its holes, or pieces of one
+        polygon joined across the antimeridian. Components are united (a point is
+        inside the shape when it is inside any component).
+    ring_holes : (len(rings),) bool array
+        True for the holes of a polygon, False for exterior rings.
+    lines : list of (n, 3) float64 arrays
+        Open lines (n >= 2) and isolated points (n == 1).
+    labels : list of str
+        Where each ring and then each line came from, for messages.
+    """
+
+    rings: list[np.ndarray] = field(default_factory=list)
+    ring_seams: list[np.ndarray] = field(default_factory=list)
+    ring_groups: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    ring_holes: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    lines: list[np.ndarray] = field(default_factory=list)
+    labels: list[str] = field(default_factory=list)
+
+    def __post_init__(self):
+        self.ring_groups = np.asarray(self.ring_groups, dtype=np.int64)
+        self.ring_holes = np.asarray(self.ring_holes, dtype=bool).reshape(len(self.rings))
+        if not self.rings and not self.lines:
+            raise InvalidGeometryError("empty geometry: no polygon, line or point to offset")
+        self._edges: Edges | None = None
+        self._ref_status: np.ndarray | None = None
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_geojson(cls, obj) -> Shape:
+        """Build a shape from a GeoJSON object (dict) or anything :func:`read` accepts."""
+        return _from_parts(_gj.parse(_gj.load(obj)))
+
+    @classmethod
+    def from_lonlat(cls, lon, lat, *, closed: bool = False) -> Shape:
+        """A single line (``closed=False``) or polygon ring (``closed=True``) from arrays.
+
+        ``lon`` and ``lat`` are in degrees. A closed ring may repeat its first vertex.
+        """
+        lon = np.asarray(lon, dtype=np.float64).ravel()
+        lat = np.asarray(lat, dtype=np.float64).ravel()
+        if lon.shape != lat.shape:
+            raise InvalidGeometryError(
+                f"lon and lat have different lengths ({lon.size} and {lat.size})"
+            )
+        pts = np.column_stack([lon, lat])
+        parts = _gj.Parts()
+        if closed:
+            parts.polygons.append([pts])
+            parts.polygon_labels.append("array polygon")
+        else:
+            parts.lines.append(pts)
+            parts.line_labels.append("array line")
+        return _from_parts(parts)
+
+    # ------------------------------------------------------------------ derived data
+    @property
+    def n_groups(self) -> int:
+        return int(self.ring_groups.max()) + 1 if len(self.ring_groups) else 0
+
+    @property
+    def n_vertices(self) -> int:
+        return sum(len(r) for r in self.rings) + sum(len(ln) for ln in self.lines)
+
+    def edges(self) -> Edges:
+        """The flat edge table (cached)."""
+        if self._edges is None:
+            a, b, bd, g = [], [], [], []
+            for ring, seams, grp in zip(self.rings, self.ring_seams, self.ring_groups):
+                a.append(ring)
+                b.append(np.roll(ring, -1, axis=0))
+                bd.append(~seams)
+                g.append(np.full(len(ring), grp))
+            for line in self.lines:
+                if len(line) == 1:
+                    a.append(line)
+                    b.append(line)
+                else:
+                    a.append(line[:-1])
+                    b.append(line[1:])
+                bd.append(np.ones(max(len(line) - 1, 1), dtype=bool))
+                g.append(np.full(max(len(line) - 1, 1), -1))
+            self._edges = Edges(
+                np.concatenate(a),
+                np.concatenate(b),
+                np.concatenate(bd),
+                np.concatenate(g).astype(np.int64),
+            )
+        return self._edges
+
+    def reference_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """Two points and whether each lies inside each region component.
+
+        Returns ``(refs, status)`` with ``refs`` (2, 3) and ``status`` (2, n_groups)
+        bool. The status is found once by walking from a point known to be just
+        inside each component (left of one of its boundary edges, closer to that
+        edge than to any other) to the reference point, counting crossings.
+        """
+        if self._ref_status is None:
+            from .crossings import group_parity
+
+            e = self.edges()
+            status = np.zeros((2, self.n_groups), dtype=bool)
+            for grp in range(self.n_groups):
+                inner = _inner_point(self, grp)
+                for k in range(2):
+                    ref = _REF[k]
+                    if np.dot(inner, ref) > -0.5:
+                        par = group_parity(inner[None], ref, e, grp)[0]
+                    else:  # go round through the other reference point
+                        via = _REF[1 - k]
+                        par = (
+                            group_parity(inner[None], via, e, grp)[0]
+                            ^ group_parity(via[None], ref, e, grp)[0]
+                        )
+                    status[k, grp] = not par
+            self._ref_status = status
+        return _REF, self._ref_status
+
+    # ------------------------------------------------------------------ output
+    def to_geojson(self, *, digits: int | None = None) -> dict:
+        """The shape as an RFC 7946 GeoJSON Feature (cut at the antimeridian).
+
+        Edges are written as straight lon/lat segments between the vertices, as in
+        the input; rings keep their joined form and are cut again on output.
+        """
+        geoms = []
+        if self.rings:
+            for grp in range(self.n_groups):
+                rings = [
+                    r for r, s, g in zip(self.rings, self.ring_seams, self.ring_groups) if g == grp
+                ]
+                north = self._inside_group(np.array([[0.0, 0.0, 1.0]]), grp)[0]
+                geoms.append(_gj.rings_to_geometry(rings, bool(north), digits))
+        lines = [ln for ln in self.lines if len(ln) > 1]
+        if lines:
+            geoms.append(_gj.lines_to_geometry(lines, digits))
+        points = [ln[0] for ln in self.lines if len(ln) == 1]
+        if points:
+            from .sphere import xyz_to_lonlat
+
+            lon, lat = xyz_to_lonlat(np.asarray(points))
+            geoms.append(
+                {"type": "MultiPoint", "coordinates": np.column_stack([lon, lat]).tolist()}
+            )
+        geom = _merge_geometries(geoms)
+        return {"type": "Feature", "properties": {}, "geometry": geom}
+
+    def _inside_group(self, p: np.ndarray, grp: int) -> np.ndarray:
+        from .crossings import inside
+
+        return inside(self, p, groups=[grp])
+
+    def __repr__(self) -> str:
+        return (
+            f"Shape({len(self.rings)} rings in {self.n_groups} regions, "
+            f"{len(self.lines)} lines/points, {self.n_vertices} vertices)"
+        )
+
+
+def read(source) -> Shape:
+    """Read geometry into a :class:`Shape`.
+
+    Parameters
+    ----------
+    source
+        A path to a GeoJSON file, ``"-"`` for stdin, a GeoJSON string or dict
+        (Geometry, Feature or FeatureCollection), an object with
+        ``__geo_interface__`` (shapely), an existing :class:`Shape`, or an (n, 2)
+        array of lon/lat in degrees (a polygon ring when its first and last rows
+        are equal, else a line).
+
+    Examples
+    --------
+    >>> s = read({"type": "LineString", "coordinates": [[0, 0], [10, 0]]})
+    >>> len(s.lines), len(s.lines[0])
+    (1, 2)
+    """
+    if isinstance(source, Shape):
+        return source
+    if isinstance(source, np.ndarray):
+        if source.ndim != 2 or source.shape[1] != 2:
+            raise InputFormatError(f"a lon/lat array must have shape (n, 2), got {source.shape}")
+        closed = len(source) >= 4 and np.array_equal(source[0], source[-1])
+        return Shape.from_lonlat(source[:, 0], source[:, 1], closed=closed)
+    return Shape.from_geojson(source)
+
+
+# ---------------------------------------------------------------------- building
+
+
+def _validate(ll: np.ndarray, label: str, *, min_points: int) -> np.ndarray:
+    """Check lon/lat, convert to unit vectors and drop repeated consecutive points."""
+    bad = ~np.isfinite(ll)
+    if bad.any():
+        i = int(np.flatnonzero(bad.any(axis=1))[0])
+        raise InvalidGeometryError(
+            f"{label} vertex {i}: coordinate is not finite ({ll[i].tolist()})"
+        )
+    badlat = np.abs(ll[:, 1]) > 90.0 + SEAM_EPS_DEG
+    if badlat.any():
+        i = int(np.flatnonzero(badlat)[0])
+        raise InvalidGeometryError(
+            f"{label} vertex {i}: latitude {float(ll[i, 1])!r} out of range [-90, 90]"
+        )
+    v = lonlat_to_xyz(ll[:, 0], ll[:, 1])
+    idx = np.arange(len(v))
+    if len(v) > 1:
+        keep = np.ones(len(v), dtype=bool)
+        keep[1:] = angle(v[1:], v[:-1]) > MIN_EDGE
+        v, idx = v[keep], idx[keep]
+    if min_points == 3 and len(v) > 1 and angle(v[0], v[-1]) <= MIN_EDGE:
+        v, idx = v[:-1], idx[:-1]
+    if len(v) < min(min_points, 2) or (min_points == 3 and len(v) < 3):
+        what = "a ring needs at least 3" if min_points == 3 else "a line needs at least 2"
+        raise InvalidGeometryError(
+            f"{label}: {what} distinct points, got {len(v)} (empty or degenerate geometry)"
+        )
+    nxt = np.roll(v, -1, axis=0) if min_points == 3 else v[1:]
+    cur = v if min_points == 3 else v[:-1]
+    if len(cur):
+        anti = np.linalg.norm(cur + nxt, axis=1) < 2.0 * np.sin(_ANTIPODAL_EPS / 2) + 1e-300
+        if anti.any():
+            i = int(np.flatnonzero(anti)[0])
+            j = idx[(i + 1) % len(idx)]
+            raise InvalidGeometryError(
+                f"{label} vertices {idx[i]} and {j}: consecutive points are antipodal, so the "
+                "great circle between them is undefined; add a point in between"
+            )
+    return v, idx
+
+
+def _on_seam(ll: np.ndarray) -> np.ndarray:
+    return (np.abs(np.abs(ll[:, 0]) - 180.0) <= SEAM_EPS_DEG) | (
+        np.abs(np.abs(ll[:, 1]) - 90.0) <= SEAM_EPS_DEG
+    )
+
+
+def _ccw(ll: np.ndarray) -> bool:
+    """Whether a lon/lat ring runs counter-clockwise, i.e. has its interior on the left.
+
+    The shoelace area decides, after unwrapping an uncut antimeridian crossing. A
+    ring that goes once round a pole without being cut (ambiguous in GeoJSON) is
+    taken to enclose the pole on its side of the equator, the smaller region.
+    """
+    lon = ll[:, 0].copy()
+    jump = np.diff(np.append(lon, lon[0]))
+    seam = _on_seam(ll)
+    big = (np.abs(jump) > 180.0) & ~(seam & np.roll(seam, -1))
+    net = float(np.sum(jump - 360.0 * np.round(jump / 360.0) * big))
+    if abs(abs(net) - 360.0) < 1e-6 and not seam.any():
+        # eastward travel keeps the north on the left
+        return (net > 0) == (float(np.mean(ll[:, 1])) > 0)
+    if big.any():
+        lon[1:] -= 360.0 * np.cumsum(np.round(jump[:-1] / 360.0) * big[:-1])
+    x, y = lon, ll[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) > 0
+
+
+def _from_parts(parts: _gj.Parts) -> Shape:
+    if len(parts) == 0:
+        raise InvalidGeometryError("empty geometry: no polygon, line or point to offset")
+    rings, seams, groups, holes, labels = [], [], [], [], []
+    for poly, plabel in zip(parts.polygons, parts.polygon_labels):
+        g = max(groups, default=-1) + 1
+        for k, ll in enumerate(poly):
+            label = f"{plabel} ring {k}"
+            v, idx = _validate(ll, label, min_points=3)
+            on = _on_seam(ll)[idx]
+            seam = on & np.roll(on, -1)
+            if _ccw(ll) != (k == 0):  # exterior CCW, holes CW
+                v, seam = v[::-1].copy(), np.roll(seam[::-1], -1)
+            rings.append(v)
+            seams.append(seam)
+            groups.append(g)
+            holes.append(k > 0)
+            labels.append(label)
+    rings, seams, groups, holes, labels = _join_seams(rings, seams, groups, holes, labels)
+    lines, line_labels = [], []
+    for ll, label in zip(parts.lines, parts.line_labels):
+        v, _ = _validate(ll, label, min_points=2)
+        lines.append(v)
+        line_labels.append(label)
+    for ll, label in zip(parts.points, parts.point_labels):
+        v, _ = _validate(ll, label, min_points=1)
+        lines.append(v[:1])
+        line_labels.append(label)
+    return Shape(rings, seams, groups, holes, lines, labels + line_labels)
+
+
+def _join_seams(rings, seams, groups, holes, labels):
+    """Join the boundary chains of rings that meet at seam points (see module notes)."""
+    if not any(s.any() for s in seams):
+        return rings, seams, _compact(groups), holes, labels
+    keep_r, keep_s, keep_g, keep_h, keep_l = [], [], [], [], []
+    chains = []  # (ring id, vertices start..end, seam vertices after end)
+    for r, (v, s) in enumerate(zip(rings, seams)):
+        if not s.any():
+            keep_r.append(v)
+            keep_s.append(s)
+            keep_g.append(groups[r])
+            keep_h.append(holes[r])
+            keep_l.append(labels[r])
+            continue
+        if s.all():
+            continue  # nothing but seams: no area, no boundary
+        n = len(v)
+        start = int(np.flatnonzero(s)[-1] + 1) % n  # first vertex of a boundary chain
+        order = (start + np.arange(n)) % n
+        vv, ss = v[order], s[order]
+        i = 0
+        while i < n:
+            j = i
+            while j < n and not ss[j]:
+                j += 1
+            # boundary edges i..j-1: vertices i..j; then seam edges j..k-1
+            k = j
+            while k < n and ss[k]:
+                k += 1
+            chains.append([r, vv[i : j + 1], vv[j + 1 : k] if k > j + 1 else vv[:0]])
+            i = k
+
+    def key(p):
+        return (round(float(p[0]), 11), round(float(p[1]), 11), round(float(p[2]), 11))
+
+    starts: dict = {}
+    first: dict = {}
+    for c, (r, verts, _) in enumerate(chains):
+        starts.setdefault(key(verts[0]), []).append(c)
+        first.setdefault(r, c)
+    used = np.zeros(len(chains), dtype=bool)
+    parent = {}
+
+    def find(x):
+        while parent.get(x, x) != x:
+            x = parent[x]
+        return x
+
+    new = []
+    for c0 in range(len(chains)):
+        if used[c0]:
+            continue
+        pts, flags, members = [], [], []
+        c = c0
+        while True:
+            used[c] = True
+            r, verts, seam_after = chains[c]
+            members.append(r)
+            pts.append(verts[:-1])
+            flags.append(np.zeros(len(verts) - 1, dtype=bool))
+            cand = [x for x in starts.get(key(verts[-1]), []) if x == c0 or not used[x]]
+            if cand:  # the boundary goes on from this seam point: c0 first, to close
+                nxt = c0 if c0 in cand else cand[0]
+            else:  # no partner: keep this ring's own seam path to its next chain
+                nxt = c + 1 if c + 1 < len(chains) and chains[c + 1][0] == r else first[r]
+                pts.append(np.vstack([verts[-1:], seam_after]))
+                flags.append(np.ones(len(seam_after) + 1, dtype=bool))
+            if nxt == c0:
+                break
+            if used[nxt]:
+                raise InvalidGeometryError(
+                    f"{labels[r]}: pieces cut at the antimeridian do not join into rings"
+                )
+            c = nxt
+        v = np.vstack(pts)
+        f = np.concatenate(flags)
+        # drop repeated points created where pieces meet
+        keep = np.any(v != np.roll(v, -1, axis=0), axis=1)
+        v, f = v[keep], f[keep]
+        if len(v) < 3:
+            continue
+        new.append((v, f, members))
+        for m in members[1:]:
+            parent[find(groups[m])] = find(groups[members[0]])
+    for v, f, members in new:
+        keep_r.append(v)
+        keep_s.append(f)
+        keep_g.append(groups[members[0]])
+        keep_h.append(holes[members[0]])
+        keep_l.append(" + ".join(dict.fromkeys(labels[m] for m in members)))
+    keep_g = [find(g) for g in keep_g]
+    return keep_r, keep_s, _compact(keep_g), keep_h, keep_l
+
+
+def _compact(groups) -> np.ndarray:
+    _, inv = np.unique(np.asarray(groups, dtype=np.int64), return_inverse=True)
+    return inv.astype(np.int64)
+
+
+def _inner_point(shape: Shape, grp: int) -> np.ndarray:
+    """A point just left of a boundary edge of component ``grp``, hence inside it."""
+    e = shape.edges()
+    sel = np.flatnonzero((e.group == grp) & e.boundary)
+    if len(sel) == 0:
+        sel = np.flatnonzero(e.group == grp)
+    a, b = e.a[sel], e.b[sel]
+    i = int(np.argmax(angle(a, b)))  # the longest edge is the most robust
+    m = normalize(a[i] + b[i])
+    n = normalize(robust_cross(a[i], b[i]))
+    others = np.ones(len(e.a), dtype=bool)
+    others[sel[i]] = False
+    dist = arc_distance(m, e.a[others], e.b[others]) if others.any() else np.array([1.0])
+    eps = min(1e-3, 0.25 * float(dist.min()), 0.25 * float(angle(a[i], b[i])))
+    if eps <= 1e-13:
+        raise InvalidGeometryError(
+            f"{shape.labels[int(np.flatnonzero(shape.ring_groups == grp)[0])]}: ring is degenerate "
+            "(its edges overlap), so its inside is undefined"
+        )
+    return normalize(np.cos(eps) * m + np.sin(eps) * n)
+
+
+def _merge_geometries(geoms: list[dict]) -> dict:
+    if len(geoms) == 1:
+        return geoms[0]
+    polys = []
+    others = []
+    for g in geoms:
+        if g["type"] == "Polygon":
+            polys.append(g["coordinates"])
+        elif g["type"] == "MultiPolygon":
+            polys.extend(g["coordinates"])
+        else:
+            others.append(g)
+    out = []
+    if polys:
+        out.append({"type": "MultiPolygon", "coordinates": polys})
+    out.extend(others)
+    return out[0] if len(out) == 1 else {"type": "GeometryCollection", "geometries": out}

@@ -1,0 +1,201 @@
+"""Unit-vector maths on the sphere, vectorised over numpy arrays (float64).
+
+Conventions: points are unit vectors in the Earth frame (x towards 0N 0E, y towards
+0N 90E, z towards the north pole); lon/lat are in degrees; angles in radians. Every
+function broadcasts over leading dimensions; the last axis has length 3.
+
+Accuracy: the functions here are written so that their absolute error is a few
+units in the last place of an angle of order 1, i.e. below 1e-15 rad, for unit
+inputs, including nearly equal and nearly antipodal points, except where a
+docstring says otherwise. ``tests/test_sphere.py`` checks these bounds against
+extended-precision (mpmath) values.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Degrees: a longitude within this of +-180, or a latitude within this of +-90, lies on
+#: the antimeridian or at a pole (Natural Earth writes 180.00000000000006).
+SEAM_EPS_DEG = 1e-9
+
+__all__ = [
+    "SEAM_EPS_DEG",
+    "lonlat_to_xyz",
+    "xyz_to_lonlat",
+    "normalize",
+    "robust_cross",
+    "angle",
+    "slerp",
+    "rotate",
+    "arc_distance",
+    "arcs_cross",
+    "orient",
+]
+
+
+def lonlat_to_xyz(lon, lat) -> np.ndarray:
+    """Unit vectors for longitudes and latitudes in degrees.
+
+    Accuracy: each component within 2 ulp of the exact value of the rounded
+    input angles. Longitudes within :data:`SEAM_EPS_DEG` of +-180 and latitudes
+    within it of +-90 are snapped to the exact antimeridian and pole.
+
+    Examples
+    --------
+    >>> lonlat_to_xyz(90.0, 0.0).round(15)
+    array([0., 1., 0.])
+    """
+    lon = np.asarray(lon, dtype=np.float64)
+    lat = np.asarray(lat, dtype=np.float64)
+    rlon, rlat = np.radians(lon), np.radians(lat)
+    clat = np.cos(rlat)
+    v = np.stack([clat * np.cos(rlon), clat * np.sin(rlon), np.sin(rlat)], axis=-1)
+    # Snap the seams of lon/lat data to exact vectors: a vertex on +-180 deg has y == 0
+    # exactly, and every vertex at +-90 deg latitude is the same pole, so the two sides
+    # of an antimeridian cut and the edges along a pole give bit-identical points.
+    on_am = np.abs(np.abs(lon) - 180.0) <= SEAM_EPS_DEG
+    v[..., 1] = np.where(on_am, 0.0, v[..., 1])
+    v[..., 0] = np.where(on_am, -clat, v[..., 0])
+    pole = np.abs(np.abs(lat) - 90.0) <= SEAM_EPS_DEG
+    v[..., 0] = np.where(pole, 0.0, v[..., 0])
+    v[..., 1] = np.where(pole, 0.0, v[..., 1])
+    v[..., 2] = np.where(pole, np.sign(lat), v[..., 2])
+    return v
+
+
+def xyz_to_lonlat(v) -> tuple[np.ndarray, np.ndarray]:
+    """Longitudes in (-180, 180] and latitudes in [-90, 90], in degrees, of vectors ``v``.
+
+    ``v`` need not be normalised. Uses ``atan2`` for both angles, so the latitude is
+    accurate to 1 ulp near the poles too. The longitude of a pole is 0 (or +-180
+    from the sign of a zero ``y``).
+    """
+    v = np.asarray(v, dtype=np.float64)
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    lon = np.degrees(np.arctan2(y, x))
+    lat = np.degrees(np.arctan2(z, np.hypot(x, y)))
+    return lon, lat
+
+
+def normalize(v) -> np.ndarray:
+    """``v / |v|`` along the last axis (zero vectors stay zero)."""
+    v = np.asarray(v, dtype=np.float64)
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return np.divide(v, n, out=np.zeros_like(v), where=n > 0)
+
+
+def robust_cross(a, b) -> np.ndarray:
+    """``2 (a x b)`` computed as ``(b + a) x (b - a)``.
+
+    For nearly equal unit vectors this keeps the full relative accuracy of the
+    direction (the plain cross product loses it to cancellation), as S2's
+    ``RobustCrossProd`` does. Only the direction is meant to be used.
+    """
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    return np.cross(b + a, b - a)
+
+
+def angle(a, b) -> np.ndarray:
+    """Angle between unit vectors ``a`` and ``b`` in radians, in [0, pi].
+
+    Computed as ``2 atan2(|a - b|, |a + b|)``: absolute error below 1e-15 rad for
+    every angle, including 0 and pi (``acos`` of a dot product loses everything
+    below ~1e-8 rad).
+    """
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    return 2.0 * np.arctan2(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1))
+
+
+def slerp(a, b, t) -> np.ndarray:
+    """Spherical linear interpolation from ``a`` (t=0) to ``b`` (t=1) along the short arc.
+
+    ``t`` broadcasts against the leading dimensions of ``a`` and ``b`` (use
+    ``t[..., None]`` shapes as needed). Undefined for antipodal ``a``, ``b``.
+    Points lie on the unit sphere to 1 ulp and on the arc to 1e-15 rad.
+    """
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    t = np.asarray(t, dtype=np.float64)[..., None]
+    theta = angle(a, b)[..., None]
+    s = np.sin(theta)
+    small = s < 1e-300
+    s_safe = np.where(small, 1.0, s)
+    wa = np.where(small, 1.0 - t, np.sin((1.0 - t) * theta) / s_safe)
+    wb = np.where(small, t, np.sin(t * theta) / s_safe)
+    return normalize(wa * a + wb * b)
+
+
+def rotate(v, axis, theta) -> np.ndarray:
+    """Rotate vectors ``v`` about unit ``axis`` by ``theta`` radians (right-hand rule).
+
+    Rodrigues' formula; exact to a few ulp.
+    """
+    v = np.asarray(v, dtype=np.float64)
+    axis = np.asarray(axis, dtype=np.float64)
+    theta = np.asarray(theta, dtype=np.float64)[..., None]
+    c, s = np.cos(theta), np.sin(theta)
+    kdotv = np.sum(axis * v, axis=-1, keepdims=True)
+    return v * c + np.cross(axis, v) * s + axis * kdotv * (1.0 - c)
+
+
+def orient(a, b, c) -> np.ndarray:
+    """Triple product ``a . (b x c)``: > 0 when ``c`` lies to the left of the arc a -> b."""
+    return np.sum(np.asarray(a) * np.cross(b, c), axis=-1)
+
+
+def arc_distance(p, a, b, n=None) -> np.ndarray:
+    """Great-circle distance (radians) from points ``p`` to the short arcs ``a -> b``.
+
+    Parameters
+    ----------
+    p, a, b : array_like (..., 3)
+        Unit vectors; they broadcast against each other. ``a == b`` is a point.
+    n : array_like (..., 3), optional
+        Unit normals ``normalize(a x b)`` if the caller has them (saves work).
+
+    Notes
+    -----
+    When the foot of ``p`` on the great circle of the arc falls between ``a`` and
+    ``b`` the distance is ``atan2(|p.n|, |p - (p.n) n|)``, otherwise the angle to the
+    nearer endpoint. Absolute error below 1e-15 rad for arcs longer than 1e-8 rad,
+    and below ``1e-16 / length`` times the distance along the arc for shorter ones.
+    Arcs must be shorter than pi (consecutive antipodal points are rejected on input).
+    """
+    p = np.asarray(p, dtype=np.float64)
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    if n is None:
+        n = normalize(robust_cross(a, b))
+    pn = np.sum(p * n, axis=-1)
+    inside = (
+        (np.sum(p * np.cross(n, a), axis=-1) >= 0.0)
+        & (np.sum(p * np.cross(b, n), axis=-1) >= 0.0)
+        & (np.sum(n * n, axis=-1) > 0.5)
+    )
+    foot = p - pn[..., None] * n
+    d_line = np.arctan2(np.abs(pn), np.linalg.norm(foot, axis=-1))
+    d_ends = np.minimum(angle(p, a), angle(p, b))
+    return np.where(inside, d_line, d_ends)
+
+
+def arcs_cross(p, q, a, b) -> np.ndarray:
+    """Whether the short arc ``p -> q`` crosses the short arc ``a -> b``.
+
+    Uses the half-open rule (a point exactly on a great circle counts as being on
+    its left), so that when ``p -> q`` passes exactly through a vertex shared by two
+    consecutive arcs it is counted once. Summing the result over the arcs of a
+    closed ring therefore gives the right crossing parity. The answer is exact
+    except when ``p`` or ``q`` lies within ~1e-15 rad of the great circle of ``a -> b``
+    and of the arc itself.
+    """
+    pq = np.cross(p, q)
+    sa = np.sum(pq * a, axis=-1) >= 0.0
+    sb = np.sum(pq * b, axis=-1) >= 0.0
+    ab = np.cross(a, b)
+    sp = np.sum(ab * p, axis=-1) >= 0.0
+    sq = np.sum(ab * q, axis=-1) >= 0.0
+    # both pairs straddle the other's great circle, and the crossing is not the antipodal one
+    return (sa != sb) & (sp != sq) & (sp == sb)

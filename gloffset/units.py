@@ -1,0 +1,95 @@
+"""Distances with units: ``500m``, ``127km``, ``0.02rad``, ``1.5deg``.
+
+Inside gloffset every distance is an angle on the unit sphere (radians). Metres
+appear only at the edges, through the ``radius`` keyword (default
+:data:`EARTH_RADIUS`, the IUGG mean Earth radius).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+from .errors import InvalidDistanceError
+
+#: IUGG mean Earth radius R1 in metres (Moritz 2000).
+EARTH_RADIUS = 6371008.8
+
+_UNITS_TO_METRES = {"m": 1.0, "km": 1000.0, "mi": 1609.344, "nmi": 1852.0, "ft": 0.3048}
+_ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
+UNITS = tuple(_UNITS_TO_METRES) + tuple(_ANGLE_UNITS)
+
+_NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
+_PATTERN = re.compile(rf"^\s*({_NUMBER})\s*([A-Za-z]*)\s*$")
+
+
+def check_radius(radius: float) -> float:
+    """Return ``radius`` as a float, or raise if it is not a positive finite number."""
+    try:
+        r = float(radius)
+    except (TypeError, ValueError):
+        raise InvalidDistanceError(f"radius must be a number, got {radius!r}") from None
+    if not math.isfinite(r) or r <= 0:
+        raise InvalidDistanceError(f"radius must be a positive finite number, got {radius!r}")
+    return r
+
+
+def to_angle(distance: float, radius: float) -> float:
+    """Convert a distance in the units of ``radius`` to an angle in radians.
+
+    Raises :class:`InvalidDistanceError` when ``distance`` is not a finite number.
+    """
+    r = check_radius(radius)
+    try:
+        d = float(distance)
+    except (TypeError, ValueError):
+        raise InvalidDistanceError(f"distance must be a number, got {distance!r}") from None
+    if not math.isfinite(d):
+        raise InvalidDistanceError(f"distance must be finite, got {distance!r}")
+    return d / r
+
+
+def parse_distance(text: str | float, radius: float = EARTH_RADIUS) -> float:
+    """Parse a distance such as ``"500m"``, ``"127km"``, ``"0.02rad"`` or ``"1.5deg"``.
+
+    Parameters
+    ----------
+    text : str or float
+        A number followed by a unit among ``m, km, mi, nmi, ft, rad, deg``. A bare
+        number is metres.
+    radius : float
+        Sphere radius in metres, used to turn metres into an angle.
+
+    Returns
+    -------
+    float
+        The distance as an angle on the sphere, in radians (exact for ``rad``;
+        one division for metric units; ``deg`` is converted with ``pi/180``).
+
+    Examples
+    --------
+    >>> round(parse_distance("6371.0088km"), 12)
+    0.001
+    >>> parse_distance("0.02rad")
+    0.02
+    """
+    if isinstance(text, (int, float)):
+        return to_angle(text, radius)
+    m = _PATTERN.match(str(text))
+    if not m:
+        raise InvalidDistanceError(
+            f"cannot read distance {text!r}: expected a number and a unit, e.g. 500m, 127km, "
+            f"0.02rad, 1.5deg"
+        )
+    value, unit = float(m.group(1)), m.group(2).lower()
+    if not math.isfinite(value):
+        raise InvalidDistanceError(f"distance must be finite, got {text!r}")
+    if unit == "":
+        unit = "m"
+    if unit in _ANGLE_UNITS:
+        return value * _ANGLE_UNITS[unit]
+    if unit in _UNITS_TO_METRES:
+        return to_angle(value * _UNITS_TO_METRES[unit], radius)
+    raise InvalidDistanceError(
+        f"unknown distance unit {m.group(2)!r} in {text!r}; use one of {', '.join(UNITS)}"
+    )

@@ -1,0 +1,93 @@
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from gloffset.sphere import (
+    angle,
+    arc_distance,
+    arcs_cross,
+    lonlat_to_xyz,
+    normalize,
+    rotate,
+    slerp,
+    xyz_to_lonlat,
+)
+
+rng = np.random.default_rng(7)
+
+
+def rand_unit(n):
+    return normalize(rng.normal(size=(n, 3)))
+
+
+def test_lonlat_roundtrip_and_seams():
+    lon = rng.uniform(-179.9, 179.9, 1000)
+    lat = rng.uniform(-89.9, 89.9, 1000)
+    lo, la = xyz_to_lonlat(lonlat_to_xyz(lon, lat))
+    assert np.abs(lo - lon).max() < 1e-12 and np.abs(la - lat).max() < 1e-12
+    # both sides of the antimeridian and every longitude at a pole give identical vectors
+    assert np.array_equal(lonlat_to_xyz(180.0, 12.5), lonlat_to_xyz(-180.0, 12.5))
+    assert np.array_equal(lonlat_to_xyz(180.00000000000006, 12.5), lonlat_to_xyz(-180, 12.5))
+    assert np.array_equal(lonlat_to_xyz(37.0, -90.0), np.array([0.0, 0.0, -1.0]))
+
+
+@given(st.floats(1e-12, np.pi - 1e-9))
+@settings(max_examples=200)
+def test_angle_is_accurate_at_every_scale(t):
+    a = np.array([1.0, 0.0, 0.0])
+    b = np.array([np.cos(t), np.sin(t), 0.0])
+    # the only error left is the rounding of b itself
+    assert abs(angle(a, b) - t) <= 4e-16 * max(t, 1.0) + 1e-16
+
+
+def test_slerp_stays_on_the_arc():
+    a, b = rand_unit(500), rand_unit(500)
+    t = rng.uniform(0, 1, 500)
+    p = slerp(a, b, t)
+    assert np.abs(np.linalg.norm(p, axis=1) - 1).max() < 1e-15
+    assert np.abs(angle(a, p) - t * angle(a, b)).max() < 1e-13
+    assert np.abs(arc_distance(p, a, b)).max() < 1e-14
+
+
+def test_arc_distance_known_cases():
+    a = lonlat_to_xyz(0.0, 0.0)
+    b = lonlat_to_xyz(10.0, 0.0)
+    # perpendicular foot inside the arc
+    assert abs(arc_distance(lonlat_to_xyz(5.0, 3.0), a, b) - np.radians(3.0)) < 1e-15
+    # beyond an end: distance to the endpoint
+    p = lonlat_to_xyz(20.0, 0.0)
+    assert abs(arc_distance(p, a, b) - np.radians(10.0)) < 1e-15
+    # tiny distances keep full relative accuracy (no acos)
+    p = lonlat_to_xyz(5.0, 1e-9)
+    assert abs(arc_distance(p, a, b) - np.radians(1e-9)) < 1e-24
+    # a degenerate arc is a point
+    assert abs(arc_distance(p, a, a) - angle(p, a)) < 1e-16
+
+
+def test_arc_distance_matches_dense_sampling():
+    a, b = rand_unit(200), rand_unit(200)
+    p = rand_unit(200)
+    t = np.linspace(0, 1, 4001)
+    samples = slerp(a[:, None], b[:, None], t[None, :])
+    brute = angle(p[:, None], samples).min(axis=1)
+    d = arc_distance(p, a, b)
+    assert np.all(d <= brute + 1e-14)
+    assert np.all(brute - d < 1e-3)  # sampling step bound
+
+
+def test_arcs_cross_against_intersection_point():
+    n = 20000
+    p, q, a, b = rand_unit(n), rand_unit(n), rand_unit(n), rand_unit(n)
+    x = normalize(np.cross(np.cross(p, q), np.cross(a, b)))
+
+    def on(x, u, v):
+        return np.abs(angle(u, x) + angle(x, v) - angle(u, v)) < 1e-9
+
+    truth = (on(x, p, q) & on(x, a, b)) | (on(-x, p, q) & on(-x, a, b))
+    assert np.array_equal(arcs_cross(p, q, a, b), truth)
+
+
+def test_rotate_preserves_angle():
+    v, axis = rand_unit(100), rand_unit(100)
+    w = rotate(v, axis, 0.7)
+    assert np.allclose(np.sum(v * axis, 1), np.sum(w * axis, 1), atol=1e-15)
