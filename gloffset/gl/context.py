@@ -1,0 +1,104 @@
+"""One headless OpenGL 4.3 context per process (EGL), reused.
+
+The device is chosen by the environment variable ``GLOFFSET_DEVICE`` (an EGL
+device index); without it gloffset prefers the first hardware device and falls
+back to Mesa's llvmpipe (CPU rendering). GL contexts do not survive ``fork``: use
+the ``spawn`` start method for worker processes.
+"""
+
+from __future__ import annotations
+
+import os
+
+from ..errors import GLContextError
+
+__all__ = ["get_context", "context_info"]
+
+_CTX = None
+_DEVICE = None
+_SOFTWARE = ("llvmpipe", "softpipe", "swrast", "software")
+_INSTALL = (
+    "install an EGL driver: on Debian/Ubuntu 'apt-get install libegl1 libegl-mesa0 "
+    "libgl1-mesa-dri' (Mesa, CPU rendering with llvmpipe), or the GPU vendor's driver"
+)
+
+
+def _create(index: int):
+    import moderngl
+
+    return moderngl.create_context(standalone=True, backend="egl", require=430, device_index=index)
+
+
+def _is_software(ctx) -> bool:
+    return any(s in ctx.info["GL_RENDERER"].lower() for s in _SOFTWARE)
+
+
+def get_context():
+    """The process's moderngl context (created on first use).
+
+    Raises :class:`~gloffset.errors.GLContextError` naming the backend, the error and
+    what to install when no context can be made.
+    """
+    global _CTX, _DEVICE
+    if _CTX is not None:
+        return _CTX
+    try:
+        import moderngl  # noqa: F401
+    except ImportError as exc:  # pragma: no cover - moderngl is a core dependency
+        raise GLContextError(f"moderngl is not installed ({exc}); pip install moderngl") from None
+    env = os.environ.get("GLOFFSET_DEVICE")
+    if env is not None and env.strip() != "":
+        try:
+            index = int(env)
+        except ValueError:
+            raise GLContextError(
+                f"GLOFFSET_DEVICE must be an EGL device index (0, 1, ...), got {env!r}"
+            ) from None
+        try:
+            _CTX, _DEVICE = _create(index), index
+        except Exception as exc:
+            raise GLContextError(
+                f"cannot create an OpenGL 4.3 context with EGL on device {index} "
+                f"(GLOFFSET_DEVICE): {exc}; {_INSTALL}"
+            ) from None
+        return _CTX
+    first, first_exc = None, None
+    for index in range(8):
+        try:
+            ctx = _create(index)
+        except Exception as exc:
+            if first_exc is None:
+                first_exc = exc
+            break
+        if not _is_software(ctx):
+            if first is not None:
+                first[0].release()
+            _CTX, _DEVICE = ctx, index
+            return ctx
+        if first is None:
+            first = (ctx, index)
+        else:
+            ctx.release()
+    if first is None:
+        raise GLContextError(
+            f"cannot create an OpenGL 4.3 context with EGL (backend 'egl', device 0): "
+            f"{first_exc}; {_INSTALL}"
+        )
+    _CTX, _DEVICE = first
+    return _CTX
+
+
+def context_info() -> dict:
+    """Renderer, vendor, version, device index and the limits gloffset relies on."""
+    ctx = get_context()
+    info = ctx.info
+    return {
+        "device": _DEVICE,
+        "renderer": info["GL_RENDERER"],
+        "vendor": info["GL_VENDOR"],
+        "version": info["GL_VERSION"],
+        "max_texture_size": int(info["GL_MAX_TEXTURE_SIZE"]),
+        "max_viewport_dims": tuple(int(x) for x in info["GL_MAX_VIEWPORT_DIMS"]),
+        "max_renderbuffer_size": int(info["GL_MAX_RENDERBUFFER_SIZE"]),
+        "software": _is_software(ctx),
+    }

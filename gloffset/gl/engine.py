@@ -1,0 +1,221 @@
+"""The GPU levels of the raster engine: one fragment-shader pass per level below the bins.
+
+The CPU (:mod:`gloffset.hierarchy`, float64) classifies the coarse levels down to
+the bin level and hands over, for every frontier bin, its candidate arcs as records
+computed in float64 *relative to the bin centre* (``shaders/lib/arcs.glsl`` lists
+them), the inside status of each region component at the bin centre as bits, and
+per-level margins ``sin(x) - sin(e)`` and ``chord(x)^2 - chord(e)^2`` for the
+distances ``x`` the decisions compare with. The shader then only adds small float32
+terms to small float64-made numbers, so near the offset boundary its answer is
+exact to a few float32 ulp of the bin's size, not of the unit sphere.
+
+Each pass reads the parent level's classes (texelFetch) and does real work only
+for children of frontier cells; see ``shaders/classify.frag``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..hierarchy import Arcs, Frontier
+from .context import get_context
+from .shaders import program
+
+__all__ = ["GpuLevels", "records"]
+
+RECORD_TEXELS = 6
+RECORD_ROW = 680  # records per texture row: 4080 texels, below every GL limit
+MAX_LOCAL = 30  # components with their own status bit per bin; more share bit 30
+OTHER_BIT = 31  # set when the bin centre is inside a component with no arc in the bin
+ARC_IS_ARC, ARC_HAS_DISTANCE, ARC_RING = 1, 2, 4
+
+
+def records(f: Frontier, arcs: Arcs, e: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Arc records (float32, (pairs, 6, 4)), first record and status bits per frontier bin.
+
+    All terms are computed in float64 relative to the bin centre ``c`` before the
+    cast (see ``shaders/lib/arcs.glsl`` for the layout).
+    """
+    ci, ai = f.pair_cell, f.pair_arc
+    c = f.centers[ci]
+    a, b, n = arcs.a[ai], arcs.b[ai], arcs.n[ai]
+    se = math.sin(e)
+    chord_e = 4.0 * math.sin(0.5 * e) ** 2
+    h = np.einsum("ij,ij->i", c, n)
+    w1 = np.cross(n, a)
+    w2 = np.cross(b, n)
+    ea = c - a
+    eb = c - b
+    rec = np.empty((len(ci), RECORD_TEXELS, 4))
+    rec[:, 0, :3] = n
+    rec[:, 0, 3] = h - se
+    rec[:, 1, :3] = w1
+    rec[:, 1, 3] = np.einsum("ij,ij->i", c, w1)
+    rec[:, 2, :3] = w2
+    rec[:, 2, 3] = np.einsum("ij,ij->i", c, w2)
+    rec[:, 3, :3] = ea
+    rec[:, 3, 3] = chord_e - np.einsum("ij,ij->i", ea, ea)
+    rec[:, 4, :3] = eb
+    rec[:, 4, 3] = chord_e - np.einsum("ij,ij->i", eb, eb)
+    rec[:, 5, 0] = h
+    rec[:, 5, 1] = -h - se
+    group = arcs.group[ai]
+    flags = (
+        np.where(np.any(n != 0.0, axis=1), ARC_IS_ARC, 0)
+        | np.where(arcs.boundary[ai], ARC_HAS_DISTANCE, 0)
+        | np.where(group >= 0, ARC_RING, 0)
+    )
+    rec[:, 5, 2] = flags
+
+    # local component ids per bin, and the status bits at the bin centre
+    k = len(f.cells)
+    local = np.zeros(len(ci), dtype=np.int64)
+    bits = np.zeros(k, dtype=np.uint64)
+    ring = group >= 0
+    if ring.any():
+        key = ci[ring] * (arcs.n_groups + 1) + group[ring]
+        ukey, inv = np.unique(key, return_inverse=True)
+        ubin, ugrp = ukey // (arcs.n_groups + 1), ukey % (arcs.n_groups + 1)
+        first = np.searchsorted(ubin, ubin)  # first key of the same bin
+        rank = np.minimum(np.arange(len(ukey)) - first, MAX_LOCAL)
+        local[ring] = rank[inv]
+        inside_g = (f.status[ubin, ugrp >> 3] >> (ugrp & 7).astype(np.uint8)) & 1
+        np.bitwise_or.at(bits, ubin[inside_g == 1], np.uint64(1) << rank[inside_g == 1].astype(np.uint64))
+        # inside a component that has no arc here: one shared bit
+        n_inside = np.unpackbits(f.status, axis=1, bitorder="little")[:, : arcs.n_groups].sum(axis=1)
+        n_local = np.bincount(ubin, weights=inside_g, minlength=k)
+        other = n_inside > n_local
+    else:
+        other = np.unpackbits(f.status, axis=1, bitorder="little")[:, : max(arcs.n_groups, 1)].any(axis=1)
+    bits |= np.where(other, np.uint64(1) << np.uint64(OTHER_BIT), np.uint64(0))
+    rec[:, 5, 3] = np.where(ring, local, 31)
+    first_rec = np.searchsorted(ci, np.arange(k)).astype(np.uint32)
+    return rec.astype(np.float32), first_rec, bits.astype(np.uint32)
+
+
+def _margins(rho: np.ndarray, e: float) -> np.ndarray:
+    """(rows, 2, 4) float32: (mu_lo, mu_hi, mu_rho) and (nu_lo, nu_hi, nu_rho) per row."""
+    se, ce = math.sin(e), 4.0 * math.sin(0.5 * e) ** 2
+    lo, hi = e - rho, e + rho
+    out = np.zeros((len(rho), 2, 4))
+    never = -1e30
+    out[:, 0, 0] = np.where(lo >= 0, np.sin(np.clip(lo, 0, math.pi / 2)) - se, never)
+    out[:, 0, 1] = np.sin(np.minimum(hi, math.pi / 2)) - se
+    out[:, 0, 2] = np.sin(np.minimum(rho, math.pi / 2)) - se
+    out[:, 1, 0] = np.where(lo >= 0, 4.0 * np.sin(0.5 * np.clip(lo, 0, math.pi)) ** 2 - ce, never)
+    out[:, 1, 1] = 4.0 * np.sin(0.5 * np.minimum(hi, math.pi)) ** 2 - ce
+    out[:, 1, 2] = 4.0 * np.sin(0.5 * np.minimum(rho, math.pi)) ** 2 - ce
+    return out.astype(np.float32)
+
+
+class GpuLevels:
+    """Runs the levels below the bin level of an equirectangular grid on the GPU."""
+
+    def __init__(self):
+        self.ctx = get_context()
+        self.prog = program(self.ctx, "fullscreen.vert", "classify.frag")
+        self.vao = self.ctx.vertex_array(self.prog, [])
+
+    def _tex(self, size, comps, dtype, data):
+        t = self.ctx.texture(size, comps, data, dtype=dtype, alignment=1)
+        t.filter = (self.ctx.NEAREST, self.ctx.NEAREST) if dtype[0] in "ui" else t.filter
+        t.repeat_x = t.repeat_y = False
+        return t
+
+    def run(self, grid, d: float, classes: np.ndarray, f: Frontier, arcs: Arcs, *,
+            stop_level: int, callback=None) -> np.ndarray:
+        """Classes of ``stop_level``, starting from the bin level's ``classes`` and frontier ``f``."""
+        import moderngl
+
+        ctx = self.ctx
+        e = abs(d)
+        bl = f.level
+        hb, wb = classes.shape
+        rec, first, bits = records(f, arcs, e)
+        n_rec = max(len(rec), 1)
+        rows = -(-n_rec // RECORD_ROW)
+        buf = np.zeros((rows * RECORD_ROW, RECORD_TEXELS, 4), dtype=np.float32)
+        buf[: len(rec)] = rec
+        info = np.zeros((hb, wb, 4), dtype=np.uint32)
+        info[..., 3] = classes
+        counts = np.bincount(f.pair_cell, minlength=len(f.cells)).astype(np.uint32)
+        fj, fi = f.cells[:, 0], f.cells[:, 1]
+        info[fj, fi, 0] = first
+        info[fj, fi, 1] = counts
+        info[fj, fi, 2] = bits
+        lam = grid._cell_lon_lat_rad(bl, 0, np.arange(wb))[0]
+        lon_cs = np.stack([np.cos(lam), np.sin(lam)], axis=-1).astype(np.float32)
+        phi = grid._cell_lon_lat_rad(bl, np.arange(hb), 0)[1]
+        lat_cs = np.stack([np.cos(phi), np.sin(phi)], axis=-1).astype(np.float32)
+
+        textures = [
+            self._tex((RECORD_ROW * RECORD_TEXELS, rows), 4, "f4", buf.tobytes()),
+            self._tex((wb, hb), 4, "u4", info.tobytes()),
+            self._tex((hb, 1), 2, "f4", lat_cs.tobytes()),
+            self._tex((wb, 1), 2, "f4", lon_cs.tobytes()),
+        ]
+        for t in textures[:1] + textures[2:]:
+            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        recs, bins, latt, lont = textures
+        parent = self._tex((wb, hb), 1, "u1", np.ascontiguousarray(classes).tobytes())
+        p = self.prog
+        p["u_parent"] = 0
+        p["u_bins"] = 1
+        p["u_records"] = 2
+        p["u_bin_lat"] = 3
+        p["u_bin_lon"] = 4
+        p["u_margins"] = 5
+        p["u_bin_block"] = float(grid.block(bl))
+        p["u_dlon"] = grid.dlon
+        p["u_dlat"] = grid.dlat
+        p["u_positive"] = d >= 0
+        bins.use(1)
+        recs.use(2)
+        latt.use(3)
+        lont.use(4)
+        last = grid.n_levels - 1
+        out = classes
+        owned = [parent]
+        for lev in range(bl + 1, stop_level + 1):
+            h, w = grid.level_shape(lev)
+            final = lev == last
+            marg = _margins(grid.rho(lev), e)
+            mt = self._tex((2, h), 4, "f4", marg.tobytes())
+            mt.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            target = ctx.texture((w, h), 1, dtype="u1")
+            target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            fbo = ctx.framebuffer(color_attachments=[target])
+            fbo.use()
+            ctx.viewport = (0, 0, w, h)
+            parent.use(0)
+            mt.use(5)
+            p["u_shift"] = lev - bl
+            p["u_block"] = float(grid.block(lev))
+            p["u_final"] = final
+            self.vao.render(moderngl.TRIANGLES, vertices=3)
+            fbo.release()
+            mt.release()
+            if callback is not None or lev == stop_level:
+                out = np.frombuffer(target.read(alignment=1), dtype=np.uint8).reshape(h, w)
+                if callback is not None:
+                    callback(lev, out)
+            for t in owned:
+                t.release()
+            owned = [target]
+            parent = target
+        for t in owned + textures:
+            t.release()
+        return out.copy()
+
+
+_ENGINE: GpuLevels | None = None
+
+
+def engine() -> GpuLevels:
+    global _ENGINE
+    if _ENGINE is None:
+        _ENGINE = GpuLevels()
+    return _ENGINE
+

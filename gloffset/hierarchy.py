@@ -1,0 +1,249 @@
+"""Coarse-to-fine classification of grid cells in float64 (the CPU side of the raster engine).
+
+Every level of a grid classifies its cells against the offset region of a shape at
+signed angular distance ``d`` (``e = |d|``), with the cell bound ``R`` (rho):
+
+* ``d >= 0`` (inside or within d): *contained* when ``dist <= d - R`` or when the
+  centre is inside and no ring edge is within ``R``; *outside* when the centre is
+  outside, no ring edge is within ``R`` and ``dist > d + R``;
+* ``d < 0`` (inside and farther than e): *contained* when the centre is inside, no
+  ring edge is within ``R`` and ``dist > e + R``; *outside* when ``dist <= e - R`` or
+  the centre is outside with no ring edge within ``R``;
+* *frontier* otherwise. At the output level ``R = 0`` and every cell is decided.
+
+Only children of frontier cells are evaluated at the next level. Each frontier
+cell carries its candidate arcs: every arc whose bounding cap comes within
+``e + R`` of its centre (a superset of the arcs within ``e + R``). A child's list is
+its parent's list filtered again, which is complete because ``R_parent >=
+angle(child, parent) + R_child`` (see :mod:`gloffset.grids`). Inside/outside is
+carried per region component: a child's status is its parent's, toggled by the
+crossings of the short arc child -> parent with the parent's candidate ring edges
+(all crossing edges lie within ``R_parent``). Components are united.
+
+Accuracy: distances are exact float64 point-to-arc distances (error < 1e-15 rad);
+decisions at ``R > 0`` use a slack of 1e-15 rad toward *frontier*, so a cell is
+only called contained or outside when all its descendant pixels are.
+
+The GPU engine (:mod:`gloffset.gl.engine`) takes over below the bin level with the
+same rules; :func:`classify` run to the output level is the float64 reference
+renderer.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .crossings import crossings as _crossings
+from .sphere import arc_distance, arcs_cross, normalize, robust_cross
+
+__all__ = ["Arcs", "Frontier", "classify", "OUTSIDE", "FRONTIER", "CONTAINED"]
+
+OUTSIDE, FRONTIER, CONTAINED = 0, 1, 2
+_SLACK = 1e-15
+_PAIRS = 1 << 22
+
+
+@dataclass
+class Arcs:
+    """The arcs of a shape with what the engine needs (all float64)."""
+
+    a: np.ndarray
+    b: np.ndarray
+    n: np.ndarray  # unit left normal normalize(a x b); zero for points
+    mid: np.ndarray  # bounding cap centre
+    half: np.ndarray  # bounding cap radius
+    boundary: np.ndarray  # has distance (not a seam)
+    group: np.ndarray  # region component, -1 for lines and points
+    n_groups: int
+
+    @classmethod
+    def from_shape(cls, shape) -> Arcs:
+        e = shape.edges()
+        n = normalize(robust_cross(e.a, e.b))
+        s = e.a + e.b
+        mid = np.where(np.linalg.norm(s, axis=1)[:, None] > 0, normalize(s), e.a)
+        half = 2.0 * np.arctan2(np.linalg.norm(e.a - e.b, axis=1), np.linalg.norm(s, axis=1))
+        half = 0.5 * half * (1 + 1e-12) + 1e-15
+        return cls(e.a, e.b, n, mid, half, e.boundary, e.group, shape.n_groups)
+
+
+@dataclass
+class Frontier:
+    """Frontier cells of one level with their candidate arcs and component statuses.
+
+    ``cells`` (k, 2) rows and columns; ``pair_cell``/``pair_arc`` the candidate
+    pairs sorted by cell; ``status`` (k, ceil(G/8)) uint8 bitsets, bit ``g`` set when
+    the cell centre is inside component ``g``.
+    """
+
+    level: int
+    cells: np.ndarray
+    centers: np.ndarray
+    rho: np.ndarray
+    pair_cell: np.ndarray
+    pair_arc: np.ndarray
+    status: np.ndarray
+
+
+def _cap_filter(c: np.ndarray, rho: np.ndarray, arcs: Arcs, e: float, cell_idx, arc_idx):
+    """Keep pairs whose arc's bounding cap comes within e + rho of the cell centre."""
+    keep = np.empty(len(cell_idx), dtype=bool)
+    for s in range(0, len(cell_idx), _PAIRS):
+        ci, ai = cell_idx[s : s + _PAIRS], arc_idx[s : s + _PAIRS]
+        lim = np.cos(np.minimum(e + rho[ci] + arcs.half[ai], math.pi)) - 1e-12
+        keep[s : s + _PAIRS] = np.einsum("ij,ij->i", c[ci], arcs.mid[ai]) >= lim
+    return keep
+
+
+def _status_bits(n_groups: int, k: int) -> np.ndarray:
+    return np.zeros((k, max(1, -(-n_groups // 8))), dtype=np.uint8)
+
+
+def _inside_any(status: np.ndarray) -> np.ndarray:
+    return status.any(axis=1)
+
+
+def _coarse(shape, arcs: Arcs, grid, e: float) -> Frontier:
+    """All cells of level 0 with brute-force candidate lists and statuses."""
+    h, w = grid.level_shape(0)
+    jj, ii = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
+    cells = np.column_stack([jj.ravel(), ii.ravel()])
+    c = grid.centers(0, cells[:, 0], cells[:, 1])
+    rho = grid.rho_at(0, cells[:, 0], cells[:, 1])
+    status = _status_bits(arcs.n_groups, len(c))
+    if arcs.n_groups:
+        refs, ref_status = shape.reference_points()
+        ring = np.flatnonzero(arcs.group >= 0)
+        order = ring[np.argsort(arcs.group[ring], kind="stable")]
+        present, starts = np.unique(arcs.group[order], return_index=True)
+        use = (c @ refs[0] < -0.5).astype(int)
+        for k in (0, 1):
+            sel = np.flatnonzero(use == k)
+            if len(sel) == 0:
+                continue
+            cr = _crossings(c[sel], refs[k], arcs.a[order], arcs.b[order]).view(np.uint8)
+            par = np.bitwise_xor.reduceat(cr, starts, axis=1).astype(bool)
+            ins = np.zeros((len(sel), arcs.n_groups), dtype=bool)
+            ins[:, present] = par ^ ref_status[k][present][None, :]
+            status[sel] = np.packbits(ins, axis=1, bitorder="little")[:, : status.shape[1]]
+    # the same test as _cap_filter, as one matrix product over all cells and arcs
+    lim = np.cos(np.minimum(e + rho[:, None] + arcs.half[None, :], math.pi)) - 1e-12
+    ci, ai = np.nonzero(c @ arcs.mid.T >= lim)
+    return Frontier(0, cells, c, rho, ci, ai, status)
+
+
+def _decide(f: Frontier, arcs: Arcs, d: float, final: bool) -> np.ndarray:
+    """Classes of the cells of ``f`` (exact float64 distances to their candidates)."""
+    k = len(f.cells)
+    e = abs(d)
+    dist = np.full(k, np.inf)  # to boundary arcs (distance)
+    dring = np.full(k, np.inf)  # to ring edges including seams (inside uniformity)
+    for s in range(0, len(f.pair_cell), _PAIRS):
+        ci, ai = f.pair_cell[s : s + _PAIRS], f.pair_arc[s : s + _PAIRS]
+        dd = arc_distance(f.centers[ci], arcs.a[ai], arcs.b[ai], arcs.n[ai])
+        bd = arcs.boundary[ai]
+        np.minimum.at(dist, ci[bd], dd[bd])
+        rg = arcs.group[ai] >= 0
+        np.minimum.at(dring, ci[rg], dd[rg])
+    inside = _inside_any(f.status)
+    if final:
+        if d >= 0:
+            member = inside | (dist <= d)
+        else:
+            member = inside & (dist > e)
+        return np.where(member, CONTAINED, OUTSIDE).astype(np.uint8)
+    r = f.rho + _SLACK
+    uniform = dring > r
+    cls = np.full(k, FRONTIER, dtype=np.uint8)
+    if d >= 0:
+        cont = (dist <= d - r) | (inside & uniform)
+        out = ~inside & uniform & (dist > d + r)
+    else:
+        cont = inside & uniform & (dist > e + r)
+        out = (dist <= e - r) | (~inside & uniform)
+    cls[out] = OUTSIDE
+    cls[cont] = CONTAINED
+    return cls
+
+
+def _refine(f: Frontier, grid, arcs: Arcs, e: float) -> Frontier:
+    """Children of the cells of ``f`` (all assumed frontier) with refined lists and statuses."""
+    lev = f.level + 1
+    h, w = grid.level_shape(lev)
+    kids = []
+    for dj in (0, 1):
+        for di in (0, 1):
+            kids.append(np.column_stack([2 * f.cells[:, 0] + dj, 2 * f.cells[:, 1] + di]))
+    parent = np.tile(np.arange(len(f.cells)), 4)
+    cells = np.concatenate(kids)
+    ok = (cells[:, 0] < h) & (cells[:, 1] < w)
+    cells, parent = cells[ok], parent[ok]
+    order = np.lexsort((cells[:, 1], cells[:, 0]))
+    cells, parent = cells[order], parent[order]
+    c = grid.centers(lev, cells[:, 0], cells[:, 1])
+    rho = grid.rho_at(lev, cells[:, 0], cells[:, 1])
+
+    # expand the parent's pairs to each child
+    starts = np.searchsorted(f.pair_cell, np.arange(len(f.cells)))
+    ends = np.searchsorted(f.pair_cell, np.arange(len(f.cells)), side="right")
+    counts = (ends - starts)[parent]
+    child_of_pair = np.repeat(np.arange(len(cells)), counts)
+    first = np.repeat(starts[parent], counts)
+    offs = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    arc_of_pair = f.pair_arc[first + offs]
+
+    # statuses: parent's, toggled by crossings of child -> parent centre
+    status = f.status[parent].copy()
+    ring = arcs.group[arc_of_pair] >= 0
+    if ring.any():
+        pc, pa = child_of_pair[ring], arc_of_pair[ring]
+        cr = np.zeros(len(pc), dtype=bool)
+        for s in range(0, len(pc), _PAIRS):
+            sl = slice(s, s + _PAIRS)
+            cr[sl] = arcs_cross(c[pc[sl]], f.centers[parent[pc[sl]]], arcs.a[pa[sl]], arcs.b[pa[sl]])
+        g = arcs.group[pa[cr]]
+        np.bitwise_xor.at(status, (pc[cr], g >> 3), (1 << (g & 7)).astype(np.uint8))
+
+    keep = _cap_filter(c, rho, arcs, e, child_of_pair, arc_of_pair)
+    return Frontier(lev, cells, c, rho, child_of_pair[keep], arc_of_pair[keep], status)
+
+
+def _subset(f: Frontier, sel: np.ndarray) -> Frontier:
+    """The cells ``sel`` (sorted indices) of ``f`` with their pairs."""
+    remap = np.full(len(f.cells), -1)
+    remap[sel] = np.arange(len(sel))
+    keep = remap[f.pair_cell] >= 0
+    return Frontier(
+        f.level, f.cells[sel], f.centers[sel], f.rho[sel], remap[f.pair_cell[keep]],
+        f.pair_arc[keep], f.status[sel],
+    )
+
+
+def classify(shape, d: float, grid, *, stop_level: int | None = None, callback=None):
+    """Classify the grid level by level in float64 down to ``stop_level`` (default: output).
+
+    Returns ``(classes, frontier)``: the full class array of ``stop_level`` and the
+    :class:`Frontier` of its frontier cells (empty at the output level).
+    ``callback(level, classes)`` is called after each level.
+    """
+    arcs = Arcs.from_shape(shape)
+    e = abs(d)
+    last = grid.n_levels - 1
+    stop = last if stop_level is None else stop_level
+    f = _coarse(shape, arcs, grid, e)
+    classes = np.zeros(grid.level_shape(0), dtype=np.uint8)
+    for lev in range(0, stop + 1):
+        if lev > 0:
+            h, w = grid.level_shape(lev)
+            up = np.repeat(np.repeat(classes, 2, axis=0), 2, axis=1)[:h, :w]
+            classes = up
+            f = _refine(f, grid, arcs, e)
+        cls = _decide(f, arcs, d, final=(lev == last))
+        classes[f.cells[:, 0], f.cells[:, 1]] = cls
+        f = _subset(f, np.flatnonzero(cls == FRONTIER))
+        if callback is not None:
+            callback(lev, classes)
+    return classes, f, arcs

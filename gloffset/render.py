@@ -1,0 +1,131 @@
+"""Rasters of the offset region: ``render(shape, distance, grid)``.
+
+Coarse to fine over the grid's levels: the coarse levels in float64 on the CPU
+(:mod:`gloffset.hierarchy`), the levels below the bins in fragment shaders on the
+GPU (:mod:`gloffset.gl.engine`), each level evaluating only children of frontier
+cells. Outputs larger than the GL texture limit are rendered in tiles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import GloffsetError, InvalidDistanceError
+from .grids import Equirect
+from .hierarchy import CONTAINED, classify
+from .shape import read
+from .units import EARTH_RADIUS, to_angle
+
+__all__ = ["render", "RenderError", "MAX_PIXELS"]
+
+#: Largest output accepted (pixels); above it the result would not fit in memory.
+MAX_PIXELS = 1 << 31
+_OUTS = ("mask", "classes")
+_BACKENDS = ("gpu", "cpu")
+
+
+class RenderError(GloffsetError, ValueError):
+    """A render request cannot be carried out (bad option, image too large)."""
+
+
+def _check(out, backend, grid):
+    if out not in _OUTS:
+        raise RenderError(f"out must be one of {', '.join(_OUTS)}, got {out!r}")
+    if backend not in _BACKENDS:
+        raise RenderError(f"backend must be one of {', '.join(_BACKENDS)}, got {backend!r}")
+    if not isinstance(grid, Equirect):
+        raise RenderError(f"grid must be a gloffset.grids grid, got {type(grid).__name__}")
+    if grid.width * grid.height > MAX_PIXELS:
+        raise RenderError(
+            f"a {grid.width}x{grid.height} image has more than {MAX_PIXELS} pixels; "
+            "render it in parts with Equirect.subgrid"
+        )
+
+
+def _render_one(shape, d, grid, *, backend, level, callback):
+    stop = grid.n_levels - 1 if level is None else level
+    if backend == "cpu" or stop <= grid.bin_level:
+        classes, _, _ = classify(shape, d, grid, stop_level=stop, callback=callback)
+        return classes
+    from .gl.engine import engine
+
+    eng = engine()
+    classes, f, arcs = classify(shape, d, grid, stop_level=grid.bin_level, callback=callback)
+    return eng.run(grid, d, classes, f, arcs, stop_level=stop, callback=callback)
+
+
+def render(
+    shape,
+    distance: float,
+    grid: Equirect,
+    *,
+    radius: float = EARTH_RADIUS,
+    out: str = "mask",
+    level: int | None = None,
+    callback=None,
+    backend: str = "gpu",
+    tile: int | None = None,
+) -> np.ndarray:
+    """Rasterize the offset region of ``shape`` at ``distance`` on ``grid``.
+
+    Parameters
+    ----------
+    shape : Shape or anything :func:`gloffset.read` accepts
+    distance : float
+        In the units of ``radius`` (metres by default); negative shrinks polygons.
+    grid : gloffset.grids.Equirect
+    out : {"mask", "classes"}
+        ``"mask"``: uint8 (height, width), 255 inside the region, 0 outside, row 0
+        north. ``"classes"``: uint8 classes of ``level`` (0 outside, 1 frontier,
+        2 contained), shape ``grid.level_shape(level)``.
+    level : int, optional
+        The level for ``out="classes"`` (default: the output level, where no cell
+        is frontier).
+    callback : callable, optional
+        ``callback(level, classes)`` after each level, coarse first: an early,
+        progressively refined answer (frontier cells are undecided).
+    backend : {"gpu", "cpu"}
+        ``"cpu"`` runs every level in float64 numpy (the reference renderer).
+    tile : int, optional
+        Largest tile side (default: the GL texture limit, at most 8192).
+
+    Notes
+    -----
+    Accuracy: a pixel is in the mask when its centre is in the region. The GPU
+    answer equals the float64 reference for every pixel whose exact distance to
+    the curves differs from ``|distance|`` by more than 1e-3 of the pixel's angular
+    size, and whose centre is farther than that from a polygon boundary; a cell
+    reported contained or outside at any level has only descendant pixels of that
+    class.
+    """
+    shape = read(shape)
+    d = to_angle(distance, radius)
+    if abs(d) >= 1.5:
+        raise InvalidDistanceError(
+            f"distance {distance!r} is {abs(d):.4g} rad; render needs less than 1.5 rad"
+        )
+    _check(out, backend, grid)
+    if out == "classes" and level is not None and not 0 <= level < grid.n_levels:
+        raise RenderError(f"level must be in 0..{grid.n_levels - 1}, got {level!r}")
+    if out == "mask":
+        level = None
+    if tile is None:
+        tile = 8192
+        if backend == "gpu":
+            from .gl.context import context_info
+
+            tile = min(tile, context_info()["max_texture_size"])
+    if level is not None or (grid.width <= tile and grid.height <= tile):
+        classes = _render_one(shape, d, grid, backend=backend, level=level, callback=callback)
+    else:
+        classes = np.empty(grid.shape, dtype=np.uint8)
+        for y0 in range(0, grid.height, tile):
+            for x0 in range(0, grid.width, tile):
+                w, h = min(tile, grid.width - x0), min(tile, grid.height - y0)
+                sub = grid.subgrid(x0, y0, w, h)
+                classes[y0 : y0 + h, x0 : x0 + w] = _render_one(
+                    shape, d, sub, backend=backend, level=None, callback=None
+                )
+    if out == "classes":
+        return classes
+    return np.where(classes == CONTAINED, 255, 0).astype(np.uint8)

@@ -1,0 +1,102 @@
+#version 430
+// One level of the raster engine (DESIGN.md, "The raster engine").
+// Each fragment is a cell (column x, row y; row 0 north) of level l. Cells whose
+// parent is already contained or outside copy the parent's class; children of
+// frontier cells are classified against their bin's candidate arcs:
+//   0 outside, 1 frontier, 2 contained (at the output level only 0 or 2).
+#include "lib/equirect.glsl"
+#include "lib/arcs.glsl"
+
+const uint OUTSIDE = 0u;
+const uint FRONTIER = 1u;
+const uint CONTAINED = 2u;
+const int RECORD_TEXELS = 6;
+
+uniform usampler2D u_parent;   // classes of level l-1 (R8UI)
+uniform usampler2D u_bins;     // per bin: first record, record count, status bits, class
+uniform sampler2D u_records;   // arc records, RECORD_TEXELS texels each, never split across rows
+uniform sampler2D u_bin_lat;   // per bin row: (cos, sin) of the bin centre latitude
+uniform sampler2D u_bin_lon;   // per bin column: (cos, sin) of the bin centre longitude
+uniform sampler2D u_margins;   // per cell row: texel 0 (mu_lo, mu_hi, mu_rho, _), texel 1 (nu_lo, nu_hi, nu_rho, _)
+uniform int u_shift;           // l - bin level
+uniform float u_block;         // output pixels per cell side at level l
+uniform float u_bin_block;     // output pixels per bin side
+uniform float u_dlon;          // output pixel width, radians of longitude
+uniform float u_dlat;          // output pixel height, radians of latitude
+uniform bool u_final;          // output level: decide every cell at its centre
+uniform bool u_positive;       // d >= 0 (grow) or d < 0 (shrink)
+
+out uint o_class;
+
+const float F32_ERR = 4.8e-7;  // 4 ulp: rounding allowance for the margins at coarse levels
+
+void main() {
+    ivec2 cell = ivec2(gl_FragCoord.xy);
+    uint parent = texelFetch(u_parent, cell >> 1, 0).r;
+    if (parent != FRONTIER) {
+        o_class = parent;
+        return;
+    }
+    ivec2 bin = cell >> u_shift;
+    uvec4 info = texelFetch(u_bins, bin, 0);
+    vec2 cs_phi = texelFetch(u_bin_lat, ivec2(bin.y, 0), 0).xy;
+    vec2 cs_lam = texelFetch(u_bin_lon, ivec2(bin.x, 0), 0).xy;
+    vec3 c = vec3(cs_phi.x * cs_lam.x, cs_phi.x * cs_lam.y, cs_phi.y);
+    vec2 dpix = (vec2(cell) + 0.5) * u_block - (vec2(bin) + 0.5) * u_bin_block;
+    vec3 delta = equirect_offset(cs_phi, cs_lam, -dpix.y * u_dlat, dpix.x * u_dlon);
+
+    vec4 mu = u_final ? vec4(0.0) : texelFetch(u_margins, ivec2(0, cell.y), 0);
+    vec4 nu = u_final ? vec4(0.0) : texelFetch(u_margins, ivec2(1, cell.y), 0);
+
+    uint bits = info.z;
+    bool within = false;    // some arc within e (output level)
+    bool near_lo = false;   // surely within e - rho
+    bool near_hi = false;   // possibly within e + rho
+    bool near_rho = false;  // a ring edge possibly within rho
+    int width = textureSize(u_records, 0).x;
+    for (uint k = 0u; k < info.y; ++k) {
+        int r = int(info.x + k) * RECORD_TEXELS;
+        ivec2 at = ivec2(r % width, r / width);
+        vec4 t0 = texelFetch(u_records, at, 0);
+        vec4 t1 = texelFetch(u_records, at + ivec2(1, 0), 0);
+        vec4 t2 = texelFetch(u_records, at + ivec2(2, 0), 0);
+        vec4 t3 = texelFetch(u_records, at + ivec2(3, 0), 0);
+        vec4 t4 = texelFetch(u_records, at + ivec2(4, 0), 0);
+        vec4 t5 = texelFetch(u_records, at + ivec2(5, 0), 0);
+        uint flags = uint(t5.z);
+        bool line = ((flags & ARC_IS_ARC) != 0u) && arc_in_wedge(delta, t1, t2);
+        float v = line ? arc_line_value(delta, t0, t5) : arc_point_value(delta, t3, t4);
+        bool dist = (flags & ARC_HAS_DISTANCE) != 0u;
+        bool ring = (flags & ARC_RING) != 0u;
+        if (ring && arc_crosses(delta, c, t0, t3, t4, t5)) {
+            bits ^= 1u << uint(t5.w);
+        }
+        if (u_final) {
+            within = within || (dist && v <= 0.0);
+        } else {
+            float scale = line ? abs(t0.w) + abs(t5.y) + abs(dot(delta, t0.xyz))
+                               : max(abs(t3.w), abs(t4.w)) + dot(delta, delta)
+                                 + 2.0 * length(delta) * max(length(t3.xyz), length(t4.xyz));
+            vec3 m = line ? mu.xyz : nu.xyz;
+            float slack = F32_ERR * (scale + abs(m.x) + abs(m.y) + abs(m.z));
+            near_lo = near_lo || (dist && v <= m.x - slack);
+            near_hi = near_hi || (dist && v <= m.y + slack);
+            near_rho = near_rho || (ring && v <= m.z + slack);
+        }
+    }
+    bool inside = bits != 0u;
+    if (u_final) {
+        bool member = u_positive ? (inside || within) : (inside && !within);
+        o_class = member ? CONTAINED : OUTSIDE;
+        return;
+    }
+    uint cls = FRONTIER;
+    if (u_positive) {
+        if (near_lo || (inside && !near_rho)) cls = CONTAINED;
+        else if (!inside && !near_rho && !near_hi) cls = OUTSIDE;
+    } else {
+        if (inside && !near_rho && !near_hi) cls = CONTAINED;
+        else if (near_lo || (!inside && !near_rho)) cls = OUTSIDE;
+    }
+    o_class = cls;
+}
