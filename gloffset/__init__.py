@@ -9,6 +9,7 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
+from . import grids
 from .errors import (
     GLContextError,
     GloffsetError,
@@ -18,6 +19,7 @@ from .errors import (
 )
 from .offset import Offset, offset
 from .reference import contains, distance
+from .render import render
 from .shape import Shape, read
 from .units import EARTH_RADIUS, parse_distance
 
@@ -36,4 +38,6 @@ __all__ = [
     "offset",
     "parse_distance",
     "read",
+    "render",
+    "grids",
 ]

@@ -203,7 +203,9 @@ def _refine(f: Frontier, grid, arcs: Arcs, e: float) -> Frontier:
         cr = np.zeros(len(pc), dtype=bool)
         for s in range(0, len(pc), _PAIRS):
             sl = slice(s, s + _PAIRS)
-            cr[sl] = arcs_cross(c[pc[sl]], f.centers[parent[pc[sl]]], arcs.a[pa[sl]], arcs.b[pa[sl]])
+            cr[sl] = arcs_cross(
+                c[pc[sl]], f.centers[parent[pc[sl]]], arcs.a[pa[sl]], arcs.b[pa[sl]]
+            )
         g = arcs.group[pa[cr]]
         np.bitwise_xor.at(status, (pc[cr], g >> 3), (1 << (g & 7)).astype(np.uint8))
 
@@ -217,8 +219,13 @@ def _subset(f: Frontier, sel: np.ndarray) -> Frontier:
     remap[sel] = np.arange(len(sel))
     keep = remap[f.pair_cell] >= 0
     return Frontier(
-        f.level, f.cells[sel], f.centers[sel], f.rho[sel], remap[f.pair_cell[keep]],
-        f.pair_arc[keep], f.status[sel],
+        f.level,
+        f.cells[sel],
+        f.centers[sel],
+        f.rho[sel],
+        remap[f.pair_cell[keep]],
+        f.pair_arc[keep],
+        f.status[sel],
     )
 
 

@@ -1,9 +1,9 @@
 #version 430
 // One level of the raster engine (DESIGN.md, "The raster engine").
-// Each fragment is a cell (column x, row y; row 0 north) of level l. Cells whose
-// parent is already contained or outside copy the parent's class; children of
-// frontier cells are classified against their bin's candidate arcs:
-//   0 outside, 1 frontier, 2 contained (at the output level only 0 or 2).
+// Drawn over the frontier bins only (bins.vert). Each fragment is a cell (column x,
+// row y; row 0 north) of level l: if its parent is contained or outside it takes
+// that class, else it is classified against its bin's candidate arcs:
+// 0 outside, 1 frontier, 2 contained (at the output level only 0 or 2).
 #include "lib/equirect.glsl"
 #include "lib/arcs.glsl"
 
@@ -12,9 +12,10 @@ const uint FRONTIER = 1u;
 const uint CONTAINED = 2u;
 const int RECORD_TEXELS = 6;
 
-uniform usampler2D u_parent;   // classes of level l-1 (R8UI)
+uniform usampler2D u_parent;   // classes of level l-1 (R8UI), valid inside frontier bins
 uniform usampler2D u_bins;     // per bin: first record, record count, status bits, class
 uniform sampler2D u_records;   // arc records, RECORD_TEXELS texels each, never split across rows
+uniform int u_record_row;      // texels used per row of u_records
 uniform sampler2D u_bin_lat;   // per bin row: (cos, sin) of the bin centre latitude
 uniform sampler2D u_bin_lon;   // per bin column: (cos, sin) of the bin centre longitude
 uniform sampler2D u_margins;   // per cell row: texel 0 (mu_lo, mu_hi, mu_rho, _), texel 1 (nu_lo, nu_hi, nu_rho, _)
@@ -25,6 +26,8 @@ uniform float u_dlon;          // output pixel width, radians of longitude
 uniform float u_dlat;          // output pixel height, radians of latitude
 uniform bool u_final;          // output level: decide every cell at its centre
 uniform bool u_positive;       // d >= 0 (grow) or d < 0 (shrink)
+uniform float u_e;             // |d|, radians
+uniform float u_rho_max;       // the largest cell bound rho of level l (0 at the output level)
 
 out uint o_class;
 
@@ -53,30 +56,36 @@ void main() {
     bool near_lo = false;   // surely within e - rho
     bool near_hi = false;   // possibly within e + rho
     bool near_rho = false;  // a ring edge possibly within rho
-    int width = textureSize(u_records, 0).x;
+    int width = u_record_row;
+    float reach = length(delta);  // arcs farther than e + rho + reach from c cannot matter
+    float skip = (u_e + u_rho_max + reach) * (1.0 + 1e-5) + 1e-12;
     for (uint k = 0u; k < info.y; ++k) {
         int r = int(info.x + k) * RECORD_TEXELS;
         ivec2 at = ivec2(r % width, r / width);
         vec4 t0 = texelFetch(u_records, at, 0);
+        if (t0.x > skip) {
+            continue;  // too far for a distance test, and too far to cross p -> c
+        }
         vec4 t1 = texelFetch(u_records, at + ivec2(1, 0), 0);
         vec4 t2 = texelFetch(u_records, at + ivec2(2, 0), 0);
         vec4 t3 = texelFetch(u_records, at + ivec2(3, 0), 0);
         vec4 t4 = texelFetch(u_records, at + ivec2(4, 0), 0);
         vec4 t5 = texelFetch(u_records, at + ivec2(5, 0), 0);
-        uint flags = uint(t5.z);
-        bool line = ((flags & ARC_IS_ARC) != 0u) && arc_in_wedge(delta, t1, t2);
-        float v = line ? arc_line_value(delta, t0, t5) : arc_point_value(delta, t3, t4);
+        uint code = uint(t0.y);
+        uint flags = code & 7u;
+        bool line = ((flags & ARC_IS_ARC) != 0u) && arc_in_wedge(delta, t2, t3);
+        float v = line ? arc_line_value(delta, t0, t1) : arc_point_value(delta, t4, t5);
         bool dist = (flags & ARC_HAS_DISTANCE) != 0u;
         bool ring = (flags & ARC_RING) != 0u;
-        if (ring && arc_crosses(delta, c, t0, t3, t4, t5)) {
-            bits ^= 1u << uint(t5.w);
+        if (ring && arc_crosses(delta, c, t0, t1, t4, t5)) {
+            bits ^= 1u << (code >> 3u);
         }
         if (u_final) {
             within = within || (dist && v <= 0.0);
         } else {
-            float scale = line ? abs(t0.w) + abs(t5.y) + abs(dot(delta, t0.xyz))
-                               : max(abs(t3.w), abs(t4.w)) + dot(delta, delta)
-                                 + 2.0 * length(delta) * max(length(t3.xyz), length(t4.xyz));
+            float scale = line ? abs(t1.w) + abs(t0.w) + abs(dot(delta, t1.xyz))
+                               : max(abs(t4.w), abs(t5.w)) + dot(delta, delta)
+                                 + 2.0 * length(delta) * max(length(t4.xyz), length(t5.xyz));
             vec3 m = line ? mu.xyz : nu.xyz;
             float slack = F32_ERR * (scale + abs(m.x) + abs(m.y) + abs(m.z));
             near_lo = near_lo || (dist && v <= m.x - slack);

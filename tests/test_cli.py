@@ -2,6 +2,7 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -56,3 +57,106 @@ def test_errors_are_one_line(args, words):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("gloffset: error:") and words in lines[0]
     assert "Traceback" not in proc.stderr
+
+
+def test_render_png_and_overlay(tmp_path, mexico_path):
+    from PIL import Image
+
+    out = tmp_path / "m.png"
+    r = run("render", str(mexico_path), "-d", "127km", "--size", "256x128", "-o", str(out))
+    assert r.exit_code == 0, r.output
+    img = np.asarray(Image.open(out))
+    assert img.shape == (128, 256) and set(np.unique(img)) == {0, 255}
+    mask = gloffset.render(gloffset.read(mexico_path), 127e3, gloffset.grids.Equirect(256, 128))
+    assert np.array_equal(img, mask)
+    rgba = tmp_path / "o.png"
+    r = run(
+        "render",
+        str(mexico_path),
+        "-d",
+        "127km",
+        "--size",
+        "128x128",
+        "--bounds",
+        "-120,10,-85,35",
+        "--fill",
+        "#3070c0cc",
+        "--background",
+        "0,0,0,0",
+        "-o",
+        str(rgba),
+    )
+    assert r.exit_code == 0, r.output
+    px = np.asarray(Image.open(rgba))
+    assert px.shape == (128, 128, 4)
+    assert {tuple(v) for v in px.reshape(-1, 4)} == {(0x30, 0x70, 0xC0, 0xCC), (0, 0, 0, 0)}
+    cls = tmp_path / "c.png"
+    r = run(
+        "render",
+        str(mexico_path),
+        "-d",
+        "127km",
+        "--size",
+        "256x256",
+        "--bounds",
+        "-120,10,-85,35",
+        "--classes",
+        "2",
+        "-o",
+        str(cls),
+    )
+    assert r.exit_code == 0, r.output
+    colours = {tuple(v) for v in np.asarray(Image.open(cls)).reshape(-1, 4)}
+    assert (220, 30, 30, 255) in colours  # frontier cells in red
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--size", "10x"], "--size must be"),
+        (["--bounds", "1,2,3"], "--bounds must be"),
+        (["--bounds", "0,10,5,5"], "S < N"),
+        (["--fill", "blurple"], "cannot read colour"),
+        (["--classes", "42"], "level must be"),
+    ],
+)
+def test_render_errors(tmp_path, args, words):
+    g = json.dumps({"type": "LineString", "coordinates": [[0, 0], [1, 0]]})
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "gloffset",
+            "render",
+            "-",
+            "-d",
+            "10km",
+            "-o",
+            str(tmp_path / "x.png"),
+            *args,
+        ],
+        input=g,
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0], proc.stderr
+
+
+def test_info_and_bad_device():
+    r = run("info")
+    assert r.exit_code == 0 and "renderer:" in r.output and "max_texture_size:" in r.output
+    import os
+
+    env = dict(os.environ, GLOFFSET_DEVICE="7")
+    proc = subprocess.run(
+        [sys.executable, "-m", "gloffset", "info"], capture_output=True, text=True, env=env
+    )
+    assert proc.returncode == 2
+    assert "EGL" in proc.stderr and "device 7" in proc.stderr and "install" in proc.stderr
+    env["GLOFFSET_DEVICE"] = "gpu"
+    proc = subprocess.run(
+        [sys.executable, "-m", "gloffset", "info"], capture_output=True, text=True, env=env
+    )
+    assert proc.returncode == 2 and "GLOFFSET_DEVICE must be" in proc.stderr

@@ -32,4 +32,5 @@ def main():
     """Regions within a distance of curves and polygons on the sphere."""
 
 
-from . import offset as _offset  # noqa: E402,F401  (registers the subcommand)
+from . import offset as _offset  # noqa: E402,F401  (registers the subcommands)
+from . import render as _render  # noqa: E402,F401

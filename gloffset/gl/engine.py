@@ -20,13 +20,14 @@ import math
 import numpy as np
 
 from ..hierarchy import Arcs, Frontier
+from ..sphere import arc_distance
 from .context import get_context
 from .shaders import program
 
 __all__ = ["GpuLevels", "records"]
 
 RECORD_TEXELS = 6
-RECORD_ROW = 680  # records per texture row: 4080 texels, below every GL limit
+RECORD_ROW = 682  # records per texture row: 4092 of 4096 texels, below every GL limit
 MAX_LOCAL = 30  # components with their own status bit per bin; more share bit 30
 OTHER_BIT = 31  # set when the bin centre is inside a component with no arc in the bin
 ARC_IS_ARC, ARC_HAS_DISTANCE, ARC_RING = 1, 2, 4
@@ -49,25 +50,26 @@ def records(f: Frontier, arcs: Arcs, e: float) -> tuple[np.ndarray, np.ndarray, 
     ea = c - a
     eb = c - b
     rec = np.empty((len(ci), RECORD_TEXELS, 4))
-    rec[:, 0, :3] = n
-    rec[:, 0, 3] = h - se
-    rec[:, 1, :3] = w1
-    rec[:, 1, 3] = np.einsum("ij,ij->i", c, w1)
-    rec[:, 2, :3] = w2
-    rec[:, 2, 3] = np.einsum("ij,ij->i", c, w2)
-    rec[:, 3, :3] = ea
-    rec[:, 3, 3] = chord_e - np.einsum("ij,ij->i", ea, ea)
-    rec[:, 4, :3] = eb
-    rec[:, 4, 3] = chord_e - np.einsum("ij,ij->i", eb, eb)
-    rec[:, 5, 0] = h
-    rec[:, 5, 1] = -h - se
+    dist = arc_distance(c, a, b, n)
+    rec[:, 0, 0] = dist * (1.0 - 1e-7)  # rounded down: a lower bound after the cast
+    rec[:, 0, 2] = h
+    rec[:, 0, 3] = -h - se
+    rec[:, 1, :3] = n
+    rec[:, 1, 3] = h - se
+    rec[:, 2, :3] = w1
+    rec[:, 2, 3] = np.einsum("ij,ij->i", c, w1)
+    rec[:, 3, :3] = w2
+    rec[:, 3, 3] = np.einsum("ij,ij->i", c, w2)
+    rec[:, 4, :3] = ea
+    rec[:, 4, 3] = chord_e - np.einsum("ij,ij->i", ea, ea)
+    rec[:, 5, :3] = eb
+    rec[:, 5, 3] = chord_e - np.einsum("ij,ij->i", eb, eb)
     group = arcs.group[ai]
     flags = (
         np.where(np.any(n != 0.0, axis=1), ARC_IS_ARC, 0)
         | np.where(arcs.boundary[ai], ARC_HAS_DISTANCE, 0)
         | np.where(group >= 0, ARC_RING, 0)
     )
-    rec[:, 5, 2] = flags
 
     # local component ids per bin, and the status bits at the bin centre
     k = len(f.cells)
@@ -82,15 +84,21 @@ def records(f: Frontier, arcs: Arcs, e: float) -> tuple[np.ndarray, np.ndarray, 
         rank = np.minimum(np.arange(len(ukey)) - first, MAX_LOCAL)
         local[ring] = rank[inv]
         inside_g = (f.status[ubin, ugrp >> 3] >> (ugrp & 7).astype(np.uint8)) & 1
-        np.bitwise_or.at(bits, ubin[inside_g == 1], np.uint64(1) << rank[inside_g == 1].astype(np.uint64))
+        np.bitwise_or.at(
+            bits, ubin[inside_g == 1], np.uint64(1) << rank[inside_g == 1].astype(np.uint64)
+        )
         # inside a component that has no arc here: one shared bit
-        n_inside = np.unpackbits(f.status, axis=1, bitorder="little")[:, : arcs.n_groups].sum(axis=1)
+        n_inside = np.unpackbits(f.status, axis=1, bitorder="little")[:, : arcs.n_groups].sum(
+            axis=1
+        )
         n_local = np.bincount(ubin, weights=inside_g, minlength=k)
         other = n_inside > n_local
     else:
-        other = np.unpackbits(f.status, axis=1, bitorder="little")[:, : max(arcs.n_groups, 1)].any(axis=1)
+        other = np.unpackbits(f.status, axis=1, bitorder="little")[:, : max(arcs.n_groups, 1)].any(
+            axis=1
+        )
     bits |= np.where(other, np.uint64(1) << np.uint64(OTHER_BIT), np.uint64(0))
-    rec[:, 5, 3] = np.where(ring, local, 31)
+    rec[:, 0, 1] = flags + 8 * np.where(ring, local, 31)
     first_rec = np.searchsorted(ci, np.arange(k)).astype(np.uint32)
     return rec.astype(np.float32), first_rec, bits.astype(np.uint32)
 
@@ -110,23 +118,51 @@ def _margins(rho: np.ndarray, e: float) -> np.ndarray:
     return out.astype(np.float32)
 
 
+def _pot(n: int) -> int:
+    """Next power of two: every texture gets power-of-two sides, because llvmpipe
+    compiles a new shader variant (about 0.15 s) for each combination of
+    power-of-two and other sizes among the bound textures."""
+    return 1 << max(0, int(n) - 1).bit_length()
+
+
+def _pad(a: np.ndarray, shape: tuple) -> np.ndarray:
+    out = np.zeros(shape + a.shape[len(shape) :], dtype=a.dtype)
+    out[tuple(slice(0, k) for k in a.shape[: len(shape)])] = a
+    return out
+
+
 class GpuLevels:
     """Runs the levels below the bin level of an equirectangular grid on the GPU."""
 
     def __init__(self):
         self.ctx = get_context()
-        self.prog = program(self.ctx, "fullscreen.vert", "classify.frag")
-        self.vao = self.ctx.vertex_array(self.prog, [])
+        self.prog = program(self.ctx, "bins.vert", "classify.frag")
+        self.upsample = program(self.ctx, "fullscreen.vert", "upsample.frag")
+        self.upsample_vao = self.ctx.vertex_array(self.upsample, [])
 
-    def _tex(self, size, comps, dtype, data):
-        t = self.ctx.texture(size, comps, data, dtype=dtype, alignment=1)
-        t.filter = (self.ctx.NEAREST, self.ctx.NEAREST) if dtype[0] in "ui" else t.filter
+    def _tex(self, array: np.ndarray, comps: int, dtype: str):
+        """A texture from ``array`` (rows, cols[, comps]) padded to power-of-two sides."""
+        import moderngl
+
+        h, w = array.shape[:2]
+        data = _pad(np.ascontiguousarray(array), (_pot(h), _pot(w)))
+        t = self.ctx.texture((_pot(w), _pot(h)), comps, data.tobytes(), dtype=dtype, alignment=1)
+        t.filter = (moderngl.NEAREST, moderngl.NEAREST)
         t.repeat_x = t.repeat_y = False
         return t
 
-    def run(self, grid, d: float, classes: np.ndarray, f: Frontier, arcs: Arcs, *,
-            stop_level: int, callback=None) -> np.ndarray:
-        """Classes of ``stop_level``, starting from the bin level's ``classes`` and frontier ``f``."""
+    def run(
+        self,
+        grid,
+        d: float,
+        classes: np.ndarray,
+        f: Frontier,
+        arcs: Arcs,
+        *,
+        stop_level: int,
+        callback=None,
+    ) -> np.ndarray:
+        """Classes of ``stop_level`` from the bin level's ``classes`` and frontier ``f``."""
         import moderngl
 
         ctx = self.ctx
@@ -150,18 +186,13 @@ class GpuLevels:
         phi = grid._cell_lon_lat_rad(bl, np.arange(hb), 0)[1]
         lat_cs = np.stack([np.cos(phi), np.sin(phi)], axis=-1).astype(np.float32)
 
-        textures = [
-            self._tex((RECORD_ROW * RECORD_TEXELS, rows), 4, "f4", buf.tobytes()),
-            self._tex((wb, hb), 4, "u4", info.tobytes()),
-            self._tex((hb, 1), 2, "f4", lat_cs.tobytes()),
-            self._tex((wb, 1), 2, "f4", lon_cs.tobytes()),
-        ]
-        for t in textures[:1] + textures[2:]:
-            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        recs, bins, latt, lont = textures
-        parent = self._tex((wb, hb), 1, "u1", np.ascontiguousarray(classes).tobytes())
+        recs = self._tex(buf.reshape(rows, RECORD_ROW * RECORD_TEXELS, 4), 4, "f4")
+        bins = self._tex(info, 4, "u4")
+        latt = self._tex(lat_cs[None], 2, "f4")
+        lont = self._tex(lon_cs[None], 2, "f4")
+        textures = [recs, bins, latt, lont]
+        parent = self._tex(classes, 1, "u1")
         p = self.prog
-        p["u_parent"] = 0
         p["u_bins"] = 1
         p["u_records"] = 2
         p["u_bin_lat"] = 3
@@ -171,42 +202,69 @@ class GpuLevels:
         p["u_dlon"] = grid.dlon
         p["u_dlat"] = grid.dlat
         p["u_positive"] = d >= 0
+        p["u_e"] = e
+        p["u_record_row"] = RECORD_ROW * RECORD_TEXELS
+        p["u_parent"] = 0
+        self.upsample["u_coarse"] = 6
         bins.use(1)
         recs.use(2)
         latt.use(3)
         lont.use(4)
+        coarse = self._tex(classes, 1, "u1")
+        coarse.use(6)
+        textures.append(coarse)
+        fb = np.ascontiguousarray(f.cells[:, ::-1], dtype=np.int32)  # (column, row)
+        inst = ctx.buffer(fb.tobytes() if len(fb) else b"\0" * 8)
+        vao = ctx.vertex_array(p, [(inst, "2i/i", "in_bin")])
         last = grid.n_levels - 1
         out = classes
         owned = [parent]
-        for lev in range(bl + 1, stop_level + 1):
-            h, w = grid.level_shape(lev)
-            final = lev == last
-            marg = _margins(grid.rho(lev), e)
-            mt = self._tex((2, h), 4, "f4", marg.tobytes())
-            mt.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            target = ctx.texture((w, h), 1, dtype="u1")
-            target.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            fbo = ctx.framebuffer(color_attachments=[target])
-            fbo.use()
-            ctx.viewport = (0, 0, w, h)
-            parent.use(0)
-            mt.use(5)
-            p["u_shift"] = lev - bl
-            p["u_block"] = float(grid.block(lev))
-            p["u_final"] = final
-            self.vao.render(moderngl.TRIANGLES, vertices=3)
-            fbo.release()
-            mt.release()
-            if callback is not None or lev == stop_level:
-                out = np.frombuffer(target.read(alignment=1), dtype=np.uint8).reshape(h, w)
-                if callback is not None:
-                    callback(lev, out)
-            for t in owned:
+        try:
+            for lev in range(bl + 1, stop_level + 1):
+                h, w = grid.level_shape(lev)
+                mt = self._tex(_margins(grid.rho(lev), e), 4, "f4")
+                target = ctx.texture((_pot(w), _pot(h)), 1, dtype="u1")
+                target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+                fbo = ctx.framebuffer(color_attachments=[target])
+                fbo.use()
+                ctx.viewport = (0, 0, w, h)
+                if lev == stop_level:  # every pixel outside the frontier bins
+                    self.upsample["u_shift"] = lev - bl
+                    self.upsample_vao.render(moderngl.TRIANGLES, vertices=3)
+                parent.use(0)
+                mt.use(5)
+                p["u_shift"] = lev - bl
+                p["u_size"] = (float(w), float(h))
+                p["u_block"] = float(grid.block(lev))
+                p["u_final"] = lev == last
+                p["u_rho_max"] = float(grid.rho(lev).max())
+                if len(fb):
+                    vao.render(moderngl.TRIANGLES, vertices=6, instances=len(fb))
+                fbo.release()
+                mt.release()
+                if callback is not None or lev == stop_level:
+                    full = np.frombuffer(target.read(alignment=1), dtype=np.uint8)
+                    out = full.reshape(_pot(h), _pot(w))[:h, :w]
+                    if callback is not None and lev != stop_level:
+                        # outside the frontier bins this level is its bins' class
+                        up = np.repeat(np.repeat(classes, 1 << (lev - bl), 0), 1 << (lev - bl), 1)
+                        cur = up[:h, :w].copy()
+                        mask = np.zeros(classes.shape, dtype=bool)
+                        mask[f.cells[:, 0], f.cells[:, 1]] = True
+                        mask = np.repeat(np.repeat(mask, 1 << (lev - bl), 0), 1 << (lev - bl), 1)
+                        cur[mask[:h, :w]] = out[mask[:h, :w]]
+                        callback(lev, cur)
+                    elif callback is not None:
+                        callback(lev, out)
+                for t in owned:
+                    t.release()
+                owned = [target]
+                parent = target
+        finally:
+            vao.release()
+            inst.release()
+            for t in owned + textures:
                 t.release()
-            owned = [target]
-            parent = target
-        for t in owned + textures:
-            t.release()
         return out.copy()
 
 
@@ -218,4 +276,3 @@ def engine() -> GpuLevels:
     if _ENGINE is None:
         _ENGINE = GpuLevels()
     return _ENGINE
-

@@ -37,20 +37,26 @@ _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
 def shader_files() -> list[str]:
     """All shader files, relative to the shader folder."""
     return sorted(
-        str(p.relative_to(SHADER_DIR)) for p in SHADER_DIR.rglob("*")
+        str(p.relative_to(SHADER_DIR))
+        for p in SHADER_DIR.rglob("*")
         if p.suffix in (".glsl", ".vert", ".frag", ".comp")
     )
 
 
-def load_source(name: str, defines: dict | None = None) -> tuple[str, list[str]]:
-    """The full source of shader ``name`` with includes resolved, and the file of each id."""
+def load_source(name: str, defines: dict | None = None, *, root=None) -> tuple[str, list[str]]:
+    """The full source of shader ``name`` with includes resolved, and the file of each id.
+
+    ``name`` is looked up in ``root`` (default: the shader folder); includes always
+    come from the shader folder.
+    """
     files: list[str] = []
     seen: set[str] = set()
 
     def read(rel: str, top: bool) -> list[str]:
-        path = (SHADER_DIR / rel).resolve()
-        if SHADER_DIR.resolve() not in path.parents or not path.is_file():
-            raise ShaderError(f"shader file {rel!r} not found in {SHADER_DIR}")
+        base = Path(root) if (top and root is not None) else SHADER_DIR
+        path = (base / rel).resolve()
+        if base.resolve() not in path.parents or not path.is_file():
+            raise ShaderError(f"shader file {rel!r} not found in {base}")
         lines = path.read_text().splitlines()
         fid = len(files)
         files.append(rel)
@@ -96,10 +102,13 @@ def _relabel(log: str, files: list[str]) -> str:
     return _LOC.sub(sub, log)
 
 
-def program(ctx, vertex: str, fragment: str, defines: dict | None = None):
-    """Compile and link a program from two shader files (errors name file and line)."""
+def program(ctx, vertex: str, fragment: str, defines: dict | None = None, *, root=None):
+    """Compile and link a program from two shader files (errors name file and line).
+
+    ``root`` is where the fragment shader is looked up (default: the shader folder).
+    """
     vs, vfiles = load_source(vertex, defines)
-    fs, ffiles = load_source(fragment, defines)
+    fs, ffiles = load_source(fragment, defines, root=root)
     try:
         return ctx.program(vertex_shader=vs, fragment_shader=fs)
     except Exception as exc:  # moderngl.Error carries the compiler log

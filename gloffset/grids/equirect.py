@@ -88,7 +88,9 @@ class Equirect:
         try:
             b = tuple(float(x) for x in self.bounds)
         except (TypeError, ValueError):
-            raise InvalidGridError(f"bounds must be 4 numbers W,S,E,N, got {self.bounds!r}") from None
+            raise InvalidGridError(
+                f"bounds must be 4 numbers W,S,E,N, got {self.bounds!r}"
+            ) from None
         if len(b) != 4 or not all(math.isfinite(x) for x in b):
             raise InvalidGridError(f"bounds must be 4 finite numbers W,S,E,N, got {self.bounds!r}")
         west, south, east, north = b

@@ -1,0 +1,188 @@
+"""The GPU raster engine against the float64 reference, pixel by pixel and level by level."""
+
+import numpy as np
+import pytest
+
+import gloffset
+from gloffset.grids import Equirect
+from gloffset.hierarchy import CONTAINED, FRONTIER, OUTSIDE
+from gloffset.reference import contains_xyz, distance_xyz
+from gloffset.render import RenderError
+
+EPS = 1e-3  # of a pixel: the band around the boundary where float32 may differ
+
+
+def pixel_centers(grid):
+    jj, ii = np.meshgrid(np.arange(grid.height), np.arange(grid.width), indexing="ij")
+    return grid.centers(grid.n_levels - 1, jj.ravel(), ii.ravel())
+
+
+def boundary_distance(shape, p):
+    """Distance to ring edges including seams (where the inside status changes)."""
+    from gloffset.hierarchy import Arcs
+    from gloffset.sphere import arc_distance
+
+    arcs = Arcs.from_shape(shape)
+    ring = arcs.group >= 0
+    if not ring.any():
+        return np.full(len(p), np.inf)
+    a, b = arcs.a[ring], arcs.b[ring]
+    out = np.full(len(p), np.inf)
+    for s in range(0, len(a), 256):
+        out = np.minimum(
+            out, arc_distance(p[:, None], a[None, s : s + 256], b[None, s : s + 256]).min(axis=1)
+        )
+    return out
+
+
+def assert_matches_reference(shape, d, grid, mask=None):
+    """GPU mask == brute-force reference except within EPS of a pixel of the boundary."""
+    if mask is None:
+        mask = gloffset.render(shape, d, grid, radius=1.0)
+    assert mask.shape == (grid.height, grid.width) and mask.dtype == np.uint8
+    assert set(np.unique(mask)) <= {0, 255}
+    p = pixel_centers(grid)
+    want = contains_xyz(shape, p, d).reshape(grid.shape)
+    bad = np.flatnonzero((mask.ravel() == 255) != want.ravel())
+    if len(bad):
+        eps = EPS * grid.dlat
+        near_offset = np.abs(distance_xyz(shape, p[bad]) - abs(d)) <= eps
+        near_edge = boundary_distance(shape, p[bad]) <= eps
+        assert np.all(near_offset | near_edge), f"{len(bad)} pixels differ beyond the epsilon"
+    return mask, want
+
+
+SQUARE_WITH_HOLE = {
+    "type": "Polygon",
+    "coordinates": [
+        [[-20, -10], [20, -10], [20, 15], [-20, 15], [-20, -10]],
+        [[-5, -3], [6, -3], [6, 4], [-5, 4], [-5, -3]],
+    ],
+}
+LINES = {
+    "type": "MultiLineString",
+    "coordinates": [[[-150, 10], [-100, 40], [-60, 5]], [[170, -30], [-170, -35]]],
+}
+
+
+@pytest.mark.parametrize(
+    "geom, d, size",
+    [
+        (SQUARE_WITH_HOLE, 0.0, (256, 128)),
+        (SQUARE_WITH_HOLE, 0.05, (300, 150)),
+        (SQUARE_WITH_HOLE, -0.03, (257, 131)),
+        (LINES, 0.04, (256, 128)),
+        ({"type": "Point", "coordinates": [30, 60]}, 0.2, (200, 100)),
+    ],
+)
+def test_synthetic_shapes(geom, d, size):
+    mask, want = assert_matches_reference(gloffset.read(geom), d, Equirect(*size))
+    assert want.any() and not want.all()
+
+
+@pytest.mark.parametrize(
+    "name, d, size, bounds",
+    [
+        ("Fiji", 0.03, (256, 128), (-180, -90, 180, 90)),
+        ("Fiji", 0.01, (200, 160), (170, -25, -170, -10)),  # across the antimeridian
+        ("Russia", 0.02, (512, 256), (-180, -90, 180, 90)),
+        ("Russia", -0.01, (300, 200), (160, 55, -160, 75)),
+        ("Antarctica", 0.03, (256, 128), (-180, -90, 180, 90)),
+        ("Antarctica", -0.02, (256, 96), (-180, -90, 180, -60)),  # round the pole
+        ("Italy", 0.002, (240, 240), (6, 36, 19, 47.5)),
+        ("Chile", 0.0, (128, 256), (-80, -56, -66, -17)),
+    ],
+)
+def test_world_borders(world, name, d, size, bounds):
+    mask, want = assert_matches_reference(gloffset.read(world[name]), d, Equirect(*size, bounds))
+    assert want.any()
+
+
+@pytest.mark.parametrize("half_deg", [1e-2, 1e-4, 1e-6])
+def test_small_regional_bounds(mexico_path, half_deg):
+    """Pixels from about 40 m down to 4 mm wide, on the offset boundary of Mexico."""
+    shape = gloffset.read(mexico_path)
+    d = 0.02
+    # a point on the offset boundary: 0.02 rad from the coast, found with the reference
+    lon0 = -98.0
+
+    def excess(lat):
+        return float(gloffset.distance(shape, lon0, lat, radius=1.0)) - d
+
+    lo, hi = 15.8, 12.0  # within d of the coast at lo, beyond it at hi
+    assert excess(lo) < 0 < excess(hi)
+    for _ in range(60):  # bisection to float64 resolution
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if excess(mid) < 0 else (lo, mid)
+    c = (lon0, lo)
+    grid = Equirect(96, 96, (c[0] - half_deg, c[1] - half_deg, c[0] + half_deg, c[1] + half_deg))
+    mask, want = assert_matches_reference(shape, d, grid)
+    assert want.any() and not want.all()  # the boundary runs through the window
+
+
+def test_levels_never_contradict_the_reference(world):
+    shape = gloffset.read(world["Indonesia"])
+    grid = Equirect(512, 256, (90, -15, 145, 10))
+    d = 0.01
+    levels = {}
+    mask = gloffset.render(
+        shape, d, grid, radius=1.0, callback=lambda lv, c: levels.__setitem__(lv, c.copy())
+    )
+    want = contains_xyz(shape, pixel_centers(grid), d).reshape(grid.shape)
+    assert sorted(levels) == list(range(grid.n_levels))
+    for lev, cls in levels.items():
+        b = grid.block(lev)
+        up = np.repeat(np.repeat(cls, b, 0), b, 1)[: grid.height, : grid.width]
+        assert not np.any((up == CONTAINED) & ~want), lev
+        assert not np.any((up == OUTSIDE) & want), lev
+    assert (levels[grid.n_levels - 1] != FRONTIER).all()
+    assert np.array_equal(levels[grid.n_levels - 1] == CONTAINED, mask == 255)
+    # frontier cells shrink to a band: most of the finest level is decided early
+    assert (levels[grid.n_levels - 2] == FRONTIER).mean() < 0.2
+
+
+def test_classes_output_and_cpu_backend(world):
+    shape = gloffset.read(world["Madagascar"])
+    grid = Equirect(256, 256, (40, -28, 53, -10))
+    mask = gloffset.render(shape, 0.01, grid, radius=1.0)
+    cpu = gloffset.render(shape, 0.01, grid, radius=1.0, backend="cpu")
+    assert np.array_equal(mask, cpu)
+    cls = gloffset.render(shape, 0.01, grid, radius=1.0, out="classes", level=2)
+    assert cls.shape == grid.level_shape(2)
+    assert set(np.unique(cls)) == {OUTSIDE, FRONTIER, CONTAINED}
+
+
+def test_tiles_give_the_same_image(world):
+    shape = gloffset.read(world["Japan"])
+    grid = Equirect(300, 200, (125, 25, 150, 46))
+    whole = gloffset.render(shape, 0.01, grid, radius=1.0)
+    tiled = gloffset.render(shape, 0.01, grid, radius=1.0, tile=64)
+    # tiles recompute their own hierarchy; pixel centres agree to rounding
+    assert np.count_nonzero(whole != tiled) <= 2
+
+
+def test_metres_and_mexico_10m(mexico_path):
+    shape = gloffset.read(mexico_path)
+    grid = Equirect(400, 300, (-118, 14, -86, 33))
+    mask = gloffset.render(shape, 127e3, grid)
+    cpu = gloffset.render(shape, 127e3 / gloffset.EARTH_RADIUS, grid, radius=1.0, backend="cpu")
+    assert np.array_equal(mask, cpu)
+
+
+def test_bad_requests():
+    s = gloffset.read({"type": "Point", "coordinates": [0, 0]})
+    g = Equirect(64, 32)
+    with pytest.raises(RenderError, match="out must be one of"):
+        gloffset.render(s, 1.0, g, out="png")
+    with pytest.raises(RenderError, match="backend"):
+        gloffset.render(s, 1.0, g, backend="cuda")
+    with pytest.raises(RenderError, match="level must be"):
+        gloffset.render(s, 1.0, g, out="classes", level=99)
+    with pytest.raises(RenderError, match="more than"):
+        gloffset.render(s, 1.0, Equirect(70000, 40000))
+    with pytest.raises(gloffset.InvalidDistanceError, match="1.5 rad"):
+        gloffset.render(s, 2.0, g, radius=1.0)
+    with pytest.raises(gloffset.grids.InvalidGridError, match="S < N"):
+        Equirect(10, 10, (0, 10, 5, 5))
+    with pytest.raises(gloffset.grids.InvalidGridError, match="positive"):
+        Equirect(0, 10)
