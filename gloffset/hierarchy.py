@@ -32,6 +32,7 @@ renderer.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -130,8 +131,13 @@ def _coarse(shape, arcs: Arcs, grid, e: float) -> Frontier:
             ins[:, present] = par ^ ref_status[k][present][None, :]
             status[sel] = np.packbits(ins, axis=1, bitorder="little")[:, : status.shape[1]]
     # the same test as _cap_filter, as one matrix product over all cells and arcs
-    lim = np.cos(np.minimum(e + rho[:, None] + arcs.half[None, :], math.pi)) - 1e-12
-    ci, ai = np.nonzero(c @ arcs.mid.T >= lim)
+    # cos(E + H) = cos E cos H - sin E sin H for E = e + rho, H = half (no cos per pair)
+    big_e = e + rho
+    dots = c @ arcs.mid.T
+    dots += np.sin(big_e)[:, None] * np.sin(arcs.half)[None, :]
+    dots -= (np.cos(big_e)[:, None] * np.cos(arcs.half)[None, :]) - 1e-12
+    dots[(big_e[:, None] + arcs.half[None, :]) >= math.pi] = 1.0
+    ci, ai = np.nonzero(dots >= 0.0)
     return Frontier(0, cells, c, rho, ci, ai, status)
 
 
@@ -229,12 +235,13 @@ def _subset(f: Frontier, sel: np.ndarray) -> Frontier:
     )
 
 
-def classify(shape, d: float, grid, *, stop_level: int | None = None, callback=None):
+def classify(shape, d: float, grid, *, stop_level: int | None = None, callback=None, timings=None):
     """Classify the grid level by level in float64 down to ``stop_level`` (default: output).
 
     Returns ``(classes, frontier)``: the full class array of ``stop_level`` and the
     :class:`Frontier` of its frontier cells (empty at the output level).
-    ``callback(level, classes)`` is called after each level.
+    ``callback(level, classes)`` is called after each level; ``timings``, a list,
+    gets ``(level, time.perf_counter())`` after each level.
     """
     arcs = Arcs.from_shape(shape)
     e = abs(d)
@@ -253,4 +260,6 @@ def classify(shape, d: float, grid, *, stop_level: int | None = None, callback=N
         f = _subset(f, np.flatnonzero(cls == FRONTIER))
         if callback is not None:
             callback(lev, classes)
+        if timings is not None:
+            timings.append((lev, time.perf_counter()))
     return classes, f, arcs

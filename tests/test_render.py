@@ -169,6 +169,15 @@ def test_metres_and_mexico_10m(mexico_path):
     assert np.array_equal(mask, cpu)
 
 
+def test_no_gl_error_left_behind(world):
+    from gloffset.gl import get_context
+
+    ctx = get_context()
+    ctx.error  # noqa: B018  (start clean)
+    gloffset.render(gloffset.read(world["Chile"]), 0.01, Equirect(128, 128, (-80, -56, -66, -17)))
+    assert ctx.error == "GL_NO_ERROR"
+
+
 def test_bad_requests():
     s = gloffset.read({"type": "Point", "coordinates": [0, 0]})
     g = Equirect(64, 32)

@@ -16,6 +16,7 @@ for children of frontier cells; see ``shaders/classify.frag``.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -161,6 +162,7 @@ class GpuLevels:
         *,
         stop_level: int,
         callback=None,
+        timings: list | None = None,
     ) -> np.ndarray:
         """Classes of ``stop_level`` from the bin level's ``classes`` and frontier ``f``."""
         import moderngl
@@ -226,6 +228,10 @@ class GpuLevels:
                 target = ctx.texture((_pot(w), _pot(h)), 1, dtype="u1")
                 target.filter = (moderngl.NEAREST, moderngl.NEAREST)
                 fbo = ctx.framebuffer(color_attachments=[target])
+                # moderngl's framebuffer set-up makes one query that GL rejects for an
+                # integer colour attachment (GL_INVALID_OPERATION, no effect): clear it
+                # so that real errors stay visible
+                ctx.error  # noqa: B018
                 fbo.use()
                 ctx.viewport = (0, 0, w, h)
                 if lev == stop_level:  # every pixel outside the frontier bins
@@ -240,6 +246,9 @@ class GpuLevels:
                 p["u_rho_max"] = float(grid.rho(lev).max())
                 if len(fb):
                     vao.render(moderngl.TRIANGLES, vertices=6, instances=len(fb))
+                if timings is not None:
+                    ctx.finish()
+                    timings.append((lev, time.perf_counter()))
                 fbo.release()
                 mt.release()
                 if callback is not None or lev == stop_level:
