@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import GloffsetError, InvalidDistanceError
-from .grids import Equirect
+from .grids import Cube, CubeFace, Equirect, Tile
 from .hierarchy import CONTAINED, classify
 from .shape import read
 from .units import EARTH_RADIUS, to_angle
@@ -33,12 +33,15 @@ def _check(out, backend, grid):
         raise RenderError(f"out must be one of {', '.join(_OUTS)}, got {out!r}")
     if backend not in _BACKENDS:
         raise RenderError(f"backend must be one of {', '.join(_BACKENDS)}, got {backend!r}")
-    if not isinstance(grid, Equirect):
-        raise RenderError(f"grid must be a gloffset.grids grid, got {type(grid).__name__}")
-    if grid.width * grid.height > MAX_PIXELS:
+    if not isinstance(grid, (Equirect, Tile, Cube, CubeFace)):
         raise RenderError(
-            f"a {grid.width}x{grid.height} image has more than {MAX_PIXELS} pixels; "
-            "render it in parts with Equirect.subgrid"
+            f"grid must be a gloffset.grids grid (Equirect, Tile, Cube), got {type(grid).__name__}"
+        )
+    n = 6 * grid.size**2 if isinstance(grid, Cube) else grid.width * grid.height
+    if n > MAX_PIXELS:
+        raise RenderError(
+            f"the image has {n} pixels, more than {MAX_PIXELS}; render it in parts "
+            "(Equirect.subgrid, or fewer cube pixels)"
         )
 
 
@@ -57,7 +60,7 @@ def _render_one(shape, d, grid, *, backend, level, callback):
 def render(
     shape,
     distance: float,
-    grid: Equirect,
+    grid,
     *,
     radius: float = EARTH_RADIUS,
     out: str = "mask",
@@ -73,7 +76,9 @@ def render(
     shape : Shape or anything :func:`gloffset.read` accepts
     distance : float
         In the units of ``radius`` (metres by default); negative shrinks polygons.
-    grid : gloffset.grids.Equirect
+    grid : gloffset.grids.Equirect, Tile, Cube or CubeFace
+        A :class:`~gloffset.grids.Cube` gives (6, N, N) indexed [face, row, column],
+        faces +X -X +Y -Y +Z -Z, rows and columns as in the GL cube-map table.
     out : {"mask", "classes"}
         ``"mask"``: uint8 (height, width), 255 inside the region, 0 outside, row 0
         north. ``"classes"``: uint8 classes of ``level`` (0 outside, 1 frontier,
@@ -115,7 +120,29 @@ def render(
             from .gl.context import context_info
 
             tile = min(tile, context_info()["max_texture_size"])
-    if level is not None or (grid.width <= tile and grid.height <= tile):
+    if isinstance(grid, Cube):
+        faces = [
+            render(
+                shape,
+                d,
+                f,
+                radius=1.0,
+                out=out,
+                level=level,
+                callback=callback,
+                backend=backend,
+                tile=tile,
+            )
+            for f in grid.faces
+        ]
+        return np.stack(faces)
+    big = grid.width > tile or grid.height > tile
+    if big and not isinstance(grid, Equirect):
+        raise RenderError(
+            f"a {grid.width}x{grid.height} {type(grid).__name__} is larger than the GL limit "
+            f"{tile}; use a smaller size"
+        )
+    if level is not None or not big:
         classes = _render_one(shape, d, grid, backend=backend, level=level, callback=callback)
     else:
         classes = np.empty(grid.shape, dtype=np.uint8)

@@ -4,7 +4,8 @@
 // row y; row 0 north) of level l: if its parent is contained or outside it takes
 // that class, else it is classified against its bin's candidate arcs:
 // 0 outside, 1 frontier, 2 contained (at the output level only 0 or 2).
-#include "lib/equirect.glsl"
+#include "lib/lonlat.glsl"
+#include "lib/cube.glsl"
 #include "lib/arcs.glsl"
 
 const uint OUTSIDE = 0u;
@@ -16,14 +17,21 @@ uniform usampler2D u_parent;   // classes of level l-1 (R8UI), valid inside fron
 uniform usampler2D u_bins;     // per bin: first record, record count, status bits, class
 uniform sampler2D u_records;   // arc records, RECORD_TEXELS texels each, never split across rows
 uniform int u_record_row;      // texels used per row of u_records
+#ifdef GRID_CUBE
+uniform vec3 u_face_e;         // cube face axis; u_face_u, u_face_v: directions of s and t
+uniform vec3 u_face_u;
+uniform vec3 u_face_v;
+uniform float u_px;            // face coordinate (2 s - 1) per output pixel: 2 / size
+#else
 uniform sampler2D u_bin_lat;   // per bin row: (cos, sin) of the bin centre latitude
 uniform sampler2D u_bin_lon;   // per bin column: (cos, sin) of the bin centre longitude
+uniform sampler2D u_row_dphi;  // per cell row of level l: latitude minus its bin row's (float64-made)
+uniform sampler2D u_col_dlam;  // per cell column of level l: longitude minus its bin column's
+#endif
 uniform sampler2D u_margins;   // per cell row: texel 0 (mu_lo, mu_hi, mu_rho, _), texel 1 (nu_lo, nu_hi, nu_rho, _)
 uniform int u_shift;           // l - bin level
 uniform float u_block;         // output pixels per cell side at level l
 uniform float u_bin_block;     // output pixels per bin side
-uniform float u_dlon;          // output pixel width, radians of longitude
-uniform float u_dlat;          // output pixel height, radians of latitude
 uniform bool u_final;          // output level: decide every cell at its centre
 uniform bool u_positive;       // d >= 0 (grow) or d < 0 (shrink)
 uniform float u_e;             // |d|, radians
@@ -42,11 +50,20 @@ void main() {
     }
     ivec2 bin = cell >> u_shift;
     uvec4 info = texelFetch(u_bins, bin, 0);
+#ifdef GRID_CUBE
+    vec2 bpx = (vec2(bin) + 0.5) * u_bin_block;  // bin centre, output pixels
+    vec2 dpx = (vec2(cell) + 0.5) * u_block - bpx;
+    vec3 c;
+    vec3 delta = cube_offset(bpx.x * u_px - 1.0, bpx.y * u_px - 1.0, dpx.x * u_px, dpx.y * u_px,
+                             u_face_e, u_face_u, u_face_v, c);
+#else
     vec2 cs_phi = texelFetch(u_bin_lat, ivec2(bin.y, 0), 0).xy;
     vec2 cs_lam = texelFetch(u_bin_lon, ivec2(bin.x, 0), 0).xy;
     vec3 c = vec3(cs_phi.x * cs_lam.x, cs_phi.x * cs_lam.y, cs_phi.y);
-    vec2 dpix = (vec2(cell) + 0.5) * u_block - (vec2(bin) + 0.5) * u_bin_block;
-    vec3 delta = equirect_offset(cs_phi, cs_lam, -dpix.y * u_dlat, dpix.x * u_dlon);
+    float dphi = texelFetch(u_row_dphi, ivec2(cell.y, 0), 0).x;
+    float dlam = texelFetch(u_col_dlam, ivec2(cell.x, 0), 0).x;
+    vec3 delta = lonlat_offset(cs_phi, cs_lam, dphi, dlam);
+#endif
 
     vec4 mu = u_final ? vec4(0.0) : texelFetch(u_margins, ivec2(0, cell.y), 0);
     vec4 nu = u_final ? vec4(0.0) : texelFetch(u_margins, ivec2(1, cell.y), 0);

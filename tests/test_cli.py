@@ -160,3 +160,19 @@ def test_info_and_bad_device():
         [sys.executable, "-m", "gloffset", "info"], capture_output=True, text=True, env=env
     )
     assert proc.returncode == 2 and "GLOFFSET_DEVICE must be" in proc.stderr
+
+
+def test_render_cube_faces(tmp_path, world):
+    from PIL import Image
+
+    src = tmp_path / "ant.geojson"
+    src.write_text(json.dumps(world["Antarctica"]))
+    out = tmp_path / "cube"
+    r = run("render", str(src), "-d", "200km", "--grid", "cube", "--size", "64", "-o", str(out))
+    assert r.exit_code == 0, r.output
+    faces = {p.stem: np.asarray(Image.open(p)) for p in out.glob("*.png")}
+    assert sorted(faces) == sorted(["px", "nx", "py", "ny", "pz", "nz"])
+    want = gloffset.render(gloffset.read(src), 200e3, gloffset.grids.Cube(64))
+    for k, name in enumerate(gloffset.grids.FACE_NAMES):
+        assert np.array_equal(faces[name], want[k])
+    assert faces["nz"].any() and not faces["pz"].any()

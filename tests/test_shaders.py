@@ -37,7 +37,13 @@ def test_every_shader_file_compiles(ctx, name):
 def test_includes_once_with_line_directives():
     src, files = load_source("classify.frag")
     assert src.startswith("#version 430\n")
-    assert files == ["classify.frag", "lib/equirect.glsl", "lib/precise.glsl", "lib/arcs.glsl"]
+    assert files == [
+        "classify.frag",
+        "lib/lonlat.glsl",
+        "lib/precise.glsl",
+        "lib/cube.glsl",
+        "lib/arcs.glsl",
+    ]
     assert src.count("float precise_sin(float x)") == 1
     assert "#line 1 2" in src  # precise.glsl starts at its own line 1
 
@@ -53,7 +59,7 @@ def test_loader_errors(ctx):
     assert "broken.frag:5" in str(err.value)
 
 
-def test_equirect_offset_matches_float64(ctx):
+def test_lonlat_offset_matches_float64(ctx):
     rng = np.random.default_rng(4)
     n = 256
     phi = rng.uniform(-1.5, 1.5, n).astype(np.float32).astype(np.float64)
@@ -65,7 +71,7 @@ def test_equirect_offset_matches_float64(ctx):
     tex = ctx.texture((n, 1), 4, data.tobytes(), dtype="f4")
     out = ctx.texture((n, 1), 4, dtype="f4")
     fbo = ctx.framebuffer(color_attachments=[out])
-    prog = program(ctx, "fullscreen.vert", "probe_equirect.frag", root=HERE)
+    prog = program(ctx, "fullscreen.vert", "probe_lonlat.frag", root=HERE)
     prog["u_in"] = 0
     tex.use(0)
     fbo.use()

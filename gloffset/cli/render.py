@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import sys
 import time
+from pathlib import Path
 
 import click
 
 from ..errors import GloffsetError
-from ..grids import Equirect
+from ..grids import FACE_NAMES, Cube, CubeFace, Equirect
 from ..io.png import parse_color, write_classes, write_mask
 from ..render import render as _render
 from ..shape import read
@@ -26,6 +27,17 @@ def _size(text: str) -> tuple[int, int]:
     except ValueError:
         raise OptionError(f"--size must be WIDTHxHEIGHT, e.g. 4096x2048, got {text!r}") from None
     return w, h
+
+
+def _face(text: str) -> int:
+    parts = text.lower().split("x")
+    try:
+        vals = {int(v) for v in parts}
+    except ValueError:
+        vals = set()
+    if len(vals) != 1 or len(parts) > 2:
+        raise OptionError(f"--size for a cube is the face side N (or NxN), got {text!r}")
+    return vals.pop()
 
 
 def _bounds(text: str | None) -> tuple:
@@ -47,12 +59,16 @@ def _bounds(text: str | None) -> tuple:
 @click.option(
     "--grid",
     "grid_kind",
-    type=click.Choice(["equirect"]),
+    type=click.Choice(["equirect", "cube"]),
     default="equirect",
     show_default=True,
-    help="Raster grid.",
+    help="equirect: one PNG; cube: OUTPUT is a folder of px nx py ny pz nz PNGs.",
 )
-@click.option("--size", default="4096x2048", show_default=True, help="WIDTHxHEIGHT in pixels.")
+@click.option(
+    "--size",
+    default=None,
+    help="WIDTHxHEIGHT in pixels (default 4096x2048); for cube the face side N.",
+)
 @click.option(
     "--bounds", default=None, help="W,S,E,N in degrees (W > E crosses 180 deg). Default: the globe."
 )
@@ -82,13 +98,23 @@ def render_cmd(
     classes_level,
     backend,
 ):
-    """Render the region within DIST of the curves of INPUT as a PNG (row 0 north)."""
+    """Render the region within DIST of the curves of INPUT as a PNG (row 0 north), or
+    as six cube-map faces px nx py ny pz nz that load straight into a GL or three.js
+    cube texture (sampled with the Earth-frame direction: x to 0N 0E, z to the north pole)."""
     d = angle(distance, radius)
     for colour in (fill, background):
         if colour is not None:
             parse_color(colour)  # fail before the work
-    w, h = _size(size)
-    grid = Equirect(w, h, _bounds(bounds))
+    if grid_kind == "cube":
+        if bounds is not None:
+            raise OptionError("--bounds does not apply to --grid cube")
+        n = _face(size or "1024")
+        grid = Cube(n)
+        levels = CubeFace(0, n).n_levels
+    else:
+        w, h = _size(size or "4096x2048")
+        grid = Equirect(w, h, _bounds(bounds))
+        levels = grid.n_levels
     shape = read(input)
     show = sys.stderr.isatty()
     t0 = time.perf_counter()
@@ -97,27 +123,37 @@ def render_cmd(
         if show:
             frontier = int((classes == 1).sum())
             click.echo(
-                f"\rlevel {level + 1}/{grid.n_levels}: {classes.shape[1]}x{classes.shape[0]}, "
+                f"\rlevel {level + 1}/{levels}: {classes.shape[1]}x{classes.shape[0]}, "
                 f"{frontier} frontier cells, {time.perf_counter() - t0:.2f} s",
                 err=True,
                 nl=False,
             )
 
-    if classes_level is not None:
-        classes = _render(
-            shape,
-            d,
-            grid,
-            radius=1.0,
-            out="classes",
-            level=classes_level,
-            callback=progress,
-            backend=backend,
-        )
-        write_classes(classes, output)
+    out = "classes" if classes_level is not None else "mask"
+    result = _render(
+        shape,
+        d,
+        grid,
+        radius=1.0,
+        out=out,
+        level=classes_level,
+        callback=progress,
+        backend=backend,
+    )
+    if grid_kind == "cube":
+        folder = Path(output)
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OptionError(f"cannot create folder {output!r}: {exc.strerror}") from None
+        targets = [(folder / f"{name}.png", result[k]) for k, name in enumerate(FACE_NAMES)]
     else:
-        mask = _render(shape, d, grid, radius=1.0, callback=progress, backend=backend)
-        write_mask(mask, output, fill=fill, background=background)
+        targets = [(Path(output), result)]
+    for path, img in targets:
+        if out == "classes":
+            write_classes(img, path)
+        else:
+            write_mask(img, path, fill=fill, background=background)
     if show:
         click.echo("", err=True)
 

@@ -119,6 +119,12 @@ def _margins(rho: np.ndarray, e: float) -> np.ndarray:
     return out.astype(np.float32)
 
 
+def _set(prog, name: str, value) -> None:
+    """Set a uniform if the compiled variant uses it (unused ones are optimised away)."""
+    if name in prog:
+        prog[name].value = value
+
+
 def _pot(n: int) -> int:
     """Next power of two: every texture gets power-of-two sides, because llvmpipe
     compiles a new shader variant (about 0.15 s) for each combination of
@@ -137,7 +143,10 @@ class GpuLevels:
 
     def __init__(self):
         self.ctx = get_context()
-        self.prog = program(self.ctx, "bins.vert", "classify.frag")
+        self.progs = {
+            "lonlat": program(self.ctx, "bins.vert", "classify.frag"),
+            "cube": program(self.ctx, "bins.vert", "classify.frag", {"GRID_CUBE": 1}),
+        }
         self.upsample = program(self.ctx, "fullscreen.vert", "upsample.frag")
         self.upsample_vao = self.ctx.vertex_array(self.upsample, [])
 
@@ -183,35 +192,39 @@ class GpuLevels:
         info[fj, fi, 0] = first
         info[fj, fi, 1] = counts
         info[fj, fi, 2] = bits
-        lam = grid._cell_lon_lat_rad(bl, 0, np.arange(wb))[0]
-        lon_cs = np.stack([np.cos(lam), np.sin(lam)], axis=-1).astype(np.float32)
-        phi = grid._cell_lon_lat_rad(bl, np.arange(hb), 0)[1]
-        lat_cs = np.stack([np.cos(phi), np.sin(phi)], axis=-1).astype(np.float32)
-
+        cube = hasattr(grid, "face")
+        p = self.progs["cube" if cube else "lonlat"]
         recs = self._tex(buf.reshape(rows, RECORD_ROW * RECORD_TEXELS, 4), 4, "f4")
         bins = self._tex(info, 4, "u4")
-        latt = self._tex(lat_cs[None], 2, "f4")
-        lont = self._tex(lon_cs[None], 2, "f4")
-        textures = [recs, bins, latt, lont]
+        textures = [recs, bins]
+        if cube:
+            e_, u_, v_ = grid.basis
+            _set(p, "u_face_e", tuple(float(x) for x in e_))
+            _set(p, "u_face_u", tuple(float(x) for x in u_))
+            _set(p, "u_face_v", tuple(float(x) for x in v_))
+            _set(p, "u_px", 2.0 / grid.size)
+        else:
+            lam = grid.cell_lon(bl, np.arange(wb))
+            phi = grid.cell_lat(bl, np.arange(hb))
+            lon_cs = np.stack([np.cos(lam), np.sin(lam)], axis=-1).astype(np.float32)
+            lat_cs = np.stack([np.cos(phi), np.sin(phi)], axis=-1).astype(np.float32)
+            textures += [self._tex(lat_cs[None], 2, "f4"), self._tex(lon_cs[None], 2, "f4")]
+            _set(p, "u_bin_lat", 3)
+            _set(p, "u_bin_lon", 4)
+            textures[2].use(3)
+            textures[3].use(4)
+        _set(p, "u_bins", 1)
+        _set(p, "u_records", 2)
+        _set(p, "u_margins", 5)
+        _set(p, "u_bin_block", float(grid.block(bl)))
+        _set(p, "u_positive", d >= 0)
+        _set(p, "u_e", e)
+        _set(p, "u_record_row", RECORD_ROW * RECORD_TEXELS)
         parent = self._tex(classes, 1, "u1")
-        p = self.prog
-        p["u_bins"] = 1
-        p["u_records"] = 2
-        p["u_bin_lat"] = 3
-        p["u_bin_lon"] = 4
-        p["u_margins"] = 5
-        p["u_bin_block"] = float(grid.block(bl))
-        p["u_dlon"] = grid.dlon
-        p["u_dlat"] = grid.dlat
-        p["u_positive"] = d >= 0
-        p["u_e"] = e
-        p["u_record_row"] = RECORD_ROW * RECORD_TEXELS
-        p["u_parent"] = 0
+        _set(p, "u_parent", 0)
         self.upsample["u_coarse"] = 6
         bins.use(1)
         recs.use(2)
-        latt.use(3)
-        lont.use(4)
         coarse = self._tex(classes, 1, "u1")
         coarse.use(6)
         textures.append(coarse)
@@ -239,11 +252,25 @@ class GpuLevels:
                     self.upsample_vao.render(moderngl.TRIANGLES, vertices=3)
                 parent.use(0)
                 mt.use(5)
-                p["u_shift"] = lev - bl
-                p["u_size"] = (float(w), float(h))
-                p["u_block"] = float(grid.block(lev))
-                p["u_final"] = lev == last
-                p["u_rho_max"] = float(grid.rho(lev).max())
+                level_tex = []
+                if not cube:  # each cell's latitude and longitude minus its bin's, float64-made
+                    j, i = np.arange(h), np.arange(w)
+                    sh = lev - bl
+                    dphi = grid.cell_lat(lev, j) - grid.cell_lat(bl, j >> sh)
+                    dlam = grid.cell_lon(lev, i) - grid.cell_lon(bl, i >> sh)
+                    level_tex = [
+                        self._tex(dphi.astype(np.float32)[None], 1, "f4"),
+                        self._tex(dlam.astype(np.float32)[None], 1, "f4"),
+                    ]
+                    level_tex[0].use(7)
+                    level_tex[1].use(8)
+                    _set(p, "u_row_dphi", 7)
+                    _set(p, "u_col_dlam", 8)
+                _set(p, "u_shift", lev - bl)
+                _set(p, "u_size", (float(w), float(h)))
+                _set(p, "u_block", float(grid.block(lev)))
+                _set(p, "u_final", lev == last)
+                _set(p, "u_rho_max", float(grid.rho(lev).max()))
                 if len(fb):
                     vao.render(moderngl.TRIANGLES, vertices=6, instances=len(fb))
                 if timings is not None:
@@ -251,6 +278,8 @@ class GpuLevels:
                     timings.append((lev, time.perf_counter()))
                 fbo.release()
                 mt.release()
+                for t in level_tex:
+                    t.release()
                 if callback is not None or lev == stop_level:
                     full = np.frombuffer(target.read(alignment=1), dtype=np.uint8)
                     out = full.reshape(_pot(h), _pot(w))[:h, :w]

@@ -1,5 +1,12 @@
-"""Raster grids: pixel centres, the level hierarchy and per-cell bounds rho."""
+"""Raster grids: pixel centres, the level hierarchy and per-cell bounds rho.
 
-from .equirect import Equirect, InvalidGridError
+``Equirect`` (lon/lat plate carree), ``Tile`` (web-mercator XYZ tile), ``Cube`` and
+``CubeFace`` (GL cube maps).
+"""
 
-__all__ = ["Equirect", "InvalidGridError"]
+from .base import InvalidGridError
+from .cube import FACE_NAMES, Cube, CubeFace, locate
+from .equirect import Equirect
+from .mercator import Tile
+
+__all__ = ["Cube", "CubeFace", "Equirect", "FACE_NAMES", "InvalidGridError", "Tile", "locate"]

@@ -1,0 +1,166 @@
+"""What every grid shares: the level hierarchy, and for grids whose rows are parallels
+and whose columns are meridians (equirectangular, web mercator) the cell centres and
+the bounds rho.
+
+Levels. Level ``L = n_levels - 1`` is the output; a cell of level ``l`` is the block
+of ``2^(L-l) x 2^(L-l)`` output pixels with corner at ``(i, j) 2^(L-l)`` (blocks at
+the east and south edges are not clipped, so their centres may lie past the edge;
+that changes nothing). Its centre is given by the grid's own formula at fractional
+pixel indices.
+
+Bounds rho. ``rho(l)[j]`` bounds, for every cell of row ``j`` of level ``l``, the
+distance from the cell centre to every point of the cell and to every point within
+``rho`` of any descendant's centre: ``rho_l >= max(area bound, angle(centre, child
+centre) + rho_child)``. The second term makes candidate lists shrink from parent to
+child; at the output level ``rho = 0`` (pixels are decided at their centres). All
+float64, rounded up by a relative 1e-12.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import GloffsetError
+from ..sphere import angle
+
+__all__ = ["InvalidGridError", "Levels", "LonLatGrid", "COARSE_CELLS", "BIN_PIXELS"]
+
+#: The coarsest level has at most this many cells on its longer side.
+COARSE_CELLS = 32
+#: Output pixels per side of a bin (the level below which the GPU takes over).
+BIN_PIXELS = 16
+
+
+class InvalidGridError(GloffsetError, ValueError):
+    """A grid has a bad size, bounds or index."""
+
+
+class Levels:
+    """The level hierarchy of a ``width x height`` grid (subclasses set both)."""
+
+    width: int
+    height: int
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.height, self.width)
+
+    @property
+    def n_levels(self) -> int:
+        side = max(self.width, self.height)
+        if side <= COARSE_CELLS:
+            return 1
+        return 1 + math.ceil(math.log2(side / COARSE_CELLS))
+
+    @property
+    def bin_level(self) -> int:
+        """The level whose cells are bins (``BIN_PIXELS`` output pixels on a side)."""
+        return max(0, self.n_levels - 1 - int(math.log2(BIN_PIXELS)))
+
+    def block(self, level: int) -> int:
+        """Output pixels per side of a cell of ``level``."""
+        return 1 << (self.n_levels - 1 - level)
+
+    def level_shape(self, level: int) -> tuple[int, int]:
+        b = self.block(level)
+        return (-(-self.height // b), -(-self.width // b))
+
+    def rho_at(self, level: int, j, i) -> np.ndarray:
+        """The bound of cells (``j``, ``i``) of ``level``."""
+        return self.rho(level)[np.asarray(j)] + 0.0 * np.asarray(i)
+
+
+def rect_radius(dlon_half, lat_c, lat1, lat2) -> np.ndarray:
+    """Largest angle from (0, lat_c) to the lon/lat rectangle |lon| <= dlon_half, lat1..lat2.
+
+    Exact: on a parallel the distance grows with the longitude difference, so the
+    farthest point lies on a meridian edge, where cos(angle) = r cos(lat - phi0) is
+    smallest at an end of the interval or at the one critical latitude inside it.
+    """
+    dl = np.minimum(dlon_half, math.pi)
+    a = np.sin(lat_c)
+    b = np.cos(lat_c) * np.cos(dl)
+    phi0 = np.arctan2(a, b)
+    cands = [lat1, lat2]
+    for k in (-1.0, 1.0):
+        crit = phi0 + k * math.pi
+        cands.append(np.where((crit > lat1) & (crit < lat2), crit, lat1))
+    lat = np.stack(cands)
+    cosang = a * np.sin(lat) + b * np.cos(lat)
+    return np.arccos(np.clip(cosang.min(axis=0), -1.0, 1.0))
+
+
+class LonLatGrid(Levels):
+    """A grid whose rows are parallels and columns meridians.
+
+    Subclasses give the latitude of a (fractional) row and the longitude of a
+    (fractional) column of output pixels, in radians: ``_lat_px(y)``, ``_lon_px(x)``.
+    """
+
+    def _lat_px(self, y):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _lon_px(self, x):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def cell_lat(self, level: int, j) -> np.ndarray:
+        """Latitude (radians) of the centres of row ``j`` of ``level``."""
+        return self._lat_px((np.asarray(j, dtype=np.float64) + 0.5) * self.block(level))
+
+    def cell_lon(self, level: int, i) -> np.ndarray:
+        """Longitude (radians) of the centres of column ``i`` of ``level``."""
+        return self._lon_px((np.asarray(i, dtype=np.float64) + 0.5) * self.block(level))
+
+    def centers(self, level: int, j, i) -> np.ndarray:
+        """Unit vectors of the centres of cells (row ``j``, column ``i``) of ``level``."""
+        lam, phi = np.broadcast_arrays(self.cell_lon(level, i), self.cell_lat(level, j))
+        cphi = np.cos(phi)
+        return np.stack([cphi * np.cos(lam), cphi * np.sin(lam), np.sin(phi)], axis=-1)
+
+    def rho(self, level: int) -> np.ndarray:
+        """Per-row bound (radians) for ``level`` (see the module notes)."""
+        cache = self.__dict__.get("_rho_cache")
+        if cache is None:
+            cache = self._rhos()
+            object.__setattr__(self, "_rho_cache", cache)
+        return cache[level]
+
+    def _rhos(self) -> list[np.ndarray]:
+        n = self.n_levels
+        out: list = [None] * n
+        out[n - 1] = np.zeros(self.level_shape(n - 1)[0])
+        for lev in range(n - 2, -1, -1):
+            h = self.level_shape(lev)[0]
+            j = np.arange(h, dtype=np.float64)
+            b = self.block(lev)
+            phi = self.cell_lat(lev, j)
+            north = self._lat_px(j * b)
+            south = self._lat_px((j + 1) * b)
+            dlon_half = 0.5 * abs(float(self._lon_px(b) - self._lon_px(0)))
+            area = rect_radius(
+                np.full(h, dlon_half), phi, np.minimum(north, south), np.maximum(north, south)
+            )
+            c = self.centers(lev, j, 0)
+            hier = np.zeros(h)
+            child = out[lev + 1]
+            for dj in (0, 1):
+                cj = np.minimum(2 * j.astype(np.int64) + dj, len(child) - 1)
+                for di in (0, 1):
+                    cc = self.centers(lev + 1, 2 * j + dj, di)
+                    hier = np.maximum(hier, angle(c, cc) + child[cj])
+            out[lev] = np.maximum(area, hier) * (1.0 + 1e-12) + 1e-15
+        return out
+
+
+def same_tuple(a, b) -> bool:
+    return tuple(a) == tuple(b)
+
+
+def check_size(width, height) -> tuple[int, int]:
+    if not (isinstance(width, (int, np.integer)) and isinstance(height, (int, np.integer))):
+        raise InvalidGridError(f"grid size must be integers, got {width!r} x {height!r}")
+    if width < 1 or height < 1:
+        raise InvalidGridError(f"grid size must be positive, got {width} x {height}")
+    return int(width), int(height)
