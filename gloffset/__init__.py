@@ -18,6 +18,7 @@ from .errors import (
     InvalidGeometryError,
 )
 from .offset import Offset, offset
+from .raster_input import raster_offset, rasterize
 from .reference import contains, distance
 from .render import render
 from .shape import Shape, read
@@ -37,6 +38,8 @@ __all__ = [
     "distance",
     "offset",
     "parse_distance",
+    "raster_offset",
+    "rasterize",
     "read",
     "render",
     "grids",

@@ -1,4 +1,5 @@
-"""``gloffset render``: a PNG of the offset region on an equirectangular grid."""
+"""``gloffset render``: a PNG of the offset region on an equirectangular grid (of a
+vector INPUT, or of a rasterized curve with ``--from-raster``)."""
 
 from __future__ import annotations
 
@@ -7,10 +8,11 @@ import time
 from pathlib import Path
 
 import click
+import numpy as np
 
 from ..errors import GloffsetError
 from ..grids import FACE_NAMES, Cube, CubeFace, Equirect
-from ..io.png import parse_color, write_classes, write_mask
+from ..io.png import parse_color, read_mask, write_classes, write_mask
 from ..render import render as _render
 from ..shape import read
 from . import main
@@ -53,7 +55,7 @@ def _bounds(text: str | None) -> tuple:
 
 
 @main.command("render")
-@click.argument("input", metavar="INPUT")
+@click.argument("input", metavar="INPUT", required=False)
 @distance_option
 @radius_option
 @click.option(
@@ -73,6 +75,17 @@ def _bounds(text: str | None) -> tuple:
     "--bounds", default=None, help="W,S,E,N in degrees (W > E crosses 180 deg). Default: the globe."
 )
 @click.option("-o", "--output", required=True, help="Output PNG file.")
+@click.option(
+    "--from-raster",
+    "from_raster",
+    default=None,
+    metavar="MASK.png",
+    help="Offset a rasterized curve (any non-zero pixel) on the equirect grid of --bounds "
+    "instead of INPUT (paper Sec. 5); writes the classes picture.",
+)
+@click.option(
+    "--mask-only", is_flag=True, help="With --from-raster: write contained cells as 255, else 0."
+)
 @click.option(
     "--fill", default=None, help="Colour inside the region (RGBA overlay), e.g. '#3070c0cc'."
 )
@@ -97,11 +110,19 @@ def render_cmd(
     background,
     classes_level,
     backend,
+    from_raster,
+    mask_only,
 ):
     """Render the region within DIST of the curves of INPUT as a PNG (row 0 north), or
     as six cube-map faces px nx py ny pz nz that load straight into a GL or three.js
     cube texture (sampled with the Earth-frame direction: x to 0N 0E, z to the north pole)."""
     d = angle(distance, radius)
+    if from_raster is not None:
+        if input is not None or grid_kind != "equirect" or size is not None:
+            raise OptionError("--from-raster takes no INPUT, --grid or --size (the PNG's size)")
+        return _from_raster(from_raster, d, bounds, output, classes_level, backend, mask_only)
+    if input is None:
+        raise OptionError("give an INPUT file (or - for stdin), or --from-raster MASK.png")
     for colour in (fill, background):
         if colour is not None:
             parse_color(colour)  # fail before the work
@@ -156,6 +177,18 @@ def render_cmd(
             write_mask(img, path, fill=fill, background=background)
     if show:
         click.echo("", err=True)
+
+
+def _from_raster(path, d, bounds, output, level, backend, mask_only):
+    from ..raster_input import CONTAINED, raster_offset
+
+    mask = read_mask(path)
+    grid = Equirect(mask.shape[1], mask.shape[0], _bounds(bounds))
+    classes = raster_offset(mask, d, grid, radius=1.0, backend=backend, level=level)
+    if mask_only:
+        write_mask(np.where(classes == CONTAINED, 255, 0).astype(np.uint8), output)
+    else:
+        write_classes(classes, output)
 
 
 @main.command("info")

@@ -11,7 +11,7 @@ from PIL import Image, ImageColor
 
 from ..errors import GloffsetError
 
-__all__ = ["parse_color", "write_mask", "write_classes", "CLASS_COLORS"]
+__all__ = ["parse_color", "read_mask", "write_mask", "write_classes", "CLASS_COLORS"]
 
 #: Colours of the paper's Fig. 13: contained black, frontier red, outside white.
 CLASS_COLORS = {0: (255, 255, 255, 255), 1: (220, 30, 30, 255), 2: (0, 0, 0, 255)}
@@ -69,3 +69,16 @@ def write_classes(classes: np.ndarray, path) -> Path:
     """Write a class raster (0 outside, 1 frontier, 2 contained) in the colours of Fig. 13."""
     lut = np.array([CLASS_COLORS[k] for k in range(3)], dtype=np.uint8)
     return _save(Image.fromarray(lut[np.clip(classes, 0, 2)], mode="RGBA"), path)
+
+
+def read_mask(path) -> np.ndarray:
+    """Read a curve mask: (height, width) bool, True where any channel of a pixel is non-zero.
+
+    Row 0 is the top (northern) row of the image.
+    """
+    try:
+        with Image.open(path) as img:
+            arr = np.asarray(img.convert("RGBA") if img.mode == "P" else img)
+    except (OSError, ValueError) as exc:
+        raise GloffsetError(f"cannot read mask image {str(path)!r}: {exc}") from None
+    return arr.reshape(arr.shape[0], arr.shape[1], -1).any(axis=2)

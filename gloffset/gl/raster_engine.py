@@ -1,0 +1,208 @@
+"""The GPU levels of the offset of a rasterized curve (paper Sec. 5.2).
+
+The CPU (:mod:`gloffset.raster_input`, float64) classifies the levels down to the
+grid's bin level. Below it, one fragment-shader pass per level
+(``shaders/raster_classify.frag``) classifies the children of frontier cells,
+drawing instanced quads over the frontier bins only (``shaders/bins.vert``); the
+other cells take their bin's class (``shaders/upsample.frag``).
+
+Exactness. For every frontier bin and level, the CPU lists the intersected cells
+``g`` of that level within ``d_max + rho_bin`` of the bin centre ``c`` (every cell
+that can change a class in the bin), as records ``(g - c, |g - c|)`` made in
+float64 and rounded to float32. The shader computes the cell centre relative to
+``c`` (``lib/lonlat.glsl``) and, per record, rigorous lower and upper bounds on the
+float64 squared chord (``lib/chord.glsl``); thresholds come per row as float32
+values rounded outward. A cell whose bounds straddle a threshold is written as
+*ambiguous* (3); after each level the CPU reads the level back and decides those
+cells with the float64 reference (:func:`gloffset.raster_input.classify_cells`), so
+the result equals the CPU reference bit for bit. Ambiguous cells are rare (a band
+of about 1e-5 of the threshold's squared chord) and counted in the result's info.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..raster_input import FRONTIER, Levels, classify_cells, near_pairs
+from ..raster_input import level_centers as _centers
+from .context import get_context
+from .engine import _pad, _pot
+from .shaders import program
+
+__all__ = ["RasterLevels", "engine", "AMBIGUOUS"]
+
+AMBIGUOUS = 3
+RECORD_ROW = 4096  # records (one RGBA32F texel each) per texture row
+_T_REL = 1e-6  # relative outward rounding of the float32 thresholds
+
+
+def _outward(t: np.ndarray, up: bool) -> np.ndarray:
+    """float32 values below (``up=False``) or above the float64 ``t``."""
+    x = t * (1.0 + _T_REL) if up else t * (1.0 - _T_REL)
+    x = np.where(t < 0, t, x)  # the 'never' value -1 is exact
+    f = x.astype(np.float32)
+    if up:
+        f = np.where(f.astype(np.float64) < t, np.nextafter(f, np.float32(np.inf)), f)
+    else:
+        f = np.where(f.astype(np.float64) > t, np.nextafter(f, np.float32(-np.inf)), f)
+    return f.astype(np.float32)
+
+
+def thresholds(lv: Levels, level: int) -> np.ndarray:
+    """(rows, 1, 4) float32: lo-, lo+, hi-, hi+ per row of ``level``."""
+    lo, hi = lv.t_lo[level], lv.t_hi[level]
+    out = np.stack(
+        [_outward(lo, False), _outward(lo, True), _outward(hi, False), _outward(hi, True)],
+        axis=-1,
+    )
+    return out[:, None, :]
+
+
+def records(lv: Levels, level: int, bins: np.ndarray):
+    """Records (float32 (n, 4)) of the intersected cells of ``level`` near each frontier
+    bin (flat indices of the bin level), sorted by bin; and per-bin first/count."""
+    grid = lv.grid
+    bl = grid.bin_level
+    wb = grid.level_shape(bl)[1]
+    rho_b = np.asarray(grid.rho(bl))[bins // wb]
+    iq, ip = [], []
+    for q, p, _ in near_pairs(grid, bl, bins, rho_b, level, lv.curve[level], lv.reach[level]):
+        iq.append(q)
+        ip.append(p)
+    iq = np.concatenate(iq) if iq else np.zeros(0, dtype=np.int64)
+    ip = np.concatenate(ip) if ip else np.zeros(0, dtype=np.int64)
+    order = np.lexsort((ip, iq))
+    iq, ip = iq[order], ip[order]
+    c = _centers(grid, bl, bins)
+    g = _centers(grid, level, lv.curve[level][ip])
+    rel = g - c[iq]
+    rec = np.empty((len(iq), 4))
+    rec[:, :3] = rel
+    rec[:, 3] = np.linalg.norm(rel, axis=1)
+    first = np.searchsorted(iq, np.arange(len(bins)))
+    count = np.bincount(iq, minlength=len(bins))
+    return rec.astype(np.float32), first.astype(np.uint32), count.astype(np.uint32)
+
+
+class RasterLevels:
+    """Runs the levels below the bin level on the GPU (grids whose rows are parallels)."""
+
+    def __init__(self):
+        self.ctx = get_context()
+        self.prog = program(self.ctx, "bins.vert", "raster_classify.frag")
+        self.upsample = program(self.ctx, "fullscreen.vert", "upsample.frag")
+        self.upsample_vao = self.ctx.vertex_array(self.upsample, [])
+
+    def _tex(self, array: np.ndarray, comps: int, dtype: str):
+        """A texture from ``array`` (rows, cols[, comps]) padded to power-of-two sides."""
+        import moderngl
+
+        h, w = array.shape[:2]
+        data = _pad(np.ascontiguousarray(array), (_pot(h), _pot(w)))
+        t = self.ctx.texture((_pot(w), _pot(h)), comps, data.tobytes(), dtype=dtype, alignment=1)
+        t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        t.repeat_x = t.repeat_y = False
+        return t
+
+    def run(self, lv: Levels, classes: np.ndarray, *, stop_level: int, callback=None):
+        """Classes of ``stop_level`` from the bin level's ``classes``; and the number of
+        ambiguous cells decided on the CPU."""
+        import moderngl
+
+        ctx = self.ctx
+        grid = lv.grid
+        bl = grid.bin_level
+        hb, wb = classes.shape
+        bins = np.flatnonzero(classes.ravel() == FRONTIER)
+        lam = grid.cell_lon(bl, np.arange(wb))
+        phi = grid.cell_lat(bl, np.arange(hb))
+        lon_cs = np.stack([np.cos(lam), np.sin(lam)], axis=-1).astype(np.float32)
+        lat_cs = np.stack([np.cos(phi), np.sin(phi)], axis=-1).astype(np.float32)
+        owned = [self._tex(lat_cs[None], 2, "f4"), self._tex(lon_cs[None], 2, "f4")]
+        coarse = self._tex(classes, 1, "u1")
+        owned.append(coarse)
+        fb = np.ascontiguousarray(np.column_stack([bins % wb, bins // wb]), dtype=np.int32)
+        inst = ctx.buffer(fb.tobytes() if len(fb) else b"\0" * 8)
+        vao = ctx.vertex_array(self.prog, [(inst, "2i/i", "in_bin")])
+        p = self.prog
+        p["u_parent"] = 0
+        p["u_bins"] = 1
+        p["u_records"] = 2
+        p["u_bin_lat"] = 3
+        p["u_bin_lon"] = 4
+        p["u_thresholds"] = 5
+        p["u_row_dphi"] = 7
+        p["u_col_dlam"] = 8
+        p["u_record_row"] = RECORD_ROW
+        self.upsample["u_coarse"] = 6
+        owned[0].use(3)
+        owned[1].use(4)
+        coarse.use(6)
+        out, n_amb = classes, 0
+        try:
+            for lev in range(bl + 1, stop_level + 1):
+                h, w = grid.level_shape(lev)
+                rec, first, count = records(lv, lev, bins)
+                rows = max(1, -(-len(rec) // RECORD_ROW))
+                buf = np.zeros((rows * RECORD_ROW, 4), dtype=np.float32)
+                buf[: len(rec)] = rec
+                info = np.zeros((hb, wb, 4), dtype=np.uint32)
+                info.reshape(-1, 4)[bins, 0] = first
+                info.reshape(-1, 4)[bins, 1] = count
+                # each cell's latitude and longitude minus its bin's, float64-made
+                j, i = np.arange(h), np.arange(w)
+                sh = lev - bl
+                dphi = grid.cell_lat(lev, j) - grid.cell_lat(bl, j >> sh)
+                dlam = grid.cell_lon(lev, i) - grid.cell_lon(bl, i >> sh)
+                level_tex = [
+                    self._tex(out, 1, "u1"),
+                    self._tex(info, 4, "u4"),
+                    self._tex(buf.reshape(rows, RECORD_ROW, 4), 4, "f4"),
+                    self._tex(thresholds(lv, lev), 4, "f4"),
+                    self._tex(dphi.astype(np.float32)[None], 1, "f4"),
+                    self._tex(dlam.astype(np.float32)[None], 1, "f4"),
+                ]
+                target = ctx.texture((_pot(w), _pot(h)), 1, dtype="u1")
+                target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+                fbo = ctx.framebuffer(color_attachments=[target])
+                ctx.error  # noqa: B018  (moderngl's set-up query on an integer target)
+                try:
+                    fbo.use()
+                    ctx.viewport = (0, 0, w, h)
+                    self.upsample["u_shift"] = lev - bl
+                    self.upsample_vao.render(moderngl.TRIANGLES, vertices=3)
+                    for unit, t in zip((0, 1, 2, 5, 7, 8), level_tex):
+                        t.use(unit)
+                    p["u_shift"] = lev - bl
+                    p["u_size"] = (float(w), float(h))
+                    if len(fb):
+                        vao.render(moderngl.TRIANGLES, vertices=6, instances=len(fb))
+                    full = np.frombuffer(target.read(alignment=1), dtype=np.uint8)
+                finally:
+                    fbo.release()
+                    target.release()
+                    for t in level_tex:
+                        t.release()
+                out = full.reshape(_pot(h), _pot(w))[:h, :w].copy()
+                amb = np.flatnonzero(out.ravel() == AMBIGUOUS)
+                if len(amb):
+                    out.ravel()[amb] = classify_cells(lv, lev, amb)
+                    n_amb += len(amb)
+                if callback is not None:
+                    callback(lev, out)
+        finally:
+            vao.release()
+            inst.release()
+            for t in owned:
+                t.release()
+        return out, n_amb
+
+
+_ENGINE: RasterLevels | None = None
+
+
+def engine() -> RasterLevels:
+    global _ENGINE
+    if _ENGINE is None:
+        _ENGINE = RasterLevels()
+    return _ENGINE
