@@ -33,5 +33,152 @@ def vector_offsets(path=HERE / "mexico_offsets.png", size=(720, 460)):
     return path
 
 
+def _borders(path: Path) -> Path:
+    """The rings of world_110m as one MultiLineString (coasts and borders), as GeoJSON.
+
+    The region within d of the countries is the countries plus the region within d of
+    these lines; the lines avoid shared borders, which a polygon collection cannot hold.
+    """
+    import json
+
+    fc = json.loads((DATA / "world_110m.geojson").read_text())
+    lines = []
+    for feature in fc["features"]:
+        g = feature["geometry"]
+        polys = [g["coordinates"]] if g["type"] == "Polygon" else g["coordinates"]
+        lines += [ring for poly in polys for ring in poly]
+    path.write_text(json.dumps({"type": "MultiLineString", "coordinates": lines}))
+    return path
+
+
+def _land(p: np.ndarray) -> np.ndarray:
+    """Whether unit vectors ``p`` lie in a country of world_110m (float64 reference)."""
+    import json
+
+    lon, lat = gloffset.sphere.xyz_to_lonlat(p)
+    inside = np.zeros(len(p), dtype=bool)
+    for feature in json.loads((DATA / "world_110m.geojson").read_text())["features"]:
+        inside |= gloffset.contains(feature, lon, lat)
+    return inside
+
+
+def _cube_faces(src: Path, distance: str, folder: Path, size: int) -> np.ndarray:
+    """The six faces written by ``gloffset render --grid cube`` as a (6, N, N) bool array."""
+    from gloffset.cli import main
+    from gloffset.grids import FACE_NAMES
+
+    args = ["render", str(src), "-d", distance, "--grid", "cube"]
+    args += ["--size", str(size), "-o", str(folder)]
+    if main.main(args, standalone_mode=False):
+        raise RuntimeError(f"gloffset {' '.join(args)} failed")
+    return np.stack([np.asarray(Image.open(folder / f"{n}.png")) > 0 for n in FACE_NAMES])
+
+
+def cube_globe(path=HERE / "cube_globe.png", size=560, face=1024, view=(-75.0, 25.0)):
+    """World countries (110m) and the region within 300 km of them: the region within
+    300 km of their coasts and borders rendered as a cube map (``gloffset render --grid
+    cube``), shown on an orthographic globe by sampling the six faces with
+    :func:`gloffset.grids.locate` (the GL cube-map lookup); the countries themselves from
+    the float64 reference ``gloffset.contains``."""
+    import tempfile
+
+    from gloffset.grids import locate
+
+    with tempfile.TemporaryDirectory() as tmp:
+        src = _borders(Path(tmp) / "borders.geojson")
+        near = _cube_faces(src, "300km", Path(tmp) / "r", face)
+    lon0, lat0 = np.radians(view)
+    east = np.array([-np.sin(lon0), np.cos(lon0), 0.0])
+    north = np.array([-np.sin(lat0) * np.cos(lon0), -np.sin(lat0) * np.sin(lon0), np.cos(lat0)])
+    eye = np.cross(east, north)
+    u = (np.arange(size) + 0.5) / size * 2.0 - 1.0
+    uu, vv = np.meshgrid(u, -u)
+    r2 = uu**2 + vv**2
+    disk = r2 < 1.0
+    w = np.sqrt(np.clip(1.0 - r2, 0.0, None))
+    p = uu[..., None] * east + vv[..., None] * north + w[..., None] * eye
+    f, s, t = locate(p[disk])
+    i = np.minimum((s * face).astype(int), face - 1)
+    j = np.minimum((t * face).astype(int), face - 1)
+    colour = np.empty((int(disk.sum()), 3))
+    colour[:] = (214, 226, 236)  # sea
+    land = _land(p[disk])
+    colour[near[f, j, i] | land] = (120, 170, 215)  # within 300 km
+    colour[land] = (70, 80, 90)  # countries
+    lon, lat = gloffset.sphere.xyz_to_lonlat(p[disk])
+    grid = (np.abs((lon + 15.0) % 30.0 - 15.0) < 0.35) | (np.abs((lat + 15.0) % 30.0 - 15.0) < 0.35)
+    colour[grid] = colour[grid] * 0.85 + 255 * 0.15
+    shade = 0.55 + 0.45 * w[disk]
+    rgb = np.full((size, size, 3), 255.0)
+    rgb[disk] = colour * shade[:, None]
+    Image.fromarray(rgb.round().astype(np.uint8)).save(path)
+    return path
+
+
+def tile_example(path=HERE / "tile_example.png", z=5, lonlat=(-101.0, 21.0), scale=2):
+    """One 256 px web-mercator tile of the pyramid of Mexico (10m) at 127 km
+    (``gloffset tiles``: fill with opacity, outline of the border), over a light
+    background so the transparency shows."""
+    import tempfile
+
+    import mercantile
+
+    t = mercantile.tile(*lonlat, z)
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "tiles"
+        gloffset.tiles.pyramid(
+            DATA / "mexico_10m.geojson",
+            127e3,
+            (z, z),
+            out,
+            fill="#3070c0",
+            opacity=0.6,
+            outline="#202020",
+        )
+        tile = Image.open(out / str(z) / str(t.x) / f"{t.y}.png").convert("RGBA")
+    back = Image.new("RGBA", tile.size, (246, 244, 238, 255))
+    img = Image.alpha_composite(back, tile).convert("RGB")
+    img = img.resize((tile.width * scale, tile.height * scale), Image.NEAREST)
+    img.save(path)
+    return path
+
+
+def raster_offset_fig13(path=HERE / "raster_offset_fig13.png", size=(512, 360), level=2):
+    """Fig. 13 of the paper for Mexico's border rasterized by gloffset (no vector data
+    used by the offset): the classes of a coarse level (left) and of the output level
+    (right) at d = 127 km; contained black, frontier red, outside white, the curve's
+    cells blue."""
+    from gloffset.grids import Equirect
+    from gloffset.io.png import CLASS_COLORS
+
+    grid = Equirect(*size, bounds=(-125.0, 5.0, -78.0, 38.0))
+    shape = gloffset.read(DATA / "mexico_10m.geojson")
+    mask, parts = gloffset.rasterize(shape, grid, ordered=True)
+    lut = np.array([CLASS_COLORS[k][:3] for k in range(3)], dtype=np.uint8)
+    panels = []
+    for lev in (level, grid.n_levels - 1):
+        cls = gloffset.raster_offset(mask, 127e3, grid, level=lev, order=parts)
+        b = grid.block(lev)
+        up = np.repeat(np.repeat(cls, b, 0), b, 1)[: grid.height, : grid.width]
+        curve = np.repeat(np.repeat(_coarse_mask(mask, b), b, 0), b, 1)[: grid.height, : grid.width]
+        rgb = lut[up]
+        rgb[curve] = (40, 90, 200)
+        panels.append(rgb)
+    gap = np.full((grid.height, 8, 3), 255, dtype=np.uint8)
+    Image.fromarray(np.concatenate([panels[0], gap, panels[1]], axis=1)).save(path)
+    return path
+
+
+def _coarse_mask(mask, b):
+    """A parent cell is intersected when any of its ``b x b`` descendants is."""
+    h, w = -(-mask.shape[0] // b), -(-mask.shape[1] // b)
+    pad = np.zeros((h * b, w * b), dtype=bool)
+    pad[: mask.shape[0], : mask.shape[1]] = mask
+    return pad.reshape(h, b, w, b).any(axis=(1, 3))
+
+
 if __name__ == "__main__":
     print(vector_offsets())
+    print(raster_offset_fig13())
+    print(cube_globe())
+    print(tile_example())

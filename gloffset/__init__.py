@@ -9,7 +9,7 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from . import grids
+from . import grids, tiles
 from .errors import (
     GLContextError,
     GloffsetError,
@@ -43,4 +43,5 @@ __all__ = [
     "read",
     "render",
     "grids",
+    "tiles",
 ]

@@ -40,7 +40,16 @@ import numpy as np
 from .crossings import crossings as _crossings
 from .sphere import arc_distance, arcs_cross, normalize, robust_cross
 
-__all__ = ["Arcs", "Frontier", "classify", "OUTSIDE", "FRONTIER", "CONTAINED"]
+__all__ = [
+    "Arcs",
+    "Frontier",
+    "cell_distances",
+    "classify",
+    "decide",
+    "OUTSIDE",
+    "FRONTIER",
+    "CONTAINED",
+]
 
 OUTSIDE, FRONTIER, CONTAINED = 0, 1, 2
 _SLACK = 1e-15
@@ -107,44 +116,86 @@ def _inside_any(status: np.ndarray) -> np.ndarray:
     return status.any(axis=1)
 
 
+def _arc_tree(arcs: Arcs):
+    """The bounding-cap tree over the arcs (built once per :class:`Arcs`)."""
+    tree = getattr(arcs, "_tree", None)
+    if tree is None:
+        from .captree import CapTree
+
+        tree = CapTree(arcs.mid, arcs.half)
+        arcs._tree = tree
+    return tree
+
+
+def _status_at(shape, arcs: Arcs, p: np.ndarray) -> np.ndarray:
+    """Packed component statuses of a few points by crossings to a reference point."""
+    status = _status_bits(arcs.n_groups, len(p))
+    refs, ref_status = shape.reference_points()
+    ring = np.flatnonzero(arcs.group >= 0)
+    order = ring[np.argsort(arcs.group[ring], kind="stable")]
+    present, starts = np.unique(arcs.group[order], return_index=True)
+    use = (p @ refs[0] < -0.5).astype(int)
+    for k in (0, 1):
+        sel = np.flatnonzero(use == k)
+        if len(sel) == 0:
+            continue
+        cr = _crossings(p[sel], refs[k], arcs.a[order], arcs.b[order]).view(np.uint8)
+        par = np.bitwise_xor.reduceat(cr, starts, axis=1).astype(bool)
+        ins = np.zeros((len(sel), arcs.n_groups), dtype=bool)
+        ins[:, present] = par ^ ref_status[k][present][None, :]
+        status[sel] = np.packbits(ins, axis=1, bitorder="little")[:, : status.shape[1]]
+    return status
+
+
 def _coarse(shape, arcs: Arcs, grid, e: float) -> Frontier:
-    """All cells of level 0 with brute-force candidate lists and statuses."""
+    """All cells of level 0 with their candidate lists and component statuses.
+
+    Candidates come from the arcs' bounding-cap tree (every arc whose cap is within
+    ``e + rho``). Statuses: the first cell's by crossings to the shape's reference
+    point, every other cell's from its neighbour (left, or above for the first
+    column) toggled by the crossings of the short arc between their centres.
+    """
     h, w = grid.level_shape(0)
     jj, ii = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
     cells = np.column_stack([jj.ravel(), ii.ravel()])
     c = grid.centers(0, cells[:, 0], cells[:, 1])
     rho = grid.rho_at(0, cells[:, 0], cells[:, 1])
+    tree = _arc_tree(arcs)
     status = _status_bits(arcs.n_groups, len(c))
     if arcs.n_groups:
-        refs, ref_status = shape.reference_points()
-        ring = np.flatnonzero(arcs.group >= 0)
-        order = ring[np.argsort(arcs.group[ring], kind="stable")]
-        present, starts = np.unique(arcs.group[order], return_index=True)
-        use = (c @ refs[0] < -0.5).astype(int)
-        for k in (0, 1):
-            sel = np.flatnonzero(use == k)
-            if len(sel) == 0:
-                continue
-            cr = _crossings(c[sel], refs[k], arcs.a[order], arcs.b[order]).view(np.uint8)
-            par = np.bitwise_xor.reduceat(cr, starts, axis=1).astype(bool)
-            ins = np.zeros((len(sel), arcs.n_groups), dtype=bool)
-            ins[:, present] = par ^ ref_status[k][present][None, :]
-            status[sel] = np.packbits(ins, axis=1, bitorder="little")[:, : status.shape[1]]
-    # the same test as _cap_filter, as one matrix product over all cells and arcs
-    # cos(E + H) = cos E cos H - sin E sin H for E = e + rho, H = half (no cos per pair)
-    big_e = e + rho
-    dots = c @ arcs.mid.T
-    dots += np.sin(big_e)[:, None] * np.sin(arcs.half)[None, :]
-    dots -= (np.cos(big_e)[:, None] * np.cos(arcs.half)[None, :]) - 1e-12
-    dots[(big_e[:, None] + arcs.half[None, :]) >= math.pi] = 1.0
-    ci, ai = np.nonzero(dots >= 0.0)
-    return Frontier(0, cells, c, rho, ci, ai, status)
+        cgrid = c.reshape(h, w, 3)
+        # predecessor of each cell: above for the first column, else left
+        pred = np.empty((h, w, 3))
+        pred[1:, 0] = cgrid[:-1, 0]
+        pred[:, 1:] = cgrid[:, :-1]
+        pred[0, 0] = cgrid[0, 0]
+        a_seg = pred.reshape(-1, 3)
+        mid = normalize(a_seg + c)
+        half = 0.5 * np.arccos(np.clip(np.einsum("ij,ij->i", a_seg, c), -1.0, 1.0)) + 1e-9
+        qi, ai, _ = tree.near(mid, half)
+        ring = arcs.group[ai] >= 0
+        qi, ai = qi[ring], ai[ring]
+        hit = arcs_cross(c[qi], a_seg[qi], arcs.a[ai], arcs.b[ai]) & (qi > 0)
+        g = arcs.group[ai[hit]]
+        toggles = _status_bits(arcs.n_groups, len(c))
+        np.bitwise_xor.at(toggles, (qi[hit], g >> 3), (1 << (g & 7)).astype(np.uint8))
+        toggles[0] = _status_at(shape, arcs, c[:1])[0]
+        t = toggles.reshape(h, w, -1)
+        t[:, 0] = np.bitwise_xor.accumulate(t[:, 0], axis=0)
+        status = np.bitwise_xor.accumulate(t, axis=1).reshape(len(c), -1)
+    qi, ai, _ = tree.near(c, e + rho)
+    order = np.lexsort((ai, qi))
+    return Frontier(0, cells, c, rho, qi[order], ai[order], status)
 
 
-def _decide(f: Frontier, arcs: Arcs, d: float, final: bool) -> np.ndarray:
-    """Classes of the cells of ``f`` (exact float64 distances to their candidates)."""
+def cell_distances(f: Frontier, arcs: Arcs) -> tuple[np.ndarray, np.ndarray]:
+    """Exact float64 distances from the cells of ``f`` to their candidate arcs.
+
+    Returns ``(dist, dring)``: the distance to the nearest candidate boundary arc
+    (the offset distance) and to the nearest candidate ring edge, seams included
+    (inside uniformity); ``inf`` where a cell has none.
+    """
     k = len(f.cells)
-    e = abs(d)
     dist = np.full(k, np.inf)  # to boundary arcs (distance)
     dring = np.full(k, np.inf)  # to ring edges including seams (inside uniformity)
     for s in range(0, len(f.pair_cell), _PAIRS):
@@ -154,16 +205,26 @@ def _decide(f: Frontier, arcs: Arcs, d: float, final: bool) -> np.ndarray:
         np.minimum.at(dist, ci[bd], dd[bd])
         rg = arcs.group[ai] >= 0
         np.minimum.at(dring, ci[rg], dd[rg])
-    inside = _inside_any(f.status)
+    return dist, dring
+
+
+def decide(dist, dring, inside, rho, d: float, final: bool) -> np.ndarray:
+    """The decision rules of the module notes: classes of cells with bound ``rho``.
+
+    ``dist``, ``dring`` from :func:`cell_distances` (complete within ``|d| + rho``),
+    ``inside`` whether each centre is inside the shape, ``final`` for the output
+    level (decided at the centres, ``rho`` unused).
+    """
+    e = abs(d)
     if final:
         if d >= 0:
             member = inside | (dist <= d)
         else:
             member = inside & (dist > e)
         return np.where(member, CONTAINED, OUTSIDE).astype(np.uint8)
-    r = f.rho + _SLACK
+    r = rho + _SLACK
     uniform = dring > r
-    cls = np.full(k, FRONTIER, dtype=np.uint8)
+    cls = np.full(len(dist), FRONTIER, dtype=np.uint8)
     if d >= 0:
         cont = (dist <= d - r) | (inside & uniform)
         out = ~inside & uniform & (dist > d + r)
@@ -173,6 +234,12 @@ def _decide(f: Frontier, arcs: Arcs, d: float, final: bool) -> np.ndarray:
     cls[out] = OUTSIDE
     cls[cont] = CONTAINED
     return cls
+
+
+def _decide(f: Frontier, arcs: Arcs, d: float, final: bool) -> np.ndarray:
+    """Classes of the cells of ``f`` (exact float64 distances to their candidates)."""
+    dist, dring = cell_distances(f, arcs)
+    return decide(dist, dring, _inside_any(f.status), f.rho, d, final)
 
 
 def _refine(f: Frontier, grid, arcs: Arcs, e: float) -> Frontier:

@@ -479,7 +479,9 @@ def _inner_point(shape: Shape, grp: int) -> np.ndarray:
     i = int(np.argmax(angle(a, b)))  # the longest edge is the most robust
     m = normalize(a[i] + b[i])
     n = normalize(robust_cross(a[i], b[i]))
-    others = np.ones(len(e.a), dtype=bool)
+    # only this component's edges decide its inside: neighbours sharing a border
+    # (countries of one map) are other components and do not count
+    others = e.group == grp
     others[sel[i]] = False
     dist = arc_distance(m, e.a[others], e.b[others]) if others.any() else np.array([1.0])
     eps = min(1e-3, 0.25 * float(dist.min()), 0.25 * float(angle(a[i], b[i])))

@@ -34,3 +34,4 @@ def main():
 
 from . import offset as _offset  # noqa: E402,F401  (registers the subcommands)
 from . import render as _render  # noqa: E402,F401
+from . import tiles as _tiles  # noqa: E402,F401

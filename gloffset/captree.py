@@ -1,0 +1,177 @@
+"""A hierarchy of bounding caps over a sequence of items: the index behind pair and range queries.
+
+Items of a curve (its edges, the arcs of its offset) come in an order that is
+coherent in space, so the hierarchy needs no sorting: level 0 holds one cap per
+item and node ``i`` of level ``k`` bounds items ``i 2^k .. (i+1) 2^k - 1``. Each
+node's cap is the smallest cap that contains its two children's caps.
+
+Queries walk the levels from the top, all queries at once (numpy arrays of
+``(query, node)`` or ``(node, node)`` pairs), and drop a pair as soon as the two
+caps are provably too far apart. Caps are compared through chords, which keep
+their accuracy for tiny caps, and every radius is padded by a few ulp, so a pair
+that can meet is never dropped: the queries return a superset of the true
+answer, to be confirmed by an exact test.
+
+Cost: building is O(n). A query costs O(log n) levels; the work per level is the
+number of surviving pairs, about the size of the answer plus the number of nodes
+the query's cap touches on each level.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .sphere import angle, slerp
+
+__all__ = ["CapTree"]
+
+# Caps are padded by this (radians, absolute and relative) to stay conservative.
+_PAD = 1e-14
+
+
+def _chord_limit(radius: np.ndarray) -> np.ndarray:
+    """Squared chord of an angle (clamped to pi), slightly inflated."""
+    r = np.minimum(radius, np.pi)
+    c = 2.0 * np.sin(0.5 * r)
+    return (c * (1.0 + 1e-12) + 1e-15) ** 2
+
+
+def _chord2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    diff = a - b
+    return np.einsum("ij,ij->i", diff, diff)
+
+
+def _merge_caps(c1, r1, c2, r2):
+    """Smallest caps containing each pair of caps (vectorised)."""
+    theta = angle(c1, c2)
+    r = 0.5 * (theta + r1 + r2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where(theta > 0.0, (r - r1) / np.where(theta > 0.0, theta, 1.0), 0.0)
+    t = np.clip(t, 0.0, 1.0)
+    far = theta > np.pi - 1e-6  # nearly antipodal centres: SLERP is undefined
+    c = slerp(c1, np.where(far[:, None], c1, c2), np.where(far, 0.0, t))
+    r = np.where(far, np.pi, r)
+    first = theta + r2 <= r1  # one cap already holds the other
+    second = theta + r1 <= r2
+    c = np.where(first[:, None], c1, np.where(second[:, None], c2, c))
+    r = np.where(first, r1, np.where(second, r2, r))
+    return c, np.minimum(r * (1.0 + 1e-12) + _PAD, np.pi)
+
+
+class CapTree:
+    """Bounding caps over consecutive runs of items.
+
+    Parameters
+    ----------
+    centers : (n, 3) array
+        Cap centres of the items (unit vectors).
+    radii : (n,) array
+        Angular radii (radians); each item must lie within its cap.
+    reps : (n, 3) array, optional
+        A point that lies on each item. Nodes take their first item's point; range
+        queries use these points for early answers (see :meth:`near`).
+    """
+
+    def __init__(self, centers, radii, reps=None):
+        c = np.asarray(centers, dtype=np.float64).reshape(-1, 3)
+        r = np.asarray(radii, dtype=np.float64).reshape(-1)
+        self.n = len(c)
+        self.centers = [c]
+        self.radii = [np.minimum(r * (1.0 + 1e-12) + _PAD, np.pi)]
+        while len(c) > 1:
+            m = len(c) // 2
+            cm, rm = _merge_caps(c[0 : 2 * m : 2], r[0 : 2 * m : 2], c[1 : 2 * m : 2], r[1 : 2 * m : 2])
+            if len(c) % 2:
+                cm = np.vstack([cm, c[-1:]])
+                rm = np.concatenate([rm, r[-1:]])
+            c, r = cm, rm
+            self.centers.append(c)
+            self.radii.append(r)
+        self.reps = None
+        if reps is not None:
+            reps = np.asarray(reps, dtype=np.float64).reshape(-1, 3)
+            self.reps = [reps[:: 1 << k] for k in range(len(self.centers))]
+
+    @property
+    def depth(self) -> int:
+        return len(self.centers)
+
+    def self_pairs(self, slack: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """All item pairs ``i < j`` whose caps come within ``slack`` of each other.
+
+        Returns two int64 arrays. Exactness: a superset of the pairs whose caps
+        overlap (radii are padded by a few ulp).
+        """
+        if self.n < 2:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        top = self.depth - 1
+        ii = np.zeros(1, np.int64)
+        jj = np.zeros(1, np.int64)
+        for k in range(top, 0, -1):
+            nk = len(self.centers[k - 1])
+            diag = ii == jj
+            di, oi, oj = ii[diag], ii[~diag], jj[~diag]
+            ci = np.concatenate([2 * di, 2 * di, 2 * di + 1, 2 * oi, 2 * oi, 2 * oi + 1, 2 * oi + 1])
+            cj = np.concatenate(
+                [2 * di, 2 * di + 1, 2 * di + 1, 2 * oj, 2 * oj + 1, 2 * oj, 2 * oj + 1]
+            )
+            keep = (ci < nk) & (cj < nk)
+            ci, cj = ci[keep], cj[keep]
+            c, r = self.centers[k - 1], self.radii[k - 1]
+            same = ci == cj
+            near = _chord2(c[ci], c[cj]) <= _chord_limit(r[ci] + r[cj] + slack)
+            keep = same | near
+            ii, jj = ci[keep], cj[keep]
+        off = ii != jj
+        return ii[off], jj[off]
+
+    def near(self, points, reach, *, stop=None):
+        """Items whose cap comes within ``reach`` of each point.
+
+        Parameters
+        ----------
+        points : (m, 3) array
+        reach : (m,) array or float
+            Search radius per point (radians).
+        stop : (m,) array, optional
+            With ``reps``: a point ``p`` is *done* as soon as a visited node's
+            representative point lies closer than ``stop[p]`` to it; its remaining
+            pairs are dropped. Use it when any item within ``stop`` answers the query.
+
+        Returns
+        -------
+        query, item : int64 arrays
+            Candidate pairs, a superset of those with the item's cap within reach.
+        done : (m,) bool
+            Points answered early (only with ``stop``).
+        """
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        reach = np.broadcast_to(np.asarray(reach, dtype=np.float64), (len(p),))
+        done = np.zeros(len(p), dtype=bool)
+        if self.n == 0 or len(p) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64), done
+        use_stop = stop is not None and self.reps is not None
+        if use_stop:
+            stop_lim = np.where(
+                np.asarray(stop) > 0.0, (2.0 * np.sin(0.5 * np.clip(stop, 0.0, np.pi))) ** 2, -1.0
+            )
+        top = self.depth - 1
+        qi = np.arange(len(p), dtype=np.int64)
+        ni = np.zeros(len(p), dtype=np.int64)
+        for k in range(top, -1, -1):
+            c, r = self.centers[k], self.radii[k]
+            keep = _chord2(p[qi], c[ni]) <= _chord_limit(reach[qi] + r[ni])
+            qi, ni = qi[keep], ni[keep]
+            if use_stop and len(qi):
+                hit = _chord2(p[qi], self.reps[k][ni]) < stop_lim[qi]
+                if hit.any():
+                    done[qi[hit]] = True
+                    keep = ~done[qi]
+                    qi, ni = qi[keep], ni[keep]
+            if k > 0:
+                nk = len(self.centers[k - 1])
+                qi = np.concatenate([qi, qi])
+                ni = np.concatenate([2 * ni, 2 * ni + 1])
+                keep = ni < nk
+                qi, ni = qi[keep], ni[keep]
+        return qi, ni, done

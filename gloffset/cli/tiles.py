@@ -1,0 +1,99 @@
+"""``gloffset tiles``: a web-mercator tile pyramid (MBTiles or XYZ directory) of the region."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from ..shape import read
+from ..tilepaint import TileStyle
+from ..tiles import parse_zooms, pyramid
+from . import main
+from .options import angle, distance_option, radius_option
+
+
+@main.command("tiles")
+@click.argument("input", metavar="INPUT")
+@distance_option
+@radius_option
+@click.option("-z", "--zoom", "zooms", required=True, help="Zoom range MIN-MAX (0..22), e.g. 0-14.")
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    help="OUT.mbtiles (MBTiles 1.3) or a directory for z/x/y.png tiles.",
+)
+@click.option("--fill", default="#3070c0", show_default=True, help="Colour of the region.")
+@click.option(
+    "--opacity", type=float, default=1.0, show_default=True, help="Opacity of the fill, 0..1."
+)
+@click.option("--outline", default=None, help="Draw the input curves in this colour.")
+@click.option("--outline-width", type=int, default=1, show_default=True, help="In pixels.")
+@click.option("--tile-size", type=int, default=256, show_default=True, help="Tile side, pixels.")
+@click.option("--name", default=None, help="Tileset name (default: the output's name).")
+@click.option("--resume", is_flag=True, help="Complete an interrupted run (same options).")
+@click.option("--force", is_flag=True, help="Replace an existing output.")
+def tiles_cmd(
+    input,
+    distance,
+    radius,
+    zooms,
+    output,
+    fill,
+    opacity,
+    outline,
+    outline_width,
+    tile_size,
+    name,
+    resume,
+    force,
+):
+    """Write the tile pyramid of the region within DIST of the curves of INPUT: tiles
+    outside the region are skipped, tiles fully inside share one image and are not
+    rendered, only tiles on the region's edge are rendered."""
+    d = angle(distance, radius)
+    parse_zooms(zooms)  # fail before reading the input
+    TileStyle(fill, opacity, outline, outline_width)
+    if resume and force:
+        raise click.UsageError("--resume and --force exclude each other")
+    shape = read(input)
+    bar = None
+    if sys.stderr.isatty():
+        from tqdm import tqdm
+
+        bar = tqdm(total=0, unit="tile", file=sys.stderr, dynamic_ncols=True)
+
+    def progress(done, total):
+        bar.total = max(total, done)
+        bar.n = done
+        if done % 256 == 0 or done == total:
+            bar.refresh()
+
+    try:
+        stats = pyramid(
+            shape,
+            d,
+            zooms,
+            output,
+            radius=1.0,
+            size=tile_size,
+            fill=fill,
+            opacity=opacity,
+            outline=outline,
+            outline_width=outline_width,
+            resume=resume,
+            overwrite=force,
+            name=name,
+            progress=progress if bar is not None else None,
+        )
+    finally:
+        if bar is not None:
+            bar.close()
+    click.echo(
+        f"{stats.written} tiles written ({stats.rendered - stats.empty} rendered, "
+        f"{stats.inside} inside without rendering, {stats.painted} outlined), "
+        f"{stats.outside} outside skipped, {stats.present} already present, "
+        f"{stats.seconds:.1f} s",
+        err=True,
+    )

@@ -1,0 +1,534 @@
+"""Web-mercator tile pyramids of the offset region, driven by the tile quadtree.
+
+The XYZ quadtree is used as a level hierarchy (level = zoom): every visited tile is
+classified in float64 with the decision rules of :mod:`gloffset.hierarchy`
+(:func:`~gloffset.hierarchy.decide`), with the tile centre and the bound
+
+    r(z, y) = the largest angle from the centre to any point of the tile's lon/lat
+              rectangle (the same for every tile of a row),
+
+so a tile found *outside* has no point, and a tile found *contained* only points,
+in the region, and so have all its descendants. Then
+
+* outside: nothing is written and the descendants are never visited;
+* contained: the tile and all its descendants down to the maximum zoom are written
+  with one shared image (one blob in MBTiles, hard links in a directory), without
+  rendering;
+* frontier: the tile is rendered with :func:`gloffset.render` on its
+  :class:`~gloffset.grids.Tile` grid (tiles with no pixel inside are not written)
+  and its children are visited.
+
+Candidate arcs are refined from parent to child as in the raster engine, with the
+list bound ``L(z, y) = r(z, y) + sum_{k=1..Z-z} r_eq(z + k)`` (``Z`` the maximum zoom,
+``r_eq(z)`` the bound of a tile touching the equator, the largest of its zoom): a
+chain parent -> child -> ... moves at most ``r`` of each tile it passes, so
+``L(parent) >= angle(parent, child) + L(child)`` as the refinement requires.
+
+Frontier tiles are rendered in batches: a block of ``2^k x 2^k`` frontier-bearing
+tiles of zoom ``z`` is one render of ``Tile(z - k, X, Y, size 2^k)``, whose pixel
+centres are bit-identical to those of the tiles it covers; blocks are chosen per
+quadtree node by a cost model (a fixed cost per render call plus one per pixel),
+from the whole frontier of the zoom, so a resumed run renders the same blocks.
+
+With an outline, decided tiles that a boundary arc may cross (distance to the
+boundary at most ``r``) are drawn (fill or nothing, plus the outline) and
+their children visited with the same class; the rest are as above.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .errors import GloffsetError, InvalidDistanceError
+from .grids import Tile
+from .grids.base import rect_radius
+from .hierarchy import (
+    CONTAINED,
+    FRONTIER,
+    OUTSIDE,
+    Arcs,
+    _coarse,
+    _inside_any,
+    _refine,
+    _subset,
+    cell_distances,
+    decide,
+)
+from .io.tilestore import open_store
+from .render import render
+from .shape import read
+from .sphere import angle
+from .tilepaint import TileStyle, outline_lines
+from .units import EARTH_RADIUS, to_angle
+
+__all__ = ["pyramid", "parse_zooms", "PyramidStats", "TilesError", "MAX_ZOOM", "TileLevels"]
+
+#: Deepest zoom a pyramid may reach (the raster engine is exact to a fraction of a
+#: pixel up to here).
+MAX_ZOOM = 22
+#: Largest side in pixels of one batched render.
+MAX_BLOCK = 4096
+_NONE = 255  # no forced class
+
+
+class TilesError(GloffsetError, ValueError):
+    """A tile pyramid request has a bad zoom range, tile size or option."""
+
+
+def parse_zooms(zooms) -> tuple[int, int]:
+    """``(min, max)`` from ``"0-14"``, ``"5"``, an int or a pair, checked against 0..22.
+
+    Examples
+    --------
+    >>> parse_zooms("0-14")
+    (0, 14)
+    >>> parse_zooms(5)
+    (5, 5)
+    """
+    if isinstance(zooms, str):
+        m = re.fullmatch(r"\s*(\d+)\s*(?:-\s*(\d+)\s*)?", zooms)
+        if not m:
+            raise TilesError(
+                f"bad zoom range {zooms!r}: use MIN-MAX or one ZOOM, e.g. 0-14 "
+                f"(zooms 0..{MAX_ZOOM})"
+            )
+        lo = int(m.group(1))
+        hi = int(m.group(2)) if m.group(2) is not None else lo
+    elif isinstance(zooms, (int, np.integer)):
+        lo = hi = int(zooms)
+    else:
+        try:
+            lo, hi = (int(v) for v in zooms)
+        except (TypeError, ValueError):
+            raise TilesError(f"zooms must be 'MIN-MAX', an int or a pair, got {zooms!r}") from None
+    if not 0 <= lo <= hi <= MAX_ZOOM:
+        raise TilesError(
+            f"bad zoom range {lo}-{hi}: need 0 <= MIN <= MAX <= {MAX_ZOOM} "
+            f"(gloffset renders tiles up to zoom {MAX_ZOOM})"
+        )
+    return lo, hi
+
+
+# ---------------------------------------------------------------------- geometry
+def _lat(z: int, yy) -> np.ndarray:
+    """Latitude (radians) at fractional tile row ``yy`` of zoom ``z``."""
+    return np.arctan(np.sinh(math.pi * (1.0 - 2.0 * np.asarray(yy, dtype=np.float64) / (1 << z))))
+
+
+def _xyz(lon, lat) -> np.ndarray:
+    lon, lat = np.broadcast_arrays(lon, lat)
+    c = np.cos(lat)
+    return np.stack([c * np.cos(lon), c * np.sin(lon), np.sin(lat)], axis=-1)
+
+
+class TileLevels:
+    """The XYZ quadtree down to zoom ``maxzoom`` as a level hierarchy (level = zoom).
+
+    Offers what :mod:`gloffset.hierarchy` asks of a grid (``level_shape``,
+    ``centers``, ``rho_at``: the list bound ``L``) and the tight bound
+    :meth:`bound` used for the decisions (see the module notes).
+    """
+
+    def __init__(self, maxzoom: int):
+        self.maxzoom = int(maxzoom)
+        eq = [self.bound(z, max(0, (1 << z) // 2 - 1))[()] for z in range(self.maxzoom + 1)]
+        tail = np.cumsum(eq[::-1])[::-1]  # tail[z] = sum of eq[z..Z]
+        self._extra = [float(tail[z + 1]) if z < self.maxzoom else 0.0 for z in range(len(eq))]
+
+    def level_shape(self, z: int) -> tuple[int, int]:
+        return (1 << z, 1 << z)
+
+    def centers(self, z: int, j, i) -> np.ndarray:
+        """Unit vectors of the centres of tiles (row ``j`` = y, column ``i`` = x) of zoom z."""
+        lon = -math.pi + 2.0 * math.pi * (np.asarray(i, dtype=np.float64) + 0.5) / (1 << z)
+        return _xyz(lon, _lat(z, np.asarray(j, dtype=np.float64) + 0.5))
+
+    def bound(self, z: int, j) -> np.ndarray:
+        """Largest angle from the centre of a tile of row ``j`` to any point of the tile.
+
+        ``rect_radius`` is exact but loses digits for tiny tiles (arccos near 1); the
+        corners, the farthest points of every tile below zoom 0, are measured with
+        the robust :func:`gloffset.sphere.angle` too and the larger value is kept.
+        """
+        j = np.asarray(j, dtype=np.float64)
+        north, south, mid = _lat(z, j), _lat(z, j + 1.0), _lat(z, j + 0.5)
+        dl = math.pi / (1 << z)
+        exact = rect_radius(np.full(j.shape, dl), mid, south, north)
+        c = _xyz(0.0, mid)
+        corners = np.maximum(angle(c, _xyz(dl, north)), angle(c, _xyz(dl, south)))
+        return np.maximum(exact, corners) * (1.0 + 1e-12) + 1e-15
+
+    def rho_at(self, z: int, j, i) -> np.ndarray:
+        """The list bound ``L`` of tiles (``j``, ``i``) of zoom ``z``."""
+        r = self.bound(z, j) + self._extra[z]
+        return (r * (1.0 + 1e-12) + 1e-15) + 0.0 * np.asarray(i)
+
+
+# ---------------------------------------------------------------------- results
+@dataclass
+class PyramidStats:
+    """What a pyramid run did (counts of tiles at zooms min..max).
+
+    ``rendered``: frontier tiles rendered on the GPU; ``empty``: of those, tiles
+    with no pixel inside (not written); ``inside``: tiles written as fully inside
+    without rendering (descendants of contained tiles included); ``painted``:
+    decided tiles drawn with an outline without rendering; ``outside``: tiles found
+    outside (their descendants never visited); ``present``: tiles skipped because a
+    resumed output had them; ``render_calls``: batched render calls.
+    """
+
+    rendered: int = 0
+    empty: int = 0
+    inside: int = 0
+    painted: int = 0
+    outside: int = 0
+    present: int = 0
+    render_calls: int = 0
+    seconds: float = 0.0
+    zooms: dict = field(default_factory=dict)
+
+    @property
+    def written(self) -> int:
+        """Tiles written by this run (rendered non-empty, inside, painted)."""
+        return self.rendered - self.empty + self.inside + self.painted
+
+    def as_dict(self) -> dict:
+        return {
+            "rendered": self.rendered,
+            "empty": self.empty,
+            "inside": self.inside,
+            "painted": self.painted,
+            "outside": self.outside,
+            "present": self.present,
+            "written": self.written,
+            "render_calls": self.render_calls,
+            "seconds": self.seconds,
+            "zooms": self.zooms,
+        }
+
+
+# ---------------------------------------------------------------------- batching
+def _plan(z, xs, ys, idx, size, c0, max_block):
+    """Render calls ``(k, X, Y, members)`` covering the frontier tiles ``xs, ys`` of zoom z.
+
+    Per quadtree node, one render of the whole node or the best plans of its
+    quadrants, whichever costs less (``c0`` + pixels per call).
+    """
+    kmax = min(z, max(0, int(math.log2(max(1, max_block // size)))))
+
+    def best(k, bx, by, sel):
+        own = c0 + float(size << k) ** 2
+        if k == 0:
+            return own, [(0, bx, by, sel)]
+        qx, qy = (xs[sel] >> (k - 1)) & 1, (ys[sel] >> (k - 1)) & 1
+        cost, plans = 0.0, []
+        for dy in (0, 1):
+            for dx in (0, 1):
+                sub = sel[(qx == dx) & (qy == dy)]
+                if len(sub):
+                    c, p = best(k - 1, 2 * bx + dx, 2 * by + dy, sub)
+                    cost += c
+                    plans += p
+        if cost < own:
+            return cost, plans
+        return own, [(k, bx, by, sel)]
+
+    keys = (ys >> kmax).astype(np.int64) * (1 << max(0, z - kmax)) + (xs >> kmax)
+    order = np.argsort(keys, kind="stable")
+    out = []
+    for key in np.unique(keys):
+        sel = order[keys[order] == key]
+        out += best(kmax, int(xs[sel[0]] >> kmax), int(ys[sel[0]] >> kmax), sel)[1]
+    return [(k, bx, by, idx[sel]) for k, bx, by, sel in out]
+
+
+# ---------------------------------------------------------------------- the pyramid
+def _params(d, zooms, size, style) -> str:
+    return json.dumps(
+        {
+            "distance_rad": repr(float(d)),
+            "zooms": list(zooms),
+            "tile_size": size,
+            "fill": style.fill,
+            "opacity": style.opacity,
+            "outline": style.outline,
+            "outline_width": style.outline_width,
+        },
+        sort_keys=True,
+    )
+
+
+def _metadata(name, description, zooms, params) -> dict:
+    return {
+        "name": name,
+        "format": "png",
+        "type": "overlay",
+        "version": "1",
+        "description": description,
+        "minzoom": zooms[0],
+        "maxzoom": zooms[1],
+        "bounds": "-180.0,-85.051129,180.0,85.051129",
+        "center": f"0.0,0.0,{zooms[0]}",
+        "gloffset": params,
+    }
+
+
+def _final_bounds(store, zooms) -> dict:
+    for z in range(zooms[1], zooms[0] - 1, -1):
+        ext = store.extent(z)
+        if ext is not None:
+            x0, y0, x1, y1 = ext
+            w, e = x0 * 360.0 / (1 << z) - 180.0, (x1 + 1) * 360.0 / (1 << z) - 180.0
+            n, s = (math.degrees(float(_lat(z, v))) for v in (y0, y1 + 1))
+            b = (round(w, 6), round(s, 6), round(e, 6), round(n, 6))
+            cz = min(zooms[1], max(zooms[0], z - 2))
+            return {
+                "bounds": ",".join(repr(v) for v in b),
+                "center": f"{round((w + e) / 2, 6)},{round((s + n) / 2, 6)},{cz}",
+            }
+    return {}
+
+
+def pyramid(
+    shape,
+    distance: float,
+    zooms,
+    out,
+    *,
+    radius: float = EARTH_RADIUS,
+    size: int = 256,
+    fill: str = "#3070c0",
+    opacity: float = 1.0,
+    outline: str | None = None,
+    outline_width: int = 1,
+    resume: bool = False,
+    overwrite: bool = False,
+    name: str | None = None,
+    progress=None,
+    max_block: int = MAX_BLOCK,
+) -> PyramidStats:
+    """Write the web-mercator tile pyramid of the offset region of ``shape``.
+
+    Parameters
+    ----------
+    shape : Shape or anything :func:`gloffset.read` accepts
+    distance : float
+        In the units of ``radius`` (metres by default); negative shrinks polygons.
+    zooms : str, int or (int, int)
+        Zoom range, e.g. ``"0-14"`` (at most 0..22).
+    out : str, Path or a tile store
+        A path ending in ``.mbtiles`` (MBTiles 1.3, TMS rows) or a directory
+        (``z/x/y.png``); or a writer from :func:`gloffset.io.tilestore.open_store`.
+    size : int
+        Tile side in pixels (16 to 4096).
+    fill, opacity, outline, outline_width
+        The style (:class:`gloffset.tilepaint.TileStyle`): region colour and its
+        opacity on a transparent background, and the colour and width of an
+        outline of the original curves (None: no outline).
+    resume : bool
+        Complete an existing output written with the same options, skipping the
+        tiles it has; the result is the same as one uninterrupted run.
+    overwrite : bool
+        Replace an existing output.
+    name : str, optional
+        The ``name`` metadata (default: the file or directory name).
+    progress : callable, optional
+        ``progress(done, estimate)`` after each tile handled.
+    max_block : int
+        Largest side in pixels of one batched render call.
+
+    Returns
+    -------
+    PyramidStats
+
+    Notes
+    -----
+    Contract: a tile is in the output iff some pixel centre of it is in the region
+    (as decided by :func:`gloffset.render`, exact up to its stated epsilon), or,
+    with an outline, the outline crosses it. Tiles written as fully inside
+    without rendering have every point in the region. The tiles of a zoom are
+    classified in float64 before any is rendered; only frontier tiles are rendered.
+
+    Examples
+    --------
+    >>> import gloffset, tempfile, os
+    >>> tri = {"type": "Polygon", "coordinates": [[[0, 0], [10, 0], [5, 8], [0, 0]]]}
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     st = gloffset.tiles.pyramid(tri, 100e3, "0-2", os.path.join(tmp, "t.mbtiles"),
+    ...                                 size=64)
+    >>> st.written, st.rendered, st.inside
+    (10, 9, 6)
+    """
+    t0 = time.perf_counter()
+    shape = read(shape)
+    d = to_angle(distance, radius)
+    if abs(d) >= 1.5:
+        raise InvalidDistanceError(
+            f"distance {distance!r} is {abs(d):.4g} rad; tiles need less than 1.5 rad"
+        )
+    zlo, zhi = parse_zooms(zooms)
+    if not (isinstance(size, (int, np.integer)) and 16 <= size <= 4096):
+        raise TilesError(f"tile size must be an integer from 16 to 4096 pixels, got {size!r}")
+    size = int(size)
+    style = TileStyle(fill, opacity, outline, outline_width)
+    params = _params(d, (zlo, zhi), size, style)
+    if isinstance(out, (str, Path)):
+        label = name or Path(out).stem or "gloffset"
+        km = f"{abs(d) * radius / 1000:.6g} km ({abs(d):.6g} rad)"
+        desc = (
+            f"Points of {label} inside its polygons and farther than {km} from their boundary"
+            if d < 0
+            else f"Region within {km} of {label}, polygons included"
+        ) + f"; gloffset {__version__}"
+        store = open_store(
+            out, _metadata(label, desc, (zlo, zhi), params), resume=resume, overwrite=overwrite
+        )
+    else:
+        store = out
+    stats = PyramidStats()
+    try:
+        if resume:
+            have = store.metadata().get("gloffset")
+            if have != params:
+                raise TilesError(
+                    f"cannot resume {str(getattr(store, 'path', out))!r}: it was written with "
+                    f"other options ({have}); use --force to start again"
+                )
+        _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, stats)
+        store.set_metadata(_final_bounds(store, (zlo, zhi)))
+    finally:
+        store.close()
+    stats.seconds = time.perf_counter() - t0
+    return stats
+
+
+def _subtree(x, y, z, zfrom, zto, chunk=65536):
+    """XYZ coordinates of tile z/x/y and its descendants at zooms zfrom..zto, in chunks."""
+    for zz in range(max(z, zfrom), zto + 1):
+        k = zz - z
+        n = 1 << k
+        xs = np.arange(x << k, (x << k) + n)
+        rows_per = max(1, chunk // n)
+        for r0 in range(0, n, rows_per):
+            ys = np.arange((y << k) + r0, (y << k) + min(n, r0 + rows_per))
+            yy, xx = np.meshgrid(ys, xs, indexing="ij")
+            yield zz, xx.ravel(), yy.ravel()
+
+
+def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, stats):
+    arcs = Arcs.from_shape(shape)
+    levels = TileLevels(zhi)
+    e = abs(d)
+    have = store.existing() if resume else set()
+    full = style.encode(np.ones((size, size), dtype=bool))
+    c0 = 250_000 + 1500 * len(arcs.a)  # per-call cost of a render, in pixels
+    counter = {"done": 0, "total": 0}
+
+    def tick(n=1):
+        counter["done"] += n
+        if progress is not None:
+            progress(counter["done"], counter["total"])
+
+    def lines_of(f, i, z, r):
+        if style.outline is None:
+            return ()
+        s, t = np.searchsorted(f.pair_cell, [i, i + 1])
+        cand = f.pair_arc[s:t]
+        cand = cand[arcs.boundary[cand]]
+        y, x = (int(v) for v in f.cells[i])
+        return outline_lines(arcs, cand, f.centers[i], float(r[i]), z, x, y, size)
+
+    f = None
+    forced = None
+    for z in range(zhi + 1):
+        if z == 0:
+            f = _coarse(shape, arcs, levels, e)
+        else:
+            parent_keys = (f.cells[:, 0] << 32) | f.cells[:, 1]
+            f = _refine(f, levels, arcs, e)
+        if len(f.cells) == 0:
+            break
+        rows, cols = f.cells[:, 0], f.cells[:, 1]
+        r = levels.bound(z, rows)
+        dist, dring = cell_distances(f, arcs)
+        cls = decide(dist, dring, _inside_any(f.status), r, d, final=False)
+        if forced is not None and (forced != _NONE).any():
+            pos = np.searchsorted(parent_keys, ((rows >> 1) << 32) | (cols >> 1))
+            pf = forced[pos]
+            cls = np.where(pf != _NONE, pf, cls).astype(np.uint8)
+        carry = (cls != FRONTIER) & (dist <= r)
+        if style.outline is None:
+            carry[:] = False
+        cont = np.flatnonzero((cls == CONTAINED) & ~carry)
+        front = np.flatnonzero(cls == FRONTIER)
+        paint = np.flatnonzero(carry)
+        zs = {
+            "contained": int(len(cont)),
+            "outside": int(((cls == OUTSIDE) & ~carry).sum()),
+            "frontier": int(len(front)),
+        }
+        stats.zooms[z] = zs
+        sub_count = sum(4 ** (zz - z) for zz in range(max(z, zlo), zhi + 1))
+        counter["total"] += len(cont) * sub_count
+        if z >= zlo:
+            stats.outside += zs["outside"]
+            counter["total"] += len(front) + len(paint)
+        # fully inside: the tile and all its descendants, one shared image
+        for i in cont:
+            for zz, xs, ys in _subtree(int(cols[i]), int(rows[i]), z, zlo, zhi):
+                tiles = [(zz, int(x), int(y)) for x, y in zip(xs, ys)]
+                if have:
+                    new = [t for t in tiles if t not in have]
+                    stats.present += len(tiles) - len(new)
+                    tiles = new
+                if full is not None and tiles:
+                    store.put_many(tiles, full)
+                stats.inside += len(tiles)
+                tick(len(xs))
+        if z >= zlo:
+            # decided tiles with an outline: drawn, not rendered
+            for i in paint:
+                key = (z, int(cols[i]), int(rows[i]))
+                if key in have:
+                    stats.present += 1
+                else:
+                    mask = np.full((size, size), cls[i] == CONTAINED)
+                    data = style.encode(mask, lines_of(f, i, z, r))
+                    if data is not None:
+                        store.put(*key, data)
+                        stats.painted += 1
+                tick()
+            # frontier: rendered in batches
+            plans = _plan(z, cols[front], rows[front], front, size, c0, max_block)
+            for k, bx, by, members in plans:
+                todo = [i for i in members if (z, int(cols[i]), int(rows[i])) not in have]
+                stats.present += len(members) - len(todo)
+                if not todo:
+                    tick(len(members))
+                    continue
+                mask = render(shape, d, Tile(z - k, bx, by, size << k), radius=1.0)
+                stats.render_calls += 1
+                for i in todo:
+                    ox, oy = (int(cols[i]) - (bx << k)) * size, (int(rows[i]) - (by << k)) * size
+                    sub = mask[oy : oy + size, ox : ox + size]
+                    data = style.encode(sub, lines_of(f, i, z, r))
+                    stats.rendered += 1
+                    if data is None:
+                        stats.empty += 1
+                    else:
+                        store.put(z, int(cols[i]), int(rows[i]), data)
+                    tick()
+                tick(len(members) - len(todo))
+            store.commit()
+        keep = np.flatnonzero((cls == FRONTIER) | carry)
+        forced = np.where(carry, cls, _NONE).astype(np.uint8)[keep]
+        f = _subset(f, keep)
+        parent_keys = None

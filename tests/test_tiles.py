@@ -1,0 +1,270 @@
+"""Tile pyramids: the tiles held are exactly those the reference puts pixels of the region
+in; fully-inside tiles are all inside; resume; MBTiles and directory layouts; CLI."""
+
+import hashlib
+import io
+import json
+import math
+import os
+import sqlite3
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from PIL import Image
+
+import gloffset
+from gloffset.cli import main
+from gloffset.grids import Tile
+from gloffset.hierarchy import Arcs
+from gloffset.reference import contains_xyz, distance_xyz
+from gloffset.sphere import angle, arc_distance, lonlat_to_xyz
+from gloffset.tiles import TileLevels, TilesError, parse_zooms, pyramid
+
+SIZE = 64
+EPS = 1e-3  # of a pixel, as in test_render
+SQUARE = {
+    "type": "Polygon",
+    "coordinates": [
+        [[-60, -50], [60, -50], [60, 50], [-60, 50], [-60, -50]],
+        [[-10, -10], [-10, 10], [10, 10], [10, -10], [-10, -10]],
+    ],
+}
+LINE_AM = {"type": "LineString", "coordinates": [[170, -10], [-170, 5], [-160, 40]]}
+
+
+def read_mbtiles(path):
+    """{(z, x, y): png bytes} with XYZ rows, and the metadata."""
+    db = sqlite3.connect(path)
+    tiles = {
+        (z, x, (1 << z) - 1 - r): bytes(data) for z, x, r, data in db.execute("SELECT * FROM tiles")
+    }
+    meta = dict(db.execute("SELECT name, value FROM metadata"))
+    db.close()
+    return tiles, meta
+
+
+def read_dir(path):
+    out = {}
+    for root, _, files in os.walk(path):
+        for f in files:
+            if f.endswith(".png"):
+                z, x = (int(v) for v in os.path.relpath(root, path).split(os.sep))
+                with open(os.path.join(root, f), "rb") as fh:
+                    out[(z, x, int(f[:-4]))] = fh.read()
+    return out
+
+
+def alpha(png):
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGBA"))[..., 3]
+
+
+def pixel_centres(g):
+    jj, ii = np.meshgrid(np.arange(g.height), np.arange(g.width), indexing="ij")
+    return g.centers(g.n_levels - 1, jj.ravel(), ii.ravel())
+
+
+def near_boundary(shape, p, d, eps):
+    """Pixels within eps of the offset boundary or of a ring edge (where float32 may differ)."""
+    near = np.abs(distance_xyz(shape, p) - abs(d)) <= eps
+    arcs = Arcs.from_shape(shape)
+    ring = arcs.group >= 0
+    if ring.any():
+        ring_d = arc_distance(p[:, None], arcs.a[ring][None], arcs.b[ring][None]).min(axis=1)
+        near |= ring_d <= eps
+    return near
+
+
+def check_against_reference(shape, d, tiles, zmax, full_png):
+    """Every tile of zooms 0..zmax: present iff the reference has a pixel centre of it in
+    the region, its pixels equal the reference (up to EPS of a pixel), and tiles holding
+    the shared full image are all inside."""
+    shape = gloffset.read(shape)
+    n_full = 0
+    for z in range(zmax + 1):
+        keys = [(x, y) for x in range(1 << z) for y in range(1 << z)]
+        p = np.concatenate([pixel_centres(Tile(z, x, y, SIZE)) for x, y in keys])
+        want_all = contains_xyz(shape, p, d).reshape(len(keys), -1)
+        p = p.reshape(len(keys), -1, 3)
+        for k, (x, y) in enumerate(keys):
+            want = want_all[k]
+            png = tiles.get((z, x, y))
+            got = np.zeros(SIZE * SIZE, bool) if png is None else alpha(png).ravel() > 0
+            bad = np.flatnonzero(got != want)
+            if len(bad):
+                eps = EPS * math.pi * 2 / ((1 << z) * SIZE)
+                assert near_boundary(shape, p[k][bad], d, eps).all(), (z, x, y, len(bad))
+            if png is not None:
+                assert got.any(), f"empty tile {z}/{x}/{y} written"
+            if png == full_png:
+                n_full += 1
+                assert want.all(), f"tile {z}/{x}/{y} written as inside is not all inside"
+    return n_full
+
+
+@pytest.fixture(scope="module")
+def brazil(world):
+    return world["Brazil"]
+
+
+def test_parse_zooms():
+    assert parse_zooms("3-7") == (3, 7) and parse_zooms(" 4 ") == (4, 4)
+    for bad in ("7-3", "0-23", "a-b", "-1", "1-2-3", ""):
+        with pytest.raises(TilesError, match="zoom"):
+            parse_zooms(bad)
+
+
+def test_tile_bounds_are_rigorous():
+    lv = TileLevels(12)
+    rng = np.random.default_rng(1)
+    for z in range(13):
+        rows = np.arange(1 << z) if z <= 8 else rng.integers(0, 1 << z, 256)
+        r = lv.bound(z, rows)
+        assert np.all(r <= lv.bound(z, max(0, (1 << z) // 2 - 1)) * (1 + 1e-9))  # r_eq is max
+        # random points of the rectangles are within r of the centres
+        y = rows + rng.uniform(0, 1, (64, len(rows)))
+        lat = np.degrees(np.arctan(np.sinh(np.pi * (1 - 2 * y / (1 << z)))))
+        lon = rng.uniform(-0.5, 0.5, y.shape) * 360.0 / (1 << z)
+        c = lv.centers(z, rows, 0)
+        c = c * 1.0
+        lon_c = -180.0 + 180.0 / (1 << z)
+        assert np.all(angle(c[None], lonlat_to_xyz(lon + lon_c, lat)) <= r[None])
+        if z < 12:  # the list bound nests: L(parent) >= angle(parent, child) + L(child)
+            for dy in (0, 1):
+                for dx in (0, 1):
+                    cc = lv.centers(z + 1, 2 * rows + dy, dx)
+                    lhs = angle(c, cc) + lv.rho_at(z + 1, 2 * rows + dy, dx)
+                    assert np.all(lv.rho_at(z, rows, 0) >= lhs)
+
+
+@pytest.mark.parametrize(
+    "name, d, zmax",
+    [("square", 300e3, 4), ("Brazil", -300e3, 4), ("line", 300e3, 4)],
+)
+def test_pyramid_holds_exactly_the_tiles_of_the_region(tmp_path, world, name, d, zmax):
+    shape = {"line": LINE_AM, "square": SQUARE}.get(name) or world[name]
+    st = pyramid(shape, d, (0, zmax), tmp_path / "t.mbtiles", size=SIZE)
+    tiles, meta = read_mbtiles(tmp_path / "t.mbtiles")
+    full = gloffset.tilepaint.TileStyle().encode(np.ones((SIZE, SIZE), bool))
+    n_full = check_against_reference(shape, d / gloffset.EARTH_RADIUS, tiles, zmax, full)
+    assert st.written == len(tiles) and n_full >= st.inside
+    assert st.rendered > 0 and st.outside > 0
+    if name == "square":
+        assert st.inside > 0  # the shared-image path is exercised
+        # one image blob serves every fully-inside tile
+        db = sqlite3.connect(tmp_path / "t.mbtiles")
+        tid = hashlib.md5(full).hexdigest()
+        assert db.execute("SELECT count(*) FROM images WHERE tile_id=?", (tid,)).fetchone() == (1,)
+        assert db.execute("SELECT count(*) FROM map WHERE tile_id=?", (tid,)).fetchone()[0] >= (
+            st.inside
+        )
+
+
+def test_mbtiles_metadata_and_tms_rows(tmp_path, world):
+    path = tmp_path / "mx.mbtiles"
+    pyramid(world["Mexico"], 127e3, "1-3", path, size=SIZE, name="Mexico")
+    tiles, meta = read_mbtiles(path)
+    assert meta["format"] == "png" and meta["type"] == "overlay" and meta["name"] == "Mexico"
+    assert (meta["minzoom"], meta["maxzoom"]) == ("1", "3")
+    assert "127 km" in meta["description"] and meta["version"]
+    w, s, e, n = (float(v) for v in meta["bounds"].split(","))
+    assert (w, s, e, n) == pytest.approx((-135, 0, -45, 40.979898), abs=1e-6)  # z3 edges
+    # Mexico lies in XYZ 1/0/0 (north-west), stored as TMS row 1
+    db = sqlite3.connect(path)
+    rows = db.execute("SELECT tile_column, tile_row FROM map WHERE zoom_level=1").fetchall()
+    assert rows == [(0, 1)]
+    assert set(tiles) >= {(1, 0, 0)} and min(z for z, _, _ in tiles) == 1
+
+
+def test_directory_output_with_links_and_outline(tmp_path):
+    out = tmp_path / "dir"
+    st = pyramid(SQUARE, 1500e3, "0-4", out, size=SIZE, outline="#ff0000", outline_width=2)
+    files = read_dir(out)
+    assert len(files) == st.written and st.painted > 0
+    meta = json.loads((out / "metadata.json").read_text())
+    assert meta["maxzoom"] == 4 and "bounds" in meta
+    # outline pixels (opaque red) on the tiles the border crosses
+    red = 0
+    for png in files.values():
+        rgba = np.asarray(Image.open(io.BytesIO(png)).convert("RGBA"))
+        red += int(((rgba[..., 0] == 255) & (rgba[..., 1] == 0) & (rgba[..., 3] == 255)).sum())
+    assert red > 100
+    # without outline the fully-inside tiles are hard links of one file
+    plain = tmp_path / "plain"
+    st = pyramid(SQUARE, 300e3, "0-4", plain, size=SIZE)
+    links = [p for p in plain.rglob("*.png") if p.stat().st_nlink > 1]
+    assert st.inside > 1 and len(links) == st.inside
+
+
+def test_outline_across_the_antimeridian(tmp_path):
+    out = tmp_path / "am"
+    pyramid(LINE_AM, 100e3, "2", out, size=SIZE, outline="#000000", fill="#ffffff", opacity=0.0)
+    files = read_dir(out)
+    # only the outline shows, on both sides of 180 deg
+    assert {x for _, x, _ in files} == {0, 3}
+
+
+class Stop(Exception):
+    pass
+
+
+@pytest.mark.parametrize("suffix", [".mbtiles", ""])
+def test_interrupted_pyramid_resumes_to_the_same_tiles(tmp_path, suffix):
+    kw = dict(size=SIZE, outline="#202020", name="square")
+    whole = tmp_path / ("whole" + suffix)
+    full = pyramid(SQUARE, 1500e3, "0-4", whole, **kw)
+    assert full.rendered and full.inside and full.painted
+    part = tmp_path / ("part" + suffix)
+
+    def stop_after(done, total):
+        if done >= full.written // 2:
+            raise Stop
+
+    with pytest.raises(Stop):
+        pyramid(SQUARE, 1500e3, "0-4", part, progress=stop_after, **kw)
+    read = read_mbtiles if suffix else read_dir
+
+    def tiles(p):
+        t = read(p)
+        return t[0] if suffix else t
+
+    got = tiles(part)
+    assert 0 < len(got) < len(tiles(whole))  # a valid, partial output
+    with pytest.raises(gloffset.GloffsetError, match="exists"):
+        pyramid(SQUARE, 1500e3, "0-4", part, **kw)
+    with pytest.raises(TilesError, match="other options"):
+        pyramid(SQUARE, 300e3, "0-4", part, resume=True, **kw)
+    st = pyramid(SQUARE, 1500e3, "0-4", part, resume=True, **kw)
+    assert st.present > 0
+    assert tiles(part) == tiles(whole)
+    if suffix:
+        assert read_mbtiles(part)[1] == read_mbtiles(whole)[1]
+
+
+def test_cli_tiles_and_errors(tmp_path, world):
+    src = tmp_path / "mx.geojson"
+    src.write_text(json.dumps(world["Mexico"]))
+    run = CliRunner().invoke
+    out = str(tmp_path / "t.mbtiles")
+    args = ["tiles", str(src), "-d", "200km", "-o", out, "--tile-size", "64"]
+    style = ["--fill", "#3070c0", "--opacity", "0.6"]
+    r = run(main, args + ["--zoom", "0-3"] + style)
+    assert r.exit_code == 0, r.output
+    assert "tiles written" in r.output
+    tiles, meta = read_mbtiles(out)
+    assert tiles and all(alpha(p).max() == 153 for p in tiles.values())
+    for extra, msg in [
+        (["--zoom", "0-3"], "exists; use --resume"),
+        (["--zoom", "0-23", "--force"], "MAX <= 22"),
+        (["--zoom", "3-x", "--force"], "bad zoom range"),
+        (["--zoom", "0-3", "--force", "--tile-size", "8"], "tile size"),
+        (["--zoom", "0-3", "--force", "--opacity", "2"], "opacity"),
+        (["--zoom", "0-3", "--force", "--fill", "nocolour"], "colour"),
+    ]:
+        r = run(main, args + extra)
+        assert r.exit_code == 2, (extra, r.output)
+        assert msg in r.output and r.output.startswith("gloffset: error:"), r.output
+    r = run(main, args + ["--zoom", "0-3", "--resume"])
+    assert r.exit_code == 2 and "other options" in r.output
+    r = run(main, args + ["--zoom", "0-3", "--resume"] + style)
+    assert r.exit_code == 0 and "already present" in r.output
