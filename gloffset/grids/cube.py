@@ -47,6 +47,9 @@ FACES = np.array(
 )
 
 
+_RHO_CACHE: dict[int, list[np.ndarray]] = {}
+
+
 def locate(r) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Face index, s and t of directions ``r`` (..., 3), by the GL selection rule."""
     r = np.asarray(r, dtype=np.float64)
@@ -125,10 +128,14 @@ class CubeFace(Levels):
         return out
 
     def _cache(self) -> list[np.ndarray]:
-        cache = self.__dict__.get("_rho_cache")
+        # the six faces are congruent (rotations and mirror images of one another in
+        # (s, t)), so their bounds are the same arrays: computed once per size
+        cache = _RHO_CACHE.get(int(self.size))
         if cache is None:
-            cache = self._rhos()
-            object.__setattr__(self, "_rho_cache", cache)
+            cache = CubeFace(0, int(self.size))._rhos()
+            if len(_RHO_CACHE) >= 4:
+                _RHO_CACHE.pop(next(iter(_RHO_CACHE)))
+            _RHO_CACHE[int(self.size)] = cache
         return cache
 
     def rho(self, level: int) -> np.ndarray:
