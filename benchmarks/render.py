@@ -71,10 +71,8 @@ def per_level(shape, grid) -> list:
 
 
 def pixel_lonlat(grid):
-    i = np.arange(grid.width)
-    j = np.arange(grid.height)
-    lon, _ = grid.pixel_lonlat(i, 0)
-    _, lat = grid.pixel_lonlat(0, j)
+    lon, _ = grid.pixel_lonlat(np.arange(grid.width), 0)
+    _, lat = grid.pixel_lonlat(0, np.arange(grid.height))
     return np.asarray(lon), np.asarray(lat)
 
 

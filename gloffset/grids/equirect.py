@@ -80,7 +80,8 @@ class Equirect(LonLatGrid):
         lon = w + (np.asarray(i, dtype=np.float64) + 0.5) * self.span_lon / self.width
         lat = n - (np.asarray(j, dtype=np.float64) + 0.5) * (n - s) / self.height
         lon = (lon + 180.0) % 360.0 - 180.0
-        if np.ndim(lon) == 0:
+        lon, lat = np.broadcast_arrays(lon, lat)
+        if lon.ndim == 0:
             return float(lon), float(lat)
         return lon, lat
 
