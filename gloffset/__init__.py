@@ -16,10 +16,13 @@ from .errors import (
     InputFormatError,
     InvalidDistanceError,
     InvalidGeometryError,
+    InvalidLevelError,
 )
+from .contains import Index, contains
+from .multires import Decomposition, decompose
 from .offset import Offset, offset
 from .raster_input import raster_offset, rasterize
-from .reference import contains, distance
+from .reference import distance
 from .render import render
 from .shape import Shape, read
 from .units import EARTH_RADIUS, parse_distance
@@ -31,10 +34,14 @@ __all__ = [
     "InputFormatError",
     "InvalidDistanceError",
     "InvalidGeometryError",
+    "InvalidLevelError",
+    "Index",
+    "Decomposition",
     "Offset",
     "Shape",
     "__version__",
     "contains",
+    "decompose",
     "distance",
     "offset",
     "parse_distance",

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .sphere import crossing_rule, robust_cross
+
 __all__ = ["crossings", "group_parity", "inside"]
 
 # Work on at most this many point-edge pairs at once (bounded memory, good cache use).
@@ -30,14 +32,15 @@ def crossings(p: np.ndarray, r: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.
     pr = np.cross(p, r)
     sa = (pr @ a.T) >= 0.0
     sb = (pr @ b.T) >= 0.0
-    ab = np.cross(a, b)
+    # the edge's normal from the robust cross product: a short edge's plain a x b has
+    # an absolute error of ~1e-16, which flips the side of points within 1e-16 / length
+    ab = robust_cross(a, b)
     sp = (p @ ab.T) >= 0.0
     if r.ndim == 1:
         sr = (ab @ r >= 0.0)[None, :]
     else:
         sr = np.einsum("ij,kj->ik", r, ab) >= 0.0
-    # both pairs straddle the other's great circle, and the crossing is not the antipodal one
-    return (sa != sb) & (sp != sr) & (sp == sb)
+    return crossing_rule(sa, sb, sp, sr)
 
 
 def group_parity(p: np.ndarray, r: np.ndarray, edges, group: int) -> np.ndarray:

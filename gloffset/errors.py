@@ -27,5 +27,9 @@ class InputFormatError(GloffsetError, ValueError):
     """A file or object is not GeoJSON (or another supported input) that gloffset can read."""
 
 
+class InvalidLevelError(GloffsetError, ValueError):
+    """A multiresolution level is not an integer in the range a decomposition has."""
+
+
 class GLContextError(GloffsetError, RuntimeError):
     """No OpenGL context could be created, or the context lacks a needed capability."""

@@ -115,6 +115,15 @@ def _circle(p: np.ndarray, d: float) -> OffsetRing:
     return OffsetRing(np.tile(q, (3, 1)), r, np.zeros(3, dtype=np.int8), src)
 
 
+def _line_arcs(line: np.ndarray, d: float) -> OffsetRing:
+    """A line's offset (``d > 0``): the path along it and back, with round caps at its ends;
+    an isolated point gives a circle."""
+    if len(line) == 1:
+        return _circle(line[0], d)
+    there_and_back = np.vstack([line, line[-2:0:-1]])
+    return _ring_arcs(there_and_back, d, cap_ends=(0, len(line) - 1))
+
+
 def sample_arc(center, start, end, t) -> np.ndarray:
     """Points of the small-circle arc from ``start`` to ``end`` about ``center`` (Eq. 1).
 
@@ -145,11 +154,7 @@ class Offset:
             self.rings.append(_ring_arcs(ring, d))
         if d > 0.0:
             for line in shape.lines:
-                if len(line) == 1:
-                    self.rings.append(_circle(line[0], d))
-                else:
-                    there_and_back = np.vstack([line, line[-2:0:-1]])
-                    self.rings.append(_ring_arcs(there_and_back, d, cap_ends=(0, len(line) - 1)))
+                self.rings.append(_line_arcs(line, d))
 
     @property
     def centers(self) -> list[np.ndarray]:

@@ -22,13 +22,23 @@ from .errors import InvalidGeometryError
 from .sphere import angle, arc_distance, lonlat_to_xyz, normalize, robust_cross
 from .units import EARTH_RADIUS, check_radius, to_angle
 
-__all__ = ["distance", "contains", "distance_xyz", "contains_xyz", "points_xyz"]
+__all__ = ["distance", "contains", "distance_xyz", "contains_xyz", "points_xyz", "check_lonlat"]
 
 _PAIRS = 1 << 22  # point-edge pairs per chunk
 
 
 def points_xyz(lon, lat) -> tuple[np.ndarray, tuple]:
     """Validate query lon/lat (degrees) and return unit vectors (n, 3) and the input shape."""
+    lon, lat, shape = check_lonlat(lon, lat)
+    return lonlat_to_xyz(lon, lat), shape
+
+
+def check_lonlat(lon, lat) -> tuple[np.ndarray, np.ndarray, tuple]:
+    """Validate query lon/lat (degrees): flat float64 arrays and their broadcast shape.
+
+    Raises :class:`InvalidGeometryError` for shapes that do not broadcast, NaN or
+    infinite coordinates and latitudes outside [-90, 90], naming the first bad point.
+    """
     lon = np.asarray(lon, dtype=np.float64)
     lat = np.asarray(lat, dtype=np.float64)
     try:
@@ -50,7 +60,7 @@ def points_xyz(lon, lat) -> tuple[np.ndarray, tuple]:
         raise InvalidGeometryError(
             f"query point {i}: latitude {float(lat[i])!r} out of range [-90, 90]"
         )
-    return lonlat_to_xyz(lon, lat), shape
+    return lon, lat, shape
 
 
 class _EdgeIndex:

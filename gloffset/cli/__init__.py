@@ -32,6 +32,7 @@ def main():
     """Regions within a distance of curves and polygons on the sphere."""
 
 
-from . import offset as _offset  # noqa: E402,F401  (registers the subcommands)
+from . import contains as _contains  # noqa: E402,F401  (registers the subcommands)
+from . import offset as _offset  # noqa: E402,F401
 from . import render as _render  # noqa: E402,F401
 from . import tiles as _tiles  # noqa: E402,F401

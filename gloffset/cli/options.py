@@ -7,15 +7,23 @@ import click
 from ..units import EARTH_RADIUS, parse_distance
 
 
-def distance_option(f):
-    return click.option(
-        "-d",
-        "--distance",
-        required=True,
-        metavar="DIST",
-        help="Offset distance: 500m, 127km, 0.02rad, 1.5deg (a bare number is metres). "
-        "Negative shrinks polygons.",
-    )(f)
+def distance_option(f=None, *, default: str | None = None):
+    """``-d/--distance``, required unless a ``default`` is given (``@distance_option`` or
+    ``@distance_option(default="0")``)."""
+
+    def decorate(f):
+        return click.option(
+            "-d",
+            "--distance",
+            required=default is None,
+            default=default,
+            show_default=default is not None,
+            metavar="DIST",
+            help="Offset distance: 500m, 127km, 0.02rad, 1.5deg (a bare number is metres). "
+            "Negative shrinks polygons.",
+        )(f)
+
+    return decorate(f) if f is not None else decorate
 
 
 def radius_option(f):

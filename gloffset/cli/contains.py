@@ -1,0 +1,208 @@
+"""``gloffset contains``: which points of a CSV file lie in the offset region (streamed)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+import sys
+
+import click
+import numpy as np
+
+from ..contains import Index, depth_for
+from ..errors import InputFormatError
+from ..shape import read
+from . import main
+from .options import angle, distance_option, radius_option
+
+#: Accepted names of the coordinate columns (case-insensitive).
+LON_NAMES = ("lon", "lng", "long", "longitude")
+LAT_NAMES = ("lat", "latitude")
+
+
+def _column(header: list[str], names: tuple[str, ...], where: str) -> int:
+    lowered = [h.strip().lower() for h in header]
+    for name in names:
+        if name in lowered:
+            return lowered.index(name)
+    raise InputFormatError(
+        f"{where}: no {names[0]!r} column in the header (found: {', '.join(header) or 'nothing'}); "
+        f"name the coordinate columns lon and lat"
+    )
+
+
+def _coordinates(rows, lines, ilon: int, ilat: int, where: str):
+    """Lon/lat arrays of a chunk of rows; an error names the first bad line."""
+    try:
+        lon = np.array([r[ilon] for r in rows], dtype=np.float64)
+        lat = np.array([r[ilat] for r in rows], dtype=np.float64)
+    except (IndexError, ValueError):
+        for r, line in zip(rows, lines):
+            if len(r) <= max(ilon, ilat):
+                raise InputFormatError(
+                    f"{where}, line {line}: expected at least {max(ilon, ilat) + 1} fields, "
+                    f"got {len(r)}"
+                ) from None
+            for k, name in ((ilon, "lon"), (ilat, "lat")):
+                try:
+                    float(r[k])
+                except ValueError:
+                    raise InputFormatError(
+                        f"{where}, line {line}: {name} {r[k]!r} is not a number"
+                    ) from None
+        raise  # pragma: no cover  (some row failed above)
+    bad = ~(np.isfinite(lon) & np.isfinite(lat))
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise InputFormatError(
+            f"{where}, line {lines[k]}: coordinates must be finite, got "
+            f"{float(lon[k])!r}, {float(lat[k])!r}"
+        )
+    bad = np.abs(lat) > 90.0
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise InputFormatError(
+            f"{where}, line {lines[k]}: latitude {float(lat[k])!r} out of range [-90, 90]"
+        )
+    return lon, lat
+
+
+def _position(src) -> int | None:
+    """Bytes read so far from a file (ahead of the rows parsed by a buffer's size)."""
+    try:
+        return src.buffer.tell()
+    except (AttributeError, OSError):
+        return None
+
+
+def _chunks(reader, size: int):
+    """Lists of (row, line number), ``size`` rows at a time."""
+    rows, lines = [], []
+    for row in reader:
+        if not row:  # blank line
+            continue
+        rows.append(row)
+        lines.append(reader.line_num)
+        if len(rows) >= size:
+            yield rows, lines
+            rows, lines = [], []
+    if rows:
+        yield rows, lines
+
+
+@main.command("contains")
+@click.argument("input", metavar="INPUT")
+@click.argument("points", metavar="POINTS")
+@distance_option(default="0")
+@radius_option
+@click.option(
+    "-o", "--output", default="-", show_default=True, help="Output CSV file, - for stdout."
+)
+@click.option(
+    "--level",
+    type=int,
+    default=None,
+    help="Decomposition level of the candidate arcs (default: chosen).",
+)
+@click.option(
+    "--chunk", type=click.IntRange(1), default=100_000, show_default=True, help="Rows per batch."
+)
+def contains_cmd(input, points, distance, radius, output, level, chunk):
+    """Mark the points of POINTS (CSV with lon and lat columns in degrees, - for stdin) that
+    lie in the region within DIST of the curves and polygons of INPUT (GeoJSON).
+
+    The output repeats every row with a column 'inside' (true or false). Large files
+    are read and written in batches; a progress bar shows on a terminal.
+    """
+    if input == "-" and points == "-":
+        raise InputFormatError("INPUT and POINTS cannot both be read from stdin (-)")
+    d = angle(distance, radius)
+    shape = read(input)
+    where = "<stdin>" if points == "-" else points
+    if points == "-":
+        src = io.TextIOWrapper(sys.stdin.buffer, encoding="utf-8-sig", newline="")
+        size = None
+    else:
+        try:
+            src = open(points, encoding="utf-8-sig", newline="")  # a BOM is skipped
+        except OSError as exc:
+            raise InputFormatError(f"cannot read {points!r}: {exc.strerror}") from None
+        size = os.fstat(src.fileno()).st_size
+    tmp = None
+    try:
+        if output == "-":
+            dst = sys.stdout
+        else:
+            tmp = f"{output}.part"
+            try:
+                dst = open(tmp, "w", encoding="utf-8", newline="")
+            except OSError as exc:
+                raise click.ClickException(f"cannot write {output!r}: {exc.strerror}") from None
+        _run(shape, d, level, src, dst, where, size, chunk)
+        if tmp is not None:
+            dst.close()
+            os.replace(tmp, output)
+            tmp = None
+    finally:
+        src.close()
+        if tmp is not None:
+            dst.close()
+            os.remove(tmp)
+
+
+def _run(shape, d, level, src, dst, where, size, chunk):
+    reader = csv.reader(src)
+    try:
+        header = next(reader)
+    except StopIteration:
+        raise InputFormatError(f"{where}: empty file, expected a header with lon and lat") from None
+    except (csv.Error, UnicodeDecodeError) as exc:
+        raise InputFormatError(f"{where}, line 1: {exc}") from None
+    ilon = _column(header, LON_NAMES, where)
+    ilat = _column(header, LAT_NAMES, where)
+    lowered = [h.strip().lower() for h in header]
+    iout = lowered.index("inside") if "inside" in lowered else None
+    writer = csv.writer(dst, lineterminator="\n")
+    bar = None
+    if sys.stderr.isatty():
+        from tqdm import tqdm
+
+        bar = tqdm(total=size, unit="B", unit_scale=True, file=sys.stderr, dynamic_ncols=True)
+    index = None
+    done = 0
+    try:
+        batches = _chunks(reader, chunk)
+        while True:
+            try:
+                rows, lines = next(batches)
+            except StopIteration:
+                if index is None:  # no rows: the header alone
+                    writer.writerow(header if iout is not None else [*header, "inside"])
+                break
+            except (csv.Error, UnicodeDecodeError) as exc:
+                raise InputFormatError(f"{where}, line {reader.line_num}: {exc}") from None
+            lon, lat = _coordinates(rows, lines, ilon, ilat, where)
+            if index is None:  # the first batch is good: start the output
+                writer.writerow(header if iout is not None else [*header, "inside"])
+                # bins as deep as the expected number of points makes worthwhile
+                expect = len(rows)
+                read_so_far = _position(src)
+                if size and read_so_far:
+                    expect = max(expect, int(size / read_so_far * len(rows)))
+                index = Index(shape, d, radius=1.0, level=level, depth=depth_for(expect))
+            inside = index.contains(lon, lat)
+            flag = np.where(inside, "true", "false")
+            if iout is None:
+                writer.writerows(r + [f] for r, f in zip(rows, flag.tolist()))
+            else:
+                for r, f in zip(rows, flag.tolist()):
+                    r[iout] = f
+                writer.writerows(rows)
+            done += len(rows)
+            if bar is not None:
+                bar.update(((_position(src) or 0) if size else done) - bar.n)
+    finally:
+        if bar is not None:
+            bar.close()
+    return done
