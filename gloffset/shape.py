@@ -106,6 +106,7 @@ class Shape:
             raise InvalidGeometryError("empty geometry: no polygon, line or point to offset")
         self._edges: Edges | None = None
         self._ref_status: np.ndarray | None = None
+        self._overlap: bool | None = None
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -198,6 +199,35 @@ class Shape:
                     status[k, grp] = not par
             self._ref_status = status
         return _REF, self._ref_status
+
+    def overlapping_components(self) -> np.ndarray:
+        """Pairs of region components that overlap, as an (k, 2) int array (cached).
+
+        A pair overlaps when an edge of one properly crosses an edge of the other
+        (edges that only touch or coincide to 1e-13 rad, as neighbouring countries'
+        borders do, do not count), or when a vertex of one lies strictly inside the
+        other (nesting). Every operation unites components; fast paths that count
+        crossings over all rings at once use this to know where that differs.
+        """
+        if self._overlap is None:
+            self._overlap = _overlapping_components(self)
+        return self._overlap
+
+    def component_caps(self) -> tuple[np.ndarray, np.ndarray]:
+        """A bounding cap (centre, radius in radians) of each region component."""
+        e = self.edges()
+        centres = np.zeros((self.n_groups, 3))
+        radii = np.zeros(self.n_groups)
+        for k in range(self.n_groups):
+            sel = e.group == k
+            c = normalize(e.a[sel].sum(axis=0))
+            if not np.any(c):
+                radii[k] = np.pi
+                continue
+            mid = normalize(e.a[sel] + e.b[sel])
+            r = angle(c, mid) + 0.5 * angle(e.a[sel], e.b[sel])
+            centres[k], radii[k] = c, min(float(r.max()) * (1 + 1e-12) + 1e-12, np.pi)
+        return centres, radii
 
     # ------------------------------------------------------------------ output
     def to_geojson(self, *, digits: int | None = None) -> dict:
@@ -491,6 +521,49 @@ def _inner_point(shape: Shape, grp: int) -> np.ndarray:
             "(its edges overlap), so its inside is undefined"
         )
     return normalize(np.cos(eps) * m + np.sin(eps) * n)
+
+
+def _overlapping_components(shape: Shape) -> np.ndarray:
+    pairs: set = set()
+    if shape.n_groups < 2:
+        return np.zeros((0, 2), dtype=np.int64)
+    from .captree import CapTree
+    from .hierarchy import Arcs, _status_at
+    from .sphere import orient
+
+    e = shape.edges()
+    ring = np.flatnonzero(e.group >= 0)
+    a, b, g = e.a[ring], e.b[ring], e.group[ring]
+    tree = CapTree(normalize(a + b), 0.5 * angle(a, b))
+    i, j = tree.self_pairs()
+    other = g[i] != g[j]
+    i, j = i[other], j[other]
+    if len(i):
+        # a proper crossing: each arc strictly separates the other's ends, on the
+        # same side of the sphere (the rule of gloffset.sphere.arcs_cross, strict)
+        # (sides measured as angles to the great circle; within 1e-13 rad counts as
+        # touching, so borders shared up to rounding are not overlaps)
+        ni = np.linalg.norm(np.cross(a[i], b[i]), axis=1)
+        nj = np.linalg.norm(np.cross(a[j], b[j]), axis=1)
+        o1, o2 = orient(a[i], b[i], a[j]) / ni, orient(a[i], b[i], b[j]) / ni
+        o3, o4 = orient(a[j], b[j], a[i]) / nj, orient(a[j], b[j], b[i]) / nj
+        clear = np.minimum.reduce([np.abs(o1), np.abs(o2), np.abs(o3), np.abs(o4)]) > 1e-13
+        hit = clear & (o1 * o2 < 0) & (o3 * o4 < 0) & ((o3 > 0) == (o2 > 0))
+        pairs.update(zip(g[i[hit]].tolist(), g[j[hit]].tolist()))
+    # nesting: a vertex of one component strictly inside another
+    first = np.array([np.flatnonzero(g == k)[0] for k in range(shape.n_groups)])
+    p = a[first]
+    status = np.unpackbits(_status_at(shape, Arcs.from_shape(shape), p), axis=1, bitorder="little")[
+        :, : shape.n_groups
+    ].astype(bool)
+    status[np.arange(shape.n_groups), np.arange(shape.n_groups)] = False
+    for k in np.flatnonzero(status.any(axis=1)):
+        for m in np.flatnonzero(status[k]):
+            sel = g == m
+            if arc_distance(p[k], a[sel], b[sel]).min() > 1e-12:
+                pairs.add((int(k), int(m)))
+    out = np.array(sorted({(min(x, y), max(x, y)) for x, y in pairs}), dtype=np.int64)
+    return out.reshape(-1, 2)
 
 
 def _merge_geometries(geoms: list[dict]) -> dict:

@@ -235,3 +235,40 @@ def test_row_kernels_are_numpy_bit_for_bit():
     assert np.array_equal(cross(u, v), np.cross(u, v))
     assert np.array_equal(norm(u), np.linalg.norm(u, axis=-1))
     assert dot([1.0, 2.0, 3.0], [1.0, 1.0, 1.0]) == 6.0
+
+
+def test_overlapping_features_are_united():
+    """Overlapping and nested features: the fast path unites them like the reference."""
+    sq = [[0, 0], [10, 0], [10, 10], [0, 10], [0, 0]]
+    fc = {
+        "type": "FeatureCollection",
+        "features": [
+            {
+                "type": "Feature",
+                "properties": {},
+                "geometry": {"type": "Polygon", "coordinates": [c]},
+            }
+            for c in (
+                sq,
+                [[5, 5], [15, 5], [15, 15], [5, 15], [5, 5]],  # crosses the first
+                [[2, 2], [4, 2], [4, 4], [2, 4], [2, 2]],  # nested in the first
+            )
+        ],
+    }
+    shape = gloffset.read(fc)
+    assert len(shape.overlapping_components()) == 2
+    rng = np.random.default_rng(3)
+    lon, lat = rng.uniform(-5, 20, 20000), rng.uniform(-5, 20, 20000)
+    for d in (0.0, 50e3, -50e3):
+        fast = gloffset.contains(shape, lon, lat, distance=d)
+        ref = gloffset.reference.contains(shape, lon, lat, distance=d)
+        assert np.array_equal(fast, ref), d
+    assert gloffset.contains(shape, [7.0, 3.0], [7.0, 3.0]).all()  # overlap and nest
+
+
+def test_touching_countries_do_not_count_as_overlapping(world):
+    fc = {
+        "type": "FeatureCollection",
+        "features": [world["France"], world["Spain"], world["Italy"]],
+    }
+    assert len(gloffset.read(fc).overlapping_components()) == 0
