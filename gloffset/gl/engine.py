@@ -138,6 +138,19 @@ def _pad(a: np.ndarray, shape: tuple) -> np.ndarray:
     return out
 
 
+def pot_texture(ctx, array: np.ndarray, comps: int, dtype: str):
+    """A nearest-sampled texture from ``array`` (rows, cols[, comps]) padded to
+    power-of-two sides (see :func:`_pot`)."""
+    import moderngl
+
+    h, w = array.shape[:2]
+    data = _pad(np.ascontiguousarray(array), (_pot(h), _pot(w)))
+    t = ctx.texture((_pot(w), _pot(h)), comps, data.tobytes(), dtype=dtype, alignment=1)
+    t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    t.repeat_x = t.repeat_y = False
+    return t
+
+
 class GpuLevels:
     """Runs the levels below the bin level of an equirectangular grid on the GPU."""
 
@@ -151,15 +164,7 @@ class GpuLevels:
         self.upsample_vao = self.ctx.vertex_array(self.upsample, [])
 
     def _tex(self, array: np.ndarray, comps: int, dtype: str):
-        """A texture from ``array`` (rows, cols[, comps]) padded to power-of-two sides."""
-        import moderngl
-
-        h, w = array.shape[:2]
-        data = _pad(np.ascontiguousarray(array), (_pot(h), _pot(w)))
-        t = self.ctx.texture((_pot(w), _pot(h)), comps, data.tobytes(), dtype=dtype, alignment=1)
-        t.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        t.repeat_x = t.repeat_y = False
-        return t
+        return pot_texture(self.ctx, array, comps, dtype)
 
     def run(
         self,

@@ -26,7 +26,7 @@ import numpy as np
 from ..raster_input import FRONTIER, Levels, classify_cells, near_pairs
 from ..raster_input import level_centers as _centers
 from .context import get_context
-from .engine import _pad, _pot
+from .engine import _pot, pot_texture
 from .shaders import program
 
 __all__ = ["RasterLevels", "engine", "AMBIGUOUS"]
@@ -94,15 +94,7 @@ class RasterLevels:
         self.upsample_vao = self.ctx.vertex_array(self.upsample, [])
 
     def _tex(self, array: np.ndarray, comps: int, dtype: str):
-        """A texture from ``array`` (rows, cols[, comps]) padded to power-of-two sides."""
-        import moderngl
-
-        h, w = array.shape[:2]
-        data = _pad(np.ascontiguousarray(array), (_pot(h), _pot(w)))
-        t = self.ctx.texture((_pot(w), _pot(h)), comps, data.tobytes(), dtype=dtype, alignment=1)
-        t.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        t.repeat_x = t.repeat_y = False
-        return t
+        return pot_texture(self.ctx, array, comps, dtype)
 
     def run(self, lv: Levels, classes: np.ndarray, *, stop_level: int, callback=None):
         """Classes of ``stop_level`` from the bin level's ``classes``; and the number of

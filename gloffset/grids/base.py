@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import GloffsetError
 from ..sphere import angle
 
-__all__ = ["InvalidGridError", "Levels", "LonLatGrid", "COARSE_CELLS", "BIN_PIXELS"]
+__all__ = ["InvalidGridError", "Levels", "LonLatGrid", "Square", "COARSE_CELLS", "BIN_PIXELS"]
 
 #: The coarsest level has at most this many cells on its longer side.
 COARSE_CELLS = 32
@@ -70,6 +70,20 @@ class Levels:
     def rho_at(self, level: int, j, i) -> np.ndarray:
         """The bound of cells (``j``, ``i``) of ``level``."""
         return self.rho(level)[np.asarray(j)] + 0.0 * np.asarray(i)
+
+
+class Square:
+    """Mixin for ``size x size`` grids (cube faces, map tiles)."""
+
+    size: int
+
+    @property
+    def width(self) -> int:
+        return int(self.size)
+
+    @property
+    def height(self) -> int:
+        return int(self.size)
 
 
 def rect_radius(dlon_half, lat_c, lat1, lat2) -> np.ndarray:

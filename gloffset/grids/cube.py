@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..sphere import angle, normalize
-from .base import InvalidGridError, Levels, check_size
+from .base import InvalidGridError, Levels, Square, check_size
 
 __all__ = ["Cube", "CubeFace", "FACES", "FACE_NAMES", "locate"]
 
@@ -64,7 +64,7 @@ def locate(r) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 @dataclass(frozen=True)
-class CubeFace(Levels):
+class CubeFace(Square, Levels):
     """One ``size x size`` face of a cube map (``face`` 0..5 in the order of FACE_NAMES)."""
 
     face: int
@@ -74,14 +74,6 @@ class CubeFace(Levels):
         if self.face not in range(6):
             raise InvalidGridError(f"cube face must be 0..5, got {self.face!r}")
         check_size(self.size, self.size)
-
-    @property
-    def width(self) -> int:
-        return int(self.size)
-
-    @property
-    def height(self) -> int:
-        return int(self.size)
 
     @property
     def name(self) -> str:

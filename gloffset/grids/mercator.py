@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import mercantile
 import numpy as np
 
-from .base import InvalidGridError, LonLatGrid, check_size
+from .base import InvalidGridError, LonLatGrid, Square, check_size
 
 __all__ = ["Tile", "MAX_ZOOM"]
 
@@ -28,7 +28,7 @@ MAX_ZOOM = 30
 
 
 @dataclass(frozen=True)
-class Tile(LonLatGrid):
+class Tile(Square, LonLatGrid):
     """The XYZ tile ``z/x/y`` as a ``size x size`` grid.
 
     Examples
@@ -56,14 +56,6 @@ class Tile(LonLatGrid):
                 f"tile {self.z}/{self.x}/{self.y} does not exist: x and y must be in 0..{n - 1}"
             )
         check_size(self.size, self.size)
-
-    @property
-    def width(self) -> int:
-        return int(self.size)
-
-    @property
-    def height(self) -> int:
-        return int(self.size)
 
     @property
     def bounds(self) -> tuple[float, float, float, float]:
