@@ -10,6 +10,7 @@ from __future__ import annotations
 __version__ = "0.1.0"
 
 from . import grids, tiles
+from .contains import Index, contains
 from .errors import (
     GLContextError,
     GloffsetError,
@@ -18,12 +19,12 @@ from .errors import (
     InvalidGeometryError,
     InvalidLevelError,
 )
-from .contains import Index, contains
 from .multires import Decomposition, decompose
 from .offset import Offset, offset
 from .raster_input import raster_offset, rasterize
 from .reference import distance
 from .render import render
+from .selfintersect import ResolvedOffset
 from .shape import Shape, read
 from .units import EARTH_RADIUS, parse_distance
 
@@ -38,6 +39,7 @@ __all__ = [
     "Index",
     "Decomposition",
     "Offset",
+    "ResolvedOffset",
     "Shape",
     "__version__",
     "contains",

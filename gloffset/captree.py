@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sphere import angle, slerp
+from .sphere import angle, arc_distance, normalize, robust_cross, slerp
 
 __all__ = ["CapTree"]
 
@@ -39,6 +39,26 @@ def _chord_limit(radius: np.ndarray) -> np.ndarray:
 def _chord2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     diff = a - b
     return np.einsum("ij,ij->i", diff, diff)
+
+
+def _chord(angle_: np.ndarray) -> np.ndarray:
+    """Chords of angles (clamped to [0, pi]), slightly inflated; negative angles give 0."""
+    a = np.clip(angle_, 0.0, np.pi)
+    return np.where(angle_ > 0.0, 2.0 * np.sin(0.5 * a) * (1.0 + 1e-12) + 1e-15, 0.0)
+
+
+def _reduce_levels(values: np.ndarray, op, depth: int) -> list:
+    """Per-level reductions (max or min) of leaf values over the binary hierarchy."""
+    out = [values]
+    v = values
+    for _ in range(depth - 1):
+        m = len(v) // 2
+        w = op(v[0 : 2 * m : 2], v[1 : 2 * m : 2])
+        if len(v) % 2:
+            w = np.concatenate([w, v[-1:]])
+        out.append(w)
+        v = w
+    return out
 
 
 def _merge_caps(c1, r1, c2, r2):
@@ -80,7 +100,9 @@ class CapTree:
         self.radii = [np.minimum(r * (1.0 + 1e-12) + _PAD, np.pi)]
         while len(c) > 1:
             m = len(c) // 2
-            cm, rm = _merge_caps(c[0 : 2 * m : 2], r[0 : 2 * m : 2], c[1 : 2 * m : 2], r[1 : 2 * m : 2])
+            cm, rm = _merge_caps(
+                c[0 : 2 * m : 2], r[0 : 2 * m : 2], c[1 : 2 * m : 2], r[1 : 2 * m : 2]
+            )
             if len(c) % 2:
                 cm = np.vstack([cm, c[-1:]])
                 rm = np.concatenate([rm, r[-1:]])
@@ -111,7 +133,9 @@ class CapTree:
             nk = len(self.centers[k - 1])
             diag = ii == jj
             di, oi, oj = ii[diag], ii[~diag], jj[~diag]
-            ci = np.concatenate([2 * di, 2 * di, 2 * di + 1, 2 * oi, 2 * oi, 2 * oi + 1, 2 * oi + 1])
+            ci = np.concatenate(
+                [2 * di, 2 * di, 2 * di + 1, 2 * oi, 2 * oi, 2 * oi + 1, 2 * oi + 1]
+            )
             cj = np.concatenate(
                 [2 * di, 2 * di + 1, 2 * di + 1, 2 * oj, 2 * oj + 1, 2 * oj, 2 * oj + 1]
             )
@@ -144,34 +168,107 @@ class CapTree:
             Candidate pairs, a superset of those with the item's cap within reach.
         done : (m,) bool
             Points answered early (only with ``stop``).
+
+        Notes
+        -----
+        Distances are compared as chords: a cap of radius ``r`` lies within ``reach``
+        of ``p`` only if ``|p - c| <= chord(reach) + chord(r)`` (chords are
+        subadditive), a test without trigonometry per pair.
         """
         p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         reach = np.broadcast_to(np.asarray(reach, dtype=np.float64), (len(p),))
-        done = np.zeros(len(p), dtype=bool)
-        if self.n == 0 or len(p) == 0:
-            return np.zeros(0, np.int64), np.zeros(0, np.int64), done
+        m = len(p)
+        if self.n == 0 or m == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(m, dtype=bool)
         use_stop = stop is not None and self.reps is not None
+        # the queries get a hierarchy of their own (they come in curve order too): caps
+        # around the points alone, the largest reach, and the smallest stop per node
+        qt = CapTree(p, np.zeros(m))
+        q_reach = _reduce_levels(np.clip(reach, 0.0, np.pi), np.maximum, qt.depth)
         if use_stop:
-            stop_lim = np.where(
-                np.asarray(stop) > 0.0, (2.0 * np.sin(0.5 * np.clip(stop, 0.0, np.pi))) ** 2, -1.0
-            )
-        top = self.depth - 1
-        qi = np.arange(len(p), dtype=np.int64)
-        ni = np.zeros(len(p), dtype=np.int64)
-        for k in range(top, -1, -1):
-            c, r = self.centers[k], self.radii[k]
-            keep = _chord2(p[qi], c[ni]) <= _chord_limit(reach[qi] + r[ni])
-            qi, ni = qi[keep], ni[keep]
+            st = np.broadcast_to(np.asarray(stop, dtype=np.float64), (m,))
+            q_stop = _reduce_levels(np.clip(st, -1.0, np.pi), np.minimum, qt.depth)
+        lq, ld = qt.depth - 1, self.depth - 1
+        q_size = [float(np.mean(qt.radii[k] + q_reach[k])) for k in range(qt.depth)]
+        d_size = [float(np.mean(r)) for r in self.radii]
+        qi = np.zeros(1, dtype=np.int64)
+        di = np.zeros(1, dtype=np.int64)
+        done = np.zeros(1, dtype=bool)  # per query node of level lq
+        while True:
+            cq, cd = qt.centers[lq][qi], self.centers[ld][di]
+            lim = qt._chords(lq)[qi] + _chord(q_reach[lq][qi]) + self._chords(ld)[di]
+            keep = _chord2(cq, cd) <= lim * lim
+            qi, di = qi[keep], di[keep]
             if use_stop and len(qi):
-                hit = _chord2(p[qi], self.reps[k][ni]) < stop_lim[qi]
+                # every query of the node lies closer than its stop to the item's point:
+                # |c - rep| + chord(r) < chord(stop) suffices (chords are subadditive)
+                s_ch = 2.0 * np.sin(0.5 * np.clip(q_stop[lq][qi], 0.0, np.pi)) * (1.0 - 1e-12)
+                left = np.where(q_stop[lq][qi] > 0.0, s_ch - qt._chords(lq)[qi], -1.0)
+                hit = (left > 0.0) & (_chord2(cq[keep], self.reps[ld][di]) < left * left)
                 if hit.any():
                     done[qi[hit]] = True
                     keep = ~done[qi]
-                    qi, ni = qi[keep], ni[keep]
+                    qi, di = qi[keep], di[keep]
+            if lq == 0 and ld == 0:
+                break
+            # split the side whose caps are larger (queries spread far apart go first)
+            if lq > 0 and (ld == 0 or q_size[lq] >= d_size[ld]):
+                n_next = len(qt.centers[lq - 1])
+                qi = np.repeat(2 * qi, 2)
+                qi[1::2] += 1
+                di = np.repeat(di, 2)
+                done = np.repeat(done, 2)[:n_next]
+                lq -= 1
+                ok = qi < n_next
+            else:
+                n_next = len(self.centers[ld - 1])
+                qi = np.repeat(qi, 2)
+                di = np.repeat(2 * di, 2)
+                di[1::2] += 1
+                ld -= 1
+                ok = di < n_next
+            if not ok.all():
+                qi, di = qi[ok], di[ok]
+        out_done = np.zeros(m, dtype=bool)
+        if use_stop:
+            out_done[:] = done[:m]
+            keep = ~out_done[qi]
+            qi, di = qi[keep], di[keep]
+        return qi, di, out_done
+
+    def _chords(self, k: int) -> np.ndarray:
+        """Chords of the cap radii of level ``k`` (cached)."""
+        cache = self.__dict__.setdefault("_chord_cache", {})
+        if k not in cache:
+            r = self.radii[k]
+            cache[k] = 2.0 * np.sin(0.5 * np.minimum(r, np.pi)) * (1.0 + 1e-12) + 1e-15
+        return cache[k]
+
+    def along(self, a, b) -> tuple[np.ndarray, np.ndarray]:
+        """Items whose cap meets the short great-circle arc ``a[i] -> b[i]``.
+
+        Returns ``(segment, item)`` int64 arrays, a superset of the true answer (caps
+        are padded). The test per node is the exact distance from the cap centre to
+        the segment, so long segments only visit the nodes along their way.
+        """
+        a = np.asarray(a, dtype=np.float64).reshape(-1, 3)
+        b = np.asarray(b, dtype=np.float64).reshape(-1, 3)
+        if self.n == 0 or len(a) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        n = normalize(robust_cross(a, b))
+        si = np.arange(len(a), dtype=np.int64)
+        ni = np.zeros(len(a), dtype=np.int64)
+        for k in range(self.depth - 1, -1, -1):
+            c, r = self.centers[k], self.radii[k]
+            dist = arc_distance(c[ni], a[si], b[si], n[si])
+            keep = dist <= r[ni] * (1.0 + 1e-12) + 1e-14
+            si, ni = si[keep], ni[keep]
             if k > 0:
                 nk = len(self.centers[k - 1])
-                qi = np.concatenate([qi, qi])
-                ni = np.concatenate([2 * ni, 2 * ni + 1])
-                keep = ni < nk
-                qi, ni = qi[keep], ni[keep]
-        return qi, ni, done
+                si = np.repeat(si, 2)
+                ni = np.repeat(2 * ni, 2)
+                ni[1::2] += 1
+                ok = ni < nk
+                if not ok.all():
+                    si, ni = si[ok], ni[ok]
+        return si, ni

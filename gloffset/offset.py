@@ -17,11 +17,13 @@ SLERP is undefined) is split at its middle by an extra junction on the same circ
 so Eq. 1 is always well conditioned; ``r = q_k + q_{k+1}`` then holds for every
 junction except these.
 
-What is resolved and what is not: the result is the *raw* offset of the paper's
-Sec. 4.1. Every point of it lies at exactly ``|d|`` from its generating vertex or
-edge, but concave corners produce loops, and the offsets of separate parts (or of
-the two sides of a line) may overlap: removing self-intersections and uniting
-parts is a separate step (Sec. 4.4). A seam that has no partner across the
+Raw and resolved. :class:`Offset` holds the *raw* offset of the paper's Sec. 4.1:
+every point of it lies at exactly ``|d|`` from its generating vertex or edge, but
+concave corners produce loops, and the offsets of separate parts (or of the two
+sides of a line) overlap. :meth:`Offset.resolve` removes them (Sec. 4.4, see
+:mod:`gloffset.selfintersect`) and returns the true boundary of the offset region
+as valid polygons of small-circle arcs; :meth:`Offset.to_geojson` writes that by
+default (``raw=True`` writes the raw rings). A seam that has no partner across the
 antimeridian (see :mod:`gloffset.shape`) is offset like a boundary edge here,
 although the reference and raster paths ignore it.
 """
@@ -38,7 +40,7 @@ from .shape import Shape, read
 from .sphere import normalize, robust_cross, rotate, slerp
 from .units import EARTH_RADIUS, check_radius, to_angle
 
-__all__ = ["Offset", "offset"]
+__all__ = ["Offset", "OffsetRing", "offset", "sample_arc", "sample_rings"]
 
 #: Largest turn (radians) of one arc; longer arcs get an extra junction at their middle.
 _MAX_SWEEP = 2.0
@@ -134,6 +136,35 @@ def sample_arc(center, start, end, t) -> np.ndarray:
     return slerp(start - center, end - center, t) * rad + center
 
 
+def sample_rings(rings, tolerance: float = DEFAULT_TOLERANCE) -> list[np.ndarray]:
+    """Densify closed rings of small-circle arcs (:class:`OffsetRing`) into points.
+
+    ``tolerance`` is an angle (radians): the great-circle segment between two
+    consecutive points stays within it of the true small-circle arc.
+    """
+    if not tolerance > 0:
+        raise InvalidDistanceError(f"tolerance must be positive, got {tolerance!r}")
+    out = []
+    for ring in rings:
+        q, r = ring.centers, ring.junctions
+        start = np.roll(r, 1, axis=0)
+        rad = np.linalg.norm(start - q, axis=1)  # sin of the circle's angular radius
+        u0 = normalize(start - q)
+        u1 = normalize(r - q)
+        sweep = 2.0 * np.arctan2(np.linalg.norm(u0 - u1, axis=1), np.linalg.norm(u0 + u1, axis=1))
+        # sagitta of a sub-arc of turn a: rad * (1 - cos(a / 2)) <= tolerance
+        ratio = np.clip(1.0 - tolerance / np.maximum(rad, 1e-300), -1.0, 1.0)
+        step = 2.0 * np.arccos(ratio)
+        counts = np.maximum(1, np.ceil(sweep / np.maximum(step, 1e-12))).astype(np.int64)
+        counts = np.minimum(counts, 1 << 20)
+        arc_id = np.repeat(np.arange(len(q)), counts)
+        first = np.cumsum(counts) - counts
+        t = (np.arange(counts.sum()) - first[arc_id]) / counts[arc_id]
+        pts = sample_arc(q[arc_id], start[arc_id], r[arc_id], t)
+        out.append(normalize(pts))
+    return out
+
+
 class Offset:
     """The raw offset of a shape at a distance (paper Sec. 4.1).
 
@@ -167,42 +198,58 @@ class Offset:
         return [r.junctions for r in self.rings]
 
     def sample(self, tolerance: float = DEFAULT_TOLERANCE) -> list[np.ndarray]:
-        """Densified rings: points on the arcs, no arc deviating more than ``tolerance``.
+        """Densified raw rings: points on the arcs, no arc deviating more than ``tolerance``.
 
         ``tolerance`` is an angle (radians): the great-circle segment between two
         consecutive points stays within it of the true small-circle arc.
         """
-        if not tolerance > 0:
-            raise InvalidDistanceError(f"tolerance must be positive, got {tolerance!r}")
-        out = []
-        for ring in self.rings:
-            q, r = ring.centers, ring.junctions
-            start = np.roll(r, 1, axis=0)
-            rad = np.linalg.norm(start - q, axis=1)  # sin of the circle's angular radius
-            u0 = normalize(start - q)
-            u1 = normalize(r - q)
-            sweep = 2.0 * np.arctan2(
-                np.linalg.norm(u0 - u1, axis=1), np.linalg.norm(u0 + u1, axis=1)
-            )
-            # sagitta of a sub-arc of turn a: rad * (1 - cos(a / 2)) <= tolerance
-            ratio = np.clip(1.0 - tolerance / np.maximum(rad, 1e-300), -1.0, 1.0)
-            step = 2.0 * np.arccos(ratio)
-            counts = np.maximum(1, np.ceil(sweep / np.maximum(step, 1e-12))).astype(np.int64)
-            counts = np.minimum(counts, 1 << 20)
-            arc_id = np.repeat(np.arange(len(q)), counts)
-            first = np.cumsum(counts) - counts
-            t = (np.arange(counts.sum()) - first[arc_id]) / counts[arc_id]
-            pts = sample_arc(q[arc_id], start[arc_id], r[arc_id], t)
-            out.append(normalize(pts))
-        return out
+        return sample_rings(self.rings, tolerance)
+
+    def resolve(self, method: str = "general"):
+        """The offset region's boundary without self-intersections (paper Sec. 4.4).
+
+        Parameters
+        ----------
+        method : {"general", "paper"}
+            ``"general"`` (default): exact, united over all parts, with holes and
+            several components (:mod:`gloffset.selfintersect`). ``"paper"``:
+            Algorithm 1 as published, ring by ring.
+
+        Returns
+        -------
+        gloffset.selfintersect.ResolvedOffset
+            Rings of small-circle arcs (Q/R per ring), exterior/hole flags and
+            polygons; cached per method.
+
+        Notes
+        -----
+        Accuracy (``"general"``): every point of the result lies at ``|d|`` from
+        the curves to 1e-12 rad, rings do not cross, and the region equals the
+        reference region (:func:`gloffset.contains`) except within ~1e-12 rad of
+        its boundary.
+        """
+        from .selfintersect import resolve
+
+        cache = self.__dict__.setdefault("_resolved", {})
+        if method not in cache:
+            cache[method] = resolve(self, method)
+        return cache[method]
 
     def to_geojson(
-        self, *, tolerance: float = DEFAULT_TOLERANCE, digits: int | None = None
+        self,
+        *,
+        tolerance: float = DEFAULT_TOLERANCE,
+        digits: int | None = None,
+        raw: bool = False,
+        method: str = "general",
     ) -> dict:
-        """The raw offset as an RFC 7946 Feature: rings densified to ``tolerance`` (radians),
-        cut at the antimeridian, exterior rings counter-clockwise.
+        """The offset region as an RFC 7946 Feature.
 
-        Self-intersections of the raw offset are not removed (see the module notes).
+        Rings are densified to ``tolerance`` (radians), cut at the antimeridian,
+        exterior rings counter-clockwise. By default the resolved boundary
+        (:meth:`resolve` with ``method``) is written: valid polygons with holes.
+        ``raw=True`` writes the raw rings of Sec. 4.1 instead, self-intersections
+        and overlaps included.
         """
         from .io.geojson import rings_to_geometry
         from .reference import contains_xyz
@@ -212,6 +259,8 @@ class Offset:
             feat = self.shape.to_geojson(digits=digits)
             feat["properties"] = props
             return feat
+        if not raw:
+            return self.resolve(method).to_geojson(tolerance=tolerance, digits=digits)
         rings = self.sample(tolerance)
         north = bool(contains_xyz(self.shape, np.array([[0.0, 0.0, 1.0]]), self.distance)[0])
         if not rings:
@@ -238,7 +287,8 @@ def offset(shape, distance: float, *, radius: float = EARTH_RADIUS) -> Offset:
     -----
     Accuracy: every point of every arc lies at ``|distance|`` from its generating
     vertex or edge to about 1e-15 rad (Eq. 1-4 are exact up to rounding). The raw
-    offset is returned: see the module notes for what is not resolved yet.
+    offset is returned; :meth:`Offset.resolve` gives the boundary of the offset
+    region without self-intersections (Sec. 4.4).
 
     Examples
     --------

@@ -1,4 +1,9 @@
-"""``gloffset offset``: the vector offset of a GeoJSON file, written as GeoJSON."""
+"""``gloffset offset``: the vector offset of a GeoJSON file, written as GeoJSON.
+
+By default the boundary of the offset region is written as valid polygons (self-
+intersections removed, parts united, holes kept; see :mod:`gloffset.selfintersect`);
+``--raw`` writes the raw offset rings of the paper's Sec. 4.1 instead.
+"""
 
 from __future__ import annotations
 
@@ -26,12 +31,25 @@ from .options import angle, distance_option, radius_option
     help="Largest deviation of the written edges from the true arcs (a distance).",
 )
 @click.option("--digits", type=int, default=None, help="Round coordinates to this many decimals.")
-def offset_cmd(input, distance, radius, output, tolerance, digits):
+@click.option(
+    "--raw",
+    is_flag=True,
+    help="Write the raw offset rings (self-intersections and overlaps left in).",
+)
+@click.option(
+    "--method",
+    type=click.Choice(["general", "paper"]),
+    default="general",
+    show_default=True,
+    help="Self-intersection removal: exact and general, or the paper's Algorithm 1.",
+)
+def offset_cmd(input, distance, radius, output, tolerance, digits, raw, method):
     """Offset the curves and polygons of INPUT (GeoJSON path, or - for stdin)."""
     d = angle(distance, radius)
     tol = angle(tolerance, radius)
     shape = read(input)
-    feat = _offset(shape, d, radius=1.0).to_geojson(tolerance=tol, digits=digits)
+    off = _offset(shape, d, radius=1.0)
+    feat = off.to_geojson(tolerance=tol, digits=digits, raw=raw, method=method)
     feat["properties"]["distance"] = distance
     text = json.dumps({"type": "FeatureCollection", "features": [feat]})
     if output == "-":
