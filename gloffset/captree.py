@@ -189,6 +189,15 @@ class CapTree:
             st = np.broadcast_to(np.asarray(stop, dtype=np.float64), (m,))
             q_stop = _reduce_levels(np.clip(st, -1.0, np.pi), np.minimum, qt.depth)
         lq, ld = qt.depth - 1, self.depth - 1
+        # per query node: chord of its cap plus chord of its reach, and what is left of
+        # its smallest stop once its own cap is taken off (chords are subadditive)
+        q_lim = [qt._chords(k) + _chord(q_reach[k]) for k in range(qt.depth)]
+        if use_stop:
+            q_left = []
+            for k in range(qt.depth):
+                st_k = q_stop[k]
+                s_ch = 2.0 * np.sin(0.5 * np.clip(st_k, 0.0, np.pi)) * (1.0 - 1e-12)
+                q_left.append(np.where(st_k > 0.0, s_ch - qt._chords(k), -1.0))
         q_size = [float(np.mean(qt.radii[k] + q_reach[k])) for k in range(qt.depth)]
         d_size = [float(np.mean(r)) for r in self.radii]
         qi = np.zeros(1, dtype=np.int64)
@@ -196,14 +205,13 @@ class CapTree:
         done = np.zeros(1, dtype=bool)  # per query node of level lq
         while True:
             cq, cd = qt.centers[lq][qi], self.centers[ld][di]
-            lim = qt._chords(lq)[qi] + _chord(q_reach[lq][qi]) + self._chords(ld)[di]
+            lim = q_lim[lq][qi] + self._chords(ld)[di]
             keep = _chord2(cq, cd) <= lim * lim
             qi, di = qi[keep], di[keep]
             if use_stop and len(qi):
                 # every query of the node lies closer than its stop to the item's point:
                 # |c - rep| + chord(r) < chord(stop) suffices (chords are subadditive)
-                s_ch = 2.0 * np.sin(0.5 * np.clip(q_stop[lq][qi], 0.0, np.pi)) * (1.0 - 1e-12)
-                left = np.where(q_stop[lq][qi] > 0.0, s_ch - qt._chords(lq)[qi], -1.0)
+                left = q_left[lq][qi]
                 hit = (left > 0.0) & (_chord2(cq[keep], self.reps[ld][di]) < left * left)
                 if hit.any():
                     done[qi[hit]] = True

@@ -540,7 +540,9 @@ def _general(off) -> ResolvedOffset:
     src_all = np.concatenate([r.sources for r in raw])
     axis, h = circle_of(q_all)
     arcs = Arcs(axis, h, r_all[prev], r_all)
-    gens = _Generators(shape)
+    gens = getattr(shape, "_resolve_generators", None)
+    if gens is None:  # the edges' cap tree, kept with the shape like the reference's index
+        gens = shape._resolve_generators = _Generators(shape)
 
     # 1. drop arcs that lie wholly within |d| - margin of the curves, and the joins of
     # concave corners, which turn backwards and lie within |d| of the two edges there
