@@ -165,7 +165,23 @@ def sample_rings(rings, tolerance: float = DEFAULT_TOLERANCE) -> list[np.ndarray
     return out
 
 
-class Offset:
+class ArcRings:
+    """What every set of rings of small-circle arcs offers (``self.rings``: OffsetRing)."""
+
+    rings: list
+
+    @property
+    def centers(self) -> list[np.ndarray]:
+        """Small-circle centres Q of each ring (Eq. 2, 3), each (m, 3)."""
+        return [r.centers for r in self.rings]
+
+    @property
+    def junctions(self) -> list[np.ndarray]:
+        """Junction points R of each ring (Eq. 4), each (m, 3); arc k ends at R[k]."""
+        return [r.junctions for r in self.rings]
+
+
+class Offset(ArcRings):
     """The raw offset of a shape at a distance (paper Sec. 4.1).
 
     Attributes
@@ -186,16 +202,6 @@ class Offset:
         if d > 0.0:
             for line in shape.lines:
                 self.rings.append(_line_arcs(line, d))
-
-    @property
-    def centers(self) -> list[np.ndarray]:
-        """Small-circle centres Q of each ring (Eq. 2, 3), each (m, 3)."""
-        return [r.centers for r in self.rings]
-
-    @property
-    def junctions(self) -> list[np.ndarray]:
-        """Junction points R of each ring (Eq. 4), each (m, 3); arc k ends at R[k]."""
-        return [r.junctions for r in self.rings]
 
     def sample(self, tolerance: float = DEFAULT_TOLERANCE) -> list[np.ndarray]:
         """Densified raw rings: points on the arcs, no arc deviating more than ``tolerance``.

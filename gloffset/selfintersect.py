@@ -68,7 +68,7 @@ import numpy as np
 from . import crossings
 from .captree import CapTree
 from .errors import InvalidDistanceError
-from .offset import DEFAULT_TOLERANCE, OffsetRing, _circle, _ring_arcs, sample_rings
+from .offset import DEFAULT_TOLERANCE, ArcRings, OffsetRing, _circle, _ring_arcs, sample_rings
 from .smallcircle import Arcs, circle_of, intersect, point_at, position, sweep
 from .sphere import angle, arc_distance, arcs_cross, normalize, robust_cross, rotate
 
@@ -91,7 +91,7 @@ MIN_DISTANCE = 1e-9
 
 
 @dataclass
-class ResolvedOffset:
+class ResolvedOffset(ArcRings):
     """The boundary of an offset region: closed rings of small-circle arcs.
 
     Attributes
@@ -136,16 +136,6 @@ class ResolvedOffset:
 
     def __post_init__(self):
         self._parity = None
-
-    @property
-    def centers(self) -> list[np.ndarray]:
-        """Small-circle centres Q of each ring, each (m, 3)."""
-        return [r.centers for r in self.rings]
-
-    @property
-    def junctions(self) -> list[np.ndarray]:
-        """Junction points R of each ring, each (m, 3); arc k ends at R[k]."""
-        return [r.junctions for r in self.rings]
 
     def sample(self, tolerance: float = DEFAULT_TOLERANCE) -> list[np.ndarray]:
         """Densified rings (see :meth:`gloffset.Offset.sample`)."""
