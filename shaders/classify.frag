@@ -15,6 +15,7 @@ const int RECORD_TEXELS = 6;
 
 uniform usampler2D u_parent;   // classes of level l-1 (R8UI), valid inside frontier bins
 uniform usampler2D u_bins;     // per bin: first record, record count, status bits, class
+uniform usampler2D u_bin_geo;  // per bin: its geo row and column (index the geometry below)
 uniform sampler2D u_records;   // arc records, RECORD_TEXELS texels each, never split across rows
 uniform int u_record_row;      // texels used per row of u_records
 #ifdef GRID_CUBE
@@ -23,12 +24,12 @@ uniform vec3 u_face_u;
 uniform vec3 u_face_v;
 uniform float u_px;            // face coordinate (2 s - 1) per output pixel: 2 / size
 #else
-uniform sampler2D u_bin_lat;   // per bin row: (cos, sin) of the bin centre latitude
-uniform sampler2D u_bin_lon;   // per bin column: (cos, sin) of the bin centre longitude
-uniform sampler2D u_row_dphi;  // per cell row of level l: latitude minus its bin row's (float64-made)
-uniform sampler2D u_col_dlam;  // per cell column of level l: longitude minus its bin column's
+uniform sampler2D u_bin_lat;   // per geo row: (cos, sin) of the bin centre latitude
+uniform sampler2D u_bin_lon;   // per geo column: (cos, sin) of the bin centre longitude
+uniform sampler2D u_row_dphi;  // (sub-row, geo row): the cell row's latitude minus its bin's (float64-made)
+uniform sampler2D u_col_dlam;  // (sub-column, geo column): the same for longitudes
 #endif
-uniform sampler2D u_margins;   // per cell row: texel 0 (mu_lo, mu_hi, mu_rho, _), texel 1 (nu_lo, nu_hi, nu_rho, _)
+uniform sampler2D u_margins;   // (2 sub-row + k, geo row): k = 0 (mu_lo, mu_hi, mu_rho, _), 1 (nu_lo, nu_hi, nu_rho, _)
 uniform int u_shift;           // l - bin level
 uniform float u_block;         // output pixels per cell side at level l
 uniform float u_bin_block;     // output pixels per bin side
@@ -48,25 +49,27 @@ void main() {
         o_class = parent;
         return;
     }
-    ivec2 bin = cell >> u_shift;
+    ivec2 bin = cell >> u_shift;          // on the canvas
+    ivec2 sub = cell - (bin << u_shift);  // the cell within its bin
     uvec4 info = texelFetch(u_bins, bin, 0);
+    ivec2 geo = ivec2(texelFetch(u_bin_geo, bin, 0).yx);  // (column, row)
 #ifdef GRID_CUBE
-    vec2 bpx = (vec2(bin) + 0.5) * u_bin_block;  // bin centre, output pixels
-    vec2 dpx = (vec2(cell) + 0.5) * u_block - bpx;
+    vec2 bpx = (vec2(geo) + 0.5) * u_bin_block;  // bin centre, output pixels of the face
+    vec2 dpx = (vec2(sub) + 0.5) * u_block - 0.5 * u_bin_block;
     vec3 c;
     vec3 delta = cube_offset(bpx.x * u_px - 1.0, bpx.y * u_px - 1.0, dpx.x * u_px, dpx.y * u_px,
                              u_face_e, u_face_u, u_face_v, c);
 #else
-    vec2 cs_phi = texelFetch(u_bin_lat, ivec2(bin.y, 0), 0).xy;
-    vec2 cs_lam = texelFetch(u_bin_lon, ivec2(bin.x, 0), 0).xy;
+    vec2 cs_phi = texelFetch(u_bin_lat, ivec2(geo.y, 0), 0).xy;
+    vec2 cs_lam = texelFetch(u_bin_lon, ivec2(geo.x, 0), 0).xy;
     vec3 c = vec3(cs_phi.x * cs_lam.x, cs_phi.x * cs_lam.y, cs_phi.y);
-    float dphi = texelFetch(u_row_dphi, ivec2(cell.y, 0), 0).x;
-    float dlam = texelFetch(u_col_dlam, ivec2(cell.x, 0), 0).x;
+    float dphi = texelFetch(u_row_dphi, ivec2(sub.y, geo.y), 0).x;
+    float dlam = texelFetch(u_col_dlam, ivec2(sub.x, geo.x), 0).x;
     vec3 delta = lonlat_offset(cs_phi, cs_lam, dphi, dlam);
 #endif
 
-    vec4 mu = u_final ? vec4(0.0) : texelFetch(u_margins, ivec2(0, cell.y), 0);
-    vec4 nu = u_final ? vec4(0.0) : texelFetch(u_margins, ivec2(1, cell.y), 0);
+    vec4 mu = u_final ? vec4(0.0) : texelFetch(u_margins, ivec2(2 * sub.y, geo.y), 0);
+    vec4 nu = u_final ? vec4(0.0) : texelFetch(u_margins, ivec2(2 * sub.y + 1, geo.y), 0);
 
     uint bits = info.z;
     bool within = false;    // some arc within e (output level)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -25,7 +26,7 @@ from ..sphere import arc_distance
 from .context import get_context
 from .shaders import program
 
-__all__ = ["GpuLevels", "records"]
+__all__ = ["GpuLevels", "BinLayout", "records"]
 
 RECORD_TEXELS = 6
 RECORD_ROW = 682  # records per texture row: 4092 of 4096 texels, below every GL limit
@@ -151,8 +152,79 @@ def pot_texture(ctx, array: np.ndarray, comps: int, dtype: str):
     return t
 
 
+@dataclass
+class BinLayout:
+    """Where the GPU levels draw the frontier bins, and the geometry each level needs.
+
+    The passes draw into a *canvas* of bins, whose bin-level classes are ``classes``
+    (frontier bins marked FRONTIER). For a grid the canvas is the grid itself; for a
+    batch of map tiles it is an atlas whose slots hold tiles from anywhere (see
+    :mod:`gloffset.tiles`). Frontier bin ``k`` of the :class:`Frontier` is drawn at
+    canvas ``pos[k]`` (row, column) and has the *geo row and column* ``geo[k]``, which
+    index the geometry. Level ``bin level + s`` has ``2^s x 2^s`` cells per bin; per
+    geo row ``g`` and sub-row ``q < 2^s`` of it:
+
+    * ``rho[s][g, q]``: the bound of the cells of that row (for the decisions);
+    * lon/lat grids: ``lat[g]``, the latitude of the bin centres, and ``dphi[s][g, q]``,
+      the cell row's latitude minus it; per geo column ``lon`` and ``dlam`` the same;
+    * cube faces (``basis`` set): geo rows and columns are the bin's own on the face.
+
+    ``last`` is the shift of the output level (decided at the centres) and ``stop``
+    the shift to stop at. Differences are made in float64 before the cast, so the
+    shader only adds small float32 terms to small numbers.
+    """
+
+    classes: np.ndarray
+    pos: np.ndarray
+    geo: np.ndarray
+    last: int
+    stop: int
+    rho: dict
+    lat: np.ndarray | None = None
+    lon: np.ndarray | None = None
+    dphi: dict | None = None
+    dlam: dict | None = None
+    basis: np.ndarray | None = None
+    face_size: int | None = None
+
+    @classmethod
+    def of_grid(cls, grid, classes: np.ndarray, f: Frontier, stop_level: int) -> BinLayout:
+        """A grid's layout: the canvas is the grid, geo rows and columns are its bins'."""
+        bl = f.level
+        hb, wb = classes.shape
+        last = grid.n_levels - 1 - bl
+        g = np.arange(hb)
+        cube = hasattr(grid, "face")
+        rho, dphi, dlam = {}, {}, {}
+        lat = None if cube else grid.cell_lat(bl, g)
+        lon = None if cube else grid.cell_lon(bl, np.arange(wb))
+        for s in range(1, stop_level - bl + 1):
+            q = np.arange(1 << s)
+            rows = (g[:, None] << s) + q[None, :]
+            r = grid.rho(bl + s)
+            rho[s] = r[np.minimum(rows, len(r) - 1)]
+            if not cube:
+                dphi[s] = grid.cell_lat(bl + s, rows) - lat[:, None]
+                cols = (np.arange(wb)[:, None] << s) + q[None, :]
+                dlam[s] = grid.cell_lon(bl + s, cols) - lon[:, None]
+        return cls(
+            classes,
+            f.cells,
+            f.cells,
+            last,
+            stop_level - bl,
+            rho,
+            lat,
+            lon,
+            dphi,
+            dlam,
+            basis=grid.basis if cube else None,
+            face_size=int(grid.size) if cube else None,
+        )
+
+
 class GpuLevels:
-    """Runs the levels below the bin level of an equirectangular grid on the GPU."""
+    """Runs the levels below the bin level on the GPU (lon/lat grids, cube faces, atlases)."""
 
     def __init__(self):
         self.ctx = get_context()
@@ -179,11 +251,58 @@ class GpuLevels:
         timings: list | None = None,
     ) -> np.ndarray:
         """Classes of ``stop_level`` from the bin level's ``classes`` and frontier ``f``."""
+        layout = BinLayout.of_grid(grid, classes, f, stop_level)
+        bl = f.level
+
+        def cb(s, out):
+            if callback is None:
+                return
+            if s == layout.stop:
+                callback(bl + s, out)
+                return
+            # outside the frontier bins this level is its bins' class
+            h, w = grid.level_shape(bl + s)
+            up = np.repeat(np.repeat(classes, 1 << s, 0), 1 << s, 1)
+            cur = up[:h, :w].copy()
+            mask = np.zeros(classes.shape, dtype=bool)
+            mask[f.cells[:, 0], f.cells[:, 1]] = True
+            mask = np.repeat(np.repeat(mask, 1 << s, 0), 1 << s, 1)
+            cur[mask[:h, :w]] = out[:h, :w][mask[:h, :w]]
+            callback(bl + s, cur)
+
+        t = None if timings is None else []
+        out = self.run_layout(
+            layout,
+            d,
+            f,
+            arcs,
+            size=grid.level_shape(stop_level),
+            callback=cb if callback is not None else None,
+            timings=t,
+        )
+        if timings is not None:
+            timings += [(bl + s, tt) for s, tt in t]
+        return out
+
+    def run_layout(
+        self,
+        layout: BinLayout,
+        d: float,
+        f: Frontier,
+        arcs: Arcs,
+        *,
+        size: tuple[int, int] | None = None,
+        callback=None,
+        timings: list | None = None,
+    ) -> np.ndarray:
+        """Classes of the canvas at shift ``layout.stop`` (``size``: the part read back,
+        (rows, columns), default all); ``callback(s, classes)`` after each pass (the
+        frontier bins' cells only are meaningful before the last)."""
         import moderngl
 
         ctx = self.ctx
         e = abs(d)
-        bl = f.level
+        classes = layout.classes
         hb, wb = classes.shape
         rec, first, bits = records(f, arcs, e)
         n_rec = max(len(rec), 1)
@@ -193,56 +312,60 @@ class GpuLevels:
         info = np.zeros((hb, wb, 4), dtype=np.uint32)
         info[..., 3] = classes
         counts = np.bincount(f.pair_cell, minlength=len(f.cells)).astype(np.uint32)
-        fj, fi = f.cells[:, 0], f.cells[:, 1]
-        info[fj, fi, 0] = first
-        info[fj, fi, 1] = counts
-        info[fj, fi, 2] = bits
-        cube = hasattr(grid, "face")
+        pj, pi = layout.pos[:, 0], layout.pos[:, 1]
+        info[pj, pi, 0] = first
+        info[pj, pi, 1] = counts
+        info[pj, pi, 2] = bits
+        geo = np.zeros((hb, wb, 2), dtype=np.uint32)
+        geo[pj, pi] = layout.geo
+        cube = layout.basis is not None
         p = self.progs["cube" if cube else "lonlat"]
         recs = self._tex(buf.reshape(rows, RECORD_ROW * RECORD_TEXELS, 4), 4, "f4")
         bins = self._tex(info, 4, "u4")
-        textures = [recs, bins]
+        geo_t = self._tex(geo, 2, "u4")
+        coarse = self._tex(classes, 1, "u1")
+        textures = [recs, bins, geo_t, coarse]
         if cube:
-            e_, u_, v_ = grid.basis
+            e_, u_, v_ = layout.basis
             _set(p, "u_face_e", tuple(float(x) for x in e_))
             _set(p, "u_face_u", tuple(float(x) for x in u_))
             _set(p, "u_face_v", tuple(float(x) for x in v_))
-            _set(p, "u_px", 2.0 / grid.size)
+            _set(p, "u_px", 2.0 / layout.face_size)
         else:
-            lam = grid.cell_lon(bl, np.arange(wb))
-            phi = grid.cell_lat(bl, np.arange(hb))
-            lon_cs = np.stack([np.cos(lam), np.sin(lam)], axis=-1).astype(np.float32)
-            lat_cs = np.stack([np.cos(phi), np.sin(phi)], axis=-1).astype(np.float32)
+            lat, lon = layout.lat, layout.lon
+            lon_cs = np.stack([np.cos(lon), np.sin(lon)], axis=-1).astype(np.float32)
+            lat_cs = np.stack([np.cos(lat), np.sin(lat)], axis=-1).astype(np.float32)
             textures += [self._tex(lat_cs[None], 2, "f4"), self._tex(lon_cs[None], 2, "f4")]
+            textures[-2].use(3)
+            textures[-1].use(4)
             _set(p, "u_bin_lat", 3)
             _set(p, "u_bin_lon", 4)
-            textures[2].use(3)
-            textures[3].use(4)
+        _set(p, "u_parent", 0)
         _set(p, "u_bins", 1)
         _set(p, "u_records", 2)
         _set(p, "u_margins", 5)
-        _set(p, "u_bin_block", float(grid.block(bl)))
+        _set(p, "u_bin_geo", 9)
+        _set(p, "u_bin_block", float(1 << layout.last))
         _set(p, "u_positive", d >= 0)
         _set(p, "u_e", e)
         _set(p, "u_record_row", RECORD_ROW * RECORD_TEXELS)
-        parent = self._tex(classes, 1, "u1")
-        _set(p, "u_parent", 0)
         self.upsample["u_coarse"] = 6
         bins.use(1)
         recs.use(2)
-        coarse = self._tex(classes, 1, "u1")
         coarse.use(6)
-        textures.append(coarse)
-        fb = np.ascontiguousarray(f.cells[:, ::-1], dtype=np.int32)  # (column, row)
+        geo_t.use(9)
+        parent = self._tex(classes, 1, "u1")
+        fb = np.ascontiguousarray(layout.pos[:, ::-1], dtype=np.int32)  # (column, row)
         inst = ctx.buffer(fb.tobytes() if len(fb) else b"\0" * 8)
         vao = ctx.vertex_array(p, [(inst, "2i/i", "in_bin")])
-        last = grid.n_levels - 1
         out = classes
         owned = [parent]
         try:
-            for lev in range(bl + 1, stop_level + 1):
-                h, w = grid.level_shape(lev)
-                mt = self._tex(_margins(grid.rho(lev), e), 4, "f4")
+            for s in range(1, layout.stop + 1):
+                h, w = hb << s, wb << s
+                final = s == layout.last
+                rho = layout.rho[s]
+                mt = self._tex(_margins(rho.ravel(), e).reshape(len(rho), -1, 4), 4, "f4")
                 target = ctx.texture((_pot(w), _pot(h)), 1, dtype="u1")
                 target.filter = (moderngl.NEAREST, moderngl.NEAREST)
                 fbo = ctx.framebuffer(color_attachments=[target])
@@ -252,53 +375,41 @@ class GpuLevels:
                 ctx.error  # noqa: B018
                 fbo.use()
                 ctx.viewport = (0, 0, w, h)
-                if lev == stop_level:  # every pixel outside the frontier bins
-                    self.upsample["u_shift"] = lev - bl
+                if s == layout.stop:  # every pixel outside the frontier bins
+                    self.upsample["u_shift"] = s
                     self.upsample_vao.render(moderngl.TRIANGLES, vertices=3)
                 parent.use(0)
                 mt.use(5)
                 level_tex = []
-                if not cube:  # each cell's latitude and longitude minus its bin's, float64-made
-                    j, i = np.arange(h), np.arange(w)
-                    sh = lev - bl
-                    dphi = grid.cell_lat(lev, j) - grid.cell_lat(bl, j >> sh)
-                    dlam = grid.cell_lon(lev, i) - grid.cell_lon(bl, i >> sh)
+                if not cube:
                     level_tex = [
-                        self._tex(dphi.astype(np.float32)[None], 1, "f4"),
-                        self._tex(dlam.astype(np.float32)[None], 1, "f4"),
+                        self._tex(layout.dphi[s].astype(np.float32), 1, "f4"),
+                        self._tex(layout.dlam[s].astype(np.float32), 1, "f4"),
                     ]
                     level_tex[0].use(7)
                     level_tex[1].use(8)
                     _set(p, "u_row_dphi", 7)
                     _set(p, "u_col_dlam", 8)
-                _set(p, "u_shift", lev - bl)
+                _set(p, "u_shift", s)
                 _set(p, "u_size", (float(w), float(h)))
-                _set(p, "u_block", float(grid.block(lev)))
-                _set(p, "u_final", lev == last)
-                _set(p, "u_rho_max", float(grid.rho(lev).max()))
+                _set(p, "u_block", float(1 << (layout.last - s)))
+                _set(p, "u_final", final)
+                _set(p, "u_rho_max", 0.0 if final else float(rho.max()))
                 if len(fb):
                     vao.render(moderngl.TRIANGLES, vertices=6, instances=len(fb))
                 if timings is not None:
                     ctx.finish()
-                    timings.append((lev, time.perf_counter()))
+                    timings.append((s, time.perf_counter()))
+                if callback is not None or s == layout.stop:
+                    rh, rw = (h, w) if size is None or s != layout.stop else size
+                    data = fbo.read(viewport=(0, 0, rw, rh), components=1, dtype="u1")
+                    out = np.frombuffer(data, dtype=np.uint8).reshape(rh, rw)
+                    if callback is not None:
+                        callback(s, out)
                 fbo.release()
                 mt.release()
                 for t in level_tex:
                     t.release()
-                if callback is not None or lev == stop_level:
-                    full = np.frombuffer(target.read(alignment=1), dtype=np.uint8)
-                    out = full.reshape(_pot(h), _pot(w))[:h, :w]
-                    if callback is not None and lev != stop_level:
-                        # outside the frontier bins this level is its bins' class
-                        up = np.repeat(np.repeat(classes, 1 << (lev - bl), 0), 1 << (lev - bl), 1)
-                        cur = up[:h, :w].copy()
-                        mask = np.zeros(classes.shape, dtype=bool)
-                        mask[f.cells[:, 0], f.cells[:, 1]] = True
-                        mask = np.repeat(np.repeat(mask, 1 << (lev - bl), 0), 1 << (lev - bl), 1)
-                        cur[mask[:h, :w]] = out[mask[:h, :w]]
-                        callback(lev, cur)
-                    elif callback is not None:
-                        callback(lev, out)
                 for t in owned:
                     t.release()
                 owned = [target]
