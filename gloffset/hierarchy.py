@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .crossings import crossings as _crossings
-from .sphere import arc_distance, arcs_cross, normalize, robust_cross
+from .sphere import angle, arc_distance, arcs_cross, normalize, robust_cross
 
 __all__ = [
     "Arcs",
@@ -96,16 +96,6 @@ class Frontier:
     pair_cell: np.ndarray
     pair_arc: np.ndarray
     status: np.ndarray
-
-
-def _cap_filter(c: np.ndarray, rho: np.ndarray, arcs: Arcs, e: float, cell_idx, arc_idx):
-    """Keep pairs whose arc's bounding cap comes within e + rho of the cell centre."""
-    keep = np.empty(len(cell_idx), dtype=bool)
-    for s in range(0, len(cell_idx), _PAIRS):
-        ci, ai = cell_idx[s : s + _PAIRS], arc_idx[s : s + _PAIRS]
-        lim = np.cos(np.minimum(e + rho[ci] + arcs.half[ai], math.pi)) - 1e-12
-        keep[s : s + _PAIRS] = np.einsum("ij,ij->i", c[ci], arcs.mid[ai]) >= lim
-    return keep
 
 
 def _status_bits(n_groups: int, k: int) -> np.ndarray:
@@ -268,21 +258,27 @@ def _refine(f: Frontier, grid, arcs: Arcs, e: float) -> Frontier:
     offs = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
     arc_of_pair = f.pair_arc[first + offs]
 
-    # statuses: parent's, toggled by crossings of child -> parent centre
+    # one dot product per pair serves both cap tests below
+    cm = np.empty(len(child_of_pair))
+    for s in range(0, len(cm), _PAIRS):
+        sl = slice(s, s + _PAIRS)
+        cm[sl] = np.einsum("ij,ij->i", c[child_of_pair[sl]], arcs.mid[arc_of_pair[sl]])
+    half = arcs.half[arc_of_pair]
+
+    # statuses: parent's, toggled by crossings of child -> parent centre; an arc that
+    # crosses it has its bounding cap within angle(child, parent) of the child
     status = f.status[parent].copy()
-    ring = arcs.group[arc_of_pair] >= 0
+    seg = angle(c, f.centers[parent])
+    near = cm >= np.cos(np.minimum(seg[child_of_pair] + half, math.pi)) - 1e-12
+    ring = near & (arcs.group[arc_of_pair] >= 0)
     if ring.any():
         pc, pa = child_of_pair[ring], arc_of_pair[ring]
-        cr = np.zeros(len(pc), dtype=bool)
-        for s in range(0, len(pc), _PAIRS):
-            sl = slice(s, s + _PAIRS)
-            cr[sl] = arcs_cross(
-                c[pc[sl]], f.centers[parent[pc[sl]]], arcs.a[pa[sl]], arcs.b[pa[sl]]
-            )
+        cr = arcs_cross(c[pc], f.centers[parent[pc]], arcs.a[pa], arcs.b[pa])
         g = arcs.group[pa[cr]]
         np.bitwise_xor.at(status, (pc[cr], g >> 3), (1 << (g & 7)).astype(np.uint8))
 
-    keep = _cap_filter(c, rho, arcs, e, child_of_pair, arc_of_pair)
+    # candidates: arcs whose bounding cap comes within e + rho of the child's centre
+    keep = cm >= np.cos(np.minimum(e + rho[child_of_pair] + half, math.pi)) - 1e-12
     return Frontier(lev, cells, c, rho, child_of_pair[keep], arc_of_pair[keep], status)
 
 

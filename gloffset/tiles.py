@@ -24,11 +24,17 @@ list bound ``L(z, y) = r(z, y) + sum_{k=1..Z-z} r_eq(z + k)`` (``Z`` the maximum
 chain parent -> child -> ... moves at most ``r`` of each tile it passes, so
 ``L(parent) >= angle(parent, child) + L(child)`` as the refinement requires.
 
-Frontier tiles are rendered in batches: a block of ``2^k x 2^k`` frontier-bearing
-tiles of zoom ``z`` is one render of ``Tile(z - k, X, Y, size 2^k)``, whose pixel
-centres are bit-identical to those of the tiles it covers; blocks are chosen per
-quadtree node by a cost model (a fixed cost per render call plus one per pixel),
-from the whole frontier of the zoom, so a resumed run renders the same blocks.
+Frontier tiles are rendered without starting again from the top: pixel ``(i, j)`` of
+tile ``z/x/y`` (``size = 2^P``) is the centre of tile ``z+P / x 2^P + i / y 2^P + j``,
+so a tile's pixels, and its bins of 16 pixels, are deeper levels of the same
+quadtree. The hierarchy runs to zoom ``max + P``: the frontier tiles of zoom ``z``
+are refined in float64 down to their bins (zoom ``z + P - 4``), and the GPU levels
+(:class:`gloffset.gl.engine.GpuLevels`) classify the frontier bins of up to
+``(max_block / size)^2`` tiles at once, drawn into the slots of one atlas texture
+(:class:`~gloffset.gl.engine.BinLayout`), so the cost per tile is that of its
+frontier bins, not a render call. The answer is that of :func:`gloffset.render` on
+the tile's :class:`~gloffset.grids.Tile` grid: same pixel centres, same decision
+rules and precision.
 
 With an outline, decided tiles that a boundary arc may cross (distance to the
 boundary at most ``r``) are drawn (fill or nothing, plus the outline) and
@@ -48,7 +54,7 @@ import numpy as np
 
 from . import __version__
 from .errors import GloffsetError, InvalidDistanceError
-from .grids import Tile
+from .gl.engine import BinLayout
 from .grids.base import rect_radius
 from .hierarchy import (
     CONTAINED,
@@ -63,7 +69,6 @@ from .hierarchy import (
     decide,
 )
 from .io.tilestore import open_store
-from .render import render
 from .shape import read
 from .sphere import angle
 from .tilepaint import TileStyle, outline_lines
@@ -74,8 +79,10 @@ __all__ = ["pyramid", "parse_zooms", "PyramidStats", "TilesError", "MAX_ZOOM", "
 #: Deepest zoom a pyramid may reach (the raster engine is exact to a fraction of a
 #: pixel up to here).
 MAX_ZOOM = 22
-#: Largest side in pixels of one batched render.
+#: Largest side in pixels of the atlas that frontier tiles are rendered into.
 MAX_BLOCK = 4096
+#: Output pixels per side of a bin (below it the GPU takes over).
+_BIN_LOG2 = 4
 _NONE = 255  # no forced class
 
 
@@ -123,6 +130,11 @@ def _lat(z: int, yy) -> np.ndarray:
     return np.arctan(np.sinh(math.pi * (1.0 - 2.0 * np.asarray(yy, dtype=np.float64) / (1 << z))))
 
 
+def _lon(z: int, xx) -> np.ndarray:
+    """Longitude (radians) at fractional tile column ``xx`` of zoom ``z``."""
+    return -math.pi + 2.0 * math.pi * np.asarray(xx, dtype=np.float64) / (1 << z)
+
+
 def _xyz(lon, lat) -> np.ndarray:
     lon, lat = np.broadcast_arrays(lon, lat)
     c = np.cos(lat)
@@ -148,7 +160,7 @@ class TileLevels:
 
     def centers(self, z: int, j, i) -> np.ndarray:
         """Unit vectors of the centres of tiles (row ``j`` = y, column ``i`` = x) of zoom z."""
-        lon = -math.pi + 2.0 * math.pi * (np.asarray(i, dtype=np.float64) + 0.5) / (1 << z)
+        lon = _lon(z, np.asarray(i, dtype=np.float64) + 0.5)
         return _xyz(lon, _lat(z, np.asarray(j, dtype=np.float64) + 0.5))
 
     def bound(self, z: int, j) -> np.ndarray:
@@ -213,41 +225,6 @@ class PyramidStats:
             "seconds": self.seconds,
             "zooms": self.zooms,
         }
-
-
-# ---------------------------------------------------------------------- batching
-def _plan(z, xs, ys, idx, size, c0, max_block):
-    """Render calls ``(k, X, Y, members)`` covering the frontier tiles ``xs, ys`` of zoom z.
-
-    Per quadtree node, one render of the whole node or the best plans of its
-    quadrants, whichever costs less (``c0`` + pixels per call).
-    """
-    kmax = min(z, max(0, int(math.log2(max(1, max_block // size)))))
-
-    def best(k, bx, by, sel):
-        own = c0 + float(size << k) ** 2
-        if k == 0:
-            return own, [(0, bx, by, sel)]
-        qx, qy = (xs[sel] >> (k - 1)) & 1, (ys[sel] >> (k - 1)) & 1
-        cost, plans = 0.0, []
-        for dy in (0, 1):
-            for dx in (0, 1):
-                sub = sel[(qx == dx) & (qy == dy)]
-                if len(sub):
-                    c, p = best(k - 1, 2 * bx + dx, 2 * by + dy, sub)
-                    cost += c
-                    plans += p
-        if cost < own:
-            return cost, plans
-        return own, [(k, bx, by, sel)]
-
-    keys = (ys >> kmax).astype(np.int64) * (1 << max(0, z - kmax)) + (xs >> kmax)
-    order = np.argsort(keys, kind="stable")
-    out = []
-    for key in np.unique(keys):
-        sel = order[keys[order] == key]
-        out += best(kmax, int(xs[sel[0]] >> kmax), int(ys[sel[0]] >> kmax), sel)[1]
-    return [(k, bx, by, idx[sel]) for k, bx, by, sel in out]
 
 
 # ---------------------------------------------------------------------- the pyramid
@@ -328,7 +305,7 @@ def pyramid(
         A path ending in ``.mbtiles`` (MBTiles 1.3, TMS rows) or a directory
         (``z/x/y.png``); or a writer from :func:`gloffset.io.tilestore.open_store`.
     size : int
-        Tile side in pixels (16 to 4096).
+        Tile side in pixels, a power of two from 16 to 4096.
     fill, opacity, outline, outline_width
         The style (:class:`gloffset.tilepaint.TileStyle`): region colour and its
         opacity on a transparent background, and the colour and width of an
@@ -343,7 +320,8 @@ def pyramid(
     progress : callable, optional
         ``progress(done, estimate)`` after each tile handled.
     max_block : int
-        Largest side in pixels of one batched render call.
+        Largest side in pixels of the atlas that frontier tiles are rendered into
+        (at most ``(max_block / size)^2`` tiles per GPU run).
 
     Returns
     -------
@@ -375,8 +353,10 @@ def pyramid(
             f"distance {distance!r} is {abs(d):.4g} rad; tiles need less than 1.5 rad"
         )
     zlo, zhi = parse_zooms(zooms)
-    if not (isinstance(size, (int, np.integer)) and 16 <= size <= 4096):
-        raise TilesError(f"tile size must be an integer from 16 to 4096 pixels, got {size!r}")
+    if not (isinstance(size, (int, np.integer)) and 16 <= size <= 4096 and size & (size - 1) == 0):
+        raise TilesError(
+            f"tile size must be a power of two from 16 to 4096 pixels (256, 512, ...), got {size!r}"
+        )
     size = int(size)
     style = TileStyle(fill, opacity, outline, outline_width)
     params = _params(d, (zlo, zhi), size, style)
@@ -425,11 +405,11 @@ def _subtree(x, y, z, zfrom, zto, chunk=65536):
 
 def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, stats):
     arcs = Arcs.from_shape(shape)
-    levels = TileLevels(zhi)
+    plog = size.bit_length() - 1
+    levels = TileLevels(zhi + plog)  # down to the pixels of the deepest tiles
     e = abs(d)
     have = store.existing() if resume else set()
     full = style.encode(np.ones((size, size), dtype=bool))
-    c0 = 250_000 + 1500 * len(arcs.a)  # per-call cost of a render, in pixels
     counter = {"done": 0, "total": 0}
 
     def tick(n=1):
@@ -506,29 +486,105 @@ def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, st
                         store.put(*key, data)
                         stats.painted += 1
                 tick()
-            # frontier: rendered in batches
-            plans = _plan(z, cols[front], rows[front], front, size, c0, max_block)
-            for k, bx, by, members in plans:
-                todo = [i for i in members if (z, int(cols[i]), int(rows[i])) not in have]
-                stats.present += len(members) - len(todo)
-                if not todo:
-                    tick(len(members))
-                    continue
-                mask = render(shape, d, Tile(z - k, bx, by, size << k), radius=1.0)
-                stats.render_calls += 1
-                for i in todo:
-                    ox, oy = (int(cols[i]) - (bx << k)) * size, (int(rows[i]) - (by << k)) * size
-                    sub = mask[oy : oy + size, ox : ox + size]
-                    data = style.encode(sub, lines_of(f, i, z, r))
-                    stats.rendered += 1
-                    if data is None:
-                        stats.empty += 1
-                    else:
-                        store.put(z, int(cols[i]), int(rows[i]), data)
-                    tick()
-                tick(len(members) - len(todo))
+            # frontier: rendered in atlases, from their own frontier
+            todo = [i for i in front if (z, int(cols[i]), int(rows[i])) not in have]
+            stats.present += len(front) - len(todo)
+            tick(len(front) - len(todo))
+            for i, mask in _render_tiles(
+                f, np.asarray(todo, dtype=np.int64), arcs, levels, d, size, max_block, stats
+            ):
+                data = style.encode(mask, lines_of(f, i, z, r))
+                stats.rendered += 1
+                if data is None:
+                    stats.empty += 1
+                else:
+                    store.put(z, int(cols[i]), int(rows[i]), data)
+                tick()
             store.commit()
         keep = np.flatnonzero((cls == FRONTIER) | carry)
         forced = np.where(carry, cls, _NONE).astype(np.uint8)[keep]
         f = _subset(f, keep)
         parent_keys = None
+
+
+def _render_tiles(f, which, arcs, levels, d, size, max_block, stats):
+    """Masks of the frontier tiles ``which`` (indices into ``f``), as ``(index, mask)``.
+
+    The tiles are refined in float64 down to their bins (:func:`_tile_bins`), then
+    the GPU levels classify the frontier bins of up to ``(max_block / size)^2``
+    tiles per run, each tile in a slot of an atlas.
+    """
+    from .gl.engine import engine
+
+    if len(which) == 0:
+        return
+    plog = size.bit_length() - 1
+    nb = max(0, plog - _BIN_LOG2)  # tile levels refined on the CPU
+    per_side = max(1, max_block // size)
+    for s0 in range(0, len(which), per_side * per_side):
+        batch = which[s0 : s0 + per_side * per_side]
+        n = len(batch)
+        side = min(n, per_side)
+        layout, fb = _tile_bins(_subset(f, batch), arcs, levels, d, nb, plog - nb, side, n)
+        out = engine().run_layout(layout, d, fb, arcs)
+        stats.render_calls += 1
+        for k, i in enumerate(batch):
+            r0, c0 = (k // side) * size, (k % side) * size
+            yield int(i), out[r0 : r0 + size, c0 : c0 + size] == CONTAINED
+
+
+def _tile_bins(f, arcs, levels, d, nb, ns, side, n):
+    """The atlas of the ``n`` tiles of ``f`` (all frontier, ``side`` slots a row).
+
+    Refines them ``nb`` levels in float64 with the decision rules of
+    :mod:`gloffset.hierarchy` (bound: :meth:`TileLevels.bound`), painting every
+    decided cell into the bin-level classes of its tile's slot, and returns the
+    :class:`~gloffset.gl.engine.BinLayout` of the frontier bins with their
+    :class:`~gloffset.hierarchy.Frontier`. ``ns`` GPU levels remain below the bins.
+    """
+    e = abs(d)
+    z = f.level
+    nbin = 1 << nb
+    rows_slots = -(-n // side)
+    canvas = np.zeros((rows_slots * nbin, side * nbin), dtype=np.uint8)
+    tile_keys = (f.cells[:, 0] << 32) | f.cells[:, 1]  # sorted (row-major)
+    slot = np.arange(n)
+
+    def where(cells, k):
+        """Slot row and column of each cell of level z + k, and its place in the tile."""
+        t = np.searchsorted(tile_keys, ((cells[:, 0] >> k) << 32) | (cells[:, 1] >> k))
+        m = (1 << k) - 1
+        return slot[t] // side, slot[t] % side, cells[:, 0] & m, cells[:, 1] & m
+
+    if nb == 0:
+        canvas[slot // side, slot % side] = FRONTIER
+    for k in range(1, nb + 1):
+        f = _refine(f, levels, arcs, e)
+        rows = f.cells[:, 0]
+        dist, dring = cell_distances(f, arcs)
+        cls = decide(dist, dring, _inside_any(f.status), levels.bound(z + k, rows), d, False)
+        sr, sc, jr, jc = where(f.cells, k)
+        span = 1 << (nb - k)  # bins per side of a cell of this level
+        for dy in range(span):
+            for dx in range(span):
+                canvas[sr * nbin + jr * span + dy, sc * nbin + jc * span + dx] = cls
+        f = _subset(f, np.flatnonzero(cls == FRONTIER))
+    sr, sc, jr, jc = where(f.cells, nb)
+    pos = np.column_stack([sr * nbin + jr, sc * nbin + jc])
+    grow, grow_inv = np.unique(f.cells[:, 0], return_inverse=True)
+    gcol, gcol_inv = np.unique(f.cells[:, 1], return_inverse=True)
+    zb = z + nb
+    lat = _lat(zb, grow + 0.5)
+    lon = _lon(zb, gcol + 0.5)
+    rho, dphi, dlam = {}, {}, {}
+    for s in range(1, ns + 1):
+        q = np.arange(1 << s)
+        rr = (grow[:, None] << s) + q[None, :]
+        cc = (gcol[:, None] << s) + q[None, :]
+        dphi[s] = _lat(zb + s, rr + 0.5) - lat[:, None]
+        dlam[s] = _lon(zb + s, cc + 0.5) - lon[:, None]
+        rho[s] = levels.bound(zb + s, rr) if s < ns else np.zeros(rr.shape)
+    layout = BinLayout(
+        canvas, pos, np.column_stack([grow_inv, gcol_inv]), ns, ns, rho, lat, lon, dphi, dlam
+    )
+    return layout, f

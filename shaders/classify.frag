@@ -77,14 +77,16 @@ void main() {
     bool near_hi = false;   // possibly within e + rho
     bool near_rho = false;  // a ring edge possibly within rho
     int width = u_record_row;
-    float reach = length(delta);  // arcs farther than e + rho + reach from c cannot matter
+    // arcs farther than e + rho + angle(c, p) from c cannot matter (the angle, not the
+    // chord |delta|: bins of coarse tiles span tens of degrees)
+    float reach = 2.0 * asin(min(1.0, 0.5 * length(delta)));
     float skip = (u_e + u_rho_max + reach) * (1.0 + 1e-5) + 1e-12;
     for (uint k = 0u; k < info.y; ++k) {
         int r = int(info.x + k) * RECORD_TEXELS;
         ivec2 at = ivec2(r % width, r / width);
         vec4 t0 = texelFetch(u_records, at, 0);
         if (t0.x > skip) {
-            continue;  // too far for a distance test, and too far to cross p -> c
+            break;  // too far for a distance test and to cross p -> c, as are all after it
         }
         vec4 t1 = texelFetch(u_records, at + ivec2(1, 0), 0);
         vec4 t2 = texelFetch(u_records, at + ivec2(2, 0), 0);
@@ -101,7 +103,10 @@ void main() {
             bits ^= 1u << (code >> 3u);
         }
         if (u_final) {
-            within = within || (dist && v <= 0.0);
+            if (dist && v <= 0.0) {
+                within = true;  // decides the cell whatever the inside status
+                break;
+            }
         } else {
             float scale = line ? abs(t1.w) + abs(t0.w) + abs(dot(delta, t1.xyz))
                                : max(abs(t4.w), abs(t5.w)) + dot(delta, delta)
@@ -111,6 +116,9 @@ void main() {
             near_lo = near_lo || (dist && v <= m.x - slack);
             near_hi = near_hi || (dist && v <= m.y + slack);
             near_rho = near_rho || (ring && v <= m.z + slack);
+            if (near_lo) {
+                break;  // decides the cell (contained for d >= 0, outside for d < 0)
+            }
         }
     }
     bool inside = bits != 0u;

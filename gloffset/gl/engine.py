@@ -38,10 +38,14 @@ ARC_IS_ARC, ARC_HAS_DISTANCE, ARC_RING = 1, 2, 4
 def records(f: Frontier, arcs: Arcs, e: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Arc records (float32, (pairs, 6, 4)), first record and status bits per frontier bin.
 
-    All terms are computed in float64 relative to the bin centre ``c`` before the
-    cast (see ``shaders/lib/arcs.glsl`` for the layout).
+    A bin's records come nearest first (by the distance ``D`` from its centre). All
+    terms are computed in float64 relative to the bin centre ``c`` before the cast
+    (see ``shaders/lib/arcs.glsl`` for the layout).
     """
     ci, ai = f.pair_cell, f.pair_arc
+    dist = arc_distance(f.centers[ci], arcs.a[ai], arcs.b[ai], arcs.n[ai])
+    order = np.lexsort((dist, ci))  # per bin, nearest first: passes stop at the first too far
+    ci, ai, dist = ci[order], ai[order], dist[order]
     c = f.centers[ci]
     a, b, n = arcs.a[ai], arcs.b[ai], arcs.n[ai]
     se = math.sin(e)
@@ -52,7 +56,6 @@ def records(f: Frontier, arcs: Arcs, e: float) -> tuple[np.ndarray, np.ndarray, 
     ea = c - a
     eb = c - b
     rec = np.empty((len(ci), RECORD_TEXELS, 4))
-    dist = arc_distance(c, a, b, n)
     rec[:, 0, 0] = dist * (1.0 - 1e-7)  # rounded down: a lower bound after the cast
     rec[:, 0, 2] = h
     rec[:, 0, 3] = -h - se
@@ -304,6 +307,13 @@ class GpuLevels:
         e = abs(d)
         classes = layout.classes
         hb, wb = classes.shape
+        if len(layout.pos) == 0:  # nothing undecided: every cell is its bin's class
+            k = 1 << layout.stop
+            out = np.repeat(np.repeat(classes, k, 0), k, 1)
+            if callback is not None:
+                for s in range(1, layout.stop + 1):
+                    callback(s, np.repeat(np.repeat(classes, 1 << s, 0), 1 << s, 1))
+            return out if size is None else out[: size[0], : size[1]].copy()
         rec, first, bits = records(f, arcs, e)
         n_rec = max(len(rec), 1)
         rows = -(-n_rec // RECORD_ROW)
