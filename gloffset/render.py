@@ -12,7 +12,7 @@ import numpy as np
 
 from .errors import GloffsetError, InvalidDistanceError
 from .grids import Cube, CubeFace, Equirect, Tile
-from .hierarchy import CONTAINED, classify
+from .hierarchy import classify
 from .shape import read
 from .units import EARTH_RADIUS, to_angle
 
@@ -155,4 +155,5 @@ def render(
                 )
     if out == "classes":
         return classes
-    return np.where(classes == CONTAINED, 255, 0).astype(np.uint8)
+    # output-level classes are 0 or 2 (CONTAINED): 2 >> 1 = 1, times 255 (one pass)
+    return np.multiply(np.right_shift(classes, 1), 255, dtype=np.uint8)

@@ -77,9 +77,11 @@ void main() {
     bool near_hi = false;   // possibly within e + rho
     bool near_rho = false;  // a ring edge possibly within rho
     int width = u_record_row;
-    // arcs farther than e + rho + angle(c, p) from c cannot matter (the angle, not the
-    // chord |delta|: bins of coarse tiles span tens of degrees)
-    float reach = 2.0 * asin(min(1.0, 0.5 * length(delta)));
+    // arcs farther than e + rho + angle(c, p) from c cannot matter. The angle, not the
+    // chord l = |delta| (bins of coarse tiles span tens of degrees), bounded above by
+    // l (1 + l^2 / 20) for l <= 1 (GPU asin is not accurate in relative terms for tiny l)
+    float l = length(delta);
+    float reach = l <= 1.0 ? l * (1.0 + l * l / 20.0) : 2.0 * asin(min(1.0, 0.5 * l)) + 1e-5;
     float skip = (u_e + u_rho_max + reach) * (1.0 + 1e-5) + 1e-12;
     for (uint k = 0u; k < info.y; ++k) {
         int r = int(info.x + k) * RECORD_TEXELS;

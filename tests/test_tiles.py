@@ -258,6 +258,7 @@ def test_cli_tiles_and_errors(tmp_path, world):
         (["--zoom", "0-23", "--force"], "MAX <= 22"),
         (["--zoom", "3-x", "--force"], "bad zoom range"),
         (["--zoom", "0-3", "--force", "--tile-size", "8"], "tile size"),
+        (["--zoom", "0-3", "--force", "--tile-size", "300"], "power of two"),
         (["--zoom", "0-3", "--force", "--opacity", "2"], "opacity"),
         (["--zoom", "0-3", "--force", "--fill", "nocolour"], "colour"),
     ]:
@@ -268,3 +269,52 @@ def test_cli_tiles_and_errors(tmp_path, world):
     assert r.exit_code == 2 and "other options" in r.output
     r = run(main, args + ["--zoom", "0-3", "--resume"] + style)
     assert r.exit_code == 0 and "already present" in r.output
+
+
+@pytest.mark.parametrize(
+    "zmax, coords, d",
+    [
+        (16, [[10.30, 60.20], [10.31, 60.205], [10.32, 60.20]], 100.0),
+        (19, [[-70.0001, -33.0], [-70.0, -33.0001], [-69.9999, -33.0]], 10.0),
+        (22, [[179.99999, 0.0], [-179.99999, 0.00001]], 1.0),  # across the antimeridian
+    ],
+)
+def test_deep_zoom_pyramid_matches_reference(tmp_path, zmax, coords, d):
+    """Frontier tiles rendered in atlases from the pyramid's own frontier (not through
+    gloffset.render) agree with the float64 reference at deep zooms."""
+    import mercantile
+
+    line = {"type": "LineString", "coordinates": coords}
+    pyramid(line, d, (zmax, zmax), tmp_path / "deep", size=SIZE)
+    tiles = read_dir(tmp_path / "deep")
+    assert tiles and all(z == zmax for z, _, _ in tiles)
+    shape = gloffset.read(line)
+    da = d / gloffset.EARTH_RADIUS
+    pad = math.degrees(2 * da)
+    lon = [c[0] for c in coords]
+    lat = [c[1] for c in coords]
+    boxes = [(min(lat) - pad, max(lat) + pad)]
+    if max(lon) - min(lon) > 180:  # across the antimeridian: two boxes
+        west = [v for v in lon if v < 0]
+        east = [v for v in lon if v > 0]
+        lons = [(min(east) - pad, 180.0), (-180.0, max(west) + pad)]
+    else:
+        lons = [(min(lon) - pad, max(lon) + pad)]
+    keys = {
+        (t.x, t.y)
+        for w, e in lons
+        for s, n in boxes
+        for t in mercantile.tiles(w, s, e, n, zooms=[zmax])
+    }
+    assert {(x, y) for _, x, y in tiles} <= keys
+    eps = EPS * math.pi * 2 / ((1 << zmax) * SIZE)
+    n_in = 0
+    for x, y in sorted(keys):
+        p = pixel_centres(Tile(zmax, x, y, SIZE))
+        want = contains_xyz(shape, p, da)
+        png = tiles.get((zmax, x, y))
+        got = np.zeros(SIZE * SIZE, bool) if png is None else alpha(png).ravel() > 0
+        bad = np.flatnonzero(got != want)
+        assert near_boundary(shape, p[bad], da, eps).all(), (x, y, len(bad))
+        n_in += int(got.sum())
+    assert n_in > 100  # the region is resolved by many pixels

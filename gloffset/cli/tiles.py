@@ -30,7 +30,13 @@ from .options import angle, distance_option, radius_option
 )
 @click.option("--outline", default=None, help="Draw the input curves in this colour.")
 @click.option("--outline-width", type=int, default=1, show_default=True, help="In pixels.")
-@click.option("--tile-size", type=int, default=256, show_default=True, help="Tile side, pixels.")
+@click.option(
+    "--tile-size",
+    type=int,
+    default=256,
+    show_default=True,
+    help="Tile side, pixels (a power of two).",
+)
 @click.option("--name", default=None, help="Tileset name (default: the output's name).")
 @click.option("--resume", is_flag=True, help="Complete an interrupted run (same options).")
 @click.option("--force", is_flag=True, help="Replace an existing output.")
