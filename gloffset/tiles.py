@@ -28,7 +28,8 @@ Frontier tiles are rendered without starting again from the top: pixel ``(i, j)`
 tile ``z/x/y`` (``size = 2^P``) is the centre of tile ``z+P / x 2^P + i / y 2^P + j``,
 so a tile's pixels, and its bins of 16 pixels, are deeper levels of the same
 quadtree. The hierarchy runs to zoom ``max + P``: the frontier tiles of zoom ``z``
-are refined in float64 down to their bins (zoom ``z + P - 4``), and the GPU levels
+are refined in float64 down to their bins (zoom ``z + P - 4``; these levels are
+kept from zoom to zoom, so each zoom adds one, :class:`_BinChain`), and the GPU levels
 (:class:`gloffset.gl.engine.GpuLevels`) classify the frontier bins of up to
 ``(max_block / size)^2`` tiles at once, drawn into the slots of one atlas texture
 (:class:`~gloffset.gl.engine.BinLayout`), so the cost per tile is that of its
@@ -410,6 +411,7 @@ def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, st
     e = abs(d)
     have = store.existing() if resume else set()
     full = style.encode(np.ones((size, size), dtype=bool))
+    chain = _BinChain(arcs, levels, d, max(0, plog - _BIN_LOG2))
     counter = {"done": 0, "total": 0}
 
     def tick(n=1):
@@ -487,12 +489,14 @@ def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, st
                         stats.painted += 1
                 tick()
             # frontier: rendered in atlases, from their own frontier
-            todo = [i for i in front if (z, int(cols[i]), int(rows[i])) not in have]
+            chain.advance(_subset(f, front))
+            todo = [k for k, i in enumerate(front) if (z, int(cols[i]), int(rows[i])) not in have]
             stats.present += len(front) - len(todo)
             tick(len(front) - len(todo))
-            for i, mask in _render_tiles(
-                f, np.asarray(todo, dtype=np.int64), arcs, levels, d, size, max_block, stats
+            for k, mask in _render_tiles(
+                chain, np.asarray(todo, dtype=np.int64), size, max_block, stats
             ):
+                i = front[k]
                 data = style.encode(mask, lines_of(f, i, z, r))
                 stats.rendered += 1
                 if data is None:
@@ -507,84 +511,129 @@ def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, st
         parent_keys = None
 
 
-def _render_tiles(f, which, arcs, levels, d, size, max_block, stats):
-    """Masks of the frontier tiles ``which`` (indices into ``f``), as ``(index, mask)``.
+def _keys(cells: np.ndarray, k: int = 0) -> np.ndarray:
+    """Sort keys of the ancestors ``k`` levels up of ``cells`` (row-major order)."""
+    return ((cells[:, 0] >> k) << 32) | (cells[:, 1] >> k)
 
-    The tiles are refined in float64 down to their bins (:func:`_tile_bins`), then
-    the GPU levels classify the frontier bins of up to ``(max_block / size)^2``
-    tiles per run, each tile in a slot of an atlas.
+
+def _member(keys: np.ndarray, sorted_keys: np.ndarray) -> np.ndarray:
+    """Positions of ``keys`` in ``sorted_keys`` (-1 where absent)."""
+    if len(sorted_keys) == 0:
+        return np.full(len(keys), -1)
+    pos = np.minimum(np.searchsorted(sorted_keys, keys), len(sorted_keys) - 1)
+    return np.where(sorted_keys[pos] == keys, pos, -1)
+
+
+class _BinChain:
+    """The levels between the frontier tiles of a zoom and their bins, kept from zoom
+    to zoom.
+
+    For the frontier tiles of zoom ``z`` (``size = 2^P`` pixels, bins of 16) the
+    levels ``z + 1 .. z + nb`` (``nb = P - 4``) hold, per level, the decided cells
+    with their classes and the :class:`~gloffset.hierarchy.Frontier` of the others,
+    all in float64 with the decision rules of :mod:`gloffset.hierarchy` and the
+    bound :meth:`TileLevels.bound`. The frontier tiles of zoom ``z + 1`` are frontier
+    cells of level ``z + 1`` here, so their levels ``z + 2 .. z + nb`` are already
+    known: advancing a zoom filters them and computes one new level.
     """
+
+    def __init__(self, arcs, levels, d, nb):
+        self.arcs, self.levels, self.d, self.nb = arcs, levels, d, nb
+        self.z = None
+        self.lev = []  # per level z + 1 + i: (decided cells, their classes, Frontier)
+
+    def _next(self, f):
+        """Level ``f.level + 1``: the children of ``f``'s cells, classified."""
+        f = _refine(f, self.levels, self.arcs, abs(self.d))
+        dist, dring = cell_distances(f, self.arcs)
+        r = self.levels.bound(f.level, f.cells[:, 0])
+        cls = decide(dist, dring, _inside_any(f.status), r, self.d, False)
+        dec = np.flatnonzero(cls != FRONTIER)
+        return f.cells[dec], cls[dec], _subset(f, np.flatnonzero(cls == FRONTIER))
+
+    def advance(self, f):
+        """Make the chain that of the tiles of ``f`` (frontier tiles of zoom ``f.level``)."""
+        keys = _keys(f.cells)
+        if self.z is not None and self.z + 1 == f.level and self.nb > 1:
+            lev = []
+            for k, (dc, dcls, fr) in enumerate(self.lev[1:], start=1):
+                keep = _member(_keys(dc, k), keys) >= 0
+                inner = np.flatnonzero(_member(_keys(fr.cells, k), keys) >= 0)
+                lev.append((dc[keep], dcls[keep], _subset(fr, inner)))
+            lev.append(self._next(lev[-1][2]))
+        else:
+            lev, cur = [], f
+            for _ in range(self.nb):
+                lev.append(self._next(cur))
+                cur = lev[-1][2]
+        self.z, self.lev, self.f = f.level, lev, f
+
+    def layout(self, which, side, ns):
+        """The atlas of the tiles ``which`` (indices into the tiles, ``side`` slots a
+        row) and the Frontier of its bins: every decided cell painted into the
+        bin-level classes of its tile's slot, frontier bins left to ``ns`` GPU levels."""
+        nb = self.nb
+        nbin = 1 << nb
+        n = len(which)
+        canvas = np.zeros((-(-n // side) * nbin, side * nbin), dtype=np.uint8)
+        order = np.argsort(_keys(self.f.cells[which]))
+        tkeys = _keys(self.f.cells[which])[order]  # the batch's tiles, sorted
+        slot = order  # slot k holds tile which[k]
+
+        def place(cells, k):
+            t = _member(_keys(cells, k), tkeys)
+            sel = np.flatnonzero(t >= 0)
+            m = (1 << k) - 1
+            s = slot[t[sel]]
+            return sel, s // side, s % side, cells[sel, 0] & m, cells[sel, 1] & m
+
+        if nb == 0:
+            fb = _subset(self.f, np.sort(np.asarray(which)))
+            bins = self.f.cells[np.sort(np.asarray(which))]
+        for k, (dc, dcls, fr) in enumerate(self.lev, start=1):
+            sel, sr, sc, jr, jc = place(dc, k)
+            span = 1 << (nb - k)  # bins per side of a cell of this level
+            for dy in range(span):
+                for dx in range(span):
+                    canvas[sr * nbin + jr * span + dy, sc * nbin + jc * span + dx] = dcls[sel]
+            if k == nb:
+                sel, *_ = place(fr.cells, k)
+                fb = _subset(fr, sel)
+                bins = fb.cells
+        _, sr, sc, jr, jc = place(bins, nb)
+        pos = np.column_stack([sr * nbin + jr, sc * nbin + jc])
+        canvas[pos[:, 0], pos[:, 1]] = FRONTIER
+        grow, grow_inv = np.unique(bins[:, 0], return_inverse=True)
+        gcol, gcol_inv = np.unique(bins[:, 1], return_inverse=True)
+        zb = self.f.level + nb
+        lat = _lat(zb, grow + 0.5)
+        lon = _lon(zb, gcol + 0.5)
+        rho, dphi, dlam = {}, {}, {}
+        for s in range(1, ns + 1):
+            q = np.arange(1 << s)
+            rr = (grow[:, None] << s) + q[None, :]
+            cc = (gcol[:, None] << s) + q[None, :]
+            dphi[s] = _lat(zb + s, rr + 0.5) - lat[:, None]
+            dlam[s] = _lon(zb + s, cc + 0.5) - lon[:, None]
+            rho[s] = self.levels.bound(zb + s, rr) if s < ns else np.zeros(rr.shape)
+        ids = np.column_stack([grow_inv, gcol_inv])
+        return BinLayout(canvas, pos, ids, ns, ns, rho, lat, lon, dphi, dlam), fb
+
+
+def _render_tiles(chain, which, size, max_block, stats):
+    """Masks of the frontier tiles ``which`` (indices into the chain's tiles), as
+    ``(index, mask)``: the GPU levels classify the frontier bins of up to
+    ``(max_block / size)^2`` tiles per run, each tile in a slot of an atlas."""
     from .gl.engine import engine
 
-    if len(which) == 0:
-        return
     plog = size.bit_length() - 1
-    nb = max(0, plog - _BIN_LOG2)  # tile levels refined on the CPU
     per_side = max(1, max_block // size)
     for s0 in range(0, len(which), per_side * per_side):
         batch = which[s0 : s0 + per_side * per_side]
-        n = len(batch)
-        side = min(n, per_side)
-        layout, fb = _tile_bins(_subset(f, batch), arcs, levels, d, nb, plog - nb, side, n)
-        out = engine().run_layout(layout, d, fb, arcs)
+        side = min(len(batch), per_side)
+        layout, fb = chain.layout(batch, side, plog - chain.nb)
+        out = engine().run_layout(layout, chain.d, fb, chain.arcs)
         stats.render_calls += 1
         for k, i in enumerate(batch):
             r0, c0 = (k // side) * size, (k % side) * size
             yield int(i), out[r0 : r0 + size, c0 : c0 + size] == CONTAINED
-
-
-def _tile_bins(f, arcs, levels, d, nb, ns, side, n):
-    """The atlas of the ``n`` tiles of ``f`` (all frontier, ``side`` slots a row).
-
-    Refines them ``nb`` levels in float64 with the decision rules of
-    :mod:`gloffset.hierarchy` (bound: :meth:`TileLevels.bound`), painting every
-    decided cell into the bin-level classes of its tile's slot, and returns the
-    :class:`~gloffset.gl.engine.BinLayout` of the frontier bins with their
-    :class:`~gloffset.hierarchy.Frontier`. ``ns`` GPU levels remain below the bins.
-    """
-    e = abs(d)
-    z = f.level
-    nbin = 1 << nb
-    rows_slots = -(-n // side)
-    canvas = np.zeros((rows_slots * nbin, side * nbin), dtype=np.uint8)
-    tile_keys = (f.cells[:, 0] << 32) | f.cells[:, 1]  # sorted (row-major)
-    slot = np.arange(n)
-
-    def where(cells, k):
-        """Slot row and column of each cell of level z + k, and its place in the tile."""
-        t = np.searchsorted(tile_keys, ((cells[:, 0] >> k) << 32) | (cells[:, 1] >> k))
-        m = (1 << k) - 1
-        return slot[t] // side, slot[t] % side, cells[:, 0] & m, cells[:, 1] & m
-
-    if nb == 0:
-        canvas[slot // side, slot % side] = FRONTIER
-    for k in range(1, nb + 1):
-        f = _refine(f, levels, arcs, e)
-        rows = f.cells[:, 0]
-        dist, dring = cell_distances(f, arcs)
-        cls = decide(dist, dring, _inside_any(f.status), levels.bound(z + k, rows), d, False)
-        sr, sc, jr, jc = where(f.cells, k)
-        span = 1 << (nb - k)  # bins per side of a cell of this level
-        for dy in range(span):
-            for dx in range(span):
-                canvas[sr * nbin + jr * span + dy, sc * nbin + jc * span + dx] = cls
-        f = _subset(f, np.flatnonzero(cls == FRONTIER))
-    sr, sc, jr, jc = where(f.cells, nb)
-    pos = np.column_stack([sr * nbin + jr, sc * nbin + jc])
-    grow, grow_inv = np.unique(f.cells[:, 0], return_inverse=True)
-    gcol, gcol_inv = np.unique(f.cells[:, 1], return_inverse=True)
-    zb = z + nb
-    lat = _lat(zb, grow + 0.5)
-    lon = _lon(zb, gcol + 0.5)
-    rho, dphi, dlam = {}, {}, {}
-    for s in range(1, ns + 1):
-        q = np.arange(1 << s)
-        rr = (grow[:, None] << s) + q[None, :]
-        cc = (gcol[:, None] << s) + q[None, :]
-        dphi[s] = _lat(zb + s, rr + 0.5) - lat[:, None]
-        dlam[s] = _lon(zb + s, cc + 0.5) - lon[:, None]
-        rho[s] = levels.bound(zb + s, rr) if s < ns else np.zeros(rr.shape)
-    layout = BinLayout(
-        canvas, pos, np.column_stack([grow_inv, gcol_inv]), ns, ns, rho, lat, lon, dphi, dlam
-    )
-    return layout, f
