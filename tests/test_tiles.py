@@ -318,3 +318,15 @@ def test_deep_zoom_pyramid_matches_reference(tmp_path, zmax, coords, d):
         assert near_boundary(shape, p[bad], da, eps).all(), (x, y, len(bad))
         n_in += int(got.sum())
     assert n_in > 100  # the region is resolved by many pixels
+
+
+@pytest.mark.parametrize("size", [16, 512])
+def test_pyramid_tiles_equal_render_for_other_tile_sizes(tmp_path, size):
+    """Tiles of 16 pixels (a tile is one bin, no float64 level below it) and of 512
+    equal gloffset.render on the same Tile grid."""
+    pyramid(SQUARE, 300e3, (0, 3), tmp_path / "o", size=size)
+    tiles = read_dir(tmp_path / "o")
+    assert len(tiles) > 10
+    for (z, x, y), png in tiles.items():
+        want = gloffset.render(SQUARE, 300e3, Tile(z, x, y, size)) > 0
+        assert np.array_equal(alpha(png) > 0, want), (z, x, y)
