@@ -16,8 +16,9 @@ const int RECORD_TEXELS = 6;
 uniform usampler2D u_parent;   // classes of level l-1 (R8UI), valid inside frontier bins
 uniform usampler2D u_bins;     // per bin: first record, record count, status bits, class
 uniform usampler2D u_bin_geo;  // per bin: its geo row and column (index the geometry below)
-uniform sampler2D u_records;   // arc records, RECORD_TEXELS texels each, never split across rows
-uniform int u_record_row;      // texels used per row of u_records
+layout(std430, binding = 0) readonly buffer Records {
+    vec4 records[];            // arc records, RECORD_TEXELS vec4 each (lib/arcs.glsl)
+};
 #ifdef GRID_CUBE
 uniform vec3 u_face_e;         // cube face axis; u_face_u, u_face_v: directions of s and t
 uniform vec3 u_face_u;
@@ -76,7 +77,6 @@ void main() {
     bool near_lo = false;   // surely within e - rho
     bool near_hi = false;   // possibly within e + rho
     bool near_rho = false;  // a ring edge possibly within rho
-    int width = u_record_row;
     // arcs farther than e + rho + angle(c, p) from c cannot matter. The angle, not the
     // chord l = |delta| (bins of coarse tiles span tens of degrees), bounded above by
     // l (1 + l^2 / 20) for l <= 1 (GPU asin is not accurate in relative terms for tiny l)
@@ -85,16 +85,15 @@ void main() {
     float skip = (u_e + u_rho_max + reach) * (1.0 + 1e-5) + 1e-12;
     for (uint k = 0u; k < info.y; ++k) {
         int r = int(info.x + k) * RECORD_TEXELS;
-        ivec2 at = ivec2(r % width, r / width);
-        vec4 t0 = texelFetch(u_records, at, 0);
+        vec4 t0 = records[r];
         if (t0.x > skip) {
             break;  // too far for a distance test and to cross p -> c, as are all after it
         }
-        vec4 t1 = texelFetch(u_records, at + ivec2(1, 0), 0);
-        vec4 t2 = texelFetch(u_records, at + ivec2(2, 0), 0);
-        vec4 t3 = texelFetch(u_records, at + ivec2(3, 0), 0);
-        vec4 t4 = texelFetch(u_records, at + ivec2(4, 0), 0);
-        vec4 t5 = texelFetch(u_records, at + ivec2(5, 0), 0);
+        vec4 t1 = records[r + 1];
+        vec4 t2 = records[r + 2];
+        vec4 t3 = records[r + 3];
+        vec4 t4 = records[r + 4];
+        vec4 t5 = records[r + 5];
         uint code = uint(t0.y);
         uint flags = code & 7u;
         bool line = ((flags & ARC_IS_ARC) != 0u) && arc_in_wedge(delta, t2, t3);

@@ -169,6 +169,23 @@ def test_metres_and_mexico_10m(mexico_path):
     assert np.array_equal(mask, cpu)
 
 
+def test_records_split_over_storage_buffers(world, monkeypatch):
+    """When the candidate arcs exceed one GL storage buffer they go in groups of whole
+    bins, one draw each, with the same image; a single bin over the limit is an error."""
+    from gloffset.errors import GLContextError
+    from gloffset.gl.engine import engine
+
+    shape = gloffset.read(world["Japan"])
+    grid = Equirect(600, 400, (125, 25, 150, 46))
+    whole = gloffset.render(shape, 0.01, grid, radius=1.0)
+    assert (whole == 255).any() and (whole == 0).any()
+    monkeypatch.setattr(engine(), "max_records", 40)
+    assert np.array_equal(gloffset.render(shape, 0.01, grid, radius=1.0), whole)
+    monkeypatch.setattr(engine(), "max_records", 1)
+    with pytest.raises(GLContextError, match="storage buffer"):
+        gloffset.render(shape, 0.01, grid, radius=1.0)
+
+
 def test_no_gl_error_left_behind(world):
     from gloffset.gl import get_context
 

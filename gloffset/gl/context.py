@@ -100,5 +100,6 @@ def context_info() -> dict:
         "max_texture_size": int(info["GL_MAX_TEXTURE_SIZE"]),
         "max_viewport_dims": tuple(int(x) for x in info["GL_MAX_VIEWPORT_DIMS"]),
         "max_renderbuffer_size": int(info["GL_MAX_RENDERBUFFER_SIZE"]),
+        "max_storage_block_size": int(info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"]),
         "software": _is_software(ctx),
     }

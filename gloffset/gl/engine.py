@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import GLContextError
 from ..hierarchy import Arcs, Frontier
 from ..sphere import arc_distance
 from .context import get_context
@@ -29,7 +30,6 @@ from .shaders import program
 __all__ = ["GpuLevels", "BinLayout", "records"]
 
 RECORD_TEXELS = 6
-RECORD_ROW = 682  # records per texture row: 4092 of 4096 texels, below every GL limit
 MAX_LOCAL = 30  # components with their own status bit per bin; more share bit 30
 OTHER_BIT = 31  # set when the bin centre is inside a component with no arc in the bin
 ARC_IS_ARC, ARC_HAS_DISTANCE, ARC_RING = 1, 2, 4
@@ -226,11 +226,33 @@ class BinLayout:
         )
 
 
+def _groups(first: np.ndarray, counts: np.ndarray, limit: int) -> list[tuple[int, int]]:
+    """Consecutive bins ``[g0, g1)`` whose records (``first``, ``counts``, contiguous and
+    in bin order) number at most ``limit`` per group."""
+    if len(first) == 0:
+        return []
+    if counts.max(initial=0) > limit:
+        raise GLContextError(
+            f"a bin has {int(counts.max())} candidate arcs, more than the {limit} records one "
+            "GL storage buffer holds here; render a smaller image or simplify the shape"
+        )
+    ends = first.astype(np.int64) + counts
+    out, g0 = [], 0
+    while g0 < len(first):
+        g1 = int(np.searchsorted(ends, int(first[g0]) + limit, side="right"))
+        g1 = max(g1, g0 + 1)
+        out.append((g0, g1))
+        g0 = g1
+    return out
+
+
 class GpuLevels:
     """Runs the levels below the bin level on the GPU (lon/lat grids, cube faces, atlases)."""
 
     def __init__(self):
         self.ctx = get_context()
+        limit = int(self.ctx.info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"])
+        self.max_records = max(1, limit // (RECORD_TEXELS * 16))
         self.progs = {
             "lonlat": program(self.ctx, "bins.vert", "classify.frag"),
             "cube": program(self.ctx, "bins.vert", "classify.frag", {"GRID_CUBE": 1}),
@@ -315,10 +337,6 @@ class GpuLevels:
                     callback(s, np.repeat(np.repeat(classes, 1 << s, 0), 1 << s, 1))
             return out if size is None else out[: size[0], : size[1]].copy()
         rec, first, bits = records(f, arcs, e)
-        n_rec = max(len(rec), 1)
-        rows = -(-n_rec // RECORD_ROW)
-        buf = np.zeros((rows * RECORD_ROW, RECORD_TEXELS, 4), dtype=np.float32)
-        buf[: len(rec)] = rec
         info = np.zeros((hb, wb, 4), dtype=np.uint32)
         info[..., 3] = classes
         counts = np.bincount(f.pair_cell, minlength=len(f.cells)).astype(np.uint32)
@@ -330,11 +348,16 @@ class GpuLevels:
         geo[pj, pi] = layout.geo
         cube = layout.basis is not None
         p = self.progs["cube" if cube else "lonlat"]
-        recs = self._tex(buf.reshape(rows, RECORD_ROW * RECORD_TEXELS, 4), 4, "f4")
+        # the records go to storage buffers (faster than textures on llvmpipe), in
+        # groups of whole bins that each fit the GL limit on one buffer
+        groups = _groups(first, counts, self.max_records)
+        info[pj, pi, 0] = first - np.repeat(
+            first[[g0 for g0, _ in groups]], [g1 - g0 for g0, g1 in groups]
+        )
         bins = self._tex(info, 4, "u4")
         geo_t = self._tex(geo, 2, "u4")
         coarse = self._tex(classes, 1, "u1")
-        textures = [recs, bins, geo_t, coarse]
+        textures = [bins, geo_t, coarse]
         if cube:
             e_, u_, v_ = layout.basis
             _set(p, "u_face_e", tuple(float(x) for x in e_))
@@ -352,22 +375,23 @@ class GpuLevels:
             _set(p, "u_bin_lon", 4)
         _set(p, "u_parent", 0)
         _set(p, "u_bins", 1)
-        _set(p, "u_records", 2)
         _set(p, "u_margins", 5)
         _set(p, "u_bin_geo", 9)
         _set(p, "u_bin_block", float(1 << layout.last))
         _set(p, "u_positive", d >= 0)
         _set(p, "u_e", e)
-        _set(p, "u_record_row", RECORD_ROW * RECORD_TEXELS)
         self.upsample["u_coarse"] = 6
         bins.use(1)
-        recs.use(2)
         coarse.use(6)
         geo_t.use(9)
         parent = self._tex(classes, 1, "u1")
         fb = np.ascontiguousarray(layout.pos[:, ::-1], dtype=np.int32)  # (column, row)
-        inst = ctx.buffer(fb.tobytes() if len(fb) else b"\0" * 8)
-        vao = ctx.vertex_array(p, [(inst, "2i/i", "in_bin")])
+        draws = []  # per group: records, instance buffer (bin positions), vertex array
+        for g0, g1 in groups:
+            r0, r1 = int(first[g0]), int(first[g1 - 1] + counts[g1 - 1])
+            recs = ctx.buffer(rec[r0:r1].tobytes() if r1 > r0 else bytes(RECORD_TEXELS * 16))
+            inst = ctx.buffer(fb[g0:g1].tobytes())
+            draws.append((recs, inst, ctx.vertex_array(p, [(inst, "2i/i", "in_bin")]), g1 - g0))
         out = classes
         owned = [parent]
         try:
@@ -405,8 +429,9 @@ class GpuLevels:
                 _set(p, "u_block", float(1 << (layout.last - s)))
                 _set(p, "u_final", final)
                 _set(p, "u_rho_max", 0.0 if final else float(rho.max()))
-                if len(fb):
-                    vao.render(moderngl.TRIANGLES, vertices=6, instances=len(fb))
+                for recs, _, vao, n in draws:
+                    recs.bind_to_storage_buffer(0)
+                    vao.render(moderngl.TRIANGLES, vertices=6, instances=n)
                 if timings is not None:
                     ctx.finish()
                     timings.append((s, time.perf_counter()))
@@ -425,8 +450,9 @@ class GpuLevels:
                 owned = [target]
                 parent = target
         finally:
-            vao.release()
-            inst.release()
+            for objs in draws:
+                for o in objs[:3]:
+                    o.release()
             for t in owned + textures:
                 t.release()
         return out.copy()
