@@ -9,16 +9,23 @@ single resolution (Sec. 5.1), the hierarchical version (Sec. 5.2), the fallback,
 and the public :func:`raster_offset`. The GPU levels are in
 :mod:`gloffset.gl.raster_engine`; they return exactly these classes.
 
+Grids: :class:`~gloffset.grids.Equirect`, and :class:`~gloffset.grids.Cube` whose six
+faces are one set of cells (:class:`~gloffset.grids.cube.CubeCells`: faces stacked as
+rows, neighbours across face edges and corners from the geometry), so the ordering
+of the intersected cells, the region growing and the offset run across faces.
+
 The classification (all of it in squared chords between float64 cell centres)
 -------------------------------------------------------------------------------
 Let ``s`` be the largest area bound (the paper's ``d_g / 2``) of the output cells
 in the rows that hold intersected cells: the curve passes within ``s`` of the
 centre of every intersected output cell, and every point of the curve lies within
-``s`` of one. For a cell ``q`` of level ``l`` with bound ``rho_q``
-(:meth:`Equirect.rho`, 0 at the output level) let ``D(q)`` be the angle from its
-centre to the nearest centre of an intersected cell of the same level, and
+``s`` of one (cube: the largest per-pixel bound, its farthest corner, of the
+intersected pixels). For a cell ``q`` of level ``l`` with bound ``rho_q``
+(:meth:`Equirect.rho`, per row; 0 at the output level) let ``D(q)`` be the angle
+from its centre to the nearest centre of an intersected cell of the same level, and
 ``R_l`` the largest ``rho`` of the rows of level ``l`` that hold intersected cells
-(0 at the output level). Then, with ``d`` the offset distance,
+(cube: of the intersected cells themselves; 0 at the output level). Then, with
+``d`` the offset distance,
 
 * contained when ``D(q) < d_min = d - s - rho_q - R_l``,
 * outside when ``D(q) >= d_max = d + 2 s + rho_q + R_l``,
@@ -37,11 +44,12 @@ below gives bit-identical classes.
 
 Meaning of the output classes (the accuracy contract): when the mask is exactly
 the set of output cells that the curve ``C`` passes through, a *contained* cell's
-centre lies within ``d`` of ``C``; an *outside* cell lies entirely (every point of
-its rectangle) farther than ``d`` from ``C``; *frontier* cells are undecided. So
-``contained ⊆ offset ⊆ contained ∪ frontier`` at cell centres. :func:`rasterize`
-marks the cells an arc passes within 1e-7 pixel of, so for a rasterized
-:class:`Shape` these hold up to 1e-7 of a pixel.
+centre lies within ``d`` of ``C``; an *outside* cell's centre is farther than
+``d + s`` from ``C``, so the whole cell is farther than ``d`` when its own area bound
+is at most ``s`` (pixels no larger than the curve's largest); *frontier* cells are
+undecided. So ``contained ⊆ offset ⊆ contained ∪ frontier`` at cell centres.
+:func:`rasterize` marks the cells an arc passes within 1e-7 pixel of, so for a
+rasterized :class:`Shape` these hold up to 1e-7 of a pixel.
 """
 
 from __future__ import annotations
@@ -54,8 +62,9 @@ from functools import lru_cache
 import numpy as np
 
 from .errors import GloffsetError, InvalidDistanceError
-from .grids import Equirect
+from .grids import Cube, Equirect
 from .grids.base import LonLatGrid, rect_radius
+from .grids.cube import CubeCells, locate, project
 from .shape import read
 from .sphere import normalize, robust_cross
 from .units import EARTH_RADIUS, to_angle
@@ -107,7 +116,8 @@ def level_centers(grid, level: int, flat: np.ndarray) -> np.ndarray:
     """Unit vectors (n, 3) of the cells ``flat`` (row * width + column) of ``level``.
 
     Grids whose rows are parallels use per-level tables (:func:`_tables`); other
-    grids (a future cube face) their own ``centers``.
+    grids (the stacked cube faces, :class:`~gloffset.grids.cube.CubeCells`) their own
+    ``centers``.
     """
     w = grid.level_shape(level)[1]
     j, i = np.divmod(np.asarray(flat, dtype=np.int64), w)
@@ -154,7 +164,10 @@ def _wraps(grid, level: int) -> bool:
 
 
 def neighbours(grid, level: int, flat: np.ndarray) -> np.ndarray:
-    """The 8-neighbours (flattened, unique) of the cells ``flat`` of ``level``."""
+    """The 8-neighbours (flattened, unique) of the cells ``flat`` of ``level`` (on a
+    :class:`~gloffset.grids.cube.CubeCells` grid: every cell touching, across face edges)."""
+    if hasattr(grid, "neighbours"):
+        return grid.neighbours(level, flat)
     h, w = grid.level_shape(level)
     j, i = np.divmod(np.asarray(flat, dtype=np.int64), w)
     wrap = _wraps(grid, level)
@@ -254,7 +267,9 @@ def _crossings(grid, a, b, n, u, theta):
     return edges, ts
 
 
-def _rasterize(shape, grid) -> tuple[np.ndarray, list[np.ndarray]]:
+def _arcs(shape):
+    """The curve's arcs ``p(t) = cos t a + sin t u``, ``0 <= t <= theta`` (ring edges but
+    antimeridian/pole seams, and lines), with their part (ring or line) and normal."""
     e = shape.edges()
     # parts: each ring and each line, in edge order; seams are no curve
     part = np.concatenate(
@@ -269,6 +284,22 @@ def _rasterize(shape, grid) -> tuple[np.ndarray, list[np.ndarray]]:
     theta = np.where(
         is_arc, 2.0 * np.arctan2(np.linalg.norm(a - b, axis=1), np.linalg.norm(a + b, axis=1)), 0.0
     )
+    return a, b, part, n, is_arc, u, theta
+
+
+def _ordered_parts(cells: np.ndarray, cpart: np.ndarray) -> list[np.ndarray]:
+    """Cells in curve order per part (``cells`` already in order), repeats dropped."""
+    parts = []
+    for k in np.unique(cpart):
+        c = cells[cpart == k]
+        if len(c):
+            c = c[np.concatenate([[True], c[1:] != c[:-1]])]
+            parts.append(c)
+    return parts
+
+
+def _rasterize(shape, grid) -> tuple[np.ndarray, list[np.ndarray]]:
+    a, b, part, n, is_arc, u, theta = _arcs(shape)
     ce, ct = _crossings(grid, a[is_arc], b[is_arc], n[is_arc], u[is_arc], theta[is_arc])
     arc_ids = np.flatnonzero(is_arc)
     edges = np.concatenate([np.arange(len(a)), np.flatnonzero(is_arc), arc_ids[ce]])
@@ -288,14 +319,84 @@ def _rasterize(shape, grid) -> tuple[np.ndarray, list[np.ndarray]]:
     mask = np.zeros(grid.height * grid.width, dtype=bool)
     mask[cells] = True
     # order along each part: cells in parameter order, consecutive repeats dropped
-    cpart = part[edges[pid]]
-    parts = []
-    for k in np.unique(cpart):
-        c = cells[cpart == k]
-        if len(c):
-            c = c[np.concatenate([[True], c[1:] != c[:-1]])]
-            parts.append(c)
-    return mask.reshape(grid.shape), parts
+    return mask.reshape(grid.shape), _ordered_parts(cells, part[edges[pid]])
+
+
+# the planes where two coordinates have the same magnitude: the face boundaries lie on them
+_FACE_PLANES = np.array(
+    [[1, -1, 0], [1, 1, 0], [1, 0, -1], [1, 0, 1], [0, 1, -1], [0, 1, 1]], dtype=np.float64
+)
+
+
+def _segment_params(p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(segment, lambda) where straight segments ``p0 -> p1`` (pixel coordinates, (n, 2))
+    cross the integer lines ``x = k`` and ``y = k``."""
+    seg, lam = [], []
+    for ax in (0, 1):
+        x0, x1 = p0[:, ax], p1[:, ax]
+        k0 = np.floor(np.minimum(x0, x1)).astype(np.int64) + 1
+        k1 = np.floor(np.maximum(x0, x1)).astype(np.int64)
+        cnt = np.maximum(k1 - k0 + 1, 0)
+        e = np.repeat(np.arange(len(x0)), cnt)
+        k = np.repeat(k0, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+        seg.append(e)
+        lam.append(np.clip((k - x0[e]) / (x1[e] - x0[e]), 0.0, 1.0))
+    return np.concatenate(seg), np.concatenate(lam)
+
+
+def _rasterize_cube(shape, size: int) -> tuple[np.ndarray, list[np.ndarray]]:
+    """:func:`rasterize` on ``Cube(size)``: each arc is cut where it crosses the planes
+    of the face boundaries; on one face a piece is a straight segment of the face plane
+    (central projection), cut again at the pixel lines, so each sub-segment lies in
+    one pixel. Flat indices are those of a (6, size, size) array."""
+    a, _, part, _, _, u, theta = _arcs(shape)
+    # split parameters: t in (0, theta) where p(t) . m = 0 for a face-boundary plane m
+    am, um = a @ _FACE_PLANES.T, u @ _FACE_PLANES.T
+    t1 = np.arctan2(-am, um).ravel()
+    eid = np.repeat(np.arange(len(a)), len(_FACE_PLANES))
+    cand_e = np.concatenate([eid, eid, eid])
+    cand_t = np.concatenate([t1, t1 + math.pi, t1 - math.pi])
+    ok = (cand_t > 0.0) & (cand_t < theta[cand_e])
+    pe = np.concatenate([np.arange(len(a)), np.arange(len(a)), cand_e[ok]])
+    pt = np.concatenate([np.zeros(len(a)), theta, cand_t[ok]])
+    order = np.lexsort((pt, pe))
+    pe, pt = pe[order], pt[order]
+    # pieces between consecutive parameters of one edge (a zero-length edge: one piece)
+    same = np.flatnonzero(pe[1:] == pe[:-1])
+    e, ta, tb = pe[same], pt[same], pt[same + 1]
+
+    def at(t):
+        return np.cos(t)[:, None] * a[e] + np.sin(t)[:, None] * u[e]
+
+    face, _, _ = locate(at(0.5 * (ta + tb)))
+    p0 = np.stack(project(face, at(ta)), axis=1)
+    p1 = np.stack(project(face, at(tb)), axis=1)
+    p0, p1 = (p0 + 1.0) * (0.5 * size), (p1 + 1.0) * (0.5 * size)
+    seg, lam = _segment_params(p0, p1)
+    seg = np.concatenate([np.arange(len(e)), np.arange(len(e)), seg])
+    lam = np.concatenate([np.zeros(len(e)), np.ones(len(e)), lam])
+    order = np.lexsort((lam, seg))
+    seg, lam = seg[order], lam[order]
+    same = seg[1:] == seg[:-1]
+    seg = np.concatenate([seg, seg[1:][same]])
+    lam = np.concatenate([lam, 0.5 * (lam[1:][same] + lam[:-1][same])])
+    order = np.lexsort((lam, seg))  # pieces are in curve order, so this is the curve order
+    seg, lam = seg[order], lam[order]
+    xy = p0[seg] + lam[:, None] * (p1[seg] - p0[seg])
+    pid, cells = [], []
+    for dx in (-_RASTER_EPS, _RASTER_EPS):
+        for dy in (-_RASTER_EPS, _RASTER_EPS):
+            ii = np.floor(xy[:, 0] + dx).astype(np.int64)
+            jj = np.floor(xy[:, 1] + dy).astype(np.int64)
+            ok = (ii >= 0) & (ii < size) & (jj >= 0) & (jj < size)
+            pid.append(np.flatnonzero(ok))
+            cells.append((face[seg[ok]] * size + jj[ok]) * size + ii[ok])
+    pid, cells = np.concatenate(pid), np.concatenate(cells)
+    order = np.lexsort((cells, pid))
+    pid, cells = pid[order], cells[order]
+    mask = np.zeros(6 * size * size, dtype=bool)
+    mask[cells] = True
+    return mask.reshape(6, size, size), _ordered_parts(cells, part[e[seg[pid]]])
 
 
 def rasterize(shape, grid, *, ordered: bool = False):
@@ -306,17 +407,20 @@ def rasterize(shape, grid, *, ordered: bool = False):
     shape : Shape or anything :func:`gloffset.read` accepts
         Its boundary arcs (ring edges except antimeridian/pole seams, and lines) are
         rasterized; polygon interiors are not.
-    grid : gloffset.grids.Equirect
+    grid : gloffset.grids.Equirect or gloffset.grids.Cube
     ordered : bool
         Also return the cells in curve order: a list with one int array per ring
-        or line of flat indices ``row * width + column`` (consecutive repeats
+        or line of flat indices ``row * width + column`` (cube: ``(face * N + row) * N
+        + column``, the flat index of the (6, N, N) mask; consecutive repeats
         dropped; a cell may reappear where the curve comes back).
 
     Returns
     -------
-    mask : (height, width) bool, row 0 north
+    mask : (height, width) bool, row 0 north; for ``Cube(N)`` (6, N, N) [face, row,
+        column], faces +X -X +Y -Y +Z -Z as :func:`gloffset.render` returns them
         True where a great-circle arc of the shape meets the pixel's lon/lat
-        rectangle. With ``ordered=True``, ``(mask, parts)``.
+        rectangle (cube: the pixel's square on its face). With ``ordered=True``,
+        ``(mask, parts)``.
 
     Notes
     -----
@@ -327,6 +431,12 @@ def rasterize(shape, grid, *, ordered: bool = False):
     every pixel within 1e-7 pixel (index units) of it. Points on a pole mark the
     whole pole row. No supersampling: a corner clipped by an arc is found.
 
+    On a cube the arcs are cut at the face boundaries; on a face a piece is a
+    straight segment of the face plane (the faces' pixel lines are great circles),
+    cut at the pixel lines and marked the same way, so the same 1e-7 pixel holds.
+    A point on a face edge marks the pixels of the face its piece lies on (the
+    next piece marks the other face's).
+
     Examples
     --------
     >>> from gloffset.grids import Equirect
@@ -335,7 +445,14 @@ def rasterize(shape, grid, *, ordered: bool = False):
     >>> int(m.sum())
     4
     """
-    mask, parts = _rasterize(read(shape), grid)
+    if isinstance(grid, Cube):
+        mask, parts = _rasterize_cube(read(shape), int(grid.size))
+    elif isinstance(grid, Equirect):
+        mask, parts = _rasterize(read(shape), grid)
+    else:
+        raise RasterOffsetError(
+            f"grid must be a gloffset.grids.Equirect or Cube grid, got {type(grid).__name__}"
+        )
     return (mask, parts) if ordered else mask
 
 
@@ -347,8 +464,26 @@ def _dfs_order(grid, level: int, mask: np.ndarray) -> list[np.ndarray]:
     flat = np.flatnonzero(mask.ravel())
     member = mask.ravel().copy()
     seen = np.zeros(h * w, dtype=bool)
-    wrap = _wraps(grid, level)
-    offs = [(dj, di) for dj in (-1, 0, 1) for di in (-1, 0, 1) if dj or di]
+    if hasattr(grid, "neighbour_table"):  # cube faces: neighbours across edges too
+        table = dict(zip(flat.tolist(), grid.neighbour_table(level, flat).tolist()))
+
+        def around(c):
+            return [q for q in table[c] if q >= 0]
+    else:
+        wrap = _wraps(grid, level)
+        offs = [(dj, di) for dj in (-1, 0, 1) for di in (-1, 0, 1) if dj or di]
+
+        def around(c):
+            j, i = divmod(c, w)
+            out = []
+            for dj, di in offs:
+                jj, ii = j + dj, i + di
+                if wrap:
+                    ii %= w
+                if 0 <= jj < h and 0 <= ii < w:
+                    out.append(jj * w + ii)
+            return out
+
     comps = []
     for start in flat.tolist():
         if seen[start]:
@@ -358,16 +493,10 @@ def _dfs_order(grid, level: int, mask: np.ndarray) -> list[np.ndarray]:
         while stack:
             c = stack.pop()
             comp.append(c)
-            j, i = divmod(c, w)
-            for dj, di in offs:
-                jj, ii = j + dj, i + di
-                if wrap:
-                    ii %= w
-                if 0 <= jj < h and 0 <= ii < w:
-                    q = jj * w + ii
-                    if member[q] and not seen[q]:
-                        seen[q] = True
-                        stack.append(q)
+            for q in around(c):
+                if member[q] and not seen[q]:
+                    seen[q] = True
+                    stack.append(q)
         comps.append(np.array(comp, dtype=np.int64))
     return comps
 
@@ -399,14 +528,17 @@ def _runs(grid, level: int, parts: list[np.ndarray]) -> tuple[np.ndarray, np.nda
     if not parts:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)
     seq = np.concatenate(parts)
-    w = grid.level_shape(level)[1]
-    j, i = np.divmod(seq, w)
-    dj = np.abs(np.diff(j))
-    di = np.abs(np.diff(i))
-    if _wraps(grid, level):
-        di = np.minimum(di, w - di)
     start = np.ones(len(seq), dtype=bool)
-    start[1:] = (dj > 1) | (di > 1)
+    if hasattr(grid, "adjacent"):
+        start[1:] = ~grid.adjacent(level, seq[:-1], seq[1:])
+    else:
+        w = grid.level_shape(level)[1]
+        j, i = np.divmod(seq, w)
+        dj = np.abs(np.diff(j))
+        di = np.abs(np.diff(i))
+        if _wraps(grid, level):
+            di = np.minimum(di, w - di)
+        start[1:] = (dj > 1) | (di > 1)
     bounds = np.cumsum([len(p) for p in parts])[:-1]
     start[bounds] = True
     return seq, start
@@ -447,19 +579,33 @@ class Levels:
             pad[: m.shape[0], : m.shape[1]] = m
             masks[lev] = pad.reshape(h, 2, w, 2).any(axis=(1, 3))
         curve = [np.flatnonzero(m.ravel()) for m in masks]
-        rows_out = np.unique(curve[last] // grid.width)
-        s = float(pixel_radius(grid)[rows_out].max())
+        cells = hasattr(grid, "rho_cells")  # per-cell bounds (cube faces)
+        if cells:
+            s = float(grid.area_rho_cells(last, curve[last]).max())
+        else:
+            rows_out = np.unique(curve[last] // grid.width)
+            s = float(pixel_radius(grid)[rows_out].max())
         R, t_lo, t_hi, reach = [], [], [], []
         for lev in range(last + 1):
             w = grid.level_shape(lev)[1]
             rho = np.asarray(grid.rho(lev), dtype=np.float64)
-            r_l = float(rho[np.unique(curve[lev] // w)].max()) if lev < last else 0.0
+            if lev == last:
+                r_l = 0.0
+            elif cells:
+                r_l = float(grid.rho_cells(lev, curve[lev]).max())
+            else:
+                r_l = float(rho[np.unique(curve[lev] // w)].max())
             rq = rho if lev < last else np.zeros_like(rho)
             lo = d - s - rq - r_l
             hi = d + 2.0 * s + rq + r_l
             R.append(r_l)
-            t_lo.append(np.where(lo > 0.0, _chord2_of_angle(np.maximum(lo, 0.0)), -1.0))
-            t_hi.append(np.where(hi < math.pi, _chord2_of_angle(hi), 5.0))
+            lo2 = np.where(lo > 0.0, _chord2_of_angle(np.maximum(lo, 0.0)), -1.0)
+            hi2 = np.where(hi < math.pi, _chord2_of_angle(hi), 5.0)
+            if hasattr(grid, "row_valid"):  # padding rows hold no cell: always outside
+                ok = grid.row_valid(lev)
+                lo2, hi2 = np.where(ok, lo2, -1.0), np.where(ok, hi2, -1.0)
+            t_lo.append(lo2)
+            t_hi.append(hi2)
             reach.append(float(min(hi.max(), math.pi)) + _REACH_SLACK)
         return cls(grid, d, masks, curve, s, R, t_lo, t_hi, reach, parts)
 
@@ -803,18 +949,23 @@ class RasterOffsetInfo:
     seconds: float = 0.0
 
 
+@lru_cache(maxsize=8)
+def cube_cells(size: int) -> CubeCells:
+    """The cell grid of ``Cube(size)`` that the CPU reference and the GPU levels work on."""
+    return CubeCells(size)
+
+
 def _check_mask(mask, grid) -> np.ndarray:
-    if not isinstance(grid, Equirect):
+    if not isinstance(grid, (Equirect, Cube)):
         raise RasterOffsetError(
-            f"grid must be a gloffset.grids.Equirect grid, got {type(grid).__name__}"
+            f"grid must be a gloffset.grids.Equirect or Cube grid, got {type(grid).__name__}"
         )
     m = np.asarray(mask)
     if m.dtype != bool and not np.issubdtype(m.dtype, np.integer):
         raise InvalidMaskError(f"mask must be a boolean (or integer) array, got dtype {m.dtype}")
     if m.shape != grid.shape:
-        raise InvalidMaskError(
-            f"mask has shape {m.shape}, the grid needs (height, width) = {grid.shape}"
-        )
+        want = "(face, row, column)" if isinstance(grid, Cube) else "(height, width)"
+        raise InvalidMaskError(f"mask has shape {m.shape}, the grid needs {want} = {grid.shape}")
     m = m != 0
     if not m.any():
         raise InvalidMaskError("mask is empty: no curve cell to offset")
@@ -838,12 +989,15 @@ def raster_offset(
 
     Parameters
     ----------
-    mask : (height, width) bool array
-        The output cells of ``grid`` that the curve passes through (row 0 north);
-        integer arrays count non-zero as True.
+    mask : (height, width) bool array, or (6, N, N) for ``Cube(N)``
+        The output cells of ``grid`` that the curve passes through (row 0 north;
+        cube: [face, row, column], faces +X -X +Y -Y +Z -Z as :func:`gloffset.render`
+        returns them); integer arrays count non-zero as True.
     distance : float
         Offset distance in the units of ``radius`` (metres by default), > 0.
-    grid : gloffset.grids.Equirect
+    grid : gloffset.grids.Equirect or gloffset.grids.Cube
+        On a cube the six faces are one set of cells: the curve, the region growing
+        and the offset run across face edges and corners.
     backend : {"gpu", "cpu"}
         ``"gpu"``: the coarse levels on the CPU, the levels below the bins in
         fragment shaders (:mod:`gloffset.gl.raster_engine`); ``"cpu"``: float64
@@ -854,7 +1008,7 @@ def raster_offset(
     level : int, optional
         Return the classes of this level (hierarchical) instead of the output's.
     order : list of int arrays, optional
-        The curve's cells in curve order (flat indices, as from
+        The curve's cells in curve order (flat indices of ``mask``, as from
         ``rasterize(..., ordered=True)``); default: a depth-first walk of the mask.
     return_info : bool
         Also return a :class:`RasterOffsetInfo`.
@@ -863,7 +1017,7 @@ def raster_offset(
 
     Returns
     -------
-    classes : uint8 array of ``grid.level_shape(level)``
+    classes : uint8 array of ``grid.level_shape(level)`` (cube: ``(6, n, n)``)
         0 outside, 1 frontier, 2 contained. With ``return_info``, ``(classes, info)``.
 
     Notes
@@ -886,6 +1040,11 @@ def raster_offset(
     """
     t0 = time.perf_counter()
     m = _check_mask(mask, grid)
+    cube = cube_cells(int(grid.size)) if isinstance(grid, Cube) else None
+    if cube is not None:  # the six faces as one grid of cells (stacked rows)
+        grid, m = cube, cube.stack(m)
+        if order is not None:
+            order = [cube.from_faces_flat(p) for p in order]
     d = to_angle(distance, radius)
     if not 0.0 < d < 1.5:
         raise InvalidDistanceError(
@@ -905,7 +1064,7 @@ def raster_offset(
     def cb(lev, cls):
         frontier.append(int(np.count_nonzero(cls == FRONTIER)))
         if callback is not None:
-            callback(lev, cls)
+            callback(lev, cls if cube is None else cube.unstack(lev, cls))
 
     n_amb = 0
     if backend == "cpu" and mode == "single":
@@ -918,6 +1077,8 @@ def raster_offset(
 
         classes, method, reason = hierarchical(lv, stop_level=grid.bin_level, callback=cb)
         classes, n_amb = engine().run(lv, classes, stop_level=stop, callback=cb)
+    if cube is not None:
+        classes = cube.unstack(stop, classes)
     info = RasterOffsetInfo(
         method=method,
         reason=reason,

@@ -12,6 +12,8 @@ offset distance d and s the output cells' area bound (``info.s``):
   CPU classes are identical, whatever the order in which the cells are walked.
 """
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -20,20 +22,25 @@ from PIL import Image
 import gloffset
 from gloffset.cli import main
 from gloffset.errors import InvalidDistanceError
-from gloffset.grids import Equirect
+from gloffset.gl import get_context
+from gloffset.gl.shaders import program
+from gloffset.grids import Cube, CubeFace, Equirect
+from gloffset.grids.cube import FACE_NAMES, FACES, CubeCells, cell_at, face_points
 from gloffset.raster_input import (
     CONTAINED,
     FRONTIER,
     OUTSIDE,
     InvalidMaskError,
+    RasterOffsetError,
     pixel_radius,
     raster_offset,
     rasterize,
 )
 from gloffset.reference import distance_xyz
-from gloffset.sphere import arc_distance, lonlat_to_xyz, slerp
+from gloffset.sphere import angle, arc_distance, lonlat_to_xyz, slerp
 
 WORLD = Equirect(512, 256)
+GLSL = Path(__file__).parent / "glsl"
 
 
 def all_ways(mask, d, grid, parts=None):
@@ -205,3 +212,311 @@ def test_cli_from_raster(tmp_path):
     np.testing.assert_array_equal(np.asarray(Image.open(out_mask)), np.where(want == 2, 255, 0))
     r = run(main, ["render", "-d", "400km", "-o", str(out)])
     assert r.exit_code == 2 and "--from-raster" in r.output
+
+
+# ---------------------------------------------------------------------------- cube grids
+def cube_centres(n):
+    """(6, n, n, 3) pixel centres of Cube(n), from CubeFace (what gloffset.render uses)."""
+    jj, ii = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    faces = [CubeFace(f, n) for f in range(6)]
+    return np.stack([f.centers(f.n_levels - 1, jj, ii) for f in faces])
+
+
+def assert_cube_truth(shape, classes, d, n, s):
+    """Contained centres within d, centres within d not outside, outside centres farther
+    than d + s (so every point within s of them, the whole pixel when its own bound is
+    at most s, is farther than d: checked at the corners of those pixels)."""
+    dist = distance_xyz(shape, cube_centres(n).reshape(-1, 3)).reshape(6, n, n)
+    assert not np.any((classes == CONTAINED) & (dist > d)), "contained but farther than d"
+    assert not np.any((classes == OUTSIDE) & (dist <= d)), "within d but outside"
+    out = classes == OUTSIDE
+    assert np.all(dist[out] > d + s)
+    f, j, i = np.nonzero(out & (dist <= d + 4 * s))
+    small = CubeFace(0, n).area_rho_at(CubeFace(0, n).n_levels - 1, j, i) <= s
+    f, j, i = f[small], j[small], i[small]
+    for dx in (0, 1):
+        for dy in (0, 1):
+            p = face_points(f, i + dx, j + dy, n)
+            assert np.all(distance_xyz(shape, p) > d)
+    return dist
+
+
+def corner_circle(radius_deg=6.0, corner=(1.0, 1.0, 1.0), k=72):
+    """A small circle round a cube corner: it crosses three faces and three face edges."""
+    c = np.asarray(corner) / np.linalg.norm(corner)
+    a = np.cross(c, [0.0, 0.0, 1.0])
+    a /= np.linalg.norm(a)
+    b = np.cross(c, a)
+    t = np.linspace(0, 2 * np.pi, k, endpoint=False)[:, None]
+    r = np.radians(radius_deg)
+    p = np.cos(r) * c + np.sin(r) * (np.cos(t) * a + np.sin(t) * b)
+    lon, lat = np.degrees(np.arctan2(p[:, 1], p[:, 0])), np.degrees(np.arcsin(p[:, 2]))
+    return gloffset.Shape.from_lonlat(lon, lat, closed=True)
+
+
+@pytest.mark.parametrize(
+    "name, size, d",
+    [
+        ("Iraq", 128, 0.03),  # round the cube corner (1, 1, 1): three faces
+        ("Japan", 128, 0.02),  # islands round the corner (-1, 1, 1)
+        ("Iraq", 90, 0.05),  # 90 = 23 * 4: faces padded to 92 rows inside
+    ],
+)
+def test_cube_world_borders_gpu_equals_cpu_and_truth(world, name, size, d):
+    grid = Cube(size)
+    shape = gloffset.read(world[name])
+    mask, parts = rasterize(shape, grid, ordered=True)
+    assert mask.shape == (6, size, size)
+    assert np.count_nonzero(mask.any(axis=(1, 2))) == 3  # the curve crosses face edges
+    classes, gi, si = all_ways(mask, d, grid, parts)
+    assert classes.shape == (6, size, size) and classes.dtype == np.uint8
+    assert si.method == "region-growing", si.reason
+    on = np.count_nonzero((classes != OUTSIDE).any(axis=(1, 2)))
+    assert on >= 3 and np.count_nonzero(classes == CONTAINED) > 0
+    assert_cube_truth(shape, classes, d, size, gi.s)
+    # the walk order changes nothing
+    np.testing.assert_array_equal(
+        raster_offset(mask, d, grid, radius=1.0, backend="cpu", mode="single"), classes
+    )
+
+
+@pytest.mark.parametrize("size", [64, 70])
+def test_cube_corner_circle_and_pole_line(size):
+    grid = Cube(size)
+    circle = corner_circle()
+    mask, parts = rasterize(circle, grid, ordered=True)
+    assert list(np.flatnonzero(mask.any(axis=(1, 2)))) == [0, 2, 4]  # +X, +Y, +Z
+    classes, gi, _ = all_ways(mask, 0.05, grid, parts)
+    dist = assert_cube_truth(circle, classes, 0.05, size, gi.s)
+    assert np.count_nonzero(classes == CONTAINED) > 0.5 * np.count_nonzero(dist <= 0.05)
+    # a line over the north pole, across +Z and its edges with +X and -X
+    line = gloffset.read({"type": "LineString", "coordinates": [[0, 30], [0, 89], [180, 40]]})
+    mask, parts = rasterize(line, grid, ordered=True)
+    assert list(np.flatnonzero(mask.any(axis=(1, 2)))) == [0, 1, 4]
+    classes, gi, _ = all_ways(mask, 0.1, grid, parts)
+    assert_cube_truth(line, classes, 0.1, size, gi.s)
+
+
+def test_cube_1024_gpu_equals_cpu_and_sampled_truth(world):
+    """Deeper GPU levels (bins of 16 pixels below level 1) on six 1024 faces; the
+    containment contract on a sample of the cells near the curve."""
+    grid = Cube(1024)
+    shape = gloffset.read(world["Japan"])
+    mask, parts = rasterize(shape, grid, ordered=True)
+    gpu, gi = raster_offset(mask, 0.01, grid, radius=1.0, order=parts, return_info=True)
+    cpu = raster_offset(mask, 0.01, grid, radius=1.0, order=parts, backend="cpu")
+    np.testing.assert_array_equal(gpu, cpu)
+    assert len(gi.frontier) == CubeFace(0, 1024).n_levels
+    # a sample of the pixels whose level-2 ancestor (8 x 8 pixels) is not outside at 2 d
+    rng = np.random.default_rng(3)
+    coarse = raster_offset(mask, 0.02, grid, radius=1.0, level=2) != OUTSIDE
+    near = np.flatnonzero(np.repeat(np.repeat(coarse, 8, 1), 8, 2).ravel())
+    f, r = np.divmod(rng.choice(near, 30000, replace=False), 1024 * 1024)
+    j, i = np.divmod(r, 1024)
+    dist = distance_xyz(shape, face_points(f, i + 0.5, j + 0.5, 1024))
+    cls = gpu[f, j, i]
+    assert np.count_nonzero(cls == CONTAINED) > 1000 and np.count_nonzero(cls == OUTSIDE) > 1000
+    assert not np.any((cls == CONTAINED) & (dist > 0.01))
+    assert not np.any((cls == OUTSIDE) & (dist <= 0.01 + gi.s))
+
+
+def test_cube_hierarchy_is_consistent_across_levels():
+    grid = Cube(128)
+    mask = rasterize(corner_circle(10.0, (-1.0, 1.0, -1.0)), grid)
+    fine = raster_offset(mask, 0.04, grid, radius=1.0)
+    single = raster_offset(mask, 0.04, grid, radius=1.0, backend="cpu", mode="single")
+    np.testing.assert_array_equal(fine, single)
+    face = CubeFace(0, 128)
+    sides = [-(-128 // face.block(k)) for k in range(face.n_levels)]
+    for lev in range(face.n_levels - 1):
+        coarse = raster_offset(mask, 0.04, grid, radius=1.0, level=lev)
+        np.testing.assert_array_equal(
+            coarse, raster_offset(mask, 0.04, grid, radius=1.0, level=lev, backend="cpu")
+        )
+        assert coarse.shape == (6, sides[lev], sides[lev])
+        b = face.block(lev)
+        up = np.repeat(np.repeat(coarse, b, 1), b, 2)[:, :128, :128]
+        decided = up != FRONTIER
+        assert np.count_nonzero(decided) > 0.9 * up.size
+        np.testing.assert_array_equal(fine[decided], up[decided])
+    # the callback gets every level in the (6, n, n) layout
+    got = []
+    raster_offset(mask, 0.04, grid, radius=1.0, callback=lambda lev, c: got.append(c.shape))
+    assert got == [(6, n, n) for n in sides]
+
+
+def test_cube_rasterize_is_conservative_and_tight():
+    rng = np.random.default_rng(11)
+    n = 96
+    grid = Cube(n)
+    line = gloffset.Shape.from_lonlat(rng.uniform(-180, 180, 10), rng.uniform(-80, 80, 10))
+    mask, parts = rasterize(line, grid, ordered=True)
+    assert mask.any(axis=(1, 2)).sum() >= 4
+    e = line.edges()
+    last = CubeFace(0, n).n_levels - 1
+    # every point of the arcs lies in a marked pixel
+    t = np.linspace(0, 1, 3000)
+    for a, b in zip(e.a, e.b):
+        f, j, i = cell_at(n, last, slerp(a[None], b[None], t).reshape(-1, 3))
+        assert mask[f, j, i].all()
+    # every marked pixel comes within its own area bound of an arc
+    f, j, i = np.nonzero(mask)
+    c = cube_centres(n)[f, j, i]
+    dist = arc_distance(c[:, None], e.a[None], e.b[None]).min(axis=1)
+    assert np.all(dist <= CubeFace(0, n).area_rho_at(last, j, i) + 1e-12)
+    # the order lists every marked pixel, as flat indices of the (6, n, n) mask
+    order = np.concatenate(parts)
+    np.testing.assert_array_equal(np.unique(order), np.flatnonzero(mask.ravel()))
+
+
+def test_cube_cells_neighbours_touch_across_face_edges():
+    for size, level in ((64, 1), (64, 0), (90, 1)):
+        cells = CubeCells(size)
+        face = CubeFace(0, size)
+        keys, table = cells.edge_neighbours(level)
+        assert len(keys) == 6 * (4 * cells.n[level] - 4)
+        a = np.repeat(keys, 8)
+        b = table.ravel()
+        a, b = a[b >= 0], b[b >= 0]
+        fa, ja, ia = cells.split(level, a)
+        fb, jb, ib = cells.split(level, b)
+        assert np.all(fa != fb)
+        # touching cells: centres no farther apart than the sum of their area bounds
+        ca = cells.centers(level, fa * cells.P[level] + ja, ia)
+        cb = cells.centers(level, fb * cells.P[level] + jb, ib)
+        reach = face.area_rho_at(level, ja, ia) + face.area_rho_at(level, jb, ib)
+        assert np.all(angle(ca, cb) <= reach * (1 + 1e-9))
+        # every border cell has neighbours on other faces; corner cells on two of them
+        per = [len(set(fb[a == k])) for k in keys]
+        assert min(per) >= 1
+        corner = fb[a == keys[0]] // 1  # cell (0, 0) of face +X
+        assert len(set(corner.tolist())) == 2
+        # symmetric where the blocks line up on both sides of the edge
+        if size % face.block(level) == 0:
+            pairs = set(zip(a.tolist(), b.tolist()))
+            assert all((q, p) in pairs for p, q in pairs)
+
+
+def test_cube_offset_shader_is_accurate():
+    """lib/cube.glsl's cube_offset, called as raster_classify.frag (GRID_CUBE) calls it,
+    is within the 2e-6 relative error that lib/chord.glsl's bounds assume."""
+    ctx = get_context()
+    rng = np.random.default_rng(5)
+    m = 512
+    prog = program(ctx, "fullscreen.vert", "probe_cube.frag", root=GLSL)
+    errs = []
+    for face in range(6):
+        size = int(rng.choice([64, 1000, 4096, 16384]))
+        bin_block = int(rng.choice([2, 16, 256]))
+        k = rng.integers(1, 5, m)  # the level: 2^k cells a bin side
+        block = bin_block / 2.0**k
+        ib = rng.integers(0, max(1, size // bin_block), (2, m))
+        bxy = (ib + 0.5) * bin_block  # bin centres, output pixels
+        cxy = ib * bin_block + (np.floor(rng.uniform(0, 2.0**k, (2, m))) + 0.5) * block
+        data = np.stack([bxy[0], bxy[1], cxy[0] - bxy[0], cxy[1] - bxy[1]], axis=1)
+        assert np.array_equal(data.astype(np.float32), data)  # exact, as in the shader
+        tex = ctx.texture((m, 1), 4, data.astype(np.float32).tobytes(), dtype="f4")
+        target = ctx.texture((m, 1), 4, dtype="f4")
+        fbo = ctx.framebuffer(color_attachments=[target])
+        prog["u_in"] = 0
+        for name, axis in zip(("u_face_e", "u_face_u", "u_face_v"), FACES[face]):
+            prog[name].value = tuple(float(x) for x in axis)
+        prog["u_px"].value = 2.0 / size
+        tex.use(0)
+        fbo.use()
+        ctx.viewport = (0, 0, m, 1)
+        ctx.vertex_array(prog, []).render(vertices=3)
+        got = np.frombuffer(target.read(), dtype=np.float32).reshape(m, 4)[:, :3].astype(float)
+        want = face_points(face, cxy[0], cxy[1], size) - face_points(face, bxy[0], bxy[1], size)
+        errs.append(np.linalg.norm(got - want, axis=1) / np.linalg.norm(want, axis=1))
+        for r in (fbo, target, tex):
+            r.release()
+    assert np.max(np.concatenate(errs)) < 2e-6
+
+
+def write_faces(folder, faces, names=FACE_NAMES):
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, img in zip(names, faces):
+        Image.fromarray(np.where(img, 255, 0).astype(np.uint8)).save(folder / f"{name}.png")
+
+
+def test_cli_from_raster_cube_round_trip(tmp_path):
+    grid = Cube(64)
+    mask = rasterize(corner_circle(8.0, (-1.0, -1.0, 1.0)), grid)
+    write_faces(tmp_path / "in", mask)
+    run = CliRunner().invoke
+    args = ["render", "--from-raster", str(tmp_path / "in"), "--grid", "cube", "-d", "300km"]
+    r = run(main, [*args, "-o", str(tmp_path / "classes")])
+    assert r.exit_code == 0, r.output
+    r = run(main, [*args, "--mask-only", "-o", str(tmp_path / "mask")])
+    assert r.exit_code == 0, r.output
+    want = raster_offset(mask, 300e3, grid)
+    assert {k: np.count_nonzero(want[k] != OUTSIDE) > 0 for k in range(6)} == {
+        0: False,
+        1: True,
+        2: False,
+        3: True,
+        4: True,
+        5: False,
+    }
+    for k, name in enumerate(FACE_NAMES):
+        rgba = np.asarray(Image.open(tmp_path / "classes" / f"{name}.png"))
+        assert rgba.shape == (64, 64, 4)
+        assert (rgba[want[k] == CONTAINED] == (0, 0, 0, 255)).all()
+        assert (rgba[want[k] == FRONTIER] == (220, 30, 30, 255)).all()
+        assert (rgba[want[k] == OUTSIDE] == (255, 255, 255, 255)).all()
+        got = np.asarray(Image.open(tmp_path / "mask" / f"{name}.png"))
+        np.testing.assert_array_equal(got, np.where(want[k] == CONTAINED, 255, 0))
+    # a coarse level of the classes, on the CPU backend
+    r = run(main, [*args, "--classes", "0", "--backend", "cpu", "-o", str(tmp_path / "c0")])
+    assert r.exit_code == 0, r.output
+    want0 = raster_offset(mask, 300e3, grid, level=0)
+    got0 = np.asarray(Image.open(tmp_path / "c0" / "nz.png"))
+    assert got0.shape == (32, 32, 4)
+    assert (got0[want0[5] == OUTSIDE] == (255, 255, 255, 255)).all()
+
+
+def test_cube_errors(tmp_path):
+    grid = Cube(32)
+    m = np.zeros(grid.shape, dtype=bool)
+    m[4, 10, 5:20] = True
+    with pytest.raises(InvalidMaskError, match=r"\(6, 32, 32\)"):
+        raster_offset(m[:5], 1e5, grid)
+    with pytest.raises(InvalidMaskError, match="shape"):
+        raster_offset(m[0], 1e5, grid)
+    with pytest.raises(InvalidMaskError, match="empty"):
+        raster_offset(np.zeros_like(m), 1e5, grid)
+    with pytest.raises(InvalidMaskError, match="dtype"):
+        raster_offset(m.astype(np.float32), 1e5, grid)
+    with pytest.raises(RasterOffsetError, match="level"):
+        raster_offset(m, 1e5, grid, level=3)
+    with pytest.raises(RasterOffsetError, match="Equirect or Cube"):
+        rasterize({"type": "LineString", "coordinates": [[0, 0], [1, 1]]}, CubeFace(0, 32))
+
+    run = CliRunner().invoke
+
+    def cli(src, *extra):
+        args = ["render", "--from-raster", str(src), "--grid", "cube", "-d", "100km"]
+        r = run(main, [*args, *extra, "-o", str(tmp_path / "out")])
+        assert r.exit_code == 2, r.output
+        assert "gloffset: error: " in r.output  # one line, no traceback
+        return r.output
+
+    good = [np.zeros((32, 32), bool)] * 6
+    write_faces(tmp_path / "missing", good[:4])
+    assert "missing" in cli(tmp_path / "missing") and "pz.png, nz.png" in cli(tmp_path / "missing")
+    write_faces(tmp_path / "oblong", [np.zeros((32, 40), bool)] * 6)
+    assert "px.png is 40x32" in cli(tmp_path / "oblong") and "square" in cli(tmp_path / "oblong")
+    write_faces(tmp_path / "sizes", good[:5] + [np.zeros((16, 16), bool)])
+    assert "one size" in cli(tmp_path / "sizes") and "nz.png 16" in cli(tmp_path / "sizes")
+    write_faces(tmp_path / "empty", good)
+    assert "empty" in cli(tmp_path / "empty")
+    (tmp_path / "empty" / "notes.txt").write_text("x")
+    assert "not a folder" in cli(tmp_path / "empty" / "notes.txt")
+    (tmp_path / "bad").mkdir()
+    for name in FACE_NAMES:
+        (tmp_path / "bad" / f"{name}.png").write_text("not a png")
+    assert "cannot read mask image" in cli(tmp_path / "bad")
+    assert "--bounds" in cli(tmp_path / "empty", "--bounds", "0,0,10,10")
+    r = run(main, ["render", "--from-raster", str(tmp_path / "empty"), "-d", "1km", "-o", "x.png"])
+    assert r.exit_code == 2 and "--grid cube" in r.output

@@ -34,6 +34,13 @@ def test_every_shader_file_compiles(ctx, name):
     assert ctx.error == "GL_NO_ERROR"
 
 
+@pytest.mark.parametrize("name", ["classify.frag", "raster_classify.frag"])
+def test_grid_cube_variants_compile(ctx, name):
+    # the files above compile without defines; these also have a GRID_CUBE variant
+    assert program(ctx, "bins.vert", name, {"GRID_CUBE": 1}) is not None
+    assert ctx.error == "GL_NO_ERROR"
+
+
 def test_includes_once_with_line_directives():
     src, files = load_source("classify.frag")
     assert src.startswith("#version 430\n")

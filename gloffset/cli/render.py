@@ -1,5 +1,5 @@
-"""``gloffset render``: a PNG of the offset region on an equirectangular grid (of a
-vector INPUT, or of a rasterized curve with ``--from-raster``)."""
+"""``gloffset render``: a PNG of the offset region on an equirectangular grid, or six
+cube-map faces (of a vector INPUT, or of a rasterized curve with ``--from-raster``)."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ import numpy as np
 from ..errors import GloffsetError
 from ..grids import FACE_NAMES, Cube, CubeFace, Equirect
 from ..io.png import parse_color, read_mask, write_classes, write_mask
+from ..raster_input import CONTAINED
 from ..render import render as _render
 from ..shape import read
 from . import main
@@ -21,6 +22,11 @@ from .options import angle, distance_option, radius_option
 
 class OptionError(GloffsetError, ValueError):
     """A command-line option has a bad value."""
+
+
+class CubeFacesError(GloffsetError, ValueError):
+    """The six cube-face mask PNGs of ``--from-raster DIR --grid cube`` are missing,
+    not square, or of different sizes."""
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -79,9 +85,10 @@ def _bounds(text: str | None) -> tuple:
     "--from-raster",
     "from_raster",
     default=None,
-    metavar="MASK.png",
+    metavar="MASK.png|DIR",
     help="Offset a rasterized curve (any non-zero pixel) on the equirect grid of --bounds "
-    "instead of INPUT (paper Sec. 5); writes the classes picture.",
+    "instead of INPUT (paper Sec. 5); writes the classes picture. With --grid cube: a folder "
+    "of six face PNGs px nx py ny pz nz, and OUTPUT a folder of six PNGs.",
 )
 @click.option(
     "--mask-only", is_flag=True, help="With --from-raster: write contained cells as 255, else 0."
@@ -118,8 +125,17 @@ def render_cmd(
     cube texture (sampled with the Earth-frame direction: x to 0N 0E, z to the north pole)."""
     d = angle(distance, radius)
     if from_raster is not None:
-        if input is not None or grid_kind != "equirect" or size is not None:
-            raise OptionError("--from-raster takes no INPUT, --grid or --size (the PNG's size)")
+        if input is not None or size is not None:
+            raise OptionError("--from-raster takes no INPUT or --size (the PNGs' size)")
+        if grid_kind == "cube":
+            if bounds is not None:
+                raise OptionError("--bounds does not apply to --grid cube")
+            return _from_raster_cube(from_raster, d, output, classes_level, backend, mask_only)
+        if Path(from_raster).is_dir():
+            raise OptionError(
+                f"--from-raster {from_raster!r} is a folder: add --grid cube to read the six "
+                "cube faces px.png nx.png py.png ny.png pz.png nz.png from it"
+            )
         return _from_raster(from_raster, d, bounds, output, classes_level, backend, mask_only)
     if input is None:
         raise OptionError("give an INPUT file (or - for stdin), or --from-raster MASK.png")
@@ -162,11 +178,7 @@ def render_cmd(
         backend=backend,
     )
     if grid_kind == "cube":
-        folder = Path(output)
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise OptionError(f"cannot create folder {output!r}: {exc.strerror}") from None
+        folder = _out_folder(output)
         targets = [(folder / f"{name}.png", result[k]) for k, name in enumerate(FACE_NAMES)]
     else:
         targets = [(Path(output), result)]
@@ -180,15 +192,68 @@ def render_cmd(
 
 
 def _from_raster(path, d, bounds, output, level, backend, mask_only):
-    from ..raster_input import CONTAINED, raster_offset
+    from ..raster_input import raster_offset
 
     mask = read_mask(path)
     grid = Equirect(mask.shape[1], mask.shape[0], _bounds(bounds))
     classes = raster_offset(mask, d, grid, radius=1.0, backend=backend, level=level)
+    _write_raster_classes(classes, output, mask_only)
+
+
+def _write_raster_classes(classes, path, mask_only):
     if mask_only:
-        write_mask(np.where(classes == CONTAINED, 255, 0).astype(np.uint8), output)
+        write_mask(np.where(classes == CONTAINED, 255, 0).astype(np.uint8), path)
     else:
-        write_classes(classes, output)
+        write_classes(classes, path)
+
+
+def _out_folder(output) -> Path:
+    folder = Path(output)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OptionError(f"cannot create folder {output!r}: {exc.strerror}") from None
+    return folder
+
+
+def read_cube_masks(folder) -> np.ndarray:
+    """The six face masks ``px nx py ny pz nz`` (``.png``) of ``folder`` as one
+    (6, N, N) bool array (any non-zero channel is curve), checked to be square and of
+    one size."""
+    folder = Path(folder)
+    names = ", ".join(f"{n}.png" for n in FACE_NAMES)
+    if not folder.is_dir():
+        raise CubeFacesError(
+            f"--from-raster with --grid cube needs a folder holding {names}; "
+            f"{str(folder)!r} is not a folder"
+        )
+    missing = [f"{n}.png" for n in FACE_NAMES if not (folder / f"{n}.png").is_file()]
+    if missing:
+        raise CubeFacesError(
+            f"cube face file(s) missing in {str(folder)!r}: {', '.join(missing)} "
+            f"(a cube needs {names})"
+        )
+    faces = [read_mask(folder / f"{n}.png") for n in FACE_NAMES]
+    for n, m in zip(FACE_NAMES, faces):
+        if m.shape[0] != m.shape[1]:
+            raise CubeFacesError(
+                f"cube face {n}.png is {m.shape[1]}x{m.shape[0]} pixels: faces must be square"
+            )
+    sizes = {m.shape[0] for m in faces}
+    if len(sizes) > 1:
+        each = ", ".join(f"{n}.png {m.shape[0]}" for n, m in zip(FACE_NAMES, faces))
+        raise CubeFacesError(f"cube faces must all have one size, got {each}")
+    return np.stack(faces)
+
+
+def _from_raster_cube(path, d, output, level, backend, mask_only):
+    from ..raster_input import raster_offset
+
+    mask = read_cube_masks(path)
+    classes = raster_offset(mask, d, Cube(mask.shape[1]), radius=1.0, backend=backend, level=level)
+    folder = _out_folder(output)
+    for k, name in enumerate(FACE_NAMES):
+        _write_raster_classes(classes[k], folder / f"{name}.png", mask_only)
 
 
 @main.command("info")
