@@ -56,6 +56,29 @@ def window(grid, shape, grow_rad):
     return slice(j0, j1), slice(i0, i1)
 
 
+def gpu_vs_cpu(mask, d_km, grid, parts):
+    """One distance: the GPU and the float64 CPU classes, timed, and what they found."""
+    d = d_km * 1e3
+    t_gpu, (cls, info) = best_of(
+        lambda: raster_offset(mask, d, grid, order=parts, return_info=True), 3
+    )
+    t_cpu, (ref, _) = best_of(
+        lambda: raster_offset(mask, d, grid, order=parts, backend="cpu", return_info=True), 1
+    )
+    rec = {
+        "distance_km": d_km,
+        "gpu_s": t_gpu,
+        "cpu_hierarchical_s": t_cpu,
+        "gpu_equals_cpu": bool(np.array_equal(cls, ref)),
+        "gpu_ambiguous_cells_decided_on_cpu": info.n_ambiguous,
+        "method_level0": info.method,
+        "contained": int(np.count_nonzero(cls == CONTAINED)),
+        "frontier": int(np.count_nonzero(cls == FRONTIER)),
+        "frontier_per_level": info.frontier,
+    }
+    return rec, cls, ref
+
+
 def cube_case(quick: bool, n_truth: int = 20000) -> dict:
     """World 110m borders on six cube faces: GPU vs CPU reference, sampled truth."""
     size = 256 if quick else 1024
@@ -77,25 +100,10 @@ def cube_case(quick: bool, n_truth: int = 20000) -> dict:
     runs = []
     for d_km in DISTANCES_KM:
         d = d_km * 1e3
-        t_gpu, (cls, info) = best_of(
-            lambda d=d: raster_offset(mask, d, grid, order=parts, return_info=True), 3
-        )
-        t_cpu, (ref, info_cpu) = best_of(
-            lambda d=d: raster_offset(mask, d, grid, order=parts, backend="cpu", return_info=True),
-            1,
-        )
+        rec, cls, _ = gpu_vs_cpu(mask, d_km, grid, parts)
         truth = dist <= d / EARTH_RADIUS
         got = cls[f, j, i]
-        rec = {
-            "distance_km": d_km,
-            "gpu_s": t_gpu,
-            "cpu_hierarchical_s": t_cpu,
-            "gpu_equals_cpu": bool(np.array_equal(cls, ref)),
-            "gpu_ambiguous_cells_decided_on_cpu": info.n_ambiguous,
-            "method_level0": info.method,
-            "contained": int(np.count_nonzero(cls == CONTAINED)),
-            "frontier": int(np.count_nonzero(cls == FRONTIER)),
-            "frontier_per_level": info.frontier,
+        rec |= {
             "sample_contained_but_truly_out": int(np.count_nonzero((got == CONTAINED) & ~truth)),
             "sample_truly_in_but_outside": int(np.count_nonzero((got == OUTSIDE) & truth)),
             "sample_truly_in": int(np.count_nonzero(truth)),
@@ -159,26 +167,11 @@ def main():
         d = d_km * 1e3
         truth = np.zeros(grid.shape, dtype=bool)
         truth[rows, cols] = dist_true <= d / EARTH_RADIUS
-        t_gpu, (cls, info) = best_of(
-            lambda d=d: raster_offset(mask, d, grid, order=parts, return_info=True), 3
-        )
-        t_cpu, (ref, info_cpu) = best_of(
-            lambda d=d: raster_offset(mask, d, grid, order=parts, backend="cpu", return_info=True),
-            1,
-        )
-        rec = {
-            "distance_km": d_km,
-            "gpu_s": t_gpu,
-            "cpu_hierarchical_s": t_cpu,
-            "gpu_equals_cpu": bool(np.array_equal(cls, ref)),
-            "gpu_ambiguous_cells_decided_on_cpu": info.n_ambiguous,
-            "method_level0": info.method,
-            "contained": int(np.count_nonzero(cls == CONTAINED)),
-            "frontier": int(np.count_nonzero(cls == 1)),
+        rec, cls, ref = gpu_vs_cpu(mask, d_km, grid, parts)
+        rec |= {
             "contained_but_truly_out": int(np.count_nonzero((cls == CONTAINED) & ~truth)),
             "truly_in_but_outside": int(np.count_nonzero((cls == OUTSIDE) & truth)),
             "truly_in": int(np.count_nonzero(truth)),
-            "frontier_per_level": info.frontier,
         }
         if not args.no_single:
             t_single, (single, info_s) = best_of(

@@ -155,6 +155,21 @@ def pot_texture(ctx, array: np.ndarray, comps: int, dtype: str):
     return t
 
 
+def class_target(ctx, w: int, h: int):
+    """A ``w x h`` R8UI render target for classes (power-of-two sides, see :func:`_pot`)
+    and its framebuffer."""
+    import moderngl
+
+    target = ctx.texture((_pot(w), _pot(h)), 1, dtype="u1")
+    target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    fbo = ctx.framebuffer(color_attachments=[target])
+    # moderngl's framebuffer set-up makes one query that GL rejects for an integer
+    # colour attachment (GL_INVALID_OPERATION, no effect): clear it so that real
+    # errors stay visible
+    ctx.error  # noqa: B018
+    return target, fbo
+
+
 @dataclass
 class BinLayout:
     """Where the GPU levels draw the frontier bins, and the geometry each level needs.
@@ -400,13 +415,7 @@ class GpuLevels:
                 final = s == layout.last
                 rho = layout.rho[s]
                 mt = self._tex(_margins(rho.ravel(), e).reshape(len(rho), -1, 4), 4, "f4")
-                target = ctx.texture((_pot(w), _pot(h)), 1, dtype="u1")
-                target.filter = (moderngl.NEAREST, moderngl.NEAREST)
-                fbo = ctx.framebuffer(color_attachments=[target])
-                # moderngl's framebuffer set-up makes one query that GL rejects for an
-                # integer colour attachment (GL_INVALID_OPERATION, no effect): clear it
-                # so that real errors stay visible
-                ctx.error  # noqa: B018
+                target, fbo = class_target(ctx, w, h)
                 fbo.use()
                 ctx.viewport = (0, 0, w, h)
                 if s == layout.stop:  # every pixel outside the frontier bins

@@ -32,7 +32,7 @@ import numpy as np
 from ..raster_input import FRONTIER, Levels, classify_cells, near_pairs
 from ..raster_input import level_centers as _centers
 from .context import get_context
-from .engine import _pot, _set, pot_texture
+from .engine import _pot, _set, class_target, pot_texture
 from .shaders import program
 
 __all__ = ["RasterLevels", "engine", "AMBIGUOUS"]
@@ -179,10 +179,7 @@ class RasterLevels:
                     self._tex(dphi.astype(np.float32)[None], 1, "f4"),
                     self._tex(dlam.astype(np.float32)[None], 1, "f4"),
                 ]
-                target = ctx.texture((_pot(w), _pot(h)), 1, dtype="u1")
-                target.filter = (moderngl.NEAREST, moderngl.NEAREST)
-                fbo = ctx.framebuffer(color_attachments=[target])
-                ctx.error  # noqa: B018  (moderngl's set-up query on an integer target)
+                target, fbo = class_target(ctx, w, h)
                 try:
                     fbo.use()
                     ctx.viewport = (0, 0, w, h)
@@ -260,10 +257,7 @@ class RasterLevels:
                     for f, (count, _, vao, coarse) in enumerate(faces):
                         parent = self._tex(out[f * ph : (f + 1) * ph], 1, "u1")
                         binfo = self._tex(info[f * pb : (f + 1) * pb], 4, "u4")
-                        target = ctx.texture((_pot(w), _pot(pp)), 1, dtype="u1")
-                        target.filter = (moderngl.NEAREST, moderngl.NEAREST)
-                        fbo = ctx.framebuffer(color_attachments=[target])
-                        ctx.error  # noqa: B018  (moderngl's set-up query on an integer target)
+                        target, fbo = class_target(ctx, w, pp)
                         try:
                             fbo.use()
                             ctx.viewport = (0, 0, w, pp)
