@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import GLContextError
-from ..hierarchy import Arcs, Frontier
+from ..hierarchy import FRONTIER, Arcs, Frontier
 from ..sphere import arc_distance
 from .context import get_context
 from .shaders import program
@@ -206,10 +206,17 @@ class BinLayout:
     face_size: int | None = None
 
     @classmethod
-    def of_grid(cls, grid, classes: np.ndarray, f: Frontier, stop_level: int) -> BinLayout:
-        """A grid's layout: the canvas is the grid, geo rows and columns are its bins'."""
+    def of_grid(cls, grid, shape: tuple[int, int], f: Frontier, stop_level: int) -> BinLayout:
+        """A grid's layout: the frontier bins packed row by row into a nearly square canvas
+        (the rest of the grid is its bins' classes, filled in on the CPU), geo rows and
+        columns the bins' own; ``shape`` is the grid's bin-level shape."""
         bl = f.level
-        hb, wb = classes.shape
+        hb, wb = shape
+        k = len(f.cells)
+        side = max(1, math.ceil(math.sqrt(k)))
+        pos = np.column_stack([np.arange(k) // side, np.arange(k) % side])
+        canvas = np.zeros((max(1, -(-k // side)), side), dtype=np.uint8)
+        canvas[pos[:, 0], pos[:, 1]] = FRONTIER
         last = grid.n_levels - 1 - bl
         g = np.arange(hb)
         cube = hasattr(grid, "face")
@@ -226,8 +233,8 @@ class BinLayout:
                 cols = (np.arange(wb)[:, None] << s) + q[None, :]
                 dlam[s] = grid.cell_lon(bl + s, cols) - lon[:, None]
         return cls(
-            classes,
-            f.cells,
+            canvas,
+            pos,
             f.cells,
             last,
             stop_level - bl,
@@ -290,39 +297,37 @@ class GpuLevels:
         callback=None,
         timings: list | None = None,
     ) -> np.ndarray:
-        """Classes of ``stop_level`` from the bin level's ``classes`` and frontier ``f``."""
-        layout = BinLayout.of_grid(grid, classes, f, stop_level)
-        bl = f.level
+        """Classes of ``stop_level`` from the bin level's ``classes`` and frontier ``f``.
 
-        def cb(s, out):
-            if callback is None:
-                return
-            if s == layout.stop:
-                callback(bl + s, out)
-                return
-            # outside the frontier bins this level is its bins' class
+        Only the frontier bins go through the GPU, packed into a small canvas; every other
+        cell of the level is its bin's class, filled in here."""
+        layout = BinLayout.of_grid(grid, classes.shape, f, stop_level)
+        bl = f.level
+        k = len(f.cells)
+        hb, wb = classes.shape
+
+        def full(s, packed):
+            """The whole level: bins' classes, with the frontier bins from ``packed``."""
+            b = 1 << s
             h, w = grid.level_shape(bl + s)
-            up = np.repeat(np.repeat(classes, 1 << s, 0), 1 << s, 1)
-            cur = up[:h, :w].copy()
-            mask = np.zeros(classes.shape, dtype=bool)
-            mask[f.cells[:, 0], f.cells[:, 1]] = True
-            mask = np.repeat(np.repeat(mask, 1 << s, 0), 1 << s, 1)
-            cur[mask[:h, :w]] = out[:h, :w][mask[:h, :w]]
-            callback(bl + s, cur)
+            out = np.repeat(np.repeat(classes, b, 0), b, 1)
+            if k:
+                side = layout.classes.shape[1]
+                blocks = packed.reshape(-1, b, side, b).transpose(0, 2, 1, 3).reshape(-1, b, b)
+                view = out.reshape(hb, b, wb, b).transpose(0, 2, 1, 3)
+                view[f.cells[:, 0], f.cells[:, 1]] = blocks[:k]
+            return out[:h, :w]
+
+        def cb(s, packed):
+            callback(bl + s, full(s, packed))
 
         t = None if timings is None else []
-        out = self.run_layout(
-            layout,
-            d,
-            f,
-            arcs,
-            size=grid.level_shape(stop_level),
-            callback=cb if callback is not None else None,
-            timings=t,
+        packed = self.run_layout(
+            layout, d, f, arcs, callback=cb if callback is not None else None, timings=t
         )
         if timings is not None:
             timings += [(bl + s, tt) for s, tt in t]
-        return out
+        return full(layout.stop, packed)
 
     def run_layout(
         self,
@@ -331,13 +336,11 @@ class GpuLevels:
         f: Frontier,
         arcs: Arcs,
         *,
-        size: tuple[int, int] | None = None,
         callback=None,
         timings: list | None = None,
     ) -> np.ndarray:
-        """Classes of the canvas at shift ``layout.stop`` (``size``: the part read back,
-        (rows, columns), default all); ``callback(s, classes)`` after each pass (the
-        frontier bins' cells only are meaningful before the last)."""
+        """Classes of the canvas at shift ``layout.stop``; ``callback(s, classes)`` after
+        each pass (the frontier bins' cells only are meaningful before the last)."""
         import moderngl
 
         ctx = self.ctx
@@ -350,7 +353,7 @@ class GpuLevels:
             if callback is not None:
                 for s in range(1, layout.stop + 1):
                     callback(s, np.repeat(np.repeat(classes, 1 << s, 0), 1 << s, 1))
-            return out if size is None else out[: size[0], : size[1]].copy()
+            return out
         rec, first, bits = records(f, arcs, e)
         info = np.zeros((hb, wb, 4), dtype=np.uint32)
         info[..., 3] = classes
@@ -445,9 +448,8 @@ class GpuLevels:
                     ctx.finish()
                     timings.append((s, time.perf_counter()))
                 if callback is not None or s == layout.stop:
-                    rh, rw = (h, w) if size is None or s != layout.stop else size
-                    data = fbo.read(viewport=(0, 0, rw, rh), components=1, dtype="u1")
-                    out = np.frombuffer(data, dtype=np.uint8).reshape(rh, rw)
+                    data = fbo.read(viewport=(0, 0, w, h), components=1, dtype="u1")
+                    out = np.frombuffer(data, dtype=np.uint8).reshape(h, w)
                     if callback is not None:
                         callback(s, out)
                 fbo.release()
