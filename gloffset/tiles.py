@@ -31,9 +31,9 @@ quadtree. The hierarchy runs to zoom ``max + P``: the frontier tiles of zoom ``z
 are refined in float64 down to their bins (zoom ``z + P - 4``; these levels are
 kept from zoom to zoom, so each zoom adds one, :class:`_BinChain`), and the GPU levels
 (:class:`gloffset.gl.engine.GpuLevels`) classify the frontier bins of up to
-``(max_block / size)^2`` tiles at once, drawn into the slots of one atlas texture
-(:class:`~gloffset.gl.engine.BinLayout`), so the cost per tile is that of its
-frontier bins, not a render call. The answer is that of :func:`gloffset.render` on
+``(max_block / size)^2`` tiles at once, packed into one small canvas
+(:class:`~gloffset.gl.engine.BinLayout`); every other pixel of a tile is its bin's
+class. So the cost per tile is that of its frontier bins, not a render call. The answer is that of :func:`gloffset.render` on
 the tile's :class:`~gloffset.grids.Tile` grid: same pixel centres, same decision
 rules and precision.
 
@@ -80,7 +80,7 @@ __all__ = ["pyramid", "parse_zooms", "PyramidStats", "TilesError", "MAX_ZOOM", "
 #: Deepest zoom a pyramid may reach (the raster engine is exact to a fraction of a
 #: pixel up to here).
 MAX_ZOOM = 22
-#: Largest side in pixels of the atlas that frontier tiles are rendered into.
+#: Frontier tiles rendered per GPU run: (MAX_BLOCK / tile size)^2.
 MAX_BLOCK = 4096
 #: Output pixels per side of a bin (below it the GPU takes over).
 _BIN_LOG2 = 4
@@ -321,8 +321,7 @@ def pyramid(
     progress : callable, optional
         ``progress(done, estimate)`` after each tile handled.
     max_block : int
-        Largest side in pixels of the atlas that frontier tiles are rendered into
-        (at most ``(max_block / size)^2`` tiles per GPU run).
+        Frontier tiles per GPU run: at most ``(max_block / size)^2``.
 
     Returns
     -------
@@ -488,7 +487,7 @@ def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, st
                         store.put(*key, data)
                         stats.painted += 1
                 tick()
-            # frontier: rendered in atlases, from their own frontier
+            # frontier: their frontier bins rendered in batches, from the pyramid's levels
             chain.advance(_subset(f, front))
             todo = [k for k, i in enumerate(front) if (z, int(cols[i]), int(rows[i])) not in have]
             stats.present += len(front) - len(todo)
@@ -568,40 +567,44 @@ class _BinChain:
                 cur = lev[-1][2]
         self.z, self.lev, self.f = f.level, lev, f
 
-    def layout(self, which, side, ns):
-        """The atlas of the tiles ``which`` (indices into the tiles, ``side`` slots a
-        row) and the Frontier of its bins: every decided cell painted into the
-        bin-level classes of its tile's slot, frontier bins left to ``ns`` GPU levels."""
+    def layout(self, which, ns):
+        """The tiles ``which`` (indices into the chain's tiles) down to their bins.
+
+        Returns the bin-level classes of each tile ((n, 2^nb, 2^nb), every decided cell
+        painted), the :class:`~gloffset.gl.engine.BinLayout` of the frontier bins
+        packed into a small canvas (``ns`` GPU levels below them), their
+        :class:`~gloffset.hierarchy.Frontier`, and each frontier bin's tile (position
+        in ``which``) and place in it (row, column)."""
         nb = self.nb
         nbin = 1 << nb
         n = len(which)
-        canvas = np.zeros((-(-n // side) * nbin, side * nbin), dtype=np.uint8)
+        tiles = np.zeros((n, nbin, nbin), dtype=np.uint8)
         order = np.argsort(_keys(self.f.cells[which]))
         tkeys = _keys(self.f.cells[which])[order]  # the batch's tiles, sorted
-        slot = order  # slot k holds tile which[k]
 
         def place(cells, k):
             t = _member(_keys(cells, k), tkeys)
             sel = np.flatnonzero(t >= 0)
             m = (1 << k) - 1
-            s = slot[t[sel]]
-            return sel, s // side, s % side, cells[sel, 0] & m, cells[sel, 1] & m
+            return sel, order[t[sel]], cells[sel, 0] & m, cells[sel, 1] & m
 
         if nb == 0:
             fb = _subset(self.f, np.sort(np.asarray(which)))
-            bins = self.f.cells[np.sort(np.asarray(which))]
         for k, (dc, dcls, fr) in enumerate(self.lev, start=1):
-            sel, sr, sc, jr, jc = place(dc, k)
+            sel, t, jr, jc = place(dc, k)
             span = 1 << (nb - k)  # bins per side of a cell of this level
             for dy in range(span):
                 for dx in range(span):
-                    canvas[sr * nbin + jr * span + dy, sc * nbin + jc * span + dx] = dcls[sel]
+                    tiles[t, jr * span + dy, jc * span + dx] = dcls[sel]
             if k == nb:
-                sel, *_ = place(fr.cells, k)
-                fb = _subset(fr, sel)
-                bins = fb.cells
-        _, sr, sc, jr, jc = place(bins, nb)
-        pos = np.column_stack([sr * nbin + jr, sc * nbin + jc])
+                fb = _subset(fr, place(fr.cells, k)[0])
+        bins = fb.cells
+        _, t, jr, jc = place(bins, nb)
+        tiles[t, jr, jc] = FRONTIER
+        kb = len(bins)
+        side = max(1, math.ceil(math.sqrt(kb)))
+        pos = np.column_stack([np.arange(kb) // side, np.arange(kb) % side])
+        canvas = np.zeros((max(1, -(-kb // side)), side), dtype=np.uint8)
         canvas[pos[:, 0], pos[:, 1]] = FRONTIER
         grow, grow_inv = np.unique(bins[:, 0], return_inverse=True)
         gcol, gcol_inv = np.unique(bins[:, 1], return_inverse=True)
@@ -617,23 +620,32 @@ class _BinChain:
             dlam[s] = _lon(zb + s, cc + 0.5) - lon[:, None]
             rho[s] = self.levels.bound(zb + s, rr) if s < ns else np.zeros(rr.shape)
         ids = np.column_stack([grow_inv, gcol_inv])
-        return BinLayout(canvas, pos, ids, ns, ns, rho, lat, lon, dphi, dlam), fb
+        layout = BinLayout(canvas, pos, ids, ns, ns, rho, lat, lon, dphi, dlam)
+        return tiles, layout, fb, (t, jr, jc)
 
 
 def _render_tiles(chain, which, size, max_block, stats):
     """Masks of the frontier tiles ``which`` (indices into the chain's tiles), as
     ``(index, mask)``: the GPU levels classify the frontier bins of up to
-    ``(max_block / size)^2`` tiles per run, each tile in a slot of an atlas."""
+    ``(max_block / size)^2`` tiles per run, packed into one small canvas; every other
+    pixel of a tile is its bin's class."""
     from .gl.engine import engine
 
     plog = size.bit_length() - 1
-    per_side = max(1, max_block // size)
-    for s0 in range(0, len(which), per_side * per_side):
-        batch = which[s0 : s0 + per_side * per_side]
-        side = min(len(batch), per_side)
-        layout, fb = chain.layout(batch, side, plog - chain.nb)
-        out = engine().run_layout(layout, chain.d, fb, chain.arcs)
+    ns = plog - chain.nb  # GPU levels: a bin is 2^ns pixels on a side
+    b = 1 << ns
+    per_run = max(1, max_block // size) ** 2
+    for s0 in range(0, len(which), per_run):
+        batch = which[s0 : s0 + per_run]
+        tiles, layout, fb, (t, jr, jc) = chain.layout(batch, ns)
+        packed = engine().run_layout(layout, chain.d, fb, chain.arcs)
         stats.render_calls += 1
+        n, nbin = len(batch), tiles.shape[1]
+        out = np.repeat(np.repeat(tiles, b, 1), b, 2)
+        if len(t):
+            side = layout.classes.shape[1]
+            blocks = packed.reshape(-1, b, side, b).transpose(0, 2, 1, 3).reshape(-1, b, b)
+            view = out.reshape(n, nbin, b, nbin, b).transpose(0, 1, 3, 2, 4)
+            view[t, jr, jc] = blocks[: len(t)]
         for k, i in enumerate(batch):
-            r0, c0 = (k // side) * size, (k % side) * size
-            yield int(i), out[r0 : r0 + size, c0 : c0 + size] == CONTAINED
+            yield int(i), out[k] == CONTAINED

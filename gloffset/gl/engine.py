@@ -175,9 +175,9 @@ class BinLayout:
     """Where the GPU levels draw the frontier bins, and the geometry each level needs.
 
     The passes draw into a *canvas* of bins, whose bin-level classes are ``classes``
-    (frontier bins marked FRONTIER). For a grid the canvas is the grid itself; for a
-    batch of map tiles it is an atlas whose slots hold tiles from anywhere (see
-    :mod:`gloffset.tiles`). Frontier bin ``k`` of the :class:`Frontier` is drawn at
+    (frontier bins marked FRONTIER): for a grid or a batch of map tiles (see
+    :mod:`gloffset.tiles`) the frontier bins packed row by row, whatever their place on
+    the sphere. Frontier bin ``k`` of the :class:`Frontier` is drawn at
     canvas ``pos[k]`` (row, column) and has the *geo row and column* ``geo[k]``, which
     index the geometry. Level ``bin level + s`` has ``2^s x 2^s`` cells per bin; per
     geo row ``g`` and sub-row ``q < 2^s`` of it:
@@ -269,7 +269,7 @@ def _groups(first: np.ndarray, counts: np.ndarray, limit: int) -> list[tuple[int
 
 
 class GpuLevels:
-    """Runs the levels below the bin level on the GPU (lon/lat grids, cube faces, atlases)."""
+    """Runs the levels below the bin level on the GPU (lon/lat grids, cube faces, tiles)."""
 
     def __init__(self):
         self.ctx = get_context()
