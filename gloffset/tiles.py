@@ -33,9 +33,9 @@ kept from zoom to zoom, so each zoom adds one, :class:`_BinChain`), and the GPU 
 (:class:`gloffset.gl.engine.GpuLevels`) classify the frontier bins of up to
 ``(max_block / size)^2`` tiles at once, packed into one small canvas
 (:class:`~gloffset.gl.engine.BinLayout`); every other pixel of a tile is its bin's
-class. So the cost per tile is that of its frontier bins, not a render call. The answer is that of :func:`gloffset.render` on
-the tile's :class:`~gloffset.grids.Tile` grid: same pixel centres, same decision
-rules and precision.
+class. So the cost per tile is that of its frontier bins, not a render call. The
+answer is that of :func:`gloffset.render` on the tile's :class:`~gloffset.grids.Tile`
+grid: same pixel centres, same decision rules and precision.
 
 With an outline, decided tiles that a boundary arc may cross (distance to the
 boundary at most ``r``) are drawn (fill or nothing, plus the outline) and
