@@ -572,15 +572,14 @@ class _BinChain:
 
         Returns the bin-level classes of each tile ((n, 2^nb, 2^nb), every decided cell
         painted), the :class:`~gloffset.gl.engine.BinLayout` of the frontier bins
-        packed into a small canvas (``ns`` GPU levels below them), their
-        :class:`~gloffset.hierarchy.Frontier`, and each frontier bin's tile (position
-        in ``which``) and place in it (row, column)."""
+        (``ns`` GPU levels below them), their :class:`~gloffset.hierarchy.Frontier`,
+        and each frontier bin's tile (position in ``which``) and place in it."""
         nb = self.nb
         nbin = 1 << nb
-        n = len(which)
-        tiles = np.zeros((n, nbin, nbin), dtype=np.uint8)
-        order = np.argsort(_keys(self.f.cells[which]))
-        tkeys = _keys(self.f.cells[which])[order]  # the batch's tiles, sorted
+        tiles = np.zeros((len(which), nbin, nbin), dtype=np.uint8)
+        keys = _keys(self.f.cells[which])
+        order = np.argsort(keys)
+        tkeys = keys[order]  # the batch's tiles, sorted
 
         def place(cells, k):
             t = _member(_keys(cells, k), tkeys)
@@ -598,29 +597,17 @@ class _BinChain:
                     tiles[t, jr * span + dy, jc * span + dx] = dcls[sel]
             if k == nb:
                 fb = _subset(fr, place(fr.cells, k)[0])
-        bins = fb.cells
-        _, t, jr, jc = place(bins, nb)
+        _, t, jr, jc = place(fb.cells, nb)
         tiles[t, jr, jc] = FRONTIER
-        kb = len(bins)
-        side = max(1, math.ceil(math.sqrt(kb)))
-        pos = np.column_stack([np.arange(kb) // side, np.arange(kb) % side])
-        canvas = np.zeros((max(1, -(-kb // side)), side), dtype=np.uint8)
-        canvas[pos[:, 0], pos[:, 1]] = FRONTIER
-        grow, grow_inv = np.unique(bins[:, 0], return_inverse=True)
-        gcol, gcol_inv = np.unique(bins[:, 1], return_inverse=True)
         zb = self.f.level + nb
-        lat = _lat(zb, grow + 0.5)
-        lon = _lon(zb, gcol + 0.5)
-        rho, dphi, dlam = {}, {}, {}
-        for s in range(1, ns + 1):
-            q = np.arange(1 << s)
-            rr = (grow[:, None] << s) + q[None, :]
-            cc = (gcol[:, None] << s) + q[None, :]
-            dphi[s] = _lat(zb + s, rr + 0.5) - lat[:, None]
-            dlam[s] = _lon(zb + s, cc + 0.5) - lon[:, None]
-            rho[s] = self.levels.bound(zb + s, rr) if s < ns else np.zeros(rr.shape)
-        ids = np.column_stack([grow_inv, gcol_inv])
-        layout = BinLayout(canvas, pos, ids, ns, ns, rho, lat, lon, dphi, dlam)
+        layout = BinLayout.build(
+            fb.cells,
+            ns,
+            ns,
+            lambda s, rows: self.levels.bound(zb + s, rows),
+            lambda s, rows: _lat(zb + s, rows + 0.5),
+            lambda s, cols: _lon(zb + s, cols + 0.5),
+        )
         return tiles, layout, fb, (t, jr, jc)
 
 
@@ -642,10 +629,7 @@ def _render_tiles(chain, which, size, max_block, stats):
         stats.render_calls += 1
         n, nbin = len(batch), tiles.shape[1]
         out = np.repeat(np.repeat(tiles, b, 1), b, 2)
-        if len(t):
-            side = layout.classes.shape[1]
-            blocks = packed.reshape(-1, b, side, b).transpose(0, 2, 1, 3).reshape(-1, b, b)
-            view = out.reshape(n, nbin, b, nbin, b).transpose(0, 1, 3, 2, 4)
-            view[t, jr, jc] = blocks[: len(t)]
+        view = out.reshape(n, nbin, b, nbin, b).transpose(0, 1, 3, 2, 4)
+        view[t, jr, jc] = layout.blocks(packed)
         for k, i in enumerate(batch):
             yield int(i), out[k] == CONTAINED

@@ -14,7 +14,7 @@ const uint CONTAINED = 2u;
 const int RECORD_TEXELS = 6;
 
 uniform usampler2D u_parent;   // classes of level l-1 (R8UI), valid inside frontier bins
-uniform usampler2D u_bins;     // per bin: first record, record count, status bits, class
+uniform usampler2D u_bins;     // per bin: first record (in its buffer), record count, status bits
 uniform usampler2D u_bin_geo;  // per bin: its geo row and column (index the geometry below)
 layout(std430, binding = 0) readonly buffer Records {
     vec4 records[];            // arc records, RECORD_TEXELS vec4 each (lib/arcs.glsl)

@@ -9,8 +9,11 @@ distances ``x`` the decisions compare with. The shader then only adds small floa
 terms to small float64-made numbers, so near the offset boundary its answer is
 exact to a few float32 ulp of the bin's size, not of the unit sphere.
 
-Each pass reads the parent level's classes (texelFetch) and does real work only
-for children of frontier cells; see ``shaders/classify.frag``.
+The frontier bins are packed into a small canvas (:class:`BinLayout`); each pass
+draws one quad per bin (``shaders/bins.vert``), reads the parent level's classes
+(texelFetch) and does real work only for children of frontier cells (see
+``shaders/classify.frag``). Every cell outside the frontier bins is its bin's class,
+filled in on the CPU.
 """
 
 from __future__ import annotations
@@ -172,15 +175,14 @@ def class_target(ctx, w: int, h: int):
 
 @dataclass
 class BinLayout:
-    """Where the GPU levels draw the frontier bins, and the geometry each level needs.
+    """The frontier bins that the GPU levels classify, and the geometry each level needs.
 
-    The passes draw into a *canvas* of bins, whose bin-level classes are ``classes``
-    (frontier bins marked FRONTIER): for a grid or a batch of map tiles (see
-    :mod:`gloffset.tiles`) the frontier bins packed row by row, whatever their place on
-    the sphere. Frontier bin ``k`` of the :class:`Frontier` is drawn at
-    canvas ``pos[k]`` (row, column) and has the *geo row and column* ``geo[k]``, which
-    index the geometry. Level ``bin level + s`` has ``2^s x 2^s`` cells per bin; per
-    geo row ``g`` and sub-row ``q < 2^s`` of it:
+    The passes draw the bins packed row by row into a small *canvas* (:meth:`pos`),
+    whatever their place on the sphere (a grid's frontier, or the frontier bins of a
+    batch of map tiles, see :mod:`gloffset.tiles`); the caller fills in every other
+    cell from its bin's class. Bin ``k`` (in the order of the :class:`Frontier`) has the
+    *geo row and column* ``geo[k]``, which index the geometry. Level ``bin level + s``
+    has ``2^s x 2^s`` cells per bin; per geo row ``g`` and sub-row ``q < 2^s`` of it:
 
     * ``rho[s][g, q]``: the bound of the cells of that row (for the decisions);
     * lon/lat grids: ``lat[g]``, the latitude of the bin centres, and ``dphi[s][g, q]``,
@@ -192,8 +194,6 @@ class BinLayout:
     shader only adds small float32 terms to small numbers.
     """
 
-    classes: np.ndarray
-    pos: np.ndarray
     geo: np.ndarray
     last: int
     stop: int
@@ -206,46 +206,84 @@ class BinLayout:
     face_size: int | None = None
 
     @classmethod
-    def of_grid(cls, grid, shape: tuple[int, int], f: Frontier, stop_level: int) -> BinLayout:
-        """A grid's layout: the frontier bins packed row by row into a nearly square canvas
-        (the rest of the grid is its bins' classes, filled in on the CPU), geo rows and
-        columns the bins' own; ``shape`` is the grid's bin-level shape."""
-        bl = f.level
-        hb, wb = shape
-        k = len(f.cells)
-        side = max(1, math.ceil(math.sqrt(k)))
-        pos = np.column_stack([np.arange(k) // side, np.arange(k) % side])
-        canvas = np.zeros((max(1, -(-k // side)), side), dtype=np.uint8)
-        canvas[pos[:, 0], pos[:, 1]] = FRONTIER
-        last = grid.n_levels - 1 - bl
-        g = np.arange(hb)
-        cube = hasattr(grid, "face")
+    def build(cls, bins, last, stop, rho_at, lat_at=None, lon_at=None, basis=None, face_size=None):
+        """The layout of the bins ``bins`` (k, 2) (rows and columns of the bin level).
+
+        ``rho_at(s, rows)``: bounds of the cells of (whole-level) rows ``rows`` at shift
+        ``s``; lon/lat grids give ``lat_at(s, rows)`` and ``lon_at(s, cols)``, the
+        latitude and longitude of cell centres (shift 0: the bins); cube faces give
+        ``basis`` and ``face_size``. Geo rows and columns are the distinct rows and
+        columns of the bins (a cube face's own, since its shader places bins by them).
+        """
+        bins = np.asarray(bins).reshape(-1, 2)
+        if basis is not None:
+            g = np.arange(int(bins[:, 0].max(initial=0)) + 1)
+            gc, geo = None, bins
+        else:
+            g, ginv = np.unique(bins[:, 0], return_inverse=True)
+            gc, cinv = np.unique(bins[:, 1], return_inverse=True)
+            geo = np.column_stack([ginv, cinv])
+        lat = None if gc is None else lat_at(0, g)
+        lon = None if gc is None else lon_at(0, gc)
         rho, dphi, dlam = {}, {}, {}
-        lat = None if cube else grid.cell_lat(bl, g)
-        lon = None if cube else grid.cell_lon(bl, np.arange(wb))
-        for s in range(1, stop_level - bl + 1):
+        for s in range(1, stop + 1):
             q = np.arange(1 << s)
             rows = (g[:, None] << s) + q[None, :]
+            rho[s] = np.zeros(rows.shape) if s == last else rho_at(s, rows)
+            if gc is not None:
+                dphi[s] = lat_at(s, rows) - lat[:, None]
+                dlam[s] = lon_at(s, (gc[:, None] << s) + q[None, :]) - lon[:, None]
+        return cls(geo, last, stop, rho, lat, lon, dphi, dlam, basis, face_size)
+
+    @classmethod
+    def of_grid(cls, grid, f: Frontier, stop_level: int) -> BinLayout:
+        """The layout of the frontier bins ``f`` of a grid."""
+        bl = f.level
+
+        def rho_at(s, rows):
             r = grid.rho(bl + s)
-            rho[s] = r[np.minimum(rows, len(r) - 1)]
-            if not cube:
-                dphi[s] = grid.cell_lat(bl + s, rows) - lat[:, None]
-                cols = (np.arange(wb)[:, None] << s) + q[None, :]
-                dlam[s] = grid.cell_lon(bl + s, cols) - lon[:, None]
-        return cls(
-            canvas,
-            pos,
+            return r[np.minimum(rows, len(r) - 1)]
+
+        if hasattr(grid, "face"):
+            return cls.build(
+                f.cells,
+                grid.n_levels - 1 - bl,
+                stop_level - bl,
+                rho_at,
+                basis=grid.basis,
+                face_size=int(grid.size),
+            )
+        return cls.build(
             f.cells,
-            last,
+            grid.n_levels - 1 - bl,
             stop_level - bl,
-            rho,
-            lat,
-            lon,
-            dphi,
-            dlam,
-            basis=grid.basis if cube else None,
-            face_size=int(grid.size) if cube else None,
+            rho_at,
+            lambda s, rows: grid.cell_lat(bl + s, rows),
+            lambda s, cols: grid.cell_lon(bl + s, cols),
         )
+
+    @property
+    def side(self) -> int:
+        """Bins per row of the canvas."""
+        return max(1, math.ceil(math.sqrt(len(self.geo))))
+
+    def pos(self) -> np.ndarray:
+        """(k, 2) canvas row and column of each bin."""
+        k = np.arange(len(self.geo))
+        return np.column_stack([k // self.side, k % self.side])
+
+    def canvas(self) -> np.ndarray:
+        """Bin-level classes of the canvas: FRONTIER where a bin is, OUTSIDE elsewhere."""
+        out = np.zeros((max(1, -(-len(self.geo) // self.side)), self.side), dtype=np.uint8)
+        pos = self.pos()
+        out[pos[:, 0], pos[:, 1]] = FRONTIER
+        return out
+
+    def blocks(self, classes: np.ndarray) -> np.ndarray:
+        """(k, 2^s, 2^s): each bin's cells, from the canvas ``classes`` of a shift s."""
+        b = classes.shape[1] // self.side
+        cells = classes.reshape(-1, b, self.side, b).transpose(0, 2, 1, 3).reshape(-1, b, b)
+        return cells[: len(self.geo)]
 
 
 def _groups(first: np.ndarray, counts: np.ndarray, limit: int) -> list[tuple[int, int]]:
@@ -279,8 +317,6 @@ class GpuLevels:
             "lonlat": program(self.ctx, "bins.vert", "classify.frag"),
             "cube": program(self.ctx, "bins.vert", "classify.frag", {"GRID_CUBE": 1}),
         }
-        self.upsample = program(self.ctx, "fullscreen.vert", "upsample.frag")
-        self.upsample_vao = self.ctx.vertex_array(self.upsample, [])
 
     def _tex(self, array: np.ndarray, comps: int, dtype: str):
         return pot_texture(self.ctx, array, comps, dtype)
@@ -301,9 +337,8 @@ class GpuLevels:
 
         Only the frontier bins go through the GPU, packed into a small canvas; every other
         cell of the level is its bin's class, filled in here."""
-        layout = BinLayout.of_grid(grid, classes.shape, f, stop_level)
+        layout = BinLayout.of_grid(grid, f, stop_level)
         bl = f.level
-        k = len(f.cells)
         hb, wb = classes.shape
 
         def full(s, packed):
@@ -311,11 +346,8 @@ class GpuLevels:
             b = 1 << s
             h, w = grid.level_shape(bl + s)
             out = np.repeat(np.repeat(classes, b, 0), b, 1)
-            if k:
-                side = layout.classes.shape[1]
-                blocks = packed.reshape(-1, b, side, b).transpose(0, 2, 1, 3).reshape(-1, b, b)
-                view = out.reshape(hb, b, wb, b).transpose(0, 2, 1, 3)
-                view[f.cells[:, 0], f.cells[:, 1]] = blocks[:k]
+            view = out.reshape(hb, b, wb, b).transpose(0, 2, 1, 3)
+            view[f.cells[:, 0], f.cells[:, 1]] = layout.blocks(packed)
             return out[:h, :w]
 
         def cb(s, packed):
@@ -339,27 +371,29 @@ class GpuLevels:
         callback=None,
         timings: list | None = None,
     ) -> np.ndarray:
-        """Classes of the canvas at shift ``layout.stop``; ``callback(s, classes)`` after
-        each pass (the frontier bins' cells only are meaningful before the last)."""
+        """Classes of the canvas at shift ``layout.stop`` (:meth:`BinLayout.blocks` cuts
+        out each bin); ``callback(s, classes)`` after each pass."""
         import moderngl
 
         ctx = self.ctx
         e = abs(d)
-        classes = layout.classes
-        hb, wb = classes.shape
-        if len(layout.pos) == 0:  # nothing undecided: every cell is its bin's class
-            k = 1 << layout.stop
-            out = np.repeat(np.repeat(classes, k, 0), k, 1)
-            if callback is not None:
-                for s in range(1, layout.stop + 1):
-                    callback(s, np.repeat(np.repeat(classes, 1 << s, 0), 1 << s, 1))
-            return out
+        canvas = layout.canvas()
+        hb, wb = canvas.shape
+        if len(layout.geo) == 0:  # nothing undecided
+            for s in range(1, layout.stop + 1) if callback is not None else ():
+                callback(s, np.zeros((hb << s, wb << s), dtype=np.uint8))
+            return np.zeros((hb << layout.stop, wb << layout.stop), dtype=np.uint8)
         rec, first, bits = records(f, arcs, e)
-        info = np.zeros((hb, wb, 4), dtype=np.uint32)
-        info[..., 3] = classes
         counts = np.bincount(f.pair_cell, minlength=len(f.cells)).astype(np.uint32)
-        pj, pi = layout.pos[:, 0], layout.pos[:, 1]
-        info[pj, pi, 0] = first
+        # the records go to storage buffers (faster than textures on llvmpipe), in
+        # groups of whole bins that each fit the GL limit on one buffer
+        groups = _groups(first, counts, self.max_records)
+        pos = layout.pos()
+        pj, pi = pos[:, 0], pos[:, 1]
+        info = np.zeros((hb, wb, 3), dtype=np.uint32)
+        info[pj, pi, 0] = first - np.repeat(
+            first[[g0 for g0, _ in groups]], [g1 - g0 for g0, g1 in groups]
+        )
         info[pj, pi, 1] = counts
         info[pj, pi, 2] = bits
         geo = np.zeros((hb, wb, 2), dtype=np.uint32)
@@ -372,10 +406,9 @@ class GpuLevels:
         info[pj, pi, 0] = first - np.repeat(
             first[[g0 for g0, _ in groups]], [g1 - g0 for g0, g1 in groups]
         )
-        bins = self._tex(info, 4, "u4")
+        bins = self._tex(info, 3, "u4")
         geo_t = self._tex(geo, 2, "u4")
-        coarse = self._tex(classes, 1, "u1")
-        textures = [bins, geo_t, coarse]
+        textures = [bins, geo_t]
         if cube:
             e_, u_, v_ = layout.basis
             _set(p, "u_face_e", tuple(float(x) for x in e_))
@@ -398,19 +431,17 @@ class GpuLevels:
         _set(p, "u_bin_block", float(1 << layout.last))
         _set(p, "u_positive", d >= 0)
         _set(p, "u_e", e)
-        self.upsample["u_coarse"] = 6
         bins.use(1)
-        coarse.use(6)
         geo_t.use(9)
-        parent = self._tex(classes, 1, "u1")
-        fb = np.ascontiguousarray(layout.pos[:, ::-1], dtype=np.int32)  # (column, row)
+        parent = self._tex(canvas, 1, "u1")
+        fb = np.ascontiguousarray(pos[:, ::-1], dtype=np.int32)  # (column, row)
         draws = []  # per group: records, instance buffer (bin positions), vertex array
         for g0, g1 in groups:
             r0, r1 = int(first[g0]), int(first[g1 - 1] + counts[g1 - 1])
             recs = ctx.buffer(rec[r0:r1].tobytes() if r1 > r0 else bytes(RECORD_TEXELS * 16))
             inst = ctx.buffer(fb[g0:g1].tobytes())
             draws.append((recs, inst, ctx.vertex_array(p, [(inst, "2i/i", "in_bin")]), g1 - g0))
-        out = classes
+        out = canvas
         owned = [parent]
         try:
             for s in range(1, layout.stop + 1):
@@ -421,9 +452,6 @@ class GpuLevels:
                 target, fbo = class_target(ctx, w, h)
                 fbo.use()
                 ctx.viewport = (0, 0, w, h)
-                if s == layout.stop:  # every pixel outside the frontier bins
-                    self.upsample["u_shift"] = s
-                    self.upsample_vao.render(moderngl.TRIANGLES, vertices=3)
                 parent.use(0)
                 mt.use(5)
                 level_tex = []
