@@ -54,7 +54,9 @@ def per_level(shape, grid) -> list:
     eng = engine()
     marks = []
     t0 = time.perf_counter()
-    classes, f, arcs = classify(shape, D, grid, stop_level=grid.bin_level, timings=marks)
+    classes, f, arcs = classify(
+        shape, D, grid, stop_level=grid.bin_level, timings=marks, start="auto"
+    )
     eng.run(grid, D, classes, f, arcs, stop_level=grid.n_levels - 1, timings=marks)
     out, prev = [], t0
     for lev, t in marks:

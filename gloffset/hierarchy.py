@@ -298,21 +298,62 @@ def _subset(f: Frontier, sel: np.ndarray) -> Frontier:
     )
 
 
-def classify(shape, d: float, grid, *, stop_level: int | None = None, callback=None, timings=None):
+def classify(
+    shape,
+    d: float,
+    grid,
+    *,
+    stop_level: int | None = None,
+    callback=None,
+    timings=None,
+    start: str | int = "coarse",
+):
     """Classify the grid level by level in float64 down to ``stop_level`` (default: output).
 
-    Returns ``(classes, frontier)``: the full class array of ``stop_level`` and the
-    :class:`Frontier` of its frontier cells (empty at the output level).
-    ``callback(level, classes)`` is called after each level; ``timings``, a list,
-    gets ``(level, time.perf_counter())`` after each level.
+    Returns ``(classes, frontier, arcs)``: the full class array of ``stop_level``, the
+    :class:`Frontier` of its frontier cells (empty at the output level) and the
+    shape's :class:`Arcs`. ``callback(level, classes)`` is called after each level;
+    ``timings``, a list, gets ``(level, time.perf_counter())`` after each level.
+
+    ``start="coarse"`` runs every level from the coarsest (the reference renderer);
+    ``start="auto"`` enters the finest level that :func:`gloffset.scatter.start_level`
+    allows directly (lon/lat grids, small distances), and an int enters that level
+    (:func:`gloffset.scatter.scatter`); the levels above it are reported pooled from
+    it. All give the same classes from that level on.
     """
     arcs = Arcs.from_shape(shape)
     e = abs(d)
     last = grid.n_levels - 1
     stop = last if stop_level is None else stop_level
-    f = _coarse(shape, arcs, grid, e)
-    classes = np.zeros(grid.level_shape(0), dtype=np.uint8)
-    for lev in range(0, stop + 1):
+    begin = 0
+    if start == "auto":
+        from .scatter import start_level
+
+        begin = start_level(arcs, grid, e, stop)
+    elif start != "coarse":
+        if not (isinstance(start, int) and 0 <= start <= stop and hasattr(grid, "cell_lat")):
+            raise ValueError(
+                f"start must be 'coarse', 'auto' or a level in 0..{stop} of a lon/lat grid, "
+                f"got {start!r}"
+            )
+        begin = start
+    if begin > 0:
+        from .scatter import pooled, scatter
+
+        classes, f = scatter(shape, arcs, grid, d, begin, final=(begin == last))
+        if callback is not None:
+            coarse = [classes]
+            for _ in range(begin):
+                coarse.append(pooled(coarse[-1]))
+            for lev in range(begin + 1):
+                callback(lev, coarse[begin - lev])
+        if timings is not None:
+            timings.append((begin, time.perf_counter()))
+        begin += 1
+    else:
+        f = _coarse(shape, arcs, grid, e)
+        classes = np.zeros(grid.level_shape(0), dtype=np.uint8)
+    for lev in range(begin, stop + 1):
         if lev > 0:
             h, w = grid.level_shape(lev)
             up = np.repeat(np.repeat(classes, 2, axis=0), 2, axis=1)[:h, :w]

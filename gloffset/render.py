@@ -53,7 +53,9 @@ def _render_one(shape, d, grid, *, backend, level, callback):
     from .gl.engine import engine
 
     eng = engine()
-    classes, f, arcs = classify(shape, d, grid, stop_level=grid.bin_level, callback=callback)
+    classes, f, arcs = classify(
+        shape, d, grid, stop_level=grid.bin_level, callback=callback, start="auto"
+    )
     return eng.run(grid, d, classes, f, arcs, stop_level=stop, callback=callback)
 
 

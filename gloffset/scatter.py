@@ -1,0 +1,210 @@
+"""A fine starting level for the raster hierarchy: each arc scattered to the cells near it.
+
+The hierarchy (:mod:`gloffset.hierarchy`) starts from the coarsest level and finds
+each level's candidate arcs from the parent's. When the offset distance is small
+compared with the grid, most of that work is spent on coarse cells whose lists hold
+hundreds of arcs. On grids whose rows are parallels and columns meridians
+(:class:`~gloffset.grids.base.LonLatGrid`: equirectangular, web mercator) a level
+``L`` can instead be entered directly, in float64 and with the same rules:
+
+1. **Pairs.** Every arc's bounding cap (centre ``m``, radius ``h``) grown by the
+   row's reach ``R_j = max(e + rho_j, s_j)`` lies in a lon/lat box (the cap's
+   latitude band; its longitude half-width ``asin(sin r / cos lat)``, or every
+   column where the cap reaches a pole), so the cells whose centres can be within
+   reach are the rows and columns of that box, found by binary search on the row
+   latitudes and column longitudes (shifted by a turn for the antimeridian). The
+   pairs are then confirmed by the cap test ``c.m >= cos(R_j + h)``.
+2. **Inside status.** As for level 0 of the hierarchy: the first cell's by crossings
+   to the shape's reference point, every other cell's from its predecessor (the cell
+   to its left, or above for the first column) toggled by the crossings of the short
+   arc between their centres. An arc that crosses it comes within ``s_j`` (the
+   spacing of centres) of the cell centre, so it is among the cell's pairs.
+3. **Classes.** Exact distances to the pairs within ``e + rho_j`` (the cell's
+   candidate list, complete as in the hierarchy), then
+   :func:`gloffset.hierarchy.decide`. Cells with no pair are decided by their status.
+
+The result is the level's classes and its :class:`~gloffset.hierarchy.Frontier`,
+identical in meaning to what the hierarchy would have reached (a cell called
+contained or outside has only descendant pixels of that class; candidate lists are
+complete), from which the hierarchy goes on. The coarser levels, which were never
+visited, are reported pooled from level ``L`` (a cell is contained or outside when
+all its children at ``L`` are).
+
+Cost: ``O(pairs)`` numpy work with a fixed number of calls. :func:`start_level`
+picks the finest level whose box enumeration stays within :data:`PAIRS_PER_ARC`
+pairs per arc (small offset distances); large distances, for which whole coarse
+cells are decided by distance, keep the hierarchy from level 0.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .hierarchy import FRONTIER, Arcs, Frontier, _status_at, _status_bits, decide
+from .sphere import angle, arc_distance, arcs_cross
+
+__all__ = ["start_level", "scatter", "pooled", "PAIRS_PER_ARC"]
+
+#: Most box-enumerated (cell, arc) pairs per arc for a level to be entered directly.
+PAIRS_PER_ARC = 48
+# Slack (radians, relative and absolute) on every reach: boxes and cap tests are
+# only ever too wide.
+_REL, _ABS = 1e-9, 1e-12
+
+
+def _levels_geometry(grid, level: int):
+    """Row latitudes, column longitudes (unwrapped, increasing), rho and centre spacing."""
+    h, w = grid.level_shape(level)
+    rows = np.arange(h)
+    lat = np.asarray(grid.cell_lat(level, rows), dtype=np.float64)
+    lon = np.asarray(grid.cell_lon(level, np.arange(w)), dtype=np.float64)
+    rho = np.asarray(grid.rho(level), dtype=np.float64)[:h]
+    c0 = grid.centers(level, rows, 0)
+    spacing = angle(c0, grid.centers(level, rows, min(1, w - 1)))  # left neighbour
+    spacing[1:] = np.maximum(spacing[1:], angle(c0[:-1], c0[1:]))  # above (first column)
+    return lat, lon, rho, spacing * (1.0 + 1e-12) + 1e-15
+
+
+def _boxes(arcs: Arcs, lat, lon, reach: float):
+    """Per arc, the row range and up to three column ranges of cells whose centres can
+    lie within ``reach + half`` of the arc's cap centre.
+
+    Returns ``(arc, j0, j1, i0, i1)`` arrays, one entry per (arc, column range).
+    """
+    m = arcs.mid
+    lat0 = np.arctan2(m[:, 2], np.hypot(m[:, 0], m[:, 1]))
+    lon0 = np.arctan2(m[:, 1], m[:, 0])
+    r = (reach + arcs.half) * (1.0 + _REL) + _ABS
+    # rows: centre latitudes decrease with the row
+    neg = -lat
+    j0 = np.searchsorted(neg, -(lat0 + r), side="left")
+    j1 = np.searchsorted(neg, -(lat0 - r), side="right")
+    # columns: the cap's longitude half-width, or all of them where it holds a pole
+    polar = (np.abs(lat0) + r >= 0.5 * math.pi) | (r >= 0.5 * math.pi)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s = np.sin(np.minimum(r, 0.5 * math.pi)) / np.cos(lat0)
+    dl = np.where(polar, math.pi, np.arcsin(np.clip(s, 0.0, 1.0)) * (1.0 + _REL) + _ABS)
+    out = []
+    idx = np.arange(len(m))
+    full = polar | (dl >= math.pi)
+    if full.any():
+        k = idx[full]
+        out.append((k, j0[k], j1[k], np.zeros(len(k), int), np.full(len(k), len(lon))))
+    k = idx[~full]
+    for turn in (-2.0 * math.pi, 0.0, 2.0 * math.pi):
+        i0 = np.searchsorted(lon, lon0[k] - dl[k] + turn, side="left")
+        i1 = np.searchsorted(lon, lon0[k] + dl[k] + turn, side="right")
+        ok = i1 > i0
+        out.append((k[ok], j0[k][ok], j1[k][ok], i0[ok], i1[ok]))
+    return tuple(np.concatenate([o[t] for o in out]) for t in range(5))
+
+
+def start_level(arcs: Arcs, grid, e: float, finest: int) -> int:
+    """The finest level ``<= finest`` whose box enumeration stays within
+    :data:`PAIRS_PER_ARC` pairs per arc, or 0 (start with the hierarchy)."""
+    if len(arcs.a) == 0 or not hasattr(grid, "cell_lat"):
+        return 0
+    budget = PAIRS_PER_ARC * len(arcs.a) + 4096
+    for level in range(finest, 1, -1):
+        lat, lon, rho, spacing = _levels_geometry(grid, level)
+        reach = float(np.maximum(e + rho, spacing).max())
+        _, j0, j1, i0, i1 = _boxes(arcs, lat, lon, reach)
+        if int(((j1 - j0) * (i1 - i0)).sum()) <= budget:
+            return level
+    return 0
+
+
+def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool):
+    """Classes of every cell of ``level`` and the :class:`Frontier` of its frontier cells.
+
+    ``final``: ``level`` is the output level (decided at the centres).
+    """
+    e = abs(d)
+    h, w = grid.level_shape(level)
+    lat, lon, rho, spacing = _levels_geometry(grid, level)
+    row_reach = np.maximum(e + rho, spacing)
+    a_idx, j0, j1, i0, i1 = _boxes(arcs, lat, lon, float(row_reach.max()))
+
+    # every cell of every box, then the exact cap test
+    nc = i1 - i0
+    count = (j1 - j0) * nc
+    box = np.repeat(np.arange(len(count)), count)
+    off = np.arange(len(box)) - np.repeat(np.cumsum(count) - count, count)
+    jj = j0[box] + off // nc[box]
+    ii = i0[box] + off % nc[box]
+    ai = a_idx[box]
+    cphi, sphi = np.cos(lat), np.sin(lat)
+    clam, slam = np.cos(lon), np.sin(lon)
+    m = arcs.mid[ai]
+    cm = cphi[jj] * (clam[ii] * m[:, 0] + slam[ii] * m[:, 1]) + sphi[jj] * m[:, 2]
+    half = arcs.half[ai]
+    keep = cm >= np.cos(np.minimum(row_reach[jj] + half, math.pi)) - 1e-12
+    jj, ii, ai, cm, half = jj[keep], ii[keep], ai[keep], cm[keep], half[keep]
+    cell = jj * w + ii
+    order = np.argsort(cell * len(arcs.a) + ai, kind="stable")
+    jj, ii, ai, cm, half, cell = (x[order] for x in (jj, ii, ai, cm, half, cell))
+
+    def center(j, i):
+        return np.stack([cphi[j] * clam[i], cphi[j] * slam[i], sphi[j]], axis=-1)
+
+    # inside statuses: predecessor's, toggled by crossings of pred -> cell
+    status = _status_bits(arcs.n_groups, h * w)
+    if arcs.n_groups:
+        toggles = _status_bits(arcs.n_groups, h * w)
+        ring = (arcs.group[ai] >= 0) & (cell > 0)
+        ring &= cm >= np.cos(np.minimum(spacing[jj] + half, math.pi)) - 1e-12
+        pj, pi_, pa = jj[ring], ii[ring], ai[ring]
+        qj = np.where(pi_ > 0, pj, pj - 1)
+        qi = np.where(pi_ > 0, pi_ - 1, 0)
+        hit = arcs_cross(center(pj, pi_), center(qj, qi), arcs.a[pa], arcs.b[pa])
+        g = arcs.group[pa[hit]]
+        cells_hit = (pj * w + pi_)[hit]
+        np.bitwise_xor.at(toggles, (cells_hit, g >> 3), (1 << (g & 7)).astype(np.uint8))
+        toggles[0] = _status_at(shape, arcs, center(np.array([0]), np.array([0])))[0]
+        t = toggles.reshape(h, w, -1)
+        t[:, 0] = np.bitwise_xor.accumulate(t[:, 0], axis=0)
+        status = np.bitwise_xor.accumulate(t, axis=1).reshape(h * w, -1)
+
+    # candidate lists (within e + rho), exact distances, classes
+    cand = cm >= np.cos(np.minimum(e + rho[jj] + half, math.pi)) - 1e-12
+    jj, ii, ai, cell = jj[cand], ii[cand], ai[cand], cell[cand]
+    dd = arc_distance(center(jj, ii), arcs.a[ai], arcs.b[ai], arcs.n[ai])
+    dist = np.full(h * w, np.inf)
+    dring = np.full(h * w, np.inf)
+    if len(cell):
+        starts = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]])
+        owner = cell[starts]
+        dist[owner] = np.minimum.reduceat(np.where(arcs.boundary[ai], dd, np.inf), starts)
+        dring[owner] = np.minimum.reduceat(np.where(arcs.group[ai] >= 0, dd, np.inf), starts)
+    inside = status.any(axis=1)
+    cls = decide(dist, dring, inside, np.repeat(rho, w), d, final)
+    classes = cls.reshape(h, w)
+
+    # the frontier cells with their candidate pairs (sorted by cell, then arc)
+    fr = np.flatnonzero(cls == FRONTIER)
+    remap = np.full(h * w, -1)
+    remap[fr] = np.arange(len(fr))
+    sel = remap[cell] >= 0
+    fj, fi = fr // w, fr % w
+    f = Frontier(
+        level,
+        np.column_stack([fj, fi]),
+        center(fj, fi),
+        rho[fj],
+        remap[cell[sel]],
+        ai[sel],
+        status[fr],
+    )
+    return classes, f
+
+
+def pooled(classes: np.ndarray) -> np.ndarray:
+    """Classes of the next coarser level: a cell's class where its (up to four) children
+    agree, frontier where they differ."""
+    h, w = classes.shape
+    p = np.pad(classes, ((0, h % 2), (0, w % 2)), mode="edge")
+    q = p.reshape(p.shape[0] // 2, 2, p.shape[1] // 2, 2)
+    lo, hi = q.min(axis=(1, 3)), q.max(axis=(1, 3))
+    return np.where(lo == hi, lo, FRONTIER).astype(np.uint8)

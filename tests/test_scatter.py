@@ -1,0 +1,103 @@
+"""Entering a level directly (gloffset.scatter) gives what the hierarchy reaches there."""
+
+import numpy as np
+import pytest
+
+import gloffset
+from gloffset.grids import Equirect, Tile
+from gloffset.hierarchy import CONTAINED, FRONTIER, OUTSIDE, Arcs, classify
+from gloffset.scatter import PAIRS_PER_ARC, pooled, scatter, start_level
+
+LINE_OVER_POLE = {
+    "type": "LineString",
+    "coordinates": [[170, 60], [-170, 70], [-100, 85], [80, 88]],
+}
+CASES = [
+    ("Fiji", 0.02, Equirect(256, 128)),
+    ("Fiji", 0.004, Equirect(200, 160, (170, -25, -170, -10))),  # across the antimeridian
+    ("Russia", -0.01, Equirect(300, 200, (160, 55, -160, 75))),
+    ("Antarctica", 0.03, Equirect(256, 128)),  # round the pole
+    ("Antarctica", -0.02, Equirect(256, 96, (-180, -90, 180, -60))),
+    ("Italy", 0.0, Equirect(240, 240, (6, 36, 19, 47.5))),
+    ("Chile", 0.01, Tile(3, 2, 4, size=256)),  # web mercator
+    (LINE_OVER_POLE, 0.02, Equirect(256, 256, (150, 50, -150, 90))),
+    (LINE_OVER_POLE, 0.01, Equirect(320, 160)),
+]
+
+
+def _shape(world, what):
+    return gloffset.read(world[what] if isinstance(what, str) else what)
+
+
+@pytest.mark.parametrize("what, d, grid", CASES)
+def test_every_start_level_gives_the_hierarchys_classes(world, what, d, grid):
+    shape = _shape(world, what)
+    last = grid.n_levels - 1
+    ref, _, _ = classify(shape, d, grid)
+    assert (ref == CONTAINED).any() and (ref == OUTSIDE).any()
+    for level in range(1, last + 1):
+        # the level itself: the same classes and frontier as the hierarchy's
+        want, wf, _ = classify(shape, d, grid, stop_level=level)
+        got, gf, _ = classify(shape, d, grid, stop_level=level, start=level)
+        np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(gf.cells, wf.cells)
+        np.testing.assert_array_equal(gf.status, wf.status)
+        # and the output from there on
+        out, _, _ = classify(shape, d, grid, start=level)
+        np.testing.assert_array_equal(out, ref)
+
+
+@pytest.mark.parametrize("what, d, grid", CASES[:4])
+def test_candidate_lists_are_complete(world, what, d, grid):
+    """Every arc within e + rho of a frontier cell's centre is on its list."""
+    from gloffset.sphere import arc_distance
+
+    shape = _shape(world, what)
+    arcs = Arcs.from_shape(shape)
+    level = grid.n_levels - 2
+    _, f = scatter(shape, arcs, grid, d, level, final=False)
+    assert len(f.cells)
+    dist = arc_distance(f.centers[:, None], arcs.a[None], arcs.b[None], arcs.n[None])
+    need = dist <= abs(d) + f.rho[:, None]
+    have = np.zeros_like(need)
+    have[f.pair_cell, f.pair_arc] = True
+    assert not (need & ~have).any()
+    assert np.all(np.diff(f.pair_cell) >= 0)
+
+
+def test_pooled_levels_never_contradict_the_output(world):
+    shape = _shape(world, "Fiji")
+    grid = Equirect(512, 256)
+    ref, _, _ = classify(shape, 0.02, grid)
+    seen = []
+    classify(shape, 0.02, grid, start=4, callback=lambda lev, c: seen.append((lev, c.copy())))
+    assert [lev for lev, _ in seen] == list(range(grid.n_levels))
+    for lev, c in seen:
+        assert c.shape == grid.level_shape(lev)
+        b = grid.block(lev)
+        up = np.repeat(np.repeat(c, b, 0), b, 1)[: grid.height, : grid.width]
+        assert not ((up == CONTAINED) & (ref != CONTAINED)).any()
+        assert not ((up == OUTSIDE) & (ref != OUTSIDE)).any()
+    assert (seen[0][1] == FRONTIER).any()
+
+
+def test_pooled():
+    c = np.array([[0, 0, 2], [0, 0, 2], [1, 2, 2]], dtype=np.uint8)
+    np.testing.assert_array_equal(pooled(c), [[0, 2], [1, 2]])
+
+
+def test_start_level_falls_back_for_large_distances(mexico_path):
+    shape = gloffset.read(mexico_path)
+    arcs = Arcs.from_shape(shape)
+    grid = Equirect(2048, 1024)
+    assert start_level(arcs, grid, 0.01, grid.n_levels - 1) >= 3
+    assert start_level(arcs, grid, 1.0, grid.n_levels - 1) == 0
+    assert PAIRS_PER_ARC > 0
+
+
+def test_bad_start(world):
+    shape = _shape(world, "Fiji")
+    with pytest.raises(ValueError, match="start must be"):
+        classify(shape, 0.01, Equirect(64, 32), start="fast")
+    with pytest.raises(ValueError, match="start must be"):
+        classify(shape, 0.01, Equirect(64, 32), start=99)
