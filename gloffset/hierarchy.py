@@ -37,7 +37,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .crossings import crossings as _crossings
 from .sphere import angle, arc_distance, arcs_cross, normalize, robust_cross
 
 __all__ = [
@@ -118,22 +117,30 @@ def _arc_tree(arcs: Arcs):
 
 
 def _status_at(shape, arcs: Arcs, p: np.ndarray) -> np.ndarray:
-    """Packed component statuses of a few points by crossings to a reference point."""
+    """Packed component statuses of a few points by crossings to a reference point.
+
+    Only the ring edges whose bounding caps reach the great circle of ``p -> ref``
+    (``|m.u| <= sin h`` for its unit normal ``u``) can cross the arc to the reference.
+    """
     status = _status_bits(arcs.n_groups, len(p))
     refs, ref_status = shape.reference_points()
-    ring = np.flatnonzero(arcs.group >= 0)
-    order = ring[np.argsort(arcs.group[ring], kind="stable")]
-    present, starts = np.unique(arcs.group[order], return_index=True)
-    use = (p @ refs[0] < -0.5).astype(int)
-    for k in (0, 1):
-        sel = np.flatnonzero(use == k)
-        if len(sel) == 0:
-            continue
-        cr = _crossings(p[sel], refs[k], arcs.a[order], arcs.b[order]).view(np.uint8)
-        par = np.bitwise_xor.reduceat(cr, starts, axis=1).astype(bool)
-        ins = np.zeros((len(sel), arcs.n_groups), dtype=bool)
-        ins[:, present] = par ^ ref_status[k][present][None, :]
-        status[sel] = np.packbits(ins, axis=1, bitorder="little")[:, : status.shape[1]]
+    ring = arcs.group >= 0
+    present = np.bincount(arcs.group[ring], minlength=arcs.n_groups) > 0
+    reach = np.sin(np.minimum(arcs.half, 0.5 * math.pi)) * (1.0 + 1e-9) + 1e-9
+    for i, pt in enumerate(p):
+        k = int(pt @ refs[0] < -0.5)
+        r = refs[k]
+        pr = np.cross(pt, r)
+        norm = math.sqrt(float(pr @ pr))
+        cand = ring
+        if norm > 1e-6:
+            cand = ring & (np.abs(arcs.mid @ (pr / norm)) <= reach)
+        idx = np.flatnonzero(cand)
+        hit = arcs_cross(pt, r, arcs.a[idx], arcs.b[idx], arcs.n[idx])
+        par = np.bincount(arcs.group[idx[hit]], minlength=arcs.n_groups) % 2 == 1
+        ins = np.zeros(arcs.n_groups, dtype=bool)
+        ins[present] = par[present] ^ ref_status[k][present]
+        status[i] = np.packbits(ins, bitorder="little")[: status.shape[1]]
     return status
 
 
@@ -165,7 +172,7 @@ def _coarse(shape, arcs: Arcs, grid, e: float) -> Frontier:
         qi, ai, _ = tree.near(mid, half)
         ring = arcs.group[ai] >= 0
         qi, ai = qi[ring], ai[ring]
-        hit = arcs_cross(c[qi], a_seg[qi], arcs.a[ai], arcs.b[ai]) & (qi > 0)
+        hit = arcs_cross(c[qi], a_seg[qi], arcs.a[ai], arcs.b[ai], arcs.n[ai]) & (qi > 0)
         g = arcs.group[ai[hit]]
         toggles = _status_bits(arcs.n_groups, len(c))
         np.bitwise_xor.at(toggles, (qi[hit], g >> 3), (1 << (g & 7)).astype(np.uint8))
@@ -273,7 +280,7 @@ def _refine(f: Frontier, grid, arcs: Arcs, e: float) -> Frontier:
     ring = near & (arcs.group[arc_of_pair] >= 0)
     if ring.any():
         pc, pa = child_of_pair[ring], arc_of_pair[ring]
-        cr = arcs_cross(c[pc], f.centers[parent[pc]], arcs.a[pa], arcs.b[pa])
+        cr = arcs_cross(c[pc], f.centers[parent[pc]], arcs.a[pa], arcs.b[pa], arcs.n[pa])
         g = arcs.group[pa[cr]]
         np.bitwise_xor.at(status, (pc[cr], g >> 3), (1 << (g & 7)).astype(np.uint8))
 

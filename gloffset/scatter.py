@@ -158,7 +158,7 @@ def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool):
         pj, pi_, pa = jj[ring], ii[ring], ai[ring]
         qj = np.where(pi_ > 0, pj, pj - 1)
         qi = np.where(pi_ > 0, pi_ - 1, 0)
-        hit = arcs_cross(center(pj, pi_), center(qj, qi), arcs.a[pa], arcs.b[pa])
+        hit = arcs_cross(center(pj, pi_), center(qj, qi), arcs.a[pa], arcs.b[pa], arcs.n[pa])
         g = arcs.group[pa[hit]]
         cells_hit = (pj * w + pi_)[hit]
         np.bitwise_xor.at(toggles, (cells_hit, g >> 3), (1 << (g & 7)).astype(np.uint8))
@@ -169,15 +169,11 @@ def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool):
 
     # candidate lists (within e + rho), exact distances, classes
     cand = cm >= np.cos(np.minimum(e + rho[jj] + half, math.pi)) - 1e-12
-    jj, ii, ai, cell = jj[cand], ii[cand], ai[cand], cell[cand]
-    dd = arc_distance(center(jj, ii), arcs.a[ai], arcs.b[ai], arcs.n[ai])
+    jj, ii, ai, cell, cm, half = jj[cand], ii[cand], ai[cand], cell[cand], cm[cand], half[cand]
     dist = np.full(h * w, np.inf)
     dring = np.full(h * w, np.inf)
     if len(cell):
-        starts = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]])
-        owner = cell[starts]
-        dist[owner] = np.minimum.reduceat(np.where(arcs.boundary[ai], dd, np.inf), starts)
-        dring[owner] = np.minimum.reduceat(np.where(arcs.group[ai] >= 0, dd, np.inf), starts)
+        _nearest(arcs, center, jj, ii, ai, cell, cm, half, dist, dring)
     inside = status.any(axis=1)
     cls = decide(dist, dring, inside, np.repeat(rho, w), d, final)
     classes = cls.reshape(h, w)
@@ -198,6 +194,36 @@ def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool):
         status[fr],
     )
     return classes, f
+
+
+def _nearest(arcs: Arcs, center, jj, ii, ai, cell, cm, half, dist, dring) -> None:
+    """Per cell, the exact distance to the nearest boundary arc (into ``dist``) and ring
+    edge (into ``dring``) among its pairs (sorted by cell).
+
+    Only pairs that can be the nearest are measured: the cap angle ``t = angle(c, m)``
+    gives ``t - h <= dist(c, arc) <= t + h``, so a pair whose lower bound exceeds the
+    cell's least upper bound is skipped. ``t`` comes from ``arccos(c.m)``, whose error
+    is below 1e-7 rad; the comparison allows twice that.
+    """
+    starts = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]])
+    seg = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(cell)]))
+    owner = cell[starts]
+    t = np.arccos(np.clip(cm, -1.0, 1.0))
+    lo, hi = t - half, t + half
+    bd = arcs.boundary[ai]
+    rg = arcs.group[ai] >= 0
+    measure = np.zeros(len(cell), dtype=bool)
+    for kind in (bd, rg):
+        if not kind.any():
+            continue
+        best = np.minimum.reduceat(np.where(kind, hi, np.inf), starts)
+        measure |= kind & (lo <= best[seg] + 2e-7)
+    k = np.flatnonzero(measure)
+    dd = np.full(len(cell), np.inf)
+    dd[k] = arc_distance(center(jj[k], ii[k]), arcs.a[ai[k]], arcs.b[ai[k]], arcs.n[ai[k]])
+    for kind, out in ((bd, dist), (rg, dring)):
+        if kind.any():
+            out[owner] = np.minimum.reduceat(np.where(kind, dd, np.inf), starts)
 
 
 def pooled(classes: np.ndarray) -> np.ndarray:

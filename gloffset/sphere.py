@@ -215,8 +215,11 @@ def arc_distance(p, a, b, n=None) -> np.ndarray:
     return np.where(inside, d_line, d_ends)
 
 
-def arcs_cross(p, q, a, b) -> np.ndarray:
+def arcs_cross(p, q, a, b, n=None) -> np.ndarray:
     """Whether the short arc ``p -> q`` crosses the short arc ``a -> b``.
+
+    ``n``, optional: the arcs' normals ``normalize(robust_cross(a, b))`` if the caller
+    has them (saves work; only the signs of ``n.p`` and ``n.q`` are used).
 
     Uses the half-open rule (a point exactly on a great circle counts as being on
     its left), so that when ``p -> q`` passes exactly through a vertex shared by two
@@ -229,7 +232,7 @@ def arcs_cross(p, q, a, b) -> np.ndarray:
     pq = cross(p, q)
     sa = dot(pq, a) >= 0.0
     sb = dot(pq, b) >= 0.0
-    ab = robust_cross(a, b)  # accurate direction also for short edges
+    ab = robust_cross(a, b) if n is None else np.asarray(n)  # accurate also for short edges
     sp = dot(ab, p) >= 0.0
     sq = dot(ab, q) >= 0.0
     return crossing_rule(sa, sb, sp, sq)
