@@ -12,12 +12,16 @@ const uint OUTSIDE = 0u;
 const uint FRONTIER = 1u;
 const uint CONTAINED = 2u;
 const int RECORD_TEXELS = 6;
+const uint CLUSTER_TEXELS = 2u;
 
 uniform usampler2D u_parent;   // classes of level l-1 (R8UI), valid inside frontier bins
-uniform usampler2D u_bins;     // per bin: first record (in its buffer), record count, status bits
+uniform usampler2D u_bins;     // per bin: first cluster, cluster count (in its buffer), status bits
 uniform usampler2D u_bin_geo;  // per bin: its geo row and column (index the geometry below)
 layout(std430, binding = 0) readonly buffer Records {
     vec4 records[];            // arc records, RECORD_TEXELS vec4 each (lib/arcs.glsl)
+};
+layout(std430, binding = 1) readonly buffer Clusters {
+    uvec4 clusters[];          // CLUSTER_TEXELS uvec4 per cluster of records (lib/arcs.glsl)
 };
 #ifdef GRID_CUBE
 uniform vec3 u_face_e;         // cube face axis; u_face_u, u_face_v: directions of s and t
@@ -43,6 +47,19 @@ out uint o_class;
 
 const float F32_ERR = 4.8e-7;  // 4 ulp: rounding allowance for the margins at coarse levels
 
+#ifdef PREPASS
+// Drawn before a level's pass over the same bins (from the second level below the
+// bins on; at the first every cell is a child of its frontier bin): a cell whose
+// parent is decided takes its class here, and the depth buffer gets 1 at the children
+// of frontier cells, 0 elsewhere. The level's pass (depth 0.5, test LESS) then runs
+// only where the depth is 1: llvmpipe skips whole 4x4 blocks that fail the test before
+// shading, instead of running the whole shader under an empty mask.
+void main() {
+    uint parent = texelFetch(u_parent, ivec2(gl_FragCoord.xy) >> 1, 0).r;
+    o_class = parent;
+    gl_FragDepth = parent == FRONTIER ? 1.0 : 0.0;
+}
+#else
 void main() {
     ivec2 cell = ivec2(gl_FragCoord.xy);
     uint parent = texelFetch(u_parent, cell >> 1, 0).r;
@@ -83,42 +100,98 @@ void main() {
     float l = length(delta);
     float reach = l <= 1.0 ? l * (1.0 + l * l / 20.0) : 2.0 * asin(min(1.0, 0.5 * l)) + 1e-5;
     float skip = (u_e + u_rho_max + reach) * (1.0 + 1e-5) + 1e-12;
-    for (uint k = 0u; k < info.y; ++k) {
-        int r = int(info.x + k) * RECORD_TEXELS;
-        vec4 t0 = records[r];
-        if (t0.x > skip) {
-            break;  // too far for a distance test and to cross p -> c, as are all after it
+
+    // Cluster culling (lib/arcs.glsl, "clusters"). A cluster is passed over only when
+    // none of its records, evaluated as below, could change anything; the records
+    // evaluated otherwise are those with t0.x <= skip as without clusters, and the
+    // results are ORs and XORs of per-record tests (the early breaks come only once the
+    // class is decided), so the classes are the same bit for bit. A far cluster
+    // (test 1) that may hold a crossing (test 2 fails) has its crossings evaluated.
+    // (1) Distances. Every test that sets within, near_lo, near_hi or near_rho implies
+    // v <= m.y + slack (m.x <= m.y, m.z <= m.y; within: v <= 0, m = 0), which needs a
+    // point of the arc within chord T = e + rho_max (>= chord(T)) of P = c + delta plus:
+    // for the line part |h + delta.n| - sin e, the slack F32_ERR (scale + sum|m|) and
+    // float32 errors of a few ulp of S + l + sin e (S >= |x - c| for every point x of
+    // the cluster's arcs, so S >= |h|, |t4.xyz|, |t5.xyz|), the wedge test's few ulp of
+    // S + l (a foot that far beyond an end), all divided by the slope of sin (> 0.5 for
+    // T <= 1); for the point part, a squared chord, slack and errors below
+    // 1e-6 (e^2 + (S + l)^2 + sum|m|), i.e. 1e-3 (e + S + l + sqrt(sum|m|)) in chord;
+    // delta itself is good to a few ulp of l. So a cluster whose ball lies farther than
+    // kdist + 1.1e-3 S from P (kdist = T (1 + 1e-4) + 1.1e-3 (sqrt(sum|m| + e^2) + l))
+    // passes no distance test. Off where T > 1, and where a margin is the "never" value
+    // (-1e30: then the slack passes every record).
+    // (2) Crossings (arc_crosses) of the ring records. If |t0.z| >= hmin > l (1 + 1e-4)
+    // + 1e-30 >= |delta.n| (float32, |n| = 1) with room for the rounding of the sum,
+    // t0.z + delta.n has the sign of t0.z: sp == sq. Or, with M = c x delta: the
+    // endpoints' offsets a - c lie in the ball (Q, rho), so sign(delta.((c - a) x c)) =
+    // sign((c - a).M) = -sign(Q.M) for all of them when |Q.M| > l ((1 + 1e-4) rho +
+    // 1e-4 S) + 1e-30 (float32 errors: a few ulp of l S): sa == sb. Either way no arc
+    // of the cluster crosses.
+    vec3 side = cross(c, delta);
+    float l_up = l * (1.0 + 1e-4) + 1e-30;
+    float t_cull = u_e + u_rho_max;
+    float m_sum = dot(abs(mu.xyz), vec3(1.0)) + dot(abs(nu.xyz), vec3(1.0));
+    float kdist = (t_cull <= 1.0 && m_sum < 1e4)
+        ? t_cull * (1.0 + 1e-4) + 1.1e-3 * (sqrt(m_sum + u_e * u_e) + l)
+        : 1e30;
+
+    bool done = false;
+    for (uint k = 0u; k < info.y && !done; ++k) {
+        uint hc = (info.x + k) * CLUSTER_TEXELS;
+        uvec4 h1 = clusters[hc + 1u];
+        if (uintBitsToFloat(h1.x) > skip) {
+            break;  // its records and all after it are beyond skip (sorted by Dmin)
         }
-        vec4 t1 = records[r + 1];
-        vec4 t2 = records[r + 2];
-        vec4 t3 = records[r + 3];
-        vec4 t4 = records[r + 4];
-        vec4 t5 = records[r + 5];
-        uint code = uint(t0.y);
-        uint flags = code & 7u;
-        bool line = ((flags & ARC_IS_ARC) != 0u) && arc_in_wedge(delta, t2, t3);
-        float v = line ? arc_line_value(delta, t0, t1) : arc_point_value(delta, t4, t5);
-        bool dist = (flags & ARC_HAS_DISTANCE) != 0u;
-        bool ring = (flags & ARC_RING) != 0u;
-        if (ring && arc_crosses(delta, c, t0, t1, t4, t5)) {
-            bits ^= 1u << (code >> 3u);
+        vec4 cap = uintBitsToFloat(clusters[hc]);
+        float S = uintBitsToFloat(h1.z);
+        bool far = length(delta - cap.xyz) - cap.w > kdist + 1.1e-3 * S;
+        if (far && (l_up < uintBitsToFloat(h1.y)
+                    || abs(dot(cap.xyz, side)) > l * ((1.0 + 1e-4) * cap.w + 1e-4 * S) + 1e-30)) {
+            continue;  // nothing to find in this cluster
         }
-        if (u_final) {
-            if (dist && v <= 0.0) {
-                within = true;  // decides the cell whatever the inside status
-                break;
+        uint r1 = (h1.w >> 4u) + (h1.w & 15u) + 1u;
+        for (uint r = h1.w >> 4u; r < r1; ++r) {
+            int t = int(r) * RECORD_TEXELS;
+            vec4 t0 = records[t];
+            if (t0.x > skip) {
+                continue;  // too far for a distance test and to cross p -> c
             }
-        } else {
-            float scale = line ? abs(t1.w) + abs(t0.w) + abs(dot(delta, t1.xyz))
-                               : max(abs(t4.w), abs(t5.w)) + dot(delta, delta)
-                                 + 2.0 * length(delta) * max(length(t4.xyz), length(t5.xyz));
-            vec3 m = line ? mu.xyz : nu.xyz;
-            float slack = F32_ERR * (scale + abs(m.x) + abs(m.y) + abs(m.z));
-            near_lo = near_lo || (dist && v <= m.x - slack);
-            near_hi = near_hi || (dist && v <= m.y + slack);
-            near_rho = near_rho || (ring && v <= m.z + slack);
-            if (near_lo) {
-                break;  // decides the cell (contained for d >= 0, outside for d < 0)
+            vec4 t1 = records[t + 1];
+            vec4 t4 = records[t + 4];
+            vec4 t5 = records[t + 5];
+            uint code = uint(t0.y);
+            uint flags = code & 7u;
+            bool ring = (flags & ARC_RING) != 0u;
+            if (ring && arc_crosses(delta, c, t0, t1, t4, t5)) {
+                bits ^= 1u << (code >> 3u);
+            }
+            if (far) {
+                continue;  // only crossings can matter here
+            }
+            vec4 t2 = records[t + 2];
+            vec4 t3 = records[t + 3];
+            bool line = ((flags & ARC_IS_ARC) != 0u) && arc_in_wedge(delta, t2, t3);
+            float v = line ? arc_line_value(delta, t0, t1) : arc_point_value(delta, t4, t5);
+            bool dist = (flags & ARC_HAS_DISTANCE) != 0u;
+            if (u_final) {
+                if (dist && v <= 0.0) {
+                    within = true;  // decides the cell whatever the inside status
+                    done = true;
+                    break;
+                }
+            } else {
+                float scale = line ? abs(t1.w) + abs(t0.w) + abs(dot(delta, t1.xyz))
+                                   : max(abs(t4.w), abs(t5.w)) + dot(delta, delta)
+                                     + 2.0 * length(delta) * max(length(t4.xyz), length(t5.xyz));
+                vec3 m = line ? mu.xyz : nu.xyz;
+                float slack = F32_ERR * (scale + abs(m.x) + abs(m.y) + abs(m.z));
+                near_lo = near_lo || (dist && v <= m.x - slack);
+                near_hi = near_hi || (dist && v <= m.y + slack);
+                near_rho = near_rho || (ring && v <= m.z + slack);
+                if (near_lo) {
+                    done = true;
+                    break;  // decides the cell (contained for d >= 0, outside for d < 0)
+                }
             }
         }
     }
@@ -138,3 +211,4 @@ void main() {
     }
     o_class = cls;
 }
+#endif

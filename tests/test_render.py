@@ -212,3 +212,16 @@ def test_bad_requests():
         Equirect(10, 10, (0, 10, 5, 5))
     with pytest.raises(gloffset.grids.InvalidGridError, match="positive"):
         Equirect(0, 10)
+
+
+def test_bin_centre_on_an_edge_great_circle():
+    """A bin centre exactly on the hole's meridian edge: the shader's crossing test and
+    the CPU status at the centre must take the same side (once 410 pixels were wrong)."""
+    shape = gloffset.read(SQUARE_WITH_HOLE)
+    grid = Equirect(
+        200, 256, (4.230136772928331, 2.230136772928331, 7.769863227071671, 5.769863227071671)
+    )
+    mask, _ = assert_matches_reference(shape, 0.000747, grid)
+    np.testing.assert_array_equal(
+        mask, gloffset.render(shape, 0.000747, grid, radius=1.0, backend="cpu")
+    )

@@ -9,11 +9,20 @@ distances ``x`` the decisions compare with. The shader then only adds small floa
 terms to small float64-made numbers, so near the offset boundary its answer is
 exact to a few float32 ulp of the bin's size, not of the unit sphere.
 
+A bin's records come in *clusters* (:func:`records`): runs of up to :data:`CLUSTER`
+arcs that follow each other along a ring, each with a header bounding them by a ball
+around the bin centre, so that a cell skips, with a handful of operations, the
+clusters that provably cannot change its class (too far for every distance test and
+unable to cross the arc from the cell to the bin centre); the classes are the same
+bit for bit as when every record is visited (``shaders/classify.frag``).
+
 The frontier bins are packed into a small canvas (:class:`BinLayout`); each pass
-draws one quad per bin (``shaders/bins.vert``), reads the parent level's classes
-(texelFetch) and does real work only for children of frontier cells (see
-``shaders/classify.frag``). Every cell outside the frontier bins is its bin's class,
-filled in on the CPU.
+draws one quad per bin (``shaders/bins.vert``) twice: a prepass gives the cells whose
+parent (in the previous level's classes) is decided their parent's class and marks
+the children of frontier cells in a depth buffer, and the level's pass does the real
+work for those only (llvmpipe skips whole blocks that fail the depth test; without
+it, every fragment would run the whole shader under an empty mask). Every cell
+outside the frontier bins is its bin's class, filled in on the CPU.
 """
 
 from __future__ import annotations
@@ -26,7 +35,7 @@ import numpy as np
 
 from ..errors import GLContextError
 from ..hierarchy import FRONTIER, Arcs, Frontier
-from ..sphere import arc_distance
+from ..sphere import cross, dot
 from .context import get_context
 from .shaders import program
 
@@ -36,79 +45,207 @@ RECORD_TEXELS = 6
 MAX_LOCAL = 30  # components with their own status bit per bin; more share bit 30
 OTHER_BIT = 31  # set when the bin centre is inside a component with no arc in the bin
 ARC_IS_ARC, ARC_HAS_DISTANCE, ARC_RING = 1, 2, 4
+CLUSTER = 8  # records per cluster at most (shaders/classify.frag); 8 and 16 cull about alike
+_DENSE = 1 << 22  # (bin, component) keys counted in a dense table up to this many
+_BLOCK = 4096  # pairs per block of float64 work in records()
+_MASK_FROM = 2  # the first shift with a prepass and depth mask (run_layout)
+_F32_TINY = float(np.finfo(np.float32).tiny)  # least positive normal float32
+_POPCOUNT = np.unpackbits(np.arange(256, dtype=np.uint8)[:, None], axis=1).sum(axis=1)
 
 
-def records(f: Frontier, arcs: Arcs, e: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Arc records (float32, (pairs, 6, 4)), first record and status bits per frontier bin.
+def records(
+    f: Frontier, arcs: Arcs, e: float, dist: np.ndarray | None = None, cluster: int = CLUSTER
+) -> tuple[np.ndarray, ...]:
+    """Arc records and their clusters for the frontier bins ``f`` (``shaders/lib/arcs.glsl``).
 
-    A bin's records come nearest first (by the distance ``D`` from its centre). All
-    terms are computed in float64 relative to the bin centre ``c`` before the cast
-    (see ``shaders/lib/arcs.glsl`` for the layout).
+    Returns ``(rec, first, bits, clusters, first_cluster, n_clusters)``: ``rec``
+    (pairs, 6, 4) float32, the records of the candidate pairs in their order (by bin);
+    ``first`` (k,) uint32, the first record of each bin; ``bits`` (k,) uint32, the
+    status bits at the bin centres; ``clusters`` (m, 2, 4) uint32, the cluster headers
+    (float32 bits, and ``16 * first record + records - 1`` last); ``first_cluster`` and
+    ``n_clusters`` (k,) uint32, each bin's clusters, in increasing order of their
+    nearest record ``Dmin``.
+
+    A cluster is a run of up to ``cluster`` (<= 16) pairs of one bin whose arcs follow
+    each other along a ring (consecutive arc indices); its header bounds them by a ball
+    around the bin centre. All terms are computed in float64 relative to the bin centre
+    ``c`` before the cast, in blocks of pairs (small temporaries, reused). ``dist``,
+    optional: the float64 distances from each pair's cell centre to its arc as
+    :func:`gloffset.sphere.arc_distance` gives them (the same values are computed
+    otherwise).
     """
-    ci, ai = f.pair_cell, f.pair_arc
-    dist = arc_distance(f.centers[ci], arcs.a[ai], arcs.b[ai], arcs.n[ai])
-    order = np.lexsort((dist, ci))  # per bin, nearest first: passes stop at the first too far
-    ci, ai, dist = ci[order], ai[order], dist[order]
-    c = f.centers[ci]
-    a, b, n = arcs.a[ai], arcs.b[ai], arcs.n[ai]
+    if not 1 <= cluster <= 16:
+        raise ValueError(f"cluster must be 1..16, got {cluster}")
+    ci = np.asarray(f.pair_cell, dtype=np.int64)
+    ai = np.asarray(f.pair_arc, dtype=np.int64)
+    if dist is not None:
+        dist = np.asarray(dist, dtype=np.float64)
+    if np.any(ci[1:] < ci[:-1]):  # pairs come sorted by cell; keep to that
+        perm = np.argsort(ci, kind="stable")
+        ci, ai = ci[perm], ai[perm]
+        dist = None if dist is None else dist[perm]
+    k, npair = len(f.cells), len(ci)
+    if npair >= 1 << 28:
+        raise GLContextError(f"{npair} candidate pairs: too many for one render")
     se = math.sin(e)
     chord_e = 4.0 * math.sin(0.5 * e) ** 2
-    h = np.einsum("ij,ij->i", c, n)
-    w1 = np.cross(n, a)
-    w2 = np.cross(b, n)
-    ea = c - a
-    eb = c - b
-    rec = np.empty((len(ci), RECORD_TEXELS, 4))
-    rec[:, 0, 0] = dist * (1.0 - 1e-7)  # rounded down: a lower bound after the cast
-    rec[:, 0, 2] = h
-    rec[:, 0, 3] = -h - se
-    rec[:, 1, :3] = n
-    rec[:, 1, 3] = h - se
-    rec[:, 2, :3] = w1
-    rec[:, 2, 3] = np.einsum("ij,ij->i", c, w1)
-    rec[:, 3, :3] = w2
-    rec[:, 3, 3] = np.einsum("ij,ij->i", c, w2)
-    rec[:, 4, :3] = ea
-    rec[:, 4, 3] = chord_e - np.einsum("ij,ij->i", ea, ea)
-    rec[:, 5, :3] = eb
-    rec[:, 5, 3] = chord_e - np.einsum("ij,ij->i", eb, eb)
-    group = arcs.group[ai]
-    flags = (
-        np.where(np.any(n != 0.0, axis=1), ARC_IS_ARC, 0)
-        | np.where(arcs.boundary[ai], ARC_HAS_DISTANCE, 0)
-        | np.where(group >= 0, ARC_RING, 0)
+    out = np.empty((npair, RECORD_TEXELS * 4), dtype=np.float32)  # cast on assignment
+    code = np.empty(npair, dtype=np.int64)
+    for s0 in range(0, npair, _BLOCK):
+        sl = slice(s0, min(s0 + _BLOCK, npair))
+        c = np.take(f.centers, ci[sl], axis=0)
+        a, b, n = (np.take(v, ai[sl], axis=0) for v in (arcs.a, arcs.b, arcs.n))
+        w1 = cross(n, a)  # as numpy.cross, the same bits
+        w2 = cross(b, n)
+        ea = c - a
+        eb = c - b
+        is_arc = dot(n, n) > 0.5  # n is a unit vector or zero
+        if dist is None:  # sphere.arc_distance term for term (the same bits)
+            h = dot(c, n)
+            inside = (dot(c, w1) >= 0.0) & (dot(c, w2) >= 0.0) & is_arc
+            foot = c - h[:, None] * n
+            ca, cb = c + a, c + b
+            d = np.where(
+                inside,
+                np.arctan2(np.abs(h), np.sqrt(dot(foot, foot))),
+                np.minimum(
+                    2.0 * np.arctan2(np.sqrt(dot(ea, ea)), np.sqrt(dot(ca, ca))),
+                    2.0 * np.arctan2(np.sqrt(dot(eb, eb)), np.sqrt(dot(cb, cb))),
+                ),
+            )
+        else:
+            d = dist[sl]
+        # h = c.n exactly as the CPU's crossing tests make it (sphere.dot, as in
+        # arcs_cross with the arcs' normals): its sign says on which side of the arc's
+        # great circle the bin centre lies, and the status bits at the centre were
+        # found with that sign. When c lies on the great circle the sign is a rounding
+        # accident, so both sides must share it; a negative h too small for a normal
+        # float32 is stored as the least negative normal one (a cast or a GPU flushing
+        # subnormals would give -0.0, which tests as >= 0)
+        h = dot(c, n)
+        o = out[sl]
+        o[:, 0] = d * (1.0 - 1e-7)  # rounded down: a lower bound after the cast
+        o[:, 2] = np.where((h < 0.0) & (h > -_F32_TINY), -_F32_TINY, h)
+        o[:, 3] = -h - se
+        o[:, 4:7] = n
+        o[:, 7] = h - se
+        o[:, 8:11] = w1
+        o[:, 11] = np.einsum("ij,ij->i", c, w1)
+        o[:, 12:15] = w2
+        o[:, 15] = np.einsum("ij,ij->i", c, w2)
+        o[:, 16:19] = ea
+        o[:, 19] = chord_e - np.einsum("ij,ij->i", ea, ea)
+        o[:, 20:23] = eb
+        o[:, 23] = chord_e - np.einsum("ij,ij->i", eb, eb)
+        code[sl] = np.where(is_arc, ARC_IS_ARC, 0)
+
+    # flags + 8 * local component id (31 for arcs of no ring), and the status bits at
+    # the bin centre
+    group = np.take(arcs.group, ai)
+    ring = group >= 0
+    code += np.where(ring, ARC_RING, 0) + np.where(np.take(arcs.boundary, ai), ARC_HAS_DISTANCE, 0)
+    code += 8 * 31
+    ng = arcs.n_groups
+    bits = np.zeros(k, dtype=np.uint64)
+    # components the centre is inside: popcount of the first max(ng, 1) status bits
+    width = np.clip(max(ng, 1) - 8 * np.arange(f.status.shape[1]), 0, 8)
+    n_inside = _POPCOUNT[f.status & ((1 << width) - 1).astype(np.uint8)].sum(axis=1)
+    if ring.any():
+        key = ci[ring] * ng + group[ring]  # (bin, component); ranks among sorted keys
+        if k * ng <= _DENSE:
+            present = np.zeros(k * ng, dtype=bool)
+            present[key] = True
+            ukey = np.flatnonzero(present)
+            lut = np.empty(k * ng, dtype=np.int64)
+            lut[ukey] = np.arange(len(ukey))
+            inv = lut[key]
+        else:
+            ukey, inv = np.unique(key, return_inverse=True)
+        ubin, ugrp = ukey // ng, ukey % ng
+        rank = np.minimum(np.arange(len(ukey)) - np.searchsorted(ubin, ubin), MAX_LOCAL)
+        code[ring] += 8 * (rank[inv] - 31)
+        inside_g = ((f.status[ubin, ugrp >> 3] >> (ugrp & 7).astype(np.uint8)) & 1) == 1
+        np.bitwise_or.at(bits, ubin[inside_g], np.uint64(1) << rank[inside_g].astype(np.uint64))
+        # inside a component that has no arc here: one shared bit
+        other = n_inside > np.bincount(ubin[inside_g], minlength=k)
+    else:
+        other = n_inside > 0
+    bits |= np.where(other, np.uint64(1) << np.uint64(OTHER_BIT), np.uint64(0))
+    out[:, 1] = code
+
+    # clusters: runs of consecutive arcs of a bin, cut every `cluster` pairs
+    start = np.ones(npair, dtype=bool)
+    start[1:] = (ci[1:] != ci[:-1]) | (ai[1:] != ai[:-1] + 1)
+    run_first = np.flatnonzero(start)
+    pos = np.arange(npair) - np.repeat(run_first, np.diff(np.append(run_first, npair)))
+    cfirst = np.flatnonzero(start | (pos % cluster == 0))
+    m = len(cfirst)
+    csize = np.diff(np.append(cfirst, npair))
+    cid = np.repeat(np.arange(m), csize)
+    # The ball (Q, rho) around c holds every point of the cluster's arcs. A short arc
+    # lies in the ball of centre (a + b) / 2 and radius |a - b| / 2. The offsets
+    # A = a - c, B = b - c are taken from the records: -t4, -t5 are within 6e-8 |A|,
+    # 6e-8 |B| of them (float64 rounding of c - a, then float32), so the arc lies in the
+    # ball of centre -(t4 + t5) / 2 and radius |t4 - t5| / 2 + 1.2e-7 (|t4| + |t5|). Q is
+    # the centre of the box of the -t4, -t5 (exact in float32); rho, computed in
+    # float64, is widened by far more than its rounding (1e-9 relative) and by Q's
+    # float32 rounding, then rho and S = |Q| + rho are rounded up to float32.
+    t4, t5 = out[:, 16:19], out[:, 20:23]
+    q = np.empty((m, 3))
+    for j in range(3):
+        lo = np.minimum.reduceat(np.minimum(t4[:, j], t5[:, j]), cfirst)
+        hi = np.maximum.reduceat(np.maximum(t4[:, j], t5[:, j]), cfirst)
+        q[:, j] = -0.5 * (lo.astype(np.float64) + hi)
+    r = np.empty(npair)
+    for s0 in range(0, npair, _BLOCK):
+        sl = slice(s0, min(s0 + _BLOCK, npair))
+        u, v = t4[sl].astype(np.float64), t5[sl].astype(np.float64)
+        dm = np.take(q, cid[sl], axis=0)
+        dm += 0.5 * (u + v)  # Q - centre
+        uv = u - v
+        lu, lv = np.sqrt(dot(u, u)), np.sqrt(dot(v, v))
+        r[sl] = np.sqrt(dot(dm, dm)) + 0.5 * np.sqrt(dot(uv, uv)) + 1.2e-7 * (lu + lv)
+    rho = np.maximum.reduceat(r, cfirst) if m else np.zeros(0)
+    q32 = q.astype(np.float32)
+    dq = q - q32
+    rho32 = _round_up((rho + np.sqrt(dot(dq, dq))) * (1.0 + 1e-9) + 1e-30)
+    q64 = q32.astype(np.float64)
+    s32 = _round_up((np.sqrt(dot(q64, q64)) + rho32) * (1.0 + 1e-9))
+    dmin = np.minimum.reduceat(out[:, 0], cfirst)  # the smallest t0.x, exactly
+    hmin = np.minimum.reduceat(np.where(ring, np.abs(out[:, 2]), np.float32(np.inf)), cfirst)
+
+    # A bin's clusters by Dmin: the key is the float32 value itself (nonnegative, so
+    # its bits sort as integers), so the shader's break on Dmin > skip is exact.
+    cbin = ci[cfirst]
+    corder = np.argsort((cbin << 32) | dmin.view(np.uint32), kind="stable")
+    hdr = np.empty((m, 2, 4), dtype=np.float32)
+    hdr[:, 0, :3] = q32
+    hdr[:, 0, 3] = rho32
+    hdr[:, 1, 0] = dmin
+    hdr[:, 1, 1] = hmin
+    hdr[:, 1, 2] = s32
+    hdr = hdr.view(np.uint32)
+    hdr[:, 1, 3] = 16 * cfirst + csize - 1
+    hdr = np.take(hdr, corder, axis=0)
+    bins = np.arange(k)
+    first = np.searchsorted(ci, bins).astype(np.uint32)
+    cb = cbin[corder]
+    first_cluster = np.searchsorted(cb, bins)
+    n_clusters = np.searchsorted(cb, bins, side="right") - first_cluster
+    return (
+        out.reshape(npair, RECORD_TEXELS, 4),
+        first,
+        bits.astype(np.uint32),
+        hdr,
+        first_cluster.astype(np.uint32),
+        n_clusters.astype(np.uint32),
     )
 
-    # local component ids per bin, and the status bits at the bin centre
-    k = len(f.cells)
-    local = np.zeros(len(ci), dtype=np.int64)
-    bits = np.zeros(k, dtype=np.uint64)
-    ring = group >= 0
-    if ring.any():
-        key = ci[ring] * (arcs.n_groups + 1) + group[ring]
-        ukey, inv = np.unique(key, return_inverse=True)
-        ubin, ugrp = ukey // (arcs.n_groups + 1), ukey % (arcs.n_groups + 1)
-        first = np.searchsorted(ubin, ubin)  # first key of the same bin
-        rank = np.minimum(np.arange(len(ukey)) - first, MAX_LOCAL)
-        local[ring] = rank[inv]
-        inside_g = (f.status[ubin, ugrp >> 3] >> (ugrp & 7).astype(np.uint8)) & 1
-        np.bitwise_or.at(
-            bits, ubin[inside_g == 1], np.uint64(1) << rank[inside_g == 1].astype(np.uint64)
-        )
-        # inside a component that has no arc here: one shared bit
-        n_inside = np.unpackbits(f.status, axis=1, bitorder="little")[:, : arcs.n_groups].sum(
-            axis=1
-        )
-        n_local = np.bincount(ubin, weights=inside_g, minlength=k)
-        other = n_inside > n_local
-    else:
-        other = np.unpackbits(f.status, axis=1, bitorder="little")[:, : max(arcs.n_groups, 1)].any(
-            axis=1
-        )
-    bits |= np.where(other, np.uint64(1) << np.uint64(OTHER_BIT), np.uint64(0))
-    rec[:, 0, 1] = flags + 8 * np.where(ring, local, 31)
-    first_rec = np.searchsorted(ci, np.arange(k)).astype(np.uint32)
-    return rec.astype(np.float32), first_rec, bits.astype(np.uint32)
+
+def _round_up(x: np.ndarray) -> np.ndarray:
+    """float32 values >= the float64 values ``x``."""
+    y = x.astype(np.float32)
+    return np.where(y < x, np.nextafter(y, np.float32(np.inf)), y)
 
 
 def _margins(rho: np.ndarray, e: float) -> np.ndarray:
@@ -383,29 +520,24 @@ class GpuLevels:
             for s in range(1, layout.stop + 1) if callback is not None else ():
                 callback(s, np.zeros((hb << s, wb << s), dtype=np.uint8))
             return np.zeros((hb << layout.stop, wb << layout.stop), dtype=np.uint8)
-        rec, first, bits = records(f, arcs, e)
+        rec, first, bits, hdr, cfirst, ccount = records(f, arcs, e)
         counts = np.bincount(f.pair_cell, minlength=len(f.cells)).astype(np.uint32)
-        # the records go to storage buffers (faster than textures on llvmpipe), in
-        # groups of whole bins that each fit the GL limit on one buffer
+        # the records and their clusters go to storage buffers (faster than textures on
+        # llvmpipe), in groups of whole bins that each fit the GL limit on one buffer
+        # (a cluster takes less room than a record)
         groups = _groups(first, counts, self.max_records)
+        g0s = np.array([g0 for g0, _ in groups])
+        sizes = [g1 - g0 for g0, g1 in groups]
         pos = layout.pos()
         pj, pi = pos[:, 0], pos[:, 1]
         info = np.zeros((hb, wb, 3), dtype=np.uint32)
-        info[pj, pi, 0] = first - np.repeat(
-            first[[g0 for g0, _ in groups]], [g1 - g0 for g0, g1 in groups]
-        )
-        info[pj, pi, 1] = counts
+        info[pj, pi, 0] = cfirst - np.repeat(cfirst[g0s], sizes)
+        info[pj, pi, 1] = ccount
         info[pj, pi, 2] = bits
         geo = np.zeros((hb, wb, 2), dtype=np.uint32)
         geo[pj, pi] = layout.geo
         cube = layout.basis is not None
         p = self.progs["cube" if cube else "lonlat"]
-        # the records go to storage buffers (faster than textures on llvmpipe), in
-        # groups of whole bins that each fit the GL limit on one buffer
-        groups = _groups(first, counts, self.max_records)
-        info[pj, pi, 0] = first - np.repeat(
-            first[[g0 for g0, _ in groups]], [g1 - g0 for g0, g1 in groups]
-        )
         bins = self._tex(info, 3, "u4")
         geo_t = self._tex(geo, 2, "u4")
         textures = [bins, geo_t]
@@ -435,12 +567,23 @@ class GpuLevels:
         geo_t.use(9)
         parent = self._tex(canvas, 1, "u1")
         fb = np.ascontiguousarray(pos[:, ::-1], dtype=np.int32)  # (column, row)
-        draws = []  # per group: records, instance buffer (bin positions), vertex array
+        pre = self.progs.get("prepass")
+        if pre is None:
+            pre = self.progs["prepass"] = program(ctx, "bins.vert", "classify.frag", {"PREPASS": 1})
+        _set(pre, "u_parent", 0)
+        everyone = ctx.buffer(fb.tobytes())
+        pre_vao = ctx.vertex_array(pre, [(everyone, "2i/i", "in_bin")])
+        draws = []  # per group: records, clusters, instance buffer (bin positions), vertex array
         for g0, g1 in groups:
             r0, r1 = int(first[g0]), int(first[g1 - 1] + counts[g1 - 1])
+            c0, c1 = int(cfirst[g0]), int(cfirst[g1 - 1] + ccount[g1 - 1])
             recs = ctx.buffer(rec[r0:r1].tobytes() if r1 > r0 else bytes(RECORD_TEXELS * 16))
+            hg = hdr[c0:c1].copy()
+            hg[:, 1, 3] -= np.uint32(16 * r0)  # first records within the group's buffer
+            clus = ctx.buffer(hg.tobytes() if c1 > c0 else bytes(32))
             inst = ctx.buffer(fb[g0:g1].tobytes())
-            draws.append((recs, inst, ctx.vertex_array(p, [(inst, "2i/i", "in_bin")]), g1 - g0))
+            vao = ctx.vertex_array(p, [(inst, "2i/i", "in_bin")])
+            draws.append((recs, clus, inst, vao, g1 - g0))
         out = canvas
         owned = [parent]
         try:
@@ -449,7 +592,13 @@ class GpuLevels:
                 final = s == layout.last
                 rho = layout.rho[s]
                 mt = self._tex(_margins(rho.ravel(), e).reshape(len(rho), -1, 4), 4, "f4")
-                target, fbo = class_target(ctx, w, h)
+                target = ctx.texture((_pot(w), _pot(h)), 1, dtype="u1")  # as class_target
+                target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+                # at shift 1 every cell of a frontier bin is a child of a frontier cell
+                masked = s >= _MASK_FROM
+                depth = ctx.depth_renderbuffer(target.size) if masked else None
+                fbo = ctx.framebuffer(color_attachments=[target], depth_attachment=depth)
+                ctx.error  # noqa: B018  (moderngl's rejected query, see class_target)
                 fbo.use()
                 ctx.viewport = (0, 0, w, h)
                 parent.use(0)
@@ -464,13 +613,24 @@ class GpuLevels:
                     level_tex[1].use(8)
                     _set(p, "u_row_dphi", 7)
                     _set(p, "u_col_dlam", 8)
-                _set(p, "u_shift", s)
-                _set(p, "u_size", (float(w), float(h)))
+                for prog in (pre, p):
+                    _set(prog, "u_shift", s)
+                    _set(prog, "u_size", (float(w), float(h)))
+                # decided cells and the depth mask of the frontier's children, then the
+                # level's pass over those only (see PREPASS in classify.frag)
+                if masked:
+                    ctx.enable(moderngl.DEPTH_TEST)
+                    ctx.depth_func = "1"
+                    pre_vao.render(moderngl.TRIANGLES, vertices=6, instances=len(fb))
+                    ctx.depth_func = "<"
+                else:
+                    ctx.disable(moderngl.DEPTH_TEST)
                 _set(p, "u_block", float(1 << (layout.last - s)))
                 _set(p, "u_final", final)
                 _set(p, "u_rho_max", 0.0 if final else float(rho.max()))
-                for recs, _, vao, n in draws:
+                for recs, clus, _, vao, n in draws:
                     recs.bind_to_storage_buffer(0)
+                    clus.bind_to_storage_buffer(1)
                     vao.render(moderngl.TRIANGLES, vertices=6, instances=n)
                 if timings is not None:
                     ctx.finish()
@@ -481,6 +641,8 @@ class GpuLevels:
                     if callback is not None:
                         callback(s, out)
                 fbo.release()
+                if depth is not None:
+                    depth.release()
                 mt.release()
                 for t in level_tex:
                     t.release()
@@ -489,9 +651,13 @@ class GpuLevels:
                 owned = [target]
                 parent = target
         finally:
+            ctx.disable(moderngl.DEPTH_TEST)
+            ctx.depth_func = "<"
             for objs in draws:
-                for o in objs[:3]:
+                for o in objs[:4]:
                     o.release()
+            pre_vao.release()
+            everyone.release()
             for t in owned + textures:
                 t.release()
         return out.copy()

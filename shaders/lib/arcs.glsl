@@ -11,6 +11,16 @@
 // Values are "distance minus e" in the monotone measures sin (near the great circle)
 // and squared chord (near an end): <= mu or <= nu means "within x" for the margins
 // mu = sin(x) - sin(e), nu = chord(x)^2 - chord(e)^2 of a distance x.
+//
+// Clusters: a bin's records (in arc order) come in runs of up to 16 arcs that follow
+// each other along a ring, each with a header of two uvec4 (float32 bits but for the
+// last word):
+//   h0 = (Q, rho)                every point x of the cluster's arcs has |x - c - Q| <= rho
+//   h1 = (Dmin, hmin, S, range)  Dmin = min t0.x of its records, hmin = min |t0.z| of its
+//                                ring records (inf if none), S >= |Q| + rho (so S >= |x - c|),
+//                                range = 16 * first record + records - 1
+// rho and S are rounded up, Dmin and hmin are the records' own float32 values. A bin's
+// cluster headers come in increasing Dmin.
 
 const uint ARC_IS_ARC = 1u;       // a != b: the line part applies
 const uint ARC_HAS_DISTANCE = 2u; // not a seam

@@ -1,0 +1,253 @@
+"""The GPU engine's arc records and clusters (gloffset.gl.engine.records) and the
+shader's cluster culling, which must leave every class unchanged."""
+
+import math
+
+import numpy as np
+import pytest
+
+import gloffset
+from gloffset.gl import engine as E
+from gloffset.grids import Cube, Equirect, Tile
+from gloffset.hierarchy import Frontier, cell_distances, classify
+from gloffset.sphere import arc_distance, dot, slerp
+
+SQUARE_WITH_HOLE = {
+    "type": "Polygon",
+    "coordinates": [
+        [[-20, -10], [20, -10], [20, 15], [-20, 15], [-20, -10]],
+        [[-5, -3], [6, -3], [6, 4], [-5, 4], [-5, -3]],
+    ],
+}
+LINES = {
+    "type": "MultiLineString",
+    "coordinates": [[[-150, 10], [-100, 40], [-60, 5]], [[170, -30], [-170, -35]]],
+}
+POINTS = {"type": "MultiPoint", "coordinates": [[30, 60], [31, 60.5], [-120, -20]]}
+
+
+def reference_records(f, arcs, e):
+    """The records as first written: float64 (pairs, 6, 4) by lexsort, then the cast."""
+    ci, ai = f.pair_cell, f.pair_arc
+    dist = arc_distance(f.centers[ci], arcs.a[ai], arcs.b[ai], arcs.n[ai])
+    order = np.lexsort((dist, ci))
+    ci, ai, dist = ci[order], ai[order], dist[order]
+    c = f.centers[ci]
+    a, b, n = arcs.a[ai], arcs.b[ai], arcs.n[ai]
+    se, chord_e = math.sin(e), 4.0 * math.sin(0.5 * e) ** 2
+    h = dot(c, n)  # as the CPU's crossing tests make it (same sign at the centre)
+    w1, w2 = np.cross(n, a), np.cross(b, n)
+    ea, eb = c - a, c - b
+    rec = np.empty((len(ci), 6, 4))
+    rec[:, 0, 0] = dist * (1.0 - 1e-7)
+    tiny = float(np.finfo(np.float32).tiny)
+    rec[:, 0, 2] = np.where((h < 0) & (h > -tiny), -tiny, h)  # stays negative in float32
+    rec[:, 0, 3] = -h - se
+    rec[:, 1, :3] = n
+    rec[:, 1, 3] = h - se
+    rec[:, 2, :3] = w1
+    rec[:, 2, 3] = np.einsum("ij,ij->i", c, w1)
+    rec[:, 3, :3] = w2
+    rec[:, 3, 3] = np.einsum("ij,ij->i", c, w2)
+    rec[:, 4, :3] = ea
+    rec[:, 4, 3] = chord_e - np.einsum("ij,ij->i", ea, ea)
+    rec[:, 5, :3] = eb
+    rec[:, 5, 3] = chord_e - np.einsum("ij,ij->i", eb, eb)
+    group = arcs.group[ai]
+    flags = (
+        np.where(np.any(n != 0.0, axis=1), E.ARC_IS_ARC, 0)
+        | np.where(arcs.boundary[ai], E.ARC_HAS_DISTANCE, 0)
+        | np.where(group >= 0, E.ARC_RING, 0)
+    )
+    k, ng = len(f.cells), arcs.n_groups
+    local = np.full(len(ci), 31)
+    bits = np.zeros(k, dtype=np.uint64)
+    inside = np.unpackbits(f.status, axis=1, bitorder="little")[:, : max(ng, 1)]
+    n_local = np.zeros(k)
+    for j in range(k):  # per bin: components by increasing id get bits 0, 1, ...
+        sel = (ci == j) & (group >= 0)
+        for rank, g in enumerate(np.unique(group[sel])):
+            r = min(rank, E.MAX_LOCAL)
+            local[sel & (group == g)] = r
+            if inside[j, g]:
+                bits[j] |= np.uint64(1) << np.uint64(r)
+                n_local[j] += 1
+    other = inside.sum(axis=1) > n_local
+    bits |= np.where(other, np.uint64(1) << np.uint64(E.OTHER_BIT), np.uint64(0))
+    rec[:, 0, 1] = flags + 8 * local
+    first = np.searchsorted(ci, np.arange(k)).astype(np.uint32)
+    return rec.astype(np.float32), first, bits.astype(np.uint32)
+
+
+def frontier(geom, d, grid):
+    shape = gloffset.read(geom) if isinstance(geom, dict) else geom
+    _, f, arcs = classify(shape, d, grid, stop_level=grid.bin_level)
+    assert len(f.pair_cell) > 0
+    return f, arcs
+
+
+def rows_by_bin(rec, first):
+    """Each bin's records as a sorted list of their bytes (order-free comparison)."""
+    ends = np.append(first[1:], len(rec))
+    return [sorted(r.tobytes() for r in rec[s:t]) for s, t in zip(first, ends)]
+
+
+@pytest.fixture(scope="module")
+def cases(world):
+    return [
+        (frontier(world["Japan"], 0.01, Equirect(600, 400, (125, 25, 150, 46))), 0.01),
+        (frontier(world["Indonesia"], -0.004, Equirect(512, 256, (94, -11, 142, 6))), 0.004),
+        (frontier(SQUARE_WITH_HOLE, 0.0, Equirect(256, 128)), 0.0),
+        (frontier(LINES, 0.04, Equirect(256, 128)), 0.04),
+        (frontier(POINTS, 0.2, Equirect(200, 100)), 0.2),
+    ]
+
+
+def test_records_are_the_reference_records(cases):
+    """Each bin holds the records of the direct float64 computation, bit for bit, with
+    the same first record and status bits (only the order within a bin differs)."""
+    for (f, arcs), e in cases:
+        rec, first, bits, *_ = E.records(f, arcs, e)
+        want, want_first, want_bits = reference_records(f, arcs, e)
+        assert rec.dtype == np.float32 and rec.shape == want.shape
+        assert np.array_equal(first, want_first)
+        assert np.array_equal(bits, want_bits)
+        assert rows_by_bin(rec, first) == rows_by_bin(want, want_first)
+
+
+def pair_distances(f, arcs):
+    ci, ai = f.pair_cell, f.pair_arc
+    return arc_distance(f.centers[ci], arcs.a[ai], arcs.b[ai], arcs.n[ai])
+
+
+def test_given_distances_give_the_same_records(cases):
+    for (f, arcs), e in cases:
+        dist = pair_distances(f, arcs)
+        for x, y in zip(E.records(f, arcs, e), E.records(f, arcs, e, dist=dist)):
+            assert np.array_equal(x, y)
+    # the hierarchy's distances are these
+    (f, arcs), _ = cases[0]
+    dist = pair_distances(f, arcs)
+    near, _ = cell_distances(f, arcs)
+    bd = arcs.boundary[f.pair_arc]
+    per_bin = np.full(len(f.cells), np.inf)
+    np.minimum.at(per_bin, f.pair_cell[bd], dist[bd])
+    assert np.array_equal(per_bin, near)
+
+
+def test_cluster_headers_order_and_bounds(cases):
+    """Clusters of at most CLUSTER records of consecutive arcs tile each bin's records;
+    a bin's clusters come by Dmin; Dmin, hmin are the records' own values; the ball
+    (Q, rho) holds every point of the cluster's arcs, and S >= |Q| + rho."""
+    for (f, arcs), e in cases:
+        rec, first, bits, hdr, cfirst, ccount = E.records(f, arcs, e)
+        # records in the order of the pairs
+        want, _, _ = reference_records(f, arcs, e)
+        order = np.lexsort((pair_distances(f, arcs), f.pair_cell))
+        assert np.array_equal(rec[order], want)
+        fh = hdr.view(np.float32)
+        start = (hdr[:, 1, 3] >> 4).astype(np.int64)
+        count = (hdr[:, 1, 3] & 15).astype(np.int64) + 1
+        assert np.all(count <= E.CLUSTER)
+        for b in range(len(f.cells)):
+            js = np.arange(cfirst[b], cfirst[b] + ccount[b])
+            assert np.all(np.diff(fh[js, 1, 0]) >= 0)
+            by_start = np.argsort(start[js])
+            s, n = start[js][by_start], count[js][by_start]
+            assert np.array_equal(s, np.append(first[b], (s + n)[:-1]))  # contiguous
+            assert np.sum(count[js]) == np.sum(f.pair_cell == b)
+        t0 = rec[:, 0]
+        ring = (t0[:, 1].astype(int) & E.ARC_RING) != 0
+        t = np.linspace(0.0, 1.0, 9)
+        for j in range(len(hdr)):
+            sl = slice(start[j], start[j] + count[j])
+            assert fh[j, 1, 0] == t0[sl, 0].min()
+            hm = np.abs(t0[sl, 2][ring[sl]])
+            assert fh[j, 1, 1] == (hm.min() if len(hm) else np.inf)
+            q, rho, S = fh[j, 0, :3].astype(float), float(fh[j, 0, 3]), float(fh[j, 1, 2])
+            assert S >= np.linalg.norm(q) + rho
+            ci, ai = f.pair_cell[sl], f.pair_arc[sl]
+            assert np.all(ci == ci[0]) and np.all(np.diff(ai) == 1)
+            for arc in ai:
+                a, b = arcs.a[arc], arcs.b[arc]
+                pts = slerp(a, b, t) if not np.array_equal(a, b) else a[None]
+                off = pts - f.centers[ci[0]] - q
+                assert np.all(np.linalg.norm(off, axis=1) <= rho)
+
+
+def test_a_frontier_without_pairs():
+    k = 3
+    status = np.zeros((k, 1), dtype=np.uint8)
+    status[1, 0] = 1
+    f = Frontier(
+        0,
+        np.zeros((k, 2), dtype=int),
+        np.tile([1.0, 0.0, 0.0], (k, 1)),
+        np.zeros(k),
+        np.zeros(0, dtype=int),
+        np.zeros(0, dtype=int),
+        status,
+    )
+    arcs = classify(gloffset.read(SQUARE_WITH_HOLE), 0.01, Equirect(64, 32))[2]
+    rec, first, bits, hdr, cfirst, ccount = E.records(f, arcs, 0.01)
+    assert rec.shape == (0, 6, 4) and hdr.shape == (0, 2, 4)
+    assert np.array_equal(first, [0, 0, 0]) and np.array_equal(ccount, [0, 0, 0])
+    assert np.array_equal(bits, [0, 1 << E.OTHER_BIT, 0])
+
+
+def spy_records(monkeypatch, *, cull: bool) -> list:
+    """Count the calls of records; with ``cull=False`` make every cluster's ball
+    infinite, so that the shader visits every cluster."""
+    real, calls = E.records, []
+
+    def records(*args, **kwargs):
+        out = list(real(*args, **kwargs))
+        calls.append(len(out[3]))
+        if not cull:
+            hdr = out[3].copy()
+            hdr.view(np.float32)[:, 0, 3] = np.inf
+            out[3] = hdr
+        return tuple(out)
+
+    monkeypatch.setattr(E, "records", records)
+    return calls
+
+
+def all_levels(shape, d, grid):
+    out = []
+    mask = gloffset.render(
+        shape, d, grid, radius=1.0, callback=lambda lev, c: out.append(np.array(c, copy=True))
+    )
+    return out + [mask]
+
+
+@pytest.mark.parametrize(
+    "what, d, grid",
+    [
+        ("mexico", 0.02, Equirect(2048, 1024)),
+        ("mexico", -1e-4, Equirect(512, 512, (-111.9107, 26.7402, -111.8107, 26.8402))),
+        ("mexico", 1e-5, Equirect(512, 512, (-111.9107, 26.7402, -111.8107, 26.8402))),
+        ("mexico", 0.005, Tile(6, 12, 27)),
+        ("mexico", 2e-4, Tile(12, 775, 1731)),
+        ("world", 0.0, Equirect(1024, 512)),
+        ("world", -0.03, Equirect(1024, 512)),
+        ("world", 0.01, Cube(128)),
+        ("lines", 0.04, Equirect(512, 256)),
+        ("points", 0.2, Equirect(400, 200)),
+    ],
+)
+def test_cluster_culling_changes_no_class(monkeypatch, world, mexico_path, what, d, grid):
+    shape = {
+        "mexico": lambda: gloffset.read(mexico_path),
+        "world": lambda: gloffset.read(mexico_path.parent / "world_110m.geojson"),
+        "lines": lambda: gloffset.read(LINES),
+        "points": lambda: gloffset.read(POINTS),
+    }[what]()
+    calls = spy_records(monkeypatch, cull=True)
+    culled = all_levels(shape, d, grid)
+    assert sum(calls) > 0  # the GPU levels ran, with clusters
+    spy_records(monkeypatch, cull=False)
+    every = all_levels(shape, d, grid)
+    assert len(culled) == len(every)
+    for x, y in zip(culled, every):
+        assert np.array_equal(x, y)
