@@ -70,6 +70,16 @@ class Arcs:
 
     @classmethod
     def from_shape(cls, shape) -> Arcs:
+        """The arcs of ``shape`` (made once per shape and kept on it, like its edges)."""
+        cached = getattr(shape, "_engine_arcs", None)
+        if cached is not None:
+            return cached
+        arcs = cls._make(shape)
+        shape._engine_arcs = arcs
+        return arcs
+
+    @classmethod
+    def _make(cls, shape) -> Arcs:
         e = shape.edges()
         n = normalize(robust_cross(e.a, e.b))
         s = e.a + e.b
@@ -332,11 +342,11 @@ def classify(
     e = abs(d)
     last = grid.n_levels - 1
     stop = last if stop_level is None else stop_level
-    begin = 0
+    begin, plan = 0, {}
     if start == "auto":
         from .scatter import start_level
 
-        begin = start_level(arcs, grid, e, stop)
+        begin = start_level(arcs, grid, e, stop, plan=plan)
     elif start != "coarse":
         if not (isinstance(start, int) and 0 <= start <= stop and hasattr(grid, "cell_lat")):
             raise ValueError(
@@ -347,7 +357,7 @@ def classify(
     if begin > 0:
         from .scatter import pooled, scatter
 
-        classes, f = scatter(shape, arcs, grid, d, begin, final=(begin == last))
+        classes, f = scatter(shape, arcs, grid, d, begin, final=(begin == last), plan=plan)
         if callback is not None:
             coarse = [classes]
             for _ in range(begin):

@@ -73,9 +73,12 @@ def _boxes(arcs: Arcs, lat, lon, reach: float):
 
     Returns ``(arc, j0, j1, i0, i1)`` arrays, one entry per (arc, column range).
     """
-    m = arcs.mid
-    lat0 = np.arctan2(m[:, 2], np.hypot(m[:, 0], m[:, 1]))
-    lon0 = np.arctan2(m[:, 1], m[:, 0])
+    lonlat = getattr(arcs, "_cap_lonlat", None)
+    if lonlat is None:  # once per set of arcs
+        m = arcs.mid
+        lonlat = np.arctan2(m[:, 1], m[:, 0]), np.arctan2(m[:, 2], np.hypot(m[:, 0], m[:, 1]))
+        arcs._cap_lonlat = lonlat
+    lon0, lat0 = lonlat
     r = (reach + arcs.half) * (1.0 + _REL) + _ABS
     # rows: centre latitudes decrease with the row
     neg = -lat
@@ -87,7 +90,7 @@ def _boxes(arcs: Arcs, lat, lon, reach: float):
         s = np.sin(np.minimum(r, 0.5 * math.pi)) / np.cos(lat0)
     dl = np.where(polar, math.pi, np.arcsin(np.clip(s, 0.0, 1.0)) * (1.0 + _REL) + _ABS)
     out = []
-    idx = np.arange(len(m))
+    idx = np.arange(len(lon0))
     full = polar | (dl >= math.pi)
     if full.any():
         k = idx[full]
@@ -101,31 +104,42 @@ def _boxes(arcs: Arcs, lat, lon, reach: float):
     return tuple(np.concatenate([o[t] for o in out]) for t in range(5))
 
 
-def start_level(arcs: Arcs, grid, e: float, finest: int) -> int:
+def _plan(arcs: Arcs, grid, e: float, level: int):
+    """The geometry of ``level`` and its boxes (see :func:`_boxes`)."""
+    lat, lon, rho, spacing = _levels_geometry(grid, level)
+    row_reach = np.maximum(e + rho, spacing)
+    return (lat, lon, rho, spacing, row_reach), _boxes(arcs, lat, lon, float(row_reach.max()))
+
+
+def start_level(arcs: Arcs, grid, e: float, finest: int, *, plan: dict | None = None) -> int:
     """The finest level ``<= finest`` whose box enumeration stays within
-    :data:`PAIRS_PER_ARC` pairs per arc, or 0 (start with the hierarchy)."""
+    :data:`PAIRS_PER_ARC` pairs per arc, or 0 (start with the hierarchy).
+
+    ``plan``, a dict, gets the chosen level's geometry and boxes for :func:`scatter`.
+    """
     if len(arcs.a) == 0 or not hasattr(grid, "cell_lat"):
         return 0
     budget = PAIRS_PER_ARC * len(arcs.a) + 4096
     for level in range(finest, 1, -1):
-        lat, lon, rho, spacing = _levels_geometry(grid, level)
-        reach = float(np.maximum(e + rho, spacing).max())
-        _, j0, j1, i0, i1 = _boxes(arcs, lat, lon, reach)
+        got = _plan(arcs, grid, e, level)
+        _, j0, j1, i0, i1 = got[1]
         if int(((j1 - j0) * (i1 - i0)).sum()) <= budget:
+            if plan is not None:
+                plan[(level, e)] = got
             return level
     return 0
 
 
-def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool):
+def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool, *, plan=None):
     """Classes of every cell of ``level`` and the :class:`Frontier` of its frontier cells.
 
-    ``final``: ``level`` is the output level (decided at the centres).
+    ``final``: ``level`` is the output level (decided at the centres); ``plan``: the
+    dict that :func:`start_level` filled for this grid, if any.
     """
     e = abs(d)
     h, w = grid.level_shape(level)
-    lat, lon, rho, spacing = _levels_geometry(grid, level)
-    row_reach = np.maximum(e + rho, spacing)
-    a_idx, j0, j1, i0, i1 = _boxes(arcs, lat, lon, float(row_reach.max()))
+    got = (plan or {}).get((level, e)) or _plan(arcs, grid, e, level)
+    (lat, lon, rho, spacing, row_reach), (a_idx, j0, j1, i0, i1) = got
 
     # every cell of every box, then the exact cap test
     nc = i1 - i0
