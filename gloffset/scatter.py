@@ -120,7 +120,7 @@ def start_level(arcs: Arcs, grid, e: float, finest: int, *, plan: dict | None = 
     if len(arcs.a) == 0 or not hasattr(grid, "cell_lat"):
         return 0
     budget = PAIRS_PER_ARC * len(arcs.a) + 4096
-    for level in range(finest, 1, -1):
+    for level in range(finest, 0, -1):
         got = _plan(arcs, grid, e, level)
         _, j0, j1, i0, i1 = got[1]
         if int(((j1 - j0) * (i1 - i0)).sum()) <= budget:
