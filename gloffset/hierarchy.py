@@ -43,6 +43,7 @@ __all__ = [
     "Arcs",
     "Frontier",
     "cell_distances",
+    "nearest",
     "classify",
     "decide",
     "OUTSIDE",
@@ -200,19 +201,50 @@ def cell_distances(f: Frontier, arcs: Arcs) -> tuple[np.ndarray, np.ndarray]:
 
     Returns ``(dist, dring)``: the distance to the nearest candidate boundary arc
     (the offset distance) and to the nearest candidate ring edge, seams included
-    (inside uniformity); ``inf`` where a cell has none.
+    (inside uniformity); ``inf`` where a cell has none. Only the pairs that can be a
+    cell's nearest are measured (:func:`nearest`).
     """
     k = len(f.cells)
     dist = np.full(k, np.inf)  # to boundary arcs (distance)
     dring = np.full(k, np.inf)  # to ring edges including seams (inside uniformity)
     for s in range(0, len(f.pair_cell), _PAIRS):
         ci, ai = f.pair_cell[s : s + _PAIRS], f.pair_arc[s : s + _PAIRS]
-        dd = arc_distance(f.centers[ci], arcs.a[ai], arcs.b[ai], arcs.n[ai])
-        bd = arcs.boundary[ai]
-        np.minimum.at(dist, ci[bd], dd[bd])
-        rg = arcs.group[ai] >= 0
-        np.minimum.at(dring, ci[rg], dd[rg])
+        cm = np.einsum("ij,ij->i", f.centers[ci], arcs.mid[ai])
+        nearest(arcs, ci, ai, cm, lambda idx, ci=ci: f.centers[ci[idx]], dist, dring)
     return dist, dring
+
+
+def nearest(arcs: Arcs, cell, ai, cm, point, dist, dring) -> None:
+    """Lower ``dist`` and ``dring`` of each cell to the exact distance of its nearest
+    boundary arc and ring edge among its pairs ``(cell, ai)`` (grouped by cell).
+
+    ``cm``: ``c.m`` of each pair (cell centre, arc's cap centre); ``point(idx)``: the
+    cell centres of pairs ``idx``. Only pairs that can be the nearest are measured:
+    with ``t = angle(c, m)`` and the cap radius ``h``, ``t - h <= dist(c, arc) <= t + h``,
+    so a pair whose lower bound exceeds the cell's least upper bound is skipped.
+    ``t = arccos(c.m)`` is good to 1e-7 rad (3e-16 on ``c.m`` near 1); the comparison
+    allows twice that, so the minima are those of all pairs, bit for bit.
+    """
+    if len(cell) == 0:
+        return
+    starts = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]])
+    seg = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(cell)]))
+    owner = cell[starts]
+    half = arcs.half[ai]
+    t = np.arccos(np.clip(cm, -1.0, 1.0))
+    lo, hi = t - half, t + half
+    kinds = [(arcs.boundary[ai], dist), (arcs.group[ai] >= 0, dring)]
+    measure = np.zeros(len(cell), dtype=bool)
+    for kind, _ in kinds:
+        if kind.any():
+            best = np.minimum.reduceat(np.where(kind, hi, np.inf), starts)
+            measure |= kind & (lo <= best[seg] + 2e-7)
+    k = np.flatnonzero(measure)
+    dd = np.full(len(cell), np.inf)
+    dd[k] = arc_distance(point(k), arcs.a[ai[k]], arcs.b[ai[k]], arcs.n[ai[k]])
+    for kind, out in kinds:
+        if kind.any():
+            np.minimum.at(out, owner, np.minimum.reduceat(np.where(kind, dd, np.inf), starts))
 
 
 def decide(dist, dring, inside, rho, d: float, final: bool) -> np.ndarray:

@@ -42,8 +42,8 @@ import math
 
 import numpy as np
 
-from .hierarchy import FRONTIER, Arcs, Frontier, _status_at, _status_bits, decide
-from .sphere import angle, arc_distance, arcs_cross
+from .hierarchy import FRONTIER, Arcs, Frontier, _status_at, _status_bits, decide, nearest
+from .sphere import angle, arcs_cross
 
 __all__ = ["start_level", "scatter", "pooled", "PAIRS_PER_ARC"]
 
@@ -183,11 +183,10 @@ def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool, *, plan=
 
     # candidate lists (within e + rho), exact distances, classes
     cand = cm >= np.cos(np.minimum(e + rho[jj] + half, math.pi)) - 1e-12
-    jj, ii, ai, cell, cm, half = jj[cand], ii[cand], ai[cand], cell[cand], cm[cand], half[cand]
+    jj, ii, ai, cell, cm = jj[cand], ii[cand], ai[cand], cell[cand], cm[cand]
     dist = np.full(h * w, np.inf)
     dring = np.full(h * w, np.inf)
-    if len(cell):
-        _nearest(arcs, center, jj, ii, ai, cell, cm, half, dist, dring)
+    nearest(arcs, cell, ai, cm, lambda k: center(jj[k], ii[k]), dist, dring)
     inside = status.any(axis=1)
     cls = decide(dist, dring, inside, np.repeat(rho, w), d, final)
     classes = cls.reshape(h, w)
@@ -208,36 +207,6 @@ def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool, *, plan=
         status[fr],
     )
     return classes, f
-
-
-def _nearest(arcs: Arcs, center, jj, ii, ai, cell, cm, half, dist, dring) -> None:
-    """Per cell, the exact distance to the nearest boundary arc (into ``dist``) and ring
-    edge (into ``dring``) among its pairs (sorted by cell).
-
-    Only pairs that can be the nearest are measured: the cap angle ``t = angle(c, m)``
-    gives ``t - h <= dist(c, arc) <= t + h``, so a pair whose lower bound exceeds the
-    cell's least upper bound is skipped. ``t`` comes from ``arccos(c.m)``, whose error
-    is below 1e-7 rad; the comparison allows twice that.
-    """
-    starts = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]])
-    seg = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(cell)]))
-    owner = cell[starts]
-    t = np.arccos(np.clip(cm, -1.0, 1.0))
-    lo, hi = t - half, t + half
-    bd = arcs.boundary[ai]
-    rg = arcs.group[ai] >= 0
-    measure = np.zeros(len(cell), dtype=bool)
-    for kind in (bd, rg):
-        if not kind.any():
-            continue
-        best = np.minimum.reduceat(np.where(kind, hi, np.inf), starts)
-        measure |= kind & (lo <= best[seg] + 2e-7)
-    k = np.flatnonzero(measure)
-    dd = np.full(len(cell), np.inf)
-    dd[k] = arc_distance(center(jj[k], ii[k]), arcs.a[ai[k]], arcs.b[ai[k]], arcs.n[ai[k]])
-    for kind, out in ((bd, dist), (rg, dring)):
-        if kind.any():
-            out[owner] = np.minimum.reduceat(np.where(kind, dd, np.inf), starts)
 
 
 def pooled(classes: np.ndarray) -> np.ndarray:
