@@ -374,34 +374,35 @@ def classify(
     e = abs(d)
     last = grid.n_levels - 1
     stop = last if stop_level is None else stop_level
-    begin, plan = 0, {}
+    at, plan = None, {}  # the level entered directly (gloffset.scatter), if any
     if start == "auto":
         from .scatter import start_level
 
-        begin = start_level(arcs, grid, e, stop, plan=plan)
+        at = start_level(arcs, grid, e, stop, plan=plan)
     elif start != "coarse":
         if not (isinstance(start, int) and 0 <= start <= stop and hasattr(grid, "cell_lat")):
             raise ValueError(
                 f"start must be 'coarse', 'auto' or a level in 0..{stop} of a lon/lat grid, "
                 f"got {start!r}"
             )
-        begin = start
-    if begin > 0:
+        at = start
+    if at is not None:
         from .scatter import pooled, scatter
 
-        classes, f = scatter(shape, arcs, grid, d, begin, final=(begin == last), plan=plan)
+        classes, f = scatter(shape, arcs, grid, d, at, final=(at == last), plan=plan)
         if callback is not None:
             coarse = [classes]
-            for _ in range(begin):
+            for _ in range(at):
                 coarse.append(pooled(coarse[-1]))
-            for lev in range(begin + 1):
-                callback(lev, coarse[begin - lev])
+            for lev in range(at + 1):
+                callback(lev, coarse[at - lev])
         if timings is not None:
-            timings.append((begin, time.perf_counter()))
-        begin += 1
+            timings.append((at, time.perf_counter()))
+        begin = at + 1
     else:
         f = _coarse(shape, arcs, grid, e)
         classes = np.zeros(grid.level_shape(0), dtype=np.uint8)
+        begin = 0
     for lev in range(begin, stop + 1):
         if lev > 0:
             h, w = grid.level_shape(lev)

@@ -32,8 +32,9 @@ all its children at ``L`` are).
 
 Cost: ``O(pairs)`` numpy work with a fixed number of calls. :func:`start_level`
 picks the finest level whose box enumeration stays within :data:`PAIRS_PER_ARC`
-pairs per arc (small offset distances); large distances, for which whole coarse
-cells are decided by distance, keep the hierarchy from level 0.
+pairs per arc (small offset distances; level 0 too, instead of the cap-tree queries
+of the hierarchy's first level); large distances, for which whole coarse cells are
+decided by distance, keep the hierarchy from level 0.
 """
 
 from __future__ import annotations
@@ -111,23 +112,23 @@ def _plan(arcs: Arcs, grid, e: float, level: int):
     return (lat, lon, rho, spacing, row_reach), _boxes(arcs, lat, lon, float(row_reach.max()))
 
 
-def start_level(arcs: Arcs, grid, e: float, finest: int, *, plan: dict | None = None) -> int:
+def start_level(arcs: Arcs, grid, e: float, finest: int, *, plan: dict | None = None) -> int | None:
     """The finest level ``<= finest`` whose box enumeration stays within
-    :data:`PAIRS_PER_ARC` pairs per arc, or 0 (start with the hierarchy).
+    :data:`PAIRS_PER_ARC` pairs per arc, or None (start with the hierarchy).
 
     ``plan``, a dict, gets the chosen level's geometry and boxes for :func:`scatter`.
     """
     if len(arcs.a) == 0 or not hasattr(grid, "cell_lat"):
-        return 0
+        return None
     budget = PAIRS_PER_ARC * len(arcs.a) + 4096
-    for level in range(finest, 0, -1):
+    for level in range(finest, -1, -1):
         got = _plan(arcs, grid, e, level)
         _, j0, j1, i0, i1 = got[1]
         if int(((j1 - j0) * (i1 - i0)).sum()) <= budget:
             if plan is not None:
                 plan[(level, e)] = got
             return level
-    return 0
+    return None
 
 
 def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool, *, plan=None):
