@@ -54,9 +54,8 @@ def per_level(shape, grid) -> list:
     eng = engine()
     marks = []
     t0 = time.perf_counter()
-    classes, f, arcs = classify(
-        shape, D, grid, stop_level=grid.bin_level, timings=marks, start="auto"
-    )
+    bins = grid.bin_level_for(D)
+    classes, f, arcs = classify(shape, D, grid, stop_level=bins, timings=marks, start="auto")
     eng.run(grid, D, classes, f, arcs, stop_level=grid.n_levels - 1, timings=marks)
     out, prev = [], t0
     for lev, t in marks:
@@ -64,7 +63,7 @@ def per_level(shape, grid) -> list:
             {
                 "level": lev,
                 "shape": list(grid.level_shape(lev)),
-                "where": "cpu" if lev <= grid.bin_level else "gpu",
+                "where": "cpu" if lev <= bins else "gpu",
                 "s": t - prev,
             }
         )

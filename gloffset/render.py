@@ -47,15 +47,14 @@ def _check(out, backend, grid):
 
 def _render_one(shape, d, grid, *, backend, level, callback):
     stop = grid.n_levels - 1 if level is None else level
-    if backend == "cpu" or stop <= grid.bin_level:
+    bins = grid.bin_level_for(abs(d))
+    if backend == "cpu" or stop <= bins:
         classes, _, _ = classify(shape, d, grid, stop_level=stop, callback=callback)
         return classes
     from .gl.engine import engine
 
     eng = engine()
-    classes, f, arcs = classify(
-        shape, d, grid, stop_level=grid.bin_level, callback=callback, start="auto"
-    )
+    classes, f, arcs = classify(shape, d, grid, stop_level=bins, callback=callback, start="auto")
     return eng.run(grid, d, classes, f, arcs, stop_level=stop, callback=callback)
 
 

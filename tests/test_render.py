@@ -225,3 +225,22 @@ def test_bin_centre_on_an_edge_great_circle():
     np.testing.assert_array_equal(
         mask, gloffset.render(shape, 0.000747, grid, radius=1.0, backend="cpu")
     )
+
+
+@pytest.mark.parametrize(
+    "what, d, size",
+    [
+        ("Fiji", 0.1, (1024, 512)),  # across the antimeridian
+        ("Antarctica", 0.06, (1024, 512)),  # round the pole
+        (SQUARE_WITH_HOLE, -0.07, (800, 400)),
+        (LINES, 0.05, (1024, 512)),
+    ],
+)
+def test_wide_bins_for_wide_bands(world, what, d, size):
+    """Offsets several pixels wide get 32-pixel bins; the answer is the same."""
+    grid = Equirect(*size)
+    assert grid.bin_level_for(abs(d)) == grid.bin_level - 1
+    shape = gloffset.read(world[what] if isinstance(what, str) else what)
+    mask, want = assert_matches_reference(shape, d, grid)
+    assert want.any() and not want.all()
+    np.testing.assert_array_equal(mask, gloffset.render(shape, d, grid, radius=1.0, backend="cpu"))
