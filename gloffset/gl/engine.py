@@ -35,7 +35,7 @@ import numpy as np
 
 from ..errors import GLContextError
 from ..hierarchy import FRONTIER, Arcs, Frontier
-from ..sphere import cross, dot
+from ..sphere import arc_distance, cross, dot
 from .context import get_context
 from .shaders import program
 
@@ -53,9 +53,7 @@ _F32_TINY = float(np.finfo(np.float32).tiny)  # least positive normal float32
 _POPCOUNT = np.unpackbits(np.arange(256, dtype=np.uint8)[:, None], axis=1).sum(axis=1)
 
 
-def records(
-    f: Frontier, arcs: Arcs, e: float, dist: np.ndarray | None = None, cluster: int = CLUSTER
-) -> tuple[np.ndarray, ...]:
+def records(f: Frontier, arcs: Arcs, e: float, cluster: int = CLUSTER) -> tuple[np.ndarray, ...]:
     """Arc records and their clusters for the frontier bins ``f`` (``shaders/lib/arcs.glsl``).
 
     Returns ``(rec, first, bits, clusters, first_cluster, n_clusters)``: ``rec``
@@ -69,21 +67,15 @@ def records(
     A cluster is a run of up to ``cluster`` (<= 16) pairs of one bin whose arcs follow
     each other along a ring (consecutive arc indices); its header bounds them by a ball
     around the bin centre. All terms are computed in float64 relative to the bin centre
-    ``c`` before the cast, in blocks of pairs (small temporaries, reused). ``dist``,
-    optional: the float64 distances from each pair's cell centre to its arc as
-    :func:`gloffset.sphere.arc_distance` gives them (the same values are computed
-    otherwise).
+    ``c`` before the cast, in blocks of pairs (small temporaries, reused).
     """
     if not 1 <= cluster <= 16:
         raise ValueError(f"cluster must be 1..16, got {cluster}")
     ci = np.asarray(f.pair_cell, dtype=np.int64)
     ai = np.asarray(f.pair_arc, dtype=np.int64)
-    if dist is not None:
-        dist = np.asarray(dist, dtype=np.float64)
     if np.any(ci[1:] < ci[:-1]):  # pairs come sorted by cell; keep to that
         perm = np.argsort(ci, kind="stable")
         ci, ai = ci[perm], ai[perm]
-        dist = None if dist is None else dist[perm]
     k, npair = len(f.cells), len(ci)
     if npair >= 1 << 28:
         raise GLContextError(f"{npair} candidate pairs: too many for one render")
@@ -100,21 +92,7 @@ def records(
         ea = c - a
         eb = c - b
         is_arc = dot(n, n) > 0.5  # n is a unit vector or zero
-        if dist is None:  # sphere.arc_distance term for term (the same bits)
-            h = dot(c, n)
-            inside = (dot(c, w1) >= 0.0) & (dot(c, w2) >= 0.0) & is_arc
-            foot = c - h[:, None] * n
-            ca, cb = c + a, c + b
-            d = np.where(
-                inside,
-                np.arctan2(np.abs(h), np.sqrt(dot(foot, foot))),
-                np.minimum(
-                    2.0 * np.arctan2(np.sqrt(dot(ea, ea)), np.sqrt(dot(ca, ca))),
-                    2.0 * np.arctan2(np.sqrt(dot(eb, eb)), np.sqrt(dot(cb, cb))),
-                ),
-            )
-        else:
-            d = dist[sl]
+        d = arc_distance(c, a, b, n)
         # h = c.n exactly as the CPU's crossing tests make it (sphere.dot, as in
         # arcs_cross with the arcs' normals): its sign says on which side of the arc's
         # great circle the bin centre lies, and the status bits at the centre were
@@ -295,19 +273,20 @@ def pot_texture(ctx, array: np.ndarray, comps: int, dtype: str):
     return t
 
 
-def class_target(ctx, w: int, h: int):
+def class_target(ctx, w: int, h: int, depth: bool = False):
     """A ``w x h`` R8UI render target for classes (power-of-two sides, see :func:`_pot`)
-    and its framebuffer."""
+    with its framebuffer and, with ``depth``, a depth buffer (else None)."""
     import moderngl
 
     target = ctx.texture((_pot(w), _pot(h)), 1, dtype="u1")
     target.filter = (moderngl.NEAREST, moderngl.NEAREST)
-    fbo = ctx.framebuffer(color_attachments=[target])
+    zbuf = ctx.depth_renderbuffer(target.size) if depth else None
+    fbo = ctx.framebuffer(color_attachments=[target], depth_attachment=zbuf)
     # moderngl's framebuffer set-up makes one query that GL rejects for an integer
     # colour attachment (GL_INVALID_OPERATION, no effect): clear it so that real
     # errors stay visible
     ctx.error  # noqa: B018
-    return target, fbo
+    return target, fbo, zbuf
 
 
 @dataclass
@@ -592,13 +571,9 @@ class GpuLevels:
                 final = s == layout.last
                 rho = layout.rho[s]
                 mt = self._tex(_margins(rho.ravel(), e).reshape(len(rho), -1, 4), 4, "f4")
-                target = ctx.texture((_pot(w), _pot(h)), 1, dtype="u1")  # as class_target
-                target.filter = (moderngl.NEAREST, moderngl.NEAREST)
                 # at shift 1 every cell of a frontier bin is a child of a frontier cell
                 masked = s >= _MASK_FROM
-                depth = ctx.depth_renderbuffer(target.size) if masked else None
-                fbo = ctx.framebuffer(color_attachments=[target], depth_attachment=depth)
-                ctx.error  # noqa: B018  (moderngl's rejected query, see class_target)
+                target, fbo, depth = class_target(ctx, w, h, depth=masked)
                 fbo.use()
                 ctx.viewport = (0, 0, w, h)
                 parent.use(0)

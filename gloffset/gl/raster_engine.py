@@ -179,7 +179,7 @@ class RasterLevels:
                     self._tex(dphi.astype(np.float32)[None], 1, "f4"),
                     self._tex(dlam.astype(np.float32)[None], 1, "f4"),
                 ]
-                target, fbo = class_target(ctx, w, h)
+                target, fbo, _ = class_target(ctx, w, h)
                 try:
                     fbo.use()
                     ctx.viewport = (0, 0, w, h)
@@ -257,7 +257,7 @@ class RasterLevels:
                     for f, (count, _, vao, coarse) in enumerate(faces):
                         parent = self._tex(out[f * ph : (f + 1) * ph], 1, "u1")
                         binfo = self._tex(info[f * pb : (f + 1) * pb], 4, "u4")
-                        target, fbo = class_target(ctx, w, pp)
+                        target, fbo, _ = class_target(ctx, w, pp)
                         try:
                             fbo.use()
                             ctx.viewport = (0, 0, w, pp)
