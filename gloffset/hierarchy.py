@@ -44,6 +44,7 @@ __all__ = [
     "Frontier",
     "cell_distances",
     "nearest",
+    "row_statuses",
     "classify",
     "decide",
     "OUTSIDE",
@@ -155,6 +156,21 @@ def _status_at(shape, arcs: Arcs, p: np.ndarray) -> np.ndarray:
     return status
 
 
+def row_statuses(shape, arcs: Arcs, h: int, w: int, first, cells, crossing) -> np.ndarray:
+    """Packed statuses of every cell of an ``h x w`` level, row-major: cell 0's (centre
+    ``first``) by crossings to the shape's reference point, every other cell's its
+    predecessor's (left, or above in the first column) toggled by the arcs that cross
+    the short arc between their centres, given as pairs ``(cells, crossing)`` (cell
+    index, arc index; cell 0 excluded)."""
+    toggles = _status_bits(arcs.n_groups, h * w)
+    g = arcs.group[crossing]
+    np.bitwise_xor.at(toggles, (cells, g >> 3), (1 << (g & 7)).astype(np.uint8))
+    toggles[0] = _status_at(shape, arcs, np.reshape(first, (1, 3)))[0]
+    t = toggles.reshape(h, w, -1)
+    t[:, 0] = np.bitwise_xor.accumulate(t[:, 0], axis=0)
+    return np.bitwise_xor.accumulate(t, axis=1).reshape(h * w, -1)
+
+
 def _coarse(shape, arcs: Arcs, grid, e: float) -> Frontier:
     """All cells of level 0 with their candidate lists and component statuses.
 
@@ -184,13 +200,7 @@ def _coarse(shape, arcs: Arcs, grid, e: float) -> Frontier:
         ring = arcs.group[ai] >= 0
         qi, ai = qi[ring], ai[ring]
         hit = arcs_cross(c[qi], a_seg[qi], arcs.a[ai], arcs.b[ai], arcs.n[ai]) & (qi > 0)
-        g = arcs.group[ai[hit]]
-        toggles = _status_bits(arcs.n_groups, len(c))
-        np.bitwise_xor.at(toggles, (qi[hit], g >> 3), (1 << (g & 7)).astype(np.uint8))
-        toggles[0] = _status_at(shape, arcs, c[:1])[0]
-        t = toggles.reshape(h, w, -1)
-        t[:, 0] = np.bitwise_xor.accumulate(t[:, 0], axis=0)
-        status = np.bitwise_xor.accumulate(t, axis=1).reshape(len(c), -1)
+        status = row_statuses(shape, arcs, h, w, c[0], qi[hit], ai[hit])
     qi, ai, _ = tree.near(c, e + rho)
     order = np.lexsort((ai, qi))
     return Frontier(0, cells, c, rho, qi[order], ai[order], status)
@@ -374,11 +384,11 @@ def classify(
     e = abs(d)
     last = grid.n_levels - 1
     stop = last if stop_level is None else stop_level
-    at, plan = None, {}  # the level entered directly (gloffset.scatter), if any
+    at, plan = None, None  # the level entered directly (gloffset.scatter), if any
     if start == "auto":
         from .scatter import start_level
 
-        at = start_level(arcs, grid, e, stop, plan=plan)
+        at, plan = start_level(arcs, grid, e, stop)
     elif start != "coarse":
         if not (isinstance(start, int) and 0 <= start <= stop and hasattr(grid, "cell_lat")):
             raise ValueError(

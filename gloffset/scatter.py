@@ -43,7 +43,7 @@ import math
 
 import numpy as np
 
-from .hierarchy import FRONTIER, Arcs, Frontier, _status_at, _status_bits, decide, nearest
+from .hierarchy import FRONTIER, Arcs, Frontier, _status_bits, decide, nearest, row_statuses
 from .sphere import angle, arcs_cross
 
 __all__ = ["start_level", "scatter", "pooled", "PAIRS_PER_ARC"]
@@ -112,35 +112,32 @@ def _plan(arcs: Arcs, grid, e: float, level: int):
     return (lat, lon, rho, spacing, row_reach), _boxes(arcs, lat, lon, float(row_reach.max()))
 
 
-def start_level(arcs: Arcs, grid, e: float, finest: int, *, plan: dict | None = None) -> int | None:
-    """The finest level ``<= finest`` whose box enumeration stays within
-    :data:`PAIRS_PER_ARC` pairs per arc, or None (start with the hierarchy).
-
-    ``plan``, a dict, gets the chosen level's geometry and boxes for :func:`scatter`.
-    """
+def start_level(arcs: Arcs, grid, e: float, finest: int):
+    """``(level, plan)``: the finest level ``<= finest`` whose box enumeration stays
+    within :data:`PAIRS_PER_ARC` pairs per arc and its geometry and boxes (for
+    :func:`scatter`), or ``(None, None)`` (start with the hierarchy)."""
     if len(arcs.a) == 0 or not hasattr(grid, "cell_lat"):
-        return None
+        return None, None
     budget = PAIRS_PER_ARC * len(arcs.a) + 4096
     for level in range(finest, -1, -1):
-        got = _plan(arcs, grid, e, level)
-        _, j0, j1, i0, i1 = got[1]
+        plan = _plan(arcs, grid, e, level)
+        _, j0, j1, i0, i1 = plan[1]
         if int(((j1 - j0) * (i1 - i0)).sum()) <= budget:
-            if plan is not None:
-                plan[(level, e)] = got
-            return level
-    return None
+            return level, plan
+    return None, None
 
 
 def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool, *, plan=None):
     """Classes of every cell of ``level`` and the :class:`Frontier` of its frontier cells.
 
-    ``final``: ``level`` is the output level (decided at the centres); ``plan``: the
-    dict that :func:`start_level` filled for this grid, if any.
+    ``final``: ``level`` is the output level (decided at the centres); ``plan``: what
+    :func:`start_level` gave for this level and distance, if it chose it.
     """
     e = abs(d)
     h, w = grid.level_shape(level)
-    got = (plan or {}).get((level, e)) or _plan(arcs, grid, e, level)
-    (lat, lon, rho, spacing, row_reach), (a_idx, j0, j1, i0, i1) = got
+    (lat, lon, rho, spacing, row_reach), (a_idx, j0, j1, i0, i1) = plan or _plan(
+        arcs, grid, e, level
+    )
 
     # every cell of every box, then the exact cap test
     nc = i1 - i0
@@ -167,20 +164,13 @@ def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool, *, plan=
     # inside statuses: predecessor's, toggled by crossings of pred -> cell
     status = _status_bits(arcs.n_groups, h * w)
     if arcs.n_groups:
-        toggles = _status_bits(arcs.n_groups, h * w)
         ring = (arcs.group[ai] >= 0) & (cell > 0)
         ring &= cm >= np.cos(np.minimum(spacing[jj] + half, math.pi)) - 1e-12
         pj, pi_, pa = jj[ring], ii[ring], ai[ring]
         qj = np.where(pi_ > 0, pj, pj - 1)
         qi = np.where(pi_ > 0, pi_ - 1, 0)
         hit = arcs_cross(center(pj, pi_), center(qj, qi), arcs.a[pa], arcs.b[pa], arcs.n[pa])
-        g = arcs.group[pa[hit]]
-        cells_hit = (pj * w + pi_)[hit]
-        np.bitwise_xor.at(toggles, (cells_hit, g >> 3), (1 << (g & 7)).astype(np.uint8))
-        toggles[0] = _status_at(shape, arcs, center(np.array([0]), np.array([0])))[0]
-        t = toggles.reshape(h, w, -1)
-        t[:, 0] = np.bitwise_xor.accumulate(t[:, 0], axis=0)
-        status = np.bitwise_xor.accumulate(t, axis=1).reshape(h * w, -1)
+        status = row_statuses(shape, arcs, h, w, center(0, 0), cell[ring][hit], pa[hit])
 
     # candidate lists (within e + rho), exact distances, classes
     cand = cm >= np.cos(np.minimum(e + rho[jj] + half, math.pi)) - 1e-12
