@@ -6,6 +6,19 @@ import pytest
 
 DATA = Path(__file__).resolve().parent.parent / "data"
 
+# Synthetic shapes several test modules use
+SQUARE_WITH_HOLE = {
+    "type": "Polygon",
+    "coordinates": [
+        [[-20, -10], [20, -10], [20, 15], [-20, 15], [-20, -10]],
+        [[-5, -3], [6, -3], [6, 4], [-5, 4], [-5, -3]],
+    ],
+}
+LINES = {
+    "type": "MultiLineString",
+    "coordinates": [[[-150, 10], [-100, 40], [-60, 5]], [[170, -30], [-170, -35]]],
+}
+
 
 @pytest.fixture(scope="session")
 def world():

@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import LINES, SQUARE_WITH_HOLE
 
 import gloffset
 from gloffset.gl import engine as E
@@ -12,17 +13,6 @@ from gloffset.grids import Cube, Equirect, Tile
 from gloffset.hierarchy import Frontier, cell_distances, classify
 from gloffset.sphere import arc_distance, dot, slerp
 
-SQUARE_WITH_HOLE = {
-    "type": "Polygon",
-    "coordinates": [
-        [[-20, -10], [20, -10], [20, 15], [-20, 15], [-20, -10]],
-        [[-5, -3], [6, -3], [6, 4], [-5, 4], [-5, -3]],
-    ],
-}
-LINES = {
-    "type": "MultiLineString",
-    "coordinates": [[[-150, 10], [-100, 40], [-60, 5]], [[170, -30], [-170, -35]]],
-}
 POINTS = {"type": "MultiPoint", "coordinates": [[30, 60], [31, 60.5], [-120, -20]]}
 
 

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from conftest import LINES, SQUARE_WITH_HOLE
 
 import gloffset
 from gloffset.grids import Equirect
@@ -50,19 +51,6 @@ def assert_matches_reference(shape, d, grid, mask=None):
         near_edge = boundary_distance(shape, p[bad]) <= eps
         assert np.all(near_offset | near_edge), f"{len(bad)} pixels differ beyond the epsilon"
     return mask, want
-
-
-SQUARE_WITH_HOLE = {
-    "type": "Polygon",
-    "coordinates": [
-        [[-20, -10], [20, -10], [20, 15], [-20, 15], [-20, -10]],
-        [[-5, -3], [6, -3], [6, 4], [-5, 4], [-5, -3]],
-    ],
-}
-LINES = {
-    "type": "MultiLineString",
-    "coordinates": [[[-150, 10], [-100, 40], [-60, 5]], [[170, -30], [-170, -35]]],
-}
 
 
 @pytest.mark.parametrize(
