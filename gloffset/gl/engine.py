@@ -49,6 +49,11 @@ CLUSTER = 8  # records per cluster at most (shaders/classify.frag); 8 and 16 cul
 _DENSE = 1 << 22  # (bin, component) keys counted in a dense table up to this many
 _BLOCK = 4096  # pairs per block of float64 work in records()
 _MASK_FROM = 2  # the first shift with a prepass and depth mask (run_layout)
+# Bins per canvas row, at least (BinLayout.side): llvmpipe's threads share the image in
+# 64-pixel tiles, so the first levels, where a bin is a few pixels, need a wide canvas
+# to run on more than one thread. Up to a canvas _CANVAS_WIDTH pixels wide.
+_CANVAS_ROW = 128
+_CANVAS_WIDTH = 4096
 _F32_TINY = float(np.finfo(np.float32).tiny)  # least positive normal float32
 _POPCOUNT = np.unpackbits(np.arange(256, dtype=np.uint8)[:, None], axis=1).sum(axis=1)
 
@@ -381,7 +386,8 @@ class BinLayout:
     @property
     def side(self) -> int:
         """Bins per row of the canvas."""
-        return max(1, math.ceil(math.sqrt(len(self.geo))))
+        k = len(self.geo)
+        return max(1, math.ceil(math.sqrt(k)), min(k, _CANVAS_ROW, _CANVAS_WIDTH >> self.stop))
 
     def pos(self) -> np.ndarray:
         """(k, 2) canvas row and column of each bin."""
