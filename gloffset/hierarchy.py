@@ -34,10 +34,11 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from .sphere import angle, arc_distance, arcs_cross, normalize, robust_cross
+from .sphere import angle, arc_distance, arcs_cross, cross, normalize, robust_cross
 
 __all__ = [
     "Arcs",
@@ -69,6 +70,12 @@ class Arcs:
     boundary: np.ndarray  # has distance (not a seam)
     group: np.ndarray  # region component, -1 for lines and points
     n_groups: int
+
+    @cached_property
+    def lunes(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(n x a, b x n)``: the normals of the planes that bound each arc's lune (the
+        points whose nearest point of the great circle lies on the arc)."""
+        return cross(self.n, self.a), cross(self.b, self.n)
 
     @classmethod
     def from_shape(cls, shape) -> Arcs:

@@ -29,7 +29,8 @@ def reference_records(f, arcs, e):
     w1, w2 = np.cross(n, a), np.cross(b, n)
     ea, eb = c - a, c - b
     rec = np.empty((len(ci), 6, 4))
-    rec[:, 0, 0] = dist * (1.0 - 1e-7)
+    cap = np.arccos(np.clip(dot(c, arcs.mid[ai]), -1.0, 1.0)) - arcs.half[ai] - 2e-7
+    rec[:, 0, 0] = np.maximum(cap, 0.0) * (1.0 - 1e-7)
     tiny = float(np.finfo(np.float32).tiny)
     rec[:, 0, 2] = np.where((h < 0) & (h > -tiny), -tiny, h)  # stays negative in float32
     rec[:, 0, 3] = -h - se
@@ -103,6 +104,17 @@ def test_records_are_the_reference_records(cases):
         assert np.array_equal(first, want_first)
         assert np.array_equal(bits, want_bits)
         assert rows_by_bin(rec, first) == rows_by_bin(want, want_first)
+
+
+def test_record_distances_are_lower_bounds(cases):
+    """t0.x, the distance the shader culls by, is at most the exact distance from the
+    bin centre to the arc, and short of it by at most the arc's length and 3e-7."""
+    for (f, arcs), e in cases:
+        rec, *_ = E.records(f, arcs, e)
+        exact = pair_distances(f, arcs)
+        got = rec[:, 0, 0].astype(np.float64)
+        assert np.all(got <= exact)
+        assert np.all(got >= exact - 2.0 * arcs.half[f.pair_arc] - 3e-7)
 
 
 def pair_distances(f, arcs):

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..errors import GLContextError
 from ..hierarchy import FRONTIER, Arcs, Frontier
-from ..sphere import arc_distance, cross, dot
+from ..sphere import dot
 from .context import get_context
 from .shaders import program
 
@@ -88,26 +88,23 @@ def records(f: Frontier, arcs: Arcs, e: float, cluster: int = CLUSTER) -> tuple[
     chord_e = 4.0 * math.sin(0.5 * e) ** 2
     out = np.empty((npair, RECORD_TEXELS * 4), dtype=np.float32)  # cast on assignment
     code = np.empty(npair, dtype=np.int64)
+    lune1, lune2 = arcs.lunes
     for s0 in range(0, npair, _BLOCK):
         sl = slice(s0, min(s0 + _BLOCK, npair))
         c = np.take(f.centers, ci[sl], axis=0)
-        a, b, n = (np.take(v, ai[sl], axis=0) for v in (arcs.a, arcs.b, arcs.n))
-        w1 = cross(n, a)  # as numpy.cross, the same bits
-        w2 = cross(b, n)
+        a, b, n, w1, w2, mid = (
+            np.take(v, ai[sl], axis=0) for v in (arcs.a, arcs.b, arcs.n, lune1, lune2, arcs.mid)
+        )
         ea = c - a
         eb = c - b
         is_arc = dot(n, n) > 0.5  # n is a unit vector or zero
-        d = arc_distance(c, a, b, n)
-        # h = c.n exactly as the CPU's crossing tests make it (sphere.dot, as in
-        # arcs_cross with the arcs' normals): its sign says on which side of the arc's
-        # great circle the bin centre lies, and the status bits at the centre were
-        # found with that sign. When c lies on the great circle the sign is a rounding
-        # accident, so both sides must share it; a negative h too small for a normal
-        # float32 is stored as the least negative normal one (a cast or a GPU flushing
-        # subnormals would give -0.0, which tests as >= 0)
+        # D: a lower bound on the distance from c to the arc, by its bounding cap (the
+        # arc lies within `half` of `mid`); arccos is good to 5e-8 here, hence 2e-7
+        d = np.arccos(np.clip(dot(c, mid), -1.0, 1.0)) - np.take(arcs.half, ai[sl]) - 2e-7
+        np.maximum(d, 0.0, out=d)
         h = dot(c, n)
         o = out[sl]
-        o[:, 0] = d * (1.0 - 1e-7)  # rounded down: a lower bound after the cast
+        o[:, 0] = d * (1.0 - 1e-7)  # rounded down: still a lower bound after the cast
         o[:, 2] = np.where((h < 0.0) & (h > -_F32_TINY), -_F32_TINY, h)
         o[:, 3] = -h - se
         o[:, 4:7] = n

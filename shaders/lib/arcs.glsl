@@ -2,7 +2,7 @@
 // The arc comes as a record of six float32 texels computed in float64 on the CPU
 // relative to c (gloffset/gl/engine.py, records), e = |d| the offset distance:
 //   t0 = (D, flags + 8 * local component id, h, -h - sin e)
-//        D = distance from c to the arc (rounded down), h = c.n
+//        D <= distance from c to the arc (by its bounding cap, rounded down), h = c.n
 //   t1 = (n, h - sin e)        n = unit normal of a x b (zero for a point)
 //   t2 = (n x a, c.(n x a))    start of the arc's lune
 //   t3 = (b x n, c.(b x n))    end of the arc's lune
