@@ -45,17 +45,24 @@ def _check(out, backend, grid):
         )
 
 
-def _render_one(shape, d, grid, *, backend, level, callback):
+#: the mask's value per output-level class (0 outside, 2 contained)
+_MASK = np.array([0, 0, 255], dtype=np.uint8)
+
+
+def _render_one(shape, d, grid, *, backend, level, callback, mask):
+    """Classes of ``level`` (default: the output level) or, with ``mask``, the mask."""
     stop = grid.n_levels - 1 if level is None else level
     bins = grid.bin_level_for(abs(d))
     if backend == "cpu" or stop <= bins:
         classes, _, _ = classify(shape, d, grid, stop_level=stop, callback=callback)
-        return classes
+        return _MASK[classes] if mask else classes
     from .gl.engine import engine
 
     eng = engine()
     classes, f, arcs = classify(shape, d, grid, stop_level=bins, callback=callback, start="auto")
-    return eng.run(grid, d, classes, f, arcs, stop_level=stop, callback=callback)
+    return eng.run(
+        grid, d, classes, f, arcs, stop_level=stop, callback=callback, values=_MASK if mask else None
+    )
 
 
 def render(
@@ -143,20 +150,17 @@ def render(
             f"a {grid.width}x{grid.height} {type(grid).__name__} is larger than the GL limit "
             f"{tile}; use a smaller size"
         )
+    mask = out == "mask"
     if level is not None or not big:
-        classes = _render_one(shape, d, grid, backend=backend, level=level, callback=callback)
-    else:
-        classes = np.empty(grid.shape, dtype=np.uint8)
-        for y0 in range(0, grid.height, tile):
-            for x0 in range(0, grid.width, tile):
-                w, h = min(tile, grid.width - x0), min(tile, grid.height - y0)
-                sub = grid.subgrid(x0, y0, w, h)
-                classes[y0 : y0 + h, x0 : x0 + w] = _render_one(
-                    shape, d, sub, backend=backend, level=None, callback=None
-                )
-    if out == "classes":
-        return classes
-    # output-level classes are 0 or 2 (CONTAINED): 2 >> 1 = 1, times 255, in place (the
-    # array is ours; a new 8-bit image costs more in page faults than the arithmetic)
-    np.right_shift(classes, 1, out=classes)
-    return np.multiply(classes, 255, out=classes)
+        return _render_one(
+            shape, d, grid, backend=backend, level=level, callback=callback, mask=mask
+        )
+    image = np.empty(grid.shape, dtype=np.uint8)
+    for y0 in range(0, grid.height, tile):
+        for x0 in range(0, grid.width, tile):
+            w, h = min(tile, grid.width - x0), min(tile, grid.height - y0)
+            sub = grid.subgrid(x0, y0, w, h)
+            image[y0 : y0 + h, x0 : x0 + w] = _render_one(
+                shape, d, sub, backend=backend, level=None, callback=None, mask=mask
+            )
+    return image

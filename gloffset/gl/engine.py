@@ -451,22 +451,30 @@ class GpuLevels:
         stop_level: int,
         callback=None,
         timings: list | None = None,
+        values: np.ndarray | None = None,
     ) -> np.ndarray:
         """Classes of ``stop_level`` from the bin level's ``classes`` and frontier ``f``.
 
         Only the frontier bins go through the GPU, packed into a small canvas; every other
-        cell of the level is its bin's class, filled in here."""
+        cell of the level is its bin's class, filled in here. ``values`` (uint8, indexed
+        by class) gives ``values[classes]`` instead, made before the cells are spread out
+        (a mask costs no pass over the whole image)."""
         layout = BinLayout.of_grid(grid, f, stop_level)
         bl = f.level
         hb, wb = classes.shape
 
-        def full(s, packed):
-            """The whole level: bins' classes, with the frontier bins from ``packed``."""
+        def full(s, packed, lut=None):
+            """The whole level: bins' classes, with the frontier bins from ``packed``
+            (mapped through ``lut`` first, on the small arrays)."""
             b = 1 << s
             h, w = grid.level_shape(bl + s)
-            out = np.repeat(np.repeat(classes, b, 0), b, 1)
-            view = out.reshape(hb, b, wb, b).transpose(0, 2, 1, 3)
-            view[f.cells[:, 0], f.cells[:, 1]] = layout.blocks(packed)
+            src, blocks = classes, layout.blocks(packed)
+            if lut is not None:
+                src, blocks = lut[src], lut[blocks]
+            out = np.empty((hb * b, wb * b), dtype=np.uint8)
+            view = out.reshape(hb, b, wb, b)
+            view[...] = src[:, None, :, None]
+            view.transpose(0, 2, 1, 3)[f.cells[:, 0], f.cells[:, 1]] = blocks
             return out[:h, :w]
 
         def cb(s, packed):
@@ -478,7 +486,7 @@ class GpuLevels:
         )
         if timings is not None:
             timings += [(bl + s, tt) for s, tt in t]
-        return full(layout.stop, packed)
+        return full(layout.stop, packed, values)
 
     def run_layout(
         self,
