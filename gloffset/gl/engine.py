@@ -471,10 +471,11 @@ class GpuLevels:
             src, blocks = classes, layout.blocks(packed)
             if lut is not None:
                 src, blocks = lut[src], lut[blocks]
+            # columns spread on the small array, then whole rows copied b times
             out = np.empty((hb * b, wb * b), dtype=np.uint8)
-            view = out.reshape(hb, b, wb, b)
-            view[...] = src[:, None, :, None]
-            view.transpose(0, 2, 1, 3)[f.cells[:, 0], f.cells[:, 1]] = blocks
+            out.reshape(hb, b, wb * b)[...] = np.repeat(src, b, axis=1)[:, None, :]
+            view = out.reshape(hb, b, wb, b).transpose(0, 2, 1, 3)
+            view[f.cells[:, 0], f.cells[:, 1]] = blocks
             return out[:h, :w]
 
         def cb(s, packed):
