@@ -382,7 +382,9 @@ class BinLayout:
 
     @property
     def side(self) -> int:
-        """Bins per row of the canvas."""
+        """Bins per row of the canvas: about the square root of their number, but at
+        least :data:`_CANVAS_ROW` (see there) while the canvas stays within
+        :data:`_CANVAS_WIDTH` pixels at the last shift."""
         k = len(self.geo)
         return max(1, math.ceil(math.sqrt(k)), min(k, _CANVAS_ROW, _CANVAS_WIDTH >> self.stop))
 
