@@ -46,6 +46,9 @@ __all__ = [
     "cell_distances",
     "nearest",
     "row_statuses",
+    "cap_range",
+    "cap_within",
+    "CAP_SLACK",
     "classify",
     "decide",
     "OUTSIDE",
@@ -163,6 +166,25 @@ def _status_at(shape, arcs: Arcs, p: np.ndarray) -> np.ndarray:
     return status
 
 
+#: Slack on angles from arc caps: ``arccos(c.m)`` is good to 1e-7 rad (3e-16 on ``c.m``
+#: near 1), so a bound from it is widened by twice that.
+CAP_SLACK = 2e-7
+
+
+def cap_range(cm: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(t - half, t + half)`` with ``t = arccos(c.m)``: bounds on the distance from a
+    point ``c`` to an arc with bounding cap (centre ``m``, radius ``half``), each good
+    to :data:`CAP_SLACK` / 2."""
+    t = np.arccos(np.clip(cm, -1.0, 1.0))
+    return t - half, t + half
+
+
+def cap_within(cm: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """Whether a cap can come within ``reach - half`` of ``c``: ``c.m >= cos(reach)``
+    (``reach`` = a distance plus the cap's radius), never false where it should hold."""
+    return cm >= np.cos(np.minimum(reach, math.pi)) - 1e-12
+
+
 def row_statuses(shape, arcs: Arcs, h: int, w: int, first, cells, crossing) -> np.ndarray:
     """Packed statuses of every cell of an ``h x w`` level, row-major: cell 0's (centre
     ``first``) by crossings to the shape's reference point, every other cell's its
@@ -239,23 +261,21 @@ def nearest(arcs: Arcs, cell, ai, cm, point, dist, dring) -> None:
     cell centres of pairs ``idx``. Only pairs that can be the nearest are measured:
     with ``t = angle(c, m)`` and the cap radius ``h``, ``t - h <= dist(c, arc) <= t + h``,
     so a pair whose lower bound exceeds the cell's least upper bound is skipped.
-    ``t = arccos(c.m)`` is good to 1e-7 rad (3e-16 on ``c.m`` near 1); the comparison
-    allows twice that, so the minima are those of all pairs, bit for bit.
+    The comparison allows :data:`CAP_SLACK` (:func:`cap_range`), so the minima are
+    those of all pairs, bit for bit.
     """
     if len(cell) == 0:
         return
     starts = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]])
     seg = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(cell)]))
     owner = cell[starts]
-    half = arcs.half[ai]
-    t = np.arccos(np.clip(cm, -1.0, 1.0))
-    lo, hi = t - half, t + half
+    lo, hi = cap_range(cm, arcs.half[ai])
     kinds = [(arcs.boundary[ai], dist), (arcs.group[ai] >= 0, dring)]
     measure = np.zeros(len(cell), dtype=bool)
     for kind, _ in kinds:
         if kind.any():
             best = np.minimum.reduceat(np.where(kind, hi, np.inf), starts)
-            measure |= kind & (lo <= best[seg] + 2e-7)
+            measure |= kind & (lo <= best[seg] + CAP_SLACK)
     k = np.flatnonzero(measure)
     dd = np.full(len(cell), np.inf)
     dd[k] = arc_distance(point(k), arcs.a[ai[k]], arcs.b[ai[k]], arcs.n[ai[k]])
@@ -335,7 +355,7 @@ def _refine(f: Frontier, grid, arcs: Arcs, e: float) -> Frontier:
     # crosses it has its bounding cap within angle(child, parent) of the child
     status = f.status[parent].copy()
     seg = angle(c, f.centers[parent])
-    near = cm >= np.cos(np.minimum(seg[child_of_pair] + half, math.pi)) - 1e-12
+    near = cap_within(cm, seg[child_of_pair] + half)
     ring = near & (arcs.group[arc_of_pair] >= 0)
     if ring.any():
         pc, pa = child_of_pair[ring], arc_of_pair[ring]
@@ -344,7 +364,7 @@ def _refine(f: Frontier, grid, arcs: Arcs, e: float) -> Frontier:
         np.bitwise_xor.at(status, (pc[cr], g >> 3), (1 << (g & 7)).astype(np.uint8))
 
     # candidates: arcs whose bounding cap comes within e + rho of the child's centre
-    keep = cm >= np.cos(np.minimum(e + rho[child_of_pair] + half, math.pi)) - 1e-12
+    keep = cap_within(cm, e + rho[child_of_pair] + half)
     return Frontier(lev, cells, c, rho, child_of_pair[keep], arc_of_pair[keep], status)
 
 

@@ -61,7 +61,14 @@ def _render_one(shape, d, grid, *, backend, level, callback, mask):
     eng = engine()
     classes, f, arcs = classify(shape, d, grid, stop_level=bins, callback=callback, start="auto")
     return eng.run(
-        grid, d, classes, f, arcs, stop_level=stop, callback=callback, values=_MASK if mask else None
+        grid,
+        d,
+        classes,
+        f,
+        arcs,
+        stop_level=stop,
+        callback=callback,
+        values=_MASK if mask else None,
     )
 
 

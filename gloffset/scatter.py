@@ -43,7 +43,16 @@ import math
 
 import numpy as np
 
-from .hierarchy import FRONTIER, Arcs, Frontier, _status_bits, decide, nearest, row_statuses
+from .hierarchy import (
+    FRONTIER,
+    Arcs,
+    Frontier,
+    _status_bits,
+    cap_within,
+    decide,
+    nearest,
+    row_statuses,
+)
 from .sphere import angle, arcs_cross
 
 __all__ = ["start_level", "scatter", "pooled", "PAIRS_PER_ARC"]
@@ -152,7 +161,7 @@ def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool, *, plan=
     m = arcs.mid[ai]
     cm = cphi[jj] * (clam[ii] * m[:, 0] + slam[ii] * m[:, 1]) + sphi[jj] * m[:, 2]
     half = arcs.half[ai]
-    keep = cm >= np.cos(np.minimum(row_reach[jj] + half, math.pi)) - 1e-12
+    keep = cap_within(cm, row_reach[jj] + half)
     jj, ii, ai, cm, half = jj[keep], ii[keep], ai[keep], cm[keep], half[keep]
     cell = jj * w + ii
     order = np.argsort(cell * len(arcs.a) + ai, kind="stable")
@@ -165,7 +174,7 @@ def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool, *, plan=
     status = _status_bits(arcs.n_groups, h * w)
     if arcs.n_groups:
         ring = (arcs.group[ai] >= 0) & (cell > 0)
-        ring &= cm >= np.cos(np.minimum(spacing[jj] + half, math.pi)) - 1e-12
+        ring &= cap_within(cm, spacing[jj] + half)
         pj, pi_, pa = jj[ring], ii[ring], ai[ring]
         qj = np.where(pi_ > 0, pj, pj - 1)
         qi = np.where(pi_ > 0, pi_ - 1, 0)
@@ -173,7 +182,7 @@ def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool, *, plan=
         status = row_statuses(shape, arcs, h, w, center(0, 0), cell[ring][hit], pa[hit])
 
     # candidate lists (within e + rho), exact distances, classes
-    cand = cm >= np.cos(np.minimum(e + rho[jj] + half, math.pi)) - 1e-12
+    cand = cap_within(cm, e + rho[jj] + half)
     jj, ii, ai, cell, cm = jj[cand], ii[cand], ai[cand], cell[cand], cm[cand]
     dist = np.full(h * w, np.inf)
     dring = np.full(h * w, np.inf)

@@ -34,9 +34,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import GLContextError
-from ..hierarchy import FRONTIER, Arcs, Frontier
+from ..hierarchy import CAP_SLACK, FRONTIER, Arcs, Frontier, cap_range
 from ..sphere import dot
-from .context import get_context
+from .context import context_info, get_context
 from .shaders import program
 
 __all__ = ["GpuLevels", "BinLayout", "records"]
@@ -98,9 +98,8 @@ def records(f: Frontier, arcs: Arcs, e: float, cluster: int = CLUSTER) -> tuple[
         ea = c - a
         eb = c - b
         is_arc = dot(n, n) > 0.5  # n is a unit vector or zero
-        # D: a lower bound on the distance from c to the arc, by its bounding cap (the
-        # arc lies within `half` of `mid`); arccos is good to 5e-8 here, hence 2e-7
-        d = np.arccos(np.clip(dot(c, mid), -1.0, 1.0)) - np.take(arcs.half, ai[sl]) - 2e-7
+        # D: a lower bound on the distance from c to the arc, by its bounding cap
+        d = cap_range(dot(c, mid), np.take(arcs.half, ai[sl]))[0] - CAP_SLACK
         np.maximum(d, 0.0, out=d)
         h = dot(c, n)
         o = out[sl]
@@ -432,7 +431,7 @@ class GpuLevels:
 
     def __init__(self):
         self.ctx = get_context()
-        limit = int(self.ctx.info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"])
+        limit = context_info()["max_storage_block_size"]
         self.max_records = max(1, limit // (RECORD_TEXELS * 16))
         self.progs = {
             "lonlat": program(self.ctx, "bins.vert", "classify.frag"),
