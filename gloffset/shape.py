@@ -7,21 +7,32 @@ distinct points and consecutive antipodal points (whose great circle is undefine
 raise :class:`~gloffset.errors.InvalidGeometryError` naming the feature, part and
 vertex. Repeated consecutive points are dropped.
 
-Seams. Real GeoJSON is cut at the antimeridian (RFC 7946) and polar polygons are
-drawn down to the pole along the +-90 deg latitude edge (Antarctica in Natural
-Earth). Such edges are *seams*, not boundaries: every vertex on +-180 deg and at
-+-90 deg is snapped to the exact antimeridian or pole, an edge whose two ends both
-lie on the antimeridian half-circle (a pole included) is a seam, and the chains of
-real boundary that meet at a seam point are joined, so the pieces of a polygon on
-both sides of +-180 deg become one ring. A seam that has no partner on the other
-side stays in its ring, flagged: it still closes the ring for inside/outside tests
-but has no distance, offset or outline.
+The region. Polygons of one input are united: the region is the union of the
+input's polygons, and its boundary (derived once, by :mod:`gloffset.region`) is
+what every operation measures from. Edges shared by two polygons (traversed both
+ways) cancel, overlapping parts merge, and seam edges drop out: real GeoJSON is
+cut at the antimeridian (RFC 7946) and polar polygons are drawn down to the pole
+along the +-90 deg latitude edge (Antarctica in Natural Earth). Every vertex
+within 1e-9 deg of +-180 deg or +-90 deg is snapped to the exact antimeridian or
+pole; an edge whose two ends lie on the antimeridian half-circle (a pole included)
+is a seam. Seams take part in the union like other edges, so the pieces of a
+polygon on both sides of +-180 deg join even where their seam vertices differ;
+what is left of a seam closes its ring but has no distance, offset or outline.
+Vertices of two polygons within :data:`gloffset.region.TOL` (1e-12 rad) merge.
+Lines and points stay curves.
 
 Orientation. Every ring is stored with its interior on the left of its direction
 of travel on the sphere: exterior rings are made counter-clockwise and holes
 clockwise in lon/lat (as RFC 7946 asks; input winding is not trusted), which is
-the same as "interior on the left" on the sphere. A ring around a pole is
-therefore unambiguous.
+the same as "interior on the left" on the sphere. A ring that goes once round a
+pole without a seam (ambiguous in lon/lat) encloses the pole on its side of the
+equator (the mean latitude of its vertices decides), the smaller of its two sides
+for rings near a parallel.
+
+Limits. Longitudes must lie in [-180, 180] and latitudes in [-90, 90] (no
+wrapping: 400 is an error, not 40). A ring that covers the whole sphere (it runs
+only along +-180 deg and the poles) leaves no boundary and is refused, unless
+holes give it one.
 """
 
 from __future__ import annotations
@@ -32,6 +43,7 @@ import numpy as np
 
 from .errors import InputFormatError, InvalidGeometryError
 from .io import geojson as _gj
+from .region import unite
 from .sphere import SEAM_EPS_DEG, angle, arc_distance, lonlat_to_xyz, normalize, robust_cross
 
 __all__ = ["Shape", "Edges", "read"]
@@ -90,6 +102,9 @@ class Shape:
         Open lines (n >= 2) and isolated points (n == 1).
     labels : list of str
         Where each ring and then each line came from, for messages.
+    source : Parts or None
+        The polygons, lines and points as the user gave them (validated lon/lat,
+        rings closed and oriented), written back by :meth:`to_geojson`.
     """
 
     rings: list[np.ndarray] = field(default_factory=list)
@@ -98,6 +113,7 @@ class Shape:
     ring_holes: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     lines: list[np.ndarray] = field(default_factory=list)
     labels: list[str] = field(default_factory=list)
+    source: _gj.Parts | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         self.ring_groups = np.asarray(self.ring_groups, dtype=np.int64)
@@ -107,6 +123,17 @@ class Shape:
         self._edges: Edges | None = None
         self._ref_status: np.ndarray | None = None
         self._overlap: bool | None = None
+        self._cache: dict = {}
+
+    def cached(self, key: str, make):
+        """The one place where other modules keep what they derive from a shape.
+
+        ``make()`` is called the first time ``key`` is asked for; its result is kept
+        for the shape's life (shapes are not changed after construction).
+        """
+        if key not in self._cache:
+            self._cache[key] = make()
+        return self._cache[key]
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -231,11 +258,20 @@ class Shape:
 
     # ------------------------------------------------------------------ output
     def to_geojson(self, *, digits: int | None = None) -> dict:
-        """The shape as an RFC 7946 GeoJSON Feature (cut at the antimeridian).
+        """The shape as an RFC 7946 GeoJSON Feature.
 
-        Edges are written as straight lon/lat segments between the vertices, as in
-        the input; rings keep their joined form and are cut again on output.
+        A shape read from GeoJSON (or arrays) writes back its polygons, lines and
+        points as they were given (rings closed, exterior rings counter-clockwise
+        and holes clockwise), not the united region, so ``read(s.to_geojson())``
+        gives the same shape. A shape made otherwise (a multiresolution level)
+        writes its region's rings, cut at the antimeridian.
         """
+        if self.source is not None:
+            return {
+                "type": "Feature",
+                "properties": {},
+                "geometry": _source_geometry(self.source, digits),
+            }
         geoms = []
         if self.rings:
             for grp in range(self.n_groups):
@@ -315,6 +351,13 @@ def _validate(ll: np.ndarray, label: str, *, min_points: int) -> np.ndarray:
         raise InvalidGeometryError(
             f"{label} vertex {i}: latitude {float(ll[i, 1])!r} out of range [-90, 90]"
         )
+    badlon = np.abs(ll[:, 0]) > 180.0 + SEAM_EPS_DEG
+    if badlon.any():
+        i = int(np.flatnonzero(badlon)[0])
+        raise InvalidGeometryError(
+            f"{label} vertex {i}: longitude {float(ll[i, 0])!r} out of range [-180, 180] "
+            "(longitudes are not wrapped; subtract 360 from those above 180)"
+        )
     v = lonlat_to_xyz(ll[:, 0], ll[:, 1])
     idx = np.arange(len(v))
     if len(v) > 1:
@@ -369,134 +412,100 @@ def _ccw(ll: np.ndarray) -> bool:
     return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) > 0
 
 
+def _split_meridian_edges(ll: np.ndarray) -> np.ndarray:
+    """Insert midpoints into ring edges that run along a meridian over 90 deg or more.
+
+    Such an edge (a whole-world ring runs from pole to pole along +-180 deg) has
+    ends that are antipodal or nearly so once the poles are snapped, so its great
+    circle would be undefined; in lon/lat it is a meridian, and the midpoint keeps it
+    one.
+    """
+    nxt = np.roll(ll, -1, axis=0)
+    long_ = (np.abs(ll[:, 0] - nxt[:, 0]) <= SEAM_EPS_DEG) & (np.abs(ll[:, 1] - nxt[:, 1]) >= 90.0)
+    if not long_.any():
+        return ll
+    out = []
+    for k in range(len(ll)):
+        out.append(ll[k])
+        if long_[k]:
+            for t in (0.25, 0.5, 0.75):
+                out.append(ll[k] + t * (nxt[k] - ll[k]))
+    return np.asarray(out)
+
+
 def _from_parts(parts: _gj.Parts) -> Shape:
     if len(parts) == 0:
         raise InvalidGeometryError("empty geometry: no polygon, line or point to offset")
-    rings, seams, groups, holes, labels = [], [], [], [], []
-    for poly, plabel in zip(parts.polygons, parts.polygon_labels):
-        g = max(groups, default=-1) + 1
+    rings, seams, comps, holes, labels = [], [], [], [], []
+    src = _gj.Parts()
+    for c, (poly, plabel) in enumerate(zip(parts.polygons, parts.polygon_labels)):
+        kept = []
         for k, ll in enumerate(poly):
             label = f"{plabel} ring {k}"
+            if len(ll) > 1 and np.array_equal(ll[0], ll[-1]):
+                ll = ll[:-1]
+            ll = _split_meridian_edges(ll)
             v, idx = _validate(ll, label, min_points=3)
-            on = _on_seam(ll)[idx]
+            ll_v = ll[idx]
+            on = _on_seam(ll_v)
             seam = on & np.roll(on, -1)
-            if _ccw(ll) != (k == 0):  # exterior CCW, holes CW
-                v, seam = v[::-1].copy(), np.roll(seam[::-1], -1)
+            if _ccw(ll_v) != (k == 0):  # exterior CCW, holes CW
+                v, seam, ll_v = v[::-1].copy(), np.roll(seam[::-1], -1), ll_v[::-1]
             rings.append(v)
             seams.append(seam)
-            groups.append(g)
+            comps.append(c)
             holes.append(k > 0)
             labels.append(label)
-    rings, seams, groups, holes, labels = _join_seams(rings, seams, groups, holes, labels)
+            kept.append(np.vstack([ll_v, ll_v[:1]]))
+        src.polygons.append(kept)
+        src.polygon_labels.append(plabel)
+    region = unite(rings, seams, comps, holes, labels)
+    if rings and not region.rings:
+        raise InvalidGeometryError(
+            f"{parts.polygon_labels[0]}: the polygons leave no boundary: they cover the whole "
+            "sphere (a ring along +-180 deg and the poles, with no hole) or enclose no area; "
+            "a region needs a boundary to measure distances from"
+        )
     lines, line_labels = [], []
     for ll, label in zip(parts.lines, parts.line_labels):
-        v, _ = _validate(ll, label, min_points=2)
+        v, idx = _validate(ll, label, min_points=2)
         lines.append(v)
         line_labels.append(label)
+        src.lines.append(ll[idx])
+        src.line_labels.append(label)
     for ll, label in zip(parts.points, parts.point_labels):
         v, _ = _validate(ll, label, min_points=1)
         lines.append(v[:1])
         line_labels.append(label)
-    return Shape(rings, seams, groups, holes, lines, labels + line_labels)
+        src.points.append(ll[:1])
+        src.point_labels.append(label)
+    return Shape(
+        region.rings,
+        region.seams,
+        region.groups,
+        region.holes,
+        lines,
+        region.labels + line_labels,
+        source=src,
+    )
 
 
-def _join_seams(rings, seams, groups, holes, labels):
-    """Join the boundary chains of rings that meet at seam points (see module notes)."""
-    if not any(s.any() for s in seams):
-        return rings, seams, _compact(groups), holes, labels
-    keep_r, keep_s, keep_g, keep_h, keep_l = [], [], [], [], []
-    chains = []  # (ring id, vertices start..end, seam vertices after end)
-    for r, (v, s) in enumerate(zip(rings, seams)):
-        if not s.any():
-            keep_r.append(v)
-            keep_s.append(s)
-            keep_g.append(groups[r])
-            keep_h.append(holes[r])
-            keep_l.append(labels[r])
-            continue
-        if s.all():
-            continue  # nothing but seams: no area, no boundary
-        n = len(v)
-        start = int(np.flatnonzero(s)[-1] + 1) % n  # first vertex of a boundary chain
-        order = (start + np.arange(n)) % n
-        vv, ss = v[order], s[order]
-        i = 0
-        while i < n:
-            j = i
-            while j < n and not ss[j]:
-                j += 1
-            # boundary edges i..j-1: vertices i..j; then seam edges j..k-1
-            k = j
-            while k < n and ss[k]:
-                k += 1
-            chains.append([r, vv[i : j + 1], vv[j + 1 : k] if k > j + 1 else vv[:0]])
-            i = k
+def _source_geometry(parts: _gj.Parts, digits: int | None) -> dict:
+    """GeoJSON geometry of validated lon/lat parts (see :meth:`Shape.to_geojson`)."""
 
-    def key(p):
-        return (round(float(p[0]), 11), round(float(p[1]), 11), round(float(p[2]), 11))
+    def rnd(a):
+        return (np.round(a, digits) if digits is not None else a).tolist()
 
-    starts: dict = {}
-    first: dict = {}
-    for c, (r, verts, _) in enumerate(chains):
-        starts.setdefault(key(verts[0]), []).append(c)
-        first.setdefault(r, c)
-    used = np.zeros(len(chains), dtype=bool)
-    parent = {}
-
-    def find(x):
-        while parent.get(x, x) != x:
-            x = parent[x]
-        return x
-
-    new = []
-    for c0 in range(len(chains)):
-        if used[c0]:
-            continue
-        pts, flags, members = [], [], []
-        c = c0
-        while True:
-            used[c] = True
-            r, verts, seam_after = chains[c]
-            members.append(r)
-            pts.append(verts[:-1])
-            flags.append(np.zeros(len(verts) - 1, dtype=bool))
-            cand = [x for x in starts.get(key(verts[-1]), []) if x == c0 or not used[x]]
-            if cand:  # the boundary goes on from this seam point: c0 first, to close
-                nxt = c0 if c0 in cand else cand[0]
-            else:  # no partner: keep this ring's own seam path to its next chain
-                nxt = c + 1 if c + 1 < len(chains) and chains[c + 1][0] == r else first[r]
-                pts.append(np.vstack([verts[-1:], seam_after]))
-                flags.append(np.ones(len(seam_after) + 1, dtype=bool))
-            if nxt == c0:
-                break
-            if used[nxt]:
-                raise InvalidGeometryError(
-                    f"{labels[r]}: pieces cut at the antimeridian do not join into rings"
-                )
-            c = nxt
-        v = np.vstack(pts)
-        f = np.concatenate(flags)
-        # drop repeated points created where pieces meet
-        keep = np.any(v != np.roll(v, -1, axis=0), axis=1)
-        v, f = v[keep], f[keep]
-        if len(v) < 3:
-            continue
-        new.append((v, f, members))
-        for m in members[1:]:
-            parent[find(groups[m])] = find(groups[members[0]])
-    for v, f, members in new:
-        keep_r.append(v)
-        keep_s.append(f)
-        keep_g.append(groups[members[0]])
-        keep_h.append(holes[members[0]])
-        keep_l.append(" + ".join(dict.fromkeys(labels[m] for m in members)))
-    keep_g = [find(g) for g in keep_g]
-    return keep_r, keep_s, _compact(keep_g), keep_h, keep_l
-
-
-def _compact(groups) -> np.ndarray:
-    _, inv = np.unique(np.asarray(groups, dtype=np.int64), return_inverse=True)
-    return inv.astype(np.int64)
+    geoms = []
+    if parts.polygons:
+        geoms.append(
+            {"type": "MultiPolygon", "coordinates": [[rnd(r) for r in p] for p in parts.polygons]}
+        )
+    if parts.lines:
+        geoms.append({"type": "MultiLineString", "coordinates": [rnd(ln) for ln in parts.lines]})
+    if parts.points:
+        geoms.append({"type": "MultiPoint", "coordinates": [rnd(p[0]) for p in parts.points]})
+    return _merge_geometries(geoms)
 
 
 def _inner_point(shape: Shape, grp: int) -> np.ndarray:

@@ -106,7 +106,7 @@ def test_antimeridian_regional_grid_and_pole_ring():
     classes, gi, _ = all_ways(mask, 0.05, grid, parts)
     assert_truth(line, classes, 0.05, grid, gi.s)
 
-    lon = np.linspace(0, 360, 40, endpoint=False)
+    lon = (np.linspace(0, 360, 40, endpoint=False) + 180.0) % 360.0 - 180.0
     ring = gloffset.Shape.from_lonlat(lon, np.full_like(lon, 75.0), closed=True)
     mask, parts = rasterize(ring, WORLD, ordered=True)
     classes, gi, _ = all_ways(mask, 0.1, WORLD, parts)

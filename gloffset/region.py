@@ -1,0 +1,487 @@
+"""The region of an input: the union of its polygons, and the boundary of that union.
+
+Every operation of gloffset (distance, inside tests, rasters, tiles, vector
+offsets and the reference) works on one region: the union of the input's
+polygons. Its boundary is derived here, once per shape, from the polygons as the
+user gave them:
+
+- edges traversed both ways (two neighbours sharing a border, an enclave filling
+  a hole, the two sides of a cut) cancel;
+- parts of polygons that overlap are merged: an edge piece inside another polygon
+  is dropped, pieces that coincide in the same direction are kept once;
+- seam edges (on the +-180 deg meridian or at a pole, as GeoJSON cuts Fiji,
+  Russia and Antarctica) take part in the same arrangement, so the pieces of a
+  polygon on both sides of +-180 deg join even where their end vertices on the
+  seam differ: the common part of two seam edges cancels, and what is left of a
+  seam stays in its ring as a seam (it closes the ring, but has no distance, no
+  offset and no outline).
+
+Tolerance (:data:`TOL`, 1e-12 rad, 6 micrometres on the Earth): vertices of two
+edges closer than that are merged, a vertex closer than that to another edge is
+put on it (the edge is split there), and two edges cross only when each one's
+ends lie farther than that from the other's great circle. Everything else is
+exact: crossing points are intersections of great circles in float64, and an
+edge piece is kept or dropped by an exact crossing-parity test at its midpoint.
+
+The result is a set of closed rings, interior on the left, that do not cross one
+another; rings are grouped into *components* (polygons that touch or overlap end
+up in one component), so crossing parity within a component decides its inside
+and a point is in the region when it is inside any component.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InvalidGeometryError
+from .sphere import angle, arc_distance, arcs_cross, cross, normalize, robust_cross
+
+__all__ = ["TOL", "Boundary", "unite", "left_area"]
+
+#: Distance (rad) below which vertices merge and a vertex lies on an edge.
+TOL = 1e-12
+
+
+@dataclass
+class Boundary:
+    """The boundary of a union: rings with seam flags, component and hole flags, labels."""
+
+    rings: list
+    seams: list
+    groups: np.ndarray
+    holes: np.ndarray
+    labels: list
+
+
+class _UnionFind:
+    def __init__(self, n: int):
+        self.parent = np.arange(n)
+
+    def find(self, x: int) -> int:
+        p = self.parent
+        root = x
+        while p[root] != root:
+            root = p[root]
+        while p[x] != root:
+            p[x], x = root, p[x]
+        return int(root)
+
+    def union(self, x: int, y: int) -> None:
+        rx, ry = self.find(x), self.find(y)
+        if rx != ry:
+            self.parent[max(rx, ry)] = min(rx, ry)
+
+
+def left_area(ring: np.ndarray) -> float:
+    """Area (steradians) on the left of a closed ring of unit vectors, by Gauss-Bonnet.
+
+    ``2 pi`` minus the sum of the turning angles at the vertices (great-circle
+    edges have no geodesic curvature). Accuracy: about 1e-15 rad per vertex.
+    """
+    v = np.asarray(ring, dtype=np.float64)
+    n = normalize(robust_cross(v, np.roll(v, -1, axis=0)))  # edge i: v[i] -> v[i+1]
+    t_out = cross(n, v)  # direction of travel leaving v[i]
+    t_in = cross(np.roll(n, 1, axis=0), v)  # arriving at v[i] along edge i-1
+    turn = np.arctan2(
+        np.einsum("ij,ij->i", cross(t_in, t_out), v), np.einsum("ij,ij->i", t_in, t_out)
+    )
+    return float(2.0 * np.pi - turn.sum()) % (4.0 * np.pi)
+
+
+def _keys(v: np.ndarray) -> np.ndarray:
+    """Exact row keys of unit vectors (``-0.0`` made ``0.0``), as a void view."""
+    v = np.ascontiguousarray(v + 0.0)
+    return v.view(np.dtype((np.void, v.dtype.itemsize * v.shape[1]))).ravel()
+
+
+def unite(rings, seams, comps, holes, labels) -> Boundary:
+    """The boundary of the union of polygons (see the module notes).
+
+    Parameters
+    ----------
+    rings : list of (n, 3) arrays
+        Closed rings (first vertex not repeated), interior on the left.
+    seams : list of (n,) bool arrays
+        Edge ``i -> i+1`` of a ring is a seam.
+    comps : sequence of int
+        The polygon each ring belongs to (an exterior with its holes).
+    holes, labels : per ring, for the result's flags and messages.
+    """
+    comps = np.asarray(comps, dtype=np.int64)
+    n_comp = int(comps.max()) + 1 if len(comps) else 0
+    if not rings:
+        return Boundary([], [], np.zeros(0, np.int64), np.zeros(0, bool), [])
+    any_seam = any(s.any() for s in seams)
+    if n_comp <= 1 and not any_seam:
+        return Boundary(
+            list(rings),
+            list(seams),
+            np.zeros(len(rings), np.int64),
+            np.asarray(holes, bool),
+            list(labels),
+        )
+    return _Union(rings, seams, comps, labels).run(holes)
+
+
+class _Union:
+    def __init__(self, rings, seams, comps, labels):
+        self.labels = list(labels)
+        self.n_comp = int(comps.max()) + 1
+        self.ring_comps = comps
+        self._edges(rings, seams)
+
+    # ------------------------------------------------------------------ edges
+    def _edges(self, rings, seams):
+        sizes = np.array([len(r) for r in rings])
+        starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        ring_of = np.repeat(np.arange(len(rings)), sizes)
+        pos = np.arange(sizes.sum()) - np.repeat(starts, sizes)
+        self.v = np.concatenate(rings).astype(np.float64)
+        self.nxt = np.repeat(starts, sizes) + (pos + 1) % np.repeat(sizes, sizes)
+        self.ring_of = ring_of
+        self.comp = self.ring_comps[ring_of]
+        self.seam = np.concatenate(seams).astype(bool)
+
+    def _snap_vertices(self, i, j) -> bool:
+        """Merge vertices of candidate edge pairs that lie within TOL (not identical)."""
+        v, nx = self.v, self.nxt
+        ends_i = np.stack([i, nx[i]], axis=1)
+        ends_j = np.stack([j, nx[j]], axis=1)
+        pa = np.repeat(ends_i, 2, axis=1).ravel()
+        pb = np.tile(ends_j, (1, 2)).ravel()
+        d = np.linalg.norm(v[pa] - v[pb], axis=1)
+        close = (d > 0.0) & (d <= TOL)
+        if not close.any():
+            return False
+        uf = _UnionFind(len(v))
+        for x, y in zip(pa[close].tolist(), pb[close].tolist()):
+            uf.union(x, y)
+        for x in np.unique(np.concatenate([pa[close], pb[close]])).tolist():
+            self.v[x] = self.v[uf.find(x)]
+        return True
+
+    def _pairs(self):
+        from .captree import CapTree
+
+        a, b = self.v, self.v[self.nxt]
+        s = a + b
+        mid = normalize(s)
+        half = 0.5 * angle(a, b)
+        self.tree = CapTree(mid, half)
+        i, j = self.tree.self_pairs(slack=2 * TOL)
+        return i, j
+
+    # ------------------------------------------------------------------ run
+    def run(self, holes_in) -> Boundary:
+        i, j = self._pairs()
+        if self._snap_vertices(i, j):
+            i, j = self._pairs()
+        other = self.comp[i] != self.comp[j]
+        self._pairs_other = (i[other], j[other])
+        self.uf = _UnionFind(self.n_comp)
+        splits = self._intersections(i, j)
+        pieces = self._split(splits)
+        keep, excl = self._cancel(pieces)
+        keep = self._classify(pieces, keep, excl)
+        return self._link(pieces, keep)
+
+    def _intersections(self, i, j):
+        """Split points per edge, ``(edge, vertex index)``: T-junctions and crossings.
+
+        Polygons whose edges meet (a shared vertex, a split) are joined into one
+        component of the result.
+        """
+        v, nx = self.v, self.nxt
+        a, b = v, v[nx]
+        n = normalize(robust_cross(a, b))
+        self.n = n
+        out_e, out_p, meet_a, meet_b = [], [], [], []
+        # an end of one edge on the other (T-junctions, collinear overlaps)
+        for e, f in ((i, j), (j, i)):
+            for end in (f, nx[f]):
+                p = v[end]
+                off = np.abs(np.einsum("ij,ij->i", p, n[e]))
+                between = (np.einsum("ij,ij->i", p, cross(n[e], a[e])) > 0.0) & (
+                    np.einsum("ij,ij->i", p, cross(b[e], n[e])) > 0.0
+                )
+                far = (np.linalg.norm(p - a[e], axis=1) > TOL) & (
+                    np.linalg.norm(p - b[e], axis=1) > TOL
+                )
+                on = (off <= TOL) & between & far
+                out_e.append(e[on])
+                out_p.append(end[on])
+                meet_a.append(e[on])
+                meet_b.append(f[on])
+        # proper crossings: each edge's ends clearly on both sides of the other
+        o1 = np.einsum("ij,ij->i", a[j], n[i])
+        o2 = np.einsum("ij,ij->i", b[j], n[i])
+        o3 = np.einsum("ij,ij->i", a[i], n[j])
+        o4 = np.einsum("ij,ij->i", b[i], n[j])
+        clear = np.minimum.reduce([np.abs(o1), np.abs(o2), np.abs(o3), np.abs(o4)]) > TOL
+        hit = clear & (o1 * o2 < 0) & (o3 * o4 < 0) & ((o3 > 0) == (o2 > 0))
+        ci, cj = i[hit], j[hit]
+        x = normalize(cross(n[ci], n[cj]))
+        flip = np.einsum("ij,ij->i", x, a[ci] + b[ci]) < 0
+        x[flip] *= -1.0
+        new = len(v) + np.arange(len(ci))
+        self.v = np.vstack([v, x])
+        out_e += [ci, cj]
+        out_p += [new, new]
+        meet_a.append(ci)
+        meet_b.append(cj)
+        # shared vertices
+        va = v[i]
+        shared = (va == v[j]).all(axis=1) | (va == v[nx[j]]).all(axis=1)
+        shared |= (v[nx[i]] == v[j]).all(axis=1) | (v[nx[i]] == v[nx[j]]).all(axis=1)
+        meet_a.append(i[shared])
+        meet_b.append(j[shared])
+        ca = self.comp[np.concatenate(meet_a)]
+        cb = self.comp[np.concatenate(meet_b)]
+        diff = ca != cb
+        for x_, y_ in set(zip(ca[diff].tolist(), cb[diff].tolist())):
+            self.uf.union(x_, y_)
+        return np.concatenate(out_e), np.concatenate(out_p)
+
+    def _split(self, splits):
+        """Edge pieces ``(start, end)`` as vertex indices, with the edge each came from."""
+        e_all, p_all = splits
+        m = len(self.nxt)
+        v = self.v
+        if len(e_all):
+            t = angle(v[e_all], v[p_all])
+            order = np.lexsort((t, e_all))
+            e_all, p_all = e_all[order], p_all[order]
+            # the same point reached twice on one edge (two pairs agree) counts once
+            dup = np.zeros(len(e_all), bool)
+            dup[1:] = (e_all[1:] == e_all[:-1]) & (v[p_all[1:]] == v[p_all[:-1]]).all(axis=1)
+            e_all, p_all = e_all[~dup], p_all[~dup]
+        # a chain per edge: start, split points in order, end
+        cnt = np.bincount(e_all, minlength=m)
+        total = m + len(e_all)
+        seq = np.empty(total, np.int64)  # vertex indices, edge by edge
+        first = np.concatenate([[0], np.cumsum(cnt + 1)[:-1]])
+        seq[first] = np.arange(m)
+        rank = np.arange(len(e_all)) - np.repeat(np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt)
+        seq[first[e_all] + 1 + rank] = p_all
+        piece_edge = np.repeat(np.arange(m), cnt + 1)
+        nxt_seq = np.empty(total, np.int64)
+        nxt_seq[:-1] = seq[1:]
+        last = first + cnt  # the last piece of each edge ends at the edge's end vertex
+        nxt_seq[last] = self.nxt
+        start, end = seq, nxt_seq
+        ok = ~(v[start] == v[end]).all(axis=1)
+        return {"start": start[ok], "end": end[ok], "edge": piece_edge[ok]}
+
+    def _cancel(self, pieces):
+        """Pieces traversed both ways cancel; same-direction duplicates are kept once.
+
+        Returns the kept pieces and, per kept piece, the components whose boundary it
+        lies on (excluded from its inside test).
+        """
+        v = self.v
+        s, e = v[pieces["start"]] + 0.0, v[pieces["end"]] + 0.0
+        d = s - e
+        fwd = (d[:, 0] < 0) | (
+            (d[:, 0] == 0) & ((d[:, 1] < 0) | ((d[:, 1] == 0) & (d[:, 2] < 0)))
+        )  # a canonical order of the two ends
+        lo = np.where(fwd[:, None], s, e)
+        hi = np.where(fwd[:, None], e, s)
+        key = _keys(np.concatenate([lo, hi], axis=1))
+        _, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
+        keep = counts[inv] == 1
+        excl = {}
+        n_fwd = np.bincount(inv, weights=fwd, minlength=len(counts))
+        one_way = (counts > 1) & ((n_fwd == 0) | (n_fwd == counts))
+        if one_way.any():
+            comp = self.comp[pieces["edge"]]
+            members = np.flatnonzero(one_way[inv])
+            order = members[np.argsort(inv[members], kind="stable")]
+            bounds = np.flatnonzero(np.diff(inv[order])) + 1
+            for g in np.split(order, bounds):
+                keep[g[0]] = True
+                excl[int(g[0])] = set(comp[g].tolist())
+        return keep, excl
+
+    # ------------------------------------------------------------------ inside tests
+    def _inner_points(self):
+        """A point inside each input polygon: just left of its longest non-seam edge."""
+        v, nx = self.v, self.nxt
+        m = len(nx)
+        a, b = v[:m], v[nx]
+        length = angle(a, b) * np.where(self.seam, 1e-3, 1.0)
+        q = np.zeros((self.n_comp, 3))
+        for c in range(self.n_comp):
+            sel = np.flatnonzero(self.comp == c)
+            k = sel[int(np.argmax(length[sel]))]
+            mid = normalize(a[k] + b[k])
+            left = normalize(robust_cross(a[k], b[k]))
+            _, di, _ = self.tree.near(mid[None], 1e-3)
+            di = di[(self.comp[di] == c) & (di != k)]
+            dmin = float(arc_distance(mid, a[di], b[di]).min()) if len(di) else 1.0
+            eps = min(1e-3, 0.25 * dmin, 0.25 * float(angle(a[k], b[k])))
+            q[c] = normalize(np.cos(eps) * mid + np.sin(eps) * left)
+        return q
+
+    def _inside_other(self, p, own, excl):
+        """For points ``p``: inside any input polygon other than ``own``/``excl``?"""
+        m = len(self.nxt)
+        a, b = self.v[:m], self.v[self.nxt]
+        caps_c, caps_r = self._comp_caps()
+        cq = np.einsum("ij,kj->ik", p, caps_c)  # (points, comps)
+        cand = cq >= np.cos(np.minimum(caps_r, np.pi))[None, :] - 1e-12
+        cand[np.arange(len(p)), own] = False
+        for k, cs in excl.items():
+            cand[k, list(cs)] = False
+        pi, ci = np.nonzero(cand)
+        if len(pi) == 0:
+            return np.zeros(len(p), bool)
+        q = self.inner[ci]
+        # a long way round goes through a midpoint
+        via = np.einsum("ij,ij->i", p[pi], q) < -0.5
+        legs = [(p[pi], np.where(via[:, None], _perp(p[pi], q), q))]
+        legs.append((legs[0][1][via], q[via]))
+        par = np.zeros(len(pi), bool)
+        for leg, (s, t) in enumerate(legs):
+            ids = np.arange(len(pi)) if leg == 0 else np.flatnonzero(via)
+            if len(ids) == 0:
+                continue
+            si, ei = self.tree.along(s, t)
+            ok = self.comp[ei] == ci[ids][si]
+            si, ei = si[ok], ei[ok]
+            hit = arcs_cross(s[si], t[si], a[ei], b[ei], self.n[ei])
+            np.logical_xor.at(par, ids[si[hit]], True)
+        inside = ~par  # the inner point is inside its polygon
+        out = np.zeros(len(p), bool)
+        np.logical_or.at(out, pi, inside)
+        return out
+
+    def _comp_caps(self):
+        if not hasattr(self, "_caps"):
+            m = len(self.nxt)
+            a = self.v[:m]
+            c = np.zeros((self.n_comp, 3))
+            r = np.zeros(self.n_comp)
+            for k in range(self.n_comp):
+                sel = self.comp == k
+                s = a[sel].sum(axis=0)
+                if np.linalg.norm(s) < 1e-9:
+                    c[k], r[k] = (0.0, 0.0, 1.0), np.pi
+                    continue
+                c[k] = normalize(s)
+                r[k] = min(float(angle(c[k], a[sel]).max()) + 1e-9, np.pi)
+                # every edge stays within its ends' cap plus its half length
+                r[k] = min(r[k] + float(0.5 * angle(a[sel], self.v[self.nxt[sel]]).max()), np.pi)
+            self._caps = (c, r)
+        return self._caps
+
+    def _classify(self, pieces, keep, excl):
+        """Drop the kept pieces that lie inside another polygon.
+
+        Only pieces of edges that come near another polygon's edges (or were split)
+        can change their answer along a ring, so those are tested one by one; the
+        others take the answer of the first piece of their run (each ring's first
+        piece is tested too).
+        """
+        m = len(self.nxt)
+        edge = pieces["edge"]
+        i, j = self._pairs_other
+        involved = np.zeros(m, bool)
+        involved[i] = True
+        involved[j] = True
+        involved |= np.bincount(edge, minlength=m) != 1
+        inv = involved[edge]
+        ring = self.ring_of[edge]
+        head = np.ones(len(edge), bool)  # first piece of a ring, or after an involved one
+        head[1:] = (ring[1:] != ring[:-1]) | inv[:-1]
+        test = inv | head
+        tests = np.flatnonzero(test)
+        todo = tests[keep[tests]]
+        answer = np.zeros(len(edge), bool)
+        if len(todo):
+            self.inner = self._inner_points()
+            p = normalize(self.v[pieces["start"][todo]] + self.v[pieces["end"][todo]])
+            own = self.comp[edge[todo]]
+            ex = {k: excl[int(t)] for k, t in enumerate(todo) if int(t) in excl}
+            answer[todo] = self._inside_other(p, own, ex)
+        # every piece takes the answer of the last tested piece at or before it
+        src = np.maximum.accumulate(np.where(test, np.arange(len(edge)), 0))
+        return keep & ~answer[src]
+
+    # ------------------------------------------------------------------ rings
+    def _link(self, pieces, keep) -> Boundary:
+        """Join the kept pieces into closed rings (interior on the left)."""
+        idx = np.flatnonzero(keep)
+        start, end, edge = pieces["start"][idx], pieces["end"][idx], pieces["edge"][idx]
+        v = self.v
+        _, vid = np.unique(_keys(v), return_inverse=True)
+        s_id, e_id = vid[start], vid[end]
+        k = len(idx)
+        order = np.argsort(s_id, kind="stable")
+        first = np.searchsorted(s_id[order], e_id)
+        n_out = np.bincount(s_id, minlength=len(v))
+        n_in = np.bincount(e_id, minlength=len(v))
+        bad = np.flatnonzero(n_out != n_in)
+        if len(bad):
+            from .sphere import xyz_to_lonlat
+
+            lon, lat = xyz_to_lonlat(v[np.flatnonzero(vid == bad[0])[0]])
+            raise InvalidGeometryError(
+                "cannot unite the polygons: their borders meet at angles too small to "
+                f"resolve near lon {float(lon):.9f}, lat {float(lat):.9f}"
+            )
+        nxt = order[np.minimum(first, k - 1)]
+        multi = np.flatnonzero(n_out[e_id] > 1)
+        if len(multi):
+            normal = normalize(robust_cross(v[start], v[end]))
+            for p in multi.tolist():
+                w = v[end[p]]
+                cand = order[first[p] : first[p] + n_out[e_id[p]]]
+                r = -cross(normal[p], w)
+                t = cross(normal[cand], w)
+                ccw = np.arctan2(cross(r, t) @ w, t @ r)
+                cw = np.mod(-ccw, 2.0 * np.pi)
+                cw[cw <= 0.0] = 2.0 * np.pi
+                nxt[p] = cand[int(np.argmin(cw))]
+            if len(np.unique(nxt)) != k:
+                raise InvalidGeometryError(
+                    "cannot unite the polygons: their borders touch in a way that leaves "
+                    "the union's boundary ambiguous"
+                )
+        seen = np.zeros(k, bool)
+        rings, seams, groups, holes, labels = [], [], [], [], []
+        for s0 in range(k):
+            if seen[s0]:
+                continue
+            cyc = [s0]
+            seen[s0] = True
+            p = nxt[s0]
+            while p != s0:
+                cyc.append(p)
+                seen[p] = True
+                p = nxt[p]
+            cyc = np.asarray(cyc)
+            if len(cyc) < 3:
+                continue
+            comps = np.unique(self.comp[edge[cyc]])
+            for c in comps[1:].tolist():
+                self.uf.union(int(comps[0]), c)
+            ring = v[start[cyc]]
+            rings.append(ring)
+            seams.append(self.seam[edge[cyc]])
+            groups.append(int(comps[0]))
+            holes.append(left_area(ring) > 2.0 * np.pi)
+            names = dict.fromkeys(self.labels[r] for r in self.ring_of[edge[cyc]].tolist())
+            labels.append(" + ".join(names))
+        groups = np.array([self.uf.find(g) for g in groups], dtype=np.int64)
+        _, groups = np.unique(groups, return_inverse=True)
+        return Boundary(rings, seams, groups.astype(np.int64), np.array(holes, bool), labels)
+
+
+def _perp(p, q):
+    """A point between ``p`` and ``q`` (nearly antipodal) off their great circle."""
+    axis = np.where(
+        np.abs(p[:, 2:3]) < 0.9, np.array([[0.0, 0.0, 1.0]]), np.array([[1.0, 0.0, 0.0]])
+    )
+    return normalize(cross(p, axis))
