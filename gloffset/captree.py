@@ -252,12 +252,13 @@ class CapTree:
             cache[k] = 2.0 * np.sin(0.5 * np.minimum(r, np.pi)) * (1.0 + 1e-12) + 1e-15
         return cache[k]
 
-    def along(self, a, b) -> tuple[np.ndarray, np.ndarray]:
+    def along(self, a, b, *, lo=None, hi=None) -> tuple[np.ndarray, np.ndarray]:
         """Items whose cap meets the short great-circle arc ``a[i] -> b[i]``.
 
         Returns ``(segment, item)`` int64 arrays, a superset of the true answer (caps
         are padded). The test per node is the exact distance from the cap centre to
         the segment, so long segments only visit the nodes along their way.
+        ``lo``, ``hi`` (per segment, optional): only items ``lo[i] <= item < hi[i]``.
         """
         a = np.asarray(a, dtype=np.float64).reshape(-1, 3)
         b = np.asarray(b, dtype=np.float64).reshape(-1, 3)
@@ -266,8 +267,12 @@ class CapTree:
         n = normalize(robust_cross(a, b))
         si = np.arange(len(a), dtype=np.int64)
         ni = np.zeros(len(a), dtype=np.int64)
+        ranged = lo is not None
         for k in range(self.depth - 1, -1, -1):
             c, r = self.centers[k], self.radii[k]
+            if ranged:  # node ni of level k holds items ni 2^k .. (ni+1) 2^k - 1
+                inr = (ni << k < hi[si]) & ((ni + 1) << k > lo[si])
+                si, ni = si[inr], ni[inr]
             dist = arc_distance(c[ni], a[si], b[si], n[si])
             keep = dist <= r[ni] * (1.0 + 1e-12) + 1e-14
             si, ni = si[keep], ni[keep]

@@ -142,6 +142,10 @@ class _Union:
         self.nxt = np.repeat(starts, sizes) + (pos + 1) % np.repeat(sizes, sizes)
         self.ring_of = ring_of
         self.comp = self.ring_comps[ring_of]
+        if np.any(np.diff(self.comp) < 0):
+            raise ValueError("rings must come grouped by polygon")
+        self.comp_start = np.searchsorted(self.comp, np.arange(self.n_comp))
+        self.comp_end = np.searchsorted(self.comp, np.arange(self.n_comp), side="right")
         self.seam = np.concatenate(seams).astype(bool)
 
     def _snap_vertices(self, i, j) -> bool:
@@ -275,10 +279,16 @@ class _Union:
         return {"start": start[ok], "end": end[ok], "edge": piece_edge[ok]}
 
     def _cancel(self, pieces):
-        """Pieces traversed both ways cancel; same-direction duplicates are kept once.
+        """Coincident pieces: keep one where exactly one side of them is in a polygon.
 
-        Returns the kept pieces and, per kept piece, the components whose boundary it
-        lies on (excluded from its inside test).
+        Per polygon, the pieces along one stretch count +1 one way and -1 the other
+        (a polygon's own slit, as a cut down to a pole, nets to nothing); the stretch
+        has a polygon on its left when some polygon nets > 0, on its right when some
+        nets < 0. It is boundary when exactly one side is covered: traversed both ways
+        by two polygons it cancels, the same way twice it is kept once.
+
+        Returns the kept pieces and, per kept piece that coincided with others, the
+        polygons along it (left out of its inside test).
         """
         v = self.v
         s, e = v[pieces["start"]] + 0.0, v[pieces["end"]] + 0.0
@@ -292,16 +302,31 @@ class _Union:
         _, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
         keep = counts[inv] == 1
         excl = {}
-        n_fwd = np.bincount(inv, weights=fwd, minlength=len(counts))
-        one_way = (counts > 1) & ((n_fwd == 0) | (n_fwd == counts))
-        if one_way.any():
-            comp = self.comp[pieces["edge"]]
-            members = np.flatnonzero(one_way[inv])
-            order = members[np.argsort(inv[members], kind="stable")]
-            bounds = np.flatnonzero(np.diff(inv[order])) + 1
-            for g in np.split(order, bounds):
-                keep[g[0]] = True
-                excl[int(g[0])] = set(comp[g].tolist())
+        members = np.flatnonzero(counts[inv] > 1)
+        if len(members) == 0:
+            return keep, excl
+        comp = self.comp[pieces["edge"]]
+        # net count per (stretch, polygon)
+        pair = inv[members] * self.n_comp + comp[members]
+        upair, pinv = np.unique(pair, return_inverse=True)
+        net = np.bincount(pinv, weights=np.where(fwd[members], 1.0, -1.0))
+        g = upair // self.n_comp
+        left = np.zeros(len(counts), bool)
+        right = np.zeros(len(counts), bool)
+        left[g[net > 0]] = True
+        right[g[net < 0]] = True
+        one_side = left[inv[members]] != right[inv[members]]
+        want_fwd = left[inv[members]]
+        cand = members[one_side & (fwd[members] == want_fwd)]
+        # one piece per stretch: the first candidate of each
+        _, first = np.unique(inv[cand], return_index=True)
+        chosen = cand[first]
+        keep[chosen] = True
+        order = members[np.argsort(inv[members], kind="stable")]
+        starts = np.searchsorted(inv[order], inv[chosen])
+        ends = np.searchsorted(inv[order], inv[chosen], side="right")
+        for c, a_, b_ in zip(chosen.tolist(), starts.tolist(), ends.tolist()):
+            excl[c] = set(comp[order[a_:b_]].tolist())
         return keep, excl
 
     # ------------------------------------------------------------------ inside tests
@@ -310,25 +335,27 @@ class _Union:
         v, nx = self.v, self.nxt
         m = len(nx)
         a, b = v[:m], v[nx]
-        length = angle(a, b) * np.where(self.seam, 1e-3, 1.0)
-        q = np.zeros((self.n_comp, 3))
-        for c in range(self.n_comp):
-            sel = np.flatnonzero(self.comp == c)
-            k = sel[int(np.argmax(length[sel]))]
-            mid = normalize(a[k] + b[k])
-            left = normalize(robust_cross(a[k], b[k]))
-            _, di, _ = self.tree.near(mid[None], 1e-3)
-            di = di[(self.comp[di] == c) & (di != k)]
-            dmin = float(arc_distance(mid, a[di], b[di]).min()) if len(di) else 1.0
-            eps = min(1e-3, 0.25 * dmin, 0.25 * float(angle(a[k], b[k])))
-            q[c] = normalize(np.cos(eps) * mid + np.sin(eps) * left)
-        return q
+        length = angle(a, b)
+        score = length * np.where(self.seam, 1e-3, 1.0)
+        lo = self.comp_start
+        # the longest edge of each polygon: the last of its edges in the order of score
+        order = np.lexsort((score, self.comp))
+        k = order[np.append(lo[1:], m) - 1]
+        mid = normalize(a[k] + b[k])
+        left = normalize(robust_cross(a[k], b[k]))
+        qi, di, _ = self.tree.near(mid, 1e-3)
+        ok = (self.comp[di] == qi) & (di != k[qi])
+        qi, di = qi[ok], di[ok]
+        dmin = np.ones(self.n_comp)
+        np.minimum.at(dmin, qi, arc_distance(mid[qi], a[di], b[di], self.n[di]))
+        eps = np.minimum.reduce([np.full(self.n_comp, 1e-3), 0.25 * dmin, 0.25 * length[k]])
+        return normalize(np.cos(eps)[:, None] * mid + np.sin(eps)[:, None] * left)
 
     def _inside_other(self, p, own, excl):
         """For points ``p``: inside any input polygon other than ``own``/``excl``?"""
         m = len(self.nxt)
         a, b = self.v[:m], self.v[self.nxt]
-        caps_c, caps_r = self._comp_caps()
+        caps_c, caps_r = self.caps
         cq = np.einsum("ij,kj->ik", p, caps_c)  # (points, comps)
         cand = cq >= np.cos(np.minimum(caps_r, np.pi))[None, :] - 1e-12
         cand[np.arange(len(p)), own] = False
@@ -347,8 +374,9 @@ class _Union:
             ids = np.arange(len(pi)) if leg == 0 else np.flatnonzero(via)
             if len(ids) == 0:
                 continue
-            si, ei = self.tree.along(s, t)
-            ok = self.comp[ei] == ci[ids][si]
+            c = ci[ids]
+            si, ei = self.tree.along(s, t, lo=self.comp_start[c], hi=self.comp_end[c])
+            ok = self.comp[ei] == c[si]
             si, ei = si[ok], ei[ok]
             hit = arcs_cross(s[si], t[si], a[ei], b[ei], self.n[ei])
             np.logical_xor.at(par, ids[si[hit]], True)
@@ -358,23 +386,17 @@ class _Union:
         return out
 
     def _comp_caps(self):
-        if not hasattr(self, "_caps"):
-            m = len(self.nxt)
-            a = self.v[:m]
-            c = np.zeros((self.n_comp, 3))
-            r = np.zeros(self.n_comp)
-            for k in range(self.n_comp):
-                sel = self.comp == k
-                s = a[sel].sum(axis=0)
-                if np.linalg.norm(s) < 1e-9:
-                    c[k], r[k] = (0.0, 0.0, 1.0), np.pi
-                    continue
-                c[k] = normalize(s)
-                r[k] = min(float(angle(c[k], a[sel]).max()) + 1e-9, np.pi)
-                # every edge stays within its ends' cap plus its half length
-                r[k] = min(r[k] + float(0.5 * angle(a[sel], self.v[self.nxt[sel]]).max()), np.pi)
-            self._caps = (c, r)
-        return self._caps
+        """A bounding cap (centre, radius) of each input polygon."""
+        m = len(self.nxt)
+        a, b = self.v[:m], self.v[self.nxt]
+        lo = self.comp_start
+        s = np.add.reduceat(a, lo, axis=0)
+        big = np.linalg.norm(s, axis=1) < 1e-9
+        c = normalize(np.where(big[:, None], [0.0, 0.0, 1.0], s))
+        cc = c[self.comp]
+        reach = np.maximum(angle(cc, a), angle(cc, b)) + 0.5 * angle(a, b)
+        r = np.maximum.reduceat(reach, lo) * (1 + 1e-12) + 1e-9
+        return c, np.where(big, np.pi, np.minimum(r, np.pi))
 
     def _classify(self, pieces, keep, excl):
         """Drop the kept pieces that lie inside another polygon.
@@ -401,6 +423,7 @@ class _Union:
         answer = np.zeros(len(edge), bool)
         if len(todo):
             self.inner = self._inner_points()
+            self.caps = self._comp_caps()
             p = normalize(self.v[pieces["start"][todo]] + self.v[pieces["end"][todo]])
             own = self.comp[edge[todo]]
             ex = {k: excl[int(t)] for k, t in enumerate(todo) if int(t) in excl}
