@@ -61,7 +61,7 @@ from .sphere import (
     robust_cross,
     xyz_to_lonlat,
 )
-from .units import EARTH_RADIUS, to_angle
+from .units import EARTH_RADIUS, offset_angle
 
 __all__ = ["Index", "contains", "depth_for"]
 
@@ -201,11 +201,7 @@ class _Arcs:
 
 
 def _arcs(shape) -> _Arcs:
-    arcs = getattr(shape, "_contains_arcs", None)
-    if arcs is None:
-        arcs = _Arcs(shape)
-        shape._contains_arcs = arcs
-    return arcs
+    return shape.cached("contains.arcs", lambda: _Arcs(shape))
 
 
 _PAR, _DST = 1, 2  # candidate flags: counts for parity, for the distance test
@@ -278,7 +274,7 @@ class Index:
         self, shape, distance: float = 0.0, *, radius: float = EARTH_RADIUS, level=None, depth=None
     ):
         self.shape = read(shape)
-        self.distance = to_angle(distance, radius)
+        self.distance = offset_angle(self.shape, distance, radius)
         self._arcs = _arcs(self.shape)
         self.level = self._choose_level(level)
         if depth is None:
@@ -841,7 +837,7 @@ def depth_for(n_points: int) -> int:
 def _index(shape, d: float, level, n_points: int) -> Index:
     """The cached index of ``shape`` for angle ``d`` and ``level``, deep enough for a query
     of ``n_points`` points (built, or rebuilt deeper, when needed)."""
-    cache = shape.__dict__.setdefault("_contains_cache", {})
+    cache = shape.cached("contains.indexes", dict)
     key = (d, level)
     want = depth_for(n_points)
     ix = cache.get(key)
@@ -907,7 +903,7 @@ def contains(
     [True, True]
     """
     shape = read(shape)
-    d = to_angle(distance, radius)
+    d = offset_angle(shape, distance, radius)
     lon, lat, shp = check_lonlat(lon, lat)
     out = _index(shape, d, level, len(lon))._query(lon, lat)
     pairs = shape.overlapping_components()

@@ -83,12 +83,7 @@ class Arcs:
     @classmethod
     def from_shape(cls, shape) -> Arcs:
         """The arcs of ``shape`` (made once per shape and kept on it, like its edges)."""
-        cached = getattr(shape, "_engine_arcs", None)
-        if cached is not None:
-            return cached
-        arcs = cls._make(shape)
-        shape._engine_arcs = arcs
-        return arcs
+        return shape.cached("hierarchy.arcs", lambda: cls._make(shape))
 
     @classmethod
     def _make(cls, shape) -> Arcs:

@@ -38,7 +38,7 @@ import numpy as np
 from .errors import InvalidDistanceError
 from .shape import Shape, read
 from .sphere import normalize, robust_cross, rotate, slerp
-from .units import EARTH_RADIUS, check_radius, to_angle
+from .units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, offset_angle
 
 __all__ = ["Offset", "OffsetRing", "offset", "sample_arc", "sample_rings"]
 
@@ -306,10 +306,5 @@ def offset(shape, distance: float, *, radius: float = EARTH_RADIUS) -> Offset:
     """
     shape = read(shape)
     r = check_radius(radius)
-    d = to_angle(distance, r)
-    if abs(d) >= math.pi / 2:
-        raise InvalidDistanceError(
-            f"distance {distance!r} is {abs(d):.4g} rad; vector offsets need less than a quarter "
-            "of the circumference (pi/2 rad); use contains() or render() for larger distances"
-        )
+    d = offset_angle(shape, distance, r, limit=VECTOR_LIMIT)
     return Offset(shape, d)

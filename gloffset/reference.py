@@ -78,11 +78,7 @@ class _EdgeIndex:
 
 
 def _index(shape) -> _EdgeIndex:
-    idx = getattr(shape, "_reference_index", None)
-    if idx is None:
-        idx = _EdgeIndex(shape)
-        shape._reference_index = idx
-    return idx
+    return shape.cached("reference.index", lambda: _EdgeIndex(shape))
 
 
 def distance_xyz(shape, p: np.ndarray) -> np.ndarray:

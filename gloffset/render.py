@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import GloffsetError, InvalidDistanceError
+from .errors import GloffsetError
 from .grids import Cube, CubeFace, Equirect, Tile
 from .hierarchy import classify
 from .shape import read
-from .units import EARTH_RADIUS, to_angle
+from .units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
 
 __all__ = ["render", "RenderError", "MAX_PIXELS"]
 
@@ -119,11 +119,7 @@ def render(
     class.
     """
     shape = read(shape)
-    d = to_angle(distance, radius)
-    if abs(d) >= 1.5:
-        raise InvalidDistanceError(
-            f"distance {distance!r} is {abs(d):.4g} rad; render needs less than 1.5 rad"
-        )
+    d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="render")
     _check(out, backend, grid)
     if out == "classes" and level is not None and not 0 <= level < grid.n_levels:
         raise RenderError(f"level must be in 0..{grid.n_levels - 1}, got {level!r}")

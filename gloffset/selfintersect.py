@@ -530,9 +530,7 @@ def _general(off) -> ResolvedOffset:
     src_all = np.concatenate([r.sources for r in raw])
     axis, h = circle_of(q_all)
     arcs = Arcs(axis, h, r_all[prev], r_all)
-    gens = getattr(shape, "_resolve_generators", None)
-    if gens is None:  # the edges' cap tree, kept with the shape like the reference's index
-        gens = shape._resolve_generators = _Generators(shape)
+    gens = shape.cached("selfintersect.generators", lambda: _Generators(shape))
 
     # 1. drop arcs that lie wholly within |d| - margin of the curves, and the joins of
     # concave corners, which turn backwards and lie within |d| of the two edges there
@@ -757,9 +755,10 @@ def _side_ok(shape, d, mid, from_line):
 def _defects(shape) -> tuple[bool, bool]:
     """Whether edges of the shape's rings cross (self-intersecting input), and whether
     a region component lies inside another (overlapping parts). Cached on the shape."""
-    cached = getattr(shape, "_resolve_defects", None)
-    if cached is not None:
-        return cached
+    return shape.cached("selfintersect.defects", lambda: _find_defects(shape))
+
+
+def _find_defects(shape) -> tuple[bool, bool]:
     e = shape.edges()
     ring = np.flatnonzero(e.group >= 0)
     a, b = e.a[ring], e.b[ring]
@@ -782,7 +781,6 @@ def _defects(shape) -> tuple[bool, bool]:
             if crossings.inside(shape, probe, groups=others)[0]:
                 overlap = True
                 break
-    shape._resolve_defects = (crossing, overlap)
     return crossing, overlap
 
 

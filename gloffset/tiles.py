@@ -54,7 +54,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .errors import GloffsetError, InvalidDistanceError
+from .errors import GloffsetError
 from .gl.engine import BinLayout
 from .grids.base import rect_radius
 from .hierarchy import (
@@ -73,7 +73,7 @@ from .io.tilestore import open_store
 from .shape import read
 from .sphere import angle
 from .tilepaint import TileStyle, outline_lines
-from .units import EARTH_RADIUS, to_angle
+from .units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
 
 __all__ = ["pyramid", "parse_zooms", "PyramidStats", "TilesError", "MAX_ZOOM", "TileLevels"]
 
@@ -347,11 +347,7 @@ def pyramid(
     """
     t0 = time.perf_counter()
     shape = read(shape)
-    d = to_angle(distance, radius)
-    if abs(d) >= 1.5:
-        raise InvalidDistanceError(
-            f"distance {distance!r} is {abs(d):.4g} rad; tiles need less than 1.5 rad"
-        )
+    d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="a tile pyramid")
     zlo, zhi = parse_zooms(zooms)
     if not (isinstance(size, (int, np.integer)) and 16 <= size <= 4096 and size & (size - 1) == 0):
         raise TilesError(

@@ -49,6 +49,47 @@ def to_angle(distance: float, radius: float) -> float:
     return d / r
 
 
+#: Largest |d| (rad) of a vector offset: the offset of a curve by a quarter of a
+#: great circle or more is no longer a curve at distance d on the near side.
+VECTOR_LIMIT = math.pi / 2
+#: Largest |d| (rad) of a raster (render, tiles, raster offsets): the engine's cap
+#: bounds need the reach d + rho of a cell below pi/2.
+RASTER_LIMIT = 1.5
+
+
+def offset_angle(shape, distance, radius, *, limit: float | None = None, what: str = "") -> float:
+    """The offset distance of an operation as an angle, with the limits that hold for it.
+
+    Raises :class:`InvalidDistanceError` when the distance is not a finite number,
+    when ``|d| >= limit`` (``what`` names the operation), and when ``d <= 0`` on an
+    input without polygons: lines and points bound no region, so a zero or negative
+    distance would leave nothing.
+    """
+    d = to_angle(distance, radius)
+    if d <= 0.0 and not shape.rings:
+        raise InvalidDistanceError(
+            f"distance {distance!r} is {'zero' if d == 0 else 'negative'}, but the input has no "
+            "polygon: lines and points bound no region, so only a positive distance gives one "
+            "(negative distances shrink polygons)"
+        )
+    if limit is not None and abs(d) >= limit:
+        if limit == VECTOR_LIMIT:
+            need = "vector offsets need |d| < pi/2 rad (a quarter of a great circle)"
+            other = (
+                "render(), tiles and contains() take up to 1.5 rad"
+                if abs(d) < RASTER_LIMIT
+                else "contains() and distance() answer any distance"
+            )
+        else:
+            need = f"{what} needs |d| < {limit:g} rad"
+            other = "contains() and distance() answer any distance"
+        raise InvalidDistanceError(
+            f"distance {distance!r} is {abs(d):.4g} rad (radius {check_radius(radius):g}); "
+            f"{need}; {other}"
+        )
+    return d
+
+
 def parse_distance(text: str | float, radius: float = EARTH_RADIUS) -> float:
     """Parse a distance such as ``"500m"``, ``"127km"``, ``"0.02rad"`` or ``"1.5deg"``.
 

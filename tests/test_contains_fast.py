@@ -175,14 +175,15 @@ def test_index_api_and_cache(world):
     s = gloffset.read(world["Italy"])
     lon, lat = box(s, 3000, seed=10)
     a = gloffset.contains(s, lon, lat, distance=50e3)
-    ix = s._contains_cache[(50e3 / gloffset.EARTH_RADIUS, None)]
+    cache = s.cached("contains.indexes", dict)
+    ix = cache[(50e3 / gloffset.EARTH_RADIUS, None)]
     b = gloffset.contains(s, lon[:10], lat[:10], distance=50e3)
-    assert s._contains_cache[(50e3 / gloffset.EARTH_RADIUS, None)] is ix  # reused
+    assert cache[(50e3 / gloffset.EARTH_RADIUS, None)] is ix  # reused
     assert np.array_equal(a[:10], b)
     # a later, larger call rebuilds deeper bins; the answers stay the same
     big_lon, big_lat = np.resize(lon, 400_000), np.resize(lat, 400_000)
     c = gloffset.contains(s, big_lon, big_lat, distance=50e3)
-    assert s._contains_cache[(50e3 / gloffset.EARTH_RADIUS, None)].depth > ix.depth
+    assert cache[(50e3 / gloffset.EARTH_RADIUS, None)].depth > ix.depth
     assert np.array_equal(c[: len(lon)], a)
     # the prepared object, unit-vector queries and broadcasting
     prepared = gloffset.Index(s, 50e3)
@@ -202,13 +203,17 @@ def test_query_and_level_errors():
         (([1.0, 2.0], [1.0, 2.0, 3.0]), "broadcast"),
     ]:
         with pytest.raises(InvalidGeometryError, match=words):
-            gloffset.contains(s, *args)
+            gloffset.contains(s, *args, distance=1e3)
     with pytest.raises(InvalidLevelError):
-        gloffset.contains(s, 0.0, 0.0, level=-1)
+        gloffset.contains(s, 0.0, 0.0, distance=1e3, level=-1)
     with pytest.raises(InvalidLevelError):
-        gloffset.Index(s, level=1.5)
+        gloffset.Index(s, 1e3, level=1.5)
     with pytest.raises(InvalidLevelError):
-        gloffset.Index(s, depth=0)
+        gloffset.Index(s, 1e3, depth=0)
+    # lines bound no region: zero and negative distances are refused, not empty
+    for d in (0.0, -1e3):
+        with pytest.raises(gloffset.InvalidDistanceError, match="no polygon"):
+            gloffset.contains(s, 0.0, 0.0, distance=d)
     with pytest.raises(gloffset.InvalidDistanceError):
         gloffset.contains(s, 0.0, 0.0, distance=np.inf)
     # a level beyond the shape's last is its last
