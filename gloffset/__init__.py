@@ -18,6 +18,8 @@ from .errors import (
     InvalidDistanceError,
     InvalidGeometryError,
     InvalidLevelError,
+    OptionError,
+    OutputError,
 )
 from .multires import Decomposition, decompose
 from .offset import Offset, offset
@@ -36,6 +38,8 @@ __all__ = [
     "InvalidDistanceError",
     "InvalidGeometryError",
     "InvalidLevelError",
+    "OptionError",
+    "OutputError",
     "Index",
     "Decomposition",
     "Offset",

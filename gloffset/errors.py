@@ -31,5 +31,14 @@ class InvalidLevelError(GloffsetError, ValueError):
     """A multiresolution level is not an integer in the range a decomposition has."""
 
 
+class OptionError(GloffsetError, ValueError):
+    """An option (a keyword argument, or a command-line option) has a value gloffset cannot use."""
+
+
+class OutputError(GloffsetError, OSError):
+    """An output cannot be written (missing folder, no permission, disk full, unsupported
+    format...). The message names the target; a file that was there is left as it was."""
+
+
 class GLContextError(GloffsetError, RuntimeError):
     """No OpenGL context could be created, or the context lacks a needed capability."""

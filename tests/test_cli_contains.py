@@ -86,14 +86,14 @@ def test_no_partial_output_file_on_error(tmp_path, square):
     out = tmp_path / "out.csv"
     r = run("contains", square, str(pts), "-o", str(out), "--chunk", "2")
     assert r.exit_code == 2
-    assert not out.exists() and not (tmp_path / "out.csv.part").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.csv", "square.geojson"]
 
 
 @pytest.mark.parametrize(
     "points, args, words",
     [
         ("lon,lat\n1,2\n3,abc\n", [], "line 3: lat 'abc' is not a number"),
-        ("lon,lat\n1,2\n1,2\n1,2\n1\n", ["--chunk", "2"], "line 5: expected at least 2 fields"),
+        ("lon,lat\n1,2\n1,2\n1,2\n1\n", ["--chunk", "2"], "line 5: 1 field, but the header has 2"),
         ("lon,lat\n1,2\n3,95\n", [], "line 3: latitude 95.0 out of range"),
         ("lon,lat\n1,2\nnan,2\n", [], "line 3: coordinates must be finite"),
         ("x,y\n1,2\n", [], "no 'lon' column in the header (found: x, y)"),

@@ -192,7 +192,8 @@ def test_small_example_and_errors():
 def test_cli_from_raster(tmp_path):
     img = np.zeros((128, 256), dtype=np.uint8)
     img[64, 20:200] = 255
-    img[10:100, 128] = 7
+    img[10:100, 128] = 128  # at least half white: curve
+    img[100:120, 60] = 127  # darker: not curve
     src = tmp_path / "curve.png"
     Image.fromarray(img).save(src)
     out, out_mask = tmp_path / "classes.png", tmp_path / "mask.png"
@@ -204,7 +205,7 @@ def test_cli_from_raster(tmp_path):
         ["render", "--from-raster", str(src), "-d", "400km", "--mask-only", "-o", str(out_mask)],
     )
     assert r.exit_code == 0, r.output
-    want = raster_offset(img != 0, 400e3, Equirect(256, 128))
+    want = raster_offset(img >= 128, 400e3, Equirect(256, 128))
     rgba = np.asarray(Image.open(out))
     assert (rgba[want == CONTAINED] == (0, 0, 0, 255)).all()
     assert (rgba[want == FRONTIER] == (220, 30, 30, 255)).all()

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..contains import Index, depth_for
 from ..errors import InputFormatError
+from ..io.output import check_output, open_output
 from ..shape import read
 from . import main
 from .options import angle, distance_option, radius_option
@@ -32,18 +33,20 @@ def _column(header: list[str], names: tuple[str, ...], where: str) -> int:
     )
 
 
-def _coordinates(rows, lines, ilon: int, ilat: int, where: str):
-    """Lon/lat arrays of a chunk of rows; an error names the first bad line."""
+def _coordinates(rows, lines, width: int, ilon: int, ilat: int, where: str):
+    """Lon/lat arrays of a chunk of rows of ``width`` fields; an error names the first bad
+    line."""
+    for r, line in zip(rows, lines):
+        if len(r) != width:
+            raise InputFormatError(
+                f"{where}, line {line}: {len(r)} field{'s' if len(r) != 1 else ''}, but the "
+                f"header has {width}"
+            )
     try:
         lon = np.array([r[ilon] for r in rows], dtype=np.float64)
         lat = np.array([r[ilat] for r in rows], dtype=np.float64)
-    except (IndexError, ValueError):
+    except ValueError:
         for r, line in zip(rows, lines):
-            if len(r) <= max(ilon, ilat):
-                raise InputFormatError(
-                    f"{where}, line {line}: expected at least {max(ilon, ilat) + 1} fields, "
-                    f"got {len(r)}"
-                ) from None
             for k, name in ((ilon, "lon"), (ilat, "lat")):
                 try:
                     float(r[k])
@@ -118,6 +121,7 @@ def contains_cmd(input, points, distance, radius, output, level, chunk):
     if input == "-" and points == "-":
         raise InputFormatError("INPUT and POINTS cannot both be read from stdin (-)")
     d = angle(distance, radius)
+    check_output(output)  # fail before the work
     shape = read(input)
     where = "<stdin>" if points == "-" else points
     if points == "-":
@@ -129,26 +133,11 @@ def contains_cmd(input, points, distance, radius, output, level, chunk):
         except OSError as exc:
             raise InputFormatError(f"cannot read {points!r}: {exc.strerror}") from None
         size = os.fstat(src.fileno()).st_size
-    tmp = None
     try:
-        if output == "-":
-            dst = sys.stdout
-        else:
-            tmp = f"{output}.part"
-            try:
-                dst = open(tmp, "w", encoding="utf-8", newline="")
-            except OSError as exc:
-                raise click.ClickException(f"cannot write {output!r}: {exc.strerror}") from None
-        _run(shape, d, level, src, dst, where, size, chunk)
-        if tmp is not None:
-            dst.close()
-            os.replace(tmp, output)
-            tmp = None
+        with open_output(output, text=True) as dst:
+            _run(shape, d, level, src, dst, where, size, chunk)
     finally:
         src.close()
-        if tmp is not None:
-            dst.close()
-            os.remove(tmp)
 
 
 def _run(shape, d, level, src, dst, where, size, chunk):
@@ -182,7 +171,7 @@ def _run(shape, d, level, src, dst, where, size, chunk):
                 break
             except (csv.Error, UnicodeDecodeError) as exc:
                 raise InputFormatError(f"{where}, line {reader.line_num}: {exc}") from None
-            lon, lat = _coordinates(rows, lines, ilon, ilat, where)
+            lon, lat = _coordinates(rows, lines, len(header), ilon, ilat, where)
             if index is None:  # the first batch is good: start the output
                 writer.writerow(header if iout is not None else [*header, "inside"])
                 # bins as deep as the expected number of points makes worthwhile

@@ -11,6 +11,7 @@ import json
 
 import click
 
+from ..io.output import check_output, write_bytes
 from ..offset import offset as _offset
 from ..shape import read
 from . import main
@@ -30,7 +31,12 @@ from .options import angle, distance_option, radius_option
     show_default=True,
     help="Largest deviation of the written edges from the true arcs (a distance).",
 )
-@click.option("--digits", type=int, default=None, help="Round coordinates to this many decimals.")
+@click.option(
+    "--digits",
+    type=click.IntRange(min=0),
+    default=None,
+    help="Round coordinates to this many decimals (0 or more).",
+)
 @click.option(
     "--raw",
     is_flag=True,
@@ -47,16 +53,10 @@ def offset_cmd(input, distance, radius, output, tolerance, digits, raw, method):
     """Offset the curves and polygons of INPUT (GeoJSON path, or - for stdin)."""
     d = angle(distance, radius)
     tol = angle(tolerance, radius)
+    check_output(output)  # fail before the work
     shape = read(input)
     off = _offset(shape, d, radius=1.0)
     feat = off.to_geojson(tolerance=tol, digits=digits, raw=raw, method=method)
     feat["properties"]["distance"] = distance
     text = json.dumps({"type": "FeatureCollection", "features": [feat]})
-    if output == "-":
-        click.echo(text)
-    else:
-        try:
-            with open(output, "w", encoding="utf-8") as fh:
-                fh.write(text)
-        except OSError as exc:
-            raise click.ClickException(f"cannot write {output!r}: {exc.strerror}") from None
+    write_bytes(output, (text + "\n").encode("utf-8"))

@@ -12,15 +12,17 @@ def distance_option(f=None, *, default: str | None = None):
     ``@distance_option(default="0")``)."""
 
     def decorate(f):
+        # no default=None for a required option: recent click (8.5) takes an explicit None
+        # as a default value and no longer reports the option as missing
+        given = {"default": default, "show_default": True} if default is not None else {}
         return click.option(
             "-d",
             "--distance",
             required=default is None,
-            default=default,
-            show_default=default is not None,
             metavar="DIST",
             help="Offset distance: 500m, 127km, 0.02rad, 1.5deg (a bare number is metres). "
             "Negative shrinks polygons.",
+            **given,
         )(f)
 
     return decorate(f) if f is not None else decorate

@@ -10,18 +10,15 @@ from pathlib import Path
 import click
 import numpy as np
 
-from ..errors import GloffsetError
+from ..errors import GloffsetError, OptionError, OutputError
 from ..grids import FACE_NAMES, Cube, CubeFace, Equirect
-from ..io.png import parse_color, read_mask, write_classes, write_mask
+from ..io.output import check_output, refuse_stdout
+from ..io.png import image_format, parse_color, read_mask, write_classes, write_mask
 from ..raster_input import CONTAINED
 from ..render import render as _render
 from ..shape import read
 from . import main
 from .options import angle, distance_option, radius_option
-
-
-class OptionError(GloffsetError, ValueError):
-    """A command-line option has a bad value."""
 
 
 class CubeFacesError(GloffsetError, ValueError):
@@ -70,7 +67,7 @@ def _bounds(text: str | None) -> tuple:
     type=click.Choice(["equirect", "cube"]),
     default="equirect",
     show_default=True,
-    help="equirect: one PNG; cube: OUTPUT is a folder of px nx py ny pz nz PNGs.",
+    help="equirect: one image; cube: OUTPUT is a folder of px nx py ny pz nz PNGs.",
 )
 @click.option(
     "--size",
@@ -80,15 +77,23 @@ def _bounds(text: str | None) -> tuple:
 @click.option(
     "--bounds", default=None, help="W,S,E,N in degrees (W > E crosses 180 deg). Default: the globe."
 )
-@click.option("-o", "--output", required=True, help="Output PNG file.")
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    help="Output image: PNG, or TIFF if it ends in .tif/.tiff; - for standard output (PNG). "
+    "With --grid cube: a folder.",
+)
 @click.option(
     "--from-raster",
     "from_raster",
     default=None,
     metavar="MASK.png|DIR",
-    help="Offset a rasterized curve (any non-zero pixel) on the equirect grid of --bounds "
-    "instead of INPUT (paper Sec. 5); writes the classes picture. With --grid cube: a folder "
-    "of six face PNGs px nx py ny pz nz, and OUTPUT a folder of six PNGs.",
+    help="Offset a rasterized curve on the equirect grid of --bounds instead of INPUT (paper "
+    "Sec. 5); writes the classes picture. The mask is a grey image (curve: pixels at least "
+    "half white, >= 128) or an image with transparency (curve: pixels at least half opaque, "
+    "alpha >= 128); colour images are refused. With --grid cube: a folder of six face PNGs "
+    "px nx py ny pz nz, and OUTPUT a folder of six PNGs.",
 )
 @click.option(
     "--mask-only", is_flag=True, help="With --from-raster: write contained cells as 255, else 0."
@@ -120,10 +125,15 @@ def render_cmd(
     from_raster,
     mask_only,
 ):
-    """Render the region within DIST of the curves of INPUT as a PNG (row 0 north), or
-    as six cube-map faces px nx py ny pz nz that load straight into a GL or three.js
+    """Render the region within DIST of the curves of INPUT as a PNG or TIFF (row 0 north),
+    or as six cube-map faces px nx py ny pz nz that load straight into a GL or three.js
     cube texture (sampled with the Earth-frame direction: x to 0N 0E, z to the north pole)."""
     d = angle(distance, radius)
+    if grid_kind == "cube":
+        refuse_stdout(output, "--grid cube writes six images into a folder")
+    else:  # fail before the work
+        image_format(output)
+        check_output(output)
     if from_raster is not None:
         if input is not None or size is not None:
             raise OptionError("--from-raster takes no INPUT or --size (the PNGs' size)")
@@ -212,7 +222,7 @@ def _out_folder(output) -> Path:
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise OptionError(f"cannot create folder {output!r}: {exc.strerror}") from None
+        raise OutputError(f"cannot create folder {output!r}: {exc.strerror}") from None
     return folder
 
 

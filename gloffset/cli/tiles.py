@@ -6,6 +6,7 @@ import sys
 
 import click
 
+from ..io.output import refuse_stdout
 from ..shape import read
 from ..tilepaint import TileStyle
 from ..tiles import parse_zooms, pyramid
@@ -59,6 +60,7 @@ def tiles_cmd(
     outside the region are skipped, tiles fully inside share one image and are not
     rendered, only tiles on the region's edge are rendered."""
     d = angle(distance, radius)
+    refuse_stdout(output, "a tile pyramid is an .mbtiles file or a folder of z/x/y.png tiles")
     parse_zooms(zooms)  # fail before reading the input
     TileStyle(fill, opacity, outline, outline_width)
     if resume and force:

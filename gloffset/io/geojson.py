@@ -13,7 +13,9 @@ exterior rings counter-clockwise and holes clockwise in lon/lat.
 
 from __future__ import annotations
 
+import itertools
 import json
+import numbers
 import os
 import sys
 from dataclasses import dataclass, field
@@ -21,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputFormatError
+from ..errors import InputFormatError, OptionError
 from ..sphere import normalize, xyz_to_lonlat
 
 __all__ = ["Parts", "load", "parse", "rings_to_geometry", "lines_to_geometry"]
@@ -48,7 +50,14 @@ def load(source) -> dict:
         return source
     if hasattr(source, "__geo_interface__"):
         gi = source.__geo_interface__
-        return gi if isinstance(gi, dict) else dict(gi)
+        if isinstance(gi, dict):
+            return gi
+        try:
+            return dict(gi)
+        except (TypeError, ValueError):
+            raise InputFormatError(
+                f"{type(source).__name__}.__geo_interface__ is not a mapping"
+            ) from None
     if hasattr(source, "read"):
         text = source.read()
         where = getattr(source, "name", "stream")
@@ -56,58 +65,147 @@ def load(source) -> dict:
         s = os.fspath(source)
         if s == "-":
             text, where = sys.stdin.read(), "<stdin>"
-        elif isinstance(source, str) and source.lstrip().startswith("{"):
+        elif isinstance(source, str) and source.lstrip()[:1] in ("{", "["):
             text, where = source, "<string>"
         else:
-            path = Path(s)
-            if not path.exists():
-                raise InputFormatError(f"no such file: {s!r}")
-            if path.is_dir():
-                raise InputFormatError(f"{s!r} is a directory, not a GeoJSON file")
-            try:
-                text = path.read_text(encoding="utf-8")
-            except (OSError, UnicodeDecodeError) as exc:
-                raise InputFormatError(f"cannot read {s!r}: {exc}") from None
-            where = s
+            text, where = _read_file(s), s
     else:
         raise InputFormatError(
             f"cannot read geometry from {type(source).__name__!s}: give a path, '-', a GeoJSON "
             "dict or string, an object with __geo_interface__, or use Shape.from_lonlat"
         )
     if isinstance(text, bytes):
-        text = text.decode("utf-8")
+        try:
+            text = text.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise InputFormatError(f"{where} is not UTF-8 text: {exc}") from None
+    if not isinstance(text, str):
+        raise InputFormatError(f"{where} gave {type(text).__name__}, not text")
+    return _loads(text, where)
+
+
+def _read_file(s: str) -> str:
     try:
-        return json.loads(text)
+        path = Path(s)
+        if not path.exists():
+            raise InputFormatError(f"no such file: {s!r}")
+        if path.is_dir():
+            raise InputFormatError(f"{s!r} is a directory, not a GeoJSON file")
+        return path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        if isinstance(exc, InputFormatError):
+            raise
+        raise InputFormatError(f"cannot read {s!r}: {exc}") from None
+
+
+class _LongNumber(Exception):
+    """Raised from json.loads by an integer longer than Python converts."""
+
+
+def _int(text: str):
+    try:
+        return int(text)
+    except ValueError:  # more digits than sys.get_int_max_str_digits()
+        raise _LongNumber(text) from None
+
+
+def _loads(text: str, where: str):
+    try:
+        return json.loads(text, parse_int=_int)
     except json.JSONDecodeError as exc:
         raise InputFormatError(
             f"{where} is not valid JSON (line {exc.lineno}, column {exc.colno}): {exc.msg}"
         ) from None
+    except _LongNumber as exc:
+        digits = str(exc.args[0]).lstrip("+-")
+        at = text.find(digits)
+        line = text.count("\n", 0, at) + 1
+        col = at - text.rfind("\n", 0, at)
+        raise InputFormatError(
+            f"{where}, line {line}, column {col}: a number with {len(digits)} digits; "
+            f"gloffset reads numbers of up to {_max_digits()} digits"
+        ) from None
+    except RecursionError:
+        raise InputFormatError(f"{where}: JSON nested too deeply to read") from None
+
+
+def _max_digits() -> int:
+    get = getattr(sys, "get_int_max_str_digits", None)
+    return get() if get is not None else 4300
+
+
+def _short(value, width: int = 60) -> str:
+    """``repr(value)``, cut to ``width`` characters, for messages about arbitrary input."""
+    try:
+        text = repr(value)
+    except ValueError:  # an int too long to print
+        text = f"<{type(value).__name__}>"
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
+_NESTING = {1: "a list of positions", 2: "a list of lists of positions", 3: "a list of polygons"}
 
 
 def _coords(obj, depth: int, label: str) -> list:
-    """Check nesting depth of a coordinates array and return it as nested lists."""
+    """Check the nesting of a coordinates array (``depth`` lists above the positions) and
+    return it as nested lists of positions."""
     if obj is None:
         raise InputFormatError(f"{label}: missing 'coordinates'")
+    if isinstance(obj, np.ndarray):
+        obj = obj.tolist()
     if depth == 0:
         return obj
     if not isinstance(obj, (list, tuple)):
-        raise InputFormatError(f"{label}: 'coordinates' is not nested as its type requires")
+        raise InputFormatError(
+            f"{label}: 'coordinates' are not nested as the geometry type requires: expected "
+            f"{_NESTING[depth]}, got {_short(obj)}"
+        )
     return [_coords(o, depth - 1, label) for o in obj]
+
+
+def _number(v) -> bool:
+    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
+
+
+#: The types of the numbers json.loads makes (bool, a subclass of int, is not one of them).
+_PLAIN = {float, int}
 
 
 def _position_array(coords, label: str) -> np.ndarray:
     """An (n, 2) float64 array of lon/lat from a list of GeoJSON positions."""
     if len(coords) == 0:
         return np.zeros((0, 2))
-    try:
-        rows = [(float(p[0]), float(p[1])) for p in coords]
-    except (TypeError, ValueError, IndexError):
-        raise InputFormatError(f"{label}: positions must be [lon, lat] pairs of numbers") from None
+    try:  # the usual case, fast: positions of plain numbers, all of one length
+        if set(map(type, itertools.chain.from_iterable(coords))) <= _PLAIN:
+            arr = np.array(coords, dtype=np.float64)
+            if arr.ndim == 2 and arr.shape[1] >= 2:
+                return np.ascontiguousarray(arr[:, :2])
+    except (TypeError, ValueError, OverflowError):
+        pass
+    rows = []  # anything else, position by position, with an error that names the first bad one
+    for i, p in enumerate(coords):
+        if not isinstance(p, (list, tuple)) or len(p) < 2 or not (_number(p[0]) and _number(p[1])):
+            raise InputFormatError(
+                f"{label} vertex {i}: a position is [lon, lat] (two numbers), got {_short(p)}"
+            )
+        try:
+            rows.append((float(p[0]), float(p[1])))
+        except OverflowError:
+            raise InputFormatError(
+                f"{label} vertex {i}: coordinate too large for a float ({_short(p)})"
+            ) from None
     return np.asarray(rows, dtype=np.float64)
 
 
 def parse(obj) -> Parts:
     """Flatten a GeoJSON object into labelled lon/lat :class:`Parts`."""
+    try:
+        return _parse(obj)
+    except RecursionError:
+        raise InputFormatError("GeoJSON nested too deeply to read") from None
+
+
+def _parse(obj) -> Parts:
     parts = Parts()
     if not isinstance(obj, dict) or "type" not in obj:
         raise InputFormatError("not a GeoJSON object: no 'type' member")
@@ -135,7 +233,9 @@ def _feature_label(f, i: int) -> str:
                 break
     if name is None and isinstance(f, dict) and f.get("id") is not None:
         name = f["id"]
-    return f"feature {i}" + (f" ({name})" if name is not None else "")
+    if name is None:
+        return f"feature {i}"
+    return f"feature {i} ({name if isinstance(name, str) and len(name) <= 60 else _short(name)})"
 
 
 def _feature(f, label: str, parts: Parts) -> None:
@@ -157,26 +257,30 @@ def _geometry(g, label: str, parts: Parts) -> None:
         parts.point_labels.append(f"{label} Point")
     elif kind == "MultiPoint":
         for j, p in enumerate(_coords(c, 1, label)):
-            parts.points.append(_position_array([p], label))
+            parts.points.append(_position_array([p], f"{label} point {j}"))
             parts.point_labels.append(f"{label} point {j}")
     elif kind == "LineString":
-        parts.lines.append(_position_array(_coords(c, 1, label), label))
+        parts.lines.append(_position_array(_coords(c, 1, label), f"{label} LineString"))
         parts.line_labels.append(f"{label} LineString")
     elif kind == "MultiLineString":
         for j, line in enumerate(_coords(c, 2, label)):
-            parts.lines.append(_position_array(line, label))
+            parts.lines.append(_position_array(line, f"{label} line {j}"))
             parts.line_labels.append(f"{label} line {j}")
     elif kind == "Polygon":
         rings = _coords(c, 2, label)
         if len(rings) == 0:
             raise InputFormatError(f"{label}: Polygon has no rings (empty geometry)")
-        parts.polygons.append([_position_array(r, label) for r in rings])
+        parts.polygons.append(
+            [_position_array(r, f"{label} Polygon ring {k}") for k, r in enumerate(rings)]
+        )
         parts.polygon_labels.append(f"{label} Polygon")
     elif kind == "MultiPolygon":
         for j, poly in enumerate(_coords(c, 3, label)):
             if len(poly) == 0:
                 raise InputFormatError(f"{label}: polygon {j} has no rings (empty geometry)")
-            parts.polygons.append([_position_array(r, label) for r in poly])
+            parts.polygons.append(
+                [_position_array(r, f"{label} polygon {j} ring {k}") for k, r in enumerate(poly)]
+            )
             parts.polygon_labels.append(f"{label} polygon {j}")
     elif kind == "GeometryCollection":
         geoms = g.get("geometries")
@@ -185,7 +289,7 @@ def _geometry(g, label: str, parts: Parts) -> None:
         for j, sub in enumerate(geoms):
             _geometry(sub, f"{label} geometry {j}", parts)
     else:
-        raise InputFormatError(f"{label}: unsupported geometry type {kind!r}")
+        raise InputFormatError(f"{label}: unsupported geometry type {_short(kind)}")
 
 
 # --------------------------------------------------------------------------- writing
@@ -194,7 +298,15 @@ _AM_TOL = 1e-9  # degrees: a longitude within this of +-180 lies on the antimeri
 
 
 def _round(a: np.ndarray, digits: int | None) -> list:
-    return (np.round(a, digits) if digits is not None else a).tolist()
+    if digits is None:
+        return a.tolist()
+    if (
+        not isinstance(digits, (int, np.integer))
+        or isinstance(digits, (bool, np.bool_))
+        or digits < 0
+    ):
+        raise OptionError(f"digits must be a whole number >= 0, got {_short(digits)}")
+    return np.round(a, int(digits)).tolist()
 
 
 def _crossing(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -1,20 +1,36 @@
-"""PNG output of masks and class rasters (Pillow), written atomically."""
+"""Mask and class images (Pillow): PNG or TIFF out, masks in.
+
+Images are written through :mod:`gloffset.io.output` (atomic for files, through pipes and
+devices, ``-`` for standard output), in the format the name asks for (:func:`image_format`).
+"""
 
 from __future__ import annotations
 
+import io
 import os
 import re
-from pathlib import Path
 
 import numpy as np
-from PIL import Image, ImageColor
+from PIL import Image, ImageColor, features
 
-from ..errors import GloffsetError
+from ..errors import GloffsetError, InputFormatError, OutputError
+from .output import STDOUT, write_bytes
 
-__all__ = ["parse_color", "read_mask", "write_mask", "write_classes", "CLASS_COLORS"]
+__all__ = [
+    "CLASS_COLORS",
+    "IMAGE_FORMATS",
+    "image_format",
+    "parse_color",
+    "read_mask",
+    "write_classes",
+    "write_mask",
+]
 
 #: Colours of the paper's Fig. 13: contained black, frontier red, outside white.
 CLASS_COLORS = {0: (255, 255, 255, 255), 1: (220, 30, 30, 255), 2: (0, 0, 0, 255)}
+
+#: Lossless image formats that outputs can be written in, by file extension.
+IMAGE_FORMATS = {".png": "PNG", ".tif": "TIFF", ".tiff": "TIFF"}
 
 
 class ColorError(GloffsetError, ValueError):
@@ -43,42 +59,115 @@ def parse_color(text: str) -> tuple[int, int, int, int]:
     )
 
 
-def _save(img: Image.Image, path) -> Path:
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    try:
-        img.save(tmp, format="PNG")
-        os.replace(tmp, path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise GloffsetError(f"cannot write {str(path)!r}: {exc.strerror or exc}") from None
-    return path
+def image_format(target) -> str:
+    """The format written for an output name: ``"PNG"``, or ``"TIFF"`` for ``.tif``/``.tiff``.
+
+    A name without an extension (``/dev/stdout``, a FIFO) or ``-`` is PNG. JPEG is refused: it
+    is lossy, so a mask would come out with other values than 0 and 255 along every edge and the
+    classes with other colours. Any other extension is refused too (raises
+    :class:`~gloffset.errors.OutputError` naming the supported ones).
+    """
+    name = os.fspath(target)
+    if name == STDOUT:
+        return "PNG"
+    ext = os.path.splitext(os.path.basename(name))[1].lower()
+    if ext == "":
+        return "PNG"
+    if ext in IMAGE_FORMATS:
+        return IMAGE_FORMATS[ext]
+    if ext in (".jpg", ".jpeg", ".jpe", ".jfif"):
+        why = (
+            "JPEG is lossy and would change the image's values along every edge; "
+            "write .png or .tif instead"
+        )
+    else:
+        why = f"unsupported image extension {ext!r}; use .png, .tif or .tiff (no extension: PNG)"
+    raise OutputError(f"cannot write {name!r}: {why}")
 
 
-def write_mask(mask: np.ndarray, path, *, fill=None, background=None) -> Path:
-    """Write a 0/255 mask: greyscale, or RGBA with ``fill`` inside and ``background`` outside."""
+def _save(img: Image.Image, target) -> None:
+    """Encode ``img`` in the format of ``target``'s name and write it (see
+    :mod:`gloffset.io.output`: atomic for files, through pipes and devices, ``-`` stdout)."""
+    fmt = image_format(target)
+    buf = io.BytesIO()
+    if fmt == "TIFF":
+        compression = "tiff_adobe_deflate" if features.check("libtiff") else None
+        img.save(buf, format="TIFF", compression=compression)
+    else:
+        img.save(buf, format="PNG")
+    write_bytes(target, buf.getvalue())
+
+
+def write_mask(mask: np.ndarray, target, *, fill=None, background=None) -> None:
+    """Write a 0/255 mask: greyscale, or RGBA with ``fill`` inside and ``background`` outside.
+
+    ``target`` is a path (PNG, or TIFF for ``.tif``/``.tiff``) or ``-`` for standard output.
+    """
     if fill is None and background is None:
-        return _save(Image.fromarray(mask.astype(np.uint8), mode="L"), path)
+        return _save(Image.fromarray(mask.astype(np.uint8), mode="L"), target)
     fg = np.array(parse_color(fill) if fill else (255, 255, 255, 255), dtype=np.uint8)
     bg = np.array(parse_color(background) if background else (0, 0, 0, 0), dtype=np.uint8)
     rgba = np.where(mask[..., None] > 0, fg, bg).astype(np.uint8)
-    return _save(Image.fromarray(rgba, mode="RGBA"), path)
+    return _save(Image.fromarray(rgba, mode="RGBA"), target)
 
 
-def write_classes(classes: np.ndarray, path) -> Path:
+def write_classes(classes: np.ndarray, target) -> None:
     """Write a class raster (0 outside, 1 frontier, 2 contained) in the colours of Fig. 13."""
     lut = np.array([CLASS_COLORS[k] for k in range(3)], dtype=np.uint8)
-    return _save(Image.fromarray(lut[np.clip(classes, 0, 2)], mode="RGBA"), path)
+    return _save(Image.fromarray(lut[np.clip(classes, 0, 2)], mode="RGBA"), target)
+
+
+#: Image modes a mask may have; 16-bit greys are halved at 32768.
+_GREY16 = ("I;16", "I;16B", "I;16L", "I")
 
 
 def read_mask(path) -> np.ndarray:
-    """Read a curve mask: (height, width) bool, True where any channel of a pixel is non-zero.
+    """Read a curve mask: (height, width) bool, row 0 the top (northern) row of the image.
 
-    Row 0 is the top (northern) row of the image.
+    A mask is one of:
+
+    - a greyscale image (1-bit, 8-bit or 16-bit grey, or an RGB/RGBA/palette image whose
+      every pixel is grey, R = G = B): the curve is every pixel at least half white
+      (>= 128 of 255, >= 32768 of 65535);
+    - an image with an alpha channel that is not opaque everywhere: the curve is every pixel
+      at least half opaque (alpha >= 128), whatever its colour.
+
+    Anything else (a colour image without transparency, float or CMYK pixels) raises
+    :class:`~gloffset.errors.InputFormatError`.
     """
+    where = str(path)
     try:
         with Image.open(path) as img:
-            arr = np.asarray(img.convert("RGBA") if img.mode == "P" else img)
-    except (OSError, ValueError) as exc:
-        raise GloffsetError(f"cannot read mask image {str(path)!r}: {exc}") from None
-    return arr.reshape(arr.shape[0], arr.shape[1], -1).any(axis=2)
+            img.load()
+            mode = img.mode
+            if mode in ("P", "PA"):
+                img = img.convert("RGBA")
+            elif mode == "1":
+                img = img.convert("L")
+            arr = np.asarray(img)
+    except (OSError, ValueError, Image.DecompressionBombError) as exc:
+        raise InputFormatError(f"cannot read mask image {where!r}: {exc}") from None
+    if mode in _GREY16:
+        return arr.astype(np.int64) >= 32768
+    if mode not in ("1", "L", "LA", "P", "PA", "RGB", "RGBA"):
+        raise InputFormatError(
+            f"mask image {where!r} has {mode} pixels: a mask is a grey image (curve where at "
+            "least half white) or an image with transparency (curve where at least half opaque)"
+        )
+    arr = arr.reshape(arr.shape[0], arr.shape[1], -1)
+    if arr.shape[2] in (2, 4):  # grey or colour with alpha
+        alpha = arr[..., -1]
+        if (alpha < 255).any():
+            return alpha >= 128
+        arr = arr[..., :-1]
+    if arr.shape[2] == 3:
+        colour = (arr[..., 0] != arr[..., 1]) | (arr[..., 1] != arr[..., 2])
+        if colour.any():
+            j, i = (int(v[0]) for v in np.nonzero(colour))
+            raise InputFormatError(
+                f"mask image {where!r} is a colour image (pixel row {j}, column {i} is "
+                f"{tuple(int(v) for v in arr[j, i])}): a mask is a grey image (curve where at "
+                "least half white) or an image with transparency (curve where at least half "
+                "opaque)"
+            )
+    return arr[..., 0] >= 128
