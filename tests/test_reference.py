@@ -36,6 +36,7 @@ def brute_inside(shape, lon, lat):
     return out
 
 
+@pytest.mark.slow
 def test_contains_matches_spherely_for_every_country(world):
     bad = {}
     for name, feat in world.items():
@@ -55,6 +56,7 @@ def test_contains_matches_spherely_for_every_country(world):
     assert not bad
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n", [N])
 def test_distance_matches_spherely_for_every_country(world, n):
     worst = 0.0
