@@ -283,13 +283,12 @@ def bbox(features, pad):
     return (lo[0] - pad, max(lo[1] - pad, -89.0), hi[0] + pad, min(hi[1] + pad, 89.0))
 
 
-def check_against_shapely(features, ds, n=6000, render=True, offsets=True, seed=0):
-    """contains, render, tiles and resolved offsets of the union of ``features`` agree
-    with shapely's union (its inside, and the reference distance to its boundary)."""
+def shapely_truth(features):
+    """``truth(lon, lat, d) -> (want, sure)`` for the union of ``features`` by shapely:
+    inside shapely's union, and the reference distance to its boundary; ``sure`` leaves
+    out points within MARGIN of the boundary or of distance d from it."""
     import shapely
 
-    fc = {"type": "FeatureCollection", "features": features}
-    ours = gloffset.read(fc)
     theirs_geom = shapely_union(features)
     theirs = gloffset.read(theirs_geom)  # one polygon set without shared borders
     shapely.prepare(theirs_geom)
@@ -302,6 +301,15 @@ def check_against_shapely(features, ds, n=6000, render=True, offsets=True, seed=
         sure = (dist > MARGIN) & (np.abs(dist - abs(d)) > MARGIN)
         return want, sure
 
+    return truth
+
+
+def check_against_shapely(features, ds, n=6000, render=True, offsets=True, seed=0):
+    """contains, render, tiles and resolved offsets of the union of ``features`` agree
+    with shapely's union (its inside, and the reference distance to its boundary)."""
+    fc = {"type": "FeatureCollection", "features": features}
+    ours = gloffset.read(fc)
+    truth = shapely_truth(features)
     box = bbox(features, 1.5)
     lon, lat = random_points(box, n, seed)
     # points along the shared borders too: the vertices of every input ring
@@ -362,6 +370,45 @@ def test_neighbours_against_shapely_union(countries, names):
     ours = check_against_shapely(feats, (0.0, 20e3, -20e3), n=3000, offsets=False)
     # fewer vertices than the parts: the shared borders are gone
     assert ours.n_vertices < sum(gloffset.read(f).n_vertices for f in feats)
+
+
+def test_neighbours_pyramid_against_shapely_union(countries, tmp_path):
+    """A tile pyramid of South Africa with Lesotho (its enclave): every tile of z3-z5 over
+    them holds exactly the union's pixels."""
+    import io
+    import sqlite3
+
+    from PIL import Image
+
+    from gloffset.tiles import pyramid
+
+    feats = [countries["South Africa"], countries["Lesotho"]]
+    fc = {"type": "FeatureCollection", "features": feats}
+    truth = shapely_truth(feats)
+    box = bbox(feats, 0.5)
+    size = 64
+    for d in (-20e3, 20e3):
+        path = tmp_path / f"t{d:g}.mbtiles"
+        pyramid(fc, d, "3-5", path, size=size)
+        db = sqlite3.connect(path)
+        tiles = {
+            (z, x, (1 << z) - 1 - r): bytes(b) for z, x, r, b in db.execute("SELECT * FROM tiles")
+        }
+        db.close()
+        for z in range(3, 6):
+            x0, y0 = _tile_xy(box[0], box[3], z)
+            x1, y1 = _tile_xy(box[2], box[1], z)
+            for x in range(x0, x1 + 1):
+                for y in range(y0, y1 + 1):
+                    tile = Tile(z, x, y, size)
+                    png = tiles.get((z, x, y))
+                    got = np.zeros((size, size), bool)
+                    if png is not None:
+                        got = np.asarray(Image.open(io.BytesIO(png)).convert("RGBA"))[..., 3] > 0
+                    jj, ii = np.mgrid[0:size, 0:size]
+                    lon, lat = tile.pixel_lonlat(ii.ravel(), jj.ravel())
+                    want, sure = truth(lon, lat, d / R)
+                    assert np.array_equal(got.ravel()[sure], want[sure]), (d, z, x, y)
 
 
 @pytest.mark.parametrize("names", NEIGHBOURS[:2], ids=lambda n: "-".join(n))
