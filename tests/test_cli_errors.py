@@ -414,3 +414,36 @@ def test_dev_stdout_redirected_to_a_file_is_appended_to(tmp_path, square, points
         )
     assert proc.returncode == 0, proc.stderr
     assert log.read_bytes() == OLD + b"id,lon,lat,inside\na,5,5,true\nb,20,20,false\n"
+
+
+# ------------------------------------------------------------------ limits of the region
+
+
+@pytest.mark.parametrize(
+    "geometry, args, words",
+    [
+        ({"type": "LineString", "coordinates": [[0, 0], [10, 0]]}, ["-d", "-5km"], ["no polygon"]),
+        ({"type": "Point", "coordinates": [0, 0]}, ["-d", "0"], ["no polygon"]),
+        (SQUARE, ["-d", "25000km"], ["pi/2", "contains() and distance() answer any distance"]),
+        (
+            {"type": "LineString", "coordinates": [[0, 0], [400, 0]]},
+            ["-d", "5km"],
+            ["longitude 400.0 out of range"],
+        ),
+        (
+            {"type": "Polygon", "coordinates": [[[-180, -90], [180, -90], [180, 90], [-180, 90]]]},
+            ["-d", "5km"],
+            ["whole sphere"],
+        ),
+    ],
+)
+def test_limits_of_the_region(tmp_path, geometry, args, words):
+    src = tmp_path / "in.geojson"
+    src.write_text(json.dumps(geometry))
+    out = old_output(tmp_path, "out.geojson")
+    assert_one_line_error(cli("offset", src, *args, "-o", out), *words)
+    assert_unchanged(out)
+    png = old_output(tmp_path, "out.png")
+    if "pi/2" not in words:
+        assert_one_line_error(cli("render", src, *args, "--size", "64x32", "-o", png), *words[:1])
+    assert_unchanged(png)

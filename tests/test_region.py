@@ -460,3 +460,28 @@ def test_inward_offsets_of_every_country(countries):
             )
             assert np.array_equal(got, want), name
             assert np.array_equal(want, contains_xyz(shape, near[keep], d)), name
+
+
+def test_shape_keeps_the_polygons_as_given():
+    """The union is derived; to_geojson writes the user's polygons back."""
+    s = gloffset.read(mp(SQ_A, SQ_B))
+    geom = s.to_geojson()["geometry"]
+    assert geom["type"] == "MultiPolygon" and len(geom["coordinates"]) == 2
+    assert geom["coordinates"][0][0] == [[float(x), float(y)] for x, y in SQ_A]
+    again = gloffset.read(s.to_geojson())
+    assert len(again.rings) == 1 and np.array_equal(again.rings[0], s.rings[0])
+    # a hole given clockwise or not comes back clockwise, the exterior counter-clockwise
+    holed = gloffset.read(
+        {"type": "Polygon", "coordinates": [RECT[::-1], [[5, 3], [15, 3], [15, 7], [5, 7], [5, 3]]]}
+    )
+    ext, hole = holed.to_geojson()["geometry"]["coordinates"][0]
+    area = [
+        0.5
+        * np.sum(
+            np.array(r)[:-1, 0] * np.array(r)[1:, 1] - np.array(r)[1:, 0] * np.array(r)[:-1, 1]
+        )
+        for r in (ext, hole)
+    ]
+    assert area[0] > 0 > area[1]
+    with pytest.raises(gloffset.errors.InvalidGeometryError, match="longitude 400.0 out of range"):
+        gloffset.read({"type": "LineString", "coordinates": [[0, 0], [400, 0]]})
