@@ -485,3 +485,19 @@ def test_shape_keeps_the_polygons_as_given():
     assert area[0] > 0 > area[1]
     with pytest.raises(gloffset.errors.InvalidGeometryError, match="longitude 400.0 out of range"):
         gloffset.read({"type": "LineString", "coordinates": [[0, 0], [400, 0]]})
+
+
+@pytest.mark.slow
+def test_planet_union_against_shapely():
+    """All 234 countries at 1:10m (308k vertices) united at once: the same region as
+    shapely's union, at d = 0 and -50 km, on points uniform on the sphere."""
+    fc = json.loads((DATA / "countries_10m.geojson").read_text())
+    ours = gloffset.read(fc)
+    truth = shapely_truth(fc["features"])
+    rng = np.random.default_rng(1)
+    lon = rng.uniform(-180, 180, 6000)
+    lat = np.degrees(np.arcsin(rng.uniform(-1, 1, 6000)))
+    for d in (0.0, -50e3):
+        want, sure = truth(lon, lat, d / R)
+        got = gloffset.contains(ours, lon[sure], lat[sure], distance=d)
+        assert np.array_equal(got, want[sure]), d
