@@ -353,8 +353,6 @@ class _Union:
 
     def _inside_other(self, p, own, excl):
         """For points ``p``: inside any input polygon other than ``own``/``excl``?"""
-        m = len(self.nxt)
-        a, b = self.v[:m], self.v[self.nxt]
         caps_c, caps_r = self.caps
         cq = np.einsum("ij,kj->ik", p, caps_c)  # (points, comps)
         cand = cq >= np.cos(np.minimum(caps_r, np.pi))[None, :] - 1e-12
@@ -362,16 +360,23 @@ class _Union:
         for k, cs in excl.items():
             cand[k, list(cs)] = False
         pi, ci = np.nonzero(cand)
-        if len(pi) == 0:
-            return np.zeros(len(p), bool)
+        out = np.zeros(len(p), bool)
+        np.logical_or.at(out, pi, self._inside(p[pi], ci))
+        return out
+
+    def _inside(self, p, ci):
+        """Whether each point ``p[k]`` lies inside input polygon ``ci[k]``: parity of the
+        crossings of the arc from it to the polygon's inner point (through a point off
+        the way when the two are far apart)."""
+        m = len(self.nxt)
+        a, b = self.v[:m], self.v[self.nxt]
+        if len(p) == 0:
+            return np.zeros(0, bool)
         q = self.inner[ci]
-        # a long way round goes through a midpoint
-        via = np.einsum("ij,ij->i", p[pi], q) < -0.5
-        legs = [(p[pi], np.where(via[:, None], _perp(p[pi], q), q))]
-        legs.append((legs[0][1][via], q[via]))
-        par = np.zeros(len(pi), bool)
-        for leg, (s, t) in enumerate(legs):
-            ids = np.arange(len(pi)) if leg == 0 else np.flatnonzero(via)
+        via = np.einsum("ij,ij->i", p, q) < -0.5
+        mid = np.where(via[:, None], _perp(p, q), q)
+        par = np.zeros(len(p), bool)
+        for ids, s, t in ((np.arange(len(p)), p, mid), (np.flatnonzero(via), mid[via], q[via])):
             if len(ids) == 0:
                 continue
             c = ci[ids]
@@ -380,13 +385,15 @@ class _Union:
             si, ei = si[ok], ei[ok]
             hit = arcs_cross(s[si], t[si], a[ei], b[ei], self.n[ei])
             np.logical_xor.at(par, ids[si[hit]], True)
-        inside = ~par  # the inner point is inside its polygon
-        out = np.zeros(len(p), bool)
-        np.logical_or.at(out, pi, inside)
-        return out
+        return ~par  # the inner point is inside its polygon
 
     def _comp_caps(self):
-        """A bounding cap (centre, radius) of each input polygon."""
+        """A cap (centre, radius) holding each input polygon, its inside included.
+
+        The cap around a polygon's edges holds its inside unless the inside is the far
+        side: then the point opposite the cap's centre is inside, and the cap is the
+        whole sphere.
+        """
         m = len(self.nxt)
         a, b = self.v[:m], self.v[self.nxt]
         lo = self.comp_start
@@ -396,7 +403,10 @@ class _Union:
         cc = c[self.comp]
         reach = np.maximum(angle(cc, a), angle(cc, b)) + 0.5 * angle(a, b)
         r = np.maximum.reduceat(reach, lo) * (1 + 1e-12) + 1e-9
-        return c, np.where(big, np.pi, np.minimum(r, np.pi))
+        big |= r >= np.pi
+        small = np.flatnonzero(~big)
+        big[small[self._inside(-c[small], small)]] = True
+        return c, np.where(big, np.pi, r)
 
     def _classify(self, pieces, keep, excl):
         """Drop the kept pieces that lie inside another polygon.

@@ -236,6 +236,15 @@ def test_whole_world_ring():
     assert not gloffset.contains(ocean, [5], [5]).any()
     square = gloffset.read({"type": "Polygon", "coordinates": [hole[::-1]]})
     assert gloffset.distance(ocean, 5, 20) == gloffset.distance(square, 5, 20)
+    # an island in the ocean is inside it (no boundary), an island in the hole is not
+    island = [[100, 0], [101, 0], [101, 1], [100, 1], [100, 0]]
+    lake_island = [[4, 4], [6, 4], [6, 6], [4, 6], [4, 4]]
+    both = gloffset.read(
+        {"type": "MultiPolygon", "coordinates": [[world, hole], [island], [lake_island]]}
+    )
+    assert len(both.rings) == 2
+    assert gloffset.distance(both, 100.5, 0.5) == gloffset.distance(square, 100.5, 0.5)
+    assert gloffset.contains(both, [5, 3], [5, 3]).tolist() == [True, False]
 
 
 # --------------------------------------------------------------------------- 4. inward offsets
