@@ -72,7 +72,7 @@ from .hierarchy import (
 from .io.tilestore import open_store
 from .shape import read
 from .sphere import angle
-from .tilepaint import TileStyle, outline_lines
+from .tilepaint import OutlineArcs, TileStyle
 from .units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
 
 __all__ = ["pyramid", "parse_zooms", "PyramidStats", "TilesError", "MAX_ZOOM", "TileLevels"]
@@ -408,6 +408,7 @@ def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, st
     full = style.encode(np.ones((size, size), dtype=bool))
     chain = _BinChain(arcs, levels, d, max(0, plog - _BIN_LOG2))
     counter = {"done": 0, "total": 0}
+    outline = OutlineArcs(arcs) if style.outline is not None else None
 
     def tick(n=1):
         counter["done"] += n
@@ -421,7 +422,7 @@ def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, st
         cand = f.pair_arc[s:t]
         cand = cand[arcs.boundary[cand]]
         y, x = (int(v) for v in f.cells[i])
-        return outline_lines(arcs, cand, f.centers[i], float(r[i]), z, x, y, size)
+        return outline.lines(cand, f.centers[i], float(r[i]), z, x, y, size)
 
     f = None
     forced = None
