@@ -54,9 +54,9 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .errors import GloffsetError
 from .gl.engine import BinLayout
-from .grids.base import rect_radius
+from .grids.base import InvalidGridError, rect_radius
+from .grids.mercator import MAX_ZOOM, check_tile_size, lat_at, lon_at
 from .hierarchy import (
     CONTAINED,
     FRONTIER,
@@ -77,9 +77,6 @@ from .units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
 
 __all__ = ["pyramid", "parse_zooms", "PyramidStats", "TilesError", "MAX_ZOOM", "TileLevels"]
 
-#: Deepest zoom a pyramid may reach (the raster engine is exact to a fraction of a
-#: pixel up to here).
-MAX_ZOOM = 22
 #: Frontier tiles rendered per GPU run: (MAX_BLOCK / tile size)^2.
 MAX_BLOCK = 4096
 #: Output pixels per side of a bin (below it the GPU takes over).
@@ -87,12 +84,14 @@ _BIN_LOG2 = 4
 _NONE = 255  # no forced class
 
 
-class TilesError(GloffsetError, ValueError):
-    """A tile pyramid request has a bad zoom range, tile size or option."""
+class TilesError(InvalidGridError):
+    """A tile pyramid request has a bad zoom range, tile size or option (the limits are
+    those of :mod:`gloffset.grids.mercator`)."""
 
 
 def parse_zooms(zooms) -> tuple[int, int]:
-    """``(min, max)`` from ``"0-14"``, ``"5"``, an int or a pair, checked against 0..22.
+    """``(min, max)`` from ``"0-14"``, ``"5"``, an int or a pair, checked against 0..MAX_ZOOM
+    (:data:`gloffset.grids.mercator.MAX_ZOOM`, 22).
 
     Examples
     --------
@@ -128,12 +127,12 @@ def parse_zooms(zooms) -> tuple[int, int]:
 # ---------------------------------------------------------------------- geometry
 def _lat(z: int, yy) -> np.ndarray:
     """Latitude (radians) at fractional tile row ``yy`` of zoom ``z``."""
-    return np.arctan(np.sinh(math.pi * (1.0 - 2.0 * np.asarray(yy, dtype=np.float64) / (1 << z))))
+    return lat_at(yy, 1 << z)
 
 
 def _lon(z: int, xx) -> np.ndarray:
     """Longitude (radians) at fractional tile column ``xx`` of zoom ``z``."""
-    return -math.pi + 2.0 * math.pi * np.asarray(xx, dtype=np.float64) / (1 << z)
+    return lon_at(xx, 1 << z)
 
 
 def _xyz(lon, lat) -> np.ndarray:
@@ -349,11 +348,7 @@ def pyramid(
     shape = read(shape)
     d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="a tile pyramid")
     zlo, zhi = parse_zooms(zooms)
-    if not (isinstance(size, (int, np.integer)) and 16 <= size <= 4096 and size & (size - 1) == 0):
-        raise TilesError(
-            f"tile size must be a power of two from 16 to 4096 pixels (256, 512, ...), got {size!r}"
-        )
-    size = int(size)
+    size = check_tile_size(size, TilesError)
     style = TileStyle(fill, opacity, outline, outline_width)
     params = _params(d, (zlo, zhi), size, style)
     if isinstance(out, (str, Path)):
