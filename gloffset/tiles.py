@@ -73,7 +73,7 @@ from .io.tilestore import open_store
 from .shape import read
 from .sphere import angle
 from .tilepaint import OutlineArcs, TileStyle
-from .units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
+from .units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
 
 __all__ = ["pyramid", "parse_zooms", "PyramidStats", "TilesError", "MAX_ZOOM", "TileLevels"]
 
@@ -258,6 +258,41 @@ def _metadata(name, description, zooms, params) -> dict:
     }
 
 
+def _source_name(shape) -> str | None:
+    """The file stem of an input given as a path (None for anything else)."""
+    if isinstance(shape, Path):
+        return shape.stem
+    if isinstance(shape, str) and shape != "-" and not shape.lstrip().startswith(("{", "[")):
+        return Path(shape).stem
+    return None
+
+
+def _describe(distance, d: float, radius: float, source: str | None) -> str:
+    """The ``description`` metadata of a pyramid: the distance as given (``"127km"``, or a
+    number in metres), its value in metres and radians, and the input's name.
+
+    Examples
+    --------
+    >>> _describe("127km", 127e3 / EARTH_RADIUS, EARTH_RADIUS, "mexico_10m").split(";")[0]
+    'Region within 127km of mexico_10m, polygons included (127km = 127000 m = 0.019934 rad)'
+    """
+    value = f"{d * radius:.10g} m = {d:.6g} rad"
+    if isinstance(distance, str):
+        given = distance.strip()
+        value = f"{given} = {value}"
+    else:
+        given = f"{float(distance):.10g} m"
+    if radius != EARTH_RADIUS:
+        value += f" on a sphere of radius {radius:.10g} m"
+    src = source or "the input"
+    if d < 0:
+        size = given[1:].lstrip() if given.startswith("-") else given
+        what = f"Points of {src} inside its polygons and farther than {size} from their boundary"
+    else:
+        what = f"Region within {given} of {src}, polygons included"
+    return f"{what} ({value}); gloffset {__version__}"
+
+
 def _final_bounds(store, zooms) -> dict:
     for z in range(zooms[1], zooms[0] - 1, -1):
         ext = store.extent(z)
@@ -289,6 +324,7 @@ def pyramid(
     resume: bool = False,
     overwrite: bool = False,
     name: str | None = None,
+    source: str | None = None,
     progress=None,
     max_block: int = MAX_BLOCK,
 ) -> PyramidStats:
@@ -297,8 +333,10 @@ def pyramid(
     Parameters
     ----------
     shape : Shape or anything :func:`gloffset.read` accepts
-    distance : float
-        In the units of ``radius`` (metres by default); negative shrinks polygons.
+    distance : float or str
+        A number in the units of ``radius`` (metres by default) or a distance with its
+        unit (``"127km"``, ``"0.02rad"``: :func:`gloffset.parse_distance`); negative
+        shrinks polygons.
     zooms : str, int or (int, int)
         Zoom range, e.g. ``"0-14"`` (at most 0..22).
     out : str, Path or a tile store
@@ -317,6 +355,10 @@ def pyramid(
         Replace an existing output.
     name : str, optional
         The ``name`` metadata (default: the file or directory name).
+    source : str, optional
+        The input's name in the ``description`` metadata (default: the file stem when
+        ``shape`` is a path, else "the input"), next to the distance as given and its
+        value in metres and radians.
     progress : callable, optional
         ``progress(done, estimate)`` after each tile handled.
     max_block : int
@@ -342,23 +384,23 @@ def pyramid(
     ...     st = gloffset.tiles.pyramid(tri, 100e3, "0-2", os.path.join(tmp, "t.mbtiles"),
     ...                                 size=64)
     >>> st.written, st.rendered, st.inside
-    (10, 9, 6)
+    (12, 9, 6)
     """
     t0 = time.perf_counter()
+    source = source if source is not None else _source_name(shape)
     shape = read(shape)
-    d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="a tile pyramid")
+    if isinstance(distance, str):  # "127km": its angle (the limits apply to it)
+        value, unit = parse_distance(distance, radius), 1.0
+    else:
+        value, unit = distance, radius
+    d = offset_angle(shape, value, unit, limit=RASTER_LIMIT, what="a tile pyramid")
     zlo, zhi = parse_zooms(zooms)
     size = check_tile_size(size, TilesError)
     style = TileStyle(fill, opacity, outline, outline_width)
     params = _params(d, (zlo, zhi), size, style)
     if isinstance(out, (str, Path)):
         label = name or Path(out).stem or "gloffset"
-        km = f"{abs(d) * radius / 1000:.6g} km ({abs(d):.6g} rad)"
-        desc = (
-            f"Points of {label} inside its polygons and farther than {km} from their boundary"
-            if d < 0
-            else f"Region within {km} of {label}, polygons included"
-        ) + f"; gloffset {__version__}"
+        desc = _describe(distance, d, radius, source)
         store = open_store(
             out, _metadata(label, desc, (zlo, zhi), params), resume=resume, overwrite=overwrite
         )

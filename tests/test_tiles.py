@@ -162,11 +162,15 @@ def test_pyramid_holds_exactly_the_tiles_of_the_region(tmp_path, world, name, d,
 
 def test_mbtiles_metadata_and_tms_rows(tmp_path, world):
     path = tmp_path / "mx.mbtiles"
-    pyramid(world["Mexico"], 127e3, "1-3", path, size=SIZE, name="Mexico")
+    pyramid(world["Mexico"], "127km", "1-3", path, size=SIZE, name="Mexico", source="Mexico 110m")
     tiles, meta = read_mbtiles(path)
     assert meta["format"] == "png" and meta["type"] == "overlay" and meta["name"] == "Mexico"
     assert (meta["minzoom"], meta["maxzoom"]) == ("1", "3")
-    assert "127 km" in meta["description"] and meta["version"]
+    assert meta["description"] == (
+        "Region within 127km of Mexico 110m, polygons included "
+        f"(127km = 127000 m = 0.019934 rad); gloffset {gloffset.__version__}"
+    )
+    assert meta["version"]
     w, s, e, n = (float(v) for v in meta["bounds"].split(","))
     assert (w, s, e, n) == pytest.approx((-135, 0, -45, 40.979898), abs=1e-6)  # z3 edges
     # Mexico lies in XYZ 1/0/0 (north-west), stored as TMS row 1
@@ -174,6 +178,31 @@ def test_mbtiles_metadata_and_tms_rows(tmp_path, world):
     rows = db.execute("SELECT tile_column, tile_row FROM map WHERE zoom_level=1").fetchall()
     assert rows == [(0, 1)]
     assert set(tiles) >= {(1, 0, 0)} and min(z for z, _, _ in tiles) == 1
+
+
+def test_description_names_the_input_and_the_distance(tmp_path, mexico_path):
+    """The description metadata: the distance as given, its metres and radians (on the
+    sphere used), and the input's file stem (the output's name stands in for nothing)."""
+    rad = 60e3 / gloffset.EARTH_RADIUS
+    out = tmp_path / "shrunk.mbtiles"
+    pyramid(mexico_path, -60e3, "0-1", out, size=16)
+    desc = read_mbtiles(out)[1]["description"]
+    assert desc.startswith(
+        "Points of mexico_10m inside its polygons and farther than 60000 m from their "
+        f"boundary (-60000 m = -{rad:.6g} rad); gloffset "
+    ), desc
+    out = tmp_path / "moon.mbtiles"
+    pyramid(str(mexico_path), "100 km", "0-1", out, size=16, radius=1737.4e3)
+    desc = read_mbtiles(out)[1]["description"]
+    assert desc.startswith(
+        "Region within 100 km of mexico_10m, polygons included (100 km = 100000 m = "
+        f"{100e3 / 1737.4e3:.6g} rad on a sphere of radius 1737400 m); gloffset "
+    ), desc
+    pyramid({"type": "Point", "coordinates": [0, 0]}, "0.02rad", "0", tmp_path / "d", size=16)
+    meta = json.loads((tmp_path / "d" / "metadata.json").read_text())
+    assert meta["description"].startswith(
+        "Region within 0.02rad of the input, polygons included (0.02rad = 127420.176 m = 0.02 rad)"
+    )
 
 
 def test_directory_output_with_links_and_outline(tmp_path):
@@ -253,6 +282,12 @@ def test_cli_tiles_and_errors(tmp_path, world):
     assert "tiles written" in r.output
     tiles, meta = read_mbtiles(out)
     assert tiles and all(alpha(p).max() == 153 for p in tiles.values())
+    # the input's name and the distance as given, in metres and radians (not the output's
+    # name and the angle taken for kilometres)
+    assert meta["name"] == "t" and meta["description"].startswith(
+        f"Region within 200km of mx, polygons included (200km = 200000 m = "
+        f"{200e3 / gloffset.EARTH_RADIUS:.6g} rad); gloffset"
+    ), meta["description"]
     for extra, msg in [
         (["--zoom", "0-3"], "exists; use --resume"),
         (["--zoom", "0-23", "--force"], "MAX <= 22"),

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import click
 
@@ -59,9 +60,9 @@ def tiles_cmd(
     """Write the tile pyramid of the region within DIST of the curves of INPUT: tiles
     outside the region are skipped, tiles fully inside share one image and are not
     rendered, only tiles on the region's edge are rendered."""
-    d = angle(distance, radius)
+    angle(distance, radius)  # fail before reading the input
     refuse_stdout(output, "a tile pyramid is an .mbtiles file or a folder of z/x/y.png tiles")
-    parse_zooms(zooms)  # fail before reading the input
+    parse_zooms(zooms)
     TileStyle(fill, opacity, outline, outline_width)
     if resume and force:
         raise click.UsageError("--resume and --force exclude each other")
@@ -81,10 +82,10 @@ def tiles_cmd(
     try:
         stats = pyramid(
             shape,
-            d,
+            distance,  # as given, for the description metadata
             zooms,
             output,
-            radius=1.0,
+            radius=radius,
             size=tile_size,
             fill=fill,
             opacity=opacity,
@@ -93,6 +94,7 @@ def tiles_cmd(
             resume=resume,
             overwrite=force,
             name=name,
+            source="stdin" if input == "-" else Path(input).stem,
             progress=progress if bar is not None else None,
         )
     finally:
