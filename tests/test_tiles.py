@@ -237,16 +237,58 @@ class Stop(Exception):
     pass
 
 
+@pytest.mark.parametrize(
+    "name, d, zooms, kw",
+    [
+        ("square", 300e3, "0-6", dict(size=64)),  # bin levels 2 zooms ahead
+        ("square", 300e3, "2-7", dict(size=16)),  # no bin levels: the growth alone
+        ("Mexico", 127e3, "0-8", dict(size=256)),  # 4 zooms ahead
+        ("line", 300e3, "1-7", dict(size=32)),
+        ("Brazil", -300e3, "0-7", dict(size=32, outline="#000000")),
+        ("Mexico", 50e3, "6", dict(size=64)),  # one zoom
+    ],
+)
+def test_progress_events(tmp_path, world, mexico_path, name, d, zooms, kw):
+    """The total is known before the first tile, never below the tiles done, and equal
+    to them at the last event only; before three quarters of the tiles are done the
+    bar shows at most 90 %; the share of the time reaches exactly 1 at the end only."""
+    shape = {"line": LINE_AM, "square": SQUARE, "Mexico": mexico_path}.get(name) or world[name]
+    events = []
+    st = pyramid(shape, d, zooms, tmp_path / "t.mbtiles", progress=events.append, **kw)
+    first, last = events[0], events[-1]
+    assert isinstance(first, gloffset.tiles.TileProgress)
+    assert first.done == 0 and first.total > 0 and first.eta is None
+    assert last.done == last.total and last.eta == 0.0 and last.fraction == 1.0
+    # every tile handled is counted: written, rendered empty (or outlined with nothing)
+    assert st.written + st.empty <= last.done
+    if "outline" not in kw:
+        assert last.done == st.written + st.empty == st.rendered + st.inside
+    done = [e.done for e in events]
+    assert done == sorted(done) and [e.zoom for e in events] == sorted(e.zoom for e in events)
+    assert all(e.total >= e.done for e in events)
+    assert all(e.done < e.total and e.fraction < 1.0 for e in events[:-1])
+    assert all(e.eta is None or e.eta >= 0.0 for e in events)
+    assert any(e.eta is not None and e.eta > 0.0 for e in events)  # an ETA before the end
+    # not at (or near) 100 % before the last quarter of the work
+    assert max(e.done / e.total for e in events if e.done < 0.75 * last.done) < 0.9
+    # refined as it goes: exact once the bin levels below the frontier reach max zoom
+    zmin, zmax = gloffset.tiles.parse_zooms(zooms)
+    ahead = max(0, kw["size"].bit_length() - 1 - 4)
+    if "outline" not in kw:
+        assert all(e.total == last.total for e in events if e.zoom >= max(zmax - ahead, zmin - 1))
+
+
 @pytest.mark.parametrize("suffix", [".mbtiles", ""])
 def test_interrupted_pyramid_resumes_to_the_same_tiles(tmp_path, suffix):
     kw = dict(size=SIZE, outline="#202020", name="square")
     whole = tmp_path / ("whole" + suffix)
-    full = pyramid(SQUARE, 1500e3, "0-4", whole, **kw)
+    events = []
+    full = pyramid(SQUARE, 1500e3, "0-4", whole, progress=events.append, **kw)
     assert full.rendered and full.inside and full.painted
     part = tmp_path / ("part" + suffix)
 
-    def stop_after(done, total):
-        if done >= full.written // 2:
+    def stop_after(p):
+        if p.done >= full.written // 2:
             raise Stop
 
     with pytest.raises(Stop):
@@ -263,8 +305,11 @@ def test_interrupted_pyramid_resumes_to_the_same_tiles(tmp_path, suffix):
         pyramid(SQUARE, 1500e3, "0-4", part, **kw)
     with pytest.raises(TilesError, match="other options"):
         pyramid(SQUARE, 300e3, "0-4", part, resume=True, **kw)
-    st = pyramid(SQUARE, 1500e3, "0-4", part, resume=True, **kw)
+    resumed = []
+    st = pyramid(SQUARE, 1500e3, "0-4", part, resume=True, progress=resumed.append, **kw)
     assert st.present > 0
+    # the tiles already there count as handled: the resumed run ends where the whole did
+    assert resumed[-1].done == resumed[-1].total == events[-1].done
     assert tiles(part) == tiles(whole)
     if suffix:
         assert read_mbtiles(part)[1] == read_mbtiles(whole)[1]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import time
 from pathlib import Path
 
 import click
@@ -71,12 +72,26 @@ def tiles_cmd(
     if sys.stderr.isatty():
         from tqdm import tqdm
 
-        bar = tqdm(total=0, unit="tile", file=sys.stderr, dynamic_ncols=True)
+        bar = tqdm(
+            total=100,
+            file=sys.stderr,
+            dynamic_ncols=True,
+            bar_format="{percentage:3.0f}%|{bar}| {desc}",
+        )
+    shown = [0.0]
 
-    def progress(done, total):
-        bar.total = max(total, done)
-        bar.n = done
-        if done % 256 == 0 or done == total:
+    def progress(p):
+        # the bar is the share of the time (p.fraction), the ETA the library's estimate
+        bar.n = round(100.0 * p.fraction, 1)
+        left = "?" if p.eta is None else tqdm.format_interval(p.eta)
+        total = f"{p.total:,}" if p.done == p.total else f"~{p.total:,}"
+        bar.set_description_str(
+            f"z{p.zoom}, {p.done:,}/{total} tiles [{tqdm.format_interval(p.seconds)}<{left}]",
+            refresh=False,
+        )
+        now = time.monotonic()
+        if now - shown[0] >= 0.1 or p.done == p.total:
+            shown[0] = now
             bar.refresh()
 
     try:
