@@ -225,6 +225,72 @@ def test_directory_output_with_links_and_outline(tmp_path):
     assert st.inside > 1 and len(links) == st.inside
 
 
+def _outline_per_arc(arcs, which, center, r, z, x, y, size):
+    """The outline's points arc by arc with scalar maths (as drawn before OutlineArcs)."""
+    from gloffset.sphere import xyz_to_lonlat
+
+    out = []
+    world = float((1 << z) * size)
+    lon_c = float(xyz_to_lonlat(center)[0])
+    lat_c = math.asin(max(-1.0, min(1.0, float(center[2]))))
+    step = 0.5 * 2.0 * math.pi * max(math.cos(lat_c), 1e-3) / world
+    for k in which:
+        a, n = arcs.a[k], arcs.n[k]
+        if not np.any(n):
+            continue
+        w = np.cross(n, a)
+        theta = math.atan2(float(np.linalg.norm(np.cross(a, arcs.b[k]))), float(a @ arcs.b[k]))
+        ca, cw = float(center @ a), float(center @ w)
+        rho = math.hypot(ca, cw)
+        if rho <= 0.0 or math.cos(r) > rho:
+            continue
+        t0 = math.atan2(cw, ca)
+        half = math.acos(max(-1.0, min(1.0, math.cos(r) / rho))) + r
+        lo, hi = max(0.0, t0 - half), min(theta, t0 + half)
+        if lo > hi:
+            continue
+        t = np.linspace(lo, hi, max(2, int(math.ceil((hi - lo) / step)) + 1))
+        p = np.cos(t)[:, None] * a + np.sin(t)[:, None] * w
+        lon, lat = xyz_to_lonlat(p)
+        lon = lon_c + (np.asarray(lon) - lon_c + 180.0) % 360.0 - 180.0
+        lat = np.clip(np.radians(lat), -math.radians(89.0), math.radians(89.0))
+        px = ((lon + 180.0) / 360.0) * world - x * size - 0.5
+        py = (0.5 - np.arcsinh(np.tan(lat)) / (2.0 * math.pi)) * world - y * size - 0.5
+        out.append(np.column_stack([px, py]).ravel().tolist())
+    return out
+
+
+@pytest.mark.parametrize(
+    "name, tiles",
+    [
+        ("Mexico", [(0, 0, 0), (1, 0, 0), (3, 1, 3), (5, 7, 14), (6, 14, 27), (8, 57, 110)]),
+        ("Fiji", [(2, 3, 2), (2, 0, 2), (4, 15, 8), (6, 63, 35)]),
+        ("line", [(0, 0, 0), (2, 3, 1), (2, 0, 1), (3, 7, 3)]),
+    ],
+)
+def test_outline_points_are_those_of_the_arc_by_arc_maths(world, name, tiles):
+    """OutlineArcs.lines (numpy over a tile's arcs, scalar maths only near the disc's
+    edge) gives the very floats of the arc-by-arc maths, so the drawn pixels are the
+    same; on tiles where the disc's edge cuts arcs, at zoom 0 (disc wider than a
+    hemisphere) and across the antimeridian."""
+    from gloffset.tilepaint import OutlineArcs
+
+    arcs = Arcs.from_shape(gloffset.read(LINE_AM if name == "line" else world[name]))
+    prepared = OutlineArcs(arcs)
+    which = np.flatnonzero(arcs.boundary)
+    levels = TileLevels(12)
+    cut = 0
+    for z, x, y in tiles:
+        c = levels.centers(z, y, x)
+        for scale in (1.0, 0.5, 0.1):  # the tile's bound and smaller discs
+            r = float(levels.bound(z, y)) * scale
+            want = _outline_per_arc(arcs, which, c, r, z, x, y, 256)
+            got = prepared.lines(which, c, r, z, x, y, 256)
+            assert got == want, (z, x, y, scale)
+            cut += len(want)
+    assert cut >= 2 * len(tiles)
+
+
 def test_outline_across_the_antimeridian(tmp_path):
     out = tmp_path / "am"
     pyramid(LINE_AM, 100e3, "2", out, size=SIZE, outline="#000000", fill="#ffffff", opacity=0.0)
