@@ -1,11 +1,15 @@
 """Tile pyramid of Mexico (10m) at d = 0.02 rad, z0-z12: the hierarchical pyramid
 (gloffset.tiles.pyramid) against rendering every tile of the bounding box tile by tile,
-and a 6 x 2048 cube render, in one run.
+the same pyramid with an outline of the border against the plain fill, and a 6 x 2048
+cube render, in one run.
 
 Run: python benchmarks/tiles.py [--maxzoom 12] [--direct-maxzoom 5]
 Writes benchmarks/results/tiles.json. Tile by tile renders every tile covering Mexico's
 bounding box grown by d up to ``--direct-maxzoom``, and above it a seeded sample of 12
 tiles per zoom, extrapolated by the zoom's tile count (the JSON says which is which).
+The plain pyramid also records its progress events: the first estimate of the tile
+count, and the ETA at a quarter, half and three quarters of the run against the time
+it really took.
 """
 
 from __future__ import annotations
@@ -25,6 +29,31 @@ from gloffset.gl import context_info
 from gloffset.grids import Cube, Tile
 
 D = 0.02  # radians
+OUTLINE = "#202020"
+
+
+def progress_record(events):
+    """The first estimate of the tile count, and the ETA at a quarter, half and three
+    quarters of the run's time against the time that was really left."""
+    end = events[-1].seconds
+    at = {}
+    for q in (0.25, 0.5, 0.75):
+        e = min(events, key=lambda e: abs(e.seconds - q * end))
+        at[str(q)] = {
+            "seconds": e.seconds,
+            "eta_s": e.eta,
+            "left_s": end - e.seconds,
+            "done": e.done,
+            "total": e.total,
+        }
+    first_write = next(e for e in events if e.done > 0)
+    return {
+        "events": len(events),
+        "first_total": events[0].total,
+        "total_at_first_tile": first_write.total,
+        "final_total": events[-1].total,
+        "at_share_of_time": at,
+    }
 
 
 def grown_bbox(shape, d):
@@ -69,12 +98,20 @@ def main():
     shape = gloffset.read(DATA / "mexico_10m.geojson")
     gloffset.render(shape, D, Tile(0, 0, 0), radius=1.0)  # warm the GL context up
 
+    events = []
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "mexico.mbtiles"
         t = time.perf_counter()
-        st = gloffset.tiles.pyramid(shape, D, (0, args.maxzoom), out, radius=1.0)
+        st = gloffset.tiles.pyramid(
+            shape, D, (0, args.maxzoom), out, radius=1.0, progress=events.append
+        )
         pyramid_s = time.perf_counter() - t
         size_mb = out.stat().st_size / 1e6
+        t = time.perf_counter()
+        st_out = gloffset.tiles.pyramid(
+            shape, D, (0, args.maxzoom), Path(tmp) / "outline.mbtiles", radius=1.0, outline=OUTLINE
+        )
+        outline_s = time.perf_counter() - t
 
     bbox = grown_bbox(shape, D)
     direct = tile_by_tile(shape, bbox, args.maxzoom, args.direct_maxzoom)
@@ -112,6 +149,13 @@ def main():
             "random sample of 12 tiles per zoom, extrapolated by the zoom's tile count",
         },
         "speedup_pyramid_vs_tile_by_tile": direct_total / pyramid_s,
+        "progress": progress_record(events),
+        "pyramid_outline": {
+            "outline": OUTLINE,
+            **{k: v for k, v in st_out.as_dict().items() if k != "zooms"},
+            "total_s": outline_s,
+            "seconds_over_plain_fill": outline_s / pyramid_s,
+        },
         "cube_6x2048_s": cube_s,
     }
     path = write("tiles", record)
@@ -124,6 +168,14 @@ def main():
         f"({per_tile:.3f} s/tile); speed-up {record['speedup_pyramid_vs_tile_by_tile']:.0f}x; "
         f"cube 6x2048 {cube_s:.2f} s"
     )
+    o = record["pyramid_outline"]
+    print(
+        f"with --outline: {o['total_s']:.1f} s ({o['painted']} outlined without rendering), "
+        f"{o['seconds_over_plain_fill']:.2f} x the plain fill"
+    )
+    for q, v in record["progress"]["at_share_of_time"].items():
+        eta = "?" if v["eta_s"] is None else f"{v['eta_s']:.1f}"
+        print(f"at {q} of the time: ETA {eta} s, really {v['left_s']:.1f} s left")
 
 
 if __name__ == "__main__":

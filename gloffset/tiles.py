@@ -40,6 +40,11 @@ grid: same pixel centres, same decision rules and precision.
 With an outline, decided tiles that a boundary arc may cross (distance to the
 boundary at most ``r``) are drawn (fill or nothing, plus the outline) and
 their children visited with the same class; the rest are as above.
+
+Progress (:class:`TileProgress`): each zoom is classified before any of its tiles is
+written, and the bin levels hold the frontier and inside tiles of the next zooms, so
+the run knows its tiles ahead and estimates the rest from the growth of the frontier;
+the time left follows a per-zoom cost plus a per-tile cost, both measured as it goes.
 """
 
 from __future__ import annotations
@@ -48,15 +53,16 @@ import json
 import math
 import re
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from . import __version__
-from .errors import GloffsetError
 from .gl.engine import BinLayout
-from .grids.base import rect_radius
+from .grids.base import InvalidGridError, rect_radius
+from .grids.mercator import MAX_ZOOM, check_tile_size, lat_at, lon_at
 from .hierarchy import (
     CONTAINED,
     FRONTIER,
@@ -72,14 +78,19 @@ from .hierarchy import (
 from .io.tilestore import open_store
 from .shape import read
 from .sphere import angle
-from .tilepaint import TileStyle, outline_lines
-from .units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
+from .tilepaint import OutlineArcs, TileStyle
+from .units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
 
-__all__ = ["pyramid", "parse_zooms", "PyramidStats", "TilesError", "MAX_ZOOM", "TileLevels"]
+__all__ = [
+    "pyramid",
+    "parse_zooms",
+    "PyramidStats",
+    "TileProgress",
+    "TilesError",
+    "MAX_ZOOM",
+    "TileLevels",
+]
 
-#: Deepest zoom a pyramid may reach (the raster engine is exact to a fraction of a
-#: pixel up to here).
-MAX_ZOOM = 22
 #: Frontier tiles rendered per GPU run: (MAX_BLOCK / tile size)^2.
 MAX_BLOCK = 4096
 #: Output pixels per side of a bin (below it the GPU takes over).
@@ -87,12 +98,14 @@ _BIN_LOG2 = 4
 _NONE = 255  # no forced class
 
 
-class TilesError(GloffsetError, ValueError):
-    """A tile pyramid request has a bad zoom range, tile size or option."""
+class TilesError(InvalidGridError):
+    """A tile pyramid request has a bad zoom range, tile size or option (the limits are
+    those of :mod:`gloffset.grids.mercator`)."""
 
 
 def parse_zooms(zooms) -> tuple[int, int]:
-    """``(min, max)`` from ``"0-14"``, ``"5"``, an int or a pair, checked against 0..22.
+    """``(min, max)`` from ``"0-14"``, ``"5"``, an int or a pair, checked against 0..MAX_ZOOM
+    (:data:`gloffset.grids.mercator.MAX_ZOOM`, 22).
 
     Examples
     --------
@@ -128,12 +141,12 @@ def parse_zooms(zooms) -> tuple[int, int]:
 # ---------------------------------------------------------------------- geometry
 def _lat(z: int, yy) -> np.ndarray:
     """Latitude (radians) at fractional tile row ``yy`` of zoom ``z``."""
-    return np.arctan(np.sinh(math.pi * (1.0 - 2.0 * np.asarray(yy, dtype=np.float64) / (1 << z))))
+    return lat_at(yy, 1 << z)
 
 
 def _lon(z: int, xx) -> np.ndarray:
     """Longitude (radians) at fractional tile column ``xx`` of zoom ``z``."""
-    return -math.pi + 2.0 * math.pi * np.asarray(xx, dtype=np.float64) / (1 << z)
+    return lon_at(xx, 1 << z)
 
 
 def _xyz(lon, lat) -> np.ndarray:
@@ -228,6 +241,208 @@ class PyramidStats:
         }
 
 
+# ---------------------------------------------------------------------- progress
+@dataclass(frozen=True)
+class TileProgress:
+    """Where a pyramid run stands; :func:`pyramid` hands one to ``progress`` before the
+    first tile, after each tile or batch of tiles handled, and at the end.
+
+    Tiles count at zooms min..max: frontier tiles (rendered, written or empty),
+    outlined tiles and every tile of a fully-inside subtree, already present ones
+    included; tiles found outside are not counted.
+
+    Attributes
+    ----------
+    zoom : int
+        The zoom being classified or written.
+    done : int
+        Tiles handled so far.
+    total : int
+        Estimate of the tiles the run handles in all: the tiles of the zooms classified
+        so far are known exactly, the next zooms' frontier and inside tiles too where the
+        bin levels below the frontier tiles already hold them (from the zoom before the
+        first one written; 4 zooms ahead for 256 px tiles), and deeper zooms follow the
+        growth of the frontier from zoom to zoom. Never below ``done``; equal to it at
+        the end, and only there.
+    seconds : float
+        Since the run started.
+    eta : float or None
+        Estimated seconds left: the tiles left of each kind (rendered or outlined, and
+        inside) at the seconds per tile measured so far for that kind, plus a fixed cost
+        per zoom (measured too); None during the first zoom (for a one-zoom run: until a
+        tile has been rendered); 0 at the end.
+    """
+
+    zoom: int
+    done: int
+    total: int
+    seconds: float
+    eta: float | None
+
+    @property
+    def fraction(self) -> float:
+        """Share of the run's time done, ``seconds / (seconds + eta)`` (0 while the ETA
+        is unknown); exactly 1 at the end and only there."""
+        if self.done >= self.total:
+            return 1.0
+        if self.eta is None or self.seconds + self.eta <= 0.0:
+            return 0.0
+        return min(self.seconds / (self.seconds + self.eta), 1.0 - 1e-9)
+
+
+#: Seconds per inside tile over seconds per rendered tile, until both are measured
+#: (MBTiles: about 1/500, a directory of hard links: about 1/30).
+_LIGHT_PRIOR = 0.01
+#: A zoom's fixed cost is taken as at most that of this many rendered tiles (one GPU run
+#: of 256 px tiles), until a zoom has more tiles than that.
+_ZOOM_TILES = 256
+
+
+class _Tracker:
+    """Counts the tiles of a run by kind (heavy: frontier and outlined tiles; light: the
+    tiles of fully-inside subtrees), estimates the tiles still to come (see
+    :class:`TileProgress`) and the time they take, and calls ``progress``.
+
+    Time model: a zoom's heavy work costs ``a + b n`` seconds for ``n`` heavy tiles
+    (``a``: the float64 levels, GPU runs and commit that every zoom has; ``b``: a tile's
+    share of rendering, encoding and writing), ``a`` the cheapest zoom so far and ``b``
+    from the latest zoom (at least ``a / 256``); inside tiles cost the mean measured so
+    far.
+    """
+
+    def __init__(self, zlo: int, zhi: int, progress):
+        self.zlo, self.zhi, self.progress = zlo, zhi, progress
+        self.t0 = time.perf_counter()
+        self.zoom = 0
+        self.done = [0, 0]  # heavy, light
+        self.known = [0, 0]  # tiles of the zooms classified so far (done included)
+        self.future = [0.0, 0.0]  # estimated tiles of the zooms below
+        self.future_zooms = 0  # zooms below with heavy tiles (estimated)
+        self.skipped = [0, 0]  # already present (no time spent)
+        self.light_s = 0.0  # seconds writing inside tiles
+        self.setup_s = 0.0  # seconds spent once (the GL context)
+        self.frontier: dict[int, int] = {}  # zoom -> frontier tiles (classified or ahead)
+        self.contained: dict[int, int] = {}  # zoom -> newly contained tiles
+        self.zooms: list[tuple[int, float]] = []  # per finished zoom: heavy tiles, seconds
+        self.mark = None  # at the current zoom's start: (heavy worked, heavy seconds)
+        self.last: TileProgress | None = None
+
+    def _sub(self, z: int) -> int:
+        """Tiles of a subtree rooted at zoom ``z`` within zooms min..max."""
+        return sum(4 ** (zz - z) for zz in range(max(z, self.zlo), self.zhi + 1))
+
+    def _heavy(self, now: float) -> tuple[int, float]:
+        """Heavy tiles worked (not skipped) and heavy seconds, so far."""
+        return self.done[0] - self.skipped[0], now - self.t0 - self.light_s - self.setup_s
+
+    def plan(self, z, *, front, contained, carried_in, carried_out, ahead):
+        """Zoom ``z`` is classified: its tiles are known, the deeper zooms re-estimated
+        (``ahead``: (frontier, contained) of zooms z+1.. from the bin levels)."""
+        now = time.perf_counter()
+        if self.mark is not None:
+            n, sec = self._heavy(now)
+            self.zooms.append((n - self.mark[0], sec - self.mark[1]))
+        self.mark = self._heavy(now) if z >= self.zlo else None
+        self.zoom = z
+        inz = z >= self.zlo
+        self.known[0] += (front + carried_in + carried_out) * inz
+        self.known[1] += contained * self._sub(z)
+        self.frontier[z], self.contained[z] = front, contained
+        for k, (fr, co) in enumerate(ahead, start=z + 1):
+            if k > self.zhi:
+                break
+            self.frontier[k], self.contained[k] = fr, co
+        deep = max(self.frontier)
+        # frontier growth per zoom and contained tiles per parent frontier tile, from
+        # the two deepest zooms known
+        prev = self.frontier.get(deep - 1, 0)
+        grow = min(max(self.frontier[deep] / prev, 1.0), 4.0) if prev else 2.0
+        per = min(self.contained[deep] / prev, 4.0) if prev else 0.0
+        heavy = light = 0.0
+        zooms = 0
+        f = float(self.frontier[deep])
+        for zz in range(z + 1, self.zhi + 1):
+            if zz <= deep:
+                fz, cz = self.frontier[zz], self.contained[zz]
+            else:
+                fz, cz = f * grow, per * f
+                f = fz
+            light += cz * self._sub(zz)
+            if zz >= self.zlo:
+                # outlined tiles: their children along the outline (about twice as many
+                # per zoom) are outlined again, the others of the inside ones are inside
+                line = 2.0 ** (zz - z)
+                h = fz + (carried_in + carried_out) * line
+                light += carried_in * (4.0 ** (zz - z) - line)
+                heavy += h
+                zooms += h >= 0.5
+        self.future = [heavy, light]
+        self.future_zooms = zooms
+        self._emit()
+
+    @contextmanager
+    def light(self):
+        """Times the writing of inside tiles."""
+        t = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.light_s += time.perf_counter() - t
+
+    def setup(self, fn):
+        """Call ``fn`` and keep its time out of the tiles' rates."""
+        t = time.perf_counter()
+        fn()
+        self.setup_s += time.perf_counter() - t
+
+    def tick(self, heavy: int = 0, light: int = 0, skipped: int = 0):
+        if heavy:
+            self.done[0] += heavy
+            self.skipped[0] += skipped
+        if light:
+            self.done[1] += light
+            self.skipped[1] += skipped
+        if heavy or light:
+            self._emit()
+
+    def finish(self):
+        self.known = list(self.done)
+        self.future = [0.0, 0.0]
+        self.future_zooms = 0
+        self._emit()
+
+    def _eta(self, now: float, left: list[float]) -> float | None:
+        """Seconds left for ``left`` (heavy, light) tiles, or None before any measure."""
+        n, sec = self._heavy(now)
+        if self.zooms:
+            a = min(t for _, t in self.zooms)
+            last_n, last_t = self.zooms[-1]
+            b = (last_t - a) / last_n if last_n else 0.0
+            if self.mark is not None and n - self.mark[0] > last_n:
+                b = (sec - self.mark[1] - a) / (n - self.mark[0])  # this zoom is larger
+            b = max(b, a / _ZOOM_TILES)
+        elif n > 0 and self.zlo == self.zhi:
+            a, b = 0.0, sec / n  # one zoom: its rate so far
+        else:
+            return None  # within the first zoom
+        worked_light = self.done[1] - self.skipped[1]
+        light = self.light_s / worked_light if worked_light else b * _LIGHT_PRIOR
+        return a * self.future_zooms + b * left[0] + light * left[1]
+
+    def _emit(self):
+        if self.progress is None:
+            return
+        done = self.done[0] + self.done[1]
+        left = [max(0.0, self.known[i] + self.future[i] - self.done[i]) for i in (0, 1)]
+        total = done + math.ceil(left[0] + left[1])
+        if total == done and self.last is not None and self.last.done == self.last.total:
+            return  # the end, already reported
+        now = time.perf_counter()
+        eta = 0.0 if total == done else self._eta(now, left)
+        self.last = TileProgress(self.zoom, done, total, now - self.t0, eta)
+        self.progress(self.last)
+
+
 # ---------------------------------------------------------------------- the pyramid
 def _params(d, zooms, size, style) -> str:
     return json.dumps(
@@ -257,6 +472,41 @@ def _metadata(name, description, zooms, params) -> dict:
         "center": f"0.0,0.0,{zooms[0]}",
         "gloffset": params,
     }
+
+
+def _source_name(shape) -> str | None:
+    """The file stem of an input given as a path (None for anything else)."""
+    if isinstance(shape, Path):
+        return shape.stem
+    if isinstance(shape, str) and shape != "-" and not shape.lstrip().startswith(("{", "[")):
+        return Path(shape).stem
+    return None
+
+
+def _describe(distance, d: float, radius: float, source: str | None) -> str:
+    """The ``description`` metadata of a pyramid: the distance as given (``"127km"``, or a
+    number in metres), its value in metres and radians, and the input's name.
+
+    Examples
+    --------
+    >>> _describe("127km", 127e3 / EARTH_RADIUS, EARTH_RADIUS, "mexico_10m").split(";")[0]
+    'Region within 127km of mexico_10m, polygons included (127km = 127000 m = 0.019934 rad)'
+    """
+    value = f"{d * radius:.10g} m = {d:.6g} rad"
+    if isinstance(distance, str):
+        given = distance.strip()
+        value = f"{given} = {value}"
+    else:
+        given = f"{float(distance):.10g} m"
+    if radius != EARTH_RADIUS:
+        value += f" on a sphere of radius {radius:.10g} m"
+    src = source or "the input"
+    if d < 0:
+        size = given[1:].lstrip() if given.startswith("-") else given
+        what = f"Points of {src} inside its polygons and farther than {size} from their boundary"
+    else:
+        what = f"Region within {given} of {src}, polygons included"
+    return f"{what} ({value}); gloffset {__version__}"
 
 
 def _final_bounds(store, zooms) -> dict:
@@ -290,6 +540,7 @@ def pyramid(
     resume: bool = False,
     overwrite: bool = False,
     name: str | None = None,
+    source: str | None = None,
     progress=None,
     max_block: int = MAX_BLOCK,
 ) -> PyramidStats:
@@ -298,8 +549,10 @@ def pyramid(
     Parameters
     ----------
     shape : Shape or anything :func:`gloffset.read` accepts
-    distance : float
-        In the units of ``radius`` (metres by default); negative shrinks polygons.
+    distance : float or str
+        A number in the units of ``radius`` (metres by default) or a distance with its
+        unit (``"127km"``, ``"0.02rad"``: :func:`gloffset.parse_distance`); negative
+        shrinks polygons.
     zooms : str, int or (int, int)
         Zoom range, e.g. ``"0-14"`` (at most 0..22).
     out : str, Path or a tile store
@@ -318,8 +571,13 @@ def pyramid(
         Replace an existing output.
     name : str, optional
         The ``name`` metadata (default: the file or directory name).
+    source : str, optional
+        The input's name in the ``description`` metadata (default: the file stem when
+        ``shape`` is a path, else "the input"), next to the distance as given and its
+        value in metres and radians.
     progress : callable, optional
-        ``progress(done, estimate)`` after each tile handled.
+        Called with a :class:`TileProgress` before the first tile, after each tile or
+        batch of tiles handled, and at the end (``done == total``, ``eta == 0``).
     max_block : int
         Frontier tiles per GPU run: at most ``(max_block / size)^2``.
 
@@ -343,27 +601,23 @@ def pyramid(
     ...     st = gloffset.tiles.pyramid(tri, 100e3, "0-2", os.path.join(tmp, "t.mbtiles"),
     ...                                 size=64)
     >>> st.written, st.rendered, st.inside
-    (10, 9, 6)
+    (12, 9, 6)
     """
     t0 = time.perf_counter()
+    source = source if source is not None else _source_name(shape)
     shape = read(shape)
-    d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="a tile pyramid")
+    if isinstance(distance, str):  # "127km": its angle (the limits apply to it)
+        value, unit = parse_distance(distance, radius), 1.0
+    else:
+        value, unit = distance, radius
+    d = offset_angle(shape, value, unit, limit=RASTER_LIMIT, what="a tile pyramid")
     zlo, zhi = parse_zooms(zooms)
-    if not (isinstance(size, (int, np.integer)) and 16 <= size <= 4096 and size & (size - 1) == 0):
-        raise TilesError(
-            f"tile size must be a power of two from 16 to 4096 pixels (256, 512, ...), got {size!r}"
-        )
-    size = int(size)
+    size = check_tile_size(size, TilesError)
     style = TileStyle(fill, opacity, outline, outline_width)
     params = _params(d, (zlo, zhi), size, style)
     if isinstance(out, (str, Path)):
         label = name or Path(out).stem or "gloffset"
-        km = f"{abs(d) * radius / 1000:.6g} km ({abs(d):.6g} rad)"
-        desc = (
-            f"Points of {label} inside its polygons and farther than {km} from their boundary"
-            if d < 0
-            else f"Region within {km} of {label}, polygons included"
-        ) + f"; gloffset {__version__}"
+        desc = _describe(distance, d, radius, source)
         store = open_store(
             out, _metadata(label, desc, (zlo, zhi), params), resume=resume, overwrite=overwrite
         )
@@ -407,12 +661,8 @@ def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, st
     have = store.existing() if resume else set()
     full = style.encode(np.ones((size, size), dtype=bool))
     chain = _BinChain(arcs, levels, d, max(0, plog - _BIN_LOG2))
-    counter = {"done": 0, "total": 0}
-
-    def tick(n=1):
-        counter["done"] += n
-        if progress is not None:
-            progress(counter["done"], counter["total"])
+    track = _Tracker(zlo, zhi, progress)
+    outline = OutlineArcs(arcs) if style.outline is not None else None
 
     def lines_of(f, i, z, r):
         if style.outline is None:
@@ -421,7 +671,7 @@ def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, st
         cand = f.pair_arc[s:t]
         cand = cand[arcs.boundary[cand]]
         y, x = (int(v) for v in f.cells[i])
-        return outline_lines(arcs, cand, f.centers[i], float(r[i]), z, x, y, size)
+        return outline.lines(cand, f.centers[i], float(r[i]), z, x, y, size)
 
     f = None
     forced = None
@@ -453,41 +703,53 @@ def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, st
             "frontier": int(len(front)),
         }
         stats.zooms[z] = zs
-        sub_count = sum(4 ** (zz - z) for zz in range(max(z, zlo), zhi + 1))
-        counter["total"] += len(cont) * sub_count
         if z >= zlo:
             stats.outside += zs["outside"]
-            counter["total"] += len(front) + len(paint)
+        # the bin levels below the frontier tiles: rendering needs them from zoom min on,
+        # the estimate of the tiles to come from the zoom before
+        if z >= zlo - 1:
+            chain.advance(_subset(f, front))
+        track.plan(
+            z,
+            front=len(front),
+            contained=len(cont),
+            carried_in=int((cls[paint] == CONTAINED).sum()),
+            carried_out=int((cls[paint] == OUTSIDE).sum()),
+            ahead=chain.counts() if z >= zlo - 1 else [],
+        )
         # fully inside: the tile and all its descendants, one shared image
-        for i in cont:
-            for zz, xs, ys in _subtree(int(cols[i]), int(rows[i]), z, zlo, zhi):
-                tiles = [(zz, int(x), int(y)) for x, y in zip(xs, ys)]
-                if have:
-                    new = [t for t in tiles if t not in have]
-                    stats.present += len(tiles) - len(new)
-                    tiles = new
-                if full is not None and tiles:
-                    store.put_many(tiles, full)
-                stats.inside += len(tiles)
-                tick(len(xs))
+        with track.light():
+            for i in cont:
+                for zz, xs, ys in _subtree(int(cols[i]), int(rows[i]), z, zlo, zhi):
+                    tiles = [(zz, int(x), int(y)) for x, y in zip(xs, ys)]
+                    if have:
+                        new = [t for t in tiles if t not in have]
+                        stats.present += len(tiles) - len(new)
+                        tiles = new
+                    if full is not None and tiles:
+                        store.put_many(tiles, full)
+                    stats.inside += len(tiles)
+                    track.tick(light=len(xs), skipped=len(xs) - len(tiles))
         if z >= zlo:
             # decided tiles with an outline: drawn, not rendered
             for i in paint:
                 key = (z, int(cols[i]), int(rows[i]))
                 if key in have:
                     stats.present += 1
-                else:
-                    mask = np.full((size, size), cls[i] == CONTAINED)
-                    data = style.encode(mask, lines_of(f, i, z, r))
-                    if data is not None:
-                        store.put(*key, data)
-                        stats.painted += 1
-                tick()
+                    track.tick(heavy=1, skipped=1)
+                    continue
+                mask = np.full((size, size), cls[i] == CONTAINED)
+                data = style.encode(mask, lines_of(f, i, z, r))
+                if data is not None:
+                    store.put(*key, data)
+                    stats.painted += 1
+                track.tick(heavy=1)
             # frontier: their frontier bins rendered in batches, from the pyramid's levels
-            chain.advance(_subset(f, front))
             todo = [k for k, i in enumerate(front) if (z, int(cols[i]), int(rows[i])) not in have]
             stats.present += len(front) - len(todo)
-            tick(len(front) - len(todo))
+            track.tick(heavy=len(front) - len(todo), skipped=len(front) - len(todo))
+            if todo:
+                track.setup(_engine)  # the GL context, once: not a tile's cost
             for k, mask in _render_tiles(
                 chain, np.asarray(todo, dtype=np.int64), size, max_block, stats
             ):
@@ -498,12 +760,19 @@ def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, st
                     stats.empty += 1
                 else:
                     store.put(z, int(cols[i]), int(rows[i]), data)
-                tick()
+                track.tick(heavy=1)
             store.commit()
         keep = np.flatnonzero((cls == FRONTIER) | carry)
         forced = np.where(carry, cls, _NONE).astype(np.uint8)[keep]
         f = _subset(f, keep)
         parent_keys = None
+    track.finish()
+
+
+def _engine():
+    from .gl.engine import engine
+
+    return engine()
 
 
 def _keys(cells: np.ndarray, k: int = 0) -> np.ndarray:
@@ -562,6 +831,11 @@ class _BinChain:
                 lev.append(self._next(cur))
                 cur = lev[-1][2]
         self.z, self.lev, self.f = f.level, lev, f
+
+    def counts(self) -> list[tuple[int, int]]:
+        """``(frontier, contained)`` cells of each level ``z + 1 .. z + nb`` of the chain:
+        the frontier and newly contained tiles of those zooms (without an outline)."""
+        return [(len(fr.cells), int((dcls == CONTAINED).sum())) for _, dcls, fr in self.lev]
 
     def layout(self, which, ns):
         """The tiles ``which`` (indices into the chain's tiles) down to their bins.

@@ -14,7 +14,7 @@ from gloffset.sphere import angle, lonlat_to_xyz
     "grid",
     [
         Equirect(300, 170, (170, -40, -150, 10)),
-        Tile(4, 3, 5, 200),
+        Tile(4, 3, 5, 128),
         CubeFace(2, 150),
         CubeFace(5, 64),
     ],
@@ -112,10 +112,56 @@ def test_grid_errors():
     with pytest.raises(InvalidGridError, match="does not exist"):
         Tile(2, 4, 0)
     with pytest.raises(InvalidGridError, match="zoom"):
-        Tile(31, 0, 0)
+        Tile(23, 0, 0)
     with pytest.raises(InvalidGridError, match="face"):
         CubeFace(6, 10)
     with pytest.raises(InvalidGridError, match="positive"):
         Cube(0)
     assert Tile(1, 0, 0).children()[0] == Tile(2, 0, 0)
     assert np.allclose(lonlat_to_xyz(0, 0), CubeFace(0, 2)._point(1, 1))
+
+
+def test_tile_limits_are_those_of_the_pyramid_and_the_cli(tmp_path):
+    """One MAX_ZOOM (22) and one tile-size rule (a power of two, 16..4096) for Tile,
+    pyramid and the CLI; each refused with gloffset's own error."""
+    from gloffset.grids import mercator
+    from gloffset.tiles import MAX_ZOOM, TilesError, parse_zooms, pyramid
+
+    assert MAX_ZOOM == mercator.MAX_ZOOM == 22
+    assert Tile(22, (1 << 22) - 1, 5).z == 22
+    for z in (23, 30, -1):
+        with pytest.raises(InvalidGridError, match="zoom must be from 0 to 22"):
+            Tile(z, 0, 0)
+    with pytest.raises(InvalidGridError, match="z must be an integer"):
+        Tile(1.0, 0, 0)
+    with pytest.raises(InvalidGridError, match="from 0 to 22"):
+        Tile(22, 0, 0, 16).children()
+    for size in (16, 64, 4096):
+        assert Tile(3, 1, 2, size).shape == (size, size)
+    for size in (300, 8, 8192, 0, 256.0, True):
+        with pytest.raises(InvalidGridError, match="power of two from 16 to 4096"):
+            Tile(0, 0, 0, size)
+        with pytest.raises(TilesError, match="power of two from 16 to 4096"):
+            pyramid({"type": "Point", "coordinates": [0, 0]}, 1e3, "0", tmp_path / "t", size=size)
+    for zooms in ("0-23", (0, 23), 23, "3-2"):
+        with pytest.raises(TilesError, match="MAX <= 22"):
+            parse_zooms(zooms)
+    assert issubclass(TilesError, InvalidGridError) and issubclass(TilesError, ValueError)
+    assert issubclass(InvalidGridError, gloffset.GloffsetError)
+    assert not list(tmp_path.iterdir())  # refused before any output
+
+
+@pytest.mark.parametrize("z, x, y, size", [(0, 0, 0, 16), (5, 7, 14, 256), (14, 9000, 3000, 64)])
+def test_tile_pixels_are_the_pyramid_quadtree(z, x, y, size):
+    """Pixel (i, j) of tile z/x/y is, to the bit, the centre of tile z+P / x 2^P + i /
+    y 2^P + j of the pyramid's quadtree (size = 2^P): one copy of the mercator maths."""
+    from gloffset.tiles import TileLevels
+
+    t = Tile(z, x, y, size)
+    zp = z + size.bit_length() - 1
+    jj, ii = np.meshgrid(np.arange(size), np.arange(size), indexing="ij")
+    got = t.centers(t.n_levels - 1, jj, ii)
+    want = TileLevels(zp).centers(zp, y * size + jj, x * size + ii)
+    assert np.array_equal(got, want)
+    lon, lat = t.pixel_lonlat(ii, jj)
+    assert np.abs(lonlat_to_xyz(lon, lat) - want).max() < 1e-15

@@ -162,11 +162,15 @@ def test_pyramid_holds_exactly_the_tiles_of_the_region(tmp_path, world, name, d,
 
 def test_mbtiles_metadata_and_tms_rows(tmp_path, world):
     path = tmp_path / "mx.mbtiles"
-    pyramid(world["Mexico"], 127e3, "1-3", path, size=SIZE, name="Mexico")
+    pyramid(world["Mexico"], "127km", "1-3", path, size=SIZE, name="Mexico", source="Mexico 110m")
     tiles, meta = read_mbtiles(path)
     assert meta["format"] == "png" and meta["type"] == "overlay" and meta["name"] == "Mexico"
     assert (meta["minzoom"], meta["maxzoom"]) == ("1", "3")
-    assert "127 km" in meta["description"] and meta["version"]
+    assert meta["description"] == (
+        "Region within 127km of Mexico 110m, polygons included "
+        f"(127km = 127000 m = 0.019934 rad); gloffset {gloffset.__version__}"
+    )
+    assert meta["version"]
     w, s, e, n = (float(v) for v in meta["bounds"].split(","))
     assert (w, s, e, n) == pytest.approx((-135, 0, -45, 40.979898), abs=1e-6)  # z3 edges
     # Mexico lies in XYZ 1/0/0 (north-west), stored as TMS row 1
@@ -174,6 +178,31 @@ def test_mbtiles_metadata_and_tms_rows(tmp_path, world):
     rows = db.execute("SELECT tile_column, tile_row FROM map WHERE zoom_level=1").fetchall()
     assert rows == [(0, 1)]
     assert set(tiles) >= {(1, 0, 0)} and min(z for z, _, _ in tiles) == 1
+
+
+def test_description_names_the_input_and_the_distance(tmp_path, mexico_path):
+    """The description metadata: the distance as given, its metres and radians (on the
+    sphere used), and the input's file stem (the output's name stands in for nothing)."""
+    rad = 60e3 / gloffset.EARTH_RADIUS
+    out = tmp_path / "shrunk.mbtiles"
+    pyramid(mexico_path, -60e3, "0-1", out, size=16)
+    desc = read_mbtiles(out)[1]["description"]
+    assert desc.startswith(
+        "Points of mexico_10m inside its polygons and farther than 60000 m from their "
+        f"boundary (-60000 m = -{rad:.6g} rad); gloffset "
+    ), desc
+    out = tmp_path / "moon.mbtiles"
+    pyramid(str(mexico_path), "100 km", "0-1", out, size=16, radius=1737.4e3)
+    desc = read_mbtiles(out)[1]["description"]
+    assert desc.startswith(
+        "Region within 100 km of mexico_10m, polygons included (100 km = 100000 m = "
+        f"{100e3 / 1737.4e3:.6g} rad on a sphere of radius 1737400 m); gloffset "
+    ), desc
+    pyramid({"type": "Point", "coordinates": [0, 0]}, "0.02rad", "0", tmp_path / "d", size=16)
+    meta = json.loads((tmp_path / "d" / "metadata.json").read_text())
+    assert meta["description"].startswith(
+        "Region within 0.02rad of the input, polygons included (0.02rad = 127420.176 m = 0.02 rad)"
+    )
 
 
 def test_directory_output_with_links_and_outline(tmp_path):
@@ -196,6 +225,72 @@ def test_directory_output_with_links_and_outline(tmp_path):
     assert st.inside > 1 and len(links) == st.inside
 
 
+def _outline_per_arc(arcs, which, center, r, z, x, y, size):
+    """The outline's points arc by arc with scalar maths (as drawn before OutlineArcs)."""
+    from gloffset.sphere import xyz_to_lonlat
+
+    out = []
+    world = float((1 << z) * size)
+    lon_c = float(xyz_to_lonlat(center)[0])
+    lat_c = math.asin(max(-1.0, min(1.0, float(center[2]))))
+    step = 0.5 * 2.0 * math.pi * max(math.cos(lat_c), 1e-3) / world
+    for k in which:
+        a, n = arcs.a[k], arcs.n[k]
+        if not np.any(n):
+            continue
+        w = np.cross(n, a)
+        theta = math.atan2(float(np.linalg.norm(np.cross(a, arcs.b[k]))), float(a @ arcs.b[k]))
+        ca, cw = float(center @ a), float(center @ w)
+        rho = math.hypot(ca, cw)
+        if rho <= 0.0 or math.cos(r) > rho:
+            continue
+        t0 = math.atan2(cw, ca)
+        half = math.acos(max(-1.0, min(1.0, math.cos(r) / rho))) + r
+        lo, hi = max(0.0, t0 - half), min(theta, t0 + half)
+        if lo > hi:
+            continue
+        t = np.linspace(lo, hi, max(2, int(math.ceil((hi - lo) / step)) + 1))
+        p = np.cos(t)[:, None] * a + np.sin(t)[:, None] * w
+        lon, lat = xyz_to_lonlat(p)
+        lon = lon_c + (np.asarray(lon) - lon_c + 180.0) % 360.0 - 180.0
+        lat = np.clip(np.radians(lat), -math.radians(89.0), math.radians(89.0))
+        px = ((lon + 180.0) / 360.0) * world - x * size - 0.5
+        py = (0.5 - np.arcsinh(np.tan(lat)) / (2.0 * math.pi)) * world - y * size - 0.5
+        out.append(np.column_stack([px, py]).ravel().tolist())
+    return out
+
+
+@pytest.mark.parametrize(
+    "name, tiles",
+    [
+        ("Mexico", [(0, 0, 0), (1, 0, 0), (3, 1, 3), (5, 7, 14), (6, 14, 27), (8, 57, 110)]),
+        ("Fiji", [(2, 3, 2), (2, 0, 2), (4, 15, 8), (6, 63, 35)]),
+        ("line", [(0, 0, 0), (2, 3, 1), (2, 0, 1), (3, 7, 3)]),
+    ],
+)
+def test_outline_points_are_those_of_the_arc_by_arc_maths(world, name, tiles):
+    """OutlineArcs.lines (numpy over a tile's arcs, scalar maths only near the disc's
+    edge) gives the very floats of the arc-by-arc maths, so the drawn pixels are the
+    same; on tiles where the disc's edge cuts arcs, at zoom 0 (disc wider than a
+    hemisphere) and across the antimeridian."""
+    from gloffset.tilepaint import OutlineArcs
+
+    arcs = Arcs.from_shape(gloffset.read(LINE_AM if name == "line" else world[name]))
+    prepared = OutlineArcs(arcs)
+    which = np.flatnonzero(arcs.boundary)
+    levels = TileLevels(12)
+    cut = 0
+    for z, x, y in tiles:
+        c = levels.centers(z, y, x)
+        for scale in (1.0, 0.5, 0.1):  # the tile's bound and smaller discs
+            r = float(levels.bound(z, y)) * scale
+            want = _outline_per_arc(arcs, which, c, r, z, x, y, 256)
+            got = prepared.lines(which, c, r, z, x, y, 256)
+            assert got == want, (z, x, y, scale)
+            cut += len(want)
+    assert cut >= 2 * len(tiles)
+
+
 def test_outline_across_the_antimeridian(tmp_path):
     out = tmp_path / "am"
     pyramid(LINE_AM, 100e3, "2", out, size=SIZE, outline="#000000", fill="#ffffff", opacity=0.0)
@@ -208,16 +303,58 @@ class Stop(Exception):
     pass
 
 
+@pytest.mark.parametrize(
+    "name, d, zooms, kw",
+    [
+        ("square", 300e3, "0-6", dict(size=64)),  # bin levels 2 zooms ahead
+        ("square", 300e3, "2-7", dict(size=16)),  # no bin levels: the growth alone
+        ("Mexico", 127e3, "0-8", dict(size=256)),  # 4 zooms ahead
+        ("line", 300e3, "1-7", dict(size=32)),
+        ("Brazil", -300e3, "0-7", dict(size=32, outline="#000000")),
+        ("Mexico", 50e3, "6", dict(size=64)),  # one zoom
+    ],
+)
+def test_progress_events(tmp_path, world, mexico_path, name, d, zooms, kw):
+    """The total is known before the first tile, never below the tiles done, and equal
+    to them at the last event only; before three quarters of the tiles are done the
+    bar shows at most 90 %; the share of the time reaches exactly 1 at the end only."""
+    shape = {"line": LINE_AM, "square": SQUARE, "Mexico": mexico_path}.get(name) or world[name]
+    events = []
+    st = pyramid(shape, d, zooms, tmp_path / "t.mbtiles", progress=events.append, **kw)
+    first, last = events[0], events[-1]
+    assert isinstance(first, gloffset.tiles.TileProgress)
+    assert first.done == 0 and first.total > 0 and first.eta is None
+    assert last.done == last.total and last.eta == 0.0 and last.fraction == 1.0
+    # every tile handled is counted: written, rendered empty (or outlined with nothing)
+    assert st.written + st.empty <= last.done
+    if "outline" not in kw:
+        assert last.done == st.written + st.empty == st.rendered + st.inside
+    done = [e.done for e in events]
+    assert done == sorted(done) and [e.zoom for e in events] == sorted(e.zoom for e in events)
+    assert all(e.total >= e.done for e in events)
+    assert all(e.done < e.total and e.fraction < 1.0 for e in events[:-1])
+    assert all(e.eta is None or e.eta >= 0.0 for e in events)
+    assert any(e.eta is not None and e.eta > 0.0 for e in events)  # an ETA before the end
+    # not at (or near) 100 % before the last quarter of the work
+    assert max(e.done / e.total for e in events if e.done < 0.75 * last.done) < 0.9
+    # refined as it goes: exact once the bin levels below the frontier reach max zoom
+    zmin, zmax = gloffset.tiles.parse_zooms(zooms)
+    ahead = max(0, kw["size"].bit_length() - 1 - 4)
+    if "outline" not in kw:
+        assert all(e.total == last.total for e in events if e.zoom >= max(zmax - ahead, zmin - 1))
+
+
 @pytest.mark.parametrize("suffix", [".mbtiles", ""])
 def test_interrupted_pyramid_resumes_to_the_same_tiles(tmp_path, suffix):
     kw = dict(size=SIZE, outline="#202020", name="square")
     whole = tmp_path / ("whole" + suffix)
-    full = pyramid(SQUARE, 1500e3, "0-4", whole, **kw)
+    events = []
+    full = pyramid(SQUARE, 1500e3, "0-4", whole, progress=events.append, **kw)
     assert full.rendered and full.inside and full.painted
     part = tmp_path / ("part" + suffix)
 
-    def stop_after(done, total):
-        if done >= full.written // 2:
+    def stop_after(p):
+        if p.done >= full.written // 2:
             raise Stop
 
     with pytest.raises(Stop):
@@ -234,8 +371,11 @@ def test_interrupted_pyramid_resumes_to_the_same_tiles(tmp_path, suffix):
         pyramid(SQUARE, 1500e3, "0-4", part, **kw)
     with pytest.raises(TilesError, match="other options"):
         pyramid(SQUARE, 300e3, "0-4", part, resume=True, **kw)
-    st = pyramid(SQUARE, 1500e3, "0-4", part, resume=True, **kw)
+    resumed = []
+    st = pyramid(SQUARE, 1500e3, "0-4", part, resume=True, progress=resumed.append, **kw)
     assert st.present > 0
+    # the tiles already there count as handled: the resumed run ends where the whole did
+    assert resumed[-1].done == resumed[-1].total == events[-1].done
     assert tiles(part) == tiles(whole)
     if suffix:
         assert read_mbtiles(part)[1] == read_mbtiles(whole)[1]
@@ -253,6 +393,12 @@ def test_cli_tiles_and_errors(tmp_path, world):
     assert "tiles written" in r.output
     tiles, meta = read_mbtiles(out)
     assert tiles and all(alpha(p).max() == 153 for p in tiles.values())
+    # the input's name and the distance as given, in metres and radians (not the output's
+    # name and the angle taken for kilometres)
+    assert meta["name"] == "t" and meta["description"].startswith(
+        f"Region within 200km of mx, polygons included (200km = 200000 m = "
+        f"{200e3 / gloffset.EARTH_RADIUS:.6g} rad); gloffset"
+    ), meta["description"]
     for extra, msg in [
         (["--zoom", "0-3"], "exists; use --resume"),
         (["--zoom", "0-23", "--force"], "MAX <= 22"),

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import sys
+import time
+from pathlib import Path
 
 import click
 
@@ -59,9 +61,9 @@ def tiles_cmd(
     """Write the tile pyramid of the region within DIST of the curves of INPUT: tiles
     outside the region are skipped, tiles fully inside share one image and are not
     rendered, only tiles on the region's edge are rendered."""
-    d = angle(distance, radius)
+    angle(distance, radius)  # fail before reading the input
     refuse_stdout(output, "a tile pyramid is an .mbtiles file or a folder of z/x/y.png tiles")
-    parse_zooms(zooms)  # fail before reading the input
+    parse_zooms(zooms)
     TileStyle(fill, opacity, outline, outline_width)
     if resume and force:
         raise click.UsageError("--resume and --force exclude each other")
@@ -70,21 +72,35 @@ def tiles_cmd(
     if sys.stderr.isatty():
         from tqdm import tqdm
 
-        bar = tqdm(total=0, unit="tile", file=sys.stderr, dynamic_ncols=True)
+        bar = tqdm(
+            total=100,
+            file=sys.stderr,
+            dynamic_ncols=True,
+            bar_format="{percentage:3.0f}%|{bar}| {desc}",
+        )
+    shown = [0.0]
 
-    def progress(done, total):
-        bar.total = max(total, done)
-        bar.n = done
-        if done % 256 == 0 or done == total:
+    def progress(p):
+        # the bar is the share of the time (p.fraction), the ETA the library's estimate
+        bar.n = round(100.0 * p.fraction, 1)
+        left = "?" if p.eta is None else tqdm.format_interval(p.eta)
+        total = f"{p.total:,}" if p.done == p.total else f"~{p.total:,}"
+        bar.set_description_str(
+            f"z{p.zoom}, {p.done:,}/{total} tiles [{tqdm.format_interval(p.seconds)}<{left}]",
+            refresh=False,
+        )
+        now = time.monotonic()
+        if now - shown[0] >= 0.1 or p.done == p.total:
+            shown[0] = now
             bar.refresh()
 
     try:
         stats = pyramid(
             shape,
-            d,
+            distance,  # as given, for the description metadata
             zooms,
             output,
-            radius=1.0,
+            radius=radius,
             size=tile_size,
             fill=fill,
             opacity=opacity,
@@ -93,6 +109,7 @@ def tiles_cmd(
             resume=resume,
             overwrite=force,
             name=name,
+            source="stdin" if input == "-" else Path(input).stem,
             progress=progress if bar is not None else None,
         )
     finally:

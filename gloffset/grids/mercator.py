@@ -1,4 +1,4 @@
-"""Web-mercator XYZ tiles as grids.
+"""Web-mercator XYZ tiles as grids, and the web-mercator maths and limits of gloffset.
 
 ``Tile(z, x, y, size=256)`` is the tile ``z/x/y`` (y = 0 at the north, as XYZ map
 tiles) of ``size x size`` pixels, with pixel centres equally spaced in mercator
@@ -9,7 +9,13 @@ space: pixel ``(i, j)`` has
 
 so mercator stops at +-85.0511 deg. Tile bounds come from mercantile. Levels and the
 bounds rho are those of :mod:`gloffset.grids.base`; mercator coordinates are in
-float64, so pixel centres are exact to 1e-16 rad at every zoom up to 30.
+float64, so pixel centres are exact to 1e-16 rad at every zoom.
+
+The limits (zooms 0..:data:`MAX_ZOOM`, tile sizes a power of two from
+:data:`MIN_TILE_SIZE` to :data:`MAX_TILE_SIZE`) hold for a ``Tile``, for
+:func:`gloffset.tiles.pyramid` and for ``gloffset tiles`` alike; :func:`lon_at` and
+:func:`lat_at` are the one copy of the projection's inverse that the grid and the
+pyramid use.
 """
 
 from __future__ import annotations
@@ -20,16 +26,71 @@ from dataclasses import dataclass
 import mercantile
 import numpy as np
 
-from .base import InvalidGridError, LonLatGrid, Square, check_size
+from .base import InvalidGridError, LonLatGrid, Square
 
-__all__ = ["Tile", "MAX_ZOOM"]
+__all__ = [
+    "Tile",
+    "MAX_ZOOM",
+    "MIN_TILE_SIZE",
+    "MAX_TILE_SIZE",
+    "check_zoom",
+    "check_tile_size",
+    "lat_at",
+    "lon_at",
+]
 
-MAX_ZOOM = 30
+#: Deepest zoom of a tile (the raster engine is exact to a fraction of a pixel up to here).
+MAX_ZOOM = 22
+#: Smallest and largest tile side in pixels (powers of two).
+MIN_TILE_SIZE = 16
+MAX_TILE_SIZE = 4096
+
+
+def check_zoom(z, error: type[Exception] = InvalidGridError) -> int:
+    """``z`` as an int, or raise ``error`` unless it is an integer from 0 to :data:`MAX_ZOOM`."""
+    if not isinstance(z, (int, np.integer)) or isinstance(z, bool):
+        raise error(f"zoom must be an integer from 0 to {MAX_ZOOM}, got {z!r}")
+    if not 0 <= z <= MAX_ZOOM:
+        raise error(
+            f"zoom must be from 0 to {MAX_ZOOM}, got {int(z)} "
+            f"(gloffset renders tiles up to zoom {MAX_ZOOM})"
+        )
+    return int(z)
+
+
+def check_tile_size(size, error: type[Exception] = InvalidGridError) -> int:
+    """``size`` as an int, or raise ``error`` unless it is a power of two from
+    :data:`MIN_TILE_SIZE` to :data:`MAX_TILE_SIZE`."""
+    if not (
+        isinstance(size, (int, np.integer))
+        and not isinstance(size, bool)
+        and MIN_TILE_SIZE <= size <= MAX_TILE_SIZE
+        and size & (size - 1) == 0
+    ):
+        raise error(
+            f"tile size must be a power of two from {MIN_TILE_SIZE} to {MAX_TILE_SIZE} "
+            f"pixels (256, 512, ...), got {size!r}"
+        )
+    return int(size)
+
+
+def lon_at(pos, n) -> np.ndarray:
+    """Longitude (radians) at ``pos`` of ``n`` equal columns of the world (fractional)."""
+    return -math.pi + 2.0 * math.pi * np.asarray(pos, dtype=np.float64) / n
+
+
+def lat_at(pos, n) -> np.ndarray:
+    """Latitude (radians) at ``pos`` of ``n`` rows of the world (fractional, 0 north),
+    equally spaced in mercator ``y``."""
+    return np.arctan(np.sinh(math.pi * (1.0 - 2.0 * np.asarray(pos, dtype=np.float64) / n)))
 
 
 @dataclass(frozen=True)
 class Tile(Square, LonLatGrid):
     """The XYZ tile ``z/x/y`` as a ``size x size`` grid.
+
+    Raises :class:`~gloffset.grids.InvalidGridError` unless ``z`` is 0..22, ``x`` and
+    ``y`` are 0..2^z - 1 and ``size`` is a power of two from 16 to 4096.
 
     Examples
     --------
@@ -48,14 +109,13 @@ class Tile(Square, LonLatGrid):
             v = getattr(self, name)
             if not isinstance(v, (int, np.integer)):
                 raise InvalidGridError(f"tile {name} must be an integer, got {v!r}")
-        if not 0 <= self.z <= MAX_ZOOM:
-            raise InvalidGridError(f"zoom must be in 0..{MAX_ZOOM}, got {self.z}")
+        check_zoom(self.z)
         n = 1 << self.z
         if not (0 <= self.x < n and 0 <= self.y < n):
             raise InvalidGridError(
                 f"tile {self.z}/{self.x}/{self.y} does not exist: x and y must be in 0..{n - 1}"
             )
-        check_size(self.size, self.size)
+        check_tile_size(self.size)
 
     @property
     def bounds(self) -> tuple[float, float, float, float]:
@@ -67,15 +127,10 @@ class Tile(Square, LonLatGrid):
         return float((1 << self.z) * self.size)
 
     def _lon_px(self, xx):
-        n = self._px_per_world()
-        return (
-            -math.pi + 2.0 * math.pi * (self.x * self.size + np.asarray(xx, dtype=np.float64)) / n
-        )
+        return lon_at(self.x * self.size + np.asarray(xx, dtype=np.float64), self._px_per_world())
 
     def _lat_px(self, yy):
-        n = self._px_per_world()
-        v = math.pi * (1.0 - 2.0 * (self.y * self.size + np.asarray(yy, dtype=np.float64)) / n)
-        return np.arctan(np.sinh(v))
+        return lat_at(self.y * self.size + np.asarray(yy, dtype=np.float64), self._px_per_world())
 
     def pixel_lonlat(self, i, j):
         """Centre (lon, lat) in degrees of pixel column ``i``, row ``j``."""
