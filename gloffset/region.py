@@ -188,7 +188,12 @@ class _Union:
         splits = self._intersections(i, j)
         pieces = self._split(splits)
         keep, excl = self._cancel(pieces)
-        keep = self._classify(pieces, keep, excl)
+        keep, flip = self._classify(pieces, keep, excl)
+        turn = keep & flip
+        pieces["start"][turn], pieces["end"][turn] = (
+            pieces["end"][turn],
+            pieces["start"][turn].copy(),
+        )
         return self._link(pieces, keep)
 
     def _intersections(self, i, j):
@@ -229,6 +234,10 @@ class _Union:
         x = normalize(cross(n[ci], n[cj]))
         flip = np.einsum("ij,ij->i", x, a[ci] + b[ci]) < 0
         x[flip] *= -1.0
+        # a polygon whose edges cross each other (invalid, or valid in lon/lat but not with
+        # great-circle edges) is decided by the sides of its pieces (see _classify)
+        self.twisted = np.zeros(self.n_comp, bool)
+        self.twisted[self.comp[ci[self.comp[ci] == self.comp[cj]]]] = True
         new = len(v) + np.arange(len(ci))
         self.v = np.vstack([v, x])
         out_e += [ci, cj]
@@ -415,6 +424,11 @@ class _Union:
         can change their answer along a ring, so those are tested one by one; the
         others take the answer of the first piece of their run (each ring's first
         piece is tested too).
+
+        A polygon whose edges cross each other has no consistent "inside on the left";
+        its region is taken by crossing parity (as everywhere in gloffset), and each
+        of its pieces is kept when the union lies on exactly one side of it, turned so
+        that the union is on its left. Returns the kept pieces and those to turn.
         """
         m = len(self.nxt)
         edge = pieces["edge"]
@@ -430,17 +444,53 @@ class _Union:
         test = inv | head
         tests = np.flatnonzero(test)
         todo = tests[keep[tests]]
-        answer = np.zeros(len(edge), bool)
+        drop = np.zeros(len(edge), bool)
+        flip = np.zeros(len(edge), bool)
         if len(todo):
             self.inner = self._inner_points()
             self.caps = self._comp_caps()
-            p = normalize(self.v[pieces["start"][todo]] + self.v[pieces["end"][todo]])
-            own = self.comp[edge[todo]]
-            ex = {k: excl[int(t)] for k, t in enumerate(todo) if int(t) in excl}
-            answer[todo] = self._inside_other(p, own, ex)
+            tw = self.twisted[self.comp[edge[todo]]]
+            plain, twisted = todo[~tw], todo[tw]
+            p = normalize(self.v[pieces["start"][plain]] + self.v[pieces["end"][plain]])
+            own = self.comp[edge[plain]]
+            ex = {k: excl[int(t)] for k, t in enumerate(plain) if int(t) in excl}
+            drop[plain] = self._inside_other(p, own, ex)
+            if len(twisted):
+                left, right = self._sides(pieces, twisted)
+                drop[twisted] = left == right
+                flip[twisted] = right & ~left
         # every piece takes the answer of the last tested piece at or before it
         src = np.maximum.accumulate(np.where(test, np.arange(len(edge)), 0))
-        return keep & ~answer[src]
+        return keep & ~drop[src], flip[src]
+
+    def _sides(self, pieces, idx):
+        """Whether the union lies just left and just right of pieces ``idx``."""
+        a, b = self.v[pieces["start"][idx]], self.v[pieces["end"][idx]]
+        mid = normalize(a + b)
+        left = normalize(robust_cross(a, b))
+        eps0 = np.minimum(1e-7, 0.25 * angle(a, b))
+        m = len(self.nxt)
+        qi, di, _ = self.tree.near(mid, 4.0 * eps0)
+        mine = di == pieces["edge"][idx][qi]
+        qi, di = qi[~mine], di[~mine]
+        dmin = np.full(len(idx), np.inf)
+        dist = arc_distance(mid[qi], self.v[:m][di], self.v[self.nxt[di]], self.n[di])
+        np.minimum.at(dmin, qi, dist)
+        eps = np.minimum(eps0, np.where(dmin > 0, 0.25 * dmin, eps0))[:, None]
+        sides = []
+        for sign in (1.0, -1.0):
+            p = normalize(np.cos(eps) * mid + sign * np.sin(eps) * left)
+            sides.append(self._in_union(p))
+        return sides[0], sides[1]
+
+    def _in_union(self, p):
+        """Whether points ``p`` lie inside any input polygon."""
+        caps_c, caps_r = self.caps
+        cq = np.einsum("ij,kj->ik", p, caps_c)
+        pi, ci = np.nonzero(cq >= np.cos(np.minimum(caps_r, np.pi))[None, :] - 1e-12)
+        out = np.zeros(len(p), bool)
+        np.logical_or.at(out, pi, self._inside(p[pi], ci))
+        return out
 
     # ------------------------------------------------------------------ rings
     def _link(self, pieces, keep) -> Boundary:

@@ -510,3 +510,76 @@ def test_planet_union_against_shapely():
         want, sure = truth(lon, lat, d / R)
         got = gloffset.contains(ours, lon[sure], lat[sure], distance=d)
         assert np.array_equal(got, want[sure]), d
+
+
+def _random_polygons(rng, cx, cy):
+    """2-5 random star-shaped polygons (valid on the sphere) near (cx, cy), overlapping."""
+    from gloffset.selfintersect import _find_defects
+
+    out = []
+    for _ in range(rng.integers(2, 6)):
+        n = rng.integers(3, 12)
+        t = np.sort(rng.uniform(0, 2 * np.pi, n))
+        r = rng.uniform(1, 6) * rng.uniform(0.4, 1.0, n)
+        x, y = cx + rng.normal(0, 3), cy + rng.normal(0, 3)
+        ring = np.column_stack([x + r * np.cos(t), np.clip(y + r * np.sin(t), -89, 89)])
+        ring = np.vstack([ring, ring[:1]])
+        try:
+            s = gloffset.read({"type": "Polygon", "coordinates": [ring.tolist()]})
+        except gloffset.errors.GloffsetError:
+            continue
+        if not _find_defects(s)[0]:
+            out.append(ring)
+    return out
+
+
+def test_random_overlapping_polygons_against_spherely():
+    """Unions of random overlapping polygons, and a triangle sharing an edge with one of
+    them, against S2's union (spherely), on points farther than 1e-8 rad from any edge."""
+    import functools
+
+    shapely = pytest.importorskip("shapely")
+    spherely = pytest.importorskip("spherely")
+    rng = np.random.default_rng(5)
+    compared = 0
+    for _ in range(40):
+        cx, cy = rng.uniform(-170, 170), rng.uniform(-70, 70)
+        polys = _random_polygons(rng, cx, cy)
+        if len(polys) < 2:
+            continue
+        a, b = polys[0][0], polys[0][1]
+        normal = np.array([-(b - a)[1], (b - a)[0]])
+        polys.append(np.array([b, a, (a + b) / 2 - 0.5 * normal, b]))  # shares edge a-b
+        ours = gloffset.read({"type": "MultiPolygon", "coordinates": [[p.tolist()] for p in polys]})
+        theirs = functools.reduce(
+            spherely.union, [spherely.from_wkt(shapely.to_wkt(shapely.Polygon(p))) for p in polys]
+        )
+        lon = cx + rng.uniform(-12, 12, 2000)
+        lat = np.clip(cy + rng.uniform(-12, 12, 2000), -89.9, 89.9)
+        edges = gloffset.read(
+            {"type": "MultiLineString", "coordinates": [p.tolist() for p in polys]}
+        )
+        far = distance_xyz(edges, lonlat_to_xyz(lon, lat)) > 1e-8
+        got = gloffset.contains(ours, lon[far], lat[far])
+        want = spherely.contains(theirs, spherely.points(lon[far], lat[far]))
+        assert np.array_equal(got, want)
+        compared += 1
+    assert compared > 20
+
+
+def test_polygons_that_cross_themselves_unite_by_parity():
+    """A polygon whose edges cross (invalid, or valid in lon/lat but not with great-circle
+    edges, as 110m Sudan) counts by crossing parity; the union is still exact."""
+    bowtie = [[0, 0], [10, 10], [10, 0], [0, 10], [0, 0]]
+    square = [[8, 2], [14, 2], [14, 8], [8, 8], [8, 2]]
+    both = gloffset.read(mp(bowtie, square))
+    lon, lat = random_points((-2, -2, 16, 12), 20000, seed=4)
+    want = gloffset.contains(gloffset.read(mp(bowtie)), lon, lat) | gloffset.contains(
+        gloffset.read(mp(square)), lon, lat
+    )
+    edges = gloffset.read({"type": "MultiLineString", "coordinates": [bowtie, square]})
+    far = distance_xyz(edges, lonlat_to_xyz(lon, lat)) > 1e-9
+    assert np.array_equal(gloffset.contains(both, lon, lat)[far], want[far])
+    for d in (-50e3, 50e3):
+        got = gloffset.contains(both, lon, lat, distance=d)
+        assert np.array_equal(got, gloffset.reference.contains(both, lon, lat, distance=d))
