@@ -311,10 +311,21 @@ class _Union:
         _, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
         keep = counts[inv] == 1
         excl = {}
+        self.side_test = np.zeros(len(keep), bool)
         members = np.flatnonzero(counts[inv] > 1)
         if len(members) == 0:
             return keep, excl
         comp = self.comp[pieces["edge"]]
+        # a polygon whose edges cross has no consistent sides to count: one piece of a
+        # stretch it shares is kept, and the union on its two sides decides (_classify)
+        twisted = np.zeros(len(counts), bool)
+        twisted[inv[members[self.twisted[comp[members]]]]] = True
+        if twisted.any():
+            tw_members = members[twisted[inv[members]]]
+            _, first = np.unique(inv[tw_members], return_index=True)
+            keep[tw_members[first]] = True
+            self.side_test[tw_members[first]] = True
+            members = members[~twisted[inv[members]]]
         # net count per (stretch, polygon)
         pair = inv[members] * self.n_comp + comp[members]
         upair, pinv = np.unique(pair, return_inverse=True)
@@ -449,7 +460,7 @@ class _Union:
         if len(todo):
             self.inner = self._inner_points()
             self.caps = self._comp_caps()
-            tw = self.twisted[self.comp[edge[todo]]]
+            tw = self.twisted[self.comp[edge[todo]]] | self.side_test[todo]
             plain, twisted = todo[~tw], todo[tw]
             p = normalize(self.v[pieces["start"][plain]] + self.v[pieces["end"][plain]])
             own = self.comp[edge[plain]]
@@ -475,8 +486,9 @@ class _Union:
         qi, di = qi[~mine], di[~mine]
         dmin = np.full(len(idx), np.inf)
         dist = arc_distance(mid[qi], self.v[:m][di], self.v[self.nxt[di]], self.n[di])
-        np.minimum.at(dmin, qi, dist)
-        eps = np.minimum(eps0, np.where(dmin > 0, 0.25 * dmin, eps0))[:, None]
+        # edges along the piece (coincident ones) do not limit the step off it
+        np.minimum.at(dmin, qi, np.where(dist > TOL, dist, np.inf))
+        eps = np.minimum(eps0, 0.25 * dmin)[:, None]
         sides = []
         for sign in (1.0, -1.0):
             p = normalize(np.cos(eps) * mid + sign * np.sin(eps) * left)

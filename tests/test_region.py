@@ -583,3 +583,54 @@ def test_polygons_that_cross_themselves_unite_by_parity():
     for d in (-50e3, 50e3):
         got = gloffset.contains(both, lon, lat, distance=d)
         assert np.array_equal(got, gloffset.reference.contains(both, lon, lat, distance=d))
+
+
+def test_random_polygons_against_the_union_of_their_parts():
+    """Random polygons, some whose edges cross each other, with a triangle sharing an edge:
+    the united shape answers as "inside any part" does, each part read alone (the
+    reference per part), on points farther than 1e-9 rad from every edge."""
+    rng = np.random.default_rng(7)
+    done = 0
+    for _ in range(60):
+        cx, cy = rng.uniform(-179, 179), rng.uniform(-80, 80)
+        polys = []
+        for _ in range(rng.integers(2, 6)):
+            n = rng.integers(3, 12)
+            t = rng.uniform(0, 2 * np.pi, n)
+            t = np.sort(t) if rng.uniform() < 0.7 else t  # unsorted: edges cross
+            r = rng.uniform(1, 6) * rng.uniform(0.4, 1.0, n)
+            x, y = cx + rng.normal(0, 3), cy + rng.normal(0, 3)
+            ring = np.column_stack([x + r * np.cos(t), np.clip(y + r * np.sin(t), -89, 89)])
+            polys.append(np.vstack([ring, ring[:1]]))
+        a, b = polys[0][0], polys[0][1]
+        normal = np.array([-(b - a)[1], (b - a)[0]])
+        polys.append(np.array([b, a, (a + b) / 2 - 0.5 * normal, b]))
+        parts, kept = [], []
+        for p in polys:
+            if np.abs(p[:, 0]).max() > 180:
+                continue
+            try:
+                part = gloffset.read({"type": "Polygon", "coordinates": [p.tolist()]})
+            except gloffset.errors.GloffsetError:
+                continue
+            c = p[:-1].mean(axis=0)
+            if gloffset.contains(part, [c[0] - 180 if c[0] > 0 else c[0] + 180], [-c[1]])[0]:
+                continue  # a crossing ring taken inside out: not a useful case
+            parts.append(part)
+            kept.append(p)
+        if len(parts) < 2:
+            continue
+        united = gloffset.read(mp(*[p.tolist() for p in kept]))
+        lon = np.clip(cx + rng.uniform(-12, 12, 1500), -180, 180)
+        lat = np.clip(cy + rng.uniform(-12, 12, 1500), -89.9, 89.9)
+        edges = gloffset.read(
+            {"type": "MultiLineString", "coordinates": [p.tolist() for p in kept]}
+        )
+        far = distance_xyz(edges, lonlat_to_xyz(lon, lat)) > 1e-9
+        want = np.zeros(len(lon), bool)
+        for part in parts:
+            want |= gloffset.reference.contains(part, lon, lat)
+        got = gloffset.contains(united, lon, lat)
+        assert np.array_equal(got[far], want[far])
+        done += 1
+    assert done > 30
