@@ -79,11 +79,19 @@ def gpu_vs_cpu(mask, d_km, grid, parts):
     return rec, cls, ref
 
 
+def borders_as_lines(path):
+    """Every ring of every country as a line: the borders themselves (read as polygons,
+    the countries unite and the borders between them are no curve)."""
+    parts = gloffset.io.geojson.parse(gloffset.io.geojson.load(path))
+    rings = [r.tolist() for poly in parts.polygons for r in poly]
+    return gloffset.read({"type": "MultiLineString", "coordinates": rings})
+
+
 def cube_case(quick: bool, n_truth: int = 20000) -> dict:
     """World 110m borders on six cube faces: GPU vs CPU reference, sampled truth."""
     size = 256 if quick else 1024
     grid = Cube(size)
-    shape = gloffset.read(DATA / "world_110m.geojson")
+    shape = borders_as_lines(DATA / "world_110m.geojson")
     t_rast, (mask, parts) = best_of(lambda: rasterize(shape, grid, ordered=True), 3)
     # the sample: pixels whose 8x8 ancestor is not outside at the largest distance
     far = max(DISTANCES_KM) * 1e3
