@@ -1,44 +1,155 @@
-"""Exceptions raised by gloffset.
+"""Exceptions raised by gloffset: one hierarchy, one class per concept.
 
-Every error that gloffset raises on bad input derives from :class:`GloffsetError`
-and from the builtin exception a Python user would expect (``ValueError`` for bad
-values, ``OSError`` for files), so ``except ValueError`` keeps working.
+Every error that gloffset raises derives from :class:`GloffsetError` and from the builtin
+exception a Python user would expect (``ValueError`` for bad values, ``OSError`` for files,
+``RuntimeError`` for OpenGL failures), so ``except ValueError`` keeps working. Every class
+is exported from :mod:`gloffset`; the command line prints any of them as one line
+(``gloffset: error: ...``) with exit status 2.
+
+::
+
+    GloffsetError
+    |-- InvalidGeometryError   (ValueError)
+    |-- InvalidDistanceError   (ValueError)
+    |-- InputFormatError       (ValueError)
+    |-- InvalidLevelError      (ValueError)
+    |-- OptionError            (ValueError)
+    |   '-- InvalidMaskError
+    |-- InvalidGridError       (ValueError)
+    |   '-- TilesError
+    |-- OutputError            (OSError)
+    |   '-- OutputExistsError  (FileExistsError)
+    |-- GLContextError         (RuntimeError)
+    '-- ShaderError            (RuntimeError)
+
+Modules that used to define a class still import it under its name (``gloffset.tiles.TilesError``,
+``gloffset.grids.InvalidGridError``...). Former names of merged classes stay there as aliases:
+``gloffset.render.RenderError``, ``gloffset.raster_input.RasterOffsetError``,
+``gloffset.tilepaint.StyleError`` and ``gloffset.io.png.ColorError`` are :class:`OptionError`;
+``gloffset.cli.render.CubeFacesError`` is :class:`InputFormatError`.
 """
 
 from __future__ import annotations
 
+__all__ = [
+    "GLContextError",
+    "GloffsetError",
+    "InputFormatError",
+    "InvalidDistanceError",
+    "InvalidGeometryError",
+    "InvalidGridError",
+    "InvalidLevelError",
+    "InvalidMaskError",
+    "OptionError",
+    "OutputError",
+    "OutputExistsError",
+    "ShaderError",
+    "TilesError",
+]
+
 
 class GloffsetError(Exception):
-    """Base class of every error raised by gloffset."""
+    """Base class of every error raised by gloffset (never raised itself).
+
+    ``except GloffsetError`` catches every error gloffset raises on bad input, bad
+    options, unwritable outputs and OpenGL failures.
+    """
 
 
+# ------------------------------------------------------------------------------ bad values
 class InvalidGeometryError(GloffsetError, ValueError):
     """The input geometry cannot be used (NaN, latitude out of range, too few points...).
 
-    The message names the feature, part and vertex where the problem was found.
+    Raised when a :class:`~gloffset.Shape` is built or read, and by functions taking
+    points. The message names the feature, part and vertex where the problem was found.
     """
 
 
 class InvalidDistanceError(GloffsetError, ValueError):
-    """A distance is not a finite number, has an unknown unit, or is out of range."""
+    """A distance is not a finite number, has an unknown unit, or is out of range.
+
+    Raised by :func:`~gloffset.parse_distance` and by every function taking a distance
+    (an offset of a quarter circle or more, an inward offset of curves with no polygon...).
+    """
 
 
 class InputFormatError(GloffsetError, ValueError):
-    """A file or object is not GeoJSON (or another supported input) that gloffset can read."""
+    """A file or object is not input that gloffset can read.
+
+    Raised on a missing or unreadable file, malformed JSON or GeoJSON, an object gloffset
+    does not know how to read, a lon/lat array of the wrong shape, a points CSV without
+    lon and lat columns, a mask image that is neither grey nor transparent, and a set of
+    cube-face mask images that are missing, not square or of different sizes.
+    """
 
 
 class InvalidLevelError(GloffsetError, ValueError):
-    """A multiresolution level is not an integer in the range a decomposition has."""
+    """A multiresolution level is not an integer in the range a decomposition has.
+
+    Raised by :func:`~gloffset.decompose` and :class:`~gloffset.Decomposition` (a level or
+    a number of levels) and by :class:`~gloffset.Index` (a level or a tree depth).
+    """
 
 
 class OptionError(GloffsetError, ValueError):
-    """An option (a keyword argument, or a command-line option) has a value gloffset cannot use."""
+    """An option (a keyword argument, or a command-line option) has a value gloffset cannot use.
+
+    Raised by :func:`~gloffset.render` and :func:`~gloffset.raster_offset` (an unknown
+    ``out``, ``backend`` or ``mode``, a level out of range, an unsupported grid, an image
+    too large), by tile styles (opacity, outline width, a colour that cannot be parsed)
+    and by the command line (a malformed ``--size`` or ``--bounds``, options that do not
+    go together).
+    """
 
 
+class InvalidMaskError(OptionError):
+    """A curve mask given to :func:`~gloffset.raster_offset` has the wrong shape or dtype,
+    or has no curve cell."""
+
+
+class InvalidGridError(GloffsetError, ValueError):
+    """A grid has a bad size, bounds or index.
+
+    Raised when a grid of :mod:`gloffset.grids` is made (size not a positive integer,
+    bounds with S >= N, a zoom beyond 22, a tile size that is not a power of two) and
+    by cell and tile look-ups out of range.
+    """
+
+
+class TilesError(InvalidGridError):
+    """A tile pyramid request has a bad zoom range, tile size or option (the limits are
+    those of :mod:`gloffset.grids.mercator`).
+
+    Raised by :func:`gloffset.tiles.pyramid` and ``gloffset tiles``.
+    """
+
+
+# ------------------------------------------------------------------------------- files
 class OutputError(GloffsetError, OSError):
     """An output cannot be written (missing folder, no permission, disk full, unsupported
-    format...). The message names the target; a file that was there is left as it was."""
+    format, a tile store that gloffset did not write...).
+
+    The message names the target; a file that was there is left as it was.
+    """
 
 
+class OutputExistsError(OutputError, FileExistsError):
+    """The output of a tile pyramid exists and neither resume nor overwrite was asked for
+    (``--resume`` / ``--force`` on the command line)."""
+
+    def __init__(self, path):
+        super().__init__(
+            f"{str(path)!r} exists; use --resume to complete it or --force to replace it"
+        )
+
+
+# ------------------------------------------------------------------------------- OpenGL
 class GLContextError(GloffsetError, RuntimeError):
-    """No OpenGL context could be created, or the context lacks a needed capability."""
+    """No OpenGL context could be created, or the context lacks a needed capability or
+    buffer size for a render (raised by the ``gpu`` backend; the ``cpu`` backend needs no
+    context)."""
+
+
+class ShaderError(GloffsetError, RuntimeError):
+    """A shader source in ``shaders/`` is missing or malformed, or does not compile or link
+    (the message points at the file and line)."""

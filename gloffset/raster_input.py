@@ -61,7 +61,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .errors import GloffsetError, InvalidDistanceError
+from .errors import InvalidDistanceError, InvalidMaskError, OptionError
 from .grids import Cube, Equirect
 from .grids.base import LonLatGrid, rect_radius
 from .grids.cube import CubeCells, locate, project
@@ -90,12 +90,9 @@ _BACKENDS = ("gpu", "cpu")
 _MODES = ("hierarchical", "single")
 
 
-class RasterOffsetError(GloffsetError, ValueError):
-    """A raster offset request has a bad option (backend, mode, level, grid)."""
-
-
-class InvalidMaskError(RasterOffsetError):
-    """A curve mask has the wrong shape, dtype or no curve cell."""
+#: The former name of :class:`~gloffset.errors.OptionError` (a raster offset request with a
+#: bad backend, mode, level or grid), kept so that ``except RasterOffsetError`` works.
+RasterOffsetError = OptionError
 
 
 # ---------------------------------------------------------------------------- grid tables
@@ -146,7 +143,7 @@ def pixel_radius(grid) -> np.ndarray:
     if hasattr(grid, "area_rho"):
         return np.asarray(grid.area_rho(grid.n_levels - 1))
     if not isinstance(grid, LonLatGrid):
-        raise GloffsetError(f"no pixel area bound for a {type(grid).__name__} grid")
+        raise OptionError(f"no pixel area bound for a {type(grid).__name__} grid")
     last = grid.n_levels - 1
     j = np.arange(grid.level_shape(last)[0], dtype=np.float64)
     phi = grid.cell_lat(last, j)
@@ -450,7 +447,7 @@ def rasterize(shape, grid, *, ordered: bool = False):
     elif isinstance(grid, Equirect):
         mask, parts = _rasterize(read(shape), grid)
     else:
-        raise RasterOffsetError(
+        raise OptionError(
             f"grid must be a gloffset.grids.Equirect or Cube grid, got {type(grid).__name__}"
         )
     return (mask, parts) if ordered else mask
@@ -957,7 +954,7 @@ def cube_cells(size: int) -> CubeCells:
 
 def _check_mask(mask, grid) -> np.ndarray:
     if not isinstance(grid, (Equirect, Cube)):
-        raise RasterOffsetError(
+        raise OptionError(
             f"grid must be a gloffset.grids.Equirect or Cube grid, got {type(grid).__name__}"
         )
     m = np.asarray(mask)
@@ -1051,12 +1048,12 @@ def raster_offset(
             f"distance {distance!r} is {d:.4g} rad; raster offsets need 0 < d < 1.5 rad"
         )
     if backend not in _BACKENDS:
-        raise RasterOffsetError(f"backend must be one of {', '.join(_BACKENDS)}, got {backend!r}")
+        raise OptionError(f"backend must be one of {', '.join(_BACKENDS)}, got {backend!r}")
     if mode not in _MODES:
-        raise RasterOffsetError(f"mode must be one of {', '.join(_MODES)}, got {mode!r}")
+        raise OptionError(f"mode must be one of {', '.join(_MODES)}, got {mode!r}")
     last = grid.n_levels - 1
     if level is not None and not (isinstance(level, (int, np.integer)) and 0 <= level <= last):
-        raise RasterOffsetError(f"level must be in 0..{last}, got {level!r}")
+        raise OptionError(f"level must be in 0..{last}, got {level!r}")
     stop = last if level is None else int(level)
     lv = Levels.build(m, d, grid, parts=order)
     frontier: list = []

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import GloffsetError
+from .errors import OptionError
 from .grids import Cube, CubeFace, Equirect, Tile
 from .hierarchy import classify
 from .shape import read
@@ -24,22 +24,23 @@ _OUTS = ("mask", "classes")
 _BACKENDS = ("gpu", "cpu")
 
 
-class RenderError(GloffsetError, ValueError):
-    """A render request cannot be carried out (bad option, image too large)."""
+#: The former name of :class:`~gloffset.errors.OptionError` (a render request with a bad
+#: option, an image too large), kept so that ``except RenderError`` works.
+RenderError = OptionError
 
 
 def _check(out, backend, grid):
     if out not in _OUTS:
-        raise RenderError(f"out must be one of {', '.join(_OUTS)}, got {out!r}")
+        raise OptionError(f"out must be one of {', '.join(_OUTS)}, got {out!r}")
     if backend not in _BACKENDS:
-        raise RenderError(f"backend must be one of {', '.join(_BACKENDS)}, got {backend!r}")
+        raise OptionError(f"backend must be one of {', '.join(_BACKENDS)}, got {backend!r}")
     if not isinstance(grid, (Equirect, Tile, Cube, CubeFace)):
-        raise RenderError(
+        raise OptionError(
             f"grid must be a gloffset.grids grid (Equirect, Tile, Cube), got {type(grid).__name__}"
         )
     n = 6 * grid.size**2 if isinstance(grid, Cube) else grid.width * grid.height
     if n > MAX_PIXELS:
-        raise RenderError(
+        raise OptionError(
             f"the image has {n} pixels, more than {MAX_PIXELS}; render it in parts "
             "(Equirect.subgrid, or fewer cube pixels)"
         )
@@ -122,7 +123,7 @@ def render(
     d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="render")
     _check(out, backend, grid)
     if out == "classes" and level is not None and not 0 <= level < grid.n_levels:
-        raise RenderError(f"level must be in 0..{grid.n_levels - 1}, got {level!r}")
+        raise OptionError(f"level must be in 0..{grid.n_levels - 1}, got {level!r}")
     if out == "mask":
         level = None
     if tile is None:
@@ -149,7 +150,7 @@ def render(
         return np.stack(faces)
     big = grid.width > tile or grid.height > tile
     if big and not isinstance(grid, Equirect):
-        raise RenderError(
+        raise OptionError(
             f"a {grid.width}x{grid.height} {type(grid).__name__} is larger than the GL limit "
             f"{tile}; use a smaller size"
         )

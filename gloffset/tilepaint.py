@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from PIL import Image, ImageDraw
 
-from .errors import GloffsetError
+from .errors import OptionError
 from .io.png import parse_color
 from .sphere import dot, xyz_to_lonlat
 
@@ -30,8 +30,9 @@ _LAT_CLIP = 89.0
 _SURE = 1e-6
 
 
-class StyleError(GloffsetError, ValueError):
-    """A tile style option has a bad value."""
+#: The former name of :class:`~gloffset.errors.OptionError` (a tile style option with a bad
+#: value), kept so that ``except StyleError`` works.
+StyleError = OptionError
 
 
 @dataclass(frozen=True)
@@ -66,9 +67,9 @@ class TileStyle:
         if self.outline is not None:
             parse_color(self.outline)
         if not (isinstance(self.opacity, (int, float)) and 0.0 <= self.opacity <= 1.0):
-            raise StyleError(f"opacity must be a number from 0 to 1, got {self.opacity!r}")
+            raise OptionError(f"opacity must be a number from 0 to 1, got {self.opacity!r}")
         if not (isinstance(self.outline_width, int) and 1 <= self.outline_width <= 32):
-            raise StyleError(f"outline width must be 1..32 pixels, got {self.outline_width!r}")
+            raise OptionError(f"outline width must be 1..32 pixels, got {self.outline_width!r}")
 
     def palette(self) -> list[tuple[int, int, int, int]]:
         """RGBA of palette entries 0 (outside: transparent), 1 (fill), 2 (outline)."""

@@ -60,8 +60,9 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from .errors import TilesError
 from .gl.engine import BinLayout
-from .grids.base import InvalidGridError, rect_radius
+from .grids.base import rect_radius
 from .grids.mercator import MAX_ZOOM, check_tile_size, lat_at, lon_at
 from .hierarchy import (
     CONTAINED,
@@ -96,11 +97,6 @@ MAX_BLOCK = 4096
 #: Output pixels per side of a bin (below it the GPU takes over).
 _BIN_LOG2 = 4
 _NONE = 255  # no forced class
-
-
-class TilesError(InvalidGridError):
-    """A tile pyramid request has a bad zoom range, tile size or option (the limits are
-    those of :mod:`gloffset.grids.mercator`)."""
 
 
 def parse_zooms(zooms) -> tuple[int, int]:

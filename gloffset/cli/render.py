@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from ..errors import GloffsetError, OptionError, OutputError
+from ..errors import InputFormatError, OptionError, OutputError
 from ..grids import FACE_NAMES, Cube, CubeFace, Equirect
 from ..io.output import check_output, refuse_stdout
 from ..io.png import image_format, parse_color, read_mask, write_classes, write_mask
@@ -20,10 +20,10 @@ from ..shape import read
 from . import main
 from .options import angle, distance_option, radius_option
 
-
-class CubeFacesError(GloffsetError, ValueError):
-    """The six cube-face mask PNGs of ``--from-raster DIR --grid cube`` are missing,
-    not square, or of different sizes."""
+#: The former name of :class:`~gloffset.errors.InputFormatError` (cube-face mask PNGs that
+#: are missing, not square, or of different sizes), kept so that ``except CubeFacesError``
+#: works.
+CubeFacesError = InputFormatError
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -233,26 +233,26 @@ def read_cube_masks(folder) -> np.ndarray:
     folder = Path(folder)
     names = ", ".join(f"{n}.png" for n in FACE_NAMES)
     if not folder.is_dir():
-        raise CubeFacesError(
+        raise InputFormatError(
             f"--from-raster with --grid cube needs a folder holding {names}; "
             f"{str(folder)!r} is not a folder"
         )
     missing = [f"{n}.png" for n in FACE_NAMES if not (folder / f"{n}.png").is_file()]
     if missing:
-        raise CubeFacesError(
+        raise InputFormatError(
             f"cube face file(s) missing in {str(folder)!r}: {', '.join(missing)} "
             f"(a cube needs {names})"
         )
     faces = [read_mask(folder / f"{n}.png") for n in FACE_NAMES]
     for n, m in zip(FACE_NAMES, faces):
         if m.shape[0] != m.shape[1]:
-            raise CubeFacesError(
+            raise InputFormatError(
                 f"cube face {n}.png is {m.shape[1]}x{m.shape[0]} pixels: faces must be square"
             )
     sizes = {m.shape[0] for m in faces}
     if len(sizes) > 1:
         each = ", ".join(f"{n}.png {m.shape[0]}" for n, m in zip(FACE_NAMES, faces))
-        raise CubeFacesError(f"cube faces must all have one size, got {each}")
+        raise InputFormatError(f"cube faces must all have one size, got {each}")
     return np.stack(faces)
 
 

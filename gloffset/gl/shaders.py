@@ -13,13 +13,9 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from ..errors import GloffsetError
+from ..errors import ShaderError
 
 __all__ = ["SHADER_DIR", "ShaderError", "load_source", "program", "shader_files"]
-
-
-class ShaderError(GloffsetError, RuntimeError):
-    """A shader source is malformed or does not compile."""
 
 
 def _find_dir() -> Path:

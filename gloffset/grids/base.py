@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from ..errors import GloffsetError
+from ..errors import InvalidGridError
 from ..sphere import angle
 
 __all__ = ["InvalidGridError", "Levels", "LonLatGrid", "Square", "COARSE_CELLS", "BIN_PIXELS"]
@@ -33,10 +33,6 @@ COARSE_CELLS = 32
 BIN_PIXELS = 16
 #: Offset distances of at least this many pixels get bins twice as wide (``bin_level_for``).
 WIDE_BINS_FROM = 6
-
-
-class InvalidGridError(GloffsetError, ValueError):
-    """A grid has a bad size, bounds or index."""
 
 
 class Levels:

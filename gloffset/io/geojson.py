@@ -98,26 +98,26 @@ def _read_file(s: str) -> str:
         raise InputFormatError(f"cannot read {s!r}: {exc}") from None
 
 
-class _LongNumber(Exception):
-    """Raised from json.loads by an integer longer than Python converts."""
-
-
-def _int(text: str):
-    try:
-        return int(text)
-    except ValueError:  # more digits than sys.get_int_max_str_digits()
-        raise _LongNumber(text) from None
-
-
 def _loads(text: str, where: str):
+    long = []  # the integer longer than Python converts, if json.loads met one
+
+    def _int(number: str):
+        try:
+            return int(number)
+        except ValueError:  # more digits than sys.get_int_max_str_digits()
+            long.append(number)
+            raise
+
     try:
         return json.loads(text, parse_int=_int)
     except json.JSONDecodeError as exc:
         raise InputFormatError(
             f"{where} is not valid JSON (line {exc.lineno}, column {exc.colno}): {exc.msg}"
         ) from None
-    except _LongNumber as exc:
-        digits = str(exc.args[0]).lstrip("+-")
+    except ValueError:
+        if not long:
+            raise
+        digits = long[0].lstrip("+-")
         at = text.find(digits)
         line = text.count("\n", 0, at) + 1
         col = at - text.rfind("\n", 0, at)

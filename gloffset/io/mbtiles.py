@@ -18,8 +18,7 @@ import os
 import sqlite3
 from pathlib import Path
 
-from ..errors import GloffsetError
-from .tilestore import OutputExistsError
+from ..errors import OutputError, OutputExistsError
 
 __all__ = ["MBTilesWriter", "tms_row", "SCHEMA"]
 
@@ -74,10 +73,10 @@ class MBTilesWriter:
             self.db.execute("PRAGMA synchronous=NORMAL")
             names = {r[0] for r in self.db.execute("SELECT name FROM sqlite_master")}
         except sqlite3.DatabaseError as exc:
-            raise GloffsetError(f"{str(self.path)!r} is not an MBTiles file: {exc}") from None
+            raise OutputError(f"{str(self.path)!r} is not an MBTiles file: {exc}") from None
         if not {"map", "images", "metadata"} <= names:
             self.db.close()
-            raise GloffsetError(
+            raise OutputError(
                 f"{str(self.path)!r} was not written by gloffset (no map/images tables); "
                 "use --force to replace it"
             )
@@ -99,7 +98,7 @@ class MBTilesWriter:
             os.replace(tmp, self.path)
         except (OSError, sqlite3.Error) as exc:
             tmp.unlink(missing_ok=True)
-            raise GloffsetError(f"cannot create {str(self.path)!r}: {exc}") from None
+            raise OutputError(f"cannot create {str(self.path)!r}: {exc}") from None
 
     # ------------------------------------------------------------------ reading
     def metadata(self) -> dict:

@@ -13,7 +13,7 @@ import re
 import numpy as np
 from PIL import Image, ImageColor, features
 
-from ..errors import GloffsetError, InputFormatError, OutputError
+from ..errors import InputFormatError, OptionError, OutputError
 from .output import STDOUT, write_bytes
 
 __all__ = [
@@ -33,8 +33,9 @@ CLASS_COLORS = {0: (255, 255, 255, 255), 1: (220, 30, 30, 255), 2: (0, 0, 0, 255
 IMAGE_FORMATS = {".png": "PNG", ".tif": "TIFF", ".tiff": "TIFF"}
 
 
-class ColorError(GloffsetError, ValueError):
-    """A colour cannot be parsed."""
+#: The former name of :class:`~gloffset.errors.OptionError` (a colour that cannot be parsed),
+#: kept so that ``except ColorError`` works.
+ColorError = OptionError
 
 
 def parse_color(text: str) -> tuple[int, int, int, int]:
@@ -54,7 +55,7 @@ def parse_color(text: str) -> tuple[int, int, int, int]:
             pass
         else:
             return (*rgb[:3], rgb[3] if len(rgb) == 4 else 255)
-    raise ColorError(
+    raise OptionError(
         f"cannot read colour {text!r}: use a name (red), #rrggbb, #rrggbbaa or r,g,b[,a]"
     )
 

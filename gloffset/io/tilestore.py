@@ -9,18 +9,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import GloffsetError
+from ..errors import OutputExistsError
 
 __all__ = ["OutputExistsError", "open_store"]
-
-
-class OutputExistsError(GloffsetError, FileExistsError):
-    """The output of a tile pyramid exists and neither resume nor overwrite was asked for."""
-
-    def __init__(self, path):
-        super().__init__(
-            f"{str(path)!r} exists; use --resume to complete it or --force to replace it"
-        )
 
 
 def open_store(path, metadata: dict, *, resume: bool = False, overwrite: bool = False):

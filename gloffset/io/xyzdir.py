@@ -13,8 +13,7 @@ import os
 import shutil
 from pathlib import Path
 
-from ..errors import GloffsetError
-from .tilestore import OutputExistsError
+from ..errors import OutputError, OutputExistsError
 
 __all__ = ["XYZDirWriter", "METADATA_FILE"]
 
@@ -37,13 +36,13 @@ class XYZDirWriter:
     def __init__(self, path, metadata: dict, *, resume=False, overwrite=False):
         self.path = Path(path)
         if self.path.exists() and not self.path.is_dir():
-            raise GloffsetError(f"{str(self.path)!r} is a file, not a tile directory")
+            raise OutputError(f"{str(self.path)!r} is a file, not a tile directory")
         busy = self.path.is_dir() and any(self.path.iterdir())
         if busy and not resume:
             if not overwrite:
                 raise OutputExistsError(self.path)
             if "gloffset" not in self._read_metadata():
-                raise GloffsetError(
+                raise OutputError(
                     f"{str(self.path)!r} is not a tile directory written by gloffset "
                     f"(no {METADATA_FILE}); refusing to delete it"
                 )
@@ -52,7 +51,7 @@ class XYZDirWriter:
         try:
             self.path.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise GloffsetError(f"cannot create {str(self.path)!r}: {exc.strerror}") from None
+            raise OutputError(f"cannot create {str(self.path)!r}: {exc.strerror}") from None
         self._dirs: set[Path] = set()
         self._links: dict[bytes, Path] = {}
         self._extent: dict[int, list[int]] = {}
@@ -125,7 +124,7 @@ class XYZDirWriter:
             if link is not None:  # no hard links here: write a copy
                 self._atomic(path, link.read_bytes())
                 return
-            raise GloffsetError(f"cannot write {str(path)!r}: {exc.strerror or exc}") from None
+            raise OutputError(f"cannot write {str(path)!r}: {exc.strerror or exc}") from None
 
     def put(self, z: int, x: int, y: int, data: bytes) -> None:
         """Write one tile file (XYZ ``z/x/y``)."""
