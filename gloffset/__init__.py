@@ -9,23 +9,9 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from . import grids, tiles
+from . import errors, grids, tiles
 from .contains import Index, contains
-from .errors import (
-    GLContextError,
-    GloffsetError,
-    InputFormatError,
-    InvalidDistanceError,
-    InvalidGeometryError,
-    InvalidGridError,
-    InvalidLevelError,
-    InvalidMaskError,
-    OptionError,
-    OutputError,
-    OutputExistsError,
-    ShaderError,
-    TilesError,
-)
+from .errors import *  # noqa: F403  (every exception class, listed in errors.__all__)
 from .multires import Decomposition, decompose
 from .offset import Offset, offset
 from .raster_input import raster_offset, rasterize
@@ -37,19 +23,6 @@ from .units import EARTH_RADIUS, parse_distance
 
 __all__ = [
     "EARTH_RADIUS",
-    "GLContextError",
-    "GloffsetError",
-    "InputFormatError",
-    "InvalidDistanceError",
-    "InvalidGeometryError",
-    "InvalidGridError",
-    "InvalidLevelError",
-    "InvalidMaskError",
-    "OptionError",
-    "OutputError",
-    "OutputExistsError",
-    "ShaderError",
-    "TilesError",
     "Index",
     "Decomposition",
     "Offset",
@@ -67,4 +40,5 @@ __all__ = [
     "render",
     "grids",
     "tiles",
+    *errors.__all__,
 ]
