@@ -21,7 +21,10 @@ edges closer than that are merged, a vertex closer than that to another edge is
 put on it (the edge is split there), and two edges cross only when each one's
 ends lie farther than that from the other's great circle. Everything else is
 exact: crossing points are intersections of great circles in float64, and an
-edge piece is kept or dropped by an exact crossing-parity test at its midpoint.
+edge piece is kept or dropped by an exact crossing-parity test at its midpoint
+(for a polygon whose edges cross each other, whose inside is taken by parity as
+everywhere in gloffset, by the tests of two points just off the piece on its two
+sides).
 
 The result is a set of closed rings, interior on the left, that do not cross one
 another; rings are grouped into *components* (polygons that touch or overlap end
@@ -122,10 +125,18 @@ def unite(rings, seams, comps, holes, labels) -> Boundary:
             np.asarray(holes, bool),
             list(labels),
         )
-    return _Union(rings, seams, comps, labels).run(holes)
+    return _Union(rings, seams, comps, labels).run()
 
 
 class _Union:
+    """One union: the input's edges, their pairs, pieces, and the rings made of them.
+
+    Steps (:meth:`run`): candidate pairs of edges from a cap tree, vertices within
+    :data:`TOL` merged, edges split at T-junctions and crossings, coincident pieces
+    cancelled or kept once, pieces inside another polygon dropped, the rest linked
+    into rings grouped by the polygons that touch.
+    """
+
     def __init__(self, rings, seams, comps, labels):
         self.labels = list(labels)
         self.n_comp = int(comps.max()) + 1
@@ -178,7 +189,7 @@ class _Union:
         return i, j
 
     # ------------------------------------------------------------------ run
-    def run(self, holes_in) -> Boundary:
+    def run(self) -> Boundary:
         i, j = self._pairs()
         if self._snap_vertices(i, j):
             i, j = self._pairs()
