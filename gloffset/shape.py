@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .caps import arc_cap, pad
 from .errors import InputFormatError, InvalidGeometryError
 from .io import geojson as _gj
 from .region import unite
@@ -251,9 +252,9 @@ class Shape:
             if not np.any(c):
                 radii[k] = np.pi
                 continue
-            mid = normalize(e.a[sel] + e.b[sel])
-            r = angle(c, mid) + 0.5 * angle(e.a[sel], e.b[sel])
-            centres[k], radii[k] = c, min(float(r.max()) * (1 + 1e-12) + 1e-12, np.pi)
+            mid, half = arc_cap(e.a[sel], e.b[sel])
+            r = angle(c, mid) + half
+            centres[k], radii[k] = c, min(pad(float(r.max()), abs_=1e-12), np.pi)
         return centres, radii
 
     # ------------------------------------------------------------------ output
