@@ -544,7 +544,7 @@ def _overlapping_components(shape: Shape) -> np.ndarray:
     e = shape.edges()
     ring = np.flatnonzero(e.group >= 0)
     a, b, g = e.a[ring], e.b[ring], e.group[ring]
-    tree = CapTree(normalize(a + b), 0.5 * angle(a, b))
+    tree = CapTree(*arc_cap(a, b))
     i, j = tree.self_pairs()
     other = g[i] != g[j]
     i, j = i[other], j[other]
