@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .caps import chord, pad
 from .sphere import angle, arc_distance, normalize, robust_cross, slerp
 
 __all__ = ["CapTree"]
@@ -29,22 +30,9 @@ __all__ = ["CapTree"]
 _PAD = 1e-14
 
 
-def _chord_limit(radius: np.ndarray) -> np.ndarray:
-    """Squared chord of an angle (clamped to pi), slightly inflated."""
-    r = np.minimum(radius, np.pi)
-    c = 2.0 * np.sin(0.5 * r)
-    return (c * (1.0 + 1e-12) + 1e-15) ** 2
-
-
 def _chord2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     diff = a - b
     return np.einsum("ij,ij->i", diff, diff)
-
-
-def _chord(angle_: np.ndarray) -> np.ndarray:
-    """Chords of angles (clamped to [0, pi]), slightly inflated; negative angles give 0."""
-    a = np.clip(angle_, 0.0, np.pi)
-    return np.where(angle_ > 0.0, 2.0 * np.sin(0.5 * a) * (1.0 + 1e-12) + 1e-15, 0.0)
 
 
 def _reduce_levels(values: np.ndarray, op, depth: int) -> list:
@@ -75,7 +63,7 @@ def _merge_caps(c1, r1, c2, r2):
     second = theta + r1 <= r2
     c = np.where(first[:, None], c1, np.where(second[:, None], c2, c))
     r = np.where(first, r1, np.where(second, r2, r))
-    return c, np.minimum(r * (1.0 + 1e-12) + _PAD, np.pi)
+    return c, np.minimum(pad(r, abs_=_PAD), np.pi)
 
 
 class CapTree:
@@ -97,7 +85,7 @@ class CapTree:
         r = np.asarray(radii, dtype=np.float64).reshape(-1)
         self.n = len(c)
         self.centers = [c]
-        self.radii = [np.minimum(r * (1.0 + 1e-12) + _PAD, np.pi)]
+        self.radii = [np.minimum(pad(r, abs_=_PAD), np.pi)]
         while len(c) > 1:
             m = len(c) // 2
             cm, rm = _merge_caps(
@@ -143,7 +131,7 @@ class CapTree:
             ci, cj = ci[keep], cj[keep]
             c, r = self.centers[k - 1], self.radii[k - 1]
             same = ci == cj
-            near = _chord2(c[ci], c[cj]) <= _chord_limit(r[ci] + r[cj] + slack)
+            near = _chord2(c[ci], c[cj]) <= pad(chord(r[ci] + r[cj] + slack)) ** 2
             keep = same | near
             ii, jj = ci[keep], cj[keep]
         off = ii != jj
@@ -191,12 +179,15 @@ class CapTree:
         lq, ld = qt.depth - 1, self.depth - 1
         # per query node: chord of its cap plus chord of its reach, and what is left of
         # its smallest stop once its own cap is taken off (chords are subadditive)
-        q_lim = [qt._chords(k) + _chord(q_reach[k]) for k in range(qt.depth)]
+        q_lim = [
+            qt._chords(k) + np.where(q_reach[k] > 0.0, pad(chord(q_reach[k])), 0.0)
+            for k in range(qt.depth)
+        ]
         if use_stop:
             q_left = []
             for k in range(qt.depth):
                 st_k = q_stop[k]
-                s_ch = 2.0 * np.sin(0.5 * np.clip(st_k, 0.0, np.pi)) * (1.0 - 1e-12)
+                s_ch = chord(np.maximum(st_k, 0.0)) * (1.0 - 1e-12)  # rounded down
                 q_left.append(np.where(st_k > 0.0, s_ch - qt._chords(k), -1.0))
         q_size = [float(np.mean(qt.radii[k] + q_reach[k])) for k in range(qt.depth)]
         d_size = [float(np.mean(r)) for r in self.radii]
@@ -249,7 +240,7 @@ class CapTree:
         cache = self.__dict__.setdefault("_chord_cache", {})
         if k not in cache:
             r = self.radii[k]
-            cache[k] = 2.0 * np.sin(0.5 * np.minimum(r, np.pi)) * (1.0 + 1e-12) + 1e-15
+            cache[k] = pad(chord(r))
         return cache[k]
 
     def along(self, a, b, *, lo=None, hi=None) -> tuple[np.ndarray, np.ndarray]:
@@ -274,7 +265,7 @@ class CapTree:
                 inr = (ni << k < hi[si]) & ((ni + 1) << k > lo[si])
                 si, ni = si[inr], ni[inr]
             dist = arc_distance(c[ni], a[si], b[si], n[si])
-            keep = dist <= r[ni] * (1.0 + 1e-12) + 1e-14
+            keep = dist <= pad(r[ni], abs_=_PAD)
             si, ni = si[keep], ni[keep]
             if k > 0:
                 nk = len(self.centers[k - 1])

@@ -45,6 +45,7 @@ import math
 import numpy as np
 
 from . import bins
+from .caps import arc_cap, cap_within, chord2, cos_sum_lower, pad
 from .crossings import inside as _inside_reference
 from .errors import InvalidLevelError
 from .multires import Decomposition
@@ -139,11 +140,9 @@ def _within(p, g, chord2, sin_r, pg=None) -> np.ndarray:
 
 def _radius_terms(r: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``chord2`` and ``sin_r`` of :func:`_within` for angles ``r``."""
-    rc = np.minimum(r, np.pi)
-    chord2 = (2.0 * np.sin(0.5 * rc)) ** 2
-    chord2 = np.where(r >= np.pi, 5.0, chord2)
+    c2 = np.where(r >= np.pi, 5.0, chord2(r))
     sin_r = np.where(r >= 0.5 * np.pi, 2.0, np.sin(np.minimum(r, 0.5 * np.pi)))
-    return chord2, np.where(degenerate, -1.0, sin_r)
+    return c2, np.where(degenerate, -1.0, sin_r)
 
 
 # ---------------------------------------------------------------------- the arc tree
@@ -167,10 +166,8 @@ class _Arcs:
         self.n = normalize(robust_cross(t.a, t.b))
         self.degenerate = np.sum(self.n * self.n, axis=1) < 0.5
         # bounding cap: the middle of the arc, half its length plus its error (padded)
-        s = t.a + t.b
-        self.mid = np.where(np.sum(s * s, axis=1)[:, None] > 1e-300, normalize(s), t.a)
-        rad = (0.5 * angle(t.a, t.b) + t.e) * (1.0 + 1e-12) + 1e-15
-        self.rad = np.minimum(rad, np.pi)
+        self.mid, half = arc_cap(t.a, t.b)
+        self.rad = np.minimum(pad(half + t.e), np.pi)
         self.cos_rad, self.sin_rad = np.cos(self.rad), np.sin(self.rad)
         self.g = np.ascontiguousarray(
             np.hstack([t.a, t.b, self.n, cross(self.n, t.a), cross(t.b, self.n)])
@@ -372,8 +369,8 @@ class Index:
             kind = arcs.kind[pn]
             ring = ((kind & _RING) != 0) & ((cflag[pc] & 1) != 0)
             # a cheap cap test first: arcs whose bounding cap is beyond reach do not matter
-            far = dot(x, f[:, 0:3]) < np.where(
-                c[:, 1] + f[:, 5] >= np.pi, -2.0, c[:, 2] * f[:, 3] - c[:, 3] * f[:, 4] - 1e-12
+            far = dot(x, f[:, 0:3]) < cos_sum_lower(
+                c[:, 1] + f[:, 5], c[:, 2], c[:, 3], f[:, 3], f[:, 4]
             )
             if parity is not None:  # still crossed: their error region holds no anchor
                 cnt = np.flatnonzero(far & ring)
@@ -485,10 +482,8 @@ class Index:
         f = arcs.pack[pn]
         cpack = self._reach(child).reshape(-1, 4, 4)[pos]
         xc = x.reshape(-1, 4, 3)[pos]
-        far = dot(xc, f[:, None, 0:3]) < np.where(
-            cpack[:, :, 1] + f[:, 5:6] >= np.pi,
-            -2.0,
-            cpack[:, :, 2] * f[:, 3:4] - cpack[:, :, 3] * f[:, 4:5] - 1e-12,
+        far = dot(xc, f[:, None, 0:3]) < cos_sum_lower(
+            cpack[:, :, 1] + f[:, 5:6], cpack[:, :, 2], cpack[:, :, 3], f[:, 3:4], f[:, 4:5]
         )
         child_of_pair = 4 * pos[:, None] + np.arange(4)
         # far ring arcs still cross the short arcs child anchor -> parent anchor
@@ -917,7 +912,7 @@ def contains(
 
         p = lonlat_to_xyz(lon, lat)
         centres, radii = shape.component_caps()
-        near = p @ centres.T >= np.cos(radii)[None, :] - 1e-12
+        near = cap_within(p @ centres.T, radii[None, :])
         risky = np.any(near[:, pairs[:, 0]] & near[:, pairs[:, 1]], axis=1)
         if risky.any():
             out[risky] = contains_xyz(shape, p[risky], d)

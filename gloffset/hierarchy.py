@@ -38,6 +38,7 @@ from functools import cached_property
 
 import numpy as np
 
+from .caps import CAP_SLACK, arc_cap, cap_range, cap_within, pad
 from .sphere import angle, arc_distance, arcs_cross, cross, normalize, robust_cross
 
 __all__ = [
@@ -89,10 +90,8 @@ class Arcs:
     def _make(cls, shape) -> Arcs:
         e = shape.edges()
         n = normalize(robust_cross(e.a, e.b))
-        s = e.a + e.b
-        mid = np.where(np.linalg.norm(s, axis=1)[:, None] > 0, normalize(s), e.a)
-        half = 2.0 * np.arctan2(np.linalg.norm(e.a - e.b, axis=1), np.linalg.norm(s, axis=1))
-        half = 0.5 * half * (1 + 1e-12) + 1e-15
+        mid, half = arc_cap(e.a, e.b)
+        half = pad(half)
         return cls(e.a, e.b, n, mid, half, e.boundary, e.group, shape.n_groups)
 
 
@@ -143,7 +142,7 @@ def _status_at(shape, arcs: Arcs, p: np.ndarray) -> np.ndarray:
     refs, ref_status = shape.reference_points()
     ring = arcs.group >= 0
     present = np.bincount(arcs.group[ring], minlength=arcs.n_groups) > 0
-    reach = np.sin(np.minimum(arcs.half, 0.5 * math.pi)) * (1.0 + 1e-9) + 1e-9
+    reach = pad(np.sin(np.minimum(arcs.half, 0.5 * math.pi)), 1e-9, 1e-9)
     for i, pt in enumerate(p):
         k = int(pt @ refs[0] < -0.5)
         r = refs[k]
@@ -159,25 +158,6 @@ def _status_at(shape, arcs: Arcs, p: np.ndarray) -> np.ndarray:
         ins[present] = par[present] ^ ref_status[k][present]
         status[i] = np.packbits(ins, bitorder="little")[: status.shape[1]]
     return status
-
-
-#: Slack on angles from arc caps: ``arccos(c.m)`` is good to 1e-7 rad (3e-16 on ``c.m``
-#: near 1), so a bound from it is widened by twice that.
-CAP_SLACK = 2e-7
-
-
-def cap_range(cm: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(t - half, t + half)`` with ``t = arccos(c.m)``: bounds on the distance from a
-    point ``c`` to an arc with bounding cap (centre ``m``, radius ``half``), each good
-    to :data:`CAP_SLACK` / 2."""
-    t = np.arccos(np.clip(cm, -1.0, 1.0))
-    return t - half, t + half
-
-
-def cap_within(cm: np.ndarray, reach: np.ndarray) -> np.ndarray:
-    """Whether a cap can come within ``reach - half`` of ``c``: ``c.m >= cos(reach)``
-    (``reach`` = a distance plus the cap's radius), never false where it should hold."""
-    return cm >= np.cos(np.minimum(reach, math.pi)) - 1e-12
 
 
 def row_statuses(shape, arcs: Arcs, h: int, w: int, first, cells, crossing) -> np.ndarray:
@@ -218,8 +198,8 @@ def _coarse(shape, arcs: Arcs, grid, e: float) -> Frontier:
         pred[:, 1:] = cgrid[:, :-1]
         pred[0, 0] = cgrid[0, 0]
         a_seg = pred.reshape(-1, 3)
-        mid = normalize(a_seg + c)
-        half = 0.5 * np.arccos(np.clip(np.einsum("ij,ij->i", a_seg, c), -1.0, 1.0)) + 1e-9
+        mid, half = arc_cap(a_seg, c)
+        half = half + 1e-9
         qi, ai, _ = tree.near(mid, half)
         ring = arcs.group[ai] >= 0
         qi, ai = qi[ring], ai[ring]

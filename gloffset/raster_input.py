@@ -61,12 +61,14 @@ from functools import lru_cache
 
 import numpy as np
 
+from .caps import cap_within, pad
+from .caps import chord2 as chord2_of_angle
 from .errors import InvalidDistanceError, InvalidMaskError, OptionError
 from .grids import Cube, Equirect
 from .grids.base import LonLatGrid, rect_radius
 from .grids.cube import CubeCells, locate, project
 from .shape import read
-from .sphere import normalize, robust_cross
+from .sphere import angle, normalize, robust_cross
 from .units import EARTH_RADIUS, to_angle
 
 __all__ = [
@@ -132,11 +134,6 @@ def chord2(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     return dx * dx + dy * dy + dz * dz
 
 
-def _chord2_of_angle(x):
-    x = np.minimum(np.asarray(x, dtype=np.float64), math.pi)
-    return 4.0 * np.sin(0.5 * x) ** 2
-
-
 def pixel_radius(grid) -> np.ndarray:
     """Per-row area bound of the output cells: the farthest point of a pixel's
     lon/lat rectangle from its centre (the paper's ``d_g / 2``), rounded up."""
@@ -150,7 +147,7 @@ def pixel_radius(grid) -> np.ndarray:
     north, south = grid._lat_px(j), grid._lat_px(j + 1)
     half = 0.5 * abs(float(grid._lon_px(1) - grid._lon_px(0)))
     r = rect_radius(np.full(len(j), half), phi, np.minimum(north, south), np.maximum(north, south))
-    return r * (1.0 + 1e-12) + 1e-15
+    return pad(r)
 
 
 def _wraps(grid, level: int) -> bool:
@@ -278,9 +275,7 @@ def _arcs(shape):
     n = normalize(robust_cross(a, b))
     is_arc = np.linalg.norm(n, axis=1) > 0.5
     u = np.where(is_arc[:, None], np.cross(n, a), 0.0)
-    theta = np.where(
-        is_arc, 2.0 * np.arctan2(np.linalg.norm(a - b, axis=1), np.linalg.norm(a + b, axis=1)), 0.0
-    )
+    theta = np.where(is_arc, angle(a, b), 0.0)
     return a, b, part, n, is_arc, u, theta
 
 
@@ -596,8 +591,8 @@ class Levels:
             lo = d - s - rq - r_l
             hi = d + 2.0 * s + rq + r_l
             R.append(r_l)
-            lo2 = np.where(lo > 0.0, _chord2_of_angle(np.maximum(lo, 0.0)), -1.0)
-            hi2 = np.where(hi < math.pi, _chord2_of_angle(hi), 5.0)
+            lo2 = np.where(lo > 0.0, chord2_of_angle(np.maximum(lo, 0.0)), -1.0)
+            hi2 = np.where(hi < math.pi, chord2_of_angle(hi), 5.0)
             if hasattr(grid, "row_valid"):  # padding rows hold no cell: always outside
                 ok = grid.row_valid(lev)
                 lo2, hi2 = np.where(ok, lo2, -1.0), np.where(ok, hi2, -1.0)
@@ -669,8 +664,9 @@ def near_pairs(
     step = max(1, _PAIRS // max(len(pk), 1))
     for s0 in range(0, len(qk), step):
         sl = slice(s0, s0 + step)
-        lim = np.cos(np.minimum(reach + eq[sl, None] + ep[None, :] + _REACH_SLACK, math.pi))
-        bq, bp = np.nonzero(cq[sl] @ cp.T >= lim - 1e-12)
+        bq, bp = np.nonzero(
+            cap_within(cq[sl] @ cp.T, reach + eq[sl, None] + ep[None, :] + _REACH_SLACK)
+        )
         bq += s0
         cnt = qc[bq] * pc[bp]
         # cartesian products of the bucket pairs, in chunks of about _PAIRS pairs
@@ -686,7 +682,7 @@ def near_pairs(
             iq = qo[np.repeat(qs[b_q], c) + k // npc]
             ip = po[np.repeat(ps[b_p], c) + k % npc]
             c2 = chord2(cq_all[iq], cp_all[ip])
-            keep = c2 <= _chord2_of_angle(reach + extra_q[iq] + _REACH_SLACK) * (1 + 1e-12)
+            keep = c2 <= pad(chord2_of_angle(reach + extra_q[iq] + _REACH_SLACK), abs_=0.0)
             yield iq[keep], ip[keep], c2[keep]
             lo = hi
 

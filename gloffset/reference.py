@@ -11,6 +11,10 @@ tens of millions of points by two safe shortcuts and bounded memory:
   get the exact point-to-arc distance of :func:`gloffset.sphere.arc_distance`.
 
 Points are processed in chunks so memory stays bounded whatever their number.
+
+The bounds here (an edge's bounding cap, the cap test ``c.p >= cos(u + h) - 1e-12``)
+are deliberate copies of those in :mod:`gloffset.caps`, not imports: the judge shares
+no code with what it judges, so a wrong bound there cannot hide itself here.
 """
 
 from __future__ import annotations
@@ -71,6 +75,7 @@ class _EdgeIndex:
         self.a = e.a[e.boundary]
         self.b = e.b[e.boundary]
         self.n = normalize(robust_cross(self.a, self.b))
+        # deliberately not gloffset.caps.arc_cap: the judge shares no code with what it judges
         mid = normalize(self.a + self.b)
         self.c = np.where(np.linalg.norm(self.a + self.b, axis=1)[:, None] > 0, mid, self.a)
         self.h = 0.5 * angle(self.a, self.b)
@@ -99,7 +104,8 @@ def distance_xyz(shape, p: np.ndarray) -> np.ndarray:
         q = p[s : s + chunk]
         best = np.argmax(q @ ix.v.T, axis=1)
         u = angle(q, ix.v[best])
-        # candidate edges: cap centre within u + h (compared as dot products, with slack)
+        # candidate edges: cap centre within u + h (compared as dot products, with slack);
+        # a copy of gloffset.caps.cap_within on purpose (the judge shares no code)
         lim = np.cos(np.minimum(u[:, None] + ix.h[None, :], np.pi)) - 1e-12
         rows, cols = np.nonzero((q @ ix.c.T) >= lim)
         d = arc_distance(q[rows], ix.a[cols], ix.b[cols], ix.n[cols])

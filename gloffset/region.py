@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .caps import arc_cap, cap_within, pad
 from .errors import InvalidGeometryError
 from .sphere import angle, arc_distance, arcs_cross, cross, normalize, robust_cross
 
@@ -181,10 +182,7 @@ class _Union:
         from .captree import CapTree
 
         a, b = self.v, self.v[self.nxt]
-        s = a + b
-        mid = normalize(s)
-        half = 0.5 * angle(a, b)
-        self.tree = CapTree(mid, half)
+        self.tree = CapTree(*arc_cap(a, b))
         i, j = self.tree.self_pairs(slack=2 * TOL)
         return i, j
 
@@ -386,7 +384,7 @@ class _Union:
         """For points ``p``: inside any input polygon other than ``own``/``excl``?"""
         caps_c, caps_r = self.caps
         cq = np.einsum("ij,kj->ik", p, caps_c)  # (points, comps)
-        cand = cq >= np.cos(np.minimum(caps_r, np.pi))[None, :] - 1e-12
+        cand = cap_within(cq, caps_r[None, :])
         cand[np.arange(len(p)), own] = False
         for k, cs in excl.items():
             cand[k, list(cs)] = False
@@ -433,7 +431,7 @@ class _Union:
         c = normalize(np.where(big[:, None], [0.0, 0.0, 1.0], s))
         cc = c[self.comp]
         reach = np.maximum(angle(cc, a), angle(cc, b)) + 0.5 * angle(a, b)
-        r = np.maximum.reduceat(reach, lo) * (1 + 1e-12) + 1e-9
+        r = pad(np.maximum.reduceat(reach, lo), abs_=1e-9)
         big |= r >= np.pi
         small = np.flatnonzero(~big)
         big[small[self._inside(-c[small], small)]] = True
@@ -510,7 +508,7 @@ class _Union:
         """Whether points ``p`` lie inside any input polygon."""
         caps_c, caps_r = self.caps
         cq = np.einsum("ij,kj->ik", p, caps_c)
-        pi, ci = np.nonzero(cq >= np.cos(np.minimum(caps_r, np.pi))[None, :] - 1e-12)
+        pi, ci = np.nonzero(cap_within(cq, caps_r[None, :]))
         out = np.zeros(len(p), bool)
         np.logical_or.at(out, pi, self._inside(p[pi], ci))
         return out

@@ -43,16 +43,8 @@ import math
 
 import numpy as np
 
-from .hierarchy import (
-    FRONTIER,
-    Arcs,
-    Frontier,
-    _status_bits,
-    cap_within,
-    decide,
-    nearest,
-    row_statuses,
-)
+from .caps import cap_within, pad
+from .hierarchy import FRONTIER, Arcs, Frontier, _status_bits, decide, nearest, row_statuses
 from .sphere import angle, arcs_cross
 
 __all__ = ["start_level", "scatter", "pooled", "PAIRS_PER_ARC"]
@@ -74,7 +66,7 @@ def _levels_geometry(grid, level: int):
     c0 = grid.centers(level, rows, 0)
     spacing = angle(c0, grid.centers(level, rows, min(1, w - 1)))  # left neighbour
     spacing[1:] = np.maximum(spacing[1:], angle(c0[:-1], c0[1:]))  # above (first column)
-    return lat, lon, rho, spacing * (1.0 + 1e-12) + 1e-15
+    return lat, lon, rho, pad(spacing)
 
 
 def _boxes(arcs: Arcs, lat, lon, reach: float):
@@ -98,7 +90,7 @@ def _boxes(arcs: Arcs, lat, lon, reach: float):
     polar = (np.abs(lat0) + r >= 0.5 * math.pi) | (r >= 0.5 * math.pi)
     with np.errstate(invalid="ignore", divide="ignore"):
         s = np.sin(np.minimum(r, 0.5 * math.pi)) / np.cos(lat0)
-    dl = np.where(polar, math.pi, np.arcsin(np.clip(s, 0.0, 1.0)) * (1.0 + _REL) + _ABS)
+    dl = np.where(polar, math.pi, pad(np.arcsin(np.clip(s, 0.0, 1.0)), _REL, _ABS))
     out = []
     idx = np.arange(len(lon0))
     full = polar | (dl >= math.pi)

@@ -66,6 +66,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import crossings
+from .caps import arc_cap
 from .captree import CapTree
 from .errors import InvalidDistanceError
 from .offset import DEFAULT_TOLERANCE, ArcRings, OffsetRing, _circle, _ring_arcs, sample_rings
@@ -412,8 +413,7 @@ class _Generators:
         e = shape.edges()
         self.a, self.b = e.a, e.b
         self.n = normalize(robust_cross(self.a, self.b))
-        mid = normalize(self.a + self.b)
-        self.tree = CapTree(mid, 0.5 * angle(self.a, self.b), reps=self.a)
+        self.tree = CapTree(*arc_cap(self.a, self.b), reps=self.a)
 
     def closer_than(self, p: np.ndarray, thr: np.ndarray) -> np.ndarray:
         """Whether some point of the curves lies closer than ``thr`` to each ``p``.
@@ -762,8 +762,7 @@ def _find_defects(shape) -> tuple[bool, bool]:
     e = shape.edges()
     ring = np.flatnonzero(e.group >= 0)
     a, b = e.a[ring], e.b[ring]
-    mid = normalize(a + b)
-    ia, ib = CapTree(mid, 0.5 * angle(a, b)).self_pairs()
+    ia, ib = CapTree(*arc_cap(a, b)).self_pairs()
     # edges that share an end point only touch there
     shared = (
         np.all(a[ia] == a[ib], axis=1)

@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .caps import arc_cap, pad
 from .errors import InputFormatError, InvalidGeometryError
 from .io import geojson as _gj
 from .region import unite
@@ -251,9 +252,9 @@ class Shape:
             if not np.any(c):
                 radii[k] = np.pi
                 continue
-            mid = normalize(e.a[sel] + e.b[sel])
-            r = angle(c, mid) + 0.5 * angle(e.a[sel], e.b[sel])
-            centres[k], radii[k] = c, min(float(r.max()) * (1 + 1e-12) + 1e-12, np.pi)
+            mid, half = arc_cap(e.a[sel], e.b[sel])
+            r = angle(c, mid) + half
+            centres[k], radii[k] = c, min(pad(float(r.max()), abs_=1e-12), np.pi)
         return centres, radii
 
     # ------------------------------------------------------------------ output
@@ -543,7 +544,7 @@ def _overlapping_components(shape: Shape) -> np.ndarray:
     e = shape.edges()
     ring = np.flatnonzero(e.group >= 0)
     a, b, g = e.a[ring], e.b[ring], e.group[ring]
-    tree = CapTree(normalize(a + b), 0.5 * angle(a, b))
+    tree = CapTree(*arc_cap(a, b))
     i, j = tree.self_pairs()
     other = g[i] != g[j]
     i, j = i[other], j[other]

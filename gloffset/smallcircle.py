@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .caps import angle_of_chord, pad
 from .sphere import angle, normalize, robust_cross, rotate
 
 __all__ = [
@@ -217,8 +218,7 @@ class Arcs:
         m = self.midpoint()
         ca = np.linalg.norm(m - self.start, axis=1)
         cb = np.linalg.norm(m - self.end, axis=1)
-        r = 2.0 * np.arcsin(np.minimum(0.5 * np.maximum(ca, cb), 1.0))
-        return m, r * (1.0 + 1e-12) + 1e-15
+        return m, pad(angle_of_chord(np.maximum(ca, cb)))
 
     def subset(self, idx) -> Arcs:
         return Arcs(self.axis[idx], self.h[idx], self.start[idx], self.end[idx], self.phi[idx])

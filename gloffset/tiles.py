@@ -60,6 +60,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from .caps import pad
 from .errors import TilesError
 from .gl.engine import BinLayout
 from .grids.base import rect_radius
@@ -186,12 +187,12 @@ class TileLevels:
         exact = rect_radius(np.full(j.shape, dl), mid, south, north)
         c = _xyz(0.0, mid)
         corners = np.maximum(angle(c, _xyz(dl, north)), angle(c, _xyz(dl, south)))
-        return np.maximum(exact, corners) * (1.0 + 1e-12) + 1e-15
+        return pad(np.maximum(exact, corners))
 
     def rho_at(self, z: int, j, i) -> np.ndarray:
         """The list bound ``L`` of tiles (``j``, ``i``) of zoom ``z``."""
         r = self.bound(z, j) + self._extra[z]
-        return (r * (1.0 + 1e-12) + 1e-15) + 0.0 * np.asarray(i)
+        return pad(r) + 0.0 * np.asarray(i)
 
 
 # ---------------------------------------------------------------------- results

@@ -33,8 +33,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..caps import CAP_SLACK, cap_range, chord2
 from ..errors import GLContextError
-from ..hierarchy import CAP_SLACK, FRONTIER, Arcs, Frontier, cap_range
+from ..hierarchy import FRONTIER, Arcs, Frontier
 from ..sphere import dot
 from .context import context_info, get_context
 from .shaders import program
@@ -85,7 +86,7 @@ def records(f: Frontier, arcs: Arcs, e: float, cluster: int = CLUSTER) -> tuple[
     if npair >= 1 << 28:
         raise GLContextError(f"{npair} candidate pairs: too many for one render")
     se = math.sin(e)
-    chord_e = 4.0 * math.sin(0.5 * e) ** 2
+    chord_e = float(chord2(e))
     out = np.empty((npair, RECORD_TEXELS * 4), dtype=np.float32)  # cast on assignment
     code = np.empty(npair, dtype=np.int64)
     lune1, lune2 = arcs.lunes
@@ -229,16 +230,16 @@ def _round_up(x: np.ndarray) -> np.ndarray:
 
 def _margins(rho: np.ndarray, e: float) -> np.ndarray:
     """(rows, 2, 4) float32: (mu_lo, mu_hi, mu_rho) and (nu_lo, nu_hi, nu_rho) per row."""
-    se, ce = math.sin(e), 4.0 * math.sin(0.5 * e) ** 2
+    se, ce = math.sin(e), float(chord2(e))
     lo, hi = e - rho, e + rho
     out = np.zeros((len(rho), 2, 4))
     never = -1e30
     out[:, 0, 0] = np.where(lo >= 0, np.sin(np.clip(lo, 0, math.pi / 2)) - se, never)
     out[:, 0, 1] = np.sin(np.minimum(hi, math.pi / 2)) - se
     out[:, 0, 2] = np.sin(np.minimum(rho, math.pi / 2)) - se
-    out[:, 1, 0] = np.where(lo >= 0, 4.0 * np.sin(0.5 * np.clip(lo, 0, math.pi)) ** 2 - ce, never)
-    out[:, 1, 1] = 4.0 * np.sin(0.5 * np.minimum(hi, math.pi)) ** 2 - ce
-    out[:, 1, 2] = 4.0 * np.sin(0.5 * np.minimum(rho, math.pi)) ** 2 - ce
+    out[:, 1, 0] = np.where(lo >= 0, chord2(lo) - ce, never)
+    out[:, 1, 1] = chord2(hi) - ce
+    out[:, 1, 2] = chord2(rho) - ce
     return out.astype(np.float32)
 
 

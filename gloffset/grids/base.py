@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from ..caps import pad
 from ..errors import InvalidGridError
 from ..sphere import angle
 
@@ -175,7 +176,7 @@ class LonLatGrid(Levels):
                 for di in (0, 1):
                     cc = self.centers(lev + 1, 2 * j + dj, di)
                     hier = np.maximum(hier, angle(c, cc) + child[cj])
-            out[lev] = np.maximum(area, hier) * (1.0 + 1e-12) + 1e-15
+            out[lev] = pad(np.maximum(area, hier))
         return out
 
 

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..caps import pad
 from ..sphere import angle, normalize
 from .base import InvalidGridError, Levels, Square, check_size
 
@@ -150,7 +151,7 @@ class CubeFace(Square, Levels):
                     ci = np.minimum(2 * ii + di, cw - 1)
                     cc = self.centers(lev + 1, cj, ci)
                     r = np.maximum(r, angle(c, cc) + child[cj, ci])
-            out[lev] = r * (1.0 + 1e-12) + 1e-15
+            out[lev] = pad(r)
         return out
 
     def _cache(self) -> list[np.ndarray]:
@@ -177,7 +178,7 @@ class CubeFace(Square, Levels):
         so the farthest point of a cell is a corner), rounded up like ``rho``. At the
         output level it is the pixel's own bound (where ``rho`` is 0)."""
         j, i = np.broadcast_arrays(np.asarray(j), np.asarray(i))
-        return self._corner_angle(level, j, i, self.centers(level, j, i)) * (1.0 + 1e-12) + 1e-15
+        return pad(self._corner_angle(level, j, i, self.centers(level, j, i)))
 
     def _corner_angle(self, level: int, j, i, c) -> np.ndarray:
         """Largest angle from the centres ``c`` of cells (``j``, ``i``) to their corners."""
