@@ -49,3 +49,27 @@ def write(name: str, record: dict) -> Path:
     tmp.write_text(json.dumps(record, indent=2))
     tmp.replace(path)
     return path
+
+
+def coastline(n: int = 70_000, seed: int = 0, center=(20.0, 10.0), radius_deg: float = 10.0):
+    """A star-shaped ring of n vertices whose radius has a 1/f spectrum (seeded)."""
+    import gloffset
+
+    rng = np.random.default_rng(seed)
+    spec = np.zeros(n // 2 + 1, dtype=complex)
+    f = np.arange(1, len(spec))
+    spec[1:] = 0.25 / f * np.exp(1j * rng.uniform(0.0, 2.0 * np.pi, len(f))) * (f < 3000)
+    r = np.maximum(1.0 + np.fft.irfft(spec, n) * n / 2, 0.2) * radius_deg
+    th = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    lat = center[1] + r * np.sin(th)
+    lon = center[0] + r * np.cos(th) / np.cos(np.radians(center[1]))
+    return gloffset.Shape.from_lonlat(lon, lat, closed=True)
+
+
+def in_box(feature, box) -> bool:
+    """Whether the mean of a GeoJSON feature's exterior vertices lies in ``box`` (W, S, E, N)."""
+    g = feature["geometry"]
+    polys = g["coordinates"] if g["type"] == "MultiPolygon" else [g["coordinates"]]
+    pts = np.concatenate([np.asarray(p[0]) for p in polys])
+    lon, lat = pts.mean(axis=0)
+    return box[0] <= lon <= box[2] and box[1] <= lat <= box[3]

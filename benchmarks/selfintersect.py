@@ -25,7 +25,7 @@ import argparse
 import time
 
 import numpy as np
-from common import DATA, best_of, write
+from common import DATA, best_of, coastline, write
 
 import gloffset
 from gloffset.reference import contains_xyz, distance_xyz
@@ -33,19 +33,6 @@ from gloffset.selfintersect import algorithm1
 from gloffset.sphere import normalize, xyz_to_lonlat
 
 R_KM = gloffset.EARTH_RADIUS / 1000.0
-
-
-def coastline(n: int = 70_000, seed: int = 0, center=(20.0, 10.0), radius_deg: float = 10.0):
-    """A star-shaped ring of n vertices whose radius has a 1/f spectrum (seeded)."""
-    rng = np.random.default_rng(seed)
-    spec = np.zeros(n // 2 + 1, dtype=complex)
-    f = np.arange(1, len(spec))
-    spec[1:] = 0.25 / f * np.exp(1j * rng.uniform(0.0, 2.0 * np.pi, len(f))) * (f < 3000)
-    r = np.maximum(1.0 + np.fft.irfft(spec, n) * n / 2, 0.2) * radius_deg
-    th = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
-    lat = center[1] + r * np.sin(th)
-    lon = center[0] + r * np.cos(th) / np.cos(np.radians(center[1]))
-    return gloffset.Shape.from_lonlat(lon, lat, closed=True)
 
 
 # ----------------------------------------------------------------------------- shapely

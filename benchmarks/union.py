@@ -18,7 +18,7 @@ import json
 import time
 
 import numpy as np
-from common import DATA, best_of, write
+from common import DATA, best_of, in_box, write
 
 import gloffset
 
@@ -34,17 +34,9 @@ def features(fc, which):
     if which == "all":
         return feats
     if which == "europe":
-        return [f for f in feats if _in_box(f, (-25, 34, 45, 72))]
+        return [f for f in feats if in_box(f, (-25, 34, 45, 72))]
     by_name = {f["properties"]["name"]: f for f in feats}
     return [by_name[n] for n in which]
-
-
-def _in_box(f, box):
-    g = f["geometry"]
-    polys = g["coordinates"] if g["type"] == "MultiPolygon" else [g["coordinates"]]
-    pts = np.concatenate([np.asarray(p[0]) for p in polys])
-    lon, lat = pts.mean(axis=0)
-    return box[0] <= lon <= box[2] and box[1] <= lat <= box[3]
 
 
 def main():

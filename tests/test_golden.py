@@ -113,17 +113,19 @@ def seam_lines():
 
 
 @functools.cache
-def coastline(n: int = 70_000, seed: int = 0, center=(20.0, 10.0), radius_deg: float = 10.0):
+def coastline(n: int = 70_000):
     """The seeded synthetic coastline of benchmarks/selfintersect.py (n vertices)."""
-    rng = np.random.default_rng(seed)
-    spec = np.zeros(n // 2 + 1, dtype=complex)
-    f = np.arange(1, len(spec))
-    spec[1:] = 0.25 / f * np.exp(1j * rng.uniform(0.0, 2.0 * np.pi, len(f))) * (f < 3000)
-    r = np.maximum(1.0 + np.fft.irfft(spec, n) * n / 2, 0.2) * radius_deg
-    th = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
-    lat = center[1] + r * np.sin(th)
-    lon = center[0] + r * np.cos(th) / np.cos(np.radians(center[1]))
-    return gloffset.Shape.from_lonlat(lon, lat, closed=True)
+    return _bench_common().coastline(n)
+
+
+def _bench_common():
+    """benchmarks/common.py, which holds the synthetic inputs the benchmarks share."""
+    bench = str(Path(__file__).resolve().parent.parent / "benchmarks")
+    if bench not in sys.path:
+        sys.path.insert(0, bench)
+    import common
+
+    return common
 
 
 @functools.cache
@@ -572,14 +574,6 @@ def countries_10m() -> list:
     return json.loads((DATA / "countries_10m.geojson").read_text())["features"]
 
 
-def _in_box(f, box):
-    g = f["geometry"]
-    polys = g["coordinates"] if g["type"] == "MultiPolygon" else [g["coordinates"]]
-    pts = np.concatenate([np.asarray(p[0]) for p in polys])
-    lon, lat = pts.mean(axis=0)
-    return box[0] <= lon <= box[2] and box[1] <= lat <= box[3]
-
-
 def _union(which):
     """The union's rings (float64 unit vectors), their seams, groups and holes
     (benchmarks/union.py's cases)."""
@@ -587,7 +581,7 @@ def _union(which):
     def run():
         feats = countries_10m()
         if which == "europe":
-            feats = [f for f in feats if _in_box(f, (-25, 34, 45, 72))]
+            feats = [f for f in feats if _bench_common().in_box(f, (-25, 34, 45, 72))]
         elif which != "all":
             by_name = {f["properties"]["name"]: f for f in feats}
             feats = [by_name[n] for n in which]
