@@ -732,6 +732,10 @@ def _on_arc(A, sign, sinr, phi_abs, idx, x, err):
     return np.clip(t, 0.0, ph), on, near_s, near_e
 
 
+#: Start points of the inside test of pieces (short arcs: few edges to test per piece).
+_SIDE_ANCHORS = 256
+
+
 def _side_ok(shape, d, mid, from_line):
     """Which pieces lie on the right side of the polygons.
 
@@ -747,7 +751,7 @@ def _side_ok(shape, d, mid, from_line):
         check[:] = True
     idx = np.flatnonzero(check)
     if len(idx):
-        ins = crossings.inside_indexed(shape, mid[idx])
+        ins = crossings.inside_indexed(shape, mid[idx], anchors=_SIDE_ANCHORS)
         ok[idx] = ~ins if d > 0.0 else ins
     return ok
 

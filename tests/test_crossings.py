@@ -34,6 +34,9 @@ def test_inside_indexed_equals_inside():
         want = crossings.inside(shape, p)
         assert np.array_equal(crossings.inside_indexed(shape, p), want)
         assert want.any() and not want.all()
+        # from the nearest of a few start points with known status: short arcs
+        for n in (1, 64, 256):
+            assert np.array_equal(crossings.inside_indexed(shape, p, anchors=n), want)
 
 
 def test_inside_indexed_groups_and_skip():
@@ -44,6 +47,7 @@ def test_inside_indexed_groups_and_skip():
     want = crossings.inside(shape, p, groups=some)
     assert want.any()
     assert np.array_equal(crossings.inside_indexed(shape, p, groups=some), want)
+    assert np.array_equal(crossings.inside_indexed(shape, p, groups=some, anchors=64), want)
     # skip: one component per point left out
     skip = rng.integers(0, shape.n_groups, len(p))
     got = crossings.inside_indexed(shape, p, skip=skip)
