@@ -9,6 +9,10 @@ Accuracy: the answer is exact for every point farther than about 1e-15 rad from
 the boundary. Crossing tests use the signs of triple products with a half-open
 rule (a point on a great circle counts as on its left), so an arc through a shared
 vertex is counted once.
+
+:func:`inside` tests every point against every edge (the reference does that);
+:func:`inside_indexed` gives the same answers through a cap tree of the edges, testing
+only the edges near each point's arc, for the many points of a large shape.
 """
 
 from __future__ import annotations
