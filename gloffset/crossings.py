@@ -11,8 +11,9 @@ rule (a point on a great circle counts as on its left), so an arc through a shar
 vertex is counted once.
 
 :func:`inside` tests every point against every edge (the reference does that);
-:func:`inside_indexed` gives the same answers through a cap tree of the edges, testing
-only the edges near each point's arc, for the many points of a large shape.
+:func:`inside_indexed` gives the same answers for points off the boundary through a cap
+tree of the edges, testing only the edges near each point's arc (for the many points of
+a large shape); on the boundary both are decided by rounding.
 """
 
 from __future__ import annotations
