@@ -732,6 +732,10 @@ def _on_arc(A, sign, sinr, phi_abs, idx, x, err):
     return np.clip(t, 0.0, ph), on, near_s, near_e
 
 
+#: Start points of the inside test of pieces (short arcs: few edges to test per piece).
+_SIDE_ANCHORS = 256
+
+
 def _side_ok(shape, d, mid, from_line):
     """Which pieces lie on the right side of the polygons.
 
@@ -747,7 +751,7 @@ def _side_ok(shape, d, mid, from_line):
         check[:] = True
     idx = np.flatnonzero(check)
     if len(idx):
-        ins = crossings.inside(shape, mid[idx])
+        ins = crossings.inside_indexed(shape, mid[idx], anchors=_SIDE_ANCHORS)
         ok[idx] = ~ins if d > 0.0 else ins
     return ok
 
@@ -774,12 +778,11 @@ def _find_defects(shape) -> tuple[bool, bool]:
     crossing = bool(arcs_cross(a[ia], b[ia], a[ib], b[ib]).any())
     overlap = False
     if not crossing and shape.n_groups > 1:
-        for grp in range(shape.n_groups):
-            probe = shape.rings[int(np.flatnonzero(shape.ring_groups == grp)[0])][:1]
-            others = [x for x in range(shape.n_groups) if x != grp]
-            if crossings.inside(shape, probe, groups=others)[0]:
-                overlap = True
-                break
+        # the first vertex of each component, tested against all the other components
+        first_ring = np.unique(shape.ring_groups, return_index=True)[1]
+        probes = np.array([shape.rings[int(k)][0] for k in first_ring])
+        own = shape.ring_groups[first_ring]
+        overlap = bool(crossings.inside_indexed(shape, probes, skip=own).any())
     return crossing, overlap
 
 

@@ -208,22 +208,27 @@ class Shape:
         edge than to any other) to the reference point, counting crossings.
         """
         if self._ref_status is None:
-            from .crossings import group_parity
+            from .crossings import crossings
 
             e = self.edges()
             status = np.zeros((2, self.n_groups), dtype=bool)
+            # each component's edges (in edge order), found once rather than per component
+            order = np.argsort(e.group, kind="stable")
+            bounds = np.searchsorted(e.group[order], np.arange(self.n_groups + 1))
+
+            def parity(p, r, idx):
+                return np.count_nonzero(crossings(p, r, e.a[idx], e.b[idx])[0]) % 2 == 1
+
             for grp in range(self.n_groups):
-                inner = _inner_point(self, grp)
+                idx = order[bounds[grp] : bounds[grp + 1]]
+                inner = _inner_point(self, grp, idx)
                 for k in range(2):
                     ref = _REF[k]
                     if np.dot(inner, ref) > -0.5:
-                        par = group_parity(inner[None], ref, e, grp)[0]
+                        par = parity(inner[None], ref, idx)
                     else:  # go round through the other reference point
                         via = _REF[1 - k]
-                        par = (
-                            group_parity(inner[None], via, e, grp)[0]
-                            ^ group_parity(via[None], ref, e, grp)[0]
-                        )
+                        par = parity(inner[None], via, idx) ^ parity(via[None], ref, idx)
                     status[k, grp] = not par
             self._ref_status = status
         return _REF, self._ref_status
@@ -509,21 +514,25 @@ def _source_geometry(parts: _gj.Parts, digits: int | None) -> dict:
     return _merge_geometries(geoms)
 
 
-def _inner_point(shape: Shape, grp: int) -> np.ndarray:
-    """A point just left of a boundary edge of component ``grp``, hence inside it."""
+def _inner_point(shape: Shape, grp: int, idx: np.ndarray | None = None) -> np.ndarray:
+    """A point just left of a boundary edge of component ``grp``, hence inside it.
+
+    ``idx``: the indices of the component's edges, ascending (found here if not given).
+    """
     e = shape.edges()
-    sel = np.flatnonzero((e.group == grp) & e.boundary)
+    if idx is None:
+        idx = np.flatnonzero(e.group == grp)
+    sel = idx[e.boundary[idx]]
     if len(sel) == 0:
-        sel = np.flatnonzero(e.group == grp)
+        sel = idx
     a, b = e.a[sel], e.b[sel]
     i = int(np.argmax(angle(a, b)))  # the longest edge is the most robust
     m = normalize(a[i] + b[i])
     n = normalize(robust_cross(a[i], b[i]))
     # only this component's edges decide its inside: neighbours sharing a border
     # (countries of one map) are other components and do not count
-    others = e.group == grp
-    others[sel[i]] = False
-    dist = arc_distance(m, e.a[others], e.b[others]) if others.any() else np.array([1.0])
+    others = idx[idx != sel[i]]
+    dist = arc_distance(m, e.a[others], e.b[others]) if len(others) else np.array([1.0])
     eps = min(1e-3, 0.25 * float(dist.min()), 0.25 * float(angle(a[i], b[i])))
     if eps <= 1e-13:
         raise InvalidGeometryError(

@@ -1,0 +1,63 @@
+"""The indexed inside test gives the answers of the all-edges crossing parity."""
+
+import json
+
+import numpy as np
+from conftest import DATA, SQUARE_WITH_HOLE, uniform_sphere
+
+import gloffset
+from gloffset import crossings
+from gloffset.sphere import lonlat_to_xyz, normalize
+
+
+def _points(shape, n=4000, seed=0):
+    """Uniform points and points 1e-7 rad off the shape's vertices (generic, near edges)."""
+    rng = np.random.default_rng(seed)
+    lon, lat = uniform_sphere(n, seed=seed)
+    v = np.concatenate(shape.rings)
+    near = normalize(v[rng.integers(0, len(v), n)] + 1e-7 * rng.normal(size=(n, 3)))
+    return np.vstack([lonlat_to_xyz(lon, lat), near])
+
+
+def _shapes():
+    world = json.loads((DATA / "world_110m.geojson").read_text())
+    yield gloffset.read(world)
+    yield gloffset.read(DATA / "mexico_10m.geojson")
+    yield gloffset.read(SQUARE_WITH_HOLE)
+    (antarctica,) = [f for f in world["features"] if f["properties"]["name"] == "Antarctica"]
+    yield gloffset.read(antarctica)
+
+
+def test_inside_indexed_equals_inside():
+    for shape in _shapes():
+        p = _points(shape)
+        want = crossings.inside(shape, p)
+        assert np.array_equal(crossings.inside_indexed(shape, p), want)
+        assert want.any() and not want.all()
+        # from the nearest of a few start points with known status: short arcs
+        for n in (1, 64, 256):
+            assert np.array_equal(crossings.inside_indexed(shape, p, anchors=n), want)
+
+
+def test_inside_indexed_groups_and_skip():
+    shape = gloffset.read(json.loads((DATA / "world_110m.geojson").read_text()))
+    p = _points(shape, 1500, seed=3)
+    rng = np.random.default_rng(4)
+    some = rng.choice(shape.n_groups, 40, replace=False)
+    want = crossings.inside(shape, p, groups=some)
+    assert want.any()
+    assert np.array_equal(crossings.inside_indexed(shape, p, groups=some), want)
+    assert np.array_equal(crossings.inside_indexed(shape, p, groups=some, anchors=64), want)
+    # skip: one component per point left out
+    skip = rng.integers(0, shape.n_groups, len(p))
+    got = crossings.inside_indexed(shape, p, skip=skip)
+    for k in rng.choice(len(p), 60, replace=False).tolist():
+        others = [g for g in range(shape.n_groups) if g != skip[k]]
+        assert got[k] == crossings.inside(shape, p[k : k + 1], groups=others)[0]
+
+
+def test_inside_indexed_empty():
+    line = gloffset.read({"type": "LineString", "coordinates": [[0, 0], [10, 5]]})
+    assert not crossings.inside_indexed(line, lonlat_to_xyz([0.0], [1.0])).any()
+    shape = gloffset.read(SQUARE_WITH_HOLE)
+    assert crossings.inside_indexed(shape, np.zeros((0, 3))).shape == (0,)
