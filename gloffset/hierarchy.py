@@ -205,9 +205,33 @@ def _coarse(shape, arcs: Arcs, grid, e: float) -> Frontier:
         qi, ai = qi[ring], ai[ring]
         hit = arcs_cross(c[qi], a_seg[qi], arcs.a[ai], arcs.b[ai], arcs.n[ai]) & (qi > 0)
         status = row_statuses(shape, arcs, h, w, c[0], qi[hit], ai[hit])
-    qi, ai, _ = tree.near(c, e + rho)
+    qi, ai, _ = tree.near(c, np.minimum(e + rho, _nearest_bound(arcs, c) + 2.0 * rho))
     order = np.lexsort((ai, qi))
     return Frontier(0, cells, c, rho, qi[order], ai[order], status)
+
+
+def _nearest_bound(arcs: Arcs, c) -> np.ndarray:
+    """An upper bound on each centre's distance to its nearest boundary arc and to its
+    nearest ring edge: the distance to the farther of the two nearest arc ends.
+
+    A point within ``rho`` of a centre is at most ``bound + rho`` from its nearest arc,
+    and an arc farther than ``bound + 2 rho`` from the centre is farther than that from
+    the point, so no candidate list needs it (ring edges within ``rho``, which the
+    crossing tests of the cell's points can meet, are nearer still). At a large
+    distance every arc lies within ``d + rho`` of a coarse cell; this bound keeps the
+    lists to the arcs near the cell's nearest. Exact angles (:func:`angle`), padded.
+    """
+    out = np.zeros(len(c))
+    for kind in (arcs.boundary, arcs.group >= 0):
+        if not kind.any():
+            continue
+        ends = np.concatenate([arcs.a[kind], arcs.b[kind]])
+        best = np.empty(len(c), dtype=np.int64)
+        step = max(1, (1 << 22) // len(ends))
+        for s in range(0, len(c), step):
+            best[s : s + step] = np.argmax(c[s : s + step] @ ends.T, axis=1)
+        out = np.maximum(out, pad(angle(c, ends[best]), 1e-9, 1e-9))
+    return out
 
 
 def cell_distances(f: Frontier, arcs: Arcs) -> tuple[np.ndarray, np.ndarray]:

@@ -232,3 +232,14 @@ def test_wide_bins_for_wide_bands(world, what, d, size):
     mask, want = assert_matches_reference(shape, d, grid)
     assert want.any() and not want.all()
     np.testing.assert_array_equal(mask, gloffset.render(shape, d, grid, radius=1.0, backend="cpu"))
+
+
+@pytest.mark.parametrize("d", [1.4, 0.9, -0.25])
+def test_large_distances_keep_only_arcs_that_can_be_nearest(world, d):
+    """At large distances every arc lies within d + rho of a coarse cell; the candidate
+    lists keep the arcs that can be some point's nearest (hierarchy._nearest_bound), and
+    the answers stay the reference's, on a globe and in a tile pyramid's grids."""
+    fc = {"type": "FeatureCollection", "features": [world[n] for n in ("Chile", "Japan", "Fiji")]}
+    shape = gloffset.read(fc)
+    assert_matches_reference(shape, d, Equirect(256, 128))
+    assert_matches_reference(shape, d, Equirect(128, 128, (170.0, -40.0, -170.0, 0.0)))
