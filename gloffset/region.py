@@ -40,7 +40,15 @@ import numpy as np
 
 from .caps import arc_cap, cap_within, pad
 from .errors import InvalidGeometryError
-from .sphere import angle, arc_distance, arcs_cross, cross, normalize, robust_cross
+from .sphere import (
+    angle,
+    arc_distance,
+    arcs_cross,
+    cross,
+    crossing_rule,
+    normalize,
+    robust_cross,
+)
 
 __all__ = ["TOL", "Boundary", "unite", "left_area"]
 
@@ -238,7 +246,7 @@ class _Union:
         o3 = np.einsum("ij,ij->i", a[i], n[j])
         o4 = np.einsum("ij,ij->i", b[i], n[j])
         clear = np.minimum.reduce([np.abs(o1), np.abs(o2), np.abs(o3), np.abs(o4)]) > TOL
-        hit = clear & (o1 * o2 < 0) & (o3 * o4 < 0) & ((o3 > 0) == (o2 > 0))
+        hit = clear & crossing_rule(o1 >= 0, o2 >= 0, o3 >= 0, o4 >= 0)
         ci, cj = i[hit], j[hit]
         x = normalize(cross(n[ci], n[cj]))
         flip = np.einsum("ij,ij->i", x, a[ci] + b[ci]) < 0
