@@ -1,5 +1,5 @@
 """Golden outputs: every benchmark case, rendered at a small size, hashed and compared
-with the hashes checked in to ``tests/golden/hashes.json``.
+with the hashes checked in to ``tests/golden/hashes*.json`` (one file per platform).
 
 A change of the engine that should not change any output (a refactor) must leave every
 hash as it is: masks and classes (sha256 of the array's bytes with its dtype and shape),
@@ -33,12 +33,14 @@ Regenerate the hashes deliberately, after a change that is meant to change outpu
 Platform: the hashes hold for one platform. Float64 results (offset arcs, their GeoJSON
 coordinates, distances) depend on numpy and its SIMD paths and BLAS, the masks and
 classes on Mesa's llvmpipe, the tiles' PNG bytes on Pillow and zlib. The versions are
-recorded in ``hashes.json`` under ``platform``, and a case is skipped, with the reason,
-when what it depends on differs here: numpy's major.minor version or the CPU features
+recorded in each file under ``platform``; a case is compared with the first file whose
+platform fits it, and skipped, with the reason, when none does, i.e. when what it depends on
+differs here: numpy's major.minor version or the CPU features
 numpy dispatches to (every case), the GL renderer or GL version string of
 :func:`gloffset.gl.context_info` (which names Mesa's version; cases that render), Pillow's
-major.minor version or zlib's version (cases that write PNG tiles). Regenerate on the new
-platform to compare there.
+major.minor version or zlib's version (cases that write PNG tiles). ``--update`` on a new
+platform writes a new ``hashes-<features>-<hash>.json`` beside the others (from the same
+commit as the others: the files must agree on what the outputs are).
 """
 
 from __future__ import annotations
@@ -695,15 +697,31 @@ def compute(case_: Case) -> dict:
     return {"sha256": digest(parts), "summary": summary}
 
 
-def load_golden() -> dict:
-    return json.loads(GOLDEN.read_text())
+def golden_files() -> list[Path]:
+    """``hashes.json`` and one ``hashes-<platform>.json`` per further platform."""
+    return sorted(GOLDEN.parent.glob("hashes*.json"))
+
+
+def load_golden(path: Path = GOLDEN) -> dict:
+    return json.loads(path.read_text())
+
+
+def applicable(case_: Case, docs: list[dict]) -> tuple[dict | None, str | None]:
+    """The first recorded file whose platform fits ``case_`` here, or None and why not."""
+    why = None
+    for doc in docs:
+        w = platform_mismatch(case_, doc["platform"])
+        if w is None:
+            return doc, None
+        why = why or w
+    return None, why
 
 
 @pytest.fixture(scope="module")
 def golden():
     if not GOLDEN.exists():
         pytest.fail(f"{GOLDEN} is missing; write it with python tests/test_golden.py --update")
-    return load_golden()
+    return [load_golden(p) for p in golden_files()]
 
 
 @pytest.mark.parametrize(
@@ -712,10 +730,10 @@ def golden():
 )
 def test_golden(name, golden):
     case_ = CASES[name]
-    why = platform_mismatch(case_, golden["platform"])
+    doc, why = applicable(case_, golden)
     if why:
         pytest.skip(why)
-    want = golden["cases"].get(name)
+    want = doc["cases"].get(name)
     if want is None:
         pytest.fail(
             f"no golden hash recorded for case {name!r}; "
@@ -732,7 +750,7 @@ def test_golden(name, golden):
 
 
 def test_golden_file_names_only_known_cases(golden):
-    stale = sorted(set(golden["cases"]) - set(CASES))
+    stale = sorted({n for doc in golden for n in doc["cases"]} - set(CASES))
     assert not stale, (
         f"hashes.json records cases that no longer exist: {stale}; "
         "regenerate it with python tests/test_golden.py --update"
@@ -785,6 +803,20 @@ def dump_golden(doc: dict) -> str:
     return '{\n "platform": ' + platform_ + ',\n "cases": {\n' + ",\n".join(lines) + "\n }\n}\n"
 
 
+def target_file(here: dict) -> Path:
+    """The file to write on this platform: the one recorded on a platform that every case
+    accepts here, else ``hashes.json`` when there is none yet, else a new
+    ``hashes-<numpy CPU features>-<hash of the platform>.json``."""
+    every = Case(name="", run=None, needs=("gl", "png"), slow=False)
+    for path in golden_files():
+        if platform_mismatch(every, load_golden(path)["platform"]) is None:
+            return path
+    if not GOLDEN.exists():
+        return GOLDEN
+    tag = hashlib.sha256(json.dumps(here, sort_keys=True).encode()).hexdigest()[:8]
+    return GOLDEN.parent / f"hashes-{'-'.join(here['numpy_simd']).lower()}-{tag}.json"
+
+
 def update(patterns: list[str], *, verbose: bool = True) -> dict:
     """Recompute the cases matching ``patterns`` (all when empty) and rewrite the file.
 
@@ -794,7 +826,8 @@ def update(patterns: list[str], *, verbose: bool = True) -> dict:
     if not names:
         raise SystemExit(f"no case matches {patterns}; see --list")
     here = platform_info(gl=True)
-    old = load_golden() if GOLDEN.exists() else {"platform": here, "cases": {}}
+    path = target_file(here)
+    old = load_golden(path) if path.exists() else {"platform": here, "cases": {}}
     kept = {n: v for n, v in old["cases"].items() if n in CASES and n not in names}
     if kept and old["platform"] != here:
         raise SystemExit(
@@ -812,12 +845,12 @@ def update(patterns: list[str], *, verbose: bool = True) -> dict:
             )
             print(f"{time.perf_counter() - t:7.2f} s  {n}{mark}", flush=True)
     doc = {"platform": here, "cases": {n: cases[n] for n in sorted(cases)}}
-    GOLDEN.parent.mkdir(exist_ok=True)
-    tmp = GOLDEN.with_suffix(".json.tmp")
+    path.parent.mkdir(exist_ok=True)
+    tmp = path.with_suffix(".json.tmp")
     tmp.write_text(dump_golden(doc))
-    tmp.replace(GOLDEN)
+    tmp.replace(path)
     if verbose:
-        print(f"wrote {GOLDEN} ({len(names)} cases in {time.perf_counter() - total:.1f} s)")
+        print(f"wrote {path} ({len(names)} cases in {time.perf_counter() - total:.1f} s)")
     return doc
 
 
