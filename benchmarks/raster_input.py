@@ -33,7 +33,7 @@ import gloffset
 from gloffset.gl import context_info
 from gloffset.grids import Cube, CubeFace, Equirect
 from gloffset.grids.cube import face_points
-from gloffset.raster_input import CONTAINED, FRONTIER, OUTSIDE, raster_offset, rasterize
+from gloffset.raster.rasterized import CONTAINED, FRONTIER, OUTSIDE, raster_offset, rasterize
 from gloffset.reference import distance_xyz
 from gloffset.units import EARTH_RADIUS
 

@@ -18,8 +18,8 @@ from common import DATA, best_of, write
 import gloffset
 from gloffset.gl import context_info, get_context, program
 from gloffset.grids import Equirect
-from gloffset.hierarchy import classify
-from gloffset.render import render
+from gloffset.raster.levels import classify
+from gloffset.raster.render import render
 
 D = 0.02  # radians, as in the paper's Table 1
 REPEAT = 7  # best of, for the render and its fill floor alike (a 2-core machine is noisy)

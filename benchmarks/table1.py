@@ -122,7 +122,7 @@ def main():
         "offset": gloffset.Index(shape, D, radius=1.0).level,
     }
 
-    # gloffset.contains as a user calls it: a fresh shape, index built inside the call
+    # gloffset.index.contains as a user calls it: a fresh shape, index built inside the call
     for name, d in (("curve", 0.0), ("offset", D)):
 
         def cold(d=d):

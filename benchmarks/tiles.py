@@ -67,7 +67,7 @@ def grown_bbox(shape, d):
 
 def tile_by_tile(shape, bbox, zmax, full_up_to, sample=12, seed=0):
     """Seconds of rendering the bbox tiles of zooms 0..zmax alone, each through
-    gloffset.render: every tile up to ``full_up_to``, a seeded random sample of
+    gloffset.raster.render: every tile up to ``full_up_to``, a seeded random sample of
     ``sample`` tiles above it (extrapolated to the zoom's tile count)."""
     rng = np.random.default_rng(seed)
     per_zoom = {}

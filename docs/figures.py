@@ -79,7 +79,7 @@ def cube_globe(path=HERE / "cube_globe.png", size=560, face=1024, view=(-75.0, 2
     300 km of their coasts and borders rendered as a cube map (``gloffset render --grid
     cube``), shown on an orthographic globe by sampling the six faces with
     :func:`gloffset.grids.locate` (the GL cube-map lookup); the countries themselves from
-    the float64 reference ``gloffset.contains``."""
+    the float64 reference ``gloffset.index.contains``."""
     import tempfile
 
     from gloffset.grids import locate

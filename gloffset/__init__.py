@@ -1,25 +1,33 @@
 """gloffset: the region within a distance of curves and polygons on the sphere.
 
-Exact vector offsets made of small-circle arcs, a float64 reference for distances
-and membership, and (in later modules) GPU rasters. Distances are angles inside;
-metres appear only through the ``radius`` keyword.
+Exact vector offsets made of small-circle arcs (:mod:`gloffset.vector`), a fast inside
+test (:mod:`gloffset.index`), rasters over grids (:mod:`gloffset.grids`,
+:mod:`gloffset.raster`, rendered on the GPU by :mod:`gloffset.gl`) and a float64
+reference for distances and membership (:mod:`gloffset.reference`). Distances are angles
+inside; metres appear only through the ``radius`` keyword. The layers are described in
+``ARCHITECTURE.md``; everything public is re-exported here.
 """
 
 from __future__ import annotations
 
-__version__ = "0.1.0"
+import sys as _sys
 
-from . import errors, grids, tiles
-from .contains import Index, contains
+from . import errors, grids
+from ._version import __version__
 from .errors import *  # noqa: F403  (every exception class, listed in errors.__all__)
-from .multires import Decomposition, decompose
-from .offset import Offset, offset
-from .raster_input import raster_offset, rasterize
+from .index.contains import Index, contains
+from .raster import tiles
+from .raster.rasterized import raster_offset, rasterize
+from .raster.render import render
 from .reference import distance
-from .render import render
-from .selfintersect import ResolvedOffset
 from .shape import Shape, read
 from .units import EARTH_RADIUS, parse_distance
+from .vector.multires import Decomposition, decompose
+from .vector.offset import Offset, offset
+from .vector.selfintersect import ResolvedOffset
+
+# ``gloffset.tiles`` (tile pyramids) is public: importable under that name too
+_sys.modules[__name__ + ".tiles"] = tiles
 
 __all__ = [
     "EARTH_RADIUS",

@@ -547,7 +547,7 @@ def _overlapping_components(shape: Shape) -> np.ndarray:
     if shape.n_groups < 2:
         return np.zeros((0, 2), dtype=np.int64)
     from .captree import CapTree
-    from .hierarchy import Arcs, _status_at
+    from .raster.levels import Arcs, _status_at
     from .sphere import orient
 
     e = shape.edges()

@@ -2,7 +2,8 @@
 
 import numpy as np
 
-from gloffset import caps, hierarchy
+from gloffset import caps
+from gloffset.raster import levels as hierarchy
 from gloffset.caps import (
     CAP_SLACK,
     angle_of_chord,

@@ -19,7 +19,7 @@ from gloffset.sphere import (
     xyz_to_lonlat,
 )
 
-fast = importlib.import_module("gloffset.contains")
+fast = importlib.import_module("gloffset.index.contains")
 
 N = 20_000
 LON, LAT = uniform_sphere(N, seed=21)

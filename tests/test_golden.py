@@ -524,7 +524,7 @@ case("selfintersect/seam_lines_d+0.01")(_resolved(seam_lines, 0.01))
 
 # --- table1.py: inside answers on Table 1's points, at 0..5 decompositions
 def _table1(n: int, levels, n_distance: int):
-    """``gloffset.contains`` and the index at some decompositions on ``n`` points, and
+    """``gloffset.index.contains`` and the index at some decompositions on ``n`` points, and
     the distances of the first ``n_distance`` (brute force: slow)."""
 
     def run():

@@ -125,7 +125,7 @@ def test_tile_limits_are_those_of_the_pyramid_and_the_cli(tmp_path):
     """One MAX_ZOOM (22) and one tile-size rule (a power of two, 16..4096) for Tile,
     pyramid and the CLI; each refused with gloffset's own error."""
     from gloffset.grids import mercator
-    from gloffset.tiles import MAX_ZOOM, TilesError, parse_zooms, pyramid
+    from gloffset.raster.tiles import MAX_ZOOM, TilesError, parse_zooms, pyramid
 
     assert MAX_ZOOM == mercator.MAX_ZOOM == 22
     assert Tile(22, (1 << 22) - 1, 5).z == 22
@@ -155,7 +155,7 @@ def test_tile_limits_are_those_of_the_pyramid_and_the_cli(tmp_path):
 def test_tile_pixels_are_the_pyramid_quadtree(z, x, y, size):
     """Pixel (i, j) of tile z/x/y is, to the bit, the centre of tile z+P / x 2^P + i /
     y 2^P + j of the pyramid's quadtree (size = 2^P): one copy of the mercator maths."""
-    from gloffset.tiles import TileLevels
+    from gloffset.raster.tiles import TileLevels
 
     t = Tile(z, x, y, size)
     zp = z + size.bit_length() - 1

@@ -26,7 +26,7 @@ from gloffset.gl import get_context
 from gloffset.gl.shaders import program
 from gloffset.grids import Cube, CubeFace, Equirect
 from gloffset.grids.cube import FACE_NAMES, FACES, CubeCells, cell_at, face_points
-from gloffset.raster_input import (
+from gloffset.raster.rasterized import (
     CONTAINED,
     FRONTIER,
     OUTSIDE,
@@ -217,7 +217,7 @@ def test_cli_from_raster(tmp_path):
 
 # ---------------------------------------------------------------------------- cube grids
 def cube_centres(n):
-    """(6, n, n, 3) pixel centres of Cube(n), from CubeFace (what gloffset.render uses)."""
+    """(6, n, n, 3) pixel centres of Cube(n), from CubeFace (what gloffset.raster.render uses)."""
     jj, ii = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
     faces = [CubeFace(f, n) for f in range(6)]
     return np.stack([f.centers(f.n_levels - 1, jj, ii) for f in faces])

@@ -389,7 +389,7 @@ def test_neighbours_pyramid_against_shapely_union(countries, tmp_path):
 
     from PIL import Image
 
-    from gloffset.tiles import pyramid
+    from gloffset.raster.tiles import pyramid
 
     feats = [countries["South Africa"], countries["Lesotho"]]
     fc = {"type": "FeatureCollection", "features": feats}
@@ -514,7 +514,7 @@ def test_planet_union_against_shapely():
 
 def _random_polygons(rng, cx, cy):
     """2-5 random star-shaped polygons (valid on the sphere) near (cx, cy), overlapping."""
-    from gloffset.selfintersect import _find_defects
+    from gloffset.vector.selfintersect import _find_defects
 
     out = []
     for _ in range(rng.integers(2, 6)):

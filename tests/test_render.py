@@ -6,9 +6,9 @@ from conftest import LINES, SQUARE_WITH_HOLE
 
 import gloffset
 from gloffset.grids import Equirect
-from gloffset.hierarchy import CONTAINED, FRONTIER, OUTSIDE
+from gloffset.raster.levels import CONTAINED, FRONTIER, OUTSIDE
+from gloffset.raster.render import RenderError
 from gloffset.reference import contains_xyz, distance_xyz
-from gloffset.render import RenderError
 
 EPS = 1e-3  # of a pixel: the band around the boundary where float32 may differ
 
@@ -20,7 +20,7 @@ def pixel_centers(grid):
 
 def boundary_distance(shape, p):
     """Distance to ring edges including seams (where the inside status changes)."""
-    from gloffset.hierarchy import Arcs
+    from gloffset.raster.levels import Arcs
     from gloffset.sphere import arc_distance
 
     arcs = Arcs.from_shape(shape)

@@ -1,12 +1,12 @@
-"""Entering a level directly (gloffset.scatter) gives what the hierarchy reaches there."""
+"""Entering a level directly (gloffset.raster.scatter) gives what the hierarchy reaches there."""
 
 import numpy as np
 import pytest
 
 import gloffset
 from gloffset.grids import Equirect, Tile
-from gloffset.hierarchy import CONTAINED, FRONTIER, OUTSIDE, Arcs, classify
-from gloffset.scatter import PAIRS_PER_ARC, pooled, scatter, start_level
+from gloffset.raster.levels import CONTAINED, FRONTIER, OUTSIDE, Arcs, classify
+from gloffset.raster.scatter import PAIRS_PER_ARC, pooled, scatter, start_level
 
 LINE_OVER_POLE = {
     "type": "LineString",

@@ -12,11 +12,11 @@ import pytest
 
 import gloffset
 from gloffset.captree import CapTree
-from gloffset.offset import sample_arc
 from gloffset.reference import contains_xyz, distance_xyz
-from gloffset.selfintersect import MIN_DISTANCE, algorithm1
-from gloffset.smallcircle import Arcs, intersect, position
 from gloffset.sphere import angle, lonlat_to_xyz, normalize
+from gloffset.vector.offset import sample_arc
+from gloffset.vector.selfintersect import MIN_DISTANCE, algorithm1
+from gloffset.vector.smallcircle import Arcs, intersect, position
 
 EPS = 1e-9  # rad: boundary distance tolerance and the band ignored by region checks
 

@@ -16,10 +16,10 @@ from PIL import Image
 import gloffset
 from gloffset.cli import main
 from gloffset.grids import Tile
-from gloffset.hierarchy import Arcs
+from gloffset.raster.levels import Arcs
+from gloffset.raster.tiles import TileLevels, TilesError, parse_zooms, pyramid
 from gloffset.reference import contains_xyz, distance_xyz
 from gloffset.sphere import angle, arc_distance, lonlat_to_xyz
-from gloffset.tiles import TileLevels, TilesError, parse_zooms, pyramid
 
 SIZE = 64
 EPS = 1e-3  # of a pixel, as in test_render
@@ -145,7 +145,7 @@ def test_pyramid_holds_exactly_the_tiles_of_the_region(tmp_path, world, name, d,
     shape = {"line": LINE_AM, "square": SQUARE}.get(name) or world[name]
     st = pyramid(shape, d, (0, zmax), tmp_path / "t.mbtiles", size=SIZE)
     tiles, meta = read_mbtiles(tmp_path / "t.mbtiles")
-    full = gloffset.tilepaint.TileStyle().encode(np.ones((SIZE, SIZE), bool))
+    full = gloffset.raster.tilepaint.TileStyle().encode(np.ones((SIZE, SIZE), bool))
     n_full = check_against_reference(shape, d / gloffset.EARTH_RADIUS, tiles, zmax, full)
     assert st.written == len(tiles) and n_full >= st.inside
     assert st.rendered > 0 and st.outside > 0
@@ -273,7 +273,7 @@ def test_outline_points_are_those_of_the_arc_by_arc_maths(world, name, tiles):
     edge) gives the very floats of the arc-by-arc maths, so the drawn pixels are the
     same; on tiles where the disc's edge cuts arcs, at zoom 0 (disc wider than a
     hemisphere) and across the antimeridian."""
-    from gloffset.tilepaint import OutlineArcs
+    from gloffset.raster.tilepaint import OutlineArcs
 
     arcs = Arcs.from_shape(gloffset.read(LINE_AM if name == "line" else world[name]))
     prepared = OutlineArcs(arcs)
@@ -322,7 +322,7 @@ def test_progress_events(tmp_path, world, mexico_path, name, d, zooms, kw):
     events = []
     st = pyramid(shape, d, zooms, tmp_path / "t.mbtiles", progress=events.append, **kw)
     first, last = events[0], events[-1]
-    assert isinstance(first, gloffset.tiles.TileProgress)
+    assert isinstance(first, gloffset.raster.tiles.TileProgress)
     assert first.done == 0 and first.total > 0 and first.eta is None
     assert last.done == last.total and last.eta == 0.0 and last.fraction == 1.0
     # every tile handled is counted: written, rendered empty (or outlined with nothing)
@@ -427,7 +427,7 @@ def test_cli_tiles_and_errors(tmp_path, world):
 )
 def test_deep_zoom_pyramid_matches_reference(tmp_path, zmax, coords, d):
     """Frontier tiles rendered in atlases from the pyramid's own frontier (not through
-    gloffset.render) agree with the float64 reference at deep zooms."""
+    gloffset.raster.render) agree with the float64 reference at deep zooms."""
     import mercantile
 
     line = {"type": "LineString", "coordinates": coords}
@@ -469,7 +469,7 @@ def test_deep_zoom_pyramid_matches_reference(tmp_path, zmax, coords, d):
 @pytest.mark.parametrize("size", [16, 512])
 def test_pyramid_tiles_equal_render_for_other_tile_sizes(tmp_path, size):
     """Tiles of 16 pixels (a tile is one bin, no float64 level below it) and of 512
-    equal gloffset.render on the same Tile grid."""
+    equal gloffset.raster.render on the same Tile grid."""
     pyramid(SQUARE, 300e3, (0, 3), tmp_path / "o", size=size)
     tiles = read_dir(tmp_path / "o")
     assert len(tiles) > 10

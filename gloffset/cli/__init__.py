@@ -11,7 +11,7 @@ import sys
 
 import click
 
-from .. import __version__
+from .._version import __version__
 from ..errors import GloffsetError
 
 #: Raised by click for a bare ``gloffset`` (click >= 8.2): the help is shown, not an error line.

@@ -10,8 +10,8 @@ import sys
 import click
 import numpy as np
 
-from ..contains import Index, depth_for
 from ..errors import InputFormatError
+from ..index.contains import Index, depth_for
 from ..io.output import check_output, open_output
 from ..shape import read
 from . import main

@@ -1,7 +1,7 @@
 """``gloffset offset``: the vector offset of a GeoJSON file, written as GeoJSON.
 
 By default the boundary of the offset region is written as valid polygons (self-
-intersections removed, parts united, holes kept; see :mod:`gloffset.selfintersect`);
+intersections removed, parts united, holes kept; see :mod:`gloffset.vector.selfintersect`);
 ``--raw`` writes the raw offset rings of the paper's Sec. 4.1 instead.
 """
 
@@ -12,8 +12,8 @@ import json
 import click
 
 from ..io.output import check_output, write_bytes
-from ..offset import offset as _offset
 from ..shape import read
+from ..vector.offset import offset as _offset
 from . import main
 from .options import angle, distance_option, radius_option
 

@@ -14,8 +14,8 @@ from ..errors import InputFormatError, OptionError, OutputError
 from ..grids import FACE_NAMES, Cube, CubeFace, Equirect
 from ..io.output import check_output, refuse_stdout
 from ..io.png import image_format, parse_color, read_mask, write_classes, write_mask
-from ..raster_input import CONTAINED
-from ..render import render as _render
+from ..raster.rasterized import CONTAINED
+from ..raster.render import render as _render
 from ..shape import read
 from . import main
 from .options import angle, distance_option, radius_option
@@ -202,7 +202,7 @@ def render_cmd(
 
 
 def _from_raster(path, d, bounds, output, level, backend, mask_only):
-    from ..raster_input import raster_offset
+    from ..raster.rasterized import raster_offset
 
     mask = read_mask(path)
     grid = Equirect(mask.shape[1], mask.shape[0], _bounds(bounds))
@@ -257,7 +257,7 @@ def read_cube_masks(folder) -> np.ndarray:
 
 
 def _from_raster_cube(path, d, output, level, backend, mask_only):
-    from ..raster_input import raster_offset
+    from ..raster.rasterized import raster_offset
 
     mask = read_cube_masks(path)
     classes = raster_offset(mask, d, Cube(mask.shape[1]), radius=1.0, backend=backend, level=level)

@@ -9,9 +9,9 @@ from pathlib import Path
 import click
 
 from ..io.output import refuse_stdout
+from ..raster.tilepaint import TileStyle
+from ..raster.tiles import parse_zooms, pyramid
 from ..shape import read
-from ..tilepaint import TileStyle
-from ..tiles import parse_zooms, pyramid
 from . import main
 from .options import angle, distance_option, radius_option
 

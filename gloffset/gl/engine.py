@@ -1,6 +1,6 @@
 """The GPU levels of the raster engine: one fragment-shader pass per level below the bins.
 
-The CPU (:mod:`gloffset.hierarchy`, float64) classifies the coarse levels down to
+The CPU (:mod:`gloffset.raster.levels`, float64) classifies the coarse levels down to
 the bin level and hands over, for every frontier bin, its candidate arcs as records
 computed in float64 *relative to the bin centre* (``shaders/lib/arcs.glsl`` lists
 them), the inside status of each region component at the bin centre as bits, and
@@ -35,7 +35,7 @@ import numpy as np
 
 from ..caps import CAP_SLACK, cap_range, chord2
 from ..errors import GLContextError
-from ..hierarchy import FRONTIER, Arcs, Frontier
+from ..raster.levels import FRONTIER, Arcs, Frontier
 from ..sphere import dot
 from .context import context_info, get_context
 from .shaders import program
@@ -297,7 +297,7 @@ class BinLayout:
 
     The passes draw the bins packed row by row into a small *canvas* (:meth:`pos`),
     whatever their place on the sphere (a grid's frontier, or the frontier bins of a
-    batch of map tiles, see :mod:`gloffset.tiles`); the caller fills in every other
+    batch of map tiles, see :mod:`gloffset.raster.tiles`); the caller fills in every other
     cell from its bin's class. Bin ``k`` (in the order of the :class:`Frontier`) has the
     *geo row and column* ``geo[k]``, which index the geometry. Level ``bin level + s``
     has ``2^s x 2^s`` cells per bin; per geo row ``g`` and sub-row ``q < 2^s`` of it:

@@ -1,6 +1,6 @@
 """The GPU levels of the offset of a rasterized curve (paper Sec. 5.2).
 
-The CPU (:mod:`gloffset.raster_input`, float64) classifies the levels down to the
+The CPU (:mod:`gloffset.raster.rasterized`, float64) classifies the levels down to the
 grid's bin level. Below it, one fragment-shader pass per level
 (``shaders/raster_classify.frag``) classifies the children of frontier cells,
 drawing instanced quads over the frontier bins only (``shaders/bins.vert``); the
@@ -15,7 +15,7 @@ pixel coordinates, which float32 holds exactly) and, per record, rigorous lower 
 upper bounds on the float64 squared chord (``lib/chord.glsl``); thresholds come per
 row as float32 values rounded outward. A cell whose bounds straddle a threshold is written as
 *ambiguous* (3); after each level the CPU reads the level back and decides those
-cells with the float64 reference (:func:`gloffset.raster_input.classify_cells`), so
+cells with the float64 reference (:func:`gloffset.raster.rasterized.classify_cells`), so
 the result equals the CPU reference bit for bit. Ambiguous cells are rare (a band
 of about 1e-5 of the threshold's squared chord) and counted in the result's info.
 
@@ -29,8 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..raster_input import FRONTIER, Levels, classify_cells, near_pairs
-from ..raster_input import level_centers as _centers
+from ..raster.rasterized import FRONTIER, Levels, classify_cells, near_pairs
+from ..raster.rasterized import level_centers as _centers
 from .context import get_context
 from .engine import _pot, _set, class_target, pot_texture
 from .shaders import program

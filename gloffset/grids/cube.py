@@ -213,7 +213,7 @@ _EDGE_EPS = 1e-3  # output pixels: how far past a cell's side the neighbour samp
 
 class CubeCells:
     """The six faces of ``Cube(size)`` as one grid of cells, for algorithms on cell sets
-    (the offsets of rasterized curves, :mod:`gloffset.raster_input`).
+    (the offsets of rasterized curves, :mod:`gloffset.raster.rasterized`).
 
     Level ``l`` is a ``(6 P_l) x n_l`` array: face ``f``'s cells (row ``j``, column
     ``i``; :class:`CubeFace` levels, ``n_l`` cells a side) are at row ``f P_l + j``,

@@ -36,7 +36,7 @@ above :data:`E_MAX` are clamped to pi ("unknown": always reconstruct).
 Offsets (Sec. 4.2, six steps). The centres ``q_2i = cos(d) p_i`` of a coarse offset lie
 on a sphere of radius ``cos(d)``; the same reconstruction with details scaled by
 ``cos(d)`` gives the vertex centres of the finer offset without restoring the curve,
-and the edge centres and junctions follow from Eq. 3 and 4 (:func:`gloffset.offset`).
+and the edge centres and junctions follow from Eq. 3 and 4 (:func:`gloffset.vector.offset`).
 """
 
 from __future__ import annotations
@@ -46,11 +46,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InvalidLevelError
+from ..errors import InvalidLevelError
+from ..shape import MIN_EDGE, Shape, read
+from ..sphere import angle, slerp
+from ..units import EARTH_RADIUS
 from .offset import Offset, _line_arcs, _ring_arcs, offset
-from .shape import MIN_EDGE, Shape, read
-from .sphere import angle, slerp
-from .units import EARTH_RADIUS
 
 __all__ = ["ArcTree", "Decomposition", "MultiresOffset", "decompose", "E_MAX"]
 
@@ -120,7 +120,7 @@ class Decomposition:
     Build with :func:`decompose`. Only the coarsest points ``P[levels]`` and the
     details are needed to reconstruct any level (:meth:`reconstruct`); the error
     bounds :meth:`errors` and the arc tree :attr:`tree` serve the inside/outside
-    test (:mod:`gloffset.contains`).
+    test (:mod:`gloffset.index.contains`).
 
     Notes
     -----
@@ -432,7 +432,7 @@ class MultiresOffset(Offset):
         The six steps of Sec. 4.2: take the vertex centres ``q_2i`` (step 1), apply the
         reconstruction with details scaled by ``cos(d)`` level by level (steps 2-4),
         then recompute the edge centres by Eq. 3 and the junctions by Eq. 4 (steps 5,
-        6, with the same code as :func:`gloffset.offset`, including its extra
+        6, with the same code as :func:`gloffset.vector.offset`, including its extra
         junctions on arcs that turn by more than 2 rad).
 
         Notes

@@ -1,8 +1,8 @@
 """Web-mercator tile pyramids of the offset region, driven by the tile quadtree.
 
 The XYZ quadtree is used as a level hierarchy (level = zoom): every visited tile is
-classified in float64 with the decision rules of :mod:`gloffset.hierarchy`
-(:func:`~gloffset.hierarchy.decide`), with the tile centre and the bound
+classified in float64 with the decision rules of :mod:`gloffset.raster.levels`
+(:func:`~gloffset.raster.levels.decide`), with the tile centre and the bound
 
     r(z, y) = the largest angle from the centre to any point of the tile's lon/lat
               rectangle (the same for every tile of a row),
@@ -59,13 +59,17 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .caps import pad
-from .errors import TilesError
-from .gl.engine import BinLayout
-from .grids.base import rect_radius
-from .grids.mercator import MAX_ZOOM, check_tile_size, lat_at, lon_at
-from .hierarchy import (
+from .._version import __version__
+from ..caps import pad
+from ..errors import TilesError
+from ..gl.engine import BinLayout
+from ..grids.base import rect_radius
+from ..grids.mercator import MAX_ZOOM, check_tile_size, lat_at, lon_at
+from ..io.tilestore import open_store
+from ..shape import read
+from ..sphere import angle
+from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
+from .levels import (
     CONTAINED,
     FRONTIER,
     OUTSIDE,
@@ -77,11 +81,7 @@ from .hierarchy import (
     cell_distances,
     decide,
 )
-from .io.tilestore import open_store
-from .shape import read
-from .sphere import angle
 from .tilepaint import OutlineArcs, TileStyle
-from .units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
 
 __all__ = [
     "pyramid",
@@ -155,7 +155,7 @@ def _xyz(lon, lat) -> np.ndarray:
 class TileLevels:
     """The XYZ quadtree down to zoom ``maxzoom`` as a level hierarchy (level = zoom).
 
-    Offers what :mod:`gloffset.hierarchy` asks of a grid (``level_shape``,
+    Offers what :mod:`gloffset.raster.levels` asks of a grid (``level_shape``,
     ``centers``, ``rho_at``: the list bound ``L``) and the tight bound
     :meth:`bound` used for the decisions (see the module notes).
     """
@@ -558,7 +558,7 @@ def pyramid(
     size : int
         Tile side in pixels, a power of two from 16 to 4096.
     fill, opacity, outline, outline_width
-        The style (:class:`gloffset.tilepaint.TileStyle`): region colour and its
+        The style (:class:`gloffset.raster.tilepaint.TileStyle`): region colour and its
         opacity on a transparent background, and the colour and width of an
         outline of the original curves (None: no outline).
     resume : bool
@@ -767,7 +767,7 @@ def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, st
 
 
 def _engine():
-    from .gl.engine import engine
+    from ..gl.engine import engine
 
     return engine()
 
@@ -791,8 +791,8 @@ class _BinChain:
 
     For the frontier tiles of zoom ``z`` (``size = 2^P`` pixels, bins of 16) the
     levels ``z + 1 .. z + nb`` (``nb = P - 4``) hold, per level, the decided cells
-    with their classes and the :class:`~gloffset.hierarchy.Frontier` of the others,
-    all in float64 with the decision rules of :mod:`gloffset.hierarchy` and the
+    with their classes and the :class:`~gloffset.raster.levels.Frontier` of the others,
+    all in float64 with the decision rules of :mod:`gloffset.raster.levels` and the
     bound :meth:`TileLevels.bound`. The frontier tiles of zoom ``z + 1`` are frontier
     cells of level ``z + 1`` here, so their levels ``z + 2 .. z + nb`` are already
     known: advancing a zoom filters them and computes one new level.
@@ -839,7 +839,7 @@ class _BinChain:
 
         Returns the bin-level classes of each tile ((n, 2^nb, 2^nb), every decided cell
         painted), the :class:`~gloffset.gl.engine.BinLayout` of the frontier bins
-        (``ns`` GPU levels below them), their :class:`~gloffset.hierarchy.Frontier`,
+        (``ns`` GPU levels below them), their :class:`~gloffset.raster.levels.Frontier`,
         and each frontier bin's tile (position in ``which``) and place in it."""
         nb = self.nb
         nbin = 1 << nb
@@ -883,7 +883,7 @@ def _render_tiles(chain, which, size, max_block, stats):
     ``(index, mask)``: the GPU levels classify the frontier bins of up to
     ``(max_block / size)^2`` tiles per run, packed into one small canvas; every other
     pixel of a tile is its bin's class."""
-    from .gl.engine import engine
+    from ..gl.engine import engine
 
     plog = size.bit_length() - 1
     ns = plog - chain.nb  # GPU levels: a bin is 2^ns pixels on a side

@@ -1,7 +1,7 @@
 """Rasters of the offset region: ``render(shape, distance, grid)``.
 
 Coarse to fine over the grid's levels: the coarse levels in float64 on the CPU
-(:mod:`gloffset.hierarchy`), the levels below the bins in fragment shaders on the
+(:mod:`gloffset.raster.levels`), the levels below the bins in fragment shaders on the
 GPU (:mod:`gloffset.gl.engine`), each level evaluating only children of frontier
 cells. Outputs larger than the GL texture limit are rendered in tiles.
 """
@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import OptionError
-from .grids import Cube, CubeFace, Equirect, Tile
-from .hierarchy import classify
-from .shape import read
-from .units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
+from ..errors import OptionError
+from ..grids import Cube, CubeFace, Equirect, Tile
+from ..shape import read
+from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
+from .levels import classify
 
 __all__ = ["render", "RenderError", "MAX_PIXELS"]
 
@@ -57,7 +57,7 @@ def _render_one(shape, d, grid, *, backend, level, callback, mask):
     if backend == "cpu" or stop <= bins:
         classes, _, _ = classify(shape, d, grid, stop_level=stop, callback=callback)
         return _MASK[classes] if mask else classes
-    from .gl.engine import engine
+    from ..gl.engine import engine
 
     eng = engine()
     classes, f, arcs = classify(shape, d, grid, stop_level=bins, callback=callback, start="auto")
@@ -129,7 +129,7 @@ def render(
     if tile is None:
         tile = 8192
         if backend == "gpu":
-            from .gl.context import context_info
+            from ..gl.context import context_info
 
             tile = min(tile, context_info()["max_texture_size"])
     if isinstance(grid, Cube):

@@ -61,15 +61,15 @@ from functools import lru_cache
 
 import numpy as np
 
-from .caps import cap_within, pad
-from .caps import chord2 as chord2_of_angle
-from .errors import InvalidDistanceError, InvalidMaskError, OptionError
-from .grids import Cube, Equirect
-from .grids.base import LonLatGrid, rect_radius
-from .grids.cube import CubeCells, locate, project
-from .shape import read
-from .sphere import angle, normalize, robust_cross
-from .units import EARTH_RADIUS, to_angle
+from ..caps import cap_within, pad
+from ..caps import chord2 as chord2_of_angle
+from ..errors import InvalidDistanceError, InvalidMaskError, OptionError
+from ..grids import Cube, Equirect
+from ..grids.base import LonLatGrid, rect_radius
+from ..grids.cube import CubeCells, locate, project
+from ..shape import read
+from ..sphere import angle, normalize, robust_cross
+from ..units import EARTH_RADIUS, to_angle
 
 __all__ = [
     "OUTSIDE",
@@ -1066,7 +1066,7 @@ def raster_offset(
     elif backend == "cpu" or stop <= grid.bin_level:
         classes, method, reason = hierarchical(lv, stop_level=stop, callback=cb)
     else:
-        from .gl.raster_engine import engine
+        from ..gl.raster_engine import engine
 
         classes, method, reason = hierarchical(lv, stop_level=grid.bin_level, callback=cb)
         classes, n_amb = engine().run(lv, classes, stop_level=stop, callback=cb)

@@ -24,8 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .caps import angle_of_chord, pad
-from .sphere import angle, normalize, robust_cross, rotate
+from ..caps import angle_of_chord, pad
+from ..sphere import angle, normalize, robust_cross, rotate
 
 __all__ = [
     "Arcs",

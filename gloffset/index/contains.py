@@ -9,7 +9,7 @@ A point ``p`` lies in the offset region of a shape at signed distance ``d`` when
 An :class:`Index` answers this for millions of points. It is built once per shape
 and distance from three pieces:
 
-1. **Bins** (:mod:`gloffset.bins`): a quadtree of lon/lat cells, refined only where
+1. **Bins** (:mod:`gloffset.index.bins`): a quadtree of lon/lat cells, refined only where
    the answer is not the same for the whole cell. Each cell is classified from its
    anchor ``x`` and radius ``rho`` (every point of the cell lies within ``rho`` of
    ``x``): *in* or *out* when no boundary comes within ``rho`` and the distance part
@@ -17,7 +17,7 @@ and distance from three pieces:
    (one for 0.7 deg cells, then blocks every 5 levels below frontier cells), so a
    point in a decided cell costs a few integer operations on its lon/lat and one to
    three table look-ups: no trigonometry, no geometry.
-2. **The multiresolution arc tree** (:mod:`gloffset.multires`): the build walks the
+2. **The multiresolution arc tree** (:mod:`gloffset.vector.multires`): the build walks the
    bins and the tree of simplified arcs together (a cell keeps the arcs whose error
    region comes within reach, splitting those larger than itself), and a frontier
    cell at the bottom keeps candidate arcs of a decomposition level ``K``.
@@ -44,14 +44,12 @@ import math
 
 import numpy as np
 
-from . import bins
-from .caps import arc_cap, cap_within, chord2, cos_sum_lower, pad
-from .crossings import inside as _inside_reference
-from .errors import InvalidLevelError
-from .multires import Decomposition
-from .reference import check_lonlat
-from .shape import read
-from .sphere import (
+from ..caps import arc_cap, cap_within, chord2, cos_sum_lower, pad
+from ..crossings import inside as _inside_reference
+from ..errors import InvalidLevelError
+from ..reference import check_lonlat
+from ..shape import read
+from ..sphere import (
     angle,
     arc_distance,
     cross,
@@ -62,7 +60,9 @@ from .sphere import (
     robust_cross,
     xyz_to_lonlat,
 )
-from .units import EARTH_RADIUS, offset_angle
+from ..units import EARTH_RADIUS, offset_angle
+from ..vector.multires import Decomposition
+from . import bins
 
 __all__ = ["Index", "contains", "depth_for"]
 
@@ -907,8 +907,8 @@ def contains(
         # union except where components overlap: points that may lie in two
         # overlapping components (within both their bounding caps) take the float64
         # reference, which unites them
-        from .reference import contains_xyz
-        from .sphere import lonlat_to_xyz
+        from ..reference import contains_xyz
+        from ..sphere import lonlat_to_xyz
 
         p = lonlat_to_xyz(lon, lat)
         centres, radii = shape.component_caps()

@@ -38,8 +38,8 @@ from functools import cached_property
 
 import numpy as np
 
-from .caps import CAP_SLACK, arc_cap, cap_range, cap_within, pad
-from .sphere import angle, arc_distance, arcs_cross, cross, normalize, robust_cross
+from ..caps import CAP_SLACK, arc_cap, cap_range, cap_within, pad
+from ..sphere import angle, arc_distance, arcs_cross, cross, normalize, robust_cross
 
 __all__ = [
     "Arcs",
@@ -125,7 +125,7 @@ def _arc_tree(arcs: Arcs):
     """The bounding-cap tree over the arcs (built once per :class:`Arcs`)."""
     tree = getattr(arcs, "_tree", None)
     if tree is None:
-        from .captree import CapTree
+        from ..captree import CapTree
 
         tree = CapTree(arcs.mid, arcs.half)
         arcs._tree = tree
@@ -404,16 +404,16 @@ def classify(
     ``timings``, a list, gets ``(level, time.perf_counter())`` after each level.
 
     ``start="coarse"`` runs every level from the coarsest (the reference renderer);
-    ``start="auto"`` enters the finest level that :func:`gloffset.scatter.start_level`
+    ``start="auto"`` enters the finest level that :func:`gloffset.raster.scatter.start_level`
     allows directly (lon/lat grids, small distances), and an int enters that level
-    (:func:`gloffset.scatter.scatter`); the levels above it are reported pooled from
+    (:func:`gloffset.raster.scatter.scatter`); the levels above it are reported pooled from
     it. All give the same classes from that level on.
     """
     arcs = Arcs.from_shape(shape)
     e = abs(d)
     last = grid.n_levels - 1
     stop = last if stop_level is None else stop_level
-    at, plan = None, None  # the level entered directly (gloffset.scatter), if any
+    at, plan = None, None  # the level entered directly (gloffset.raster.scatter), if any
     if start == "auto":
         from .scatter import start_level
 

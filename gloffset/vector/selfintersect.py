@@ -35,7 +35,7 @@ turn it into the boundary of the offset region
     exteriors and holes by crossing parity from a point outside the region.
 
 Robustness. Intersections are computed from angular radii
-(:func:`gloffset.smallcircle.intersect`), which keeps circles of radius ``|d|``
+(:func:`gloffset.vector.smallcircle.intersect`), which keeps circles of radius ``|d|``
 accurate however small ``|d|`` is, and come with an error bound; an intersection
 within its bound of an arc's end point is that end point, so a crossing near a
 junction is never lost between the two arcs that meet there, and points closer
@@ -65,13 +65,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import crossings
-from .caps import arc_cap
-from .captree import CapTree
-from .errors import InvalidDistanceError
+from .. import crossings
+from ..caps import arc_cap
+from ..captree import CapTree
+from ..errors import InvalidDistanceError
+from ..sphere import angle, arc_distance, arcs_cross, normalize, robust_cross, rotate
 from .offset import DEFAULT_TOLERANCE, ArcRings, OffsetRing, _circle, _ring_arcs, sample_rings
 from .smallcircle import Arcs, circle_of, intersect, point_at, position, sweep
-from .sphere import angle, arc_distance, arcs_cross, normalize, robust_cross, rotate
 
 __all__ = ["METHODS", "ResolvedOffset", "resolve", "algorithm1"]
 
@@ -101,7 +101,7 @@ class ResolvedOffset(ArcRings):
         Signed angular distance (radians).
     method : str
         ``"general"`` or ``"paper"``.
-    rings : list of :class:`gloffset.offset.OffsetRing`
+    rings : list of :class:`gloffset.vector.offset.OffsetRing`
         Closed rings with the region on their left; arc ``k`` of a ring runs from
         ``junctions[k-1]`` to ``junctions[k]`` about ``centers[k]`` (Eq. 1), and
         ``kind``/``sources`` name the vertex or edge it keeps its distance from.
@@ -121,7 +121,7 @@ class ResolvedOffset(ArcRings):
     stated error; measured: below 1e-15 rad on all test data); no point of the
     curves is closer than ``|distance| - 1e-12`` to a ring; rings do not cross
     each other or themselves (they may touch at single points); and the region
-    they bound equals the reference region (:func:`gloffset.contains`) except
+    they bound equals the reference region (:func:`gloffset.index.contains`) except
     within 1e-9 rad of its boundary: gaps and parts narrower than that are closed
     or dropped rather than kept as slivers. ``method="paper"`` gives what
     Algorithm 1 gives: exact on the loops it handles, no union, no holes.
@@ -171,7 +171,7 @@ class ResolvedOffset(ArcRings):
         (radians) from its arc; rings are cut at the antimeridian, exterior rings
         run counter-clockwise and holes clockwise.
         """
-        from .io.geojson import rings_to_geometry
+        from ..io.geojson import rings_to_geometry
 
         props = {"distance_rad": self.distance}
         rings = self.sample(tolerance)
@@ -201,7 +201,7 @@ def resolve(off, method: str = "general") -> ResolvedOffset:
     Parameters
     ----------
     off : gloffset.Offset
-        The raw offset (:func:`gloffset.offset`).
+        The raw offset (:func:`gloffset.vector.offset`).
     method : {"general", "paper"}
         ``"general"``: the exact boundary of the offset region, united over all
         parts, with holes. ``"paper"``: Algorithm 1 as published, ring by ring.
@@ -1071,7 +1071,7 @@ class _Parity:
 
     def _outside_point(self, shape, d):
         """A point outside the region, farther than 1e-10 rad from its boundary."""
-        from .reference import contains_xyz, distance_xyz
+        from ..reference import contains_xyz, distance_xyz
 
         def candidates():
             if self.n:

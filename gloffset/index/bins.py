@@ -4,7 +4,7 @@ Level ``l`` splits the sphere into ``2^l`` rows of latitude (row 0 at the north
 pole) and ``2^(l+1)`` columns of longitude (column 0 at -180 deg): square cells of
 ``180 / 2^l`` degrees. A point is located from its longitude and latitude alone, with
 a few multiplications and no trigonometry, which is what makes the inside/outside
-index (:mod:`gloffset.contains`) fast for points far from the boundary.
+index (:mod:`gloffset.index.contains`) fast for points far from the boundary.
 
 Every cell has an *anchor*, a point at a fixed irrational position inside it (not
 the centre: data often has vertices on round coordinates, and the inside/outside
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sphere import angle, lonlat_to_xyz
+from ..sphere import angle, lonlat_to_xyz
 
 __all__ = ["MAX_LEVEL", "anchors", "radii", "locate", "children"]
 

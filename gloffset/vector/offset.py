@@ -21,7 +21,7 @@ Raw and resolved. :class:`Offset` holds the *raw* offset of the paper's Sec. 4.1
 every point of it lies at exactly ``|d|`` from its generating vertex or edge, but
 concave corners produce loops, and the offsets of separate parts (or of the two
 sides of a line) overlap. :meth:`Offset.resolve` removes them (Sec. 4.4, see
-:mod:`gloffset.selfintersect`) and returns the true boundary of the offset region
+:mod:`gloffset.vector.selfintersect`) and returns the true boundary of the offset region
 as valid polygons of small-circle arcs; :meth:`Offset.to_geojson` writes that by
 default (``raw=True`` writes the raw rings). A seam that has no partner across the
 antimeridian (see :mod:`gloffset.shape`) is offset like a boundary edge here,
@@ -35,10 +35,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InvalidDistanceError
-from .shape import Shape, read
-from .sphere import normalize, robust_cross, rotate, slerp
-from .units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, offset_angle
+from ..errors import InvalidDistanceError
+from ..shape import Shape, read
+from ..sphere import normalize, robust_cross, rotate, slerp
+from ..units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, offset_angle
 
 __all__ = ["Offset", "OffsetRing", "offset", "sample_arc", "sample_rings"]
 
@@ -218,12 +218,12 @@ class Offset(ArcRings):
         ----------
         method : {"general", "paper"}
             ``"general"`` (default): exact, united over all parts, with holes and
-            several components (:mod:`gloffset.selfintersect`). ``"paper"``:
+            several components (:mod:`gloffset.vector.selfintersect`). ``"paper"``:
             Algorithm 1 as published, ring by ring.
 
         Returns
         -------
-        gloffset.selfintersect.ResolvedOffset
+        gloffset.vector.selfintersect.ResolvedOffset
             Rings of small-circle arcs (Q/R per ring), exterior/hole flags and
             polygons; cached per method.
 
@@ -231,7 +231,7 @@ class Offset(ArcRings):
         -----
         Accuracy (``"general"``): every point of the result lies at ``|d|`` from
         the curves to 1e-12 rad, rings do not cross, and the region equals the
-        reference region (:func:`gloffset.contains`) except within ~1e-12 rad of
+        reference region (:func:`gloffset.index.contains`) except within ~1e-12 rad of
         its boundary.
         """
         from .selfintersect import resolve
@@ -257,8 +257,8 @@ class Offset(ArcRings):
         ``raw=True`` writes the raw rings of Sec. 4.1 instead, self-intersections
         and overlaps included.
         """
-        from .io.geojson import rings_to_geometry
-        from .reference import contains_xyz
+        from ..io.geojson import rings_to_geometry
+        from ..reference import contains_xyz
 
         props = {"distance_rad": self.distance}
         if self.distance == 0.0:
