@@ -18,7 +18,7 @@ from common import DATA, best_of, write
 import gloffset
 from gloffset.gl import context_info, get_context, program
 from gloffset.grids import Equirect
-from gloffset.raster.levels import classify
+from gloffset.raster.curves import classify
 from gloffset.raster.render import render
 
 D = 0.02  # radians, as in the paper's Table 1

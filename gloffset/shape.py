@@ -547,7 +547,7 @@ def _overlapping_components(shape: Shape) -> np.ndarray:
     if shape.n_groups < 2:
         return np.zeros((0, 2), dtype=np.int64)
     from .captree import CapTree
-    from .raster.levels import Arcs, _status_at
+    from .edges import CurveArcs, component_status
     from .sphere import orient
 
     e = shape.edges()
@@ -572,9 +572,9 @@ def _overlapping_components(shape: Shape) -> np.ndarray:
     # nesting: a vertex of one component strictly inside another
     first = np.array([np.flatnonzero(g == k)[0] for k in range(shape.n_groups)])
     p = a[first]
-    status = np.unpackbits(_status_at(shape, Arcs.from_shape(shape), p), axis=1, bitorder="little")[
-        :, : shape.n_groups
-    ].astype(bool)
+    status = np.unpackbits(
+        component_status(shape, CurveArcs.from_shape(shape), p), axis=1, bitorder="little"
+    )[:, : shape.n_groups].astype(bool)
     status[np.arange(shape.n_groups), np.arange(shape.n_groups)] = False
     for k in np.flatnonzero(status.any(axis=1)):
         for m in np.flatnonzero(status[k]):

@@ -10,7 +10,8 @@ from conftest import LINES, SQUARE_WITH_HOLE
 import gloffset
 from gloffset.gl import engine as E
 from gloffset.grids import Cube, Equirect, Tile
-from gloffset.raster.levels import Frontier, cell_distances, classify
+from gloffset.raster.curves import classify
+from gloffset.raster.levels import Frontier, cell_distances
 from gloffset.sphere import arc_distance, dot, slerp
 
 POINTS = {"type": "MultiPoint", "coordinates": [[30, 60], [31, 60.5], [-120, -20]]}

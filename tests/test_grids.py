@@ -155,13 +155,13 @@ def test_tile_limits_are_those_of_the_pyramid_and_the_cli(tmp_path):
 def test_tile_pixels_are_the_pyramid_quadtree(z, x, y, size):
     """Pixel (i, j) of tile z/x/y is, to the bit, the centre of tile z+P / x 2^P + i /
     y 2^P + j of the pyramid's quadtree (size = 2^P): one copy of the mercator maths."""
-    from gloffset.raster.tiles import TileLevels
+    from gloffset.grids.mercator import TilePyramid
 
     t = Tile(z, x, y, size)
     zp = z + size.bit_length() - 1
     jj, ii = np.meshgrid(np.arange(size), np.arange(size), indexing="ij")
     got = t.centers(t.n_levels - 1, jj, ii)
-    want = TileLevels(zp).centers(zp, y * size + jj, x * size + ii)
+    want = TilePyramid(zp).centers(zp, y * size + jj, x * size + ii)
     assert np.array_equal(got, want)
     lon, lat = t.pixel_lonlat(ii, jj)
     assert np.abs(lonlat_to_xyz(lon, lat) - want).max() < 1e-15

@@ -32,7 +32,6 @@ from gloffset.raster.rasterized import (
     OUTSIDE,
     InvalidMaskError,
     RasterOffsetError,
-    pixel_radius,
     raster_offset,
     rasterize,
 )
@@ -66,8 +65,8 @@ def assert_truth(shape, classes, d, grid, s):
     near = np.flatnonzero((cls == OUTSIDE) & (dist <= d + 4 * s))
     for fx, fy in [(0, 0), (1, 0), (0, 1), (1, 1), (0.5, 0), (0, 0.5), (1, 0.5), (0.5, 1)]:
         j, i = np.divmod(near, grid.width)
-        lat = np.degrees(grid._lat_px(j + fy))
-        lon = np.degrees(grid._lon_px(i + fx))
+        lat = np.degrees(grid.pixel_lat(j + fy))
+        lon = np.degrees(grid.pixel_lon(i + fx))
         assert np.all(distance_xyz(shape, lonlat_to_xyz(lon, lat)) > d)
     return dist
 
@@ -166,7 +165,7 @@ def test_rasterize_is_conservative_and_tight():
     j, i = np.nonzero(mask)
     c = grid.centers(grid.n_levels - 1, j, i)
     dist = arc_distance(c[:, None], e.a[None], e.b[None]).min(axis=1)
-    assert np.all(dist <= pixel_radius(grid)[j] + 1e-9)
+    assert np.all(dist <= grid.area_rho_cells(grid.n_levels - 1, j * grid.width) + 1e-9)
 
 
 def test_small_example_and_errors():

@@ -20,7 +20,7 @@ def pixel_centers(grid):
 
 def boundary_distance(shape, p):
     """Distance to ring edges including seams (where the inside status changes)."""
-    from gloffset.raster.levels import Arcs
+    from gloffset.edges import CurveArcs as Arcs
     from gloffset.sphere import arc_distance
 
     arcs = Arcs.from_shape(shape)

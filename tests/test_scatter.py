@@ -4,9 +4,12 @@ import numpy as np
 import pytest
 
 import gloffset
+from gloffset.edges import CurveArcs as Arcs
 from gloffset.grids import Equirect, Tile
-from gloffset.raster.levels import CONTAINED, FRONTIER, OUTSIDE, Arcs, classify
-from gloffset.raster.scatter import PAIRS_PER_ARC, pooled, scatter, start_level
+from gloffset.raster.curves import classify
+from gloffset.raster.driver import pooled
+from gloffset.raster.levels import CONTAINED, FRONTIER, OUTSIDE
+from gloffset.raster.scatter import PAIRS_PER_ARC, scatter, start_level
 
 LINE_OVER_POLE = {
     "type": "LineString",

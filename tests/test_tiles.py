@@ -15,9 +15,10 @@ from PIL import Image
 
 import gloffset
 from gloffset.cli import main
+from gloffset.edges import CurveArcs as Arcs
 from gloffset.grids import Tile
-from gloffset.raster.levels import Arcs
-from gloffset.raster.tiles import TileLevels, TilesError, parse_zooms, pyramid
+from gloffset.grids.mercator import TilePyramid
+from gloffset.raster.tiles import TilesError, parse_zooms, pyramid
 from gloffset.reference import contains_xyz, distance_xyz
 from gloffset.sphere import angle, arc_distance, lonlat_to_xyz
 
@@ -115,12 +116,14 @@ def test_parse_zooms():
 
 
 def test_tile_bounds_are_rigorous():
-    lv = TileLevels(12)
+    lv = TilePyramid(12)
     rng = np.random.default_rng(1)
     for z in range(13):
         rows = np.arange(1 << z) if z <= 8 else rng.integers(0, 1 << z, 256)
-        r = lv.bound(z, rows)
-        assert np.all(r <= lv.bound(z, max(0, (1 << z) // 2 - 1)) * (1 + 1e-9))  # r_eq is max
+        r = lv.decision_rho(z, rows)
+        assert np.all(
+            r <= lv.decision_rho(z, max(0, (1 << z) // 2 - 1)) * (1 + 1e-9)
+        )  # r_eq is max
         # random points of the rectangles are within r of the centres
         y = rows + rng.uniform(0, 1, (64, len(rows)))
         lat = np.degrees(np.arctan(np.sinh(np.pi * (1 - 2 * y / (1 << z)))))
@@ -278,12 +281,12 @@ def test_outline_points_are_those_of_the_arc_by_arc_maths(world, name, tiles):
     arcs = Arcs.from_shape(gloffset.read(LINE_AM if name == "line" else world[name]))
     prepared = OutlineArcs(arcs)
     which = np.flatnonzero(arcs.boundary)
-    levels = TileLevels(12)
+    levels = TilePyramid(12)
     cut = 0
     for z, x, y in tiles:
         c = levels.centers(z, y, x)
         for scale in (1.0, 0.5, 0.1):  # the tile's bound and smaller discs
-            r = float(levels.bound(z, y)) * scale
+            r = float(levels.decision_rho(z, y)) * scale
             want = _outline_per_arc(arcs, which, c, r, z, x, y, 256)
             got = prepared.lines(which, c, r, z, x, y, 256)
             assert got == want, (z, x, y, scale)

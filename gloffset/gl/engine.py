@@ -34,8 +34,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..caps import CAP_SLACK, cap_range, chord2
+from ..edges import CurveArcs as Arcs
 from ..errors import GLContextError
-from ..raster.levels import FRONTIER, Arcs, Frontier
+from ..raster.levels import FRONTIER, Frontier
 from ..sphere import dot
 from .context import context_info, get_context
 from .shaders import program

@@ -128,7 +128,7 @@ class RasterLevels:
     def run(self, lv: Levels, classes: np.ndarray, *, stop_level: int, callback=None):
         """Classes of ``stop_level`` from the bin level's ``classes``; and the number of
         ambiguous cells decided on the CPU."""
-        if hasattr(lv.grid, "row_valid"):
+        if not lv.grid.lonlat:  # the cube faces as one cell set
             return self._run_cube(lv, classes, stop_level=stop_level, callback=callback)
         import moderngl
 

@@ -26,7 +26,14 @@ from ..caps import pad
 from ..errors import InvalidGridError
 from ..sphere import angle
 
-__all__ = ["InvalidGridError", "Levels", "LonLatGrid", "Square", "COARSE_CELLS", "BIN_PIXELS"]
+__all__ = [
+    "InvalidGridError",
+    "LevelHierarchy",
+    "LonLatGrid",
+    "Square",
+    "COARSE_CELLS",
+    "BIN_PIXELS",
+]
 
 #: The coarsest level has at most this many cells on its longer side.
 COARSE_CELLS = 32
@@ -36,11 +43,19 @@ BIN_PIXELS = 16
 WIDE_BINS_FROM = 6
 
 
-class Levels:
-    """The level hierarchy of a ``width x height`` grid (subclasses set both)."""
+class LevelHierarchy:
+    """The level hierarchy of a ``width x height`` grid (subclasses set both).
+
+    Subclasses declare their capabilities (:class:`gloffset.grids.protocol.Grid`):
+    ``lonlat`` when rows are parallels and columns meridians (they then offer
+    ``cell_lat``, ``cell_lon``, ``pixel_lat``, ``pixel_lon``), ``per_cell_rho`` when the
+    bound rho differs along a row (``rho(level)`` is then each row's largest).
+    """
 
     width: int
     height: int
+    lonlat = False
+    per_cell_rho = False
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -83,6 +98,11 @@ class Levels:
         """The bound of cells (``j``, ``i``) of ``level``."""
         return self.rho(level)[np.asarray(j)] + 0.0 * np.asarray(i)
 
+    def decision_rho(self, level: int, j, i) -> np.ndarray:
+        """The bound a cell is decided with: :meth:`rho_at` (a grid whose decisions need
+        only the cell's own points, not its descendants' lists, overrides it)."""
+        return self.rho_at(level, j, i)
+
 
 class Square:
     """Mixin for ``size x size`` grids (cube faces, map tiles)."""
@@ -118,26 +138,36 @@ def rect_radius(dlon_half, lat_c, lat1, lat2) -> np.ndarray:
     return np.arccos(np.clip(cosang.min(axis=0), -1.0, 1.0))
 
 
-class LonLatGrid(Levels):
+class LonLatGrid(LevelHierarchy):
     """A grid whose rows are parallels and columns meridians.
 
     Subclasses give the latitude of a (fractional) row and the longitude of a
-    (fractional) column of output pixels, in radians: ``_lat_px(y)``, ``_lon_px(x)``.
+    (fractional) column of output pixels, in radians: ``pixel_lat(y)``, ``pixel_lon(x)``.
+    Cells are addressed as ``(row, column)`` or by flat index ``row * width + column``
+    of their level.
     """
 
-    def _lat_px(self, y):  # pragma: no cover - abstract
+    lonlat = True
+
+    def pixel_lat(self, y):  # pragma: no cover - abstract
+        """Latitude (radians) at fractional output-pixel row ``y`` (0: the northern edge)."""
         raise NotImplementedError
 
-    def _lon_px(self, x):  # pragma: no cover - abstract
+    def pixel_lon(self, x):  # pragma: no cover - abstract
+        """Longitude (radians) at fractional output-pixel column ``x`` (0: the western edge)."""
         raise NotImplementedError
+
+    def wraps(self, level: int) -> bool:
+        """Whether the columns of ``level`` go round the globe (column 0 is east of the last)."""
+        return False
 
     def cell_lat(self, level: int, j) -> np.ndarray:
         """Latitude (radians) of the centres of row ``j`` of ``level``."""
-        return self._lat_px((np.asarray(j, dtype=np.float64) + 0.5) * self.block(level))
+        return self.pixel_lat((np.asarray(j, dtype=np.float64) + 0.5) * self.block(level))
 
     def cell_lon(self, level: int, i) -> np.ndarray:
         """Longitude (radians) of the centres of column ``i`` of ``level``."""
-        return self._lon_px((np.asarray(i, dtype=np.float64) + 0.5) * self.block(level))
+        return self.pixel_lon((np.asarray(i, dtype=np.float64) + 0.5) * self.block(level))
 
     def centers(self, level: int, j, i) -> np.ndarray:
         """Unit vectors of the centres of cells (row ``j``, column ``i``) of ``level``."""
@@ -153,6 +183,70 @@ class LonLatGrid(Levels):
             object.__setattr__(self, "_rho_cache", cache)
         return cache[level]
 
+    def _area(self, level: int) -> np.ndarray:
+        """Per row of ``level``: the farthest point of a cell's lon/lat rectangle from its
+        centre (exact, :func:`rect_radius`; not rounded up)."""
+        h = self.level_shape(level)[0]
+        j = np.arange(h, dtype=np.float64)
+        b = self.block(level)
+        phi = self.cell_lat(level, j)
+        north = self.pixel_lat(j * b)
+        south = self.pixel_lat((j + 1) * b)
+        dlon_half = 0.5 * abs(float(self.pixel_lon(b) - self.pixel_lon(0)))
+        return rect_radius(
+            np.full(h, dlon_half), phi, np.minimum(north, south), np.maximum(north, south)
+        )
+
+    def rho_cells(self, level: int, flat) -> np.ndarray:
+        """The bound rho of cells ``flat`` (flat indices) of ``level``."""
+        return self.rho(level)[np.asarray(flat, dtype=np.int64) // self.level_shape(level)[1]]
+
+    def area_rho_cells(self, level: int, flat) -> np.ndarray:
+        """The area bound of cells ``flat`` of ``level``: the farthest point of the cell
+        from its centre (the paper's ``d_g / 2`` at the output level), rounded up."""
+        rows = np.asarray(flat, dtype=np.int64) // self.level_shape(level)[1]
+        return pad(self._area(level))[rows]
+
+    def row_valid(self, level: int) -> np.ndarray:
+        """Per row of ``level``: whether it holds cells (every row does)."""
+        return np.ones(self.level_shape(level)[0], dtype=bool)
+
+    def neighbour_table(self, level: int, flat) -> np.ndarray:
+        """(len(flat), 8) flat indices of the 8-neighbours of cells ``flat`` of ``level``
+        (rows -1, 0, 1 by columns -1, 0, 1, the cell itself left out; across the
+        antimeridian where :meth:`wraps`); -1 where none."""
+        h, w = self.level_shape(level)
+        j, i = np.divmod(np.asarray(flat, dtype=np.int64), w)
+        wrap = self.wraps(level)
+        out = np.full((len(j), 8), -1, dtype=np.int64)
+        k = 0
+        for dj in (-1, 0, 1):
+            for di in (-1, 0, 1):
+                if dj == 0 and di == 0:
+                    continue
+                jj, ii = j + dj, i + di
+                if wrap:
+                    ii = ii % w
+                ok = (jj >= 0) & (jj < h) & (ii >= 0) & (ii < w)
+                out[ok, k] = jj[ok] * w + ii[ok]
+                k += 1
+        return out
+
+    def neighbours(self, level: int, flat) -> np.ndarray:
+        """The 8-neighbours (flattened, unique) of cells ``flat`` of ``level``."""
+        nb = self.neighbour_table(level, flat).ravel()
+        return np.unique(nb[nb >= 0])
+
+    def adjacent(self, level: int, a, b) -> np.ndarray:
+        """Whether cells ``a`` and ``b`` of ``level`` (arrays) touch (or are the same)."""
+        w = self.level_shape(level)[1]
+        ja, ia = np.divmod(np.asarray(a, dtype=np.int64), w)
+        jb, ib = np.divmod(np.asarray(b, dtype=np.int64), w)
+        di = np.abs(ia - ib)
+        if self.wraps(level):
+            di = np.minimum(di, w - di)
+        return (np.abs(ja - jb) <= 1) & (di <= 1)
+
     def _rhos(self) -> list[np.ndarray]:
         n = self.n_levels
         out: list = [None] * n
@@ -160,14 +254,7 @@ class LonLatGrid(Levels):
         for lev in range(n - 2, -1, -1):
             h = self.level_shape(lev)[0]
             j = np.arange(h, dtype=np.float64)
-            b = self.block(lev)
-            phi = self.cell_lat(lev, j)
-            north = self._lat_px(j * b)
-            south = self._lat_px((j + 1) * b)
-            dlon_half = 0.5 * abs(float(self._lon_px(b) - self._lon_px(0)))
-            area = rect_radius(
-                np.full(h, dlon_half), phi, np.minimum(north, south), np.maximum(north, south)
-            )
+            area = self._area(lev)
             c = self.centers(lev, j, 0)
             hier = np.zeros(h)
             child = out[lev + 1]

@@ -29,7 +29,7 @@ import numpy as np
 
 from ..caps import pad
 from ..sphere import angle, normalize
-from .base import InvalidGridError, Levels, Square, check_size
+from .base import InvalidGridError, LevelHierarchy, Square, check_size
 
 __all__ = [
     "Cube",
@@ -107,11 +107,12 @@ def cell_at(size: int, level: int, r) -> tuple[np.ndarray, np.ndarray, np.ndarra
 
 
 @dataclass(frozen=True)
-class CubeFace(Square, Levels):
+class CubeFace(Square, LevelHierarchy):
     """One ``size x size`` face of a cube map (``face`` 0..5 in the order of FACE_NAMES)."""
 
     face: int
     size: int
+    per_cell_rho = True
 
     def __post_init__(self):
         if self.face not in range(6):
@@ -227,6 +228,9 @@ class CubeCells:
     padding rows get the face's largest), :meth:`rho_cells` and :meth:`area_rho_cells`
     per cell. The six faces are congruent, so every row's bound is that of face 0.
     """
+
+    lonlat = False
+    per_cell_rho = True
 
     def __init__(self, size: int):
         self.face = CubeFace(0, size)

@@ -85,11 +85,18 @@ class Equirect(LonLatGrid):
             return float(lon), float(lat)
         return lon, lat
 
-    def _lat_px(self, y):
+    def pixel_lat(self, y):
         return math.radians(self.bounds[3]) - np.asarray(y, dtype=np.float64) * self.dlat
 
-    def _lon_px(self, x):
+    def pixel_lon(self, x):
         return math.radians(self.bounds[0]) + np.asarray(x, dtype=np.float64) * self.dlon
+
+    def wraps(self, level: int) -> bool:
+        """Whether the columns of ``level`` go round the globe: the grid spans 360 degrees
+        of longitude and the level's cells tile the width exactly."""
+        if abs(self.span_lon - 360.0) > 1e-9:
+            return False
+        return self.level_shape(level)[1] * self.block(level) == self.width
 
     def subgrid(self, x0: int, y0: int, w: int, h: int) -> Equirect:
         """The pixels ``[x0, x0+w) x [y0, y0+h)`` as a grid of their own (same pixel centres)."""

@@ -26,10 +26,13 @@ from dataclasses import dataclass
 import mercantile
 import numpy as np
 
-from .base import InvalidGridError, LonLatGrid, Square
+from ..caps import pad
+from ..sphere import angle
+from .base import InvalidGridError, LonLatGrid, Square, rect_radius
 
 __all__ = [
     "Tile",
+    "TilePyramid",
     "MAX_ZOOM",
     "MIN_TILE_SIZE",
     "MAX_TILE_SIZE",
@@ -126,18 +129,91 @@ class Tile(Square, LonLatGrid):
     def _px_per_world(self) -> float:
         return float((1 << self.z) * self.size)
 
-    def _lon_px(self, xx):
+    def pixel_lon(self, xx):
         return lon_at(self.x * self.size + np.asarray(xx, dtype=np.float64), self._px_per_world())
 
-    def _lat_px(self, yy):
+    def pixel_lat(self, yy):
         return lat_at(self.y * self.size + np.asarray(yy, dtype=np.float64), self._px_per_world())
 
     def pixel_lonlat(self, i, j):
         """Centre (lon, lat) in degrees of pixel column ``i``, row ``j``."""
-        lon = np.degrees(self._lon_px(np.asarray(i, dtype=np.float64) + 0.5))
-        lat = np.degrees(self._lat_px(np.asarray(j, dtype=np.float64) + 0.5))
+        lon = np.degrees(self.pixel_lon(np.asarray(i, dtype=np.float64) + 0.5))
+        lat = np.degrees(self.pixel_lat(np.asarray(j, dtype=np.float64) + 0.5))
         return lon, lat
 
     def children(self) -> list[Tile]:
         """The four tiles of zoom z + 1 inside this one."""
         return [Tile(c.z, c.x, c.y, self.size) for c in mercantile.children(self.x, self.y, self.z)]
+
+
+def _xyz(lon, lat) -> np.ndarray:
+    """Unit vectors at ``lon``, ``lat`` (radians; broadcast)."""
+    lon, lat = np.broadcast_arrays(lon, lat)
+    c = np.cos(lat)
+    return np.stack([c * np.cos(lon), c * np.sin(lon), np.sin(lat)], axis=-1)
+
+
+class TilePyramid:
+    """The XYZ quadtree down to zoom ``maxzoom`` as a level hierarchy (level = zoom, cell
+    ``(row, column)`` = tile ``(y, x)``): the grid of tile pyramids.
+
+    Bounds: :meth:`decision_rho` is the tight bound of a tile (every point of it is
+    within it of the centre), used to decide a tile; :meth:`rho_at` (the list bound ``L``)
+    adds the sum of the decision bounds of the zooms below, so that a tile's candidate
+    arcs serve every descendant down to ``maxzoom``.
+    """
+
+    lonlat = False
+    per_cell_rho = False
+
+    def __init__(self, maxzoom: int):
+        self.maxzoom = int(maxzoom)
+        eq = [self.decision_rho(z, max(0, (1 << z) // 2 - 1))[()] for z in range(self.maxzoom + 1)]
+        tail = np.cumsum(eq[::-1])[::-1]  # tail[z] = sum of eq[z..Z]
+        self._extra = [float(tail[z + 1]) if z < self.maxzoom else 0.0 for z in range(len(eq))]
+
+    @property
+    def n_levels(self) -> int:
+        return self.maxzoom + 1
+
+    def level_shape(self, z: int) -> tuple[int, int]:
+        return (1 << z, 1 << z)
+
+    def centers(self, z: int, j, i) -> np.ndarray:
+        """Unit vectors of the centres of tiles (row ``j`` = y, column ``i`` = x) of zoom z."""
+        n = 1 << z
+        lon = lon_at(np.asarray(i, dtype=np.float64) + 0.5, n)
+        return _xyz(lon, lat_at(np.asarray(j, dtype=np.float64) + 0.5, n))
+
+    def tile_lat(self, z: int, yy) -> np.ndarray:
+        """Latitude (radians) at fractional tile row ``yy`` of zoom ``z``."""
+        return lat_at(yy, 1 << z)
+
+    def tile_lon(self, z: int, xx) -> np.ndarray:
+        """Longitude (radians) at fractional tile column ``xx`` of zoom ``z``."""
+        return lon_at(xx, 1 << z)
+
+    def decision_rho(self, z: int, j, i=0) -> np.ndarray:
+        """Largest angle from the centre of a tile of row ``j`` to any point of the tile.
+
+        ``rect_radius`` is exact but loses digits for tiny tiles (arccos near 1); the
+        corners, the farthest points of every tile below zoom 0, are measured with
+        the robust :func:`gloffset.sphere.angle` too and the larger value is kept.
+        """
+        j = np.asarray(j, dtype=np.float64)
+        n = 1 << z
+        north, south, mid = lat_at(j, n), lat_at(j + 1.0, n), lat_at(j + 0.5, n)
+        dl = math.pi / n
+        exact = rect_radius(np.full(j.shape, dl), mid, south, north)
+        c = _xyz(0.0, mid)
+        corners = np.maximum(angle(c, _xyz(dl, north)), angle(c, _xyz(dl, south)))
+        return pad(np.maximum(exact, corners))
+
+    def rho(self, z: int) -> np.ndarray:
+        """Per-row list bound ``L`` of zoom ``z``."""
+        return self.rho_at(z, np.arange(1 << z), 0)
+
+    def rho_at(self, z: int, j, i) -> np.ndarray:
+        """The list bound ``L`` of tiles (``j``, ``i``) of zoom ``z``."""
+        r = self.decision_rho(z, j) + self._extra[z]
+        return pad(r) + 0.0 * np.asarray(i)

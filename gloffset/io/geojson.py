@@ -247,6 +247,14 @@ def _feature(f, label: str, parts: Parts) -> None:
     _geometry(geom, label, parts)
 
 
+def _polygon(rings, label: str, parts) -> None:
+    """One polygon's rings (exterior first) into ``parts``, named ``label``."""
+    if len(rings) == 0:
+        raise InputFormatError(f"{label} has no rings (empty geometry)")
+    parts.polygons.append([_position_array(r, f"{label} ring {k}") for k, r in enumerate(rings)])
+    parts.polygon_labels.append(label)
+
+
 def _geometry(g, label: str, parts: Parts) -> None:
     if not isinstance(g, dict) or "type" not in g:
         raise InputFormatError(f"{label}: geometry has no 'type'")
@@ -267,21 +275,10 @@ def _geometry(g, label: str, parts: Parts) -> None:
             parts.lines.append(_position_array(line, f"{label} line {j}"))
             parts.line_labels.append(f"{label} line {j}")
     elif kind == "Polygon":
-        rings = _coords(c, 2, label)
-        if len(rings) == 0:
-            raise InputFormatError(f"{label}: Polygon has no rings (empty geometry)")
-        parts.polygons.append(
-            [_position_array(r, f"{label} Polygon ring {k}") for k, r in enumerate(rings)]
-        )
-        parts.polygon_labels.append(f"{label} Polygon")
+        _polygon(_coords(c, 2, label), f"{label} Polygon", parts)
     elif kind == "MultiPolygon":
         for j, poly in enumerate(_coords(c, 3, label)):
-            if len(poly) == 0:
-                raise InputFormatError(f"{label}: polygon {j} has no rings (empty geometry)")
-            parts.polygons.append(
-                [_position_array(r, f"{label} polygon {j} ring {k}") for k, r in enumerate(poly)]
-            )
-            parts.polygon_labels.append(f"{label} polygon {j}")
+            _polygon(poly, f"{label} polygon {j}", parts)
     elif kind == "GeometryCollection":
         geoms = g.get("geometries")
         if not isinstance(geoms, list):

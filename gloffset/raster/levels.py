@@ -1,4 +1,4 @@
-"""Coarse-to-fine classification of grid cells in float64 (the CPU side of the raster engine).
+"""The float64 level operations of the vector raster: classify one level's cells.
 
 Every level of a grid classifies its cells against the offset region of a shape at
 signed angular distance ``d`` (``e = |d|``), with the cell bound ``R`` (rho):
@@ -25,24 +25,25 @@ decisions at ``R > 0`` use a slack of 1e-15 rad toward *frontier*, so a cell is
 only called contained or outside when all its descendant pixels are.
 
 The GPU engine (:mod:`gloffset.gl.engine`) takes over below the bin level with the
-same rules; :func:`classify` run to the output level is the float64 reference
-renderer.
+same rules. The classifier :class:`~gloffset.raster.curves.CurveCells`, driven by
+:mod:`gloffset.raster.driver`, strings these operations into levels;
+:func:`gloffset.raster.curves.classify` run to the output level is the float64
+reference renderer.
 """
 
 from __future__ import annotations
 
-import math
-import time
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 
 from ..caps import CAP_SLACK, arc_cap, cap_range, cap_within, pad
-from ..sphere import angle, arc_distance, arcs_cross, cross, normalize, robust_cross
+from ..edges import CurveArcs, component_status, status_bits
+from ..sphere import angle, arc_distance, arcs_cross
+from .driver import CONTAINED, FRONTIER, OUTSIDE
 
 __all__ = [
-    "Arcs",
+    "CurveArcs",
     "Frontier",
     "cell_distances",
     "nearest",
@@ -50,49 +51,14 @@ __all__ = [
     "cap_range",
     "cap_within",
     "CAP_SLACK",
-    "classify",
     "decide",
     "OUTSIDE",
     "FRONTIER",
     "CONTAINED",
 ]
 
-OUTSIDE, FRONTIER, CONTAINED = 0, 1, 2
 _SLACK = 1e-15
 _PAIRS = 1 << 22
-
-
-@dataclass
-class Arcs:
-    """The arcs of a shape with what the engine needs (all float64)."""
-
-    a: np.ndarray
-    b: np.ndarray
-    n: np.ndarray  # unit left normal normalize(a x b); zero for points
-    mid: np.ndarray  # bounding cap centre
-    half: np.ndarray  # bounding cap radius
-    boundary: np.ndarray  # has distance (not a seam)
-    group: np.ndarray  # region component, -1 for lines and points
-    n_groups: int
-
-    @cached_property
-    def lunes(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(n x a, b x n)``: the normals of the planes that bound each arc's lune (the
-        points whose nearest point of the great circle lies on the arc)."""
-        return cross(self.n, self.a), cross(self.b, self.n)
-
-    @classmethod
-    def from_shape(cls, shape) -> Arcs:
-        """The arcs of ``shape`` (made once per shape and kept on it, like its edges)."""
-        return shape.cached("hierarchy.arcs", lambda: cls._make(shape))
-
-    @classmethod
-    def _make(cls, shape) -> Arcs:
-        e = shape.edges()
-        n = normalize(robust_cross(e.a, e.b))
-        mid, half = arc_cap(e.a, e.b)
-        half = pad(half)
-        return cls(e.a, e.b, n, mid, half, e.boundary, e.group, shape.n_groups)
 
 
 @dataclass
@@ -113,69 +79,22 @@ class Frontier:
     status: np.ndarray
 
 
-def _status_bits(n_groups: int, k: int) -> np.ndarray:
-    return np.zeros((k, max(1, -(-n_groups // 8))), dtype=np.uint8)
-
-
-def _inside_any(status: np.ndarray) -> np.ndarray:
-    return status.any(axis=1)
-
-
-def _arc_tree(arcs: Arcs):
-    """The bounding-cap tree over the arcs (built once per :class:`Arcs`)."""
-    tree = getattr(arcs, "_tree", None)
-    if tree is None:
-        from ..captree import CapTree
-
-        tree = CapTree(arcs.mid, arcs.half)
-        arcs._tree = tree
-    return tree
-
-
-def _status_at(shape, arcs: Arcs, p: np.ndarray) -> np.ndarray:
-    """Packed component statuses of a few points by crossings to a reference point.
-
-    Only the ring edges whose bounding caps reach the great circle of ``p -> ref``
-    (``|m.u| <= sin h`` for its unit normal ``u``) can cross the arc to the reference.
-    """
-    status = _status_bits(arcs.n_groups, len(p))
-    refs, ref_status = shape.reference_points()
-    ring = arcs.group >= 0
-    present = np.bincount(arcs.group[ring], minlength=arcs.n_groups) > 0
-    reach = pad(np.sin(np.minimum(arcs.half, 0.5 * math.pi)), 1e-9, 1e-9)
-    for i, pt in enumerate(p):
-        k = int(pt @ refs[0] < -0.5)
-        r = refs[k]
-        pr = np.cross(pt, r)
-        norm = math.sqrt(float(pr @ pr))
-        cand = ring
-        if norm > 1e-6:
-            cand = ring & (np.abs(arcs.mid @ (pr / norm)) <= reach)
-        idx = np.flatnonzero(cand)
-        hit = arcs_cross(pt, r, arcs.a[idx], arcs.b[idx], arcs.n[idx])
-        par = np.bincount(arcs.group[idx[hit]], minlength=arcs.n_groups) % 2 == 1
-        ins = np.zeros(arcs.n_groups, dtype=bool)
-        ins[present] = par[present] ^ ref_status[k][present]
-        status[i] = np.packbits(ins, bitorder="little")[: status.shape[1]]
-    return status
-
-
-def row_statuses(shape, arcs: Arcs, h: int, w: int, first, cells, crossing) -> np.ndarray:
+def row_statuses(shape, arcs: CurveArcs, h: int, w: int, first, cells, crossing) -> np.ndarray:
     """Packed statuses of every cell of an ``h x w`` level, row-major: cell 0's (centre
     ``first``) by crossings to the shape's reference point, every other cell's its
     predecessor's (left, or above in the first column) toggled by the arcs that cross
     the short arc between their centres, given as pairs ``(cells, crossing)`` (cell
     index, arc index; cell 0 excluded)."""
-    toggles = _status_bits(arcs.n_groups, h * w)
+    toggles = status_bits(arcs.n_groups, h * w)
     g = arcs.group[crossing]
     np.bitwise_xor.at(toggles, (cells, g >> 3), (1 << (g & 7)).astype(np.uint8))
-    toggles[0] = _status_at(shape, arcs, np.reshape(first, (1, 3)))[0]
+    toggles[0] = component_status(shape, arcs, np.reshape(first, (1, 3)))[0]
     t = toggles.reshape(h, w, -1)
     t[:, 0] = np.bitwise_xor.accumulate(t[:, 0], axis=0)
     return np.bitwise_xor.accumulate(t, axis=1).reshape(h * w, -1)
 
 
-def _coarse(shape, arcs: Arcs, grid, e: float) -> Frontier:
+def coarse(shape, arcs: CurveArcs, grid, e: float) -> Frontier:
     """All cells of level 0 with their candidate lists and component statuses.
 
     Candidates come from the arcs' bounding-cap tree (every arc whose cap is within
@@ -188,8 +107,8 @@ def _coarse(shape, arcs: Arcs, grid, e: float) -> Frontier:
     cells = np.column_stack([jj.ravel(), ii.ravel()])
     c = grid.centers(0, cells[:, 0], cells[:, 1])
     rho = grid.rho_at(0, cells[:, 0], cells[:, 1])
-    tree = _arc_tree(arcs)
-    status = _status_bits(arcs.n_groups, len(c))
+    tree = arcs.tree
+    status = status_bits(arcs.n_groups, len(c))
     if arcs.n_groups:
         cgrid = c.reshape(h, w, 3)
         # predecessor of each cell: above for the first column, else left
@@ -210,7 +129,7 @@ def _coarse(shape, arcs: Arcs, grid, e: float) -> Frontier:
     return Frontier(0, cells, c, rho, qi[order], ai[order], status)
 
 
-def _nearest_bound(arcs: Arcs, c) -> np.ndarray:
+def _nearest_bound(arcs: CurveArcs, c) -> np.ndarray:
     """An upper bound on each centre's distance to its nearest boundary arc and to its
     nearest ring edge: the distance to the farther of the two nearest arc ends (of at
     most 4096 ends of each kind, spread along the curves: any end bounds the nearest
@@ -237,7 +156,7 @@ def _nearest_bound(arcs: Arcs, c) -> np.ndarray:
     return out
 
 
-def cell_distances(f: Frontier, arcs: Arcs) -> tuple[np.ndarray, np.ndarray]:
+def cell_distances(f: Frontier, arcs: CurveArcs) -> tuple[np.ndarray, np.ndarray]:
     """Exact float64 distances from the cells of ``f`` to their candidate arcs.
 
     Returns ``(dist, dring)``: the distance to the nearest candidate boundary arc
@@ -255,7 +174,7 @@ def cell_distances(f: Frontier, arcs: Arcs) -> tuple[np.ndarray, np.ndarray]:
     return dist, dring
 
 
-def nearest(arcs: Arcs, cell, ai, cm, point, dist, dring) -> None:
+def nearest(arcs: CurveArcs, cell, ai, cm, point, dist, dring) -> None:
     """Lower ``dist`` and ``dring`` of each cell to the exact distance of its nearest
     boundary arc and ring edge among its pairs ``(cell, ai)`` (grouped by cell).
 
@@ -314,13 +233,7 @@ def decide(dist, dring, inside, rho, d: float, final: bool) -> np.ndarray:
     return cls
 
 
-def _decide(f: Frontier, arcs: Arcs, d: float, final: bool) -> np.ndarray:
-    """Classes of the cells of ``f`` (exact float64 distances to their candidates)."""
-    dist, dring = cell_distances(f, arcs)
-    return decide(dist, dring, _inside_any(f.status), f.rho, d, final)
-
-
-def _refine(f: Frontier, grid, arcs: Arcs, e: float) -> Frontier:
+def refine(f: Frontier, grid, arcs: CurveArcs, e: float) -> Frontier:
     """Children of the cells of ``f`` (all assumed frontier) with refined lists and statuses."""
     lev = f.level + 1
     h, w = grid.level_shape(lev)
@@ -370,7 +283,7 @@ def _refine(f: Frontier, grid, arcs: Arcs, e: float) -> Frontier:
     return Frontier(lev, cells, c, rho, child_of_pair[keep], arc_of_pair[keep], status)
 
 
-def _subset(f: Frontier, sel: np.ndarray) -> Frontier:
+def subset(f: Frontier, sel: np.ndarray) -> Frontier:
     """The cells ``sel`` (sorted indices) of ``f`` with their pairs."""
     remap = np.full(len(f.cells), -1)
     remap[sel] = np.arange(len(sel))
@@ -384,75 +297,3 @@ def _subset(f: Frontier, sel: np.ndarray) -> Frontier:
         f.pair_arc[keep],
         f.status[sel],
     )
-
-
-def classify(
-    shape,
-    d: float,
-    grid,
-    *,
-    stop_level: int | None = None,
-    callback=None,
-    timings=None,
-    start: str | int = "coarse",
-):
-    """Classify the grid level by level in float64 down to ``stop_level`` (default: output).
-
-    Returns ``(classes, frontier, arcs)``: the full class array of ``stop_level``, the
-    :class:`Frontier` of its frontier cells (empty at the output level) and the
-    shape's :class:`Arcs`. ``callback(level, classes)`` is called after each level;
-    ``timings``, a list, gets ``(level, time.perf_counter())`` after each level.
-
-    ``start="coarse"`` runs every level from the coarsest (the reference renderer);
-    ``start="auto"`` enters the finest level that :func:`gloffset.raster.scatter.start_level`
-    allows directly (lon/lat grids, small distances), and an int enters that level
-    (:func:`gloffset.raster.scatter.scatter`); the levels above it are reported pooled from
-    it. All give the same classes from that level on.
-    """
-    arcs = Arcs.from_shape(shape)
-    e = abs(d)
-    last = grid.n_levels - 1
-    stop = last if stop_level is None else stop_level
-    at, plan = None, None  # the level entered directly (gloffset.raster.scatter), if any
-    if start == "auto":
-        from .scatter import start_level
-
-        at, plan = start_level(arcs, grid, e, stop)
-    elif start != "coarse":
-        if not (isinstance(start, int) and 0 <= start <= stop and hasattr(grid, "cell_lat")):
-            raise ValueError(
-                f"start must be 'coarse', 'auto' or a level in 0..{stop} of a lon/lat grid, "
-                f"got {start!r}"
-            )
-        at = start
-    if at is not None:
-        from .scatter import pooled, scatter
-
-        classes, f = scatter(shape, arcs, grid, d, at, final=(at == last), plan=plan)
-        if callback is not None:
-            coarse = [classes]
-            for _ in range(at):
-                coarse.append(pooled(coarse[-1]))
-            for lev in range(at + 1):
-                callback(lev, coarse[at - lev])
-        if timings is not None:
-            timings.append((at, time.perf_counter()))
-        begin = at + 1
-    else:
-        f = _coarse(shape, arcs, grid, e)
-        classes = np.zeros(grid.level_shape(0), dtype=np.uint8)
-        begin = 0
-    for lev in range(begin, stop + 1):
-        if lev > 0:
-            h, w = grid.level_shape(lev)
-            up = np.repeat(np.repeat(classes, 2, axis=0), 2, axis=1)[:h, :w]
-            classes = up
-            f = _refine(f, grid, arcs, e)
-        cls = _decide(f, arcs, d, final=(lev == last))
-        classes[f.cells[:, 0], f.cells[:, 1]] = cls
-        f = _subset(f, np.flatnonzero(cls == FRONTIER))
-        if callback is not None:
-            callback(lev, classes)
-        if timings is not None:
-            timings.append((lev, time.perf_counter()))
-    return classes, f, arcs

@@ -65,11 +65,12 @@ from ..caps import cap_within, pad
 from ..caps import chord2 as chord2_of_angle
 from ..errors import InvalidDistanceError, InvalidMaskError, OptionError
 from ..grids import Cube, Equirect
-from ..grids.base import LonLatGrid, rect_radius
 from ..grids.cube import CubeCells, locate, project
 from ..shape import read
 from ..sphere import angle, normalize, robust_cross
 from ..units import EARTH_RADIUS, to_angle
+from . import driver
+from .driver import CONTAINED, FRONTIER, OUTSIDE
 
 __all__ = [
     "OUTSIDE",
@@ -82,7 +83,6 @@ __all__ = [
     "raster_offset",
 ]
 
-OUTSIDE, FRONTIER, CONTAINED = 0, 1, 2
 # region-growing states (the paper's active and inactive frontier cells)
 _UNKNOWN, _ACTIVE, _INACTIVE = 0, 1, 4
 _PAIRS = 1 << 22  # cell pairs per chunk
@@ -120,7 +120,7 @@ def level_centers(grid, level: int, flat: np.ndarray) -> np.ndarray:
     """
     w = grid.level_shape(level)[1]
     j, i = np.divmod(np.asarray(flat, dtype=np.int64), w)
-    if not isinstance(grid, LonLatGrid):
+    if not grid.lonlat:
         return grid.centers(level, j, i)
     cp, sp, cl, sl = _tables(grid, level)
     return np.stack([cp[j] * cl[i], cp[j] * sl[i], sp[j]], axis=-1)
@@ -134,48 +134,12 @@ def chord2(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     return dx * dx + dy * dy + dz * dz
 
 
-def pixel_radius(grid) -> np.ndarray:
-    """Per-row area bound of the output cells: the farthest point of a pixel's
-    lon/lat rectangle from its centre (the paper's ``d_g / 2``), rounded up."""
-    if hasattr(grid, "area_rho"):
-        return np.asarray(grid.area_rho(grid.n_levels - 1))
-    if not isinstance(grid, LonLatGrid):
-        raise OptionError(f"no pixel area bound for a {type(grid).__name__} grid")
-    last = grid.n_levels - 1
-    j = np.arange(grid.level_shape(last)[0], dtype=np.float64)
-    phi = grid.cell_lat(last, j)
-    north, south = grid._lat_px(j), grid._lat_px(j + 1)
-    half = 0.5 * abs(float(grid._lon_px(1) - grid._lon_px(0)))
-    r = rect_radius(np.full(len(j), half), phi, np.minimum(north, south), np.maximum(north, south))
-    return pad(r)
-
-
-def _wraps(grid, level: int) -> bool:
-    """Whether columns of ``level`` wrap round the globe (east neighbour of the last is 0)."""
-    if not isinstance(grid, Equirect) or abs(grid.span_lon - 360.0) > 1e-9:
-        return False
-    return grid.level_shape(level)[1] * grid.block(level) == grid.width
-
-
 def neighbours(grid, level: int, flat: np.ndarray) -> np.ndarray:
-    """The 8-neighbours (flattened, unique) of the cells ``flat`` of ``level`` (on a
-    :class:`~gloffset.grids.cube.CubeCells` grid: every cell touching, across face edges)."""
-    if hasattr(grid, "neighbours"):
-        return grid.neighbours(level, flat)
-    h, w = grid.level_shape(level)
-    j, i = np.divmod(np.asarray(flat, dtype=np.int64), w)
-    wrap = _wraps(grid, level)
-    out = []
-    for dj in (-1, 0, 1):
-        for di in (-1, 0, 1):
-            if dj == 0 and di == 0:
-                continue
-            jj, ii = j + dj, i + di
-            if wrap:
-                ii = ii % w
-            ok = (jj >= 0) & (jj < h) & (ii >= 0) & (ii < w)
-            out.append(jj[ok] * w + ii[ok])
-    return np.unique(np.concatenate(out)) if out else np.zeros(0, dtype=np.int64)
+    """The cells (flattened, unique) that touch the cells ``flat`` of ``level``: the
+    8-neighbours, across the antimeridian on global grids and across face edges on
+    :class:`~gloffset.grids.cube.CubeCells` (:meth:`CellSet.neighbours
+    <gloffset.grids.protocol.CellSet.neighbours>`)."""
+    return grid.neighbours(level, flat)
 
 
 # ---------------------------------------------------------------------------- rasterization
@@ -188,7 +152,7 @@ def _point_cells(grid, p: np.ndarray, eps: float) -> tuple[np.ndarray, np.ndarra
     # a point just west of W lands near 2 pi / dlon: bring it to x < 0 for regional grids
     x = np.where(x > 0.5 * (grid.width + 2.0 * math.pi / grid.dlon), x - 2 * math.pi / grid.dlon, x)
     y = (math.radians(n_) - lat) / grid.dlat
-    wrap = _wraps(grid, grid.n_levels - 1)
+    wrap = grid.wraps(grid.n_levels - 1)
     pid, cells = [], []
     for dx in (-eps, eps):
         for dy in (-eps, eps):
@@ -456,25 +420,10 @@ def _dfs_order(grid, level: int, mask: np.ndarray) -> list[np.ndarray]:
     flat = np.flatnonzero(mask.ravel())
     member = mask.ravel().copy()
     seen = np.zeros(h * w, dtype=bool)
-    if hasattr(grid, "neighbour_table"):  # cube faces: neighbours across edges too
-        table = dict(zip(flat.tolist(), grid.neighbour_table(level, flat).tolist()))
+    table = dict(zip(flat.tolist(), grid.neighbour_table(level, flat).tolist()))
 
-        def around(c):
-            return [q for q in table[c] if q >= 0]
-    else:
-        wrap = _wraps(grid, level)
-        offs = [(dj, di) for dj in (-1, 0, 1) for di in (-1, 0, 1) if dj or di]
-
-        def around(c):
-            j, i = divmod(c, w)
-            out = []
-            for dj, di in offs:
-                jj, ii = j + dj, i + di
-                if wrap:
-                    ii %= w
-                if 0 <= jj < h and 0 <= ii < w:
-                    out.append(jj * w + ii)
-            return out
+    def around(c):
+        return [q for q in table[c] if q >= 0]
 
     comps = []
     for start in flat.tolist():
@@ -521,16 +470,7 @@ def _runs(grid, level: int, parts: list[np.ndarray]) -> tuple[np.ndarray, np.nda
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)
     seq = np.concatenate(parts)
     start = np.ones(len(seq), dtype=bool)
-    if hasattr(grid, "adjacent"):
-        start[1:] = ~grid.adjacent(level, seq[:-1], seq[1:])
-    else:
-        w = grid.level_shape(level)[1]
-        j, i = np.divmod(seq, w)
-        dj = np.abs(np.diff(j))
-        di = np.abs(np.diff(i))
-        if _wraps(grid, level):
-            di = np.minimum(di, w - di)
-        start[1:] = (dj > 1) | (di > 1)
+    start[1:] = ~grid.adjacent(level, seq[:-1], seq[1:])
     bounds = np.cumsum([len(p) for p in parts])[:-1]
     start[bounds] = True
     return seq, start
@@ -571,31 +511,20 @@ class Levels:
             pad[: m.shape[0], : m.shape[1]] = m
             masks[lev] = pad.reshape(h, 2, w, 2).any(axis=(1, 3))
         curve = [np.flatnonzero(m.ravel()) for m in masks]
-        cells = hasattr(grid, "rho_cells")  # per-cell bounds (cube faces)
-        if cells:
-            s = float(grid.area_rho_cells(last, curve[last]).max())
-        else:
-            rows_out = np.unique(curve[last] // grid.width)
-            s = float(pixel_radius(grid)[rows_out].max())
+        s = float(grid.area_rho_cells(last, curve[last]).max())
         R, t_lo, t_hi, reach = [], [], [], []
         for lev in range(last + 1):
             w = grid.level_shape(lev)[1]
             rho = np.asarray(grid.rho(lev), dtype=np.float64)
-            if lev == last:
-                r_l = 0.0
-            elif cells:
-                r_l = float(grid.rho_cells(lev, curve[lev]).max())
-            else:
-                r_l = float(rho[np.unique(curve[lev] // w)].max())
+            r_l = 0.0 if lev == last else float(grid.rho_cells(lev, curve[lev]).max())
             rq = rho if lev < last else np.zeros_like(rho)
             lo = d - s - rq - r_l
             hi = d + 2.0 * s + rq + r_l
             R.append(r_l)
             lo2 = np.where(lo > 0.0, chord2_of_angle(np.maximum(lo, 0.0)), -1.0)
             hi2 = np.where(hi < math.pi, chord2_of_angle(hi), 5.0)
-            if hasattr(grid, "row_valid"):  # padding rows hold no cell: always outside
-                ok = grid.row_valid(lev)
-                lo2, hi2 = np.where(ok, lo2, -1.0), np.where(ok, hi2, -1.0)
+            ok = grid.row_valid(lev)  # padding rows hold no cell: always outside
+            lo2, hi2 = np.where(ok, lo2, -1.0), np.where(ok, hi2, -1.0)
             t_lo.append(lo2)
             t_hi.append(hi2)
             reach.append(float(min(hi.max(), math.pi)) + _REACH_SLACK)
@@ -855,53 +784,47 @@ def _fallback(lv: Levels, level: int) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------- Sec. 5.2
+class RasterCells:
+    """The classifier of the cells of a grid against a rasterized curve (Sec. 5.2;
+    :class:`gloffset.raster.driver.Classifier`): level 0 by region growing
+    (:func:`region_grow`, Sec. 5.1), then the children of each level's frontier cells
+    (active and inactive) by :func:`classify_cells`. ``method`` and ``reason`` tell how
+    level 0 was classified."""
+
+    def __init__(self, lv: Levels):
+        self.lv, self.grid = lv, lv.grid
+        self.method, self.reason = None, None
+
+    def enter(self, stop: int) -> driver.Level:
+        classes, self.method, self.reason = region_grow(self.lv, 0)
+        front = np.argwhere(classes == FRONTIER)
+        return driver.Level(0, front, np.full(len(front), FRONTIER, np.uint8), dense=classes)
+
+    def refine(self, prev: driver.Level) -> driver.Level:
+        level = prev.level + 1
+        h, w = self.grid.level_shape(level)
+        front = prev.cells[prev.cls == FRONTIER]
+        kids = []
+        for dj in (0, 1):
+            for di in (0, 1):
+                j, i = 2 * front[:, 0] + dj, 2 * front[:, 1] + di
+                ok = (j < h) & (i < w)
+                kids.append(j[ok] * w + i[ok])
+        kids = np.sort(np.concatenate(kids))
+        cells = np.column_stack(np.divmod(kids, w))
+        return driver.Level(level, cells, classify_cells(self.lv, level, kids))
+
+
 def hierarchical(lv: Levels, *, stop_level: int | None = None, callback=None, timings=None):
     """Sec. 5.2: level 0 by region growing (Sec. 5.1), then each level evaluates only
-    the children of the previous level's frontier cells (active and inactive).
+    the children of the previous level's frontier cells (:class:`RasterCells`).
 
     Returns ``(classes of stop_level, method, reason)``.
     """
-    grid = lv.grid
-    stop = grid.n_levels - 1 if stop_level is None else stop_level
-    classes, method, reason = region_grow(lv, 0)
-    if callback is not None:
-        callback(0, classes)
-    if timings is not None:
-        timings.append((0, time.perf_counter()))
-    for lev in range(1, stop + 1):
-        classes = refine(lv, lev, classes)
-        if callback is not None:
-            callback(lev, classes)
-        if timings is not None:
-            timings.append((lev, time.perf_counter()))
-    return classes, method, reason
-
-
-def children_of_frontier(grid, level: int, parent: np.ndarray) -> np.ndarray:
-    """Flat indices of the cells of ``level`` whose parent is frontier."""
-    h, w = grid.level_shape(level)
-    pj, pi = np.nonzero(parent == FRONTIER)
-    kids = []
-    for dj in (0, 1):
-        for di in (0, 1):
-            j, i = 2 * pj + dj, 2 * pi + di
-            ok = (j < h) & (i < w)
-            kids.append(j[ok] * w + i[ok])
-    return np.sort(np.concatenate(kids))
-
-
-def upsample(grid, level: int, parent: np.ndarray) -> np.ndarray:
-    h, w = grid.level_shape(level)
-    return np.repeat(np.repeat(parent, 2, axis=0), 2, axis=1)[:h, :w].copy()
-
-
-def refine(lv: Levels, level: int, parent: np.ndarray) -> np.ndarray:
-    """Classes of ``level`` from the classes of ``level - 1``: descendants of contained
-    and outside cells inherit, children of frontier cells are classified."""
-    out = upsample(lv.grid, level, parent)
-    kids = children_of_frontier(lv.grid, level, parent)
-    out.ravel()[kids] = classify_cells(lv, level, kids)
-    return out
+    stop = lv.grid.n_levels - 1 if stop_level is None else stop_level
+    cells = RasterCells(lv)
+    classes, _ = driver.classify(cells, stop, callback=callback, timings=timings)
+    return classes, cells.method, cells.reason
 
 
 # ---------------------------------------------------------------------------- API
@@ -1059,17 +982,23 @@ def raster_offset(
         if callback is not None:
             callback(lev, cls if cube is None else cube.unstack(lev, cls))
 
-    n_amb = 0
+    n_amb = []
     if backend == "cpu" and mode == "single":
         classes, method, reason = region_grow(lv, stop)
         cb(stop, classes)
-    elif backend == "cpu" or stop <= grid.bin_level:
-        classes, method, reason = hierarchical(lv, stop_level=stop, callback=cb)
     else:
-        from ..gl.raster_engine import engine
+        cells = RasterCells(lv)
+        gpu = None
+        if backend == "gpu":
+            from ..gl.raster_engine import engine
 
-        classes, method, reason = hierarchical(lv, stop_level=grid.bin_level, callback=cb)
-        classes, n_amb = engine().run(lv, classes, stop_level=stop, callback=cb)
+            def gpu(classes, _lev):
+                classes, n = engine().run(lv, classes, stop_level=stop, callback=cb)
+                n_amb.append(n)
+                return classes
+
+        classes = driver.run(cells, stop, handoff=grid.bin_level, backend=gpu, callback=cb)
+        method, reason = cells.method, cells.reason
     if cube is not None:
         classes = cube.unstack(stop, classes)
     info = RasterOffsetInfo(
@@ -1080,7 +1009,7 @@ def raster_offset(
         s=lv.s,
         d_min=d - lv.s,
         d_max=d + 2.0 * lv.s,
-        n_ambiguous=n_amb,
+        n_ambiguous=sum(n_amb),
         frontier=frontier,
         seconds=time.perf_counter() - t0,
     )

@@ -14,7 +14,8 @@ from ..errors import OptionError
 from ..grids import Cube, CubeFace, Equirect, Tile
 from ..shape import read
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
-from .levels import classify
+from . import driver
+from .curves import CurveCells
 
 __all__ = ["render", "RenderError", "MAX_PIXELS"]
 
@@ -51,26 +52,34 @@ _MASK = np.array([0, 0, 255], dtype=np.uint8)
 
 
 def _render_one(shape, d, grid, *, backend, level, callback, mask):
-    """Classes of ``level`` (default: the output level) or, with ``mask``, the mask."""
+    """Classes of ``level`` (default: the output level) or, with ``mask``, the mask.
+
+    The float64 levels (:class:`~gloffset.raster.levels.CurveCells`) run down to the
+    bins, the GL levels (:mod:`gloffset.gl.engine`) below them; ``backend="cpu"``
+    runs every level in float64.
+    """
     stop = grid.n_levels - 1 if level is None else level
     bins = grid.bin_level_for(abs(d))
     if backend == "cpu" or stop <= bins:
-        classes, _, _ = classify(shape, d, grid, stop_level=stop, callback=callback)
+        classes = driver.run(CurveCells(shape, d, grid), stop, callback=callback)
         return _MASK[classes] if mask else classes
     from ..gl.engine import engine
 
-    eng = engine()
-    classes, f, arcs = classify(shape, d, grid, stop_level=bins, callback=callback, start="auto")
-    return eng.run(
-        grid,
-        d,
-        classes,
-        f,
-        arcs,
-        stop_level=stop,
-        callback=callback,
-        values=_MASK if mask else None,
-    )
+    cells = CurveCells(shape, d, grid, start="auto")
+
+    def on_gpu(classes, lev):
+        return engine().run(
+            grid,
+            d,
+            classes,
+            cells.kept(lev),
+            cells.arcs,
+            stop_level=stop,
+            callback=callback,
+            values=_MASK if mask else None,
+        )
+
+    return driver.run(cells, stop, handoff=bins, backend=on_gpu, callback=callback)
 
 
 def render(

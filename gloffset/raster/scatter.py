@@ -44,10 +44,11 @@ import math
 import numpy as np
 
 from ..caps import cap_within, pad
+from ..edges import CurveArcs, status_bits
 from ..sphere import angle, arcs_cross
-from .levels import FRONTIER, Arcs, Frontier, _status_bits, decide, nearest, row_statuses
+from .levels import FRONTIER, Frontier, decide, nearest, row_statuses
 
-__all__ = ["start_level", "scatter", "pooled", "PAIRS_PER_ARC"]
+__all__ = ["start_level", "scatter", "PAIRS_PER_ARC"]
 
 #: Most box-enumerated (cell, arc) pairs per arc for a level to be entered directly.
 PAIRS_PER_ARC = 48
@@ -69,7 +70,7 @@ def _levels_geometry(grid, level: int):
     return lat, lon, rho, pad(spacing)
 
 
-def _boxes(arcs: Arcs, lat, lon, reach: float):
+def _boxes(arcs: CurveArcs, lat, lon, reach: float):
     """Per arc, the row range and up to three column ranges of cells whose centres can
     lie within ``reach + half`` of the arc's cap centre.
 
@@ -106,18 +107,18 @@ def _boxes(arcs: Arcs, lat, lon, reach: float):
     return tuple(np.concatenate([o[t] for o in out]) for t in range(5))
 
 
-def _plan(arcs: Arcs, grid, e: float, level: int):
+def _plan(arcs: CurveArcs, grid, e: float, level: int):
     """The geometry of ``level`` and its boxes (see :func:`_boxes`)."""
     lat, lon, rho, spacing = _levels_geometry(grid, level)
     row_reach = np.maximum(e + rho, spacing)
     return (lat, lon, rho, spacing, row_reach), _boxes(arcs, lat, lon, float(row_reach.max()))
 
 
-def start_level(arcs: Arcs, grid, e: float, finest: int):
+def start_level(arcs: CurveArcs, grid, e: float, finest: int):
     """``(level, plan)``: the finest level ``<= finest`` whose box enumeration stays
     within :data:`PAIRS_PER_ARC` pairs per arc and its geometry and boxes (for
     :func:`scatter`), or ``(None, None)`` (start with the hierarchy)."""
-    if len(arcs.a) == 0 or not hasattr(grid, "cell_lat"):
+    if len(arcs.a) == 0 or not grid.lonlat:
         return None, None
     budget = PAIRS_PER_ARC * len(arcs.a) + 4096
     for level in range(finest, -1, -1):
@@ -128,7 +129,7 @@ def start_level(arcs: Arcs, grid, e: float, finest: int):
     return None, None
 
 
-def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool, *, plan=None):
+def scatter(shape, arcs: CurveArcs, grid, d: float, level: int, final: bool, *, plan=None):
     """Classes of every cell of ``level`` and the :class:`Frontier` of its frontier cells.
 
     ``final``: ``level`` is the output level (decided at the centres); ``plan``: what
@@ -163,7 +164,7 @@ def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool, *, plan=
         return np.stack([cphi[j] * clam[i], cphi[j] * slam[i], sphi[j]], axis=-1)
 
     # inside statuses: predecessor's, toggled by crossings of pred -> cell
-    status = _status_bits(arcs.n_groups, h * w)
+    status = status_bits(arcs.n_groups, h * w)
     if arcs.n_groups:
         ring = (arcs.group[ai] >= 0) & (cell > 0)
         ring &= cap_within(cm, spacing[jj] + half)
@@ -199,13 +200,3 @@ def scatter(shape, arcs: Arcs, grid, d: float, level: int, final: bool, *, plan=
         status[fr],
     )
     return classes, f
-
-
-def pooled(classes: np.ndarray) -> np.ndarray:
-    """Classes of the next coarser level: a cell's class where its (up to four) children
-    agree, frontier where they differ."""
-    h, w = classes.shape
-    p = np.pad(classes, ((0, h % 2), (0, w % 2)), mode="edge")
-    q = p.reshape(p.shape[0] // 2, 2, p.shape[1] // 2, 2)
-    lo, hi = q.min(axis=(1, 3)), q.max(axis=(1, 3))
-    return np.where(lo == hi, lo, FRONTIER).astype(np.uint8)

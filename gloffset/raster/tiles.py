@@ -60,27 +60,16 @@ from pathlib import Path
 import numpy as np
 
 from .._version import __version__
-from ..caps import pad
 from ..errors import TilesError
 from ..gl.engine import BinLayout
-from ..grids.base import rect_radius
-from ..grids.mercator import MAX_ZOOM, check_tile_size, lat_at, lon_at
+from ..grids.mercator import MAX_ZOOM, TilePyramid, check_tile_size, lat_at
 from ..io.tilestore import open_store
 from ..shape import read
-from ..sphere import angle
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
-from .levels import (
-    CONTAINED,
-    FRONTIER,
-    OUTSIDE,
-    Arcs,
-    _coarse,
-    _inside_any,
-    _refine,
-    _subset,
-    cell_distances,
-    decide,
-)
+from . import driver
+from .curves import CurveCells
+from .driver import CONTAINED, FRONTIER, NOT_FORCED, OUTSIDE, Level
+from .levels import subset
 from .tilepaint import OutlineArcs, TileStyle
 
 __all__ = [
@@ -90,14 +79,12 @@ __all__ = [
     "TileProgress",
     "TilesError",
     "MAX_ZOOM",
-    "TileLevels",
 ]
 
 #: Frontier tiles rendered per GPU run: (MAX_BLOCK / tile size)^2.
 MAX_BLOCK = 4096
 #: Output pixels per side of a bin (below it the GPU takes over).
 _BIN_LOG2 = 4
-_NONE = 255  # no forced class
 
 
 def parse_zooms(zooms) -> tuple[int, int]:
@@ -136,65 +123,6 @@ def parse_zooms(zooms) -> tuple[int, int]:
 
 
 # ---------------------------------------------------------------------- geometry
-def _lat(z: int, yy) -> np.ndarray:
-    """Latitude (radians) at fractional tile row ``yy`` of zoom ``z``."""
-    return lat_at(yy, 1 << z)
-
-
-def _lon(z: int, xx) -> np.ndarray:
-    """Longitude (radians) at fractional tile column ``xx`` of zoom ``z``."""
-    return lon_at(xx, 1 << z)
-
-
-def _xyz(lon, lat) -> np.ndarray:
-    lon, lat = np.broadcast_arrays(lon, lat)
-    c = np.cos(lat)
-    return np.stack([c * np.cos(lon), c * np.sin(lon), np.sin(lat)], axis=-1)
-
-
-class TileLevels:
-    """The XYZ quadtree down to zoom ``maxzoom`` as a level hierarchy (level = zoom).
-
-    Offers what :mod:`gloffset.raster.levels` asks of a grid (``level_shape``,
-    ``centers``, ``rho_at``: the list bound ``L``) and the tight bound
-    :meth:`bound` used for the decisions (see the module notes).
-    """
-
-    def __init__(self, maxzoom: int):
-        self.maxzoom = int(maxzoom)
-        eq = [self.bound(z, max(0, (1 << z) // 2 - 1))[()] for z in range(self.maxzoom + 1)]
-        tail = np.cumsum(eq[::-1])[::-1]  # tail[z] = sum of eq[z..Z]
-        self._extra = [float(tail[z + 1]) if z < self.maxzoom else 0.0 for z in range(len(eq))]
-
-    def level_shape(self, z: int) -> tuple[int, int]:
-        return (1 << z, 1 << z)
-
-    def centers(self, z: int, j, i) -> np.ndarray:
-        """Unit vectors of the centres of tiles (row ``j`` = y, column ``i`` = x) of zoom z."""
-        lon = _lon(z, np.asarray(i, dtype=np.float64) + 0.5)
-        return _xyz(lon, _lat(z, np.asarray(j, dtype=np.float64) + 0.5))
-
-    def bound(self, z: int, j) -> np.ndarray:
-        """Largest angle from the centre of a tile of row ``j`` to any point of the tile.
-
-        ``rect_radius`` is exact but loses digits for tiny tiles (arccos near 1); the
-        corners, the farthest points of every tile below zoom 0, are measured with
-        the robust :func:`gloffset.sphere.angle` too and the larger value is kept.
-        """
-        j = np.asarray(j, dtype=np.float64)
-        north, south, mid = _lat(z, j), _lat(z, j + 1.0), _lat(z, j + 0.5)
-        dl = math.pi / (1 << z)
-        exact = rect_radius(np.full(j.shape, dl), mid, south, north)
-        c = _xyz(0.0, mid)
-        corners = np.maximum(angle(c, _xyz(dl, north)), angle(c, _xyz(dl, south)))
-        return pad(np.maximum(exact, corners))
-
-    def rho_at(self, z: int, j, i) -> np.ndarray:
-        """The list bound ``L`` of tiles (``j``, ``i``) of zoom ``z``."""
-        r = self.bound(z, j) + self._extra[z]
-        return pad(r) + 0.0 * np.asarray(i)
-
-
 # ---------------------------------------------------------------------- results
 @dataclass
 class PyramidStats:
@@ -512,7 +440,7 @@ def _final_bounds(store, zooms) -> dict:
         if ext is not None:
             x0, y0, x1, y1 = ext
             w, e = x0 * 360.0 / (1 << z) - 180.0, (x1 + 1) * 360.0 / (1 << z) - 180.0
-            n, s = (math.degrees(float(_lat(z, v))) for v in (y0, y1 + 1))
+            n, s = (math.degrees(float(lat_at(v, 1 << z))) for v in (y0, y1 + 1))
             b = (round(w, 6), round(s, 6), round(e, 6), round(n, 6))
             cz = min(zooms[1], max(zooms[0], z - 2))
             return {
@@ -651,45 +579,47 @@ def _subtree(x, y, z, zfrom, zto, chunk=65536):
 
 
 def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, stats):
-    arcs = Arcs.from_shape(shape)
     plog = size.bit_length() - 1
-    levels = TileLevels(zhi + plog)  # down to the pixels of the deepest tiles
-    e = abs(d)
+    levels = TilePyramid(zhi + plog)  # down to the pixels of the deepest tiles
+    cells = CurveCells(shape, d, levels)
     have = store.existing() if resume else set()
-    full = style.encode(np.ones((size, size), dtype=bool))
-    chain = _BinChain(arcs, levels, d, max(0, plog - _BIN_LOG2))
+    chain = _BinChain(cells, max(0, plog - _BIN_LOG2))
     track = _Tracker(zlo, zhi, progress)
-    outline = OutlineArcs(arcs) if style.outline is not None else None
+    job = _Zoom(cells, style, store, have, size, stats, track)
+    for lev in driver.walk(cells, zhi):
+        if len(lev.cells) == 0:
+            break
+        job.run(lev, chain, (zlo, zhi), max_block)
+    track.finish()
 
-    def lines_of(f, i, z, r):
-        if style.outline is None:
+
+class _Zoom:
+    """What a zoom of the pyramid writes: fully inside tiles and their descendants (one
+    shared image), decided tiles with an outline (drawn), frontier tiles (rendered)."""
+
+    def __init__(self, cells, style, store, have, size, stats, track):
+        self.cells, self.style, self.store, self.have = cells, style, store, have
+        self.size, self.stats, self.track = size, stats, track
+        self.full = style.encode(np.ones((size, size), dtype=bool))
+        self.outline = OutlineArcs(cells.arcs) if style.outline is not None else None
+
+    def lines_of(self, lev: Level, i: int, r):
+        """The outline's lines in tile ``i`` of ``lev``."""
+        if self.outline is None:
             return ()
+        f, arcs = lev.state, self.cells.arcs
         s, t = np.searchsorted(f.pair_cell, [i, i + 1])
         cand = f.pair_arc[s:t]
         cand = cand[arcs.boundary[cand]]
         y, x = (int(v) for v in f.cells[i])
-        return outline.lines(cand, f.centers[i], float(r[i]), z, x, y, size)
+        return self.outline.lines(cand, f.centers[i], float(r[i]), lev.level, x, y, self.size)
 
-    f = None
-    forced = None
-    for z in range(zhi + 1):
-        if z == 0:
-            f = _coarse(shape, arcs, levels, e)
-        else:
-            parent_keys = (f.cells[:, 0] << 32) | f.cells[:, 1]
-            f = _refine(f, levels, arcs, e)
-        if len(f.cells) == 0:
-            break
-        rows, cols = f.cells[:, 0], f.cells[:, 1]
-        r = levels.bound(z, rows)
-        dist, dring = cell_distances(f, arcs)
-        cls = decide(dist, dring, _inside_any(f.status), r, d, final=False)
-        if forced is not None and (forced != _NONE).any():
-            pos = np.searchsorted(parent_keys, ((rows >> 1) << 32) | (cols >> 1))
-            pf = forced[pos]
-            cls = np.where(pf != _NONE, pf, cls).astype(np.uint8)
-        carry = (cls != FRONTIER) & (dist <= r)
-        if style.outline is None:
+    def run(self, lev: Level, chain, zooms: tuple[int, int], max_block: int):
+        (zlo, zhi), z, cls, stats = zooms, lev.level, lev.cls, self.stats
+        r = self.cells.grid.decision_rho(z, lev.cells[:, 0])
+        # decided tiles an outline crosses are kept: their children inherit the class
+        carry = (cls != FRONTIER) & (lev.measure <= r)
+        if self.outline is None:
             carry[:] = False
         cont = np.flatnonzero((cls == CONTAINED) & ~carry)
         front = np.flatnonzero(cls == FRONTIER)
@@ -705,8 +635,8 @@ def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, st
         # the bin levels below the frontier tiles: rendering needs them from zoom min on,
         # the estimate of the tiles to come from the zoom before
         if z >= zlo - 1:
-            chain.advance(_subset(f, front))
-        track.plan(
+            chain.advance(subset(lev.state, front))
+        self.track.plan(
             z,
             front=len(front),
             contained=len(cont),
@@ -714,56 +644,66 @@ def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, st
             carried_out=int((cls[paint] == OUTSIDE).sum()),
             ahead=chain.counts() if z >= zlo - 1 else [],
         )
-        # fully inside: the tile and all its descendants, one shared image
-        with track.light():
+        self.inside(lev, cont, zlo, zhi)
+        if z >= zlo:
+            self.painted(lev, paint, r)
+            self.rendered(lev, front, r, chain, max_block)
+            self.store.commit()
+        lev.keep = np.flatnonzero((cls == FRONTIER) | carry)
+        lev.forced = np.where(carry, cls, NOT_FORCED).astype(np.uint8)[lev.keep]
+
+    def inside(self, lev: Level, cont, zlo: int, zhi: int):
+        """Fully inside: the tiles ``cont`` and all their descendants, one shared image."""
+        stats = self.stats
+        rows, cols = lev.cells[:, 0], lev.cells[:, 1]
+        with self.track.light():
             for i in cont:
-                for zz, xs, ys in _subtree(int(cols[i]), int(rows[i]), z, zlo, zhi):
+                for zz, xs, ys in _subtree(int(cols[i]), int(rows[i]), lev.level, zlo, zhi):
                     tiles = [(zz, int(x), int(y)) for x, y in zip(xs, ys)]
-                    if have:
-                        new = [t for t in tiles if t not in have]
+                    if self.have:
+                        new = [t for t in tiles if t not in self.have]
                         stats.present += len(tiles) - len(new)
                         tiles = new
-                    if full is not None and tiles:
-                        store.put_many(tiles, full)
+                    if self.full is not None and tiles:
+                        self.store.put_many(tiles, self.full)
                     stats.inside += len(tiles)
-                    track.tick(light=len(xs), skipped=len(xs) - len(tiles))
-        if z >= zlo:
-            # decided tiles with an outline: drawn, not rendered
-            for i in paint:
-                key = (z, int(cols[i]), int(rows[i]))
-                if key in have:
-                    stats.present += 1
-                    track.tick(heavy=1, skipped=1)
-                    continue
-                mask = np.full((size, size), cls[i] == CONTAINED)
-                data = style.encode(mask, lines_of(f, i, z, r))
-                if data is not None:
-                    store.put(*key, data)
-                    stats.painted += 1
-                track.tick(heavy=1)
-            # frontier: their frontier bins rendered in batches, from the pyramid's levels
-            todo = [k for k, i in enumerate(front) if (z, int(cols[i]), int(rows[i])) not in have]
-            stats.present += len(front) - len(todo)
-            track.tick(heavy=len(front) - len(todo), skipped=len(front) - len(todo))
-            if todo:
-                track.setup(_engine)  # the GL context, once: not a tile's cost
-            for k, mask in _render_tiles(
-                chain, np.asarray(todo, dtype=np.int64), size, max_block, stats
-            ):
-                i = front[k]
-                data = style.encode(mask, lines_of(f, i, z, r))
-                stats.rendered += 1
-                if data is None:
-                    stats.empty += 1
-                else:
-                    store.put(z, int(cols[i]), int(rows[i]), data)
-                track.tick(heavy=1)
-            store.commit()
-        keep = np.flatnonzero((cls == FRONTIER) | carry)
-        forced = np.where(carry, cls, _NONE).astype(np.uint8)[keep]
-        f = _subset(f, keep)
-        parent_keys = None
-    track.finish()
+                    self.track.tick(light=len(xs), skipped=len(xs) - len(tiles))
+
+    def painted(self, lev: Level, paint, r):
+        """Decided tiles with an outline: drawn, not rendered."""
+        z, rows, cols = lev.level, lev.cells[:, 0], lev.cells[:, 1]
+        for i in paint:
+            key = (z, int(cols[i]), int(rows[i]))
+            if key in self.have:
+                self.stats.present += 1
+                self.track.tick(heavy=1, skipped=1)
+                continue
+            mask = np.full((self.size, self.size), lev.cls[i] == CONTAINED)
+            data = self.style.encode(mask, self.lines_of(lev, i, r))
+            if data is not None:
+                self.store.put(*key, data)
+                self.stats.painted += 1
+            self.track.tick(heavy=1)
+
+    def rendered(self, lev: Level, front, r, chain, max_block: int):
+        """Frontier tiles: their frontier bins rendered in batches, from the chain."""
+        z, rows, cols, stats = lev.level, lev.cells[:, 0], lev.cells[:, 1], self.stats
+        todo = [k for k, i in enumerate(front) if (z, int(cols[i]), int(rows[i])) not in self.have]
+        stats.present += len(front) - len(todo)
+        self.track.tick(heavy=len(front) - len(todo), skipped=len(front) - len(todo))
+        if todo:
+            self.track.setup(_engine)  # the GL context, once: not a tile's cost
+        for k, mask in _render_tiles(
+            chain, np.asarray(todo, dtype=np.int64), self.size, max_block, stats
+        ):
+            i = front[k]
+            data = self.style.encode(mask, self.lines_of(lev, i, r))
+            stats.rendered += 1
+            if data is None:
+                stats.empty += 1
+            else:
+                self.store.put(z, int(cols[i]), int(rows[i]), data)
+            self.track.tick(heavy=1)
 
 
 def _engine():
@@ -793,24 +733,24 @@ class _BinChain:
     levels ``z + 1 .. z + nb`` (``nb = P - 4``) hold, per level, the decided cells
     with their classes and the :class:`~gloffset.raster.levels.Frontier` of the others,
     all in float64 with the decision rules of :mod:`gloffset.raster.levels` and the
-    bound :meth:`TileLevels.bound`. The frontier tiles of zoom ``z + 1`` are frontier
+    bound :meth:`~gloffset.grids.mercator.TilePyramid.decision_rho`. The frontier tiles
+    of zoom ``z + 1`` are frontier
     cells of level ``z + 1`` here, so their levels ``z + 2 .. z + nb`` are already
     known: advancing a zoom filters them and computes one new level.
     """
 
-    def __init__(self, arcs, levels, d, nb):
-        self.arcs, self.levels, self.d, self.nb = arcs, levels, d, nb
+    def __init__(self, cells: CurveCells, nb: int):
+        self.cells, self.levels, self.nb = cells, cells.grid, nb
+        self.arcs, self.d = cells.arcs, cells.d
         self.z = None
         self.lev = []  # per level z + 1 + i: (decided cells, their classes, Frontier)
 
     def _next(self, f):
         """Level ``f.level + 1``: the children of ``f``'s cells, classified."""
-        f = _refine(f, self.levels, self.arcs, abs(self.d))
-        dist, dring = cell_distances(f, self.arcs)
-        r = self.levels.bound(f.level, f.cells[:, 0])
-        cls = decide(dist, dring, _inside_any(f.status), r, self.d, False)
-        dec = np.flatnonzero(cls != FRONTIER)
-        return f.cells[dec], cls[dec], _subset(f, np.flatnonzero(cls == FRONTIER))
+        every = np.full(len(f.cells), FRONTIER, dtype=np.uint8)
+        lev = self.cells.refine(Level(f.level, f.cells, every, f))
+        dec = np.flatnonzero(lev.cls != FRONTIER)
+        return lev.cells[dec], lev.cls[dec], subset(lev.state, lev.frontier())
 
     def advance(self, f):
         """Make the chain that of the tiles of ``f`` (frontier tiles of zoom ``f.level``)."""
@@ -820,7 +760,7 @@ class _BinChain:
             for k, (dc, dcls, fr) in enumerate(self.lev[1:], start=1):
                 keep = _member(_keys(dc, k), keys) >= 0
                 inner = np.flatnonzero(_member(_keys(fr.cells, k), keys) >= 0)
-                lev.append((dc[keep], dcls[keep], _subset(fr, inner)))
+                lev.append((dc[keep], dcls[keep], subset(fr, inner)))
             lev.append(self._next(lev[-1][2]))
         else:
             lev, cur = [], f
@@ -855,7 +795,7 @@ class _BinChain:
             return sel, order[t[sel]], cells[sel, 0] & m, cells[sel, 1] & m
 
         if nb == 0:
-            fb = _subset(self.f, np.sort(np.asarray(which)))
+            fb = subset(self.f, np.sort(np.asarray(which)))
         for k, (dc, dcls, fr) in enumerate(self.lev, start=1):
             sel, t, jr, jc = place(dc, k)
             span = 1 << (nb - k)  # bins per side of a cell of this level
@@ -863,7 +803,7 @@ class _BinChain:
                 for dx in range(span):
                     tiles[t, jr * span + dy, jc * span + dx] = dcls[sel]
             if k == nb:
-                fb = _subset(fr, place(fr.cells, k)[0])
+                fb = subset(fr, place(fr.cells, k)[0])
         _, t, jr, jc = place(fb.cells, nb)
         tiles[t, jr, jc] = FRONTIER
         zb = self.f.level + nb
@@ -871,9 +811,9 @@ class _BinChain:
             fb.cells,
             ns,
             ns,
-            lambda s, rows: self.levels.bound(zb + s, rows),
-            lambda s, rows: _lat(zb + s, rows + 0.5),
-            lambda s, cols: _lon(zb + s, cols + 0.5),
+            lambda s, rows: self.levels.decision_rho(zb + s, rows),
+            lambda s, rows: self.levels.tile_lat(zb + s, rows + 0.5),
+            lambda s, cols: self.levels.tile_lon(zb + s, cols + 0.5),
         )
         return tiles, layout, fb, (t, jr, jc)
 

@@ -1,0 +1,118 @@
+"""The classifier of grid cells against the offset region of vector curves.
+
+:class:`CurveCells` is the :class:`~gloffset.raster.driver.Classifier` that renders and
+tile pyramids drive: level 0 from the arcs' cap tree (:func:`gloffset.raster.levels.coarse`)
+or a finer level entered directly (:func:`gloffset.raster.scatter.scatter`), then the
+children of the kept cells (:func:`gloffset.raster.levels.refine`), every cell decided by
+the rules of :mod:`gloffset.raster.levels` with exact float64 distances.
+:func:`classify` runs it to a level (the float64 reference renderer when run to the
+output level).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..edges import CurveArcs, inside_any
+from . import driver
+from .driver import FRONTIER, NOT_FORCED, Level
+from .levels import Frontier, cell_distances, coarse, decide, refine, subset
+from .scatter import scatter, start_level
+
+__all__ = ["CurveCells", "classify"]
+
+
+class CurveCells:
+    """The classifier of grid cells against the offset region of a shape's curves at
+    signed distance ``d`` (:class:`gloffset.raster.driver.Classifier`; the rules of the
+    module notes).
+
+    ``start="coarse"`` enters at level 0 (the reference renderer); ``start="auto"``
+    enters the finest level that :func:`gloffset.raster.scatter.start_level` allows
+    directly (lon/lat grids, small distances), and an int enters that level
+    (:func:`gloffset.raster.scatter.scatter`). All give the same classes from that level
+    on. A :class:`~gloffset.raster.driver.Level`'s ``state`` is the :class:`Frontier` of
+    its classified cells (of its frontier cells when the level was entered directly).
+    """
+
+    def __init__(self, shape, d: float, grid, *, start: str | int = "coarse"):
+        self.shape, self.d, self.grid = shape, d, grid
+        self.arcs = CurveArcs.from_shape(shape)
+        self.e = abs(d)
+        self.last = grid.n_levels - 1
+        self.start = start
+
+    def _entry(self, stop: int):
+        """The level entered directly and its plan, or ``(None, None)``."""
+        if self.start == "auto":
+            return start_level(self.arcs, self.grid, self.e, stop)
+        if self.start != "coarse":
+            ok = isinstance(self.start, int) and 0 <= self.start <= stop and self.grid.lonlat
+            if not ok:
+                raise ValueError(
+                    f"start must be 'coarse', 'auto' or a level in 0..{stop} of a lon/lat "
+                    f"grid, got {self.start!r}"
+                )
+            return self.start, None
+        return None, None
+
+    def enter(self, stop: int) -> Level:
+        at, plan = self._entry(stop)
+        if at is None:
+            f = coarse(self.shape, self.arcs, self.grid, self.e)
+            return self._level(f)
+        dense, f = scatter(
+            self.shape, self.arcs, self.grid, self.d, at, final=(at == self.last), plan=plan
+        )
+        return Level(at, f.cells, np.full(len(f.cells), FRONTIER, dtype=np.uint8), f, dense)
+
+    def _level(self, f: Frontier) -> Level:
+        """The cells of ``f`` classified: exact float64 distances to their candidates
+        (kept as ``measure``), decided with the grid's ``decision_rho``."""
+        dist, dring = cell_distances(f, self.arcs)
+        rho = self.grid.decision_rho(f.level, f.cells[:, 0], f.cells[:, 1])
+        final = f.level == self.last
+        cls = decide(dist, dring, inside_any(f.status), rho, self.d, final)
+        return Level(f.level, f.cells, cls, f, measure=dist)
+
+    def kept(self, lev: Level) -> Frontier:
+        """The :class:`Frontier` of the cells ``lev`` keeps (its frontier by default)."""
+        keep = lev.frontier() if lev.keep is None else lev.keep
+        if len(keep) == len(lev.cells):
+            return lev.state
+        return subset(lev.state, keep)
+
+    def refine(self, prev: Level) -> Level:
+        parent = self.kept(prev)
+        lev = self._level(refine(parent, self.grid, self.arcs, self.e))
+        if prev.forced is not None and (prev.forced != NOT_FORCED).any():
+            parent_keys = (parent.cells[:, 0] << 32) | parent.cells[:, 1]
+            rows, cols = lev.cells[:, 0], lev.cells[:, 1]
+            pf = prev.forced[np.searchsorted(parent_keys, ((rows >> 1) << 32) | (cols >> 1))]
+            lev.cls = np.where(pf != NOT_FORCED, pf, lev.cls).astype(np.uint8)
+        return lev
+
+
+def classify(
+    shape,
+    d: float,
+    grid,
+    *,
+    stop_level: int | None = None,
+    callback=None,
+    timings=None,
+    start: str | int = "coarse",
+):
+    """Classify the grid level by level in float64 down to ``stop_level`` (default: output).
+
+    Returns ``(classes, frontier, arcs)``: the full class array of ``stop_level``, the
+    :class:`Frontier` of its frontier cells (empty at the output level) and the
+    shape's :class:`~gloffset.edges.CurveArcs`. ``callback(level, classes)`` is called
+    after each level; ``timings``, a list, gets ``(level, time.perf_counter())`` after
+    each level. ``start``: see :class:`CurveCells` (the levels above the one entered
+    directly are reported pooled from it).
+    """
+    cells = CurveCells(shape, d, grid, start=start)
+    stop = grid.n_levels - 1 if stop_level is None else stop_level
+    classes, lev = driver.classify(cells, stop, callback=callback, timings=timings)
+    return classes, cells.kept(lev), cells.arcs
