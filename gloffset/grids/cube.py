@@ -319,6 +319,20 @@ class CubeCells:
             r = self._rho[level] = np.tile(pad, 6)
         return r
 
+    def rho_at(self, level: int, j, i) -> np.ndarray:
+        """The bound of cells (stacked row ``j``, column ``i``) of ``level`` (padding rows:
+        the face's largest)."""
+        j, i = np.broadcast_arrays(np.asarray(j, dtype=np.int64), np.asarray(i, dtype=np.int64))
+        jj = j % self.P[level]
+        ok = jj < self.n[level]
+        out = np.full(j.shape, float(self.face.rho(level).max()))
+        out[ok] = self.face.rho_at(level, jj[ok], i[ok])
+        return out
+
+    def decision_rho(self, level: int, j, i) -> np.ndarray:
+        """The bound a cell is decided with: :meth:`rho_at`."""
+        return self.rho_at(level, j, i)
+
     def rho_cells(self, level: int, flat) -> np.ndarray:
         """Per-cell bound ``rho`` of cells ``flat`` of ``level`` (0 at the output level)."""
         _, j, i = self.split(level, flat)

@@ -1,0 +1,213 @@
+"""The shape of the code (ARCHITECTURE.md): layers without cycles, short functions, no
+private names shared across modules, grids that answer the Grid protocol, one level
+driver whose walk does what its callers rely on."""
+
+from __future__ import annotations
+
+import ast
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gloffset.grids import Cube, CubeFace, Equirect, Tile
+from gloffset.grids.cube import CubeCells
+from gloffset.grids.mercator import TilePyramid
+from gloffset.grids.protocol import CellSet, Grid
+from gloffset.raster import driver
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "gloffset"
+#: longest function body allowed (lines of code after the docstring)
+MAX_BODY = 80
+
+
+def _functions():
+    for path in sorted(PACKAGE.rglob("*.py")):
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                yield path, node
+
+
+def _body_lines(node) -> int:
+    body = node.body
+    first = body[0]
+    if isinstance(first, ast.Expr) and isinstance(getattr(first, "value", None), ast.Constant):
+        body = body[1:]
+    return 0 if not body else body[-1].end_lineno - body[0].lineno + 1
+
+
+def test_no_function_longer_than_the_limit():
+    long = [
+        f"{p.relative_to(ROOT)}:{n.lineno} {n.name} ({_body_lines(n)} lines)"
+        for p, n in _functions()
+        if _body_lines(n) > MAX_BODY
+    ]
+    assert not long, "split these into named steps:\n" + "\n".join(long)
+
+
+def test_no_private_name_is_imported_across_modules():
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                for alias in node.names:
+                    if alias.name.startswith("_") and not alias.name.startswith("__"):
+                        found.append(f"{path.relative_to(ROOT)}:{node.lineno} {alias.name}")
+    assert not found, "private names imported from another module:\n" + "\n".join(found)
+
+
+def test_the_layering_contract_holds():
+    exe = shutil.which("lint-imports")
+    if exe is None:
+        pytest.skip("import-linter is not installed (pip install -e '.[test]')")
+    run = subprocess.run([exe], cwd=ROOT, capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
+
+
+def test_no_two_classes_share_a_name():
+    seen: dict = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.parse(path.read_text()).body:
+            if isinstance(node, ast.ClassDef) and not node.name.startswith("_"):
+                seen.setdefault(node.name, []).append(str(path.relative_to(ROOT)))
+    twice = {k: v for k, v in seen.items() if len(v) > 1}
+    assert not twice, twice
+
+
+# ------------------------------------------------------------------------- grids
+GRIDS = [
+    Equirect(100, 50),
+    Equirect(64, 40, (170.0, -30.0, -170.0, 10.0)),
+    Tile(3, 2, 5, 64),
+    CubeFace(2, 96),
+    CubeCells(96),
+    TilePyramid(6),
+]
+
+
+@pytest.mark.parametrize("grid", GRIDS, ids=lambda g: type(g).__name__)
+def test_every_grid_answers_the_protocol(grid):
+    assert isinstance(grid, Grid)
+    for level in range(grid.n_levels):
+        h, w = grid.level_shape(level)
+        j, i = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
+        c = grid.centers(level, j.ravel(), i.ravel())
+        np.testing.assert_allclose(np.linalg.norm(c, axis=1), 1.0, atol=1e-15)
+        rho = grid.rho_at(level, j.ravel(), i.ravel())
+        assert rho.shape == (h * w,) and np.all(rho >= 0)
+        assert np.all(grid.decision_rho(level, j.ravel(), i.ravel()) <= rho)
+        # the per-row bound is each row's largest
+        assert np.allclose(grid.rho(level), rho.reshape(h, w).max(axis=1))
+        if grid.lonlat:
+            lat = grid.cell_lat(level, np.arange(h))
+            np.testing.assert_allclose(c.reshape(h, w, 3)[:, 0, 2], np.sin(lat), atol=1e-15)
+
+
+@pytest.mark.parametrize("grid", [g for g in GRIDS if isinstance(g, CellSet)], ids=str)
+def test_cell_set_neighbours_are_the_touching_cells(grid):
+    """Neighbour tables agree with the geometry: two cells touch when their centres are
+    within the sum of their area bounds plus one cell, and every listed neighbour is
+    adjacent (and the relation is symmetric)."""
+    level = grid.n_levels - 2
+    h, w = grid.level_shape(level)
+    ok = np.flatnonzero(np.repeat(grid.row_valid(level), w))
+    table = grid.neighbour_table(level, ok)
+    for k, c in enumerate(ok[:: max(1, len(ok) // 300)]):
+        row = table[np.searchsorted(ok, c)]
+        nb = row[row >= 0]
+        assert np.all(grid.adjacent(level, np.full(len(nb), c), nb))
+        for q in nb:
+            back = grid.neighbour_table(level, [q])[0]
+            assert c in back
+    if grid.lonlat and grid.wraps(level):
+        # across the antimeridian: the last column touches the first
+        assert grid.adjacent(level, [w - 1], [0])[0]
+
+
+def test_equirect_wraps_only_round_the_globe():
+    assert Equirect(64, 32).wraps(0)
+    assert not Equirect(64, 32, (-100.0, -10.0, 100.0, 10.0)).wraps(0)
+    assert not Tile(0, 0, 0, 64).wraps(0)
+
+
+# ------------------------------------------------------------------------- driver
+class _Stripes:
+    """A toy classifier on a grid of three levels (32, 64, 128 cells a side): a cell is
+    contained when its column is in the west quarter, outside when in the east quarter,
+    else frontier; at the last level the west half is contained."""
+
+    def __init__(self):
+        self.grid = Equirect(128, 128)
+        self.refined = []
+
+    def _cls(self, level, cells):
+        w = self.grid.level_shape(level)[1]
+        x = (cells[:, 1] + 0.5) / w
+        last = level == self.grid.n_levels - 1
+        cls = np.full(len(cells), driver.FRONTIER, np.uint8)
+        cls[x < (0.5 if last else 0.25)] = driver.CONTAINED
+        cls[x >= (0.5 if last else 0.75)] = driver.OUTSIDE
+        return cls
+
+    def enter(self, stop):
+        h, w = self.grid.level_shape(0)
+        cells = np.argwhere(np.ones((h, w), bool))
+        return driver.Level(0, cells, self._cls(0, cells))
+
+    def refine(self, prev):
+        keep = prev.frontier() if prev.keep is None else prev.keep
+        self.refined.append((prev.level, len(keep)))
+        kids = np.concatenate(
+            [2 * prev.cells[keep] + np.array(d) for d in ((0, 0), (0, 1), (1, 0), (1, 1))]
+        )
+        kids = kids[np.lexsort((kids[:, 1], kids[:, 0]))]
+        return driver.Level(prev.level + 1, kids, self._cls(prev.level + 1, kids))
+
+
+def test_driver_paints_levels_and_refines_only_the_frontier():
+    clf = _Stripes()
+    grid = clf.grid
+    seen = []
+    classes = driver.run(clf, grid.n_levels - 1, callback=lambda lev, c: seen.append(lev))
+    assert seen == list(range(grid.n_levels))
+    w = grid.width
+    want = np.where((np.arange(w) + 0.5) / w < 0.5, driver.CONTAINED, driver.OUTSIDE)
+    assert np.array_equal(classes, np.broadcast_to(want, (grid.height, w)))
+    # only frontier cells were refined: the middle half of the 32 x 32 cells
+    assert clf.refined[0] == (0, 512)
+
+
+def test_driver_hands_over_to_a_backend_at_the_handoff_level():
+    clf = _Stripes()
+    got = {}
+
+    def backend(classes, lev):
+        got["level"], got["shape"] = lev.level, classes.shape
+        return np.full((128, 128), 7, np.uint8)
+
+    out = driver.run(clf, clf.grid.n_levels - 1, handoff=0, backend=backend)
+    assert got == {"level": 0, "shape": clf.grid.level_shape(0)} and out[0, 0] == 7
+    # at or above the hand-off the classifier finishes alone
+    assert driver.run(clf, 0, handoff=0, backend=backend).shape == clf.grid.level_shape(0)
+
+
+def test_walk_refines_the_cells_the_consumer_keeps():
+    clf = _Stripes()
+    for lev in driver.walk(clf, clf.grid.n_levels - 1):
+        if lev.level == 0:
+            lev.keep = np.array([0, 1])  # two decided cells
+    assert clf.refined[0] == (0, 2)
+
+
+def test_pooled_levels():
+    c = np.array([[2, 2, 0, 1], [2, 2, 0, 0]], np.uint8)
+    assert np.array_equal(driver.pooled(c), [[2, 1]])
+
+
+def test_cube_is_not_a_level_grid_but_its_faces_are():
+    assert not isinstance(Cube(8), Grid)
+    assert all(isinstance(f, Grid) for f in Cube(8).faces)
