@@ -50,7 +50,7 @@ from ..errors import InvalidLevelError
 from ..shape import MIN_EDGE, Shape, read
 from ..sphere import angle, slerp
 from ..units import EARTH_RADIUS
-from .offset import Offset, _line_arcs, _ring_arcs, offset
+from .offset import Offset, line_arcs, offset, ring_arcs
 
 __all__ = ["ArcTree", "Decomposition", "MultiresOffset", "decompose", "E_MAX"]
 
@@ -454,9 +454,9 @@ class MultiresOffset(Offset):
         nr = len(dec.shape.rings)
         q = dec._reconstruct(level, scale=c, top=self.vertex_centers(), start=self.level)
         parts = dec._split(q / c, dec._levels[level].pt_part)
-        rings = [_ring_arcs(p, d) for p in parts[:nr]]
+        rings = [ring_arcs(p, d) for p in parts[:nr]]
         if d > 0.0:
-            rings += [_line_arcs(p, d) for p in parts[nr:]]
+            rings += [line_arcs(p, d) for p in parts[nr:]]
         return MultiresOffset(dec, level, d, rings)
 
 
