@@ -18,6 +18,10 @@ error is a few 1e-16 divided by the sine of the crossing angle, and for tangent
 circles (which part only quadratically) it grows to about ``sqrt(1e-15 r)``;
 :func:`intersect` returns a bound with every point so that callers can treat
 positions within it as equal.
+
+:class:`CircleArcs` is the table of arcs (axes, heights, end points, turns) that the
+methods of self-intersection removal work on, and :data:`MERGE_TOL` the distance below
+which both take two points for one.
 """
 
 from __future__ import annotations
