@@ -30,7 +30,7 @@ from common import DATA, best_of, coastline, write
 import gloffset
 from gloffset.reference import contains_xyz, distance_xyz
 from gloffset.sphere import normalize, xyz_to_lonlat
-from gloffset.vector.selfintersect import algorithm1
+from gloffset.vector.paper import algorithm1
 
 R_KM = gloffset.EARTH_RADIUS / 1000.0
 

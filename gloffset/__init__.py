@@ -24,7 +24,7 @@ from .shape import Shape, read
 from .units import EARTH_RADIUS, parse_distance
 from .vector.multires import Decomposition, decompose
 from .vector.offset import Offset, offset
-from .vector.selfintersect import ResolvedOffset
+from .vector.resolved import ResolvedOffset
 
 # ``gloffset.tiles`` (tile pyramids) is public: importable under that name too
 _sys.modules[__name__ + ".tiles"] = tiles

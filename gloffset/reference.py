@@ -174,9 +174,8 @@ def contains(shape, lon, lat, *, distance: float = 0.0, radius: float = EARTH_RA
 
     Parameters
     ----------
-    shape : Shape or anything :func:`gloffset.read` accepts
-    lon, lat : array_like
-        Query points in degrees (broadcast together).
+    shape, lon, lat
+        The shape and the query points, as for :func:`distance`.
     distance : float
         Offset distance in the units of ``radius``. ``0`` tests the polygons
         themselves; ``> 0`` adds everything within that distance of the curves;

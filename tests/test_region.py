@@ -514,7 +514,7 @@ def test_planet_union_against_shapely():
 
 def _random_polygons(rng, cx, cy):
     """2-5 random star-shaped polygons (valid on the sphere) near (cx, cy), overlapping."""
-    from gloffset.vector.selfintersect import _find_defects
+    from gloffset.vector.arrangement import _find_defects
 
     out = []
     for _ in range(rng.integers(2, 6)):

@@ -15,8 +15,9 @@ from gloffset.captree import CapTree
 from gloffset.reference import contains_xyz, distance_xyz
 from gloffset.sphere import angle, lonlat_to_xyz, normalize
 from gloffset.vector.offset import sample_arc
-from gloffset.vector.selfintersect import MIN_DISTANCE, algorithm1
-from gloffset.vector.smallcircle import Arcs, intersect, position
+from gloffset.vector.paper import algorithm1
+from gloffset.vector.selfintersect import MIN_DISTANCE
+from gloffset.vector.smallcircle import CircleArcs, intersect, position
 
 EPS = 1e-9  # rad: boundary distance tolerance and the band ignored by region checks
 
@@ -52,7 +53,7 @@ def assert_rings_simple(res, tol=1e-10):
     q = np.concatenate(res.centers)
     end = np.concatenate(res.junctions)
     start = np.concatenate([np.roll(r, 1, axis=0) for r in res.junctions])
-    arcs = Arcs(normalize(q), np.linalg.norm(q, axis=1), start, end)
+    arcs = CircleArcs(normalize(q), np.linalg.norm(q, axis=1), start, end)
     cm, cr = arcs.caps()
     ia, ib = CapTree(cm, cr).self_pairs()
     x, ok, err, _ = intersect(arcs.axis[ia], arcs.rho[ia], arcs.axis[ib], arcs.rho[ib])

@@ -47,10 +47,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidLevelError
-from ..shape import MIN_EDGE, Shape, read
+from ..shape import MIN_EDGE, Edges, Shape, read
 from ..sphere import angle, slerp
 from ..units import EARTH_RADIUS
-from .offset import Offset, _line_arcs, _ring_arcs, offset
+from .offset import Offset, line_arcs, offset, ring_arcs
 
 __all__ = ["ArcTree", "Decomposition", "MultiresOffset", "decompose", "E_MAX"]
 
@@ -64,39 +64,33 @@ _MAX_ARC = math.pi / 2
 
 
 @dataclass(frozen=True)
-class ArcTree:
+class ArcTree(Edges):
     """Every arc of every level of a decomposition as one binary tree (for queries).
 
     Nodes ``0 .. len(shape.edges()) - 1`` are the original edges, in the order of
     :meth:`Shape.edges`; every merge of two arcs adds a node. The arcs of level ``k``
-    are the nodes of :attr:`Decomposition.level_nodes` ``[k]``.
+    are the nodes of :attr:`Decomposition.level_nodes` ``[k]``. A table of arcs like
+    the shape's :class:`~gloffset.shape.Edges`, with what the tree adds.
 
     Attributes
     ----------
     a, b : (m, 3) float64
         Ends of each arc: original vertices, bit for bit, at every level.
+    boundary : (m,) bool
+        False for seams (and arcs made of seams only).
+    group : (m,) int64
+        Region component of ring arcs, -1 for lines and points.
     e : (m,) float64
         Error bound of the arc (0 for original edges, pi for "unknown").
     child : (m, 2) int64
         The two arcs a merged arc replaces (-1, -1 for original edges).
     level : (m,) int64
         Level at which the arc was made (0 for original edges).
-    group : (m,) int64
-        Region component of ring arcs, -1 for lines and points.
-    boundary : (m,) bool
-        False for seams (and arcs made of seams only).
     """
 
-    a: np.ndarray
-    b: np.ndarray
     e: np.ndarray
     child: np.ndarray
     level: np.ndarray
-    group: np.ndarray
-    boundary: np.ndarray
-
-    def __len__(self) -> int:
-        return len(self.a)
 
 
 @dataclass
@@ -454,9 +448,9 @@ class MultiresOffset(Offset):
         nr = len(dec.shape.rings)
         q = dec._reconstruct(level, scale=c, top=self.vertex_centers(), start=self.level)
         parts = dec._split(q / c, dec._levels[level].pt_part)
-        rings = [_ring_arcs(p, d) for p in parts[:nr]]
+        rings = [ring_arcs(p, d) for p in parts[:nr]]
         if d > 0.0:
-            rings += [_line_arcs(p, d) for p in parts[nr:]]
+            rings += [line_arcs(p, d) for p in parts[nr:]]
         return MultiresOffset(dec, level, d, rings)
 
 

@@ -40,7 +40,15 @@ from ..shape import Shape, read
 from ..sphere import normalize, robust_cross, rotate, slerp
 from ..units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, offset_angle
 
-__all__ = ["Offset", "OffsetRing", "offset", "sample_arc", "sample_rings"]
+__all__ = [
+    "Offset",
+    "OffsetRing",
+    "line_arcs",
+    "offset",
+    "ring_arcs",
+    "sample_arc",
+    "sample_rings",
+]
 
 #: Largest turn (radians) of one arc; longer arcs get an extra junction at their middle.
 _MAX_SWEEP = 2.0
@@ -62,8 +70,17 @@ class OffsetRing:
     kind: np.ndarray
     sources: np.ndarray  # (m, 2, 3)
 
+    def reversed(self) -> OffsetRing:
+        """The same cycle run the other way (what lay on its right now lies on its left)."""
+        return OffsetRing(
+            self.centers[::-1].copy(),
+            np.roll(self.junctions[::-1], -1, axis=0),
+            self.kind[::-1].copy(),
+            self.sources[::-1].copy(),
+        )
 
-def _ring_arcs(path: np.ndarray, d: float, *, cap_ends: tuple[int, ...] = ()) -> OffsetRing:
+
+def ring_arcs(path: np.ndarray, d: float, *, cap_ends: tuple[int, ...] = ()) -> OffsetRing:
     """Offset arcs of the closed path ``path`` (n, 3) at signed distance ``d``.
 
     Per vertex ``i`` four slots, in order: the middle of the round join (only when
@@ -117,13 +134,13 @@ def _circle(p: np.ndarray, d: float) -> OffsetRing:
     return OffsetRing(np.tile(q, (3, 1)), r, np.zeros(3, dtype=np.int8), src)
 
 
-def _line_arcs(line: np.ndarray, d: float) -> OffsetRing:
+def line_arcs(line: np.ndarray, d: float) -> OffsetRing:
     """A line's offset (``d > 0``): the path along it and back, with round caps at its ends;
     an isolated point gives a circle."""
     if len(line) == 1:
         return _circle(line[0], d)
     there_and_back = np.vstack([line, line[-2:0:-1]])
-    return _ring_arcs(there_and_back, d, cap_ends=(0, len(line) - 1))
+    return ring_arcs(there_and_back, d, cap_ends=(0, len(line) - 1))
 
 
 def sample_arc(center, start, end, t) -> np.ndarray:
@@ -198,10 +215,10 @@ class Offset(ArcRings):
         self.distance = d
         self.rings: list[OffsetRing] = []
         for ring in shape.rings:
-            self.rings.append(_ring_arcs(ring, d))
+            self.rings.append(ring_arcs(ring, d))
         if d > 0.0:
             for line in shape.lines:
-                self.rings.append(_line_arcs(line, d))
+                self.rings.append(line_arcs(line, d))
 
     def sample(self, tolerance: float = DEFAULT_TOLERANCE) -> list[np.ndarray]:
         """Densified raw rings: points on the arcs, no arc deviating more than ``tolerance``.
@@ -218,12 +235,12 @@ class Offset(ArcRings):
         ----------
         method : {"general", "paper"}
             ``"general"`` (default): exact, united over all parts, with holes and
-            several components (:mod:`gloffset.vector.selfintersect`). ``"paper"``:
-            Algorithm 1 as published, ring by ring.
+            several components (:mod:`gloffset.vector.arrangement`). ``"paper"``:
+            Algorithm 1 as published, ring by ring (:mod:`gloffset.vector.paper`).
 
         Returns
         -------
-        gloffset.vector.selfintersect.ResolvedOffset
+        gloffset.vector.resolved.ResolvedOffset
             Rings of small-circle arcs (Q/R per ring), exterior/hole flags and
             polygons; cached per method.
 

@@ -18,6 +18,10 @@ error is a few 1e-16 divided by the sine of the crossing angle, and for tangent
 circles (which part only quadratically) it grows to about ``sqrt(1e-15 r)``;
 :func:`intersect` returns a bound with every point so that callers can treat
 positions within it as equal.
+
+:class:`CircleArcs` is the table of arcs (axes, heights, end points, turns) that the
+methods of self-intersection removal work on, and :data:`MERGE_TOL` the distance below
+which both take two points for one.
 """
 
 from __future__ import annotations
@@ -28,7 +32,8 @@ from ..caps import angle_of_chord, pad
 from ..sphere import angle, normalize, robust_cross, rotate
 
 __all__ = [
-    "Arcs",
+    "MERGE_TOL",
+    "CircleArcs",
     "circle_of",
     "sweep",
     "position",
@@ -39,6 +44,9 @@ __all__ = [
 
 #: Relative rounding of one float64 operation.
 _EPS = 2.220446049250313e-16
+#: Points closer than this (radians, 6.4 micrometres on the Earth) are one point: both
+#: methods of Sec. 4.4 take an intersection this close to an arc's end for that end.
+MERGE_TOL = 1e-12
 
 
 def circle_of(centers) -> tuple[np.ndarray, np.ndarray]:
@@ -155,7 +163,7 @@ def intersect(a1, r1, a2, r2):
     return x, ok, err, coincident
 
 
-class Arcs:
+class CircleArcs:
     """A table of small-circle arcs: the vectorised form every step here works on.
 
     Attributes
@@ -181,7 +189,7 @@ class Arcs:
         self.rho = angle(self.axis, self.start)
 
     @classmethod
-    def from_rings(cls, centers, junctions) -> Arcs:
+    def from_rings(cls, centers, junctions) -> CircleArcs:
         """Arcs of closed cycles given by centres Q and junctions R (arc k: R[k-1] -> R[k])."""
         axis, h = circle_of(centers)
         start = np.roll(junctions, 1, axis=0)
@@ -220,5 +228,8 @@ class Arcs:
         cb = np.linalg.norm(m - self.end, axis=1)
         return m, pad(angle_of_chord(np.maximum(ca, cb)))
 
-    def subset(self, idx) -> Arcs:
-        return Arcs(self.axis[idx], self.h[idx], self.start[idx], self.end[idx], self.phi[idx])
+    def subset(self, idx) -> CircleArcs:
+        """The arcs ``idx`` (their turns kept, not recomputed)."""
+        return CircleArcs(
+            self.axis[idx], self.h[idx], self.start[idx], self.end[idx], self.phi[idx]
+        )

@@ -1,0 +1,136 @@
+"""The result of self-intersection removal: :class:`ResolvedOffset` (paper Sec. 4.4).
+
+The boundary of the offset region as closed rings of small-circle arcs (the Q/R of
+Eq. 1-4, pieces of the raw offset of Sec. 4.1), sorted into exteriors and holes and
+grouped into polygons (:mod:`gloffset.vector.rings`). What the region offers besides its
+rings lives here too: membership of points (crossing parity against the rings), its
+area (Gauss-Bonnet on the arcs), densified rings and GeoJSON. Both methods of
+:mod:`gloffset.vector.selfintersect` (:mod:`~gloffset.vector.paper`,
+:mod:`~gloffset.vector.arrangement`) return one, built with
+:meth:`ResolvedOffset.from_rings`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .offset import DEFAULT_TOLERANCE, ArcRings, sample_rings
+from .rings import RingParity, classify, left_areas, ring_table
+
+__all__ = ["ResolvedOffset"]
+
+
+@dataclass
+class ResolvedOffset(ArcRings):
+    """The boundary of an offset region: closed rings of small-circle arcs.
+
+    Attributes
+    ----------
+    distance : float
+        Signed angular distance (radians).
+    method : str
+        ``"general"`` or ``"paper"``.
+    rings : list of :class:`gloffset.vector.offset.OffsetRing`
+        Closed rings with the region on their left; arc ``k`` of a ring runs from
+        ``junctions[k-1]`` to ``junctions[k]`` about ``centers[k]`` (Eq. 1), and
+        ``kind``/``sources`` name the vertex or edge it keeps its distance from.
+    holes : (len(rings),) bool
+        True for rings that bound a hole (seen from a point outside the region).
+    polygons : list of (int, list of int)
+        Exterior ring index and the indices of its holes.
+    unlinked : int
+        Pieces of boundary that could not be closed into rings (0 unless arcs are
+        tangent to within ~1e-12 rad); always 0 for ``method="paper"``.
+
+    Notes
+    -----
+    Accuracy contract (``method="general"``): every point of every ring lies at
+    ``|distance|`` from the curves to 1e-12 rad (the arcs are pieces of raw offset
+    arcs, exact to ~1e-15, whose end points are intersections computed to their
+    stated error; measured: below 1e-15 rad on all test data); no point of the
+    curves is closer than ``|distance| - 1e-12`` to a ring; rings do not cross
+    each other or themselves (they may touch at single points); and the region
+    they bound equals the reference region (:func:`gloffset.index.contains`) except
+    within 1e-9 rad of its boundary: gaps and parts narrower than that are closed
+    or dropped rather than kept as slivers. ``method="paper"`` gives what
+    Algorithm 1 gives: exact on the loops it handles, no union, no holes.
+    """
+
+    distance: float
+    method: str
+    rings: list
+    holes: np.ndarray
+    polygons: list
+    unlinked: int = 0
+    shape: object = None
+
+    def __post_init__(self):
+        self._parity = None
+
+    @classmethod
+    def from_rings(cls, distance, method, rings, shape, unlinked: int = 0) -> ResolvedOffset:
+        """The region bounded by ``rings`` (region on their left): its holes and polygons
+        found by :func:`gloffset.vector.rings.classify`, whose parity it keeps."""
+        holes, polygons, parity = classify(rings, shape, distance)
+        res = cls(distance, method, rings, holes, polygons, unlinked, shape)
+        res._parity = parity
+        return res
+
+    def sample(self, tolerance: float = DEFAULT_TOLERANCE) -> list[np.ndarray]:
+        """Densified rings (see :meth:`gloffset.Offset.sample`)."""
+        return sample_rings(self.rings, tolerance)
+
+    def contains_xyz(self, p) -> np.ndarray:
+        """Whether unit vectors ``p`` (n, 3) lie in the region the rings bound.
+
+        Crossing parity of short great-circle arcs against the rings' small-circle
+        arcs: exact for points farther than ~1e-15 rad from every ring.
+        """
+        p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
+        return self._parity_index().contains(p)
+
+    def area(self) -> float:
+        """Area of the region in steradians (Gauss-Bonnet on the arcs; ~1e-13 absolute)."""
+        if not self.rings:
+            return 4.0 * np.pi if self._parity_index().outside_status else 0.0
+        arcs, ring_id, first = ring_table(self.rings)
+        left = left_areas(arcs, ring_id, first)
+        ext = [i for i, _ in self.polygons]
+        total = sum(left[i] for i in ext)
+        total -= sum(4.0 * np.pi - left[j] for _, hs in self.polygons for j in hs)
+        return float(total)
+
+    def to_geojson(
+        self, *, tolerance: float = DEFAULT_TOLERANCE, digits: int | None = None
+    ) -> dict:
+        """The region as an RFC 7946 Feature.
+
+        Arcs are densified so that no written edge strays more than ``tolerance``
+        (radians) from its arc; rings are cut at the antimeridian, exterior rings
+        run counter-clockwise and holes clockwise.
+        """
+        from ..io.geojson import rings_to_geometry
+
+        props = {"distance_rad": self.distance}
+        rings = self.sample(tolerance)
+        north = bool(self.contains_xyz(np.array([[0.0, 0.0, 1.0]]))[0])
+        if not rings and not north:
+            geom = {"type": "MultiPolygon", "coordinates": []}
+        else:
+            geom = rings_to_geometry(rings, north, digits)
+        return {"type": "Feature", "properties": props, "geometry": geom}
+
+    def _parity_index(self) -> RingParity:
+        """Crossing parity against the rings (built on first use)."""
+        if self._parity is None:
+            self._parity = RingParity(self.rings, self.shape, self.distance)
+        return self._parity
+
+    def __repr__(self) -> str:
+        nh = int(np.count_nonzero(self.holes))
+        return (
+            f"ResolvedOffset({len(self.polygons)} polygons, {len(self.rings) - nh} exteriors, "
+            f"{nh} holes, {sum(len(r.centers) for r in self.rings)} arcs, method={self.method!r})"
+        )
