@@ -116,7 +116,7 @@ def test_cell_set_neighbours_are_the_touching_cells(grid):
     h, w = grid.level_shape(level)
     ok = np.flatnonzero(np.repeat(grid.row_valid(level), w))
     table = grid.neighbour_table(level, ok)
-    for k, c in enumerate(ok[:: max(1, len(ok) // 300)]):
+    for c in ok[:: max(1, len(ok) // 300)]:
         row = table[np.searchsorted(ok, c)]
         nb = row[row >= 0]
         assert np.all(grid.adjacent(level, np.full(len(nb), c), nb))

@@ -14,7 +14,7 @@ import gloffset
 from gloffset.captree import CapTree
 from gloffset.reference import contains_xyz, distance_xyz
 from gloffset.sphere import angle, lonlat_to_xyz, normalize
-from gloffset.vector.offset import sample_arc
+from gloffset.vector.arcrings import sample_arc
 from gloffset.vector.paper import algorithm1
 from gloffset.vector.selfintersect import MIN_DISTANCE
 from gloffset.vector.smallcircle import CircleArcs, intersect, position

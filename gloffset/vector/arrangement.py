@@ -60,7 +60,7 @@ from .. import crossings
 from ..caps import arc_cap
 from ..captree import CapTree
 from ..sphere import angle, arc_distance, arcs_cross, normalize, robust_cross
-from .offset import OffsetRing
+from .arcrings import OffsetRing
 from .resolved import ResolvedOffset
 from .smallcircle import MERGE_TOL, CircleArcs, circle_of, intersect, point_at, position
 

@@ -50,7 +50,8 @@ from ..errors import InvalidLevelError
 from ..shape import MIN_EDGE, Edges, Shape, read
 from ..sphere import angle, slerp
 from ..units import EARTH_RADIUS
-from .offset import Offset, line_arcs, offset, ring_arcs
+from .arcrings import line_arcs, ring_arcs
+from .offset import Offset, offset
 
 __all__ = ["ArcTree", "Decomposition", "MultiresOffset", "decompose", "E_MAX"]
 

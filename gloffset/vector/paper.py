@@ -26,7 +26,7 @@ import numpy as np
 
 from ..captree import CapTree
 from ..sphere import angle
-from .offset import OffsetRing
+from .arcrings import OffsetRing
 from .resolved import ResolvedOffset
 from .smallcircle import MERGE_TOL, CircleArcs, circle_of, intersect, position, sweep
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .offset import DEFAULT_TOLERANCE, ArcRings, sample_rings
+from .arcrings import DEFAULT_TOLERANCE, ArcRings, sample_rings
 from .rings import RingParity, classify, left_areas, ring_table
 
 __all__ = ["ResolvedOffset"]
@@ -32,7 +32,7 @@ class ResolvedOffset(ArcRings):
         Signed angular distance (radians).
     method : str
         ``"general"`` or ``"paper"``.
-    rings : list of :class:`gloffset.vector.offset.OffsetRing`
+    rings : list of :class:`gloffset.vector.arcrings.OffsetRing`
         Closed rings with the region on their left; arc ``k`` of a ring runs from
         ``junctions[k-1]`` to ``junctions[k]`` about ``centers[k]`` (Eq. 1), and
         ``kind``/``sources`` name the vertex or edge it keeps its distance from.

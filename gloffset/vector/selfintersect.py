@@ -29,8 +29,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidDistanceError
+from .arcrings import line_arcs, ring_arcs
 from .arrangement import defects, resolve_general
-from .offset import line_arcs, ring_arcs
 from .paper import resolve_paper
 from .resolved import ResolvedOffset
 

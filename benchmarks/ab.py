@@ -1,0 +1,110 @@
+"""A/B timing of two source trees of gloffset on the same workloads, in one run.
+
+For a change that must not slow anything (a refactor): the workloads of the benchmarks
+(renders on the GPU and in float64, raster offsets, tile pyramids, vector offsets, the
+inside test) run through the public API in a fresh process per tree, the trees
+alternating round by round so that both see the same machine load; the best of the
+rounds is kept.
+
+Run: python benchmarks/ab.py --before /path/to/old/checkout --after . [--rounds 5]
+Writes benchmarks/results/ab.json (seconds per workload and tree, and after/before).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from common import write
+
+HERE = Path(__file__).resolve().parent
+DATA = HERE.parent / "data"
+
+#: name -> code run in the tree's process (``g`` is gloffset, ``mexico`` the shape,
+#: ``Equirect``/``Cube`` the grids); timed with a warm-up run first.
+WORKLOADS = {
+    "render gpu mexico 4096x2048": "g.render(mexico, 0.02, Equirect(4096, 2048), radius=1.0)",
+    "render gpu mexico cube 6x1024": "g.render(mexico, 0.02, Cube(1024), radius=1.0)",
+    "render cpu mexico 1024x512": (
+        "g.render(mexico, 0.02, Equirect(1024, 512), radius=1.0, backend='cpu')"
+    ),
+    "render gpu world 2048x1024 d=0.3": ("g.render(world, 0.3, Equirect(2048, 1024), radius=1.0)"),
+    "raster_offset gpu 2048x1024": (
+        "g.raster_offset(line_mask, 0.01, Equirect(2048, 1024), radius=1.0)"
+    ),
+    "raster_offset cpu 1024x512": (
+        "g.raster_offset(line_mask_small, 0.01, Equirect(1024, 512), radius=1.0, backend='cpu')"
+    ),
+    "tiles mexico z0-8 256": (
+        "g.tiles.pyramid(mexico, 0.02 * 6371008.8, '0-8', tmp(), overwrite=True)"
+    ),
+    "offset+resolve mexico": "g.offset(mexico, 0.02, radius=1.0).resolve()",
+    "contains mexico 1e6 points": "g.contains(mexico, lon, lat, 0.02, radius=1.0)",
+}
+
+SETUP = """
+import itertools, tempfile, time, os
+import numpy as np
+import gloffset as g
+from gloffset.grids import Cube, Equirect
+mexico = g.read({data!r} + '/mexico_10m.geojson')
+world = g.read({data!r} + '/world_110m.geojson')
+line_mask = g.rasterize(mexico, Equirect(2048, 1024))
+line_mask_small = g.rasterize(mexico, Equirect(1024, 512))
+rng = np.random.default_rng(0)
+lon = rng.uniform(-120.0, -85.0, 1_000_000)
+lat = rng.uniform(12.0, 34.0, 1_000_000)
+_tmp = tempfile.mkdtemp()
+_n = itertools.count()
+def tmp():
+    return os.path.join(_tmp, f"t{{next(_n)}}.mbtiles")
+"""
+
+TIMER = """
+{code}
+t0 = time.perf_counter()
+{code}
+print(repr(time.perf_counter() - t0))
+"""
+
+
+def time_in(tree: Path, code: str) -> float:
+    src = SETUP.format(data=str(DATA)) + TIMER.format(code=code)
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    out = subprocess.run(
+        [sys.executable, "-c", src], env=env, capture_output=True, text=True, check=True
+    )
+    return float(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--before", required=True, type=Path)
+    ap.add_argument("--after", required=True, type=Path)
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("-k", default="", help="only the workloads whose name contains this")
+    args = ap.parse_args(argv)
+    trees = {"before": args.before.resolve(), "after": args.after.resolve()}
+    rows = {}
+    for name, code in WORKLOADS.items():
+        if args.k not in name:
+            continue
+        best = {k: float("inf") for k in trees}
+        for r in range(args.rounds):
+            order = list(trees) if r % 2 == 0 else list(trees)[::-1]
+            for k in order:
+                best[k] = min(best[k], time_in(trees[k], code))
+        rows[name] = {**best, "after/before": best["after"] / best["before"]}
+        print(
+            f"{name:36s} before {best['before']:8.3f} s  after {best['after']:8.3f} s  "
+            f"ratio {rows[name]['after/before']:.3f}",
+            flush=True,
+        )
+    write("ab", {"rounds": args.rounds, "trees": {k: str(v) for k, v in trees.items()}, **rows})
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
