@@ -3,7 +3,6 @@
 import numpy as np
 
 from gloffset import caps
-from gloffset.raster import levels as hierarchy
 from gloffset.caps import (
     CAP_SLACK,
     angle_of_chord,
@@ -15,6 +14,7 @@ from gloffset.caps import (
     cos_sum_lower,
     pad,
 )
+from gloffset.raster import levels as hierarchy
 from gloffset.sphere import angle, arc_distance, dot, normalize, rotate, slerp
 
 rng = np.random.default_rng(11)

@@ -39,6 +39,7 @@ from functools import cached_property
 import numpy as np
 
 from ..caps import CAP_SLACK, arc_cap, cap_range, cap_within, pad
+from ..classes import CONTAINED, FRONTIER, OUTSIDE
 from ..sphere import angle, arc_distance, arcs_cross, cross, normalize, robust_cross
 
 __all__ = [
@@ -57,7 +58,6 @@ __all__ = [
     "CONTAINED",
 ]
 
-OUTSIDE, FRONTIER, CONTAINED = 0, 1, 2
 _SLACK = 1e-15
 _PAIRS = 1 << 22
 

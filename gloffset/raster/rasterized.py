@@ -6,8 +6,9 @@ intersected when any of its children is, which gives the intersected cells ``G_l
 of every level. This module holds the float64 side: rasterizing a :class:`Shape`
 into such a mask, ordering the intersected cells, the paper's region growing at a
 single resolution (Sec. 5.1), the hierarchical version (Sec. 5.2), the fallback,
-and the public :func:`raster_offset`. The GPU levels are in
-:mod:`gloffset.gl.raster_engine`; they return exactly these classes.
+and the public :func:`raster_offset`. The GPU levels are planned in
+:mod:`gloffset.raster.curve_gpu` and drawn by :mod:`gloffset.gl.raster_engine`; they
+return exactly these classes.
 
 Grids: :class:`~gloffset.grids.Equirect`, and :class:`~gloffset.grids.Cube` whose six
 faces are one set of cells (:class:`~gloffset.grids.cube.CubeCells`: faces stacked as
@@ -63,6 +64,7 @@ import numpy as np
 
 from ..caps import cap_within, pad
 from ..caps import chord2 as chord2_of_angle
+from ..classes import CONTAINED, FRONTIER, OUTSIDE
 from ..errors import InvalidDistanceError, InvalidMaskError, OptionError
 from ..grids import Cube, Equirect
 from ..grids.base import LonLatGrid, rect_radius
@@ -82,7 +84,6 @@ __all__ = [
     "raster_offset",
 ]
 
-OUTSIDE, FRONTIER, CONTAINED = 0, 1, 2
 # region-growing states (the paper's active and inactive frontier cells)
 _UNKNOWN, _ACTIVE, _INACTIVE = 0, 1, 4
 _PAIRS = 1 << 22  # cell pairs per chunk
@@ -538,8 +539,9 @@ def _runs(grid, level: int, parts: list[np.ndarray]) -> tuple[np.ndarray, np.nda
 
 # ---------------------------------------------------------------------------- the problem
 @dataclass
-class Levels:
-    """A curve mask with what every level's classification needs (all float64).
+class CurveLevels:
+    """A curve mask with what every level's classification needs (all float64): the
+    levels of a rasterized curve (not to be confused with a grid's levels).
 
     ``masks[l]``: intersected cells of level ``l``; ``curve[l]``: their flat indices;
     ``s``: the output-cell area bound; ``R[l]``; ``t_lo[l]``, ``t_hi[l]``: per-row
@@ -560,7 +562,7 @@ class Levels:
     parts: list | None = None
 
     @classmethod
-    def build(cls, mask: np.ndarray, d: float, grid, parts=None) -> Levels:
+    def build(cls, mask: np.ndarray, d: float, grid, parts=None) -> CurveLevels:
         last = grid.n_levels - 1
         masks = [None] * (last + 1)
         masks[last] = mask
@@ -706,7 +708,7 @@ def _bucket_level(grid, level_q, q, level_p, p, reach) -> int:
     return m_best
 
 
-def classify_cells(lv: Levels, level: int, flat: np.ndarray) -> np.ndarray:
+def classify_cells(lv: CurveLevels, level: int, flat: np.ndarray) -> np.ndarray:
     """Direct classification of cells ``flat`` of ``level`` against every intersected
     cell within reach (the fallback, and the hierarchical levels)."""
     flat = np.asarray(flat, dtype=np.int64)
@@ -717,7 +719,7 @@ def classify_cells(lv: Levels, level: int, flat: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------- Sec. 5.1
-def region_grow(lv: Levels, level: int) -> tuple[np.ndarray, str, str | None]:
+def region_grow(lv: CurveLevels, level: int) -> tuple[np.ndarray, str, str | None]:
     """Sec. 5.1 on the cells of ``level``: classes, method and fallback reason.
 
     Walks ``g_0..g_k`` (runs of 8-adjacent cells; each run starts by growing the
@@ -765,7 +767,7 @@ def region_grow(lv: Levels, level: int) -> tuple[np.ndarray, str, str | None]:
     return cls.reshape(h, w), ("fallback" if regrown else "region-growing"), reason
 
 
-def _grow(lv: Levels, level: int, seq: np.ndarray, start: np.ndarray):
+def _grow(lv: CurveLevels, level: int, seq: np.ndarray, start: np.ndarray):
     grid = lv.grid
     h, w = grid.level_shape(level)
     state = np.zeros(h * w, dtype=np.uint8)
@@ -818,7 +820,7 @@ def _grow(lv: Levels, level: int, seq: np.ndarray, start: np.ndarray):
     return state, regrown
 
 
-def _fallback(lv: Levels, level: int) -> np.ndarray:
+def _fallback(lv: CurveLevels, level: int) -> np.ndarray:
     """Every cell within reach of an intersected cell, classified directly."""
     grid = lv.grid
     h, w = grid.level_shape(level)
@@ -855,7 +857,7 @@ def _fallback(lv: Levels, level: int) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------- Sec. 5.2
-def hierarchical(lv: Levels, *, stop_level: int | None = None, callback=None, timings=None):
+def hierarchical(lv: CurveLevels, *, stop_level: int | None = None, callback=None, timings=None):
     """Sec. 5.2: level 0 by region growing (Sec. 5.1), then each level evaluates only
     the children of the previous level's frontier cells (active and inactive).
 
@@ -895,7 +897,7 @@ def upsample(grid, level: int, parent: np.ndarray) -> np.ndarray:
     return np.repeat(np.repeat(parent, 2, axis=0), 2, axis=1)[:h, :w].copy()
 
 
-def refine(lv: Levels, level: int, parent: np.ndarray) -> np.ndarray:
+def refine(lv: CurveLevels, level: int, parent: np.ndarray) -> np.ndarray:
     """Classes of ``level`` from the classes of ``level - 1``: descendants of contained
     and outside cells inherit, children of frontier cells are classified."""
     out = upsample(lv.grid, level, parent)
@@ -993,7 +995,7 @@ def raster_offset(
         and the offset run across face edges and corners.
     backend : {"gpu", "cpu"}
         ``"gpu"``: the coarse levels on the CPU, the levels below the bins in
-        fragment shaders (:mod:`gloffset.gl.raster_engine`); ``"cpu"``: float64
+        fragment shaders (:mod:`gloffset.raster.curve_gpu`); ``"cpu"``: float64
         numpy only (the reference).
     mode : {"hierarchical", "single"}
         CPU only: Sec. 5.2 coarse to fine, or Sec. 5.1 region growing on the output
@@ -1051,7 +1053,7 @@ def raster_offset(
     if level is not None and not (isinstance(level, (int, np.integer)) and 0 <= level <= last):
         raise OptionError(f"level must be in 0..{last}, got {level!r}")
     stop = last if level is None else int(level)
-    lv = Levels.build(m, d, grid, parts=order)
+    lv = CurveLevels.build(m, d, grid, parts=order)
     frontier: list = []
 
     def cb(lev, cls):
@@ -1066,10 +1068,10 @@ def raster_offset(
     elif backend == "cpu" or stop <= grid.bin_level:
         classes, method, reason = hierarchical(lv, stop_level=stop, callback=cb)
     else:
-        from ..gl.raster_engine import engine
+        from .curve_gpu import gpu_levels
 
         classes, method, reason = hierarchical(lv, stop_level=grid.bin_level, callback=cb)
-        classes, n_amb = engine().run(lv, classes, stop_level=stop, callback=cb)
+        classes, n_amb = gpu_levels(lv, classes, stop_level=stop, callback=cb)
     if cube is not None:
         classes = cube.unstack(stop, classes)
     info = RasterOffsetInfo(

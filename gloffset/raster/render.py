@@ -57,7 +57,7 @@ def _render_one(shape, d, grid, *, backend, level, callback, mask):
     if backend == "cpu" or stop <= bins:
         classes, _, _ = classify(shape, d, grid, stop_level=stop, callback=callback)
         return _MASK[classes] if mask else classes
-    from ..gl.engine import engine
+    from .gpu import engine
 
     eng = engine()
     classes, f, arcs = classify(shape, d, grid, stop_level=bins, callback=callback, start="auto")
