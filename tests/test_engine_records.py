@@ -1,4 +1,4 @@
-"""The GPU engine's arc records and clusters (gloffset.gl.engine.records) and the
+"""The GPU levels' arc records and clusters (gloffset.raster.records.records) and the
 shader's cluster culling, which must leave every class unchanged."""
 
 import math
@@ -8,8 +8,9 @@ import pytest
 from conftest import LINES, SQUARE_WITH_HOLE
 
 import gloffset
-from gloffset.gl import engine as E
 from gloffset.grids import Cube, Equirect, Tile
+from gloffset.raster import gpu
+from gloffset.raster import records as E
 from gloffset.raster.curves import classify
 from gloffset.raster.levels import Frontier, cell_distances
 from gloffset.sphere import arc_distance, dot, slerp
@@ -198,7 +199,7 @@ def test_a_frontier_without_pairs():
 def spy_records(monkeypatch, *, cull: bool) -> list:
     """Count the calls of records; with ``cull=False`` make every cluster's ball
     infinite, so that the shader visits every cluster."""
-    real, calls = E.records, []
+    real, calls = gpu.records, []
 
     def records(*args, **kwargs):
         out = list(real(*args, **kwargs))
@@ -209,7 +210,7 @@ def spy_records(monkeypatch, *, cull: bool) -> list:
             out[3] = hdr
         return tuple(out)
 
-    monkeypatch.setattr(E, "records", records)
+    monkeypatch.setattr(gpu, "records", records)
     return calls
 
 

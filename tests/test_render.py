@@ -20,10 +20,10 @@ def pixel_centers(grid):
 
 def boundary_distance(shape, p):
     """Distance to ring edges including seams (where the inside status changes)."""
-    from gloffset.edges import CurveArcs as Arcs
+    from gloffset.edges import CurveArcs
     from gloffset.sphere import arc_distance
 
-    arcs = Arcs.from_shape(shape)
+    arcs = CurveArcs.from_shape(shape)
     ring = arcs.group >= 0
     if not ring.any():
         return np.full(len(p), np.inf)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import gloffset
-from gloffset.edges import CurveArcs as Arcs
+from gloffset.edges import CurveArcs
 from gloffset.grids import Equirect, Tile
 from gloffset.raster.curves import classify
 from gloffset.raster.driver import pooled
@@ -56,7 +56,7 @@ def test_candidate_lists_are_complete(world, what, d, grid):
     from gloffset.sphere import arc_distance
 
     shape = _shape(world, what)
-    arcs = Arcs.from_shape(shape)
+    arcs = CurveArcs.from_shape(shape)
     level = grid.n_levels - 2
     _, f = scatter(shape, arcs, grid, d, level, final=False)
     assert len(f.cells)
@@ -91,7 +91,7 @@ def test_pooled():
 
 def test_start_level_falls_back_for_large_distances(mexico_path):
     shape = gloffset.read(mexico_path)
-    arcs = Arcs.from_shape(shape)
+    arcs = CurveArcs.from_shape(shape)
     grid = Equirect(2048, 1024)
     assert start_level(arcs, grid, 0.01, grid.n_levels - 1)[0] >= 3
     assert start_level(arcs, grid, 1.0, grid.n_levels - 1) == (None, None)

@@ -15,7 +15,7 @@ from PIL import Image
 
 import gloffset
 from gloffset.cli import main
-from gloffset.edges import CurveArcs as Arcs
+from gloffset.edges import CurveArcs
 from gloffset.grids import Tile
 from gloffset.grids.mercator import TilePyramid
 from gloffset.raster.tiles import TilesError, parse_zooms, pyramid
@@ -68,7 +68,7 @@ def pixel_centres(g):
 def near_boundary(shape, p, d, eps):
     """Pixels within eps of the offset boundary or of a ring edge (where float32 may differ)."""
     near = np.abs(distance_xyz(shape, p) - abs(d)) <= eps
-    arcs = Arcs.from_shape(shape)
+    arcs = CurveArcs.from_shape(shape)
     ring = arcs.group >= 0
     if ring.any():
         ring_d = arc_distance(p[:, None], arcs.a[ring][None], arcs.b[ring][None]).min(axis=1)
@@ -278,7 +278,7 @@ def test_outline_points_are_those_of_the_arc_by_arc_maths(world, name, tiles):
     hemisphere) and across the antimeridian."""
     from gloffset.raster.tilepaint import OutlineArcs
 
-    arcs = Arcs.from_shape(gloffset.read(LINE_AM if name == "line" else world[name]))
+    arcs = CurveArcs.from_shape(gloffset.read(LINE_AM if name == "line" else world[name]))
     prepared = OutlineArcs(arcs)
     which = np.flatnonzero(arcs.boundary)
     levels = TilePyramid(12)

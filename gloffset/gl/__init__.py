@@ -1,5 +1,8 @@
-"""OpenGL side of gloffset: one headless context per process, strict shader loading,
-and the level-by-level raster engine."""
+"""OpenGL side of gloffset, GL only: one headless context per process (:mod:`.context`),
+strict shader loading (:mod:`.shaders`), textures and render targets (:mod:`.textures`),
+and the passes of the GPU levels (:mod:`.engine` for shapes, :mod:`.raster_engine` for
+rasterized curves) with their read-back. It imports nothing of the planner
+(:mod:`gloffset.raster`): it is handed plans of plain arrays and draws them."""
 
 from .context import context_info, get_context
 from .shaders import ShaderError, load_source, program

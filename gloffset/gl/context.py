@@ -1,9 +1,12 @@
-"""One headless OpenGL 4.3 context per process (EGL), reused.
+"""One headless OpenGL 4.3 context per process (EGL), reused, and the objects made on it.
 
 The device is chosen by the environment variable ``GLOFFSET_DEVICE`` (an EGL
 device index); without it gloffset prefers the first hardware device and falls
 back to Mesa's llvmpipe (CPU rendering). GL contexts do not survive ``fork``: use
-the ``spawn`` start method for worker processes.
+the ``spawn`` start method for worker processes. Objects that hold programs compiled on
+the context (the engines of :mod:`gloffset.gl.engine` and :mod:`gloffset.gl.raster_engine`)
+are made once per process too (:func:`shared`); like the context, they work only on the
+thread that made it.
 """
 
 from __future__ import annotations
@@ -12,10 +15,11 @@ import os
 
 from ..errors import GLContextError
 
-__all__ = ["get_context", "context_info"]
+__all__ = ["get_context", "context_info", "shared"]
 
 _CTX = None
 _DEVICE = None
+_SHARED: dict = {}  # class -> its one instance (shared)
 _SOFTWARE = ("llvmpipe", "softpipe", "swrast", "software")
 _INSTALL = (
     "install an EGL driver: on Debian/Ubuntu 'apt-get install libegl1 libegl-mesa0 "
@@ -103,3 +107,12 @@ def context_info() -> dict:
         "max_storage_block_size": int(info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"]),
         "software": _is_software(ctx),
     }
+
+
+def shared(cls):
+    """The process's one instance of ``cls``, made by ``cls()`` on first use (an engine
+    that compiles its programs on the context once)."""
+    obj = _SHARED.get(cls)
+    if obj is None:
+        obj = _SHARED[cls] = cls()
+    return obj

@@ -1,111 +1,67 @@
-"""The GPU levels of the offset of a rasterized curve (paper Sec. 5.2).
+"""The GL passes of the GPU levels of a rasterized curve's offset (paper Sec. 5.2).
 
-The CPU (:mod:`gloffset.raster.rasterized`, float64) classifies the levels down to the
-grid's bin level. Below it, one fragment-shader pass per level
-(``shaders/raster_classify.frag``) classifies the children of frontier cells,
-drawing instanced quads over the frontier bins only (``shaders/bins.vert``); the
-other cells take their bin's class (``shaders/upsample.frag``).
+Below the grid's bin level, one fragment-shader pass per level
+(``shaders/raster_classify.frag``) classifies the children of frontier cells, drawing
+instanced quads over the frontier bins only (``shaders/bins.vert``); the other cells take
+their bin's class (``shaders/upsample.frag``). The planner
+(:mod:`gloffset.raster.curve_gpu`) makes each level's data in float64 (a
+:class:`CurveLevel`: the records of the intersected cells near each bin, the per-row
+thresholds rounded outward, the cells' offsets from their bins), hands it to a run of
+:class:`RasterLevels` level by level, and decides in float64 the cells a pass wrote as
+ambiguous (:data:`gloffset.classes.AMBIGUOUS`) before the next level. This module only
+uploads, draws and reads back; it knows no grid or curve.
 
-Exactness. For every frontier bin and level, the CPU lists the intersected cells
-``g`` of that level within ``d_max + rho_bin`` of the bin centre ``c`` (every cell
-that can change a class in the bin), as records ``(g - c, |g - c|)`` made in
-float64 and rounded to float32. The shader computes the cell centre relative to
-``c`` (``lib/lonlat.glsl``; on a cube ``lib/cube.glsl`` from the cell's and the bin's
-pixel coordinates, which float32 holds exactly) and, per record, rigorous lower and
-upper bounds on the float64 squared chord (``lib/chord.glsl``); thresholds come per
-row as float32 values rounded outward. A cell whose bounds straddle a threshold is written as
-*ambiguous* (3); after each level the CPU reads the level back and decides those
-cells with the float64 reference (:func:`gloffset.raster.rasterized.classify_cells`), so
-the result equals the CPU reference bit for bit. Ambiguous cells are rare (a band
-of about 1e-5 of the threshold's squared chord) and counted in the result's info.
-
-Cube grids (:class:`gloffset.grids.cube.CubeCells`: the six faces stacked as one
-grid of cells, so that the records of a bin may come from any face): each level is
-drawn face by face (the ``GRID_CUBE`` variant of the shader, with the face's axes as
+A run on a grid whose rows are parallels (:meth:`RasterLevels.lonlat`) draws each level
+into one target. A run on a cube (:meth:`RasterLevels.cube`: the six faces stacked as the
+rows of one grid of cells, so that the records of a bin may come from any face) draws
+each level face by face (the ``GRID_CUBE`` variant of the shader, with the face's axes as
 uniforms) into a face-sized target; the records are shared by the six passes.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from ..raster.rasterized import FRONTIER, Levels, classify_cells, near_pairs
-from ..raster.rasterized import level_centers as _centers
-from .context import get_context
-from .engine import _pot, _set, class_target, pot_texture
+from .context import get_context, shared
 from .shaders import program
+from .textures import class_target, pot, pot_texture
+from .textures import set_uniform as _set
 
-__all__ = ["RasterLevels", "engine", "AMBIGUOUS"]
+__all__ = ["CurveLevel", "RasterLevels", "engine", "RECORD_ROW"]
 
-AMBIGUOUS = 3
 RECORD_ROW = 4096  # records (one RGBA32F texel each) per texture row
-_T_REL = 1e-6  # relative outward rounding of the float32 thresholds
 
 
-def _outward(t: np.ndarray, up: bool) -> np.ndarray:
-    """float32 values below (``up=False``) or above the float64 ``t``."""
-    x = t * (1.0 + _T_REL) if up else t * (1.0 - _T_REL)
-    x = np.where(t < 0, t, x)  # the 'never' value -1 is exact
-    f = x.astype(np.float32)
-    if up:
-        f = np.where(f.astype(np.float64) < t, np.nextafter(f, np.float32(np.inf)), f)
-    else:
-        f = np.where(f.astype(np.float64) > t, np.nextafter(f, np.float32(-np.inf)), f)
-    return f.astype(np.float32)
+@dataclass
+class CurveLevel:
+    """One level's data for the passes of a run of :class:`RasterLevels`.
 
+    ``shift``: the level minus the bin level; ``shape`` (h, w): the level's cells (a cube:
+    its six faces stacked as rows). ``records`` (rows, :data:`RECORD_ROW`, 4) float32:
+    per record ``(g - c, |g - c|)``, ``g`` an intersected cell's centre and ``c`` its bin's,
+    by bin; ``info`` (bin rows, bin columns, 4) uint32: per bin its first record and record
+    count. ``thresholds`` (rows, 1, 4) float32: per row of the level (a cube: of one face,
+    every face's are the same) the squared chords ``lo-, lo+, hi-, hi+`` around the
+    contained and outside thresholds. Lon/lat grids: ``dphi`` (1, h) and ``dlam`` (1, w)
+    float32, each cell row's latitude and column's longitude minus its bin's. Cube:
+    ``block``, the output pixels per cell side.
+    """
 
-def thresholds(lv: Levels, level: int) -> np.ndarray:
-    """(rows, 1, 4) float32: lo-, lo+, hi-, hi+ per row of ``level``."""
-    lo, hi = lv.t_lo[level], lv.t_hi[level]
-    out = np.stack(
-        [_outward(lo, False), _outward(lo, True), _outward(hi, False), _outward(hi, True)],
-        axis=-1,
-    )
-    return out[:, None, :]
-
-
-def records(lv: Levels, level: int, bins: np.ndarray):
-    """Records (float32 (n, 4)) of the intersected cells of ``level`` near each frontier
-    bin (flat indices of the bin level), sorted by bin; and per-bin first/count."""
-    grid = lv.grid
-    bl = grid.bin_level
-    wb = grid.level_shape(bl)[1]
-    rho_b = np.asarray(grid.rho(bl))[bins // wb]
-    iq, ip = [], []
-    for q, p, _ in near_pairs(grid, bl, bins, rho_b, level, lv.curve[level], lv.reach[level]):
-        iq.append(q)
-        ip.append(p)
-    iq = np.concatenate(iq) if iq else np.zeros(0, dtype=np.int64)
-    ip = np.concatenate(ip) if ip else np.zeros(0, dtype=np.int64)
-    order = np.lexsort((ip, iq))
-    iq, ip = iq[order], ip[order]
-    c = _centers(grid, bl, bins)
-    g = _centers(grid, level, lv.curve[level][ip])
-    rel = g - c[iq]
-    rec = np.empty((len(iq), 4))
-    rec[:, :3] = rel
-    rec[:, 3] = np.linalg.norm(rel, axis=1)
-    first = np.searchsorted(iq, np.arange(len(bins)))
-    count = np.bincount(iq, minlength=len(bins))
-    return rec.astype(np.float32), first.astype(np.uint32), count.astype(np.uint32)
-
-
-def _level_inputs(lv: Levels, level: int, bins: np.ndarray, hb: int, wb: int):
-    """The record texture data (rows, RECORD_ROW, 4) and the per-bin (first, count)
-    table (hb, wb, 4) of ``level``."""
-    rec, first, count = records(lv, level, bins)
-    rows = max(1, -(-len(rec) // RECORD_ROW))
-    buf = np.zeros((rows * RECORD_ROW, 4), dtype=np.float32)
-    buf[: len(rec)] = rec
-    info = np.zeros((hb, wb, 4), dtype=np.uint32)
-    info.reshape(-1, 4)[bins, 0] = first
-    info.reshape(-1, 4)[bins, 1] = count
-    return buf.reshape(rows, RECORD_ROW, 4), info
+    shift: int
+    shape: tuple
+    records: np.ndarray
+    info: np.ndarray
+    thresholds: np.ndarray
+    dphi: np.ndarray | None = None
+    dlam: np.ndarray | None = None
+    block: float | None = None
 
 
 class RasterLevels:
-    """Runs the levels below the bin level on the GPU (grids whose rows are parallels,
-    and cube grids face by face)."""
+    """The programs of the curve-offset passes, compiled once; :meth:`lonlat` and
+    :meth:`cube` start a run."""
 
     def __init__(self):
         self.ctx = get_context()
@@ -125,29 +81,37 @@ class RasterLevels:
     def _tex(self, array: np.ndarray, comps: int, dtype: str):
         return pot_texture(self.ctx, array, comps, dtype)
 
-    def run(self, lv: Levels, classes: np.ndarray, *, stop_level: int, callback=None):
-        """Classes of ``stop_level`` from the bin level's ``classes``; and the number of
-        ambiguous cells decided on the CPU."""
-        if not lv.grid.lonlat:  # the cube faces as one cell set
-            return self._run_cube(lv, classes, stop_level=stop_level, callback=callback)
-        import moderngl
+    def lonlat(self, classes, bins, bin_lat, bin_lon) -> LonLatRun:
+        """A run on a grid whose rows are parallels, from the bin level's ``classes``:
+        ``bins`` (k, 2) the column and row of each frontier bin, ``bin_lat`` and
+        ``bin_lon`` (1, rows or columns, 2) float32 the cosine and sine of the bin centres'
+        latitudes and longitudes."""
+        return LonLatRun(self, classes, bins, bin_lat, bin_lon)
 
-        ctx = self.ctx
-        grid = lv.grid
-        bl = grid.bin_level
-        hb, wb = classes.shape
-        bins = np.flatnonzero(classes.ravel() == FRONTIER)
-        lam = grid.cell_lon(bl, np.arange(wb))
-        phi = grid.cell_lat(bl, np.arange(hb))
-        lon_cs = np.stack([np.cos(lam), np.sin(lam)], axis=-1).astype(np.float32)
-        lat_cs = np.stack([np.cos(phi), np.sin(phi)], axis=-1).astype(np.float32)
-        owned = [self._tex(lat_cs[None], 2, "f4"), self._tex(lon_cs[None], 2, "f4")]
-        coarse = self._tex(classes, 1, "u1")
-        owned.append(coarse)
-        fb = np.ascontiguousarray(np.column_stack([bins % wb, bins // wb]), dtype=np.int32)
-        inst = ctx.buffer(fb.tobytes() if len(fb) else b"\0" * 8)
-        vao = ctx.vertex_array(self.prog, [(inst, "2i/i", "in_bin")])
-        p = self.prog
+    def cube(self, classes, bins, axes, px: float, bin_block: float) -> CubeRun:
+        """A run on the six faces of a cube stacked as rows, from the bin level's
+        ``classes``: ``bins`` per face (k_f, 2) the column and row of its frontier bins in
+        the face, ``axes`` per face its axis and the directions of s and t, ``px`` the face
+        coordinate per output pixel and ``bin_block`` the output pixels per bin side."""
+        return CubeRun(self, classes, bins, axes, px, bin_block)
+
+
+class LonLatRun:
+    """A run of :class:`RasterLevels` on a grid whose rows are parallels: what every level
+    shares is made once; :meth:`level` draws one level. A context manager: leaving it
+    releases what the run made."""
+
+    def __init__(self, eng: RasterLevels, classes, bins, bin_lat, bin_lon):
+        ctx = self.ctx = eng.ctx
+        self.eng = eng
+        self.owned = [eng._tex(bin_lat, 2, "f4"), eng._tex(bin_lon, 2, "f4")]
+        coarse = eng._tex(classes, 1, "u1")
+        self.owned.append(coarse)
+        fb = np.ascontiguousarray(bins, dtype=np.int32)
+        self.n_bins = len(fb)
+        self.inst = ctx.buffer(fb.tobytes() if len(fb) else b"\0" * 8)
+        self.vao = ctx.vertex_array(eng.prog, [(self.inst, "2i/i", "in_bin")])
+        p = eng.prog
         p["u_parent"] = 0
         p["u_bins"] = 1
         p["u_records"] = 2
@@ -157,159 +121,154 @@ class RasterLevels:
         p["u_row_dphi"] = 7
         p["u_col_dlam"] = 8
         p["u_record_row"] = RECORD_ROW
-        self.upsample["u_coarse"] = 6
-        owned[0].use(3)
-        owned[1].use(4)
+        eng.upsample["u_coarse"] = 6
+        self.owned[0].use(3)
+        self.owned[1].use(4)
         coarse.use(6)
-        out, n_amb = classes, 0
-        try:
-            for lev in range(bl + 1, stop_level + 1):
-                h, w = grid.level_shape(lev)
-                buf, info = _level_inputs(lv, lev, bins, hb, wb)
-                # each cell's latitude and longitude minus its bin's, float64-made
-                j, i = np.arange(h), np.arange(w)
-                sh = lev - bl
-                dphi = grid.cell_lat(lev, j) - grid.cell_lat(bl, j >> sh)
-                dlam = grid.cell_lon(lev, i) - grid.cell_lon(bl, i >> sh)
-                level_tex = [
-                    self._tex(out, 1, "u1"),
-                    self._tex(info, 4, "u4"),
-                    self._tex(buf, 4, "f4"),
-                    self._tex(thresholds(lv, lev), 4, "f4"),
-                    self._tex(dphi.astype(np.float32)[None], 1, "f4"),
-                    self._tex(dlam.astype(np.float32)[None], 1, "f4"),
-                ]
-                target, fbo, _ = class_target(ctx, w, h)
-                try:
-                    fbo.use()
-                    ctx.viewport = (0, 0, w, h)
-                    self.upsample["u_shift"] = lev - bl
-                    self.upsample_vao.render(moderngl.TRIANGLES, vertices=3)
-                    for unit, t in zip((0, 1, 2, 5, 7, 8), level_tex):
-                        t.use(unit)
-                    p["u_shift"] = lev - bl
-                    p["u_size"] = (float(w), float(h))
-                    if len(fb):
-                        vao.render(moderngl.TRIANGLES, vertices=6, instances=len(fb))
-                    full = np.frombuffer(target.read(alignment=1), dtype=np.uint8)
-                finally:
-                    fbo.release()
-                    target.release()
-                    for t in level_tex:
-                        t.release()
-                out = full.reshape(_pot(h), _pot(w))[:h, :w].copy()
-                n_amb += _decide_ambiguous(lv, lev, out)
-                if callback is not None:
-                    callback(lev, out)
-        finally:
-            vao.release()
-            inst.release()
-            for t in owned:
-                t.release()
-        return out, n_amb
 
-    def _run_cube(self, lv: Levels, classes: np.ndarray, *, stop_level: int, callback=None):
-        """:meth:`run` on a :class:`~gloffset.grids.cube.CubeCells` grid: per level, the
-        records of every frontier bin once, then one pass per face into a face target."""
+    def level(self, parent: np.ndarray, lev: CurveLevel) -> np.ndarray:
+        """The classes (h, w) of level ``lev`` from the ``parent`` level's (without
+        ambiguous cells); cells too close to a threshold are ambiguous."""
         import moderngl
 
-        ctx = self.ctx
-        grid = lv.grid
-        bl = grid.bin_level
-        hb, wb = classes.shape
-        pb = grid.P[bl]  # stacked rows per face at the bin level
-        bins = np.flatnonzero(classes.ravel() == FRONTIER)
-        bf, bj, bi = grid.split(bl, bins)
-        p = self.cube_prog
+        ctx, eng, p = self.ctx, self.eng, self.eng.prog
+        h, w = lev.shape
+        level_tex = [
+            eng._tex(parent, 1, "u1"),
+            eng._tex(lev.info, 4, "u4"),
+            eng._tex(lev.records, 4, "f4"),
+            eng._tex(lev.thresholds, 4, "f4"),
+            eng._tex(lev.dphi, 1, "f4"),
+            eng._tex(lev.dlam, 1, "f4"),
+        ]
+        target, fbo, _ = class_target(ctx, w, h)
+        try:
+            fbo.use()
+            ctx.viewport = (0, 0, w, h)
+            eng.upsample["u_shift"] = lev.shift
+            eng.upsample_vao.render(moderngl.TRIANGLES, vertices=3)
+            for unit, t in zip((0, 1, 2, 5, 7, 8), level_tex):
+                t.use(unit)
+            p["u_shift"] = lev.shift
+            p["u_size"] = (float(w), float(h))
+            if self.n_bins:
+                self.vao.render(moderngl.TRIANGLES, vertices=6, instances=self.n_bins)
+            full = np.frombuffer(target.read(alignment=1), dtype=np.uint8)
+        finally:
+            fbo.release()
+            target.release()
+            for t in level_tex:
+                t.release()
+        return full.reshape(pot(h), pot(w))[:h, :w].copy()
+
+    def close(self) -> None:
+        self.vao.release()
+        self.inst.release()
+        for t in self.owned:
+            t.release()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+class CubeRun:
+    """A run of :class:`RasterLevels` on a cube's six faces stacked as rows: per face its
+    instanced bins and bin-level classes, made once; :meth:`level` draws one level face
+    by face. A context manager: leaving it releases what the run made."""
+
+    def __init__(self, eng: RasterLevels, classes, bins, axes, px: float, bin_block: float):
+        ctx = self.ctx = eng.ctx
+        self.eng, self.axes = eng, axes
+        pb = self.pb = classes.shape[0] // 6  # stacked rows per face at the bin level
+        p = eng.cube_prog
         _set(p, "u_parent", 0)
         _set(p, "u_bins", 1)
         _set(p, "u_records", 2)
         _set(p, "u_thresholds", 5)
         _set(p, "u_record_row", RECORD_ROW)
-        _set(p, "u_px", 2.0 / grid.size)
-        _set(p, "u_bin_block", float(grid.block(bl)))
-        self.upsample["u_coarse"] = 6
-        faces = []  # per face: the bin-level classes texture and the instanced quads
+        _set(p, "u_px", px)
+        _set(p, "u_bin_block", bin_block)
+        eng.upsample["u_coarse"] = 6
+        self.faces = []  # per face: the instanced quads and the bin-level classes texture
         for f in range(6):
-            fb = np.ascontiguousarray(np.column_stack([bi[bf == f], bj[bf == f]]), np.int32)
+            fb = np.ascontiguousarray(bins[f], np.int32)
             inst = ctx.buffer(fb.tobytes() if len(fb) else b"\0" * 8)
             vao = ctx.vertex_array(p, [(inst, "2i/i", "in_bin")])
-            coarse = self._tex(classes[f * pb : (f + 1) * pb], 1, "u1")
-            faces.append((len(fb), inst, vao, coarse))
-        out, n_amb = classes, 0
+            coarse = eng._tex(classes[f * pb : (f + 1) * pb], 1, "u1")
+            self.faces.append((len(fb), inst, vao, coarse))
+
+    def level(self, parent: np.ndarray, lev: CurveLevel) -> np.ndarray:
+        """The classes (h, w) of level ``lev`` from the ``parent`` level's (without
+        ambiguous cells), face by face; cells too close to a threshold are ambiguous."""
+        eng = self.eng
+        h, w = lev.shape
+        ph, pp = parent.shape[0] // 6, h // 6
+        shared_tex = [eng._tex(lev.records, 4, "f4"), eng._tex(lev.thresholds, 4, "f4")]
+        shared_tex[0].use(2)
+        shared_tex[1].use(5)
+        new = np.empty((h, w), dtype=np.uint8)
         try:
-            for lev in range(bl + 1, stop_level + 1):
-                h, w = grid.level_shape(lev)
-                ph, pp = grid.P[lev - 1], grid.P[lev]
-                buf, info = _level_inputs(lv, lev, bins, hb, wb)
-                # every face's rows have the same thresholds (congruent faces)
-                thr = thresholds(lv, lev)
-                if not np.array_equal(thr, np.tile(thr[:pp], (6, 1, 1))):
-                    raise RuntimeError("cube faces with different row thresholds")
-                shared = [
-                    self._tex(buf, 4, "f4"),
-                    self._tex(thr[:pp], 4, "f4"),
-                ]
-                shared[0].use(2)
-                shared[1].use(5)
-                new = np.empty((h, w), dtype=np.uint8)
-                try:
-                    for f, (count, _, vao, coarse) in enumerate(faces):
-                        parent = self._tex(out[f * ph : (f + 1) * ph], 1, "u1")
-                        binfo = self._tex(info[f * pb : (f + 1) * pb], 4, "u4")
-                        target, fbo, _ = class_target(ctx, w, pp)
-                        try:
-                            fbo.use()
-                            ctx.viewport = (0, 0, w, pp)
-                            coarse.use(6)
-                            self.upsample["u_shift"] = lev - bl
-                            self.upsample_vao.render(moderngl.TRIANGLES, vertices=3)
-                            parent.use(0)
-                            binfo.use(1)
-                            e_, u_, v_ = grid.face_axes(f)
-                            _set(p, "u_face_e", e_)
-                            _set(p, "u_face_u", u_)
-                            _set(p, "u_face_v", v_)
-                            _set(p, "u_block", float(grid.block(lev)))
-                            p["u_shift"] = lev - bl
-                            p["u_size"] = (float(w), float(pp))
-                            if count:
-                                vao.render(moderngl.TRIANGLES, vertices=6, instances=count)
-                            full = np.frombuffer(target.read(alignment=1), dtype=np.uint8)
-                        finally:
-                            fbo.release()
-                            target.release()
-                            parent.release()
-                            binfo.release()
-                        new[f * pp : (f + 1) * pp] = full.reshape(_pot(pp), _pot(w))[:pp, :w]
-                finally:
-                    for t in shared:
-                        t.release()
-                out = new
-                n_amb += _decide_ambiguous(lv, lev, out)
-                if callback is not None:
-                    callback(lev, out)
+            for f in range(6):
+                new[f * pp : (f + 1) * pp] = self._face(
+                    f, parent[f * ph : (f + 1) * ph], lev, (pp, w)
+                )
         finally:
-            for _, inst, vao, coarse in faces:
-                vao.release()
-                inst.release()
-                coarse.release()
-        return out, n_amb
+            for t in shared_tex:
+                t.release()
+        return new
 
+    def _face(self, f: int, parent: np.ndarray, lev: CurveLevel, shape) -> np.ndarray:
+        """Face ``f`` of level ``lev`` (``shape`` its rows and columns), from its parent
+        level's classes ``parent``."""
+        import moderngl
 
-def _decide_ambiguous(lv: Levels, level: int, out: np.ndarray) -> int:
-    """Cells the shader wrote as ambiguous, decided in float64 (in place); their count."""
-    amb = np.flatnonzero(out.ravel() == AMBIGUOUS)
-    if len(amb):
-        out.ravel()[amb] = classify_cells(lv, level, amb)
-    return len(amb)
+        ctx, eng, p = self.ctx, self.eng, self.eng.cube_prog
+        count, _, vao, coarse = self.faces[f]
+        pp, w = shape
+        parent_t = eng._tex(parent, 1, "u1")
+        binfo = eng._tex(lev.info[f * self.pb : (f + 1) * self.pb], 4, "u4")
+        target, fbo, _ = class_target(ctx, w, pp)
+        try:
+            fbo.use()
+            ctx.viewport = (0, 0, w, pp)
+            coarse.use(6)
+            eng.upsample["u_shift"] = lev.shift
+            eng.upsample_vao.render(moderngl.TRIANGLES, vertices=3)
+            parent_t.use(0)
+            binfo.use(1)
+            e_, u_, v_ = self.axes[f]
+            _set(p, "u_face_e", e_)
+            _set(p, "u_face_u", u_)
+            _set(p, "u_face_v", v_)
+            _set(p, "u_block", lev.block)
+            p["u_shift"] = lev.shift
+            p["u_size"] = (float(w), float(pp))
+            if count:
+                vao.render(moderngl.TRIANGLES, vertices=6, instances=count)
+            full = np.frombuffer(target.read(alignment=1), dtype=np.uint8)
+        finally:
+            fbo.release()
+            target.release()
+            parent_t.release()
+            binfo.release()
+        return full.reshape(pot(pp), pot(w))[:pp, :w]
 
+    def close(self) -> None:
+        for _, inst, vao, coarse in self.faces:
+            vao.release()
+            inst.release()
+            coarse.release()
 
-_ENGINE: RasterLevels | None = None
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
 
 
 def engine() -> RasterLevels:
-    global _ENGINE
-    if _ENGINE is None:
-        _ENGINE = RasterLevels()
-    return _ENGINE
+    """The process's :class:`RasterLevels` (made on first use, with the GL context)."""
+    return shared(RasterLevels)

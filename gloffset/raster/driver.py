@@ -16,8 +16,7 @@ them into one class array per level (:func:`classify`, dense, with the ``callbac
 (float64 numpy, every level), or the classifier down to a hand-off level and a GL
 backend (:mod:`gloffset.gl`) below it (:func:`run`).
 
-Class codes: :data:`OUTSIDE`, :data:`FRONTIER`, :data:`CONTAINED` (the shaders use the
-same numbers).
+Class codes: :data:`OUTSIDE`, :data:`FRONTIER`, :data:`CONTAINED` (:mod:`gloffset.classes`).
 """
 
 from __future__ import annotations
@@ -28,6 +27,8 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
+
+from ..classes import CONTAINED, FRONTIER, OUTSIDE
 
 __all__ = [
     "OUTSIDE",
@@ -42,8 +43,6 @@ __all__ = [
     "pooled",
     "upsample",
 ]
-
-OUTSIDE, FRONTIER, CONTAINED = 0, 1, 2
 
 
 @dataclass

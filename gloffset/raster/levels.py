@@ -38,9 +38,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..caps import CAP_SLACK, arc_cap, cap_range, cap_within, pad
+from ..classes import CONTAINED, FRONTIER, OUTSIDE
 from ..edges import CurveArcs, component_status, status_bits
 from ..sphere import angle, arc_distance, arcs_cross
-from .driver import CONTAINED, FRONTIER, OUTSIDE
 
 __all__ = [
     "CurveArcs",

@@ -63,7 +63,7 @@ def _render_one(shape, d, grid, *, backend, level, callback, mask):
     if backend == "cpu" or stop <= bins:
         classes = driver.run(CurveCells(shape, d, grid), stop, callback=callback)
         return _MASK[classes] if mask else classes
-    from ..gl.engine import engine
+    from .gpu import engine
 
     cells = CurveCells(shape, d, grid, start="auto")
 

@@ -32,7 +32,7 @@ are refined in float64 down to their bins (zoom ``z + P - 4``; these levels are
 kept from zoom to zoom, so each zoom adds one, :class:`_BinChain`), and the GPU levels
 (:class:`gloffset.gl.engine.GpuLevels`) classify the frontier bins of up to
 ``(max_block / size)^2`` tiles at once, packed into one small canvas
-(:class:`~gloffset.gl.engine.BinLayout`); every other pixel of a tile is its bin's
+(:class:`~gloffset.raster.layout.BinLayout`); every other pixel of a tile is its bin's
 class. So the cost per tile is that of its frontier bins, not a render call. The
 answer is that of :func:`gloffset.render` on the tile's :class:`~gloffset.grids.Tile`
 grid: same pixel centres, same decision rules and precision.
@@ -61,7 +61,6 @@ import numpy as np
 
 from .._version import __version__
 from ..errors import TilesError
-from ..gl.engine import BinLayout
 from ..grids.mercator import MAX_ZOOM, TilePyramid, check_tile_size, lat_at
 from ..io.tilestore import open_store
 from ..shape import read
@@ -69,6 +68,7 @@ from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
 from . import driver
 from .curves import CurveCells
 from .driver import CONTAINED, FRONTIER, NOT_FORCED, OUTSIDE, Level
+from .layout import BinLayout
 from .levels import subset
 from .tilepaint import OutlineArcs, TileStyle
 
@@ -778,7 +778,7 @@ class _BinChain:
         """The tiles ``which`` (indices into the chain's tiles) down to their bins.
 
         Returns the bin-level classes of each tile ((n, 2^nb, 2^nb), every decided cell
-        painted), the :class:`~gloffset.gl.engine.BinLayout` of the frontier bins
+        painted), the :class:`~gloffset.raster.layout.BinLayout` of the frontier bins
         (``ns`` GPU levels below them), their :class:`~gloffset.raster.levels.Frontier`,
         and each frontier bin's tile (position in ``which``) and place in it."""
         nb = self.nb
@@ -823,7 +823,7 @@ def _render_tiles(chain, which, size, max_block, stats):
     ``(index, mask)``: the GPU levels classify the frontier bins of up to
     ``(max_block / size)^2`` tiles per run, packed into one small canvas; every other
     pixel of a tile is its bin's class."""
-    from ..gl.engine import engine
+    from .gpu import engine
 
     plog = size.bit_length() - 1
     ns = plog - chain.nb  # GPU levels: a bin is 2^ns pixels on a side

@@ -1,6 +1,6 @@
 // Tests of one point p = c + delta against one arc a -> b of a bin with centre c.
 // The arc comes as a record of six float32 texels computed in float64 on the CPU
-// relative to c (gloffset/gl/engine.py, records), e = |d| the offset distance:
+// relative to c (gloffset/raster/records.py, records), e = |d| the offset distance:
 //   t0 = (D, flags + 8 * local component id, h, -h - sin e)
 //        D <= distance from c to the arc (by its bounding cap, rounded down), h = c.n
 //   t1 = (n, h - sin e)        n = unit normal of a x b (zero for a point)

@@ -1,0 +1,144 @@
+"""The GPU levels of a render, planner side: pack the frontier bins, then run the GL passes.
+
+Below the bin level the classes of the frontier bins come from the GL passes of
+:mod:`gloffset.gl.engine`. This module makes what they draw, in float64 on the CPU: the
+canvas of the bins (:class:`~gloffset.raster.layout.BinLayout`), their arc records
+(:func:`gloffset.raster.records.records`), the margins and the geometry of every level,
+handed over as one :class:`~gloffset.gl.engine.BinPlan` (:func:`bin_plan`); and it spreads
+the canvas read back over the whole level (:meth:`BinLevels.run`): every cell outside the
+frontier bins is its bin's class.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..edges import CurveArcs
+from ..gl.engine import BinPlan
+from ..gl.engine import engine as gl_engine
+from .layout import BinLayout
+from .levels import Frontier
+from .records import margins, records
+
+__all__ = ["BinLevels", "bin_plan", "engine"]
+
+
+def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs) -> BinPlan:
+    """What the GL passes draw for the frontier bins ``f`` placed by ``layout``, at the
+    signed distance ``d``: their records and every level's margins and geometry."""
+    e = abs(d)
+    rec, first, bits, hdr, cfirst, ccount = records(f, arcs, e)
+    counts = np.bincount(f.pair_cell, minlength=len(f.cells)).astype(np.uint32)
+    shifts = range(1, layout.stop + 1)
+    rho = layout.rho
+    plan = BinPlan(
+        canvas=layout.canvas(),
+        pos=layout.pos(),
+        geo=layout.geo,
+        last=layout.last,
+        stop=layout.stop,
+        e=e,
+        positive=d >= 0,
+        records=rec,
+        first=first,
+        counts=counts,
+        bits=bits,
+        clusters=hdr,
+        first_cluster=cfirst,
+        n_clusters=ccount,
+        margins={s: margins(rho[s].ravel(), e).reshape(len(rho[s]), -1, 4) for s in shifts},
+        rho_max={s: 0.0 if s == layout.last else float(rho[s].max()) for s in shifts},
+    )
+    if layout.basis is not None:
+        plan.basis, plan.face_size = layout.basis, layout.face_size
+    else:
+        lat, lon = layout.lat, layout.lon
+        plan.bin_lat = np.stack([np.cos(lat), np.sin(lat)], axis=-1).astype(np.float32)[None]
+        plan.bin_lon = np.stack([np.cos(lon), np.sin(lon)], axis=-1).astype(np.float32)[None]
+        plan.dphi = {s: layout.dphi[s].astype(np.float32) for s in shifts}
+        plan.dlam = {s: layout.dlam[s].astype(np.float32) for s in shifts}
+    return plan
+
+
+class BinLevels:
+    """Runs the levels below the bin level on the GPU (lon/lat grids, cube faces, tiles):
+    plans each run (:func:`bin_plan`) and hands it to the GL passes ``passes`` (default:
+    the process's :class:`~gloffset.gl.engine.GpuLevels`)."""
+
+    def __init__(self, passes=None):
+        self.passes = gl_engine() if passes is None else passes
+
+    def run(
+        self,
+        grid,
+        d: float,
+        classes: np.ndarray,
+        f: Frontier,
+        arcs: CurveArcs,
+        *,
+        stop_level: int,
+        callback=None,
+        timings: list | None = None,
+        values: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Classes of ``stop_level`` from the bin level's ``classes`` and frontier ``f``.
+
+        Only the frontier bins go through the GPU, packed into a small canvas; every other
+        cell of the level is its bin's class, filled in here. ``values`` (uint8, indexed
+        by class) gives ``values[classes]`` instead, made before the cells are spread out
+        (a mask costs no pass over the whole image)."""
+        layout = BinLayout.of_grid(grid, f, stop_level)
+        bl = f.level
+        hb, wb = classes.shape
+
+        def full(s, packed, lut=None):
+            """The whole level: bins' classes, with the frontier bins from ``packed``
+            (mapped through ``lut`` first, on the small arrays)."""
+            b = 1 << s
+            h, w = grid.level_shape(bl + s)
+            src, blocks = classes, layout.blocks(packed)
+            if lut is not None:
+                src, blocks = lut[src], lut[blocks]
+            # columns spread on the small array, then whole rows copied b times
+            out = np.empty((hb * b, wb * b), dtype=np.uint8)
+            out.reshape(hb, b, wb * b)[...] = np.repeat(src, b, axis=1)[:, None, :]
+            view = out.reshape(hb, b, wb, b).transpose(0, 2, 1, 3)
+            view[f.cells[:, 0], f.cells[:, 1]] = blocks
+            return out[:h, :w]
+
+        def cb(s, packed):
+            callback(bl + s, full(s, packed))
+
+        t = None if timings is None else []
+        packed = self.run_layout(
+            layout, d, f, arcs, callback=cb if callback is not None else None, timings=t
+        )
+        if timings is not None:
+            timings += [(bl + s, tt) for s, tt in t]
+        return full(layout.stop, packed, values)
+
+    def run_layout(
+        self,
+        layout: BinLayout,
+        d: float,
+        f: Frontier,
+        arcs: CurveArcs,
+        *,
+        callback=None,
+        timings: list | None = None,
+    ) -> np.ndarray:
+        """Classes of the canvas at shift ``layout.stop`` (:meth:`BinLayout.blocks` cuts
+        out each bin); ``callback(s, classes)`` after each pass."""
+        if len(layout.geo) == 0:  # nothing undecided
+            hb, wb = layout.canvas().shape
+            for s in range(1, layout.stop + 1) if callback is not None else ():
+                callback(s, np.zeros((hb << s, wb << s), dtype=np.uint8))
+            return np.zeros((hb << layout.stop, wb << layout.stop), dtype=np.uint8)
+        plan = bin_plan(layout, d, f, arcs)
+        return self.passes.run(plan, callback=callback, timings=timings)
+
+
+def engine() -> BinLevels:
+    """The GPU levels of renders, on the process's GL passes (made on first use, with the
+    GL context: call it before the CPU levels so that a missing context fails first)."""
+    return BinLevels()
