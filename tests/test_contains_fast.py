@@ -57,6 +57,7 @@ def assert_matches_reference(shape, lon, lat, d, **kw):
     return got
 
 
+@pytest.mark.slow  # 7-25 s on 2 cores: run by .ci/run with -m slow
 def test_every_country_inside_outside(world):
     """d = 0: random points on the globe and points 1e-9 rad either side of the borders."""
     for name, feat in world.items():

@@ -381,6 +381,7 @@ def test_neighbours_against_shapely_union(countries, names):
     assert ours.n_vertices < sum(gloffset.read(f).n_vertices for f in feats)
 
 
+@pytest.mark.slow  # 7-25 s on 2 cores: run by .ci/run with -m slow
 def test_neighbours_pyramid_against_shapely_union(countries, tmp_path):
     """A tile pyramid of South Africa with Lesotho (its enclave): every tile of z3-z5 over
     them holds exactly the union's pixels."""

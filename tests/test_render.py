@@ -219,7 +219,7 @@ def test_bin_centre_on_an_edge_great_circle():
     "what, d, size",
     [
         ("Fiji", 0.1, (1024, 512)),  # across the antimeridian
-        ("Antarctica", 0.06, (1024, 512)),  # round the pole
+        pytest.param("Antarctica", 0.06, (1024, 512), marks=pytest.mark.slow),  # round the pole
         (SQUARE_WITH_HOLE, -0.07, (800, 400)),
         (LINES, 0.05, (1024, 512)),
     ],

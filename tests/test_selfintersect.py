@@ -410,6 +410,7 @@ def test_cli_resolves_by_default(tmp_path):
 # ----------------------------------------------------------------------------- real data
 
 
+@pytest.mark.slow  # 7-25 s on 2 cores: run by .ci/run with -m slow
 def test_world_countries(world):
     """Every Natural Earth 110m country at an outward and an inward distance; the
     antimeridian (Fiji, Russia) and the pole (Antarctica) included."""
@@ -425,6 +426,7 @@ def test_world_countries(world):
             check(gloffset.read(world[name]), d, n=1000)
 
 
+@pytest.mark.slow  # 7-25 s on 2 cores: run by .ci/run with -m slow
 def test_mexico_10m(mexico_path):
     shape = gloffset.read(mexico_path)
     for d in (0.02, -0.005, 1e-4):
