@@ -42,7 +42,7 @@ WORKLOADS = {
         "g.tiles.pyramid(mexico, 0.02 * 6371008.8, '0-8', tmp(), overwrite=True)"
     ),
     "offset+resolve mexico": "g.offset(mexico, 0.02, radius=1.0).resolve()",
-    "contains mexico 1e6 points": "g.contains(mexico, lon, lat, 0.02, radius=1.0)",
+    "contains mexico 1e6 points": "g.contains(mexico, lon, lat, distance=0.02, radius=1.0)",
 }
 
 SETUP = """
