@@ -479,3 +479,67 @@ def test_pyramid_tiles_equal_render_for_other_tile_sizes(tmp_path, size):
     for (z, x, y), png in tiles.items():
         want = gloffset.render(SQUARE, 300e3, Tile(z, x, y, size)) > 0
         assert np.array_equal(alpha(png) > 0, want), (z, x, y)
+
+
+def test_pmtiles_archive_holds_the_mbtiles_tiles_and_resumes(tmp_path):
+    """A PMTiles archive reads back (the pmtiles reader) tile by tile equal to the MBTiles
+    of the same pyramid, with the header's type, zooms, bounds and centre right and each
+    distinct image stored once; an interrupted run resumes to the identical archive."""
+    pytest.importorskip("pmtiles")
+    from pmtiles.reader import MmapSource, Reader
+    from pmtiles.tile import TileType
+
+    from gloffset.io.pmtiles import read_pmtiles
+
+    kw = dict(size=SIZE, outline="#202020", name="square")
+    pyramid(SQUARE, 1500e3, "0-4", tmp_path / "a.mbtiles", **kw)
+    whole = tmp_path / "a.pmtiles"
+    events = []
+    full = pyramid(SQUARE, 1500e3, "0-4", whole, progress=events.append, **kw)
+    tiles_mb, meta_mb = read_mbtiles(tmp_path / "a.mbtiles")
+    meta, tiles = read_pmtiles(whole)
+    assert tiles == tiles_mb and len(tiles) == full.written
+    assert meta["gloffset"] == meta_mb["gloffset"] and meta["format"] == "png"
+    with open(whole, "rb") as f:
+        header = Reader(MmapSource(f)).header()
+    assert header["tile_type"] == TileType.PNG
+    assert (header["min_zoom"], header["max_zoom"]) == (0, 4)
+    assert header["addressed_tiles_count"] == len(tiles)
+    assert header["tile_contents_count"] == len(set(tiles.values())) < len(tiles)
+    w, s, e, n = (float(v) for v in meta_mb["bounds"].split(","))
+    got = [header[k] / 1e7 for k in ("min_lon_e7", "min_lat_e7", "max_lon_e7", "max_lat_e7")]
+    assert got[0] <= w and got[1] <= s and got[2] >= e and got[3] >= n
+    assert np.allclose(got, [w, s, e, n], atol=2e-7)
+    lon, lat, cz = (float(v) for v in meta_mb["center"].split(","))
+    assert header["center_zoom"] == int(cz)
+    assert abs(header["center_lon_e7"] / 1e7 - lon) < 1e-7
+
+    # interrupted: no archive yet, the staged tiles wait beside it; resume finishes it
+    part = tmp_path / "b.pmtiles"
+
+    def stop_after(p):
+        if p.done >= full.written // 2:
+            raise Stop
+
+    with pytest.raises(Stop):
+        pyramid(SQUARE, 1500e3, "0-4", part, progress=stop_after, **kw)
+    assert not part.exists() and (tmp_path / "b.pmtiles.partial.mbtiles").exists()
+    with pytest.raises(gloffset.GloffsetError, match="exists"):
+        pyramid(SQUARE, 1500e3, "0-4", part, **kw)
+    st = pyramid(SQUARE, 1500e3, "0-4", part, resume=True, **kw)
+    assert st.present > 0
+    assert part.read_bytes() == whole.read_bytes()
+    assert not (tmp_path / "b.pmtiles.partial.mbtiles").exists()
+    # resuming a finished archive changes nothing
+    pyramid(SQUARE, 1500e3, "0-4", part, resume=True, **kw)
+    assert part.read_bytes() == whole.read_bytes()
+    # the command line writes it too
+    out = tmp_path / "c.pmtiles"
+    src = tmp_path / "sq.geojson"
+    src.write_text(json.dumps(SQUARE))
+    r = CliRunner().invoke(
+        main, ["tiles", str(src), "-d", "1500km", "-z", "0-2", "-o", str(out), "--tile-size", "64"]
+    )
+    assert r.exit_code == 0, r.output
+    pyramid(SQUARE, 1500e3, "0-2", tmp_path / "c.mbtiles", size=SIZE)
+    assert read_pmtiles(out)[1] == read_mbtiles(tmp_path / "c.mbtiles")[0]

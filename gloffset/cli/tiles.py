@@ -25,7 +25,8 @@ from .options import angle, distance_option, radius_option
     "-o",
     "--output",
     required=True,
-    help="OUT.mbtiles (MBTiles 1.3) or a directory for z/x/y.png tiles.",
+    help="OUT.mbtiles (MBTiles 1.3), OUT.pmtiles (PMTiles v3, needs the pmtiles package) "
+    "or a directory for z/x/y.png tiles.",
 )
 @click.option("--fill", default="#3070c0", show_default=True, help="Colour of the region.")
 @click.option(
@@ -62,7 +63,9 @@ def tiles_cmd(
     outside the region are skipped, tiles fully inside share one image and are not
     rendered, only tiles on the region's edge are rendered."""
     angle(distance, radius)  # fail before reading the input
-    refuse_stdout(output, "a tile pyramid is an .mbtiles file or a folder of z/x/y.png tiles")
+    refuse_stdout(
+        output, "a tile pyramid is an .mbtiles or .pmtiles file or a folder of z/x/y.png tiles"
+    )
     parse_zooms(zooms)
     TileStyle(fill, opacity, outline, outline_width)
     if resume and force:

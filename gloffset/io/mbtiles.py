@@ -164,6 +164,10 @@ class MBTilesWriter:
         self.db.execute("BEGIN")
         self._pending = 0
 
+    def finish(self) -> None:
+        """The pyramid is complete: make everything durable."""
+        self.commit()
+
     def close(self) -> None:
         """Commit and close (also after an error: what was stored stays valid)."""
         if self.db is not None:

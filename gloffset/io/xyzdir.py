@@ -155,6 +155,10 @@ class XYZDirWriter:
     def commit(self) -> None:
         """Files are complete as soon as they are written: nothing to do."""
 
+    def finish(self) -> None:
+        """The pyramid is complete: make everything durable."""
+        self.commit()
+
     def close(self) -> None:
         """Nothing is held open."""
 

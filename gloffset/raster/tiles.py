@@ -481,8 +481,9 @@ def pyramid(
     zooms : str, int or (int, int)
         Zoom range, e.g. ``"0-14"`` (at most 0..22).
     out : str, Path or a tile store
-        A path ending in ``.mbtiles`` (MBTiles 1.3, TMS rows) or a directory
-        (``z/x/y.png``); or a writer from :func:`gloffset.io.tilestore.open_store`.
+        A path ending in ``.mbtiles`` (MBTiles 1.3, TMS rows), ``.pmtiles`` (PMTiles v3;
+        needs the ``pmtiles`` package) or a directory (``z/x/y.png``); or a writer from
+        :func:`gloffset.io.tilestore.open_store`.
     size : int
         Tile side in pixels, a power of two from 16 to 4096.
     fill, opacity, outline, outline_width
@@ -559,6 +560,7 @@ def pyramid(
                 )
         _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, stats)
         store.set_metadata(_final_bounds(store, (zlo, zhi)))
+        store.finish()
     finally:
         store.close()
     stats.seconds = time.perf_counter() - t0
