@@ -71,14 +71,14 @@ TASKS = {
         False,
     ),
     "planar_shapely_buffer_rasterio": (
-        """
+        f"""
 import shapely
 from rasterio.features import rasterize
 from rasterio.transform import from_bounds
 geom = shapely.from_geojson(json.dumps(shape.to_geojson()))
-buf = shapely.buffer(geom, float(np.degrees({d})))
+buf = shapely.buffer(geom, float(np.degrees({D})))
 rasterize([buf], out_shape=(2048, 4096), transform=from_bounds(-180, -90, 180, 90, 4096, 2048))
-""".format(d=D),
+""",
         False,
     ),
 }
