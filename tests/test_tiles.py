@@ -543,3 +543,35 @@ def test_pmtiles_archive_holds_the_mbtiles_tiles_and_resumes(tmp_path):
     assert r.exit_code == 0, r.output
     pyramid(SQUARE, 1500e3, "0-2", tmp_path / "c.mbtiles", size=SIZE)
     assert read_pmtiles(out)[1] == read_mbtiles(tmp_path / "c.mbtiles")[0]
+
+
+@pytest.mark.slow  # starts a Dask cluster of two worker processes (about 20 s)
+def test_pyramid_on_two_dask_workers_is_byte_identical(tmp_path):
+    """A pyramid made by two worker processes (a LocalCluster) equals, byte for byte, the
+    one made in one process, in MBTiles and PMTiles, with an outline (tiles kept for it
+    cross the split); interrupted while the workers run, it resumes to the same."""
+    pytest.importorskip("distributed")
+    pytest.importorskip("pmtiles")
+    from gloffset.io.pmtiles import read_pmtiles
+
+    kw = dict(size=SIZE, outline="#202020", name="square")
+    one = pyramid(SQUARE, 1500e3, "0-6", tmp_path / "one.mbtiles", **kw)
+    two = pyramid(SQUARE, 1500e3, "0-6", tmp_path / "two.mbtiles", workers=2, **kw)
+    assert read_mbtiles(tmp_path / "one.mbtiles") == read_mbtiles(tmp_path / "two.mbtiles")
+    assert two.written == one.written and two.rendered == one.rendered
+    pyramid(SQUARE, 1500e3, "0-6", tmp_path / "one.pmtiles", **kw)
+    pyramid(SQUARE, 1500e3, "0-6", tmp_path / "two.pmtiles", workers=2, **kw)
+    assert (tmp_path / "one.pmtiles").read_bytes() == (tmp_path / "two.pmtiles").read_bytes()
+    assert read_pmtiles(tmp_path / "two.pmtiles")[1] == read_mbtiles(tmp_path / "one.mbtiles")[0]
+
+    part = tmp_path / "part.mbtiles"
+
+    def stop_late(p):
+        if p.done >= one.written * 3 // 4:
+            raise Stop
+
+    with pytest.raises(Stop):
+        pyramid(SQUARE, 1500e3, "0-6", part, workers=2, progress=stop_late, **kw)
+    assert 0 < len(read_mbtiles(part)[0]) < one.written
+    pyramid(SQUARE, 1500e3, "0-6", part, resume=True, workers=2, **kw)
+    assert read_mbtiles(part) == read_mbtiles(tmp_path / "one.mbtiles")

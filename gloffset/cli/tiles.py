@@ -44,6 +44,16 @@ from .options import angle, distance_option, radius_option
 @click.option("--name", default=None, help="Tileset name (default: the output's name).")
 @click.option("--resume", is_flag=True, help="Complete an interrupted run (same options).")
 @click.option("--force", is_flag=True, help="Replace an existing output.")
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Render on a local Dask cluster of N worker processes (pip install 'gloffset[dask]'); "
+    "the output is the same as with one process.",
+)
+@click.option(
+    "--scheduler", default=None, help="Render on a running Dask cluster (its scheduler address)."
+)
 def tiles_cmd(
     input,
     distance,
@@ -58,6 +68,8 @@ def tiles_cmd(
     name,
     resume,
     force,
+    workers,
+    scheduler,
 ):
     """Write the tile pyramid of the region within DIST of the curves of INPUT: tiles
     outside the region are skipped, tiles fully inside share one image and are not
@@ -114,6 +126,8 @@ def tiles_cmd(
             name=name,
             source="stdin" if input == "-" else Path(input).stem,
             progress=progress if bar is not None else None,
+            workers=workers,
+            scheduler=scheduler,
         )
     finally:
         if bar is not None:

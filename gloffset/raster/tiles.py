@@ -468,6 +468,8 @@ def pyramid(
     source: str | None = None,
     progress=None,
     max_block: int = MAX_BLOCK,
+    workers: int | None = None,
+    scheduler: str | None = None,
 ) -> PyramidStats:
     """Write the web-mercator tile pyramid of the offset region of ``shape``.
 
@@ -506,6 +508,14 @@ def pyramid(
         batch of tiles handled, and at the end (``done == total``, ``eta == 0``).
     max_block : int
         Frontier tiles per GPU run: at most ``(max_block / size)^2``.
+    workers : int, optional
+        Render on a Dask ``LocalCluster`` of this many worker processes (extra ``dask``):
+        the pyramid is split at a coarse zoom into the sub-pyramids of its frontier
+        tiles, largest first; each worker makes its own GL context; the tiles stream
+        back to this process, which writes them. The output is byte-identical to a
+        run in one process.
+    scheduler : str, optional
+        The address of a running Dask scheduler to use instead of a local cluster.
 
     Returns
     -------
@@ -558,7 +568,30 @@ def pyramid(
                     f"cannot resume {str(getattr(store, 'path', out))!r}: it was written with "
                     f"other options ({have}); use --force to start again"
                 )
-        _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, stats)
+        have = store.existing() if resume else set()
+        if workers is None and scheduler is None:
+            run_pyramid(shape, d, zlo, zhi, size, style, store, have, progress, max_block, stats)
+        else:
+            from .distributed import run_distributed
+
+            job = (shape, d, zlo, zhi, size, style, max_block)
+
+            def split(first, count, last):
+                part = Part(split=(first, count, last))
+                args = (store, have, progress, max_block, stats)
+                return run_pyramid(shape, d, zlo, zhi, size, style, *args, part=part)
+
+            run_distributed(
+                job,
+                store,
+                have,
+                progress,
+                stats,
+                run=split,
+                task=subpyramid,
+                workers=workers,
+                scheduler=scheduler,
+            )
         store.set_metadata(_final_bounds(store, (zlo, zhi)))
         store.finish()
     finally:
@@ -580,19 +613,84 @@ def _subtree(x, y, z, zfrom, zto, chunk=65536):
             yield zz, xx.ravel(), yy.ravel()
 
 
-def _run(shape, d, zlo, zhi, size, style, store, resume, progress, max_block, stats):
+def run_pyramid(
+    shape, d, zlo, zhi, size, style, store, have, progress, max_block, stats, *, part=None
+):
+    """Write the pyramid's tiles into ``store`` (skipping ``have``); see :class:`Part`
+    for a run that stops at a zoom (the roots of the tasks below it are returned) or
+    writes one tile's subtree only."""
     plog = size.bit_length() - 1
     levels = TilePyramid(zhi + plog)  # down to the pixels of the deepest tiles
     cells = CurveCells(shape, d, levels)
-    have = store.existing() if resume else set()
     chain = _BinChain(cells, max(0, plog - _BIN_LOG2))
     track = _Tracker(zlo, zhi, progress)
     job = _Zoom(cells, style, store, have, size, stats, track)
+    roots = []
     for lev in driver.walk(cells, zhi):
         if len(lev.cells) == 0:
             break
+        if part is not None and part.root is not None and lev.level <= part.root[0]:
+            job.follow(lev, part.root, chain, zlo)
+            continue
         job.run(lev, chain, (zlo, zhi), max_block)
+        if part is not None and part.split_at(lev):
+            roots = [(lev.level, int(x), int(y)) for y, x in lev.cells[lev.keep]]
+            if not roots:
+                track.finish()
+            return list(zip(roots, (int(c) for c in lev.forced))), track
     track.finish()
+    return [], track
+
+
+@dataclass
+class Part:
+    """A part of a pyramid run: ``split`` (the run stops after the first zoom ``z``
+    from ``split[0]`` on where at least ``split[1]`` tiles are kept, or at ``split[2]``,
+    and returns those tiles: the roots of the tasks below) or ``root`` (``(z, x, y)``:
+    only that tile's descendants are written; the zooms down to it follow its ancestors
+    and write nothing). Every tile's pixels are those of the whole run: a tile's
+    candidate arcs and classes depend on its ancestors only."""
+
+    split: tuple[int, int, int] | None = None
+    root: tuple[int, int, int] | None = None
+
+    def split_at(self, lev: Level) -> bool:
+        if self.split is None:
+            return False
+        first, count, last = self.split
+        kept = 0 if lev.keep is None else len(lev.keep)
+        return lev.level >= last or (lev.level >= first and kept >= count)
+
+
+class MemoryStore:
+    """A tile store that keeps the tiles of a task: ``groups`` maps each distinct image
+    (its bytes) to the XYZ tiles that have it."""
+
+    def __init__(self):
+        self.groups: dict[bytes, list] = {}
+
+    def existing(self) -> set:
+        return set()
+
+    def put(self, z: int, x: int, y: int, data: bytes) -> None:
+        self.put_many([(z, x, y)], data)
+
+    def put_many(self, tiles, data: bytes) -> None:
+        self.groups.setdefault(data, []).extend((int(z), int(x), int(y)) for z, x, y in tiles)
+
+    def commit(self) -> None:
+        pass
+
+
+def subpyramid(job, root, have) -> tuple[list, PyramidStats]:
+    """The tiles below ``root`` (``(z, x, y)``) of the pyramid ``job``, as ``[(tiles,
+    image)]``, and the task's counts; ``have``: tiles to skip (a resumed output's)."""
+    shape, d, zlo, zhi, size, style, max_block = job
+    store = MemoryStore()
+    stats = PyramidStats()
+    part = Part(root=root)
+    run_pyramid(shape, d, zlo, zhi, size, style, store, have, None, max_block, stats, part=part)
+    return [(tiles, data) for data, tiles in store.groups.items()], stats
 
 
 class _Zoom:
@@ -653,6 +751,20 @@ class _Zoom:
             self.store.commit()
         lev.keep = np.flatnonzero((cls == FRONTIER) | carry)
         lev.forced = np.where(carry, cls, NOT_FORCED).astype(np.uint8)[lev.keep]
+
+    def follow(self, lev: Level, root, chain, zlo: int):
+        """A zoom above ``root`` (or at it) in a run of its subtree: keep its ancestor
+        (or itself) as the whole run would, write nothing."""
+        zr, xr, yr = root
+        z, cls, sh = lev.level, lev.cls, zr - lev.level
+        i = np.flatnonzero((lev.cells[:, 0] == yr >> sh) & (lev.cells[:, 1] == xr >> sh))
+        r = self.cells.grid.decision_rho(z, lev.cells[i, 0])
+        carry = (cls[i] != FRONTIER) & (lev.measure[i] <= r) & (self.outline is not None)
+        kept = (cls[i] == FRONTIER) | carry
+        lev.keep = i[kept]
+        lev.forced = np.where(carry, cls[i], NOT_FORCED).astype(np.uint8)[kept]
+        if z == zr and z >= zlo - 1:
+            chain.advance(subset(lev.state, i[cls[i] == FRONTIER]))
 
     def inside(self, lev: Level, cont, zlo: int, zhi: int):
         """Fully inside: the tiles ``cont`` and all their descendants, one shared image."""
