@@ -5,14 +5,15 @@ The pyramid is walked in this process down to a coarse zoom: the first zoom from
 ``max(zmin, 2)`` on where at least eight tiles per worker are kept (frontier tiles, and
 tiles an outline crosses), or the zoom before the deepest. Everything down to that zoom
 is written here as in a single-process run. Each kept tile of that zoom is the root of a
-task, :func:`subpyramid`: a worker walks the levels again (following the root's
-ancestors only, so its candidate arcs and classes are those of the whole run: they
-depend on a tile's ancestors only), renders the root's descendants down to the deepest
-zoom and returns their PNG bytes, each distinct image once. Tasks are submitted frontier
-tiles first (tiles kept only for an outline are cheap) and their tiles are written as
-they come back, so the output is byte-identical to a run in one process
-(MBTiles rows, XYZ files and PMTiles archives do not depend on the order of writes) and
-an interrupted run resumes like any other: a task skips the tiles the output has.
+task, :func:`~gloffset.raster.tiles.subpyramid`: a worker starts from the root's cell as
+the split classified it (its candidate arcs, inside statuses and class: what the whole
+run has for it, since a cell's lists and classes depend on its ancestors only), renders
+the root's descendants down to the deepest zoom and returns their PNG bytes, each
+distinct image once. Tasks are submitted frontier tiles first (tiles kept only for an
+outline are cheap) and their tiles are written as they come back, so the output is
+byte-identical to a run in one process (MBTiles rows, XYZ files and PMTiles archives do not
+depend on the order of writes) and an interrupted run resumes like any other: a task
+skips the tiles the output has.
 
 Workers are processes started with spawn (Dask's default: a process must not fork once
 it has a GL context); each makes its one GL context lazily, on its first frontier tile.
@@ -56,7 +57,9 @@ def run_distributed(job, store, have, progress, stats, *, run, task, workers=Non
 
     ``run(split, first, count, last)`` writes the zooms down to the split (see
     :class:`gloffset.raster.tiles.Part`) and returns the roots and the progress tracker;
-    ``task(job, root, have)`` (importable by the workers) renders one root's subtree.
+    ``task(job, root, have, start)`` (importable by the workers) renders one root's
+    subtree from ``start``, the root's level as the split classified it (so no worker
+    walks the coarse zooms again).
     """
     zlo, zhi = job[2], job[3]
     if workers is not None and not (isinstance(workers, (int, np.integer)) and workers >= 1):
@@ -74,8 +77,8 @@ def run_distributed(job, store, have, progress, stats, *, run, task, workers=Non
 
         job_f = client.scatter(job, broadcast=True)
         futures = [
-            client.submit(task, job_f, root, _in_subtree(have, root), pure=False)
-            for root, _ in roots
+            client.submit(task, job_f, root, _in_subtree(have, root), start, pure=False)
+            for root, _, start in roots
         ]
         for fut in as_completed(futures):
             groups, part = fut.result()

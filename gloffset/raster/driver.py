@@ -97,11 +97,12 @@ class Classifier(Protocol):
         ...
 
 
-def walk(classifier: Classifier, stop: int) -> Iterator[Level]:
-    """The levels from the classifier's first down to ``stop``, one :class:`Level` each
-    (sparse: only the cells classified at that level). Set ``keep`` / ``forced`` on a
-    yielded level to choose the cells refined next."""
-    lev = classifier.enter(stop)
+def walk(classifier: Classifier, stop: int, *, start: Level | None = None) -> Iterator[Level]:
+    """The levels from the classifier's first (or from ``start``, a level classified
+    before, e.g. in another process) down to ``stop``, one :class:`Level` each (sparse:
+    only the cells classified at that level). Set ``keep`` / ``forced`` on a yielded
+    level to choose the cells refined next."""
+    lev = classifier.enter(stop) if start is None else start
     yield lev
     while lev.level < stop:
         lev = classifier.refine(lev)

@@ -626,7 +626,8 @@ def run_pyramid(
     track = _Tracker(zlo, zhi, progress)
     job = _Zoom(cells, style, store, have, size, stats, track)
     roots = []
-    for lev in driver.walk(cells, zhi):
+    start = None if part is None else part.start
+    for lev in driver.walk(cells, zhi, start=start):
         if len(lev.cells) == 0:
             break
         if part is not None and part.root is not None and lev.level <= part.root[0]:
@@ -637,22 +638,33 @@ def run_pyramid(
             roots = [(lev.level, int(x), int(y)) for y, x in lev.cells[lev.keep]]
             if not roots:
                 track.finish()
-            return list(zip(roots, (int(c) for c in lev.forced))), track
+            starts = [_one(lev, i) for i in lev.keep]
+            return list(zip(roots, (int(c) for c in lev.forced), starts)), track
     track.finish()
     return [], track
+
+
+def _one(lev: Level, i: int) -> Level:
+    """Cell ``i`` of ``lev`` as a level of its own (what a task below it starts from)."""
+    sel = np.array([i])
+    m = None if lev.measure is None else lev.measure[sel]
+    return Level(lev.level, lev.cells[sel], lev.cls[sel], subset(lev.state, sel), measure=m)
 
 
 @dataclass
 class Part:
     """A part of a pyramid run: ``split`` (the run stops after the first zoom ``z``
     from ``split[0]`` on where at least ``split[1]`` tiles are kept, or at ``split[2]``,
-    and returns those tiles: the roots of the tasks below) or ``root`` (``(z, x, y)``:
-    only that tile's descendants are written; the zooms down to it follow its ancestors
-    and write nothing). Every tile's pixels are those of the whole run: a tile's
-    candidate arcs and classes depend on its ancestors only."""
+    and returns those tiles: the roots of the tasks below, each with its one-cell
+    :class:`~gloffset.raster.driver.Level`) or ``root`` (``(z, x, y)``: only that tile's
+    descendants are written; the walk starts from ``start``, the root's level, or
+    follows the root's ancestors from zoom 0 without writing). Every tile's pixels are
+    those of the whole run: a tile's candidate arcs and classes depend on its ancestors
+    only."""
 
     split: tuple[int, int, int] | None = None
     root: tuple[int, int, int] | None = None
+    start: Level | None = None  # the root's level as the split made it (no walk above it)
 
     def split_at(self, lev: Level) -> bool:
         if self.split is None:
@@ -682,13 +694,13 @@ class MemoryStore:
         pass
 
 
-def subpyramid(job, root, have) -> tuple[list, PyramidStats]:
+def subpyramid(job, root, have, start: Level | None = None) -> tuple[list, PyramidStats]:
     """The tiles below ``root`` (``(z, x, y)``) of the pyramid ``job``, as ``[(tiles,
     image)]``, and the task's counts; ``have``: tiles to skip (a resumed output's)."""
     shape, d, zlo, zhi, size, style, max_block = job
     store = MemoryStore()
     stats = PyramidStats()
-    part = Part(root=root)
+    part = Part(root=root, start=start)
     run_pyramid(shape, d, zlo, zhi, size, style, store, have, None, max_block, stats, part=part)
     return [(tiles, data) for data, tiles in store.groups.items()], stats
 
