@@ -11,9 +11,10 @@ import click
 import numpy as np
 
 from ..errors import InputFormatError, OptionError, OutputError
-from ..grids import FACE_NAMES, Cube, CubeFace, Equirect
+from ..grids import FACE_NAMES, Cube, CubeFace, Equirect, InvalidGridError
+from ..io.georef import Georef, read_geotiff
 from ..io.output import check_output, refuse_stdout
-from ..io.png import image_format, parse_color, read_mask, write_classes, write_mask
+from ..io.png import Placement, image_format, parse_color, read_mask, write_classes, write_mask
 from ..raster.rasterized import CONTAINED
 from ..raster.render import render as _render
 from ..shape import read
@@ -110,6 +111,17 @@ def _bounds(text: str | None) -> tuple:
     help="Write the classes of this level (contained black, frontier red, outside white).",
 )
 @click.option("--backend", type=click.Choice(["gpu", "cpu"]), default="gpu", show_default=True)
+@click.option(
+    "--cog",
+    is_flag=True,
+    help="With -o NAME.tif: a Cloud Optimized GeoTIFF (also chosen by NAME.cog.tif).",
+)
+@click.option(
+    "--no-worldfile",
+    "no_worldfile",
+    is_flag=True,
+    help="Write no world file (.pgw) and .prj beside a PNG.",
+)
 def render_cmd(
     input,
     distance,
@@ -124,11 +136,20 @@ def render_cmd(
     backend,
     from_raster,
     mask_only,
+    cog,
+    no_worldfile,
 ):
     """Render the region within DIST of the curves of INPUT as a PNG or TIFF (row 0 north),
     or as six cube-map faces px nx py ny pz nz that load straight into a GL or three.js
-    cube texture (sampled with the Earth-frame direction: x to 0N 0E, z to the north pole)."""
+    cube texture (sampled with the Earth-frame direction: x to 0N 0E, z to the north pole).
+
+    Equirect images are georeferenced (EPSG:4326): a .tif is a tiled, compressed GeoTIFF
+    (rasterio: pip install 'gloffset[geo]'), a .png gets a world file (.pgw, pixel centres)
+    and a .prj beside it."""
     d = angle(distance, radius)
+    cog = cog or str(output).lower().endswith((".cog.tif", ".cog.tiff"))
+    if cog and (grid_kind == "cube" or image_format(output) != "TIFF"):
+        raise OptionError("--cog needs an equirect image written to NAME.tif")
     if grid_kind == "cube":
         refuse_stdout(output, "--grid cube writes six images into a folder")
     else:  # fail before the work
@@ -146,7 +167,10 @@ def render_cmd(
                 f"--from-raster {from_raster!r} is a folder: add --grid cube to read the six "
                 "cube faces px.png nx.png py.png ny.png pz.png nz.png from it"
             )
-        return _from_raster(from_raster, d, bounds, output, classes_level, backend, mask_only)
+        place = (cog, not no_worldfile)
+        return _from_raster(
+            from_raster, d, bounds, output, classes_level, backend, mask_only, place
+        )
     if input is None:
         raise OptionError("give an INPUT file (or - for stdin), or --from-raster MASK.png")
     for colour in (fill, background):
@@ -192,29 +216,63 @@ def render_cmd(
         targets = [(folder / f"{name}.png", result[k]) for k, name in enumerate(FACE_NAMES)]
     else:
         targets = [(Path(output), result)]
+    place = None if grid_kind == "cube" else _placement(grid, cog, not no_worldfile, out)
+    if out == "classes" and place is not None and classes_level != grid.n_levels - 1:
+        place = None  # a coarser level's classes are not the grid's pixels
     for path, img in targets:
         if out == "classes":
-            write_classes(img, path)
+            write_classes(img, path, place=place)
         else:
-            write_mask(img, path, fill=fill, background=background)
+            write_mask(img, path, fill=fill, background=background, place=place)
     if show:
         click.echo("", err=True)
 
 
-def _from_raster(path, d, bounds, output, level, backend, mask_only):
+def _placement(grid, cog: bool, worldfile: bool, what: str) -> Placement:
+    """Where the equirect image of ``grid`` lies, for the writers."""
+    if what == "mask":
+        desc = "gloffset mask: 255 inside the region, 0 outside"
+    else:
+        desc = "gloffset classes: black contained, red frontier, white outside"
+    return Placement(Georef(grid.transform(), description=desc), cog=cog, worldfile=worldfile)
+
+
+def _grid_of_geotiff(path, bounds) -> tuple[np.ndarray, Equirect]:
+    """A GeoTIFF mask and the equirect grid of its own transform."""
+    if bounds is not None:
+        raise OptionError("--bounds does not apply to a GeoTIFF mask: it has its own transform")
+    band, ref = read_geotiff(path)
+    a, _, west, _, e, north = ref.transform
+    h, w = band.shape
+    east, south = west + a * w, north + e * h
+    east = east - 360.0 if east > 180.0 else east
+    try:
+        grid = Equirect(w, h, (west, max(south, -90.0), east, min(north, 90.0)))
+    except InvalidGridError as exc:
+        raise InputFormatError(f"{str(path)!r}: its transform is no lon/lat grid: {exc}") from None
+    return band >= 128, grid
+
+
+def _from_raster(path, d, bounds, output, level, backend, mask_only, place):
     from ..raster.rasterized import raster_offset
 
-    mask = read_mask(path)
-    grid = Equirect(mask.shape[1], mask.shape[0], _bounds(bounds))
-    classes = raster_offset(mask, d, grid, radius=1.0, backend=backend, level=level)
-    _write_raster_classes(classes, output, mask_only)
-
-
-def _write_raster_classes(classes, path, mask_only):
-    if mask_only:
-        write_mask(np.where(classes == CONTAINED, 255, 0).astype(np.uint8), path)
+    if str(path).lower().endswith((".tif", ".tiff")):
+        mask, grid = _grid_of_geotiff(path, bounds)
     else:
-        write_classes(classes, path)
+        mask = read_mask(path)
+        grid = Equirect(mask.shape[1], mask.shape[0], _bounds(bounds))
+    classes = raster_offset(mask, d, grid, radius=1.0, backend=backend, level=level)
+    at = None
+    if level is None or level == grid.n_levels - 1:
+        at = _placement(grid, place[0], place[1], "mask" if mask_only else "classes")
+    _write_raster_classes(classes, output, mask_only, at)
+
+
+def _write_raster_classes(classes, path, mask_only, place=None):
+    if mask_only:
+        write_mask(np.where(classes == CONTAINED, 255, 0).astype(np.uint8), path, place=place)
+    else:
+        write_classes(classes, path, place=place)
 
 
 def _out_folder(output) -> Path:

@@ -74,6 +74,14 @@ class Equirect(LonLatGrid):
         """Pixel height in radians of latitude."""
         return math.radians(self.bounds[3] - self.bounds[1]) / self.height
 
+    def transform(self) -> tuple:
+        """The affine transform of the image in GDAL order ``(a, b, c, d, e, f)``, lon/lat
+        degrees at pixel *edges* (``x = a col + c``, ``y = e row + f``): what GeoTIFFs and
+        rasterio use. Across 180 degrees the longitudes continue past 180 (west 170,
+        east 190): each pixel centre is :meth:`pixel_lonlat`'s modulo 360."""
+        west, south, _, north = self.bounds
+        return (self.span_lon / self.width, 0.0, west, 0.0, -(north - south) / self.height, north)
+
     def pixel_lonlat(self, i, j):
         """Centre (lon, lat) in degrees of pixel column ``i``, row ``j`` (fractional allowed)."""
         w, s, e, n = self.bounds

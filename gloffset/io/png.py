@@ -9,11 +9,13 @@ from __future__ import annotations
 import io
 import os
 import re
+from dataclasses import dataclass
 
 import numpy as np
 from PIL import Image, ImageColor, features
 
 from ..errors import InputFormatError, OptionError, OutputError
+from .georef import Georef, write_geotiff, write_world_files
 from .output import STDOUT, write_bytes
 
 __all__ = [
@@ -86,10 +88,17 @@ def image_format(target) -> str:
     raise OutputError(f"cannot write {name!r}: {why}")
 
 
-def _save(img: Image.Image, target) -> None:
+def _save(img: Image.Image, target, place=None) -> None:
     """Encode ``img`` in the format of ``target``'s name and write it (see
-    :mod:`gloffset.io.output`: atomic for files, through pipes and devices, ``-`` stdout)."""
+    :mod:`gloffset.io.output`: atomic for files, through pipes and devices, ``-`` stdout).
+
+    ``place``: a :class:`Placement` (where the image lies on the Earth). A TIFF is then a
+    GeoTIFF (a COG with ``place.cog``), and a PNG written to a file gets a world file and
+    a ``.prj`` beside it unless ``place.worldfile`` is False.
+    """
     fmt = image_format(target)
+    if fmt == "TIFF" and place is not None:
+        return write_geotiff(target, np.asarray(img), place.ref, cog=place.cog)
     buf = io.BytesIO()
     if fmt == "TIFF":
         compression = "tiff_adobe_deflate" if features.check("libtiff") else None
@@ -97,25 +106,44 @@ def _save(img: Image.Image, target) -> None:
     else:
         img.save(buf, format="PNG")
     write_bytes(target, buf.getvalue())
+    if place is not None and place.worldfile and fmt == "PNG" and _is_file_name(target):
+        write_world_files(target, place.ref)
 
 
-def write_mask(mask: np.ndarray, target, *, fill=None, background=None) -> None:
+@dataclass(frozen=True)
+class Placement:
+    """Where a written image lies (:class:`~gloffset.io.georef.Georef`) and how to say it:
+    ``cog`` (a Cloud Optimized GeoTIFF for ``.tif``), ``worldfile`` (beside a PNG)."""
+
+    ref: Georef
+    cog: bool = False
+    worldfile: bool = True
+
+
+def _is_file_name(target) -> bool:
+    """Whether ``target`` names a regular file (not ``-``, a device or a pipe)."""
+    name = os.fspath(target)
+    return name != STDOUT and (not os.path.exists(name) or os.path.isfile(name))
+
+
+def write_mask(mask: np.ndarray, target, *, fill=None, background=None, place=None) -> None:
     """Write a 0/255 mask: greyscale, or RGBA with ``fill`` inside and ``background`` outside.
 
-    ``target`` is a path (PNG, or TIFF for ``.tif``/``.tiff``) or ``-`` for standard output.
+    ``target`` is a path (PNG, or TIFF for ``.tif``/``.tiff``) or ``-`` for standard output;
+    ``place`` georeferences it (see :func:`_save`).
     """
     if fill is None and background is None:
-        return _save(Image.fromarray(mask.astype(np.uint8), mode="L"), target)
+        return _save(Image.fromarray(mask.astype(np.uint8), mode="L"), target, place)
     fg = np.array(parse_color(fill) if fill else (255, 255, 255, 255), dtype=np.uint8)
     bg = np.array(parse_color(background) if background else (0, 0, 0, 0), dtype=np.uint8)
     rgba = np.where(mask[..., None] > 0, fg, bg).astype(np.uint8)
-    return _save(Image.fromarray(rgba, mode="RGBA"), target)
+    return _save(Image.fromarray(rgba, mode="RGBA"), target, place)
 
 
-def write_classes(classes: np.ndarray, target) -> None:
+def write_classes(classes: np.ndarray, target, *, place=None) -> None:
     """Write a class raster (0 outside, 1 frontier, 2 contained) in the colours of Fig. 13."""
     lut = np.array([CLASS_COLORS[k] for k in range(3)], dtype=np.uint8)
-    return _save(Image.fromarray(lut[np.clip(classes, 0, 2)], mode="RGBA"), target)
+    return _save(Image.fromarray(lut[np.clip(classes, 0, 2)], mode="RGBA"), target, place)
 
 
 #: Image modes a mask may have; 16-bit greys are halved at 32768.
