@@ -14,6 +14,7 @@ import sys as _sys
 
 from . import errors, grids
 from ._version import __version__
+from .ellipsoid import Ellipsoid
 from .errors import *  # noqa: F403  (every exception class, listed in errors.__all__)
 from .index.contains import Index, contains
 from .raster import tiles
@@ -33,6 +34,7 @@ __all__ = [
     "EARTH_RADIUS",
     "Index",
     "Decomposition",
+    "Ellipsoid",
     "Offset",
     "ResolvedOffset",
     "Shape",
