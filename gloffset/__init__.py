@@ -15,12 +15,12 @@ import sys as _sys
 from . import errors, grids
 from ._version import __version__
 from .ellipsoid import Ellipsoid
+from .ellipsoidal import contains, distance
 from .errors import *  # noqa: F403  (every exception class, listed in errors.__all__)
-from .index.contains import Index, contains
+from .index.contains import Index
 from .raster import tiles
 from .raster.rasterized import raster_offset, rasterize
 from .raster.render import render
-from .reference import distance
 from .shape import Shape, read
 from .units import EARTH_RADIUS, parse_distance
 from .vector.multires import Decomposition, decompose
