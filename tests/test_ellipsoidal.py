@@ -151,3 +151,31 @@ def test_long_geodesic_edges_decide_the_inside():
     )
     for d in (0.0, 1.0, -1.0):
         _check(shape, plon, plat, d)
+
+
+def test_cli_contains_on_the_ellipsoid(tmp_path, mexico):
+    from click.testing import CliRunner
+
+    from gloffset.cli import main
+
+    lon, lat = _near_offset(mexico, 20e3, 30, seed=21)
+    pts = tmp_path / "pts.csv"
+    pts.write_text(
+        "lon,lat\n" + "".join(f"{a!r},{b!r}\n" for a, b in zip(lon.tolist(), lat.tolist()))
+    )
+    square = str(DATA / "mexico_10m.geojson")
+    r = CliRunner().invoke(
+        main, ["contains", square, str(pts), "-d", "20km", "--ellipsoid", "WGS84"]
+    )
+    assert r.exit_code == 0, r.output
+    got = [line.split(",")[2] == "true" for line in r.output.strip().splitlines()[1:]]
+    want = gloffset.contains(mexico, lon, lat, distance=20e3, ellipsoid="WGS84")
+    assert got == want.tolist()
+    for args, msg in (
+        (["-d", "1deg", "--ellipsoid", "WGS84"], "geodesic lengths"),
+        (["-d", "1km", "--ellipsoid", "Mars"], "unknown ellipsoid"),
+        (["-d", "1km", "--ellipsoid", "6378137,x"], "expected a name"),
+        (["-d", "1km", "--ellipsoid", "6378137,0.5"], "flattening"),
+    ):
+        r = CliRunner().invoke(main, ["contains", square, str(pts), *args])
+        assert r.exit_code == 2 and msg in r.output, r.output
