@@ -179,3 +179,48 @@ def test_cli_contains_on_the_ellipsoid(tmp_path, mexico):
     ):
         r = CliRunner().invoke(main, ["contains", square, str(pts), *args])
         assert r.exit_code == 2 and msg in r.output, r.output
+
+
+# ------------------------------------------------------------------------- render
+def _check_render(shape, grid, d, pixel_m):
+    mask = gloffset.render(shape, d, grid, ellipsoid="WGS84")
+    h, w = grid.level_shape(grid.n_levels - 1)
+    j, i = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
+    lon, lat = gloffset.sphere.xyz_to_lonlat(grid.centers(grid.n_levels - 1, j.ravel(), i.ravel()))
+    truth = reference.contains(shape, lon, lat, distance=d, ellipsoid="WGS84")
+    got = mask.ravel() == 255
+    wrong = np.flatnonzero(got != truth)
+    if len(wrong):
+        dist = reference.distance(shape, lon[wrong], lat[wrong], ellipsoid="WGS84")
+        assert np.all(np.abs(dist - abs(d)) <= 1e-3 * pixel_m), (d, dist)
+    return mask
+
+
+def test_render_equirect_on_the_ellipsoid(mexico):
+    from gloffset.grids import Equirect
+
+    grid = Equirect(36, 22, (-120.0, 12.0, -84.0, 34.0))
+    mask = _check_render(mexico, grid, 40e3, 110e3)
+    assert mask.shape == gloffset.render(mexico, 40e3, grid, backend="cpu").shape
+    with pytest.raises(gloffset.OptionError):
+        gloffset.render(mexico, 40e3, grid, ellipsoid="WGS84", out="classes")
+
+
+def test_render_z16_tile_on_the_ellipsoid(mexico):
+    import mercantile
+
+    from gloffset.grids import Tile
+
+    e = mexico.edges()
+    lon, lat = gloffset.sphere.xyz_to_lonlat(e.a[e.boundary][1000])
+    t = mercantile.tile(float(lon), float(lat), 16)
+    for d in (-50.0, 10.0):
+        mask = _check_render(mexico, Tile(16, t.x, t.y, 32), d, 19.0)
+        assert 0 < np.count_nonzero(mask) < mask.size
+
+
+@pytest.mark.slow
+def test_render_cube_face_on_the_ellipsoid(mexico):
+    from gloffset.grids import CubeFace
+
+    _check_render(mexico, CubeFace(3, 24), 300e3, 400e3)
