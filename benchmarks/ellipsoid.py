@@ -6,6 +6,7 @@ In one run, for Mexico 10m (Natural Earth, 7,368 vertices):
   100 km and -10 km: the spherical mode (``ellipsoid=None``) and ``ellipsoid="WGS84"``,
   each the first call (indexes built) and a second one (indexes cached);
 * ``distance`` on points near the border, sphere and ellipsoid;
+* ``render`` of a 4096 x 2048 globe at 127 km, sphere (GPU) and ellipsoid;
 * what users do today: the border projected with pyproj to UTM, buffered with shapely
   (``buffer(d)``, 16 segments a quarter circle) and tested with ``contains_xy``, both
   in one zone (14N, Mexico's middle) and per zone (each point tested in its own zone,
@@ -84,14 +85,30 @@ def utm_distance(rings, lon, lat, zone):
     return shapely.distance(bnd, shapely.points(x, y))
 
 
+def utm_distance_per_zone(rings, lon, lat):
+    """Planar distances, each point in its own UTM zone (11N-16N)."""
+    own = np.clip(np.floor((lon + 180.0) / 6.0).astype(int) + 1, 11, 16)
+    out = np.empty(len(lon))
+    for z in np.unique(own):
+        sel = own == z
+        out[sel] = utm_distance(rings, lon[sel], lat[sel], int(z))
+    return out
+
+
 def near_offset(shape, d, n, seed):
-    """Points at |d| (1 +- 1 %) from vertices of the border, in random directions, seeded."""
+    """Points about |d| (1 +- 1 %) off the border, seeded: from the middle of random
+    boundary edges, square to the edge, outwards for d > 0 and inwards for d < 0."""
     rng = np.random.default_rng(seed)
     e = shape.edges()
-    v = e.a[e.boundary]
-    lon, lat = xyz_to_lonlat(v[rng.integers(0, len(v), n)])
-    dist = abs(d) * rng.uniform(0.99, 1.01, n)
-    plon, plat, _ = GEOD.fwd(lon, lat, rng.uniform(0, 360, n), dist)
+    k = rng.choice(np.flatnonzero(e.boundary), n)
+    alon, alat = xyz_to_lonlat(e.a[k])
+    blon, blat = xyz_to_lonlat(e.b[k])
+    az, _, length = GEOD.inv(alon, alat, blon, blat)
+    mlon, mlat, back = GEOD.fwd(alon, alat, az, 0.5 * length)
+    # pyproj returns the back azimuth: the edge runs on towards back + 180, its
+    # outside (the right, interiors are on the left) is towards back + 270
+    side = back - 90.0 if d > 0 else back + 90.0
+    plon, plat, _ = GEOD.fwd(mlon, mlat, side, abs(d) * rng.uniform(0.99, 1.01, n))
     return plon, plat
 
 
@@ -123,6 +140,7 @@ def accuracy(shape, rings, d, sample, seed):
         "ellipsoid": float(np.abs(ours - truth_d).max()),
         "sphere": float(np.abs(sph - truth_d).max()),
         "utm_one_zone": float(np.abs(utm_distance(rings, lon, lat, 14) - truth_d).max()),
+        "utm_per_zone": float(np.abs(utm_distance_per_zone(rings, lon, lat) - truth_d).max()),
     }
     return out
 
@@ -145,6 +163,27 @@ def timings(shape, rings, lon, lat, d):
         "utm_one_zone_s": t_one,
         "utm_per_zone_s": t_per,
         "points_differing_from_sphere": int((a != b).sum()),
+    }
+
+
+def render_globe(d=127e3):
+    """Mexico at 127 km on a 4096 x 2048 globe: the GPU on the sphere, and the mask on
+    the ellipsoid (first call with its indexes built, then again)."""
+    from gloffset.grids import Equirect
+
+    grid = Equirect(4096, 2048)
+    shape = gloffset.read(DATA / "mexico_10m.geojson")
+    gloffset.render(shape, d, Equirect(256, 128))  # the GL context, once
+    t_s, a = _timed(lambda: gloffset.render(shape, d, grid))
+    t_s2, _ = best_of(lambda: gloffset.render(shape, d, grid), 3)
+    t_e, b = _timed(lambda: gloffset.render(shape, d, grid, ellipsoid="WGS84"))
+    t_e2, _ = best_of(lambda: gloffset.render(shape, d, grid, ellipsoid="WGS84"), 3)
+    return {
+        "sphere_gpu_first_s": t_s,
+        "sphere_gpu_s": t_s2,
+        "ellipsoid_first_s": t_e,
+        "ellipsoid_s": t_e2,
+        "pixels_differing": int((a != b).sum()),
     }
 
 
@@ -172,6 +211,8 @@ def main():
         "ellipsoid_ms_per_point": 1e3 * t_e / args.sample,
     }
     print(record["distance"])
+    record["render_globe_4096x2048"] = render_globe()
+    print(record["render_globe_4096x2048"])
     print(write("ellipsoid", record))
 
 
