@@ -188,3 +188,39 @@ def test_sphere_is_an_ellipsoid_too():
     assert e.k_min == e.k_max == 1.0
     p = lonlat_to_xyz(0.0, 0.0)
     assert np.allclose(e.to_sphere(0.0, 0.0), p)
+
+
+@pytest.mark.slow
+def test_intercept_against_brute_force_many():
+    """2,000 random edges up to 5,000 km and points up to 3,000 km away, everywhere."""
+    rng = np.random.default_rng(31)
+    n = 2000
+    alat = np.degrees(np.arcsin(rng.uniform(-1, 1, n)))
+    alon = rng.uniform(-180, 180, n)
+    blon, blat, _ = GEOD.fwd(alon, alat, rng.uniform(0, 360, n), 10 ** rng.uniform(0, 6.7, n))
+    plon, plat, _ = GEOD.fwd(alon, alat, rng.uniform(0, 360, n), 10 ** rng.uniform(-1, 6.5, n))
+    _check_intercept(plon, plat, alon, alat, blon, blat)
+
+
+@pytest.mark.slow
+def test_ratio_bound_on_many_pairs_and_ellipsoids():
+    rng = np.random.default_rng(32)
+    for ell in (
+        WGS84,
+        as_ellipsoid("GRS80"),
+        as_ellipsoid((6378137.0, 1 / 50)),
+        as_ellipsoid((1.0, 0.01)),
+    ):
+        geod = pyproj.Geod(a=ell.a, f=ell.f)
+        n = 200000
+        lat = np.degrees(np.arcsin(rng.uniform(-1, 1, n)))
+        lon = rng.uniform(-180, 180, n)
+        far = 10 ** rng.uniform(-6, 0.5, n) * ell.a
+        lon2, lat2, _ = geod.fwd(lon, lat, rng.uniform(0, 360, n), far)
+        dist = geod.inv(lon, lat, lon2, lat2)[2]
+        p, q = ell.to_sphere(lon, lat), ell.to_sphere(lon2, lat2)
+        theta = arc_distance(p, q, q)
+        chi = np.radians(ell.conformal(lat))
+        scale = 1e-9 * ell.a
+        assert np.all(dist <= upper_distance(ell, chi, theta) * (1 + 1e-12) + scale)
+        assert np.all(lower_distance(ell, chi, theta, dist) <= dist * (1 + 1e-12) + scale)

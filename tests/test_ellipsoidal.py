@@ -224,3 +224,18 @@ def test_render_cube_face_on_the_ellipsoid(mexico):
     from gloffset.grids import CubeFace
 
     _check_render(mexico, CubeFace(3, 24), 300e3, 400e3)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("d", [10.0, 300.0, 5e3, 50e3, 500e3, 1000e3, 0.0, -10.0, -1e3, -100e3])
+def test_mexico_many_points(mexico, d):
+    lon, lat = _near_offset(mexico, d if d else 20.0, 1500, seed=int(abs(d)) % 977 + 1)
+    _check(mexico, lon, lat, d)
+
+
+@pytest.mark.slow
+def test_world_110m_many_points(world_parts):
+    shape = gloffset.read(DATA / "world_110m.geojson")
+    for d in (1e3, 100e3, -50e3):
+        lon, lat = _near_offset(shape, d, 1500, seed=41)
+        _check(shape, lon, lat, d)
