@@ -313,10 +313,26 @@ def geodesic_edge_distance(geod, plon, plat, alon, alat, blon, blat) -> np.ndarr
         n = 33
 
 
+def _lower_to_vertices(geod, q, v) -> np.ndarray:
+    """Lower bounds (metres) on geodesic distances from surface points ``q`` (n, 3, ECEF)
+    to surface points ``v`` (m, 3): the larger of the chord and ``b`` times the angle
+    between their directions from the centre (the ellipsoid lies outside the sphere of
+    radius ``b``, and the radial projection onto it shortens every curve)."""
+    chord = np.linalg.norm(q[:, None, :] - v[None], axis=2)
+    qu = q / np.linalg.norm(q, axis=1)[:, None]
+    vu = v / np.linalg.norm(v, axis=1)[:, None]
+    cosang = np.clip(qu @ vu.T, -1.0, 1.0)
+    # the angle from the chord of unit vectors (accurate for small angles), rounded down
+    unit_chord = np.sqrt(np.maximum(2.0 - 2.0 * cosang, 0.0))
+    ang = 2.0 * np.arcsin(np.minimum(0.5 * unit_chord, 1.0)) * (1 - 1e-12) - 1e-15
+    return np.maximum(chord, geod.b * ang) * (1 - 1e-12)
+
+
 def geodesic_distance(shape, lon, lat, ellipsoid) -> np.ndarray:
     """Brute-force geodesic distance (metres) from geodetic lon/lat (degrees, flat arrays)
-    to the shape's boundary on ``ellipsoid``: edges pruned by the chord bound, the
-    rest measured with :func:`geodesic_edge_distance`."""
+    to the shape's boundary on ``ellipsoid``: edges pruned by the chord and inner-sphere
+    bounds, then by their first samples, the rest measured with
+    :func:`geodesic_edge_distance`."""
     geod = _geod(ellipsoid)
     alon, alat, blon, blat = _boundary_lonlat(shape)
     out = np.full(len(lon), np.inf)
@@ -325,24 +341,37 @@ def geodesic_distance(shape, lon, lat, ellipsoid) -> np.ndarray:
     pa, pb = _ecef(geod, alon, alat), _ecef(geod, blon, blat)
     length = geod.inv(alon, alat, blon, blat)[2]
     q = _ecef(geod, lon, lat)
-    chunk = max(1, _PAIRS // (4 * len(alon)))
+    chunk = max(1, _PAIRS // (8 * len(alon)))
     for s in range(0, len(lon), chunk):
         sl = slice(s, s + chunk)
-        ca = np.linalg.norm(q[sl, None, :] - pa[None], axis=2)
-        cb = np.linalg.norm(q[sl, None, :] - pb[None], axis=2)
-        near = np.minimum(ca, cb)
+        la, lb = _lower_to_vertices(geod, q[sl], pa), _lower_to_vertices(geod, q[sl], pb)
+        near = np.minimum(la, lb)
         j = np.argmin(near, axis=1)
-        va = ca[np.arange(len(j)), j] <= cb[np.arange(len(j)), j]
+        va = la[np.arange(len(j)), j] <= lb[np.arange(len(j)), j]
         vlon, vlat = np.where(va, alon[j], blon[j]), np.where(va, alat[j], blat[j])
         upper = geod.inv(lon[sl], lat[sl], vlon, vlat)[2]
         rows, cols = np.nonzero(near - 0.5 * length[None, :] <= upper[:, None] * (1 + 1e-9) + 1e-6)
-        d = geodesic_edge_distance(
-            geod, lon[sl][rows], lat[sl][rows], alon[cols], alat[cols], blon[cols], blat[cols]
-        )
+        args = (lon[sl][rows], lat[sl][rows], alon[cols], alat[cols], blon[cols], blat[cols])
+        # first samples of every candidate: an upper bound per point, and (the distance
+        # to the edge being 1-Lipschitz along it) a lower bound per edge
+        first, step = _first_samples(geod, *args)
         res = upper.copy()
-        np.minimum.at(res, rows, d)
+        np.minimum.at(res, rows, first)
+        keep = np.flatnonzero(first - 0.5 * step <= res[rows] * (1 + 1e-9) + 1e-6)
+        d = geodesic_edge_distance(geod, *(a[keep] for a in args))
+        np.minimum.at(res, rows[keep], d)
         out[sl] = res
     return out
+
+
+def _first_samples(geod, plon, plat, alon, alat, blon, blat, n: int = 257):
+    """The nearest of ``n`` evenly spaced samples of each edge, and their spacing."""
+    az, _, length = geod.inv(alon, alat, blon, blat)
+    t = np.linspace(0.0, 1.0, n)
+    k = np.repeat(np.arange(len(az)), n)
+    xlon, xlat, _ = geod.fwd(alon[k], alat[k], az[k], (length[:, None] * t[None, :]).ravel())
+    d = geod.inv(plon[k], plat[k], xlon, xlat)[2].reshape(-1, n)
+    return d.min(axis=1, initial=np.inf), length / (n - 1)
 
 
 def _densified(shape, geod):
