@@ -239,3 +239,24 @@ def test_world_110m_many_points(world_parts):
     for d in (1e3, 100e3, -50e3):
         lon, lat = _near_offset(shape, d, 1500, seed=41)
         _check(shape, lon, lat, d)
+
+
+def test_a_round_ellipsoid_is_the_sphere(mexico):
+    """With f = 0 geodesics are great circles: the same distances and answers as the
+    sphere of radius a."""
+    r = gloffset.EARTH_RADIUS
+    lon, lat = _near_offset(mexico, 30e3, 40, seed=17)
+    np.testing.assert_allclose(
+        gloffset.distance(mexico, lon, lat, ellipsoid=(r, 0.0)),
+        gloffset.distance(mexico, lon, lat, radius=r),
+        rtol=0,
+        atol=1e-6,
+    )
+    for d in (30e3, -30e3):
+        sphere = gloffset.contains(mexico, lon, lat, distance=d, radius=r)
+        assert np.array_equal(
+            sphere, gloffset.contains(mexico, lon, lat, distance=d, ellipsoid=(r, 0.0))
+        )
+    grs = gloffset.distance(mexico, lon[:5], lat[:5], ellipsoid="GRS80")
+    wgs = gloffset.distance(mexico, lon[:5], lat[:5], ellipsoid="WGS84")
+    np.testing.assert_allclose(grs, wgs, rtol=1e-8, atol=1e-6)
