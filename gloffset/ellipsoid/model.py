@@ -26,6 +26,7 @@ at the poles (checked on a dense grid when an ellipsoid is made; 0.34 % less tha
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -200,6 +201,13 @@ class Ellipsoid:
         return self.name or f"ellipsoid(a={self.a!r}, f={self.f!r})"
 
 
+@functools.cache
+def _named(key: str) -> Ellipsoid:
+    """The named ellipsoids, made once."""
+    a, f = ELLIPSOIDS[key]
+    return Ellipsoid(a, f, key)
+
+
 def as_ellipsoid(spec) -> Ellipsoid | None:
     """Read an ``ellipsoid=`` option: ``None`` (the sphere of ``radius``), a name among
     :data:`ELLIPSOIDS` (any case), an ``(a, f)`` pair or an :class:`Ellipsoid`.
@@ -211,8 +219,7 @@ def as_ellipsoid(spec) -> Ellipsoid | None:
     if isinstance(spec, str):
         key = spec.strip().upper().replace("-", "").replace(" ", "")
         if key in ELLIPSOIDS:
-            a, f = ELLIPSOIDS[key]
-            return Ellipsoid(a, f, key)
+            return _named(key)
         raise InvalidEllipsoidError(
             f"unknown ellipsoid {spec!r}; use one of {', '.join(ELLIPSOIDS)} or an (a, f) pair"
         )
