@@ -22,9 +22,11 @@ there).
 
 Accuracy: distances within 1 um of the geodesic distance to the curves (the
 intercept's bound, plus geographiclib's 15 nm). Membership is exact for points whose
-distance differs from ``|d|`` by more than 1 um, except for points within a few
-micrometres of a vertex in the sliver where a lune meets its vertex, and points of
-overlapping region components (where the lune test is taken against the union).
+distance differs from ``|d|`` by more than 1 um (and, for ``d = 0``, farther than that
+from the boundary). A point in a lune has its foot inside the edge (the lune lies
+within the small angle of the two curves at each end), so a foot at an end rules the
+lune out; lunes flip the inside test of their own region component, and the
+components are united after.
 Cost: two index queries for all points, and about 1 ms of geodesic work (pure
 Python) per point of the band.
 """
@@ -37,6 +39,7 @@ import numpy as np
 
 from .caps import arc_cap, pad
 from .captree import CapTree
+from .crossings import inside as crossings_inside
 from .crossings import inside_indexed
 from .ellipsoid import as_ellipsoid, edge_deviation, edge_distance, lower_distance, upper_distance
 from .index.contains import contains as _sphere_contains
@@ -69,6 +72,8 @@ class Conformal:
         Each edge's deviation bound (:func:`gloffset.ellipsoid.edge_deviation`), rad.
     h_max : float
         The largest ``h`` plus :data:`INDEX_SLACK`.
+    group : (m,) int array
+        Each edge's region component (-1 for lines).
     """
 
     def __init__(self, shape, ell):
@@ -86,6 +91,7 @@ class Conformal:
         )
         e, ec = shape.edges(), self.shape.edges()
         a, b = e.a[e.boundary], e.b[e.boundary]
+        self.group = e.group[e.boundary]
         self.a_ll = np.stack(xyz_to_lonlat(a)[::-1], axis=1)
         self.b_ll = np.stack(xyz_to_lonlat(b)[::-1], axis=1)
         self.a, self.b = ec.a[ec.boundary], ec.b[ec.boundary]
@@ -308,14 +314,22 @@ def decide(conf: Conformal, lon, lat, d: float) -> np.ndarray:
 
 
 def _inside(conf: Conformal, lat, lon, p, inside_sphere: bool, edges) -> bool:
-    """Inside the polygons with geodesic edges: the spherical answer, flipped once for
-    each lune (between a geodesic edge and its great-circle arc) that holds the point."""
-    flips = 0
+    """Inside the polygons with geodesic edges: each region component's spherical answer
+    flipped once for each of its lunes (between a geodesic edge and its great-circle
+    arc) that holds the point, the components united."""
+    flipped = set()
     for e in edges:
         _, _, side = conf.exact(lat, lon, p, e)
-        if side == 0.0:  # the foot is an end: outside the lune (see the module's notes)
+        if side == 0.0:  # the foot is an end: the point is not between the two curves
             continue
         left_sphere = dot(p, conf.n[e]) >= 0.0
         if left_sphere != (side > 0.0):
-            flips += 1
-    return inside_sphere ^ (flips % 2 == 1)
+            flipped ^= {int(conf.group[e])}
+    if not flipped:
+        return inside_sphere
+    q = p[None]
+    for g in flipped:
+        if not crossings_inside(conf.shape, q, groups=[g])[0]:
+            return True  # out on the sphere, flipped in
+    others = [g for g in range(conf.shape.n_groups) if g not in flipped]
+    return bool(others) and bool(crossings_inside(conf.shape, q, groups=others)[0])

@@ -260,3 +260,20 @@ def test_a_round_ellipsoid_is_the_sphere(mexico):
     grs = gloffset.distance(mexico, lon[:5], lat[:5], ellipsoid="GRS80")
     wgs = gloffset.distance(mexico, lon[:5], lat[:5], ellipsoid="WGS84")
     np.testing.assert_allclose(grs, wgs, rtol=1e-8, atol=1e-6)
+
+
+def test_overlapping_polygons_with_long_edges():
+    a = [[-40, 50], [0, 50], [0, 60], [-40, 60], [-40, 50]]
+    b = [[-30, 45], [-10, 45], [-10, 55], [-30, 55], [-30, 45]]
+    shape = gloffset.read(
+        {"type": "MultiPolygon", "coordinates": [[a], [b]]},
+    )
+    rng = np.random.default_rng(13)
+    az, _, length = GEOD.inv(-40.0, 50.0, 0.0, 50.0)
+    n = 40
+    mlon, mlat, back = GEOD.fwd(
+        np.full(n, -40.0), np.full(n, 50.0), np.full(n, az), length * rng.uniform(0.05, 0.95, n)
+    )
+    plon, plat, _ = GEOD.fwd(mlon, mlat, back + 90 * rng.choice([-1, 1], n), rng.uniform(1, 3e3, n))
+    for d in (0.0, 10.0, -10.0):
+        _check(shape, plon, plat, d)
