@@ -168,10 +168,10 @@ def distance(shape, lon, lat, *, radius: float = EARTH_RADIUS, ellipsoid=None) -
         return _sphere_distance(shape, lon, lat, radius=radius)
     shape = read(shape)
     lon, lat, shp = check_lonlat(lon, lat)
-    return geodesic_distance(_conformal(shape, ell), lon, lat).reshape(shp)
+    return nearest_geodesic(_conformal(shape, ell), lon, lat).reshape(shp)
 
 
-def geodesic_distance(conf: Conformal, lon, lat) -> np.ndarray:
+def nearest_geodesic(conf: Conformal, lon, lat) -> np.ndarray:
     """Geodesic distance (metres) from flat geodetic lon/lat arrays to the shape of
     ``conf``: spherical bounds choose each point's candidate edges, the intercept
     measures them (nearest lower bound first, stopping when no other can be nearer)."""
