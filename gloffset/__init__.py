@@ -4,8 +4,10 @@ Exact vector offsets made of small-circle arcs (:mod:`gloffset.vector`), a fast 
 test (:mod:`gloffset.index`), rasters over grids (:mod:`gloffset.grids`,
 :mod:`gloffset.raster`, rendered on the GPU by :mod:`gloffset.gl`) and a float64
 reference for distances and membership (:mod:`gloffset.reference`). Distances are angles
-inside; metres appear only through the ``radius`` keyword. The layers are described in
-``ARCHITECTURE.md``; everything public is re-exported here.
+inside; metres appear only through the ``radius`` keyword, or, with ``ellipsoid="WGS84"``
+on :func:`distance`, :func:`contains` and :func:`render`, as geodesic lengths on the
+ellipsoid (:mod:`gloffset.ellipsoidal`, :mod:`gloffset.ellipsoid`). The layers are
+described in ``ARCHITECTURE.md``; everything public is re-exported here.
 """
 
 from __future__ import annotations
