@@ -224,3 +224,29 @@ def test_ratio_bound_on_many_pairs_and_ellipsoids():
         scale = 1e-9 * ell.a
         assert np.all(dist <= upper_distance(ell, chi, theta) * (1 + 1e-12) + scale)
         assert np.all(lower_distance(ell, chi, theta, dist) <= dist * (1 + 1e-12) + scale)
+
+
+@pytest.mark.slow
+def test_intercept_against_geographiclib_lines_at_1mm():
+    """The brute force in its plainest form: short edges densified with geographiclib's
+    own lines every millimetre, the minimum of the inverse distances."""
+    g = WGS84.geodesic
+    rng = np.random.default_rng(33)
+    for lat, lon, az, length, off in (
+        (45.0, 10.0, 30.0, 40.0, 3.0),
+        (89.9995, 0.0, 100.0, 60.0, 20.0),
+        (-10.0, 179.99995, 80.0, 30.0, 0.5),
+        (0.0, 0.0, 90.0, 50.0, 0.0),
+    ):
+        line = g.DirectLine(lat, lon, az, length)
+        b = line.Position(length)
+        s = np.arange(0.0, length + 1e-9, 1e-3)
+        t = rng.uniform(-0.3, 1.3)  # feet inside the edge and beyond its ends
+        m = line.Position(t * length)
+        p = g.Direct(m["lat2"], m["lon2"], m["azi2"] + 90.0, off)
+        brute = min(
+            g.Inverse(p["lat2"], p["lon2"], x["lat2"], x["lon2"])["s12"]
+            for x in (line.Position(si) for si in s)
+        )
+        ours = edge_distance(g, p["lat2"], p["lon2"], (lat, lon), (b["lat2"], b["lon2"]))[0]
+        assert abs(ours - brute) <= 1e-3 and ours <= brute + 1e-7
