@@ -4,8 +4,10 @@ Exact vector offsets made of small-circle arcs (:mod:`gloffset.vector`), a fast 
 test (:mod:`gloffset.index`), rasters over grids (:mod:`gloffset.grids`,
 :mod:`gloffset.raster`, rendered on the GPU by :mod:`gloffset.gl`) and a float64
 reference for distances and membership (:mod:`gloffset.reference`). Distances are angles
-inside; metres appear only through the ``radius`` keyword. The layers are described in
-``ARCHITECTURE.md``; everything public is re-exported here.
+inside; metres appear only through the ``radius`` keyword, or, with ``ellipsoid="WGS84"``
+on :func:`distance`, :func:`contains` and :func:`render`, as geodesic lengths on the
+ellipsoid (:mod:`gloffset.ellipsoidal`, :mod:`gloffset.ellipsoid`). The layers are
+described in ``ARCHITECTURE.md``; everything public is re-exported here.
 """
 
 from __future__ import annotations
@@ -14,12 +16,13 @@ import sys as _sys
 
 from . import errors, grids
 from ._version import __version__
+from .ellipsoid import Ellipsoid
+from .ellipsoidal import contains, distance
 from .errors import *  # noqa: F403  (every exception class, listed in errors.__all__)
-from .index.contains import Index, contains
+from .index.contains import Index
 from .raster import tiles
 from .raster.rasterized import raster_offset, rasterize
 from .raster.render import render
-from .reference import distance
 from .shape import Shape, read
 from .units import EARTH_RADIUS, parse_distance
 from .vector.multires import Decomposition, decompose
@@ -33,6 +36,7 @@ __all__ = [
     "EARTH_RADIUS",
     "Index",
     "Decomposition",
+    "Ellipsoid",
     "Offset",
     "ResolvedOffset",
     "Shape",

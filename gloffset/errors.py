@@ -14,7 +14,8 @@ is exported from :mod:`gloffset`; the command line prints any of them as one lin
     |-- InputFormatError       (ValueError)
     |-- InvalidLevelError      (ValueError)
     |-- OptionError            (ValueError)
-    |   '-- InvalidMaskError
+    |   |-- InvalidMaskError
+    |   '-- InvalidEllipsoidError
     |-- InvalidGridError       (ValueError)
     |   '-- TilesError
     |-- OutputError            (OSError)
@@ -37,6 +38,7 @@ __all__ = [
     "GloffsetError",
     "InputFormatError",
     "InvalidDistanceError",
+    "InvalidEllipsoidError",
     "InvalidGeometryError",
     "InvalidGridError",
     "InvalidLevelError",
@@ -106,6 +108,16 @@ class OptionError(GloffsetError, ValueError):
 class InvalidMaskError(OptionError):
     """A curve mask given to :func:`~gloffset.raster_offset` has the wrong shape or dtype,
     or has no curve cell."""
+
+
+class InvalidEllipsoidError(OptionError):
+    """An ``ellipsoid=`` option (``--ellipsoid`` on the command line) is not a known name
+    (``"WGS84"``, ``"GRS80"``), an ``(a, f)`` pair with a positive finite semi-major axis
+    ``a`` in metres and a flattening ``f`` in [0, 1/50], or an :class:`~gloffset.Ellipsoid`.
+
+    Raised by :func:`~gloffset.distance`, :func:`~gloffset.contains` and
+    :class:`~gloffset.Ellipsoid` itself.
+    """
 
 
 class InvalidGridError(GloffsetError, ValueError):

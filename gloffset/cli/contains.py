@@ -10,12 +10,20 @@ import sys
 import click
 import numpy as np
 
+from ..ellipsoidal import contains as ellipsoidal_contains
 from ..errors import InputFormatError
 from ..index.contains import Index, depth_for
 from ..io.output import check_output, open_output
 from ..shape import read
 from . import main
-from .options import angle, distance_option, radius_option
+from .options import (
+    angle,
+    distance_option,
+    ellipsoid_option,
+    metres,
+    parse_ellipsoid,
+    radius_option,
+)
 
 #: Accepted names of the coordinate columns (case-insensitive).
 LON_NAMES = ("lon", "lng", "long", "longitude")
@@ -99,6 +107,7 @@ def _chunks(reader, size: int):
 @click.argument("points", metavar="POINTS")
 @distance_option(default="0")
 @radius_option
+@ellipsoid_option
 @click.option(
     "-o", "--output", default="-", show_default=True, help="Output CSV file, - for stdout."
 )
@@ -111,16 +120,19 @@ def _chunks(reader, size: int):
 @click.option(
     "--chunk", type=click.IntRange(1), default=100_000, show_default=True, help="Rows per batch."
 )
-def contains_cmd(input, points, distance, radius, output, level, chunk):
+def contains_cmd(input, points, distance, radius, ellipsoid, output, level, chunk):
     """Mark the points of POINTS (CSV with lon and lat columns in degrees, - for stdin) that
     lie in the region within DIST of the curves and polygons of INPUT (GeoJSON).
 
     The output repeats every row with a column 'inside' (true or false). Large files
-    are read and written in batches; a progress bar shows on a terminal.
+    are read and written in batches; a progress bar shows on a terminal. With
+    --ellipsoid, DIST is a geodesic length on that ellipsoid and polygon edges are
+    geodesics.
     """
     if input == "-" and points == "-":
         raise InputFormatError("INPUT and POINTS cannot both be read from stdin (-)")
-    d = angle(distance, radius)
+    ell = parse_ellipsoid(ellipsoid)
+    d = angle(distance, radius) if ell is None else (ell, metres(distance))
     check_output(output)  # fail before the work
     shape = read(input)
     where = "<stdin>" if points == "-" else points
@@ -138,6 +150,19 @@ def contains_cmd(input, points, distance, radius, output, level, chunk):
             _run(shape, d, level, src, dst, where, size, chunk)
     finally:
         src.close()
+
+
+def _tester(shape, d, level, expect):
+    """``inside(lon, lat)`` for the batches: the spherical index for an angle ``d``, the
+    ellipsoidal contains for ``d = (ellipsoid, metres)``."""
+    if isinstance(d, tuple):
+        ell, m = d
+
+        def on_ellipsoid(lon, lat):
+            return ellipsoidal_contains(shape, lon, lat, distance=m, level=level, ellipsoid=ell)
+
+        return on_ellipsoid
+    return Index(shape, d, radius=1.0, level=level, depth=depth_for(expect)).contains
 
 
 def _run(shape, d, level, src, dst, where, size, chunk):
@@ -179,8 +204,8 @@ def _run(shape, d, level, src, dst, where, size, chunk):
                 read_so_far = _position(src)
                 if size and read_so_far:
                     expect = max(expect, int(size / read_so_far * len(rows)))
-                index = Index(shape, d, radius=1.0, level=level, depth=depth_for(expect))
-            inside = index.contains(lon, lat)
+                index = _tester(shape, d, level, expect)
+            inside = index(lon, lat)
             flag = np.where(inside, "true", "false")
             if iout is None:
                 writer.writerows(r + [f] for r, f in zip(rows, flag.tolist()))

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from ..ellipsoid import ELLIPSOIDS, as_ellipsoid
+from ..errors import InvalidDistanceError, InvalidEllipsoidError
 from ..units import EARTH_RADIUS, parse_distance
 
 
@@ -41,3 +43,40 @@ def radius_option(f):
 def angle(text: str, radius: float) -> float:
     """A CLI distance as an angle in radians (raises InvalidDistanceError on bad input)."""
     return parse_distance(text, radius)
+
+
+def ellipsoid_option(f):
+    """``--ellipsoid NAME`` (WGS84, GRS80) or ``--ellipsoid A,F``."""
+    return click.option(
+        "--ellipsoid",
+        default=None,
+        metavar="NAME|A,F",
+        help=f"Measure on an ellipsoid ({', '.join(ELLIPSOIDS)}, or semi-major axis and "
+        "flattening as A,F): geodesic distances in metres, geodetic latitudes, geodesic "
+        "edges. Default: the sphere of --radius.",
+    )(f)
+
+
+def parse_ellipsoid(text: str | None):
+    """The ``--ellipsoid`` value as an Ellipsoid (None without it)."""
+    if text is None:
+        return None
+    if "," in text:
+        try:
+            a, f = (float(x) for x in text.split(","))
+        except ValueError:
+            raise InvalidEllipsoidError(
+                f"--ellipsoid {text!r}: expected a name ({', '.join(ELLIPSOIDS)}) or A,F"
+            ) from None
+        return as_ellipsoid((a, f))
+    return as_ellipsoid(text)
+
+
+def metres(text: str) -> float:
+    """A CLI distance as a length in metres (for --ellipsoid: no angle units)."""
+    if str(text).strip().lower().endswith(("rad", "deg")):
+        raise InvalidDistanceError(
+            f"distance {text!r} is an angle, but on an ellipsoid distances are geodesic "
+            "lengths: give it in m, km, mi, nmi or ft"
+        )
+    return parse_distance(text, 1.0)

@@ -10,9 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..ellipsoid import as_ellipsoid
+from ..ellipsoidal import contains as ellipsoidal_contains
 from ..errors import OptionError
 from ..grids import Cube, CubeFace, Equirect, Tile
 from ..shape import read
+from ..sphere import xyz_to_lonlat
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
 from . import driver
 from .curves import CurveCells
@@ -49,6 +52,46 @@ def _check(out, backend, grid):
 
 #: the mask's value per output-level class (0 outside, 2 contained)
 _MASK = np.array([0, 0, 255], dtype=np.uint8)
+
+
+#: Pixel centres per batch of the ellipsoidal mask.
+_ELLIPSOID_BATCH = 1 << 18
+
+
+def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoid):
+    """The mask of ``render(..., ellipsoid=...)``: every pixel centre through the
+    ellipsoidal ``contains`` (geodetic lon/lat of the centres), in batches of rows."""
+    ell = as_ellipsoid(ellipsoid)
+    _check(out, backend, grid)
+    if out != "mask" or callback is not None:
+        raise OptionError("with an ellipsoid, render() gives masks only (out='mask', no callback)")
+    offset_angle(shape, distance, ell.a, limit=RASTER_LIMIT, what="render")
+    if isinstance(grid, Cube):
+        return np.stack(
+            [_render_on_ellipsoid(shape, distance, f, out, backend, None, ell) for f in grid.faces]
+        )
+    lev = grid.n_levels - 1
+    h, w = grid.level_shape(lev)
+    image = np.empty((h, w), dtype=np.uint8)
+    rows = max(1, _ELLIPSOID_BATCH // w)
+    for j0 in range(0, h, rows):
+        j1 = min(h, j0 + rows)
+        lon, lat = _centres_lonlat(grid, lev, j0, j1, w)
+        inside = ellipsoidal_contains(shape, lon, lat, distance=distance, ellipsoid=ell)
+        image[j0:j1] = np.where(inside, 255, 0).reshape(j1 - j0, w)
+    return image
+
+
+def _centres_lonlat(grid, level, j0, j1, w):
+    """Lon/lat (degrees, flat) of the centres of rows ``j0:j1`` of ``level``: straight
+    from the rows and columns on lon/lat grids, from the unit vectors otherwise."""
+    if grid.lonlat:
+        lon = np.degrees(grid.cell_lon(level, np.arange(w)))
+        lat = np.degrees(grid.cell_lat(level, np.arange(j0, j1)))
+        lon, lat = np.broadcast_arrays(lon[None, :], lat[:, None])
+        return lon.ravel(), lat.ravel()
+    j, i = np.meshgrid(np.arange(j0, j1), np.arange(w), indexing="ij")
+    return xyz_to_lonlat(grid.centers(level, j.ravel(), i.ravel()))
 
 
 def _render_one(shape, d, grid, *, backend, level, callback, mask):
@@ -93,6 +136,7 @@ def render(
     callback=None,
     backend: str = "gpu",
     tile: int | None = None,
+    ellipsoid=None,
 ) -> np.ndarray:
     """Rasterize the offset region of ``shape`` at ``distance`` on ``grid``.
 
@@ -118,6 +162,13 @@ def render(
         ``"cpu"`` runs every level in float64 numpy (the reference renderer).
     tile : int, optional
         Largest tile side (default: the GL texture limit, at most 8192).
+    ellipsoid : None, "WGS84", "GRS80", (a, f) or Ellipsoid
+        ``None``: the sphere of ``radius``. Otherwise ``distance`` is a geodesic length
+        in metres on the ellipsoid, the grid's latitudes are geodetic and polygon edges
+        are geodesics; only ``out="mask"``. Each pixel centre is decided by
+        :func:`gloffset.contains` on the ellipsoid (the spherical index on the
+        conformal sphere decides all but the thin band of the ratio bound, the band is
+        decided with geodesic distances), on the CPU whatever the ``backend``.
 
     Notes
     -----
@@ -129,6 +180,8 @@ def render(
     class.
     """
     shape = read(shape)
+    if ellipsoid is not None:
+        return _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoid)
     d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="render")
     _check(out, backend, grid)
     if out == "classes" and level is not None and not 0 <= level < grid.n_levels:
