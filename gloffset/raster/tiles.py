@@ -944,6 +944,54 @@ class _BinChain:
         return tiles, layout, fb, (t, jr, jc)
 
 
+def render_tiles(
+    shape, d: float, z: int, tiles, *, size: int = 256, style=None, max_block=MAX_BLOCK
+):
+    """The styled PNG bytes of tiles ``(x, y)`` of zoom ``z`` (None where a tile has
+    nothing to draw), the pixels those of a pyramid and of :func:`gloffset.render` on
+    :class:`~gloffset.grids.Tile`; ``d`` in radians.
+
+    The work follows the tiles, not the input: the zooms above ``z`` keep only the
+    tiles' ancestors (each with the candidate arcs within its reach), a tile whose
+    ancestor is decided contained or outside is answered at once, and the frontier tiles
+    of ``z`` are rendered together in batched GPU runs.
+    """
+    style = style if style is not None else TileStyle()
+    want = sorted({(int(x), int(y)) for x, y in tiles})
+    plog = size.bit_length() - 1
+    cells = CurveCells(shape, d, TilePyramid(z + plog))
+    chain = _BinChain(cells, max(0, plog - _BIN_LOG2))
+    stats = PyramidStats()
+    job = _Zoom(cells, style, MemoryStore(), set(), size, stats, _Tracker(z, z, None))
+    full, out = job.full, {}
+    for lev in driver.walk(cells, z):
+        sh, rows, cols = z - lev.level, lev.cells[:, 0], lev.cells[:, 1]
+        left = [t for t in want if t not in out]
+        keys = np.array([((y >> sh) << 32) | (x >> sh) for x, y in left], dtype=np.int64)
+        at = np.flatnonzero(np.isin((rows << 32) | cols, keys))
+        r = cells.grid.decision_rho(lev.level, rows)
+        cls = lev.cls
+        carry = (cls != FRONTIER) & (lev.measure <= r) & (style.outline is not None)
+        for i in at[(cls[at] != FRONTIER) & ~carry[at]]:  # decided: every tile below alike
+            for x, y in left:
+                if (x >> sh, y >> sh) == (cols[i], rows[i]):
+                    out[(x, y)] = full if cls[i] == CONTAINED else None
+        if lev.level == z:
+            for i in at[carry[at]]:
+                mask = np.full((size, size), cls[i] == CONTAINED)
+                out[(int(cols[i]), int(rows[i]))] = style.encode(mask, job.lines_of(lev, i, r))
+            front = at[cls[at] == FRONTIER]
+            chain.advance(subset(lev.state, front))
+            which = np.arange(len(front), dtype=np.int64)
+            for k, mask in _render_tiles(chain, which, size, max_block, stats):
+                i = front[k]
+                out[(int(cols[i]), int(rows[i]))] = style.encode(mask, job.lines_of(lev, i, r))
+            break
+        lev.keep = at[(cls[at] == FRONTIER) | carry[at]]
+        lev.forced = np.where(carry, cls, NOT_FORCED).astype(np.uint8)[lev.keep]
+    return {t: out.get(t) for t in want}
+
+
 def _render_tiles(chain, which, size, max_block, stats):
     """Masks of the frontier tiles ``which`` (indices into the chain's tiles), as
     ``(index, mask)``: the GPU levels classify the frontier bins of up to

@@ -1,0 +1,64 @@
+"""``gloffset serve``: a tile server of the offset regions of the inputs, any distance."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from ..errors import InputFormatError, OptionError
+from ..shape import read
+from . import main
+
+
+@main.command("serve")
+@click.argument("inputs", metavar="INPUT...", nargs=-1, required=True)
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address to listen on.")
+@click.option("--port", type=click.IntRange(0, 65535), default=8080, show_default=True)
+@click.option(
+    "--cache-mb",
+    type=click.FloatRange(min=0),
+    default=256.0,
+    show_default=True,
+    help="Rendered tiles kept in memory, MB.",
+)
+@click.option(
+    "--cache-control",
+    default="public, max-age=3600",
+    show_default=True,
+    help="The Cache-Control header of tiles.",
+)
+@click.option(
+    "--queue",
+    "queue_size",
+    type=click.IntRange(min=1),
+    default=256,
+    show_default=True,
+    help="Tiles waiting to render at most; more are answered 503 with Retry-After.",
+)
+def serve_cmd(inputs, host, port, cache_mb, cache_control, queue_size):
+    """Serve the offset regions of INPUT... as map tiles for any distance:
+    /tiles/LAYER/127km/z/x/y.png, /tilejson/LAYER.json?distance=127km, /offset, /shape,
+    /distance, /layers (each INPUT is a layer named after its file stem).
+
+    One process renders on one GL thread, batching the tiles asked for together; for
+    more throughput run several processes (each with its own GL context) behind a load
+    balancer. Stop with Ctrl-C. Needs pip install 'gloffset[serve]'.
+    """
+    try:
+        import uvicorn
+
+        from ..serve.app import create_app
+    except ImportError:
+        raise OptionError("gloffset serve needs: pip install 'gloffset[serve]'") from None
+    layers = {}
+    for path in inputs:
+        name = Path(path).stem
+        if name in layers:
+            raise InputFormatError(f"two inputs are named {name!r}: layers are named by file stem")
+        layers[name] = read(path)
+    app = create_app(layers, cache_control=cache_control, queue_size=queue_size, cache_mb=cache_mb)
+    click.echo(
+        f"gloffset serve: http://{host}:{port}/ ({', '.join(layers)}); Ctrl-C stops", err=True
+    )
+    uvicorn.run(app, host=host, port=port, log_level="warning")
