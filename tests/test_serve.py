@@ -1,14 +1,17 @@
 """``gloffset serve``: every endpoint, the error codes, ETag/304, HEAD, a full queue, a
-dropped request, and tiles equal to gloffset.render on the same Tile."""
+client that goes away, tiles decided without rendering, and tiles equal to
+gloffset.render on the same Tile. Nothing here can hang: every wait has a timeout."""
 
 from __future__ import annotations
 
 import io
 import json
+import shutil
 import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 import urllib.request
 
@@ -26,8 +29,8 @@ pytest.importorskip("httpx")
 from starlette.testclient import TestClient  # noqa: E402
 
 from gloffset.raster.tilepaint import TileStyle  # noqa: E402
-from gloffset.serve.app import create_app  # noqa: E402
-from gloffset.serve.service import QueueFull, TileKey  # noqa: E402
+from gloffset.serve.app import STATIC, create_app  # noqa: E402
+from gloffset.serve.service import EMPTY_PNG, QueueFull, TileKey, full_png  # noqa: E402
 
 TRI = {"type": "Polygon", "coordinates": [[[-110, 15], [-90, 15], [-100, 30], [-110, 15]]]}
 LINE_AM = {"type": "LineString", "coordinates": [[170, -10], [-170, 5], [-160, 20]]}
@@ -36,7 +39,8 @@ LINE_AM = {"type": "LineString", "coordinates": [[170, -10], [-170, 5], [-160, 2
 @pytest.fixture(scope="module")
 def client():
     layers = {"tri": gloffset.read(TRI), "am": gloffset.read(LINE_AM)}
-    with TestClient(create_app(layers, queue_size=64, cache_mb=16)) as c:
+    app = create_app(layers, queue_size=64, cache_mb=16, render_timeout=60)
+    with TestClient(app) as c:
         yield c
 
 
@@ -94,12 +98,53 @@ def test_etag_304_head_and_cache_control(client):
     assert client.head("/layers").status_code == 200
 
 
-def test_inside_and_outside_tiles(client):
+def test_inside_and_outside_tiles_need_no_rendering(client):
+    svc = client.app.state.server.tiles
+    before = svc.rendered
     # far from the triangle: empty; deep inside it at a large distance: full
     empty = client.get("/tiles/tri/100km/6/0/0.png")
     assert empty.status_code == 200 and not alpha(empty.content).any()
+    assert empty.headers["x-gloffset-tile"] == "outside" and empty.content == EMPTY_PNG[256]
     full = client.get("/tiles/tri/1000km/7/28/56.png")
     assert full.status_code == 200 and alpha(full.content).all()
+    assert full.headers["x-gloffset-tile"] == "inside"
+    assert full.content == full_png(256, TileStyle())
+    # another distance and tile: the same shared bytes, the same ETag
+    other = client.get("/tiles/tri/900km/7/28/56.png")
+    assert other.content == full.content and other.headers["etag"] == full.headers["etag"]
+    assert svc.rendered == before  # the render thread (and the GPU) had no part in it
+    # the same pixels as a render
+    shape = client.app.state.server.layers["tri"]
+    want = on_gl_thread(client, lambda: gloffset.render(shape, 1000e3, Tile(7, 28, 56)))
+    assert (want > 0).all()
+    # a frontier tile is rendered, then cached
+    r = client.get("/tiles/tri/300km/3/1/3.png?opacity=0.9")
+    assert r.headers["x-gloffset-tile"] == "rendered" and svc.rendered == before + 1
+    again = client.get("/tiles/tri/300km/3/1/3.png?opacity=0.9")
+    assert again.headers["x-gloffset-tile"] == "cached" and again.content == r.content
+
+
+def test_tiles_decided_at_once_agree_with_render_everywhere(client):
+    """Every tile of zooms 2-6 around the triangle, at an outward and an inward distance:
+    the triage's inside/outside tiles are those of gloffset.render."""
+    svc = client.app.state.server.tiles
+    shape = client.app.state.server.layers["tri"]
+    style, seen = TileStyle(), set()
+    for d in (0.03, -0.01):
+        for z in range(2, 7):
+            n = 1 << z
+            for x in range(int(n * 0.19), int(n * 0.27) + 1):
+                for y in range(int(n * 0.40), int(n * 0.48) + 1):
+                    cls = svc.triage(TileKey("tri", d, z, x, y, 256, style))
+                    if cls is None:
+                        continue
+                    seen.add(cls)
+                    tile = Tile(z, x, y)
+                    got = on_gl_thread(
+                        client, lambda t=tile, d=d: gloffset.render(shape, d, t, radius=1.0)
+                    )
+                    assert (got > 0).all() if cls == 2 else not got.any(), (d, z, x, y)
+    assert seen == {0, 2}
 
 
 @pytest.mark.parametrize(
@@ -145,28 +190,128 @@ def test_tilejson_shape_offset_distance_layers(client):
     assert client.get("/distance/tri?lon=-100&lat=20").json()["inside"] is True
     layers = client.get("/layers").json()
     assert [x["name"] for x in layers] == ["am", "tri"] and layers[1]["vertices"] == 3
-    assert "tilejson/tri.json" in client.get("/").text
+    page = client.get("/")
+    assert page.status_code == 200 and "/static/vendor/maplibre-gl.js" in page.text
+    js = client.get("/static/page.js")
+    assert js.status_code == 200 and "setProjection" in js.text and "/distance/" in js.text
+    assert client.head("/").status_code == 200
+
+
+def test_distance_endpoint_answers_for_lines_and_across_the_antimeridian(client):
+    got = client.get("/distance/am?lon=180&lat=-2").json()
+    want = float(gloffset.distance(LINE_AM, [180.0], [-2.0])[0])
+    assert abs(got["distance_m"] - want) < 1e-6 and got["inside"] is False
+    assert client.get("/distance/tri?lon=0&lat=91").status_code == 400
+
+
+def test_vendored_maplibre_matches_its_pinned_integrity():
+    """The page's MapLibre GL JS ships in the package (no CDN) and is the version the
+    vendoring script pins."""
+    vendor = STATIC / "vendor"
+    for name in ("maplibre-gl.js", "maplibre-gl.css", "maplibre-gl.LICENSE.txt"):
+        assert (vendor / name).stat().st_size > 1000, name
+    version, integrity = (vendor / "VERSION").read_text().split()[1:3]
+    assert version.startswith("5.")
+    script = (STATIC.parents[2] / "scripts" / "vendor_maplibre.py").read_text()
+    assert f'VERSION = "{version}"' in script and integrity in script
+    head = (vendor / "maplibre-gl.js").read_bytes()[:2000].decode("utf-8", "replace")
+    assert "maplibre" in head.lower() and version in head
+    # package data: the wheel holds every file under gloffset/ that git does not ignore
+    root = STATIC.parents[2]
+    if (root / ".git").exists() and shutil.which("git"):
+        files = [str(p.relative_to(root)) for p in STATIC.rglob("*") if p.is_file()]
+        run = subprocess.run(["git", "check-ignore", *files], cwd=root, capture_output=True)
+        assert run.returncode == 1, run.stdout.decode()  # 1: none is ignored
+
+
+def _wait(cond, what: str, timeout: float = 60.0) -> None:
+    end = time.monotonic() + timeout
+    while not cond():
+        if time.monotonic() > end:
+            pytest.fail(f"timed out waiting for {what}")
+        time.sleep(0.01)
 
 
 def test_full_queue_is_503_and_dropped_requests_do_no_harm():
     shape = gloffset.read(TRI)
-    app = create_app({"tri": shape}, queue_size=1)
+    app = create_app({"tri": shape}, queue_size=1, render_timeout=60)
+    svc = app.state.server.tiles
+    style = TileStyle()
+    keys = [TileKey("tri", 0.02, 4, x, 6, 256, style) for x in (3, 4, 5)]
+    with TestClient(app) as c:
+        svc.gate.clear()  # the render thread waits after taking a request
+        try:
+            first = svc.submit(keys[0])
+            _wait(svc.queue.empty, "the render thread to take the first tile")
+            second = svc.submit(keys[1])  # the queue (of one) is full now
+            with pytest.raises(QueueFull):
+                svc.submit(keys[2])
+            r = c.get("/tiles/tri/100km/4/3/6.png")
+            assert r.status_code == 503 and r.headers["retry-after"] == "1"
+            assert "queue is full" in r.json()["detail"]
+            # a request whose client went away before its turn: skipped, no harm done
+            assert second.cancel()
+        finally:
+            svc.gate.set()
+        assert first.result(timeout=60)[:8] == b"\x89PNG\r\n\x1a\n"
+        assert second.cancelled()
+        _wait(lambda: svc.queue.empty(), "the queue to drain")
+        r = c.get("/tiles/tri/100km/4/3/6.png")
+        assert r.status_code == 200 and svc.thread.is_alive()
+
+
+def test_a_tile_not_rendered_in_time_is_503():
+    app = create_app({"tri": gloffset.read(TRI)}, render_timeout=0.2)
     svc = app.state.server.tiles
     with TestClient(app) as c:
-        svc.hold.set()  # the render thread waits after taking its first request
-        style = TileStyle()
-        keys = [TileKey("tri", 0.02, 4, x, 6, 256, style) for x in range(4)]
-        futures = []
-        with pytest.raises(QueueFull):
-            for k in keys:
-                futures.append(svc.submit(k))
-        r = c.get("/tiles/tri/100km/4/3/6.png")
-        assert r.status_code == 503 and r.headers["retry-after"] == "1"
-        del futures[:1]  # a client that went away: its tile is rendered and dropped
-        svc.hold.clear()
-        for f in futures:
-            assert f.result(timeout=60)[:8] == b"\x89PNG\r\n\x1a\n"
+        svc.gate.clear()
+        try:
+            r = c.get("/tiles/tri/100km/4/3/6.png")
+        finally:
+            svc.gate.set()
+        assert r.status_code == 503 and "within 0.2 s" in r.json()["detail"]
+        assert r.headers["retry-after"] == "1"
         assert c.get("/tiles/tri/100km/4/3/6.png").status_code == 200
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def live_server():
+    """A real uvicorn server on a free port, in a thread; yields (base URL, app)."""
+    uvicorn = pytest.importorskip("uvicorn")
+    app = create_app({"tri": gloffset.read(TRI)}, render_timeout=60)
+    port = _free_port()
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="error"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    _wait(lambda: server.started, "the server to start")
+    yield f"http://127.0.0.1:{port}", app
+    server.should_exit = True
+    thread.join(timeout=30)
+
+
+def test_a_client_that_disconnects_mid_request(live_server):
+    base, app = live_server
+    svc = app.state.server.tiles
+    port = int(base.rsplit(":", 1)[1])
+    path = "/tiles/tri/100km/4/3/6.png"
+    svc.gate.clear()
+    try:
+        with socket.create_connection(("127.0.0.1", port), timeout=10) as s:
+            s.sendall(f"GET {path} HTTP/1.1\r\nHost: x\r\n\r\n".encode())
+            _wait(svc.queue.empty, "the render thread to take the tile")
+        # the client is gone while its tile waits on the render thread
+    finally:
+        svc.gate.set()
+    _wait(lambda: svc.rendered >= 1, "the tile to render")
+    with urllib.request.urlopen(base + path, timeout=60) as r:
+        assert r.status == 200 and r.headers["X-Gloffset-Tile"] == "cached"
+    assert svc.thread.is_alive()
 
 
 def test_cli_refuses_two_layers_of_one_name(tmp_path):

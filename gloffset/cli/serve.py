@@ -36,10 +36,18 @@ from . import main
     show_default=True,
     help="Tiles waiting to render at most; more are answered 503 with Retry-After.",
 )
-def serve_cmd(inputs, host, port, cache_mb, cache_control, queue_size):
+@click.option(
+    "--render-timeout",
+    type=click.FloatRange(min=0.1),
+    default=60.0,
+    show_default=True,
+    help="Seconds a request waits for its tile; then 503 with Retry-After.",
+)
+def serve_cmd(inputs, host, port, cache_mb, cache_control, queue_size, render_timeout):
     """Serve the offset regions of INPUT... as map tiles for any distance:
     /tiles/LAYER/127km/z/x/y.png, /tilejson/LAYER.json?distance=127km, /offset, /shape,
-    /distance, /layers (each INPUT is a layer named after its file stem).
+    /distance, /layers, and at / a map and globe page with a distance slider (each INPUT
+    is a layer named after its file stem).
 
     One process renders on one GL thread, batching the tiles asked for together; for
     more throughput run several processes (each with its own GL context) behind a load
@@ -57,7 +65,13 @@ def serve_cmd(inputs, host, port, cache_mb, cache_control, queue_size):
         if name in layers:
             raise InputFormatError(f"two inputs are named {name!r}: layers are named by file stem")
         layers[name] = read(path)
-    app = create_app(layers, cache_control=cache_control, queue_size=queue_size, cache_mb=cache_mb)
+    app = create_app(
+        layers,
+        cache_control=cache_control,
+        queue_size=queue_size,
+        cache_mb=cache_mb,
+        render_timeout=render_timeout,
+    )
     click.echo(
         f"gloffset serve: http://{host}:{port}/ ({', '.join(layers)}); Ctrl-C stops", err=True
     )

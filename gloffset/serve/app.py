@@ -12,35 +12,48 @@ Endpoints (each input is a layer named after its file stem):
 - ``GET /offset/{layer}.geojson?distance=127km``: the resolved vector offset;
 - ``GET /shape/{layer}.geojson``: the input;
 - ``GET /distance/{layer}?lon=..&lat=..``: the distance to the layer in metres;
-- ``GET /layers`` and ``GET /`` (a page listing the layers and their TileJSON).
+- ``GET /layers``;
+- ``GET /``: the page (``static/index.html``, ``static/page.js``): the tiles on a map
+  and a globe (MapLibre GL JS, vendored in ``static/vendor`` by
+  ``scripts/vendor_maplibre.py``) with a distance slider, the input drawn over them, a
+  click showing the distance to the curves; ``/static/...`` serves its files.
 
 HEAD works wherever GET does. Bad input is 400 with ``{"detail": ...}`` naming the
-problem, an unknown layer 404, a full render queue 503 with ``Retry-After``. Tiles carry
-a strong ETag (a hash of their bytes; ``If-None-Match`` gives 304) and the configured
-``Cache-Control``.
+problem, an unknown layer 404, a full render queue (or a tile not rendered within
+``render_timeout``) 503 with ``Retry-After``. Tiles carry a strong ETag (a hash of their
+bytes; ``If-None-Match`` gives 304), the configured ``Cache-Control``, and
+``X-Gloffset-Tile``: how the tile was found (``cached``, ``inside``, ``outside``: decided
+without rendering, or ``rendered``).
 """
 
 from __future__ import annotations
 
 import asyncio
+import json
 import math
+from pathlib import Path
+from urllib.parse import urlencode
 
 from starlette.applications import Starlette
 from starlette.exceptions import HTTPException
 from starlette.requests import Request
 from starlette.responses import HTMLResponse, JSONResponse, Response
-from starlette.routing import Route
+from starlette.routing import Mount, Route
+from starlette.staticfiles import StaticFiles
 
 from ..errors import GloffsetError
 from ..grids.mercator import MAX_ZOOM
+from ..index.contains import contains
 from ..raster.tilepaint import TileStyle
-from ..reference import contains as exact_contains
-from ..reference import distance as exact_distance
+from ..reference import distance as distance_to
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
 from ..vector.offset import offset
 from .service import QueueFull, TileKey, TileService, etag
 
-__all__ = ["create_app"]
+__all__ = ["create_app", "STATIC"]
+
+#: the page and the vendored MapLibre GL JS (package data)
+STATIC = Path(__file__).resolve().parent / "static"
 
 
 def _bad(detail: str, status: int = 400):
@@ -50,9 +63,18 @@ def _bad(detail: str, status: int = 400):
 class _Server:
     """The layers, the tile service and the response options."""
 
-    def __init__(self, layers: dict, *, cache_control: str, queue_size: int, cache_mb: float):
+    def __init__(
+        self,
+        layers: dict,
+        *,
+        cache_control: str,
+        queue_size: int,
+        cache_mb: float,
+        render_timeout: float,
+    ):
         self.layers = layers
         self.cache_control = cache_control
+        self.render_timeout = render_timeout
         self.tiles = TileService(layers, queue_size=queue_size, cache_mb=cache_mb)
 
     def layer(self, name: str):
@@ -75,31 +97,46 @@ class _Server:
         shape = self.layer(p["layer"])
         d = self.angle(shape, p["distance"])
         z, x, y, size = _zxy(p["z"], p["x"], p["y"])
-        style = _style(request.query_params)
-        fut = None
-        try:
-            fut = self.tiles.submit(TileKey(p["layer"], d, z, x, y, size, style))
-        except QueueFull:
-            return JSONResponse(
-                {"detail": "the render queue is full; try again"},
-                status_code=503,
-                headers={"Retry-After": "1"},
-            )
-        data = await asyncio.wrap_future(fut)
+        key = TileKey(p["layer"], d, z, x, y, size, _style(request.query_params))
+        found = await asyncio.to_thread(self.tiles.answer, key)
+        if found is not None:
+            data, how = found
+        else:
+            data, how = await self._render(key), "rendered"
+            if isinstance(data, Response):
+                return data
         tag = etag(data)
-        headers = {"ETag": tag, "Cache-Control": self.cache_control}
+        headers = {"ETag": tag, "Cache-Control": self.cache_control, "X-Gloffset-Tile": how}
         if tag in [t.strip() for t in request.headers.get("if-none-match", "").split(",")]:
             return Response(status_code=304, headers=headers)
         return Response(data, media_type="image/png", headers=headers)
+
+    async def _render(self, key: TileKey) -> bytes | Response:
+        """The tile rendered on the render thread, or the 503 that says why not."""
+        busy = {"Retry-After": "1"}
+        try:
+            fut = self.tiles.submit(key)
+        except QueueFull:
+            detail = "the render queue is full; try again"
+            return JSONResponse({"detail": detail}, status_code=503, headers=busy)
+        try:
+            return await asyncio.wait_for(asyncio.wrap_future(fut), self.render_timeout)
+        except asyncio.TimeoutError:
+            detail = f"the tile was not rendered within {self.render_timeout:g} s; try again"
+            return JSONResponse({"detail": detail}, status_code=503, headers=busy)
+        except GloffsetError as exc:
+            _bad(str(exc))
 
     async def tilejson(self, request: Request) -> Response:
         name = request.path_params["layer"]
         shape = self.layer(name)
         text = request.query_params.get("distance")
         self.angle(shape, text)
+        _style(request.query_params)
         base = str(request.base_url).rstrip("/")
         w, s, e, n = _bounds(shape)
-        query = str(request.query_params).replace(f"distance={text}", "").strip("&")
+        rest = [(k, v) for k, v in request.query_params.multi_items() if k != "distance"]
+        query = urlencode(rest)
         tiles = f"{base}/tiles/{name}/{text}/{{z}}/{{x}}/{{y}}.png" + (f"?{query}" if query else "")
         return JSONResponse(
             {
@@ -124,7 +161,8 @@ class _Server:
 
     async def shape_geojson(self, request: Request) -> Response:
         shape = self.layer(request.path_params["layer"])
-        return JSONResponse(shape.to_geojson())
+        body = await asyncio.to_thread(_geojson_bytes, shape)
+        return Response(body, media_type="application/geo+json")
 
     async def distance(self, request: Request) -> Response:
         name = request.path_params["layer"]
@@ -138,8 +176,7 @@ class _Server:
             _bad(f"lon must be in -180..180, got {lon}")
         if not -90 <= lat <= 90:
             _bad(f"lat must be in -90..90, got {lat}")
-        metres = float(exact_distance(shape, [lon], [lat])[0])
-        inside = bool(exact_contains(shape, [lon], [lat], distance=0.0)[0])
+        metres, inside = await asyncio.to_thread(_distance_inside, shape, lon, lat)
         body = {"layer": name, "lon": lon, "lat": lat, "distance_m": metres, "inside": inside}
         return JSONResponse(body)
 
@@ -147,12 +184,7 @@ class _Server:
         return JSONResponse([_describe(n, s) for n, s in sorted(self.layers.items())])
 
     async def index(self, request: Request) -> Response:
-        rows = "".join(
-            f'<li>{n}: <a href="/tilejson/{n}.json?distance=127km">TileJSON at 127 km</a>, '
-            f'<a href="/shape/{n}.geojson">input</a></li>'
-            for n in sorted(self.layers)
-        )
-        return HTMLResponse(f"<!doctype html><title>gloffset serve</title><ul>{rows}</ul>")
+        return HTMLResponse((STATIC / "index.html").read_text())
 
 
 def _zxy(z: str, x: str, y: str) -> tuple[int, int, int, int]:
@@ -184,7 +216,12 @@ def _style(q) -> TileStyle:
 
 
 def _bounds(shape) -> tuple[float, float, float, float]:
-    feats = shape.to_geojson()
+    """West, south, east, north of the layer's vertices (latitudes clipped to web
+    mercator's), kept on the shape."""
+    return shape.cached("serve.bounds", lambda: _vertex_bounds(shape))
+
+
+def _vertex_bounds(shape) -> tuple[float, float, float, float]:
     pts = []
 
     def walk(c):
@@ -194,11 +231,25 @@ def _bounds(shape) -> tuple[float, float, float, float]:
             for v in c:
                 walk(v)
 
+    feats = shape.to_geojson()
     for f in feats.get("features", [feats]):
         g = f.get("geometry", f)
         walk(g.get("coordinates", []))
     lon, lat = zip(*pts)
     return (min(lon), max(min(lat), -85.0511), max(lon), min(max(lat), 85.0511))
+
+
+def _geojson_bytes(shape) -> bytes:
+    """The layer's input as GeoJSON bytes, made once and kept on the shape."""
+    return shape.cached("serve.geojson", lambda: json.dumps(shape.to_geojson()).encode())
+
+
+def _distance_inside(shape, lon: float, lat: float) -> tuple[float, bool]:
+    """The distance in metres from a point to the layer's curves and whether the point
+    is inside its polygons (the fast index, kept on the shape)."""
+    metres = float(distance_to(shape, [lon], [lat])[0])
+    inside = bool(shape.rings) and bool(contains(shape, [lon], [lat], distance=0.0)[0])
+    return metres, inside
 
 
 def _describe(name: str, shape) -> dict:
@@ -219,9 +270,21 @@ def create_app(
     cache_control: str = "public, max-age=3600",
     queue_size: int = 256,
     cache_mb: float = 256.0,
+    render_timeout: float = 60.0,
 ) -> Starlette:
-    """The application serving ``layers`` (name -> :class:`~gloffset.Shape`)."""
-    srv = _Server(layers, cache_control=cache_control, queue_size=queue_size, cache_mb=cache_mb)
+    """The application serving ``layers`` (name -> :class:`~gloffset.Shape`).
+
+    ``cache_control``: the tiles' Cache-Control header; ``queue_size``: tiles waiting to
+    render at most (more are answered 503); ``cache_mb``: the LRU of rendered tiles;
+    ``render_timeout``: seconds a request waits for its tile before a 503.
+    """
+    srv = _Server(
+        layers,
+        cache_control=cache_control,
+        queue_size=queue_size,
+        cache_mb=cache_mb,
+        render_timeout=render_timeout,
+    )
     get = ["GET", "HEAD"]
     routes = [
         Route("/", srv.index, methods=get),
@@ -231,6 +294,7 @@ def create_app(
         Route("/offset/{layer}.geojson", srv.offset_geojson, methods=get),
         Route("/shape/{layer}.geojson", srv.shape_geojson, methods=get),
         Route("/distance/{layer}", srv.distance, methods=get),
+        Mount("/static", StaticFiles(directory=STATIC), name="static"),
     ]
     app = Starlette(routes=routes, exception_handlers={HTTPException: _error})
     app.state.server = srv

@@ -1,25 +1,32 @@
-"""The tile service behind ``gloffset serve``: one GL render thread, a bounded queue,
-batches, and a cache of tile bytes.
+"""The tile service behind ``gloffset serve``: tiles decided at once where they can be,
+one GL render thread with a bounded queue and batches for the rest, and a cache of tile
+bytes.
 
-A moderngl context is current on one thread only, so every tile is rendered on one
+A tile wholly inside or wholly outside the offset region is decided without the render
+thread or the GPU (:meth:`TileService.answer`): the exact distance from the tile's centre
+to the curves and whether the centre is inside, against the tile's rigorous bound, with
+the decision rule of the raster levels (:func:`gloffset.raster.levels.decide`). The
+answer is one shared PNG per size and style (empty: fully transparent).
+
+A moderngl context is current on one thread only, so every other tile is rendered on one
 render thread. Requests wait on a :class:`concurrent.futures.Future`; the queue holds at
-most ``queue`` pending tiles (a full queue raises :class:`QueueFull`, which the server
-answers with 503 and ``Retry-After``). The render thread takes every pending request at
-once and renders those of one layer, distance, zoom, size and style together
+most ``queue_size`` pending tiles (a full queue raises :class:`QueueFull`, which the
+server answers with 503 and ``Retry-After``). The render thread takes every pending
+request at once and renders those of one layer, distance, zoom, size and style together
 (:func:`gloffset.raster.tiles.render_tiles`: one walk down the zooms and batched GPU
 runs), so throughput grows with load. Rendered tiles are kept in an LRU bounded in
-bytes; a tile with nothing in it and a fully inside tile are the same few bytes each.
-A request whose client went away is still rendered (its batch shares the work) and its
-result simply dropped.
+bytes. A request whose client went away is still rendered when its batch had started
+(the tile is cached, the answer dropped); one cancelled before is skipped.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import io
+import logging
 import queue
 import threading
-import time
 from collections import OrderedDict
 from concurrent.futures import Future
 from dataclasses import dataclass
@@ -27,11 +34,19 @@ from dataclasses import dataclass
 import numpy as np
 from PIL import Image
 
+from ..classes import CONTAINED, OUTSIDE
 from ..errors import QueueFullError as QueueFull
+from ..grids.mercator import TilePyramid
+from ..index.contains import contains
+from ..raster.levels import decide
 from ..raster.tilepaint import TileStyle
 from ..raster.tiles import render_tiles
+from ..reference import distance_xyz
+from ..sphere import xyz_to_lonlat
 
-__all__ = ["TileKey", "TileService", "QueueFull", "EMPTY_PNG"]
+__all__ = ["TileKey", "TileService", "QueueFull", "EMPTY_PNG", "full_png", "etag"]
+
+log = logging.getLogger("gloffset.serve")
 
 
 def _empty_png(size: int) -> bytes:
@@ -40,8 +55,14 @@ def _empty_png(size: int) -> bytes:
     return buf.getvalue()
 
 
-#: A fully transparent tile of 256 and 512 pixels.
+#: A fully transparent tile of 256 and 512 pixels (every tile with nothing in it).
 EMPTY_PNG = {256: _empty_png(256), 512: _empty_png(512)}
+
+
+@functools.lru_cache(maxsize=64)
+def full_png(size: int, style: TileStyle) -> bytes:
+    """The one PNG of a tile wholly inside the region, per size and style."""
+    return style.encode(np.ones((size, size), dtype=bool))
 
 
 @dataclass(frozen=True)
@@ -61,7 +82,8 @@ class TileKey:
 
 
 class TileService:
-    """Render tiles of ``layers`` (name -> Shape) on one thread (see the module notes)."""
+    """Tiles of ``layers`` (name -> Shape): decided at once, cached, or rendered on one
+    thread in batches (see the module notes)."""
 
     def __init__(self, layers: dict, *, queue_size: int = 256, cache_mb: float = 256.0):
         self.layers = layers
@@ -69,7 +91,10 @@ class TileService:
         self.cache: OrderedDict = OrderedDict()
         self.cache_bytes, self.cache_limit = 0, int(cache_mb * (1 << 20))
         self.lock = threading.Lock()
-        self.hold = threading.Event()  # tests: set to pause the render thread
+        #: cleared, the render thread waits after taking a request (tests, draining)
+        self.gate = threading.Event()
+        self.gate.set()
+        self.rendered = 0  # tiles rendered on the render thread
         self.thread = threading.Thread(target=self._loop, name="gloffset-render", daemon=True)
         self.thread.start()
 
@@ -81,27 +106,59 @@ class TileService:
                 self.cache.move_to_end(key)
             return data
 
+    def answer(self, key: TileKey) -> tuple[bytes, str] | None:
+        """The tile's bytes and how they were found (``"cached"``, ``"inside"`` or
+        ``"outside"``) when that needs no rendering, else None. CPU only: call it off
+        the event loop."""
+        data = self.cached(key)
+        if data is not None:
+            return data, "cached"
+        cls = self.triage(key)
+        if cls == CONTAINED:
+            return full_png(key.size, key.style), "inside"
+        if cls == OUTSIDE:
+            return EMPTY_PNG[key.size], "outside"
+        return None
+
+    def triage(self, key: TileKey) -> int | None:
+        """CONTAINED or OUTSIDE when the whole tile is decided from its centre (the rule
+        of :func:`gloffset.raster.levels.decide` with the tile's rigorous bound), else
+        None. Tiles with an outline of the input are left to the renderer."""
+        if key.style.outline is not None:
+            return None
+        shape = self.layers[key.layer]
+        grid = TilePyramid(key.z)
+        c = grid.centers(key.z, np.array([key.y]), np.array([key.x]))
+        rho = grid.decision_rho(key.z, np.array([key.y]))
+        dist = distance_xyz(shape, c)
+        lon, lat = xyz_to_lonlat(c)
+        inside = np.zeros(1, dtype=bool)
+        if shape.rings:  # lines and points have no inside
+            inside = np.asarray(contains(shape, lon, lat, distance=0.0), dtype=bool).reshape(1)
+        # the distance to the boundary bounds the distance to a change of inside status
+        cls = int(decide(dist, dist, inside, rho, key.d, False)[0])
+        return cls if cls in (CONTAINED, OUTSIDE) else None
+
     def submit(self, key: TileKey) -> Future:
-        """A future of the tile's PNG bytes (raises :class:`QueueFull`)."""
+        """A future of the tile's PNG bytes, rendered on the render thread (raises
+        :class:`QueueFull`)."""
         fut: Future = Future()
         data = self.cached(key)
         if data is not None:
             fut.set_result(data)
             return fut
-        try:
-            self.queue.put_nowait((key, fut))
-        except queue.Full:
-            raise QueueFull from None
-        return fut
+        return self._put(key, fut)
 
     def call(self, fn) -> Future:
         """A future of ``fn()`` run on the render thread (GL work must run there: the
         context is current on that thread only). Raises :class:`QueueFull`."""
-        fut: Future = Future()
+        return self._put(fn, Future())
+
+    def _put(self, item, fut: Future) -> Future:
         try:
-            self.queue.put_nowait((fn, fut))
+            self.queue.put_nowait((item, fut))
         except queue.Full:
-            raise QueueFull from None
+            raise QueueFull("the render queue is full") from None
         return fut
 
     def _keep(self, key: TileKey, data: bytes) -> None:
@@ -118,21 +175,32 @@ class TileService:
     def _loop(self) -> None:
         while True:
             batch = [self.queue.get()]
-            while self.hold.is_set():
-                time.sleep(0.01)
+            self.gate.wait()
             while True:
                 try:
                     batch.append(self.queue.get_nowait())
                 except queue.Empty:
                     break
-            groups: dict = {}
-            for key, fut in batch:
-                if callable(key):
-                    _run_call(key, fut)
-                else:
-                    groups.setdefault(key.group(), []).append((key, fut))
-            for items in groups.values():
-                self._render(items)
+            try:
+                self._run(batch)
+            except Exception:  # noqa: BLE001 - the thread must outlive any one batch
+                log.exception("render batch failed")
+                for _, fut in batch:
+                    if not fut.done():
+                        fut.set_exception(RuntimeError("the render thread failed"))
+
+    def _run(self, batch) -> None:
+        # a request cancelled before it ran (its client went away) is skipped; the
+        # others can no longer be cancelled
+        batch = [(k, f) for k, f in batch if f.set_running_or_notify_cancel()]
+        groups: dict = {}
+        for key, fut in batch:
+            if callable(key):
+                _run_call(key, fut)
+            else:
+                groups.setdefault(key.group(), []).append((key, fut))
+        for items in groups.values():
+            self._render(items)
 
     def _render(self, items) -> None:
         key0 = items[0][0]
@@ -147,15 +215,14 @@ class TileService:
             )
         except Exception as exc:  # noqa: BLE001 - every waiting request hears of it
             for _, fut in items:
-                if not fut.done():
-                    fut.set_exception(exc)
+                fut.set_exception(exc)
             return
         for key, fut in items:
             data = got[(key.x, key.y)]
             data = EMPTY_PNG[key.size] if data is None else data
             self._keep(key, data)
-            if not fut.done():
-                fut.set_result(data)
+            self.rendered += 1
+            fut.set_result(data)
 
 
 def _run_call(fn, fut: Future) -> None:
