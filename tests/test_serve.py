@@ -14,7 +14,9 @@ import sys
 import threading
 import time
 import urllib.request
+from pathlib import Path
 
+import mercantile
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -32,6 +34,7 @@ from gloffset.raster.tilepaint import TileStyle  # noqa: E402
 from gloffset.serve.app import STATIC, create_app  # noqa: E402
 from gloffset.serve.service import EMPTY_PNG, QueueFull, TileKey, full_png  # noqa: E402
 
+ROOT = Path(__file__).resolve().parents[1]
 TRI = {"type": "Polygon", "coordinates": [[[-110, 15], [-90, 15], [-100, 30], [-110, 15]]]}
 LINE_AM = {"type": "LineString", "coordinates": [[170, -10], [-170, 5], [-160, 20]]}
 
@@ -72,6 +75,37 @@ def test_tiles_equal_render(client, layer, dist, z, x, y):
     want = on_gl_thread(client, lambda: gloffset.render(shape, d, Tile(z, x, y), radius=1.0)) > 0
     assert want.any() and not want.all()
     np.testing.assert_array_equal(alpha(r.content) > 0, want)
+
+
+def test_batched_tiles_equal_render_on_a_real_border(client):
+    """Views of 3 x 3 tiles of Mexico's border at random zooms and distances (inward
+    too), rendered as one batch each (render_tiles, as the server batches them): every
+    tile has the pixels of gloffset.render on its Tile."""
+    from gloffset.raster.tiles import render_tiles
+
+    shape = gloffset.read(ROOT / "data" / "mexico_10m.geojson")
+    rng = np.random.default_rng(16)
+    kinds = {"frontier": 0, "full": 0, "empty": 0}
+    views = [(8, 0.05, -102.0, 24.0), (7, -0.01, -102.0, 24.0), (6, 0.01, -60.0, 0.0)]
+    for _ in range(6):
+        z = int(rng.integers(3, 13))
+        d = float(rng.choice([-1.0, 1.0])) * rng.uniform(1e3, 500e3) / gloffset.EARTH_RADIUS
+        views.append((z, d, rng.uniform(-117, -87), rng.uniform(15, 32)))
+    for z, d, lon, lat in views:
+        t = mercantile.tile(lon, lat, z)
+        view = [(t.x + dx, t.y + dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
+        got = on_gl_thread(client, lambda v=view, z=z, d=d: render_tiles(shape, d, z, v))
+        for x, y in view:
+            want = on_gl_thread(
+                client,
+                lambda x=x, y=y, z=z, d=d: gloffset.render(shape, d, Tile(z, x, y), radius=1.0),
+            )
+            png = got[(x, y)]
+            mask = np.zeros((256, 256), bool) if png is None else alpha(png) > 0
+            np.testing.assert_array_equal(mask, want > 0, err_msg=f"{z}/{x}/{y} at {d}")
+            kind = "full" if want.all() else "frontier" if want.any() else "empty"
+            kinds[kind] += 1
+    assert min(kinds.values()) >= 5, kinds
 
 
 def test_retina_tiles_and_style(client):

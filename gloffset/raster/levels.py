@@ -45,6 +45,7 @@ from ..sphere import angle, arc_distance, arcs_cross
 __all__ = [
     "CurveArcs",
     "Frontier",
+    "at_cells",
     "cell_distances",
     "nearest",
     "row_statuses",
@@ -127,6 +128,26 @@ def coarse(shape, arcs: CurveArcs, grid, e: float) -> Frontier:
     qi, ai, _ = tree.near(c, np.minimum(e + rho, _nearest_bound(arcs, c) + 2.0 * rho))
     order = np.lexsort((ai, qi))
     return Frontier(0, cells, c, rho, qi[order], ai[order], status)
+
+
+def at_cells(shape, arcs: CurveArcs, grid, e: float, level: int, cells) -> Frontier:
+    """Cells ``(row, column)`` of ``level`` entered directly, no coarser level
+    classified: candidates from the arcs' bounding-cap tree as in :func:`coarse` (every
+    arc whose cap is within ``e + rho``, capped by the nearest-arc bound), statuses by
+    crossings to the shape's reference points (a crossing count per cell: for a few
+    cells, such as the tiles a server is asked for). The cells are sorted row-major.
+    """
+    cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+    cells = cells[np.lexsort((cells[:, 1], cells[:, 0]))]
+    c = grid.centers(level, cells[:, 0], cells[:, 1])
+    rho = grid.rho_at(level, cells[:, 0], cells[:, 1])
+    if arcs.n_groups:
+        status = component_status(shape, arcs, c)
+    else:
+        status = status_bits(arcs.n_groups, len(c))
+    qi, ai, _ = arcs.tree.near(c, np.minimum(e + rho, _nearest_bound(arcs, c) + 2.0 * rho))
+    order = np.lexsort((ai, qi))
+    return Frontier(level, cells, c, rho, qi[order], ai[order], status)
 
 
 def _nearest_bound(arcs: CurveArcs, c) -> np.ndarray:

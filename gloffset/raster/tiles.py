@@ -951,10 +951,11 @@ def render_tiles(
     nothing to draw), the pixels those of a pyramid and of :func:`gloffset.render` on
     :class:`~gloffset.grids.Tile`; ``d`` in radians.
 
-    The work follows the tiles, not the input: the zooms above ``z`` keep only the
-    tiles' ancestors (each with the candidate arcs within its reach), a tile whose
-    ancestor is decided contained or outside is answered at once, and the frontier tiles
-    of ``z`` are rendered together in batched GPU runs.
+    The work follows the tiles, not the input: the tiles are classified directly at
+    zoom ``z`` (their candidate arcs from the cap tree, within their reach:
+    :meth:`~gloffset.raster.curves.CurveCells.enter_cells`), a tile decided contained or
+    outside is answered at once, and the frontier tiles are rendered together in
+    batched GPU runs.
     """
     style = style if style is not None else TileStyle()
     want = sorted({(int(x), int(y)) for x, y in tiles})
@@ -963,32 +964,28 @@ def render_tiles(
     chain = _BinChain(cells, max(0, plog - _BIN_LOG2))
     stats = PyramidStats()
     job = _Zoom(cells, style, MemoryStore(), set(), size, stats, _Tracker(z, z, None))
-    full, out = job.full, {}
-    for lev in driver.walk(cells, z):
-        sh, rows, cols = z - lev.level, lev.cells[:, 0], lev.cells[:, 1]
-        left = [t for t in want if t not in out]
-        keys = np.array([((y >> sh) << 32) | (x >> sh) for x, y in left], dtype=np.int64)
-        at = np.flatnonzero(np.isin((rows << 32) | cols, keys))
-        r = cells.grid.decision_rho(lev.level, rows)
-        cls = lev.cls
-        carry = (cls != FRONTIER) & (lev.measure <= r) & (style.outline is not None)
-        for i in at[(cls[at] != FRONTIER) & ~carry[at]]:  # decided: every tile below alike
-            for x, y in left:
-                if (x >> sh, y >> sh) == (cols[i], rows[i]):
-                    out[(x, y)] = full if cls[i] == CONTAINED else None
-        if lev.level == z:
-            for i in at[carry[at]]:
-                mask = np.full((size, size), cls[i] == CONTAINED)
-                out[(int(cols[i]), int(rows[i]))] = style.encode(mask, job.lines_of(lev, i, r))
-            front = at[cls[at] == FRONTIER]
-            chain.advance(subset(lev.state, front))
-            which = np.arange(len(front), dtype=np.int64)
-            for k, mask in _render_tiles(chain, which, size, max_block, stats):
-                i = front[k]
-                out[(int(cols[i]), int(rows[i]))] = style.encode(mask, job.lines_of(lev, i, r))
-            break
-        lev.keep = at[(cls[at] == FRONTIER) | carry[at]]
-        lev.forced = np.where(carry, cls, NOT_FORCED).astype(np.uint8)[lev.keep]
+    lev = cells.enter_cells(z, [(y, x) for x, y in want])
+    rows, cols, cls = lev.cells[:, 0], lev.cells[:, 1], lev.cls
+    r = cells.grid.decision_rho(z, rows)
+    out = {}
+
+    def keep(i, mask):
+        lines = job.lines_of(lev, i, r) if mask is not None or lev.measure[i] <= r[i] else ()
+        if mask is None:  # decided: the one image of its class unless an outline crosses
+            if not len(lines):
+                out[(int(cols[i]), int(rows[i]))] = job.full if cls[i] == CONTAINED else None
+                return
+            mask = np.full((size, size), cls[i] == CONTAINED)
+        out[(int(cols[i]), int(rows[i]))] = style.encode(mask, lines)
+
+    for i in np.flatnonzero(cls != FRONTIER):
+        keep(i, None)
+    front = np.flatnonzero(cls == FRONTIER)
+    if len(front):
+        chain.advance(subset(lev.state, front))
+        which = np.arange(len(front), dtype=np.int64)
+        for k, mask in _render_tiles(chain, which, size, max_block, stats):
+            keep(front[k], mask)
     return {t: out.get(t) for t in want}
 
 

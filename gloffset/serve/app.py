@@ -48,7 +48,7 @@ from ..raster.tilepaint import TileStyle
 from ..reference import distance as distance_to
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
 from ..vector.offset import offset
-from .service import QueueFull, TileKey, TileService, etag
+from .service import UNKNOWN, QueueFull, TileKey, TileService, etag
 
 __all__ = ["create_app", "STATIC"]
 
@@ -98,7 +98,9 @@ class _Server:
         d = self.angle(shape, p["distance"])
         z, x, y, size = _zxy(p["z"], p["x"], p["y"])
         key = TileKey(p["layer"], d, z, x, y, size, _style(request.query_params))
-        found = await asyncio.to_thread(self.tiles.answer, key)
+        found = self.tiles.answer(key, measure=False)  # the cache, a known centre
+        if found is UNKNOWN:
+            found = await asyncio.to_thread(self.tiles.answer, key)
         if found is not None:
             data, how = found
         else:

@@ -44,7 +44,7 @@ from ..raster.tiles import render_tiles
 from ..reference import distance_xyz
 from ..sphere import xyz_to_lonlat
 
-__all__ = ["TileKey", "TileService", "QueueFull", "EMPTY_PNG", "full_png", "etag"]
+__all__ = ["TileKey", "TileService", "QueueFull", "EMPTY_PNG", "UNKNOWN", "full_png", "etag"]
 
 log = logging.getLogger("gloffset.serve")
 
@@ -57,6 +57,17 @@ def _empty_png(size: int) -> bytes:
 
 #: A fully transparent tile of 256 and 512 pixels (every tile with nothing in it).
 EMPTY_PNG = {256: _empty_png(256), 512: _empty_png(512)}
+
+
+#: tiles whose centre's distance and status are kept (about 100 bytes each)
+CENTRES = 200_000
+#: :meth:`TileService.answer` without ``measure``: the tile's centre is not measured yet
+UNKNOWN = object()
+
+
+@functools.cache
+def _pyramid(z: int) -> TilePyramid:
+    return TilePyramid(z)
 
 
 @functools.lru_cache(maxsize=64)
@@ -90,6 +101,7 @@ class TileService:
         self.queue: queue.Queue = queue.Queue(maxsize=max(1, int(queue_size)))
         self.cache: OrderedDict = OrderedDict()
         self.cache_bytes, self.cache_limit = 0, int(cache_mb * (1 << 20))
+        self.centres: OrderedDict = OrderedDict()  # (layer, z, x, y) -> what triage needs
         self.lock = threading.Lock()
         #: cleared, the render thread waits after taking a request (tests, draining)
         self.gate = threading.Event()
@@ -106,38 +118,62 @@ class TileService:
                 self.cache.move_to_end(key)
             return data
 
-    def answer(self, key: TileKey) -> tuple[bytes, str] | None:
+    def answer(self, key: TileKey, *, measure: bool = True):
         """The tile's bytes and how they were found (``"cached"``, ``"inside"`` or
-        ``"outside"``) when that needs no rendering, else None. CPU only: call it off
-        the event loop."""
+        ``"outside"``) when that needs no rendering, else None. With ``measure=False``
+        only what is known already is used (fast enough for the event loop), and
+        :data:`UNKNOWN` says that the tile's centre must be measured first (call again
+        with ``measure=True`` off the event loop)."""
         data = self.cached(key)
         if data is not None:
             return data, "cached"
-        cls = self.triage(key)
+        cls = self.triage(key, measure=measure)
+        if cls is UNKNOWN:
+            return UNKNOWN
         if cls == CONTAINED:
             return full_png(key.size, key.style), "inside"
         if cls == OUTSIDE:
             return EMPTY_PNG[key.size], "outside"
         return None
 
-    def triage(self, key: TileKey) -> int | None:
+    def triage(self, key: TileKey, *, measure: bool = True):
         """CONTAINED or OUTSIDE when the whole tile is decided from its centre (the rule
         of :func:`gloffset.raster.levels.decide` with the tile's rigorous bound), else
-        None. Tiles with an outline of the input are left to the renderer."""
+        None (:data:`UNKNOWN` when the centre is not measured yet and ``measure`` is
+        False). The centre's distance to the curves and its inside status do not depend
+        on the offset distance: they are measured once per tile and kept. Tiles with an
+        outline of the input are left to the renderer."""
         if key.style.outline is not None:
             return None
-        shape = self.layers[key.layer]
-        grid = TilePyramid(key.z)
-        c = grid.centers(key.z, np.array([key.y]), np.array([key.x]))
-        rho = grid.decision_rho(key.z, np.array([key.y]))
-        dist = distance_xyz(shape, c)
-        lon, lat = xyz_to_lonlat(c)
-        inside = np.zeros(1, dtype=bool)
-        if shape.rings:  # lines and points have no inside
-            inside = np.asarray(contains(shape, lon, lat, distance=0.0), dtype=bool).reshape(1)
+        where = (key.layer, key.z, key.x, key.y)
+        with self.lock:
+            geo = self.centres.get(where)
+        if geo is None:
+            if not measure:
+                return UNKNOWN
+            geo = self._measure(key)
+            with self.lock:
+                self.centres[where] = geo
+                if len(self.centres) > CENTRES:
+                    self.centres.popitem(last=False)
+        dist, inside, rho = geo
         # the distance to the boundary bounds the distance to a change of inside status
         cls = int(decide(dist, dist, inside, rho, key.d, False)[0])
         return cls if cls in (CONTAINED, OUTSIDE) else None
+
+    def _measure(self, key: TileKey):
+        """The exact distance from the tile's centre to the layer's curves, whether the
+        centre is inside, and the tile's bound (1-element arrays)."""
+        shape = self.layers[key.layer]
+        grid = _pyramid(key.z)
+        c = grid.centers(key.z, np.array([key.y]), np.array([key.x]))
+        rho = grid.decision_rho(key.z, np.array([key.y]))
+        dist = distance_xyz(shape, c)
+        inside = np.zeros(1, dtype=bool)
+        if shape.rings:  # lines and points have no inside
+            lon, lat = xyz_to_lonlat(c)
+            inside = np.asarray(contains(shape, lon, lat, distance=0.0), dtype=bool).reshape(1)
+        return dist, inside, rho
 
     def submit(self, key: TileKey) -> Future:
         """A future of the tile's PNG bytes, rendered on the render thread (raises
