@@ -9,8 +9,9 @@ at once; one view in four is one it saw before (cached tiles). Each tile's laten
 classified by the server's ``X-Gloffset-Tile`` header: ``rendered`` (a new frontier tile,
 rendered on the GL thread), ``cached``, ``inside`` / ``outside`` (decided without
 rendering). Each client count gets a fresh server (an empty cache); its RSS is sampled
-every second. The clients run in this process (asyncio + httpx) and share the machine's
-cores with the server.
+every second. The clients run in this process (asyncio, a minimal keep-alive HTTP/1.1
+client, 6 connections per client as browsers open) and share the machine's cores with
+the server; the CPU seconds of both are recorded.
 
 Run: python benchmarks/serve.py [--seconds 20] [--clients 1 4 16 64] [--input FILE]
      [--render-samples 60]
@@ -30,10 +31,9 @@ import time
 import urllib.request
 from pathlib import Path
 
-import httpx
 import mercantile
 import numpy as np
-from common import DATA, ROOT, RESULTS, write
+from common import DATA, RESULTS, ROOT, write
 
 import gloffset
 from gloffset.gl import context_info
@@ -57,6 +57,15 @@ def rss_mb(pid: int) -> float | None:
     return None
 
 
+def cpu_s(pid: int) -> float | None:
+    """CPU seconds (user + system) used so far by process ``pid`` (Linux), or None."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
 def pick_view(rng, bounds):
     """A zoom, the tiles of a view around a point near the input, and a distance (km)."""
     w, s, e, n = bounds
@@ -71,29 +80,82 @@ def pick_view(rng, bounds):
     return km, z, sorted((x, y) for x in xs for y in ys)
 
 
-async def client(http, base, layer, bounds, seed, stop_at, out):
+class Connection:
+    """One HTTP/1.1 keep-alive connection (a minimal client: GET, status, headers,
+    Content-Length body), so that the clients' own cost stays small beside the server's
+    on a shared machine."""
+
+    def __init__(self, host: str, port: int):
+        self.host, self.port = host, port
+        self.reader = self.writer = None
+
+    async def get(self, path: str) -> tuple[int, dict, bytes]:
+        """The response to ``GET path``; a kept-alive connection that the server closed
+        meanwhile (its idle timeout) is opened again once, as browsers do."""
+        reused = self.writer is not None
+        try:
+            return await self._get(path)
+        except (asyncio.IncompleteReadError, ConnectionError) as exc:
+            await self.close()
+            if not reused or getattr(exc, "partial", b""):
+                raise
+            return await self._get(path)
+
+    async def _get(self, path: str) -> tuple[int, dict, bytes]:
+        if self.writer is None:
+            self.reader, self.writer = await asyncio.open_connection(self.host, self.port)
+        self.writer.write(f"GET {path} HTTP/1.1\r\nHost: {self.host}\r\n\r\n".encode())
+        head = await self.reader.readuntil(b"\r\n\r\n")
+        lines = head.decode("latin-1").split("\r\n")
+        status = int(lines[0].split()[1])
+        headers = {}
+        for line in lines[1:]:
+            if ":" in line:
+                k, v = line.split(":", 1)
+                headers[k.strip().lower()] = v.strip()
+        body = await self.reader.readexactly(int(headers.get("content-length", 0)))
+        if headers.get("connection", "").lower() == "close":
+            await self.close()
+        return status, headers, body
+
+    async def close(self):
+        if self.writer is not None:
+            self.writer.close()
+            self.reader = self.writer = None
+
+
+async def client(host, port, layer, bounds, seed, stop_at, out):
+    """A map page: views of tiles fetched over 6 connections at once (as browsers do)."""
     rng = np.random.default_rng(seed)
+    conns = [Connection(host, port) for _ in range(6)]
     seen = []
-    while time.perf_counter() < stop_at:
-        if seen and rng.random() < 0.25:
-            km, z, tiles = seen[int(rng.integers(len(seen)))]
-        else:
-            km, z, tiles = pick_view(rng, bounds)
-            seen.append((km, z, tiles))
-        await asyncio.gather(
-            *(fetch(http, f"{base}/tiles/{layer}/{km}km/{z}/{x}/{y}.png", out) for x, y in tiles)
-        )
-
-
-async def fetch(http, url, out):
-    t = time.perf_counter()
     try:
-        r = await http.get(url)
-        ok = r.status_code == 200 and r.content[:4] == b"\x89PNG"
-        kind = r.headers.get("x-gloffset-tile", "?") if ok else f"error {r.status_code}"
-    except httpx.HTTPError as exc:
-        kind = f"error {type(exc).__name__}"
-    out.append((kind, time.perf_counter() - t))
+        while time.perf_counter() < stop_at:
+            if seen and rng.random() < 0.25:
+                km, z, tiles = seen[int(rng.integers(len(seen)))]
+            else:
+                km, z, tiles = pick_view(rng, bounds)
+                seen.append((km, z, tiles))
+            paths = [f"/tiles/{layer}/{km}km/{z}/{x}/{y}.png" for x, y in tiles]
+            await asyncio.gather(
+                *(fetch(c, paths[i :: len(conns)], out) for i, c in enumerate(conns))
+            )
+    finally:
+        for c in conns:
+            await c.close()
+
+
+async def fetch(conn, paths, out):
+    for path in paths:
+        t = time.perf_counter()
+        try:
+            status, headers, body = await conn.get(path)
+            ok = status == 200 and body[:4] == b"\x89PNG"
+            kind = headers.get("x-gloffset-tile", "?") if ok else f"error {status}"
+        except (OSError, asyncio.IncompleteReadError, ValueError) as exc:
+            kind = f"error {type(exc).__name__}"
+            await conn.close()
+        out.append((kind, time.perf_counter() - t))
 
 
 def start_server(path: Path, port: int, log):
@@ -136,28 +198,33 @@ def summary(samples, seconds: float) -> dict:
     return rec
 
 
-async def load(base, layer, bounds, n_clients, seconds, pid):
+async def load(host, port, layer, bounds, n_clients, seconds, pid):
     out: list = []
     rss = []
-    limits = httpx.Limits(max_connections=n_clients * 6, max_keepalive_connections=n_clients * 6)
-    async with httpx.AsyncClient(limits=limits, timeout=120) as http:
-        t0 = time.perf_counter()
-        stop_at = t0 + seconds
-        tasks = [
-            asyncio.create_task(client(http, base, layer, bounds, 1000 + i, stop_at, out))
-            for i in range(n_clients)
-        ]
-        while not all(t.done() for t in tasks):
-            rss.append((time.perf_counter() - t0, rss_mb(pid)))
-            await asyncio.wait(tasks, timeout=1.0)
-        await asyncio.gather(*tasks)
-        elapsed = time.perf_counter() - t0
+    cpu0, own0 = cpu_s(pid), time.process_time()
+    t0 = time.perf_counter()
+    stop_at = t0 + seconds
+    tasks = [
+        asyncio.create_task(client(host, port, layer, bounds, 1000 + i, stop_at, out))
+        for i in range(n_clients)
+    ]
+    while not all(t.done() for t in tasks):
+        rss.append((time.perf_counter() - t0, rss_mb(pid)))
+        await asyncio.wait(tasks, timeout=1.0)
+    await asyncio.gather(*tasks)
+    elapsed = time.perf_counter() - t0
     rec = summary(out, elapsed)
     rec["seconds"] = elapsed
+    cpu1 = cpu_s(pid)
+    rec["cpu_s"] = {
+        "server": None if cpu0 is None or cpu1 is None else cpu1 - cpu0,
+        "clients": time.process_time() - own0,
+    }
     rec["rss_mb"] = {
         "after_1s": rss[1][1] if len(rss) > 1 else None,
         "end": rss_mb(pid),
         "max": max((m for _, m in rss if m is not None), default=None),
+        "samples": [(round(t, 1), m) for t, m in rss],
     }
     return rec
 
@@ -207,8 +274,9 @@ def main():
         with open(RESULTS / "serve.log.tmp", "ab") as log:
             proc = start_server(args.input, port, log)
             try:
-                base = f"http://127.0.0.1:{port}"
-                rec = asyncio.run(load(base, layer, bounds, n_clients, args.seconds, proc.pid))
+                rec = asyncio.run(
+                    load("127.0.0.1", port, layer, bounds, n_clients, args.seconds, proc.pid)
+                )
             finally:
                 proc.terminate()
                 proc.wait(timeout=60)
