@@ -127,6 +127,10 @@ def test_etag_304_head_and_cache_control(client):
     again = client.get(url)
     assert again.headers["etag"] == tag and again.content == r.content
     assert client.get(url, headers={"If-None-Match": tag}).status_code == 304
+    assert client.get(url, headers={"If-None-Match": f'"x", {tag}'}).status_code == 304
+    assert client.get(url, headers={"If-None-Match": "*"}).status_code == 304
+    other = client.get(url, headers={"If-None-Match": '"something else"'})
+    assert other.status_code == 200 and other.content == r.content
     h = client.head(url)
     assert h.status_code == 200 and h.headers["etag"] == tag and h.content == b""
     assert client.head("/layers").status_code == 200
@@ -195,6 +199,21 @@ def test_tiles_decided_at_once_agree_with_render_everywhere(client):
         ("/distance/tri?lon=200&lat=0", 400, "lon"),
         ("/distance/tri?lat=0", 400, "lon and lat"),
         ("/offset/tri.geojson?distance=-1km", 200, ""),
+        ("/offset/tri.geojson?distance=abc", 400, "abc"),
+        ("/offset/tri.geojson", 400, "distance"),
+        ("/tiles/tri/nan/1/0/0.png", 400, "nan"),
+        ("/tiles/tri/1e999km/1/0/0.png", 400, "1e999km"),
+        ("/tiles/tri/20000km/1/0/0.png", 400, "a tile"),
+        ("/tiles/am/-5km/1/0/0.png", 400, "no polygon"),
+        ("/tiles/tri/100km/99999999999999999999/0/0.png", 400, "zoom must be 0..22"),
+        ("/tiles/tri/100km/1/-1/0.png", 400, "does not exist"),
+        ("/tiles/tri/100km/1/0/0.png?outline_width=x", 400, "style"),
+        ("/tiles/tri/100km/1/0/0.png?outline_width=99&outline=%23000000", 400, "outline width"),
+        ("/tilejson/nope.json?distance=1km", 404, "no layer"),
+        ("/tilejson/tri.json?distance=1km&opacity=-1", 400, "opacity"),
+        ("/distance/tri?lon=nan&lat=0", 400, "lon"),
+        ("/distance/tri?lon=0&lat=x", 400, "lon and lat"),
+        ("/shape/nope.geojson", 404, "no layer"),
         ("/nothing", 404, ""),
     ],
 )

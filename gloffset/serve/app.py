@@ -43,12 +43,12 @@ from starlette.staticfiles import StaticFiles
 
 from ..errors import GloffsetError
 from ..grids.mercator import MAX_ZOOM
-from ..index.contains import contains
 from ..raster.tilepaint import TileStyle
 from ..reference import distance as distance_to
+from ..sphere import lonlat_to_xyz
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
 from ..vector.offset import offset
-from .service import UNKNOWN, QueueFull, TileKey, TileService, etag
+from .service import UNKNOWN, QueueFull, TileKey, TileService, centre_inside, etag
 
 __all__ = ["create_app", "STATIC"]
 
@@ -109,7 +109,8 @@ class _Server:
                 return data
         tag = etag(data)
         headers = {"ETag": tag, "Cache-Control": self.cache_control, "X-Gloffset-Tile": how}
-        if tag in [t.strip() for t in request.headers.get("if-none-match", "").split(",")]:
+        match = {t.strip() for t in request.headers.get("if-none-match", "").split(",")}
+        if tag in match or "*" in match:
             return Response(status_code=304, headers=headers)
         return Response(data, media_type="image/png", headers=headers)
 
@@ -247,10 +248,10 @@ def _geojson_bytes(shape) -> bytes:
 
 
 def _distance_inside(shape, lon: float, lat: float) -> tuple[float, bool]:
-    """The distance in metres from a point to the layer's curves and whether the point
-    is inside its polygons (the fast index, kept on the shape)."""
+    """The distance in metres from a point to the layer's curves (:func:`gloffset.distance`:
+    the nearest candidate arcs only) and whether the point is inside its polygons."""
     metres = float(distance_to(shape, [lon], [lat])[0])
-    inside = bool(shape.rings) and bool(contains(shape, [lon], [lat], distance=0.0)[0])
+    inside = bool(centre_inside(shape, lonlat_to_xyz(lon, lat).reshape(1, 3))[0])
     return metres, inside
 
 
