@@ -20,7 +20,7 @@ import urllib.request
 from pathlib import Path
 
 VERSION = "5.24.1"
-INTEGRITY = "sha512-HyiYBwtsbk3L1n1EPLJHWqdoyMiF80n7tEYXFZyu2m1TjvaNx6KMLiFeDdmszt1/mq2zvsR1TJuX/NMu5BonXQ=="
+INTEGRITY = "sha512-HyiYBwtsbk3L1n1EPLJHWqdoyMiF80n7tEYXFZyu2m1TjvaNx6KMLiFeDdmszt1/mq2zvsR1TJuX/NMu5BonXQ=="  # noqa: E501
 URL = f"https://registry.npmjs.org/maplibre-gl/-/maplibre-gl-{VERSION}.tgz"
 FILES = {
     "package/dist/maplibre-gl.js": "maplibre-gl.js",

@@ -173,6 +173,12 @@ def test_page_map_slider_and_globe(server, page):
     pg.goto(f"{base}/#map=3.6/23/-102&layer=mexico&d=127km")
     _settle(pg, "127km")
     assert any("/tiles/mexico/127km/" in u and s == 200 for u, s in pg.tiles)
+    # the view comes from the URL hash
+    zoom, lon, lat = pg.evaluate(
+        "() => { const m = gloffsetPage.map; const c = m.getCenter();"
+        " return [m.getZoom(), c.lng, c.lat]; }"
+    )
+    assert abs(zoom - 3.6) < 1e-6 and abs(lon + 102) < 1e-6 and abs(lat - 23) < 1e-6
 
     # the slider: tiles of the new distance are requested and drawn
     _move_slider(pg, 400)
