@@ -3,10 +3,11 @@ one GL render thread with a bounded queue and batches for the rest, and a cache 
 bytes.
 
 A tile wholly inside or wholly outside the offset region is decided without the render
-thread or the GPU (:meth:`TileService.answer`): the exact distance from the tile's centre
-to the curves and whether the centre is inside, against the tile's rigorous bound, with
-the decision rule of the raster levels (:func:`gloffset.raster.levels.decide`). The
-answer is one shared PNG per size and style (empty: fully transparent).
+thread or the GPU (:meth:`TileService.answer`): the exact distances from the tile's
+centre to the curves and whether the centre is inside, against the tile's rigorous
+bound, with the decision rule of the raster levels (:func:`gloffset.raster.levels.decide`);
+those distances do not depend on the offset distance, so they are measured once per tile.
+The answer is one shared PNG per size and style (empty: fully transparent).
 
 A moderngl context is current on one thread only, so every other tile is rendered on one
 render thread. Requests wait on a :class:`concurrent.futures.Future`; the queue holds at
@@ -25,6 +26,7 @@ import functools
 import hashlib
 import io
 import logging
+import math
 import queue
 import threading
 from collections import OrderedDict
@@ -38,10 +40,9 @@ from ..classes import CONTAINED, OUTSIDE
 from ..edges import CurveArcs, component_status, inside_any
 from ..errors import QueueFullError as QueueFull
 from ..grids.mercator import TilePyramid
-from ..raster.levels import decide
+from ..raster.levels import at_cells, cell_distances, decide
 from ..raster.tilepaint import TileStyle
 from ..raster.tiles import render_tiles
-from ..reference import distance_xyz
 
 __all__ = [
     "TileKey",
@@ -145,12 +146,13 @@ class TileService:
         return None
 
     def triage(self, key: TileKey, *, measure: bool = True):
-        """CONTAINED or OUTSIDE when the whole tile is decided from its centre (the rule
-        of :func:`gloffset.raster.levels.decide` with the tile's rigorous bound), else
-        None (:data:`UNKNOWN` when the centre is not measured yet and ``measure`` is
-        False). The centre's distance to the curves and its inside status do not depend
-        on the offset distance: they are measured once per tile and kept. Tiles with an
-        outline of the input are left to the renderer."""
+        """CONTAINED or OUTSIDE when the whole tile is decided at its own zoom (the
+        classification of the raster levels, :func:`gloffset.raster.levels.decide`, with
+        the tile's rigorous bound), else None (:data:`UNKNOWN` when the tile is not
+        measured yet and ``measure`` is False). What the decision needs (the exact
+        distances from the tile's centre to the nearest boundary arc and ring edge, and
+        whether it is inside) does not depend on the offset distance: it is measured once
+        per tile and kept. Tiles with an outline of the input are left to the renderer."""
         if key.style.outline is not None:
             return None
         where = (key.layer, key.z, key.x, key.y)
@@ -164,19 +166,21 @@ class TileService:
                 self.centres[where] = geo
                 if len(self.centres) > CENTRES:
                     self.centres.popitem(last=False)
-        dist, inside, rho = geo
-        # the distance to the boundary bounds the distance to a change of inside status
-        cls = int(decide(dist, dist, inside, rho, key.d, False)[0])
+        dist, dring, inside, rho = geo
+        cls = int(decide(dist, dring, inside, rho, key.d, False)[0])
         return cls if cls in (CONTAINED, OUTSIDE) else None
 
     def _measure(self, key: TileKey):
-        """The exact distance from the tile's centre to the layer's curves, whether the
-        centre is inside, and the tile's bound (1-element arrays)."""
+        """The tile entered directly at its zoom (:func:`gloffset.raster.levels.at_cells`)
+        with every arc that can be its centre's nearest as candidates (no distance
+        limit): the exact distances to the nearest boundary arc and ring edge, the
+        centre's inside status and the tile's decision bound (1-element arrays)."""
         shape = self.layers[key.layer]
         grid = _pyramid(key.z)
-        c = grid.centers(key.z, np.array([key.y]), np.array([key.x]))
-        rho = grid.decision_rho(key.z, np.array([key.y]))
-        return distance_xyz(shape, c), centre_inside(shape, c), rho
+        arcs = CurveArcs.from_shape(shape)
+        f = at_cells(shape, arcs, grid, math.pi, key.z, [(key.y, key.x)])
+        dist, dring = cell_distances(f, arcs)
+        return dist, dring, inside_any(f.status), grid.decision_rho(key.z, f.cells[:, 0])
 
     def submit(self, key: TileKey) -> Future:
         """A future of the tile's PNG bytes, rendered on the render thread (raises
