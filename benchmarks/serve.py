@@ -295,6 +295,39 @@ def main():
         "server": runs,
     }
     print(write("serve", {"inputs": record}))
+    print(table(record[layer]))
+
+
+def table(rec: dict) -> str:
+    """The README's table of one input's runs (markdown)."""
+
+    def cell(kinds, *names):
+        got = [kinds[n] for n in names if n in kinds]
+        if not got:
+            return "-"
+        best = max(got, key=lambda v: v["count"])
+        return f"{best['p50_ms']:.1f} / {best['p99_ms']:.0f} ms"
+
+    rows = [
+        "| clients | tiles/s (rendered/s) | new frontier tiles p50 / p99 | cached p50 / p99 "
+        "| inside p50 / p99 | outside p50 / p99 | RSS after 1 s / end / max | errors |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for n, r in rec["server"].items():
+        k, m = r["kinds"], r["rss_mb"]
+        rendered = k.get("rendered", {}).get("per_s", 0.0)
+        rows.append(
+            f"| {n} | {r['tiles_per_s']:.0f} ({rendered:.0f}) | {cell(k, 'rendered')} "
+            f"| {cell(k, 'cached')} | {cell(k, 'inside')} | {cell(k, 'outside')} "
+            f"| {m['after_1s']:.0f} / {m['end']:.0f} / {m['max']:.0f} MB | {r['errors']} |"
+        )
+    p = rec["plain_render_per_tile"]
+    rows.append(
+        f"\nOne `gloffset.render(shape, d, Tile(z, x, y))` per tile at a new distance: "
+        f"p50 {p['p50_ms']:.0f} ms, p90 {p['p90_ms']:.0f} ms, p99 {p['p99_ms']:.0f} ms "
+        f"({p['samples']} tiles)."
+    )
+    return "\n".join(rows)
 
 
 def load_previous() -> dict:

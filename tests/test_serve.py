@@ -77,6 +77,24 @@ def test_tiles_equal_render(client, layer, dist, z, x, y):
     np.testing.assert_array_equal(alpha(r.content) > 0, want)
 
 
+def test_coarse_tiles_rendered_alone_are_the_bytes_of_render_tiles(client):
+    """Zooms up to ALONE_ZOOM go through gloffset.render on their own Tile: the same
+    bytes as render_tiles gives (the same pixels, the same encoding)."""
+    from gloffset.raster.tiles import render_tiles
+    from gloffset.serve.service import ALONE_ZOOM
+
+    shape = client.app.state.server.layers["tri"]
+    style = TileStyle("#3070c0", 0.5)
+    d = gloffset.parse_distance("2100km")
+    for z, x, y in [(ALONE_ZOOM, 1, 3), (2, 0, 1), (1, 0, 0)]:
+        r = client.get(f"/tiles/tri/2100km/{z}/{x}/{y}@2x.png?opacity=0.5")
+        assert r.status_code == 200 and r.headers["x-gloffset-tile"] == "rendered"
+        want = on_gl_thread(
+            client, lambda z=z, x=x, y=y: render_tiles(shape, d, z, [(x, y)], size=512, style=style)
+        )[(x, y)]
+        assert r.content == want
+
+
 def test_batched_tiles_equal_render_on_a_real_border(client):
     """Views of 3 x 3 tiles of Mexico's border at random zooms and distances (inward
     too), rendered as one batch each (render_tiles, as the server batches them): every
