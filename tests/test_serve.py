@@ -395,16 +395,27 @@ def test_cli_refuses_two_layers_of_one_name(tmp_path):
     assert r.exit_code == 2 and "two inputs are named 'x'" in r.output
 
 
-def test_cli_serves_and_stops_on_ctrl_c(tmp_path):
+def _children(pid: int) -> int:
+    """How many processes have ``pid`` as parent (Linux /proc; -1 elsewhere)."""
+    proc = Path("/proc")
+    if not proc.is_dir():
+        return -1
+    n = 0
+    for stat in proc.glob("[0-9]*/stat"):
+        try:
+            n += int(stat.read_text().rsplit(")", 1)[1].split()[1]) == pid
+        except (OSError, ValueError, IndexError):
+            pass
+    return n
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_cli_serves_and_stops_on_ctrl_c(tmp_path, workers):
     src = tmp_path / "tri.geojson"
     src.write_text(json.dumps(TRI))
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "gloffset", "serve", str(src), "--port", str(port)],
-        stderr=subprocess.PIPE,
-    )
+    port = _free_port()
+    cmd = [sys.executable, "-m", "gloffset", "serve", str(src), "--port", str(port)]
+    proc = subprocess.Popen(cmd + ["--workers", str(workers)], stderr=subprocess.PIPE)
     try:
         for _ in range(200):
             try:
@@ -416,9 +427,13 @@ def test_cli_serves_and_stops_on_ctrl_c(tmp_path):
         else:
             pytest.fail("the server did not answer")
         assert layers[0]["name"] == "tri"
-        url = f"http://127.0.0.1:{port}/tiles/tri/300km/3/1/3.png"
-        with urllib.request.urlopen(url, timeout=30) as r:
-            assert r.status == 200 and r.read()[:4] == b"\x89PNG"
+        for z, x, y in [(3, 1, 3), (5, 6, 13), (4, 3, 6), (6, 12, 27)]:
+            url = f"http://127.0.0.1:{port}/tiles/tri/300km/{z}/{x}/{y}.png"
+            with urllib.request.urlopen(url, timeout=60) as r:
+                assert r.status == 200 and r.read()[:4] == b"\x89PNG"
+        if workers > 1:  # the worker processes run beside the supervisor
+            n = _children(proc.pid)  # the workers (and multiprocessing's resource tracker)
+            assert n == -1 or n >= workers
     finally:
         proc.send_signal(signal.SIGINT)
         err = proc.communicate(timeout=30)[1].decode()

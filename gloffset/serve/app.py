@@ -31,6 +31,7 @@ from __future__ import annotations
 import asyncio
 import json
 import math
+import os
 from pathlib import Path
 from urllib.parse import urlencode
 
@@ -45,12 +46,17 @@ from ..errors import GloffsetError
 from ..grids.mercator import MAX_ZOOM
 from ..raster.tilepaint import TileStyle
 from ..reference import distance as distance_to
+from ..shape import read
 from ..sphere import lonlat_to_xyz
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
 from ..vector.offset import offset
 from .service import UNKNOWN, QueueFull, TileKey, TileService, centre_inside, etag
 
-__all__ = ["create_app", "STATIC"]
+__all__ = ["create_app", "app_from_environment", "ENVIRONMENT", "STATIC"]
+
+#: the environment variable through which ``gloffset serve --workers N`` hands its options
+#: to the worker processes (JSON: ``inputs`` and the keywords of :func:`create_app`)
+ENVIRONMENT = "GLOFFSET_SERVE"
 
 #: the page and the vendored MapLibre GL JS (package data)
 STATIC = Path(__file__).resolve().parent / "static"
@@ -302,3 +308,13 @@ def create_app(
     app = Starlette(routes=routes, exception_handlers={HTTPException: _error})
     app.state.server = srv
     return app
+
+
+def app_from_environment() -> Starlette:
+    """The application of one worker process of ``gloffset serve --workers N`` (a factory
+    for uvicorn): the inputs and options from :data:`ENVIRONMENT`. Each worker reads the
+    inputs and makes its own GL context on its own render thread (workers are spawned,
+    never forked)."""
+    opts = json.loads(os.environ[ENVIRONMENT])
+    layers = {Path(p).stem: read(p) for p in opts.pop("inputs")}
+    return create_app(layers, **opts)
