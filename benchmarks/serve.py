@@ -14,8 +14,9 @@ client, 6 connections per client as browsers open) and share the machine's cores
 the server; the CPU seconds of both are recorded.
 
 Run: python benchmarks/serve.py [--seconds 20] [--clients 1 4 16 64] [--input FILE]
-     [--render-samples 60]
-Writes benchmarks/results/serve.json (key: the input's file stem).
+     [--render-samples 60] [--workers 1]
+Writes benchmarks/results/serve.json (key: the input's file stem, and the workers if more
+than one). RSS and CPU are those of the server process and its workers together.
 """
 
 from __future__ import annotations
@@ -46,24 +47,46 @@ VIEW = (4, 3)  # tiles per view: columns, rows
 MAXZOOM = 14
 
 
+def family(pid: int) -> list[int]:
+    """``pid`` and its descendants (Linux /proc): the server and its workers."""
+    parent = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            parent[int(stat.parent.name)] = int(stat.read_text().rsplit(")", 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):
+            pass
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        out.append(p)
+        todo += [c for c, pp in parent.items() if pp == p]
+    return out
+
+
 def rss_mb(pid: int) -> float | None:
-    """Resident memory of process ``pid`` in MB (Linux), or None."""
-    try:
-        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024.0
-    except OSError:
-        return None
-    return None
+    """Resident memory of process ``pid`` and its descendants in MB (Linux), or None."""
+    total = None
+    for p in family(pid):
+        try:
+            for line in Path(f"/proc/{p}/status").read_text().splitlines():
+                if line.startswith("VmRSS:"):
+                    total = (total or 0.0) + int(line.split()[1]) / 1024.0
+        except OSError:
+            pass
+    return total
 
 
 def cpu_s(pid: int) -> float | None:
-    """CPU seconds (user + system) used so far by process ``pid`` (Linux), or None."""
-    try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError):
-        return None
+    """CPU seconds (user + system) used so far by process ``pid`` and its descendants
+    (Linux), or None."""
+    total = None
+    for p in family(pid):
+        try:
+            fields = Path(f"/proc/{p}/stat").read_text().rsplit(")", 1)[1].split()
+            total = (total or 0.0) + (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+        except (OSError, ValueError, IndexError):
+            pass
+    return total
 
 
 def pick_view(rng, bounds):
@@ -158,8 +181,9 @@ async def fetch(conn, paths, out):
         out.append((kind, time.perf_counter() - t))
 
 
-def start_server(path: Path, port: int, log):
+def start_server(path: Path, port: int, log, workers: int = 1):
     cmd = [sys.executable, "-m", "gloffset", "serve", str(path), "--port", str(port)]
+    cmd += ["--workers", str(workers)]
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     proc = subprocess.Popen(cmd, stdout=log, stderr=log, env=env)
     end = time.monotonic() + 120
@@ -260,6 +284,9 @@ def main():
     ap.add_argument("--clients", type=int, nargs="+", default=[1, 4, 16, 64])
     ap.add_argument("--input", type=Path, default=DATA / "mexico_10m.geojson")
     ap.add_argument("--render-samples", type=int, default=60)
+    ap.add_argument(
+        "--workers", type=int, default=1, help="server processes (gloffset serve --workers)"
+    )
     args = ap.parse_args()
     shape = gloffset.read(args.input)
     layer = args.input.stem
@@ -272,7 +299,7 @@ def main():
     for n_clients in args.clients:
         port = free_port()
         with open(RESULTS / "serve.log.tmp", "ab") as log:
-            proc = start_server(args.input, port, log)
+            proc = start_server(args.input, port, log, args.workers)
             try:
                 rec = asyncio.run(
                     load("127.0.0.1", port, layer, bounds, n_clients, args.seconds, proc.pid)
@@ -284,9 +311,11 @@ def main():
         print(f"{n_clients:>3} clients: {json.dumps(rec)}", flush=True)
     (RESULTS / "serve.log.tmp").unlink(missing_ok=True)
     record = load_previous()
-    record[layer] = {
+    key = layer if args.workers == 1 else f"{layer} --workers {args.workers}"
+    record[key] = {
         "input": args.input.name,
         "vertices": int(shape.n_vertices),
+        "workers": args.workers,
         "seconds_per_run": args.seconds,
         "view_tiles": VIEW,
         "gl": context_info()["renderer"],
@@ -295,7 +324,7 @@ def main():
         "server": runs,
     }
     print(write("serve", {"inputs": record}))
-    print(table(record[layer]))
+    print(table(record[key]))
 
 
 def table(rec: dict) -> str:
