@@ -331,6 +331,30 @@ def test_full_queue_is_503_and_dropped_requests_do_no_harm():
         assert r.status_code == 200 and svc.thread.is_alive()
 
 
+def test_the_render_thread_outlives_a_failing_batch(monkeypatch):
+    import gloffset.serve.service as service
+
+    app = create_app({"tri": gloffset.read(TRI)}, render_timeout=60)
+    svc = app.state.server.tiles
+    real = service.render_tiles
+    calls = []
+
+    def broken(*args, **kw):
+        calls.append(1)
+        if len(calls) == 1:
+            raise RuntimeError("the GPU went away")
+        return real(*args, **kw)
+
+    monkeypatch.setattr(service, "render_tiles", broken)
+    with TestClient(app, raise_server_exceptions=False) as c:
+        assert c.get("/tiles/tri/100km/4/3/6.png").status_code == 500
+        with pytest.raises(ZeroDivisionError):
+            svc.call(lambda: 1 / 0).result(timeout=60)
+        r = c.get("/tiles/tri/100km/4/3/6.png")
+        assert r.status_code == 200 and r.headers["x-gloffset-tile"] == "rendered"
+    assert svc.thread.is_alive() and len(calls) == 2
+
+
 def test_a_tile_not_rendered_in_time_is_503():
     app = create_app({"tri": gloffset.read(TRI)}, render_timeout=0.2)
     svc = app.state.server.tiles
