@@ -164,11 +164,7 @@ def _nearest_bound(arcs: CurveArcs, c) -> np.ndarray:
     lists to the arcs near the cell's nearest. Exact angles (:func:`angle`), padded.
     """
     out = np.zeros(len(c))
-    for kind in (arcs.boundary, arcs.group >= 0):
-        if not kind.any():
-            continue
-        ends = arcs.a[kind]
-        ends = ends[:: max(1, len(ends) // 4096)]
+    for ends in arcs.end_samples:
         best = np.empty(len(c), dtype=np.int64)
         step = max(1, (1 << 22) // len(ends))
         for s in range(0, len(c), step):
