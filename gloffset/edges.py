@@ -52,6 +52,28 @@ class CurveArcs:
 
         return CapTree(self.mid, self.half)
 
+    @cached_property
+    def end_samples(self) -> list[np.ndarray]:
+        """At most 4096 arc ends of each kind present (boundary arcs, then ring edges),
+        spread along the curves: what :func:`gloffset.raster.levels.coarse` bounds the
+        nearest arc with (made once)."""
+        out = []
+        for kind in (self.boundary, self.group >= 0):
+            if kind.any():
+                ends = self.a[kind]
+                out.append(ends[:: max(1, len(ends) // 4096)])
+        return out
+
+    @cached_property
+    def ring_reach(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(ring, present, reach)`` for :func:`component_status`: which arcs are ring
+        edges, which components have any, and each arc's ``sin`` of its cap radius
+        rounded up (made once)."""
+        ring = self.group >= 0
+        present = np.bincount(self.group[ring], minlength=self.n_groups) > 0
+        reach = pad(np.sin(np.minimum(self.half, 0.5 * math.pi)), 1e-9, 1e-9)
+        return ring, present, reach
+
     @classmethod
     def from_shape(cls, shape) -> CurveArcs:
         """The arcs of ``shape`` (made once per shape and kept on it, like its edges)."""
@@ -93,9 +115,7 @@ def component_status(shape, arcs: CurveArcs, p: np.ndarray) -> np.ndarray:
     """
     status = status_bits(arcs.n_groups, len(p))
     refs, ref_status = shape.reference_points()
-    ring = arcs.group >= 0
-    present = np.bincount(arcs.group[ring], minlength=arcs.n_groups) > 0
-    reach = pad(np.sin(np.minimum(arcs.half, 0.5 * math.pi)), 1e-9, 1e-9)
+    ring, present, reach = arcs.ring_reach
     for i, pt in enumerate(p):
         k = int(pt @ refs[0] < -0.5)
         r = refs[k]

@@ -46,6 +46,7 @@ __all__ = [
     "OptionError",
     "OutputError",
     "OutputExistsError",
+    "QueueFullError",
     "ShaderError",
     "TilesError",
 ]
@@ -166,3 +167,9 @@ class GLContextError(GloffsetError, RuntimeError):
 class ShaderError(GloffsetError, RuntimeError):
     """A shader source in ``shaders/`` is missing or malformed, or does not compile or link
     (the message points at the file and line)."""
+
+
+# ------------------------------------------------------------------------------- serving
+class QueueFullError(GloffsetError, RuntimeError):
+    """The tile server's render queue holds as many tiles as it may (``gloffset serve``
+    answers 503 with ``Retry-After``): try again later."""

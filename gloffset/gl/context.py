@@ -1,4 +1,5 @@
-"""One headless OpenGL 4.3 context per process (EGL), reused, and the objects made on it.
+"""One headless OpenGL 4.3 context per thread that renders (EGL), reused, and the objects
+made on it.
 
 The device is chosen by the environment variable ``GLOFFSET_DEVICE`` (an EGL
 device index); without it gloffset prefers the first hardware device and falls
@@ -12,14 +13,13 @@ thread that made it.
 from __future__ import annotations
 
 import os
+import threading
 
 from ..errors import GLContextError
 
 __all__ = ["get_context", "context_info", "shared"]
 
-_CTX = None
-_DEVICE = None
-_SHARED: dict = {}  # class -> its one instance (shared)
+_LOCAL = threading.local()  # per thread: ctx, device, shared (class -> its one instance)
 _SOFTWARE = ("llvmpipe", "softpipe", "swrast", "software")
 _INSTALL = (
     "install an EGL driver: on Debian/Ubuntu 'apt-get install libegl1 libegl-mesa0 "
@@ -43,9 +43,16 @@ def get_context():
     Raises :class:`~gloffset.errors.GLContextError` naming the backend, the error and
     what to install when no context can be made.
     """
-    global _CTX, _DEVICE
-    if _CTX is not None:
-        return _CTX
+    ctx = getattr(_LOCAL, "ctx", None)
+    if ctx is not None:
+        return ctx
+    ctx, _LOCAL.device = _make()
+    _LOCAL.ctx = ctx
+    return ctx
+
+
+def _make():
+    """A new context and its device index (see :func:`get_context`)."""
     try:
         import moderngl  # noqa: F401
     except ImportError as exc:  # pragma: no cover - moderngl is a core dependency
@@ -59,13 +66,12 @@ def get_context():
                 f"GLOFFSET_DEVICE must be an EGL device index (0, 1, ...), got {env!r}"
             ) from None
         try:
-            _CTX, _DEVICE = _create(index), index
+            return _create(index), index
         except Exception as exc:
             raise GLContextError(
                 f"cannot create an OpenGL 4.3 context with EGL on device {index} "
                 f"(GLOFFSET_DEVICE): {exc}; {_INSTALL}"
             ) from None
-        return _CTX
     first, first_exc = None, None
     for index in range(8):
         try:
@@ -77,8 +83,7 @@ def get_context():
         if not _is_software(ctx):
             if first is not None:
                 first[0].release()
-            _CTX, _DEVICE = ctx, index
-            return ctx
+            return ctx, index
         if first is None:
             first = (ctx, index)
         else:
@@ -88,8 +93,7 @@ def get_context():
             f"cannot create an OpenGL 4.3 context with EGL (backend 'egl', device 0): "
             f"{first_exc}; {_INSTALL}"
         )
-    _CTX, _DEVICE = first
-    return _CTX
+    return first
 
 
 def context_info() -> dict:
@@ -97,7 +101,7 @@ def context_info() -> dict:
     ctx = get_context()
     info = ctx.info
     return {
-        "device": _DEVICE,
+        "device": _LOCAL.device,
         "renderer": info["GL_RENDERER"],
         "vendor": info["GL_VENDOR"],
         "version": info["GL_VERSION"],
@@ -110,9 +114,12 @@ def context_info() -> dict:
 
 
 def shared(cls):
-    """The process's one instance of ``cls``, made by ``cls()`` on first use (an engine
-    that compiles its programs on the context once)."""
-    obj = _SHARED.get(cls)
+    """This thread's one instance of ``cls``, made by ``cls()`` on first use (an engine
+    that compiles its programs on the thread's context once)."""
+    objs = getattr(_LOCAL, "shared", None)
+    if objs is None:
+        objs = _LOCAL.shared = {}
+    obj = objs.get(cls)
     if obj is None:
-        obj = _SHARED[cls] = cls()
+        obj = objs[cls] = cls()
     return obj

@@ -16,7 +16,7 @@ import numpy as np
 from ..edges import CurveArcs, inside_any
 from . import driver
 from .driver import FRONTIER, NOT_FORCED, Level
-from .levels import Frontier, cell_distances, coarse, decide, refine, subset
+from .levels import Frontier, at_cells, cell_distances, coarse, decide, refine, subset
 from .scatter import scatter, start_level
 
 __all__ = ["CurveCells", "classify"]
@@ -65,6 +65,12 @@ class CurveCells:
             self.shape, self.arcs, self.grid, self.d, at, final=(at == self.last), plan=plan
         )
         return Level(at, f.cells, np.full(len(f.cells), FRONTIER, dtype=np.uint8), f, dense)
+
+    def enter_cells(self, level: int, cells) -> Level:
+        """The cells ``(row, column)`` of ``level`` alone, classified without the levels
+        above (:func:`gloffset.raster.levels.at_cells`): the work of a few cells of a
+        fine level follows their neighbourhood, not the whole input."""
+        return self._level(at_cells(self.shape, self.arcs, self.grid, self.e, level, cells))
 
     def _level(self, f: Frontier) -> Level:
         """The cells of ``f`` classified: exact float64 distances to their candidates

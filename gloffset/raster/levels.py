@@ -45,6 +45,7 @@ from ..sphere import angle, arc_distance, arcs_cross
 __all__ = [
     "CurveArcs",
     "Frontier",
+    "at_cells",
     "cell_distances",
     "nearest",
     "row_statuses",
@@ -129,6 +130,26 @@ def coarse(shape, arcs: CurveArcs, grid, e: float) -> Frontier:
     return Frontier(0, cells, c, rho, qi[order], ai[order], status)
 
 
+def at_cells(shape, arcs: CurveArcs, grid, e: float, level: int, cells) -> Frontier:
+    """Cells ``(row, column)`` of ``level`` entered directly, no coarser level
+    classified: candidates from the arcs' bounding-cap tree as in :func:`coarse` (every
+    arc whose cap is within ``e + rho``, capped by the nearest-arc bound), statuses by
+    crossings to the shape's reference points (a crossing count per cell: for a few
+    cells, such as the tiles a server is asked for). The cells are sorted row-major.
+    """
+    cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+    cells = cells[np.lexsort((cells[:, 1], cells[:, 0]))]
+    c = grid.centers(level, cells[:, 0], cells[:, 1])
+    rho = grid.rho_at(level, cells[:, 0], cells[:, 1])
+    if arcs.n_groups:
+        status = component_status(shape, arcs, c)
+    else:
+        status = status_bits(arcs.n_groups, len(c))
+    qi, ai, _ = arcs.tree.near(c, np.minimum(e + rho, _nearest_bound(arcs, c) + 2.0 * rho))
+    order = np.lexsort((ai, qi))
+    return Frontier(level, cells, c, rho, qi[order], ai[order], status)
+
+
 def _nearest_bound(arcs: CurveArcs, c) -> np.ndarray:
     """An upper bound on each centre's distance to its nearest boundary arc and to its
     nearest ring edge: the distance to the farther of the two nearest arc ends (of at
@@ -143,11 +164,7 @@ def _nearest_bound(arcs: CurveArcs, c) -> np.ndarray:
     lists to the arcs near the cell's nearest. Exact angles (:func:`angle`), padded.
     """
     out = np.zeros(len(c))
-    for kind in (arcs.boundary, arcs.group >= 0):
-        if not kind.any():
-            continue
-        ends = arcs.a[kind]
-        ends = ends[:: max(1, len(ends) // 4096)]
+    for ends in arcs.end_samples:
         best = np.empty(len(c), dtype=np.int64)
         step = max(1, (1 << 22) // len(ends))
         for s in range(0, len(c), step):

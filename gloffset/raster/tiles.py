@@ -944,6 +944,51 @@ class _BinChain:
         return tiles, layout, fb, (t, jr, jc)
 
 
+def render_tiles(
+    shape, d: float, z: int, tiles, *, size: int = 256, style=None, max_block=MAX_BLOCK
+):
+    """The styled PNG bytes of tiles ``(x, y)`` of zoom ``z`` (None where a tile has
+    nothing to draw), the pixels those of a pyramid and of :func:`gloffset.render` on
+    :class:`~gloffset.grids.Tile`; ``d`` in radians.
+
+    The work follows the tiles, not the input: the tiles are classified directly at
+    zoom ``z`` (their candidate arcs from the cap tree, within their reach:
+    :meth:`~gloffset.raster.curves.CurveCells.enter_cells`), a tile decided contained or
+    outside is answered at once, and the frontier tiles are rendered together in
+    batched GPU runs.
+    """
+    style = style if style is not None else TileStyle()
+    want = sorted({(int(x), int(y)) for x, y in tiles})
+    plog = size.bit_length() - 1
+    cells = CurveCells(shape, d, TilePyramid(z + plog))
+    chain = _BinChain(cells, max(0, plog - _BIN_LOG2))
+    stats = PyramidStats()
+    job = _Zoom(cells, style, MemoryStore(), set(), size, stats, _Tracker(z, z, None))
+    lev = cells.enter_cells(z, [(y, x) for x, y in want])
+    rows, cols, cls = lev.cells[:, 0], lev.cells[:, 1], lev.cls
+    r = cells.grid.decision_rho(z, rows)
+    out = {}
+
+    def keep(i, mask):
+        lines = job.lines_of(lev, i, r) if mask is not None or lev.measure[i] <= r[i] else ()
+        if mask is None:  # decided: the one image of its class unless an outline crosses
+            if not len(lines):
+                out[(int(cols[i]), int(rows[i]))] = job.full if cls[i] == CONTAINED else None
+                return
+            mask = np.full((size, size), cls[i] == CONTAINED)
+        out[(int(cols[i]), int(rows[i]))] = style.encode(mask, lines)
+
+    for i in np.flatnonzero(cls != FRONTIER):
+        keep(i, None)
+    front = np.flatnonzero(cls == FRONTIER)
+    if len(front):
+        chain.advance(subset(lev.state, front))
+        which = np.arange(len(front), dtype=np.int64)
+        for k, mask in _render_tiles(chain, which, size, max_block, stats):
+            keep(front[k], mask)
+    return {t: out.get(t) for t in want}
+
+
 def _render_tiles(chain, which, size, max_block, stats):
     """Masks of the frontier tiles ``which`` (indices into the chain's tiles), as
     ``(index, mask)``: the GPU levels classify the frontier bins of up to

@@ -1,0 +1,379 @@
+"""``gloffset serve`` under load: 1, 4, 16 and 64 concurrent clients on loopback against a
+real server process, each asking for random tiles (z 0-14 around the input) at random
+distances (1-500 km) for a fixed time; against, in the same run, what one would do
+without the server: one ``gloffset.render(shape, d, Tile(z, x, y))`` per request.
+
+A client behaves like a map page: it picks a distance (a new one, as a slider gives, in
+whole km), a zoom and a centre near the input, and asks for the 4 x 3 tiles of that view
+at once; one view in four is one it saw before (cached tiles). Each tile's latency is
+classified by the server's ``X-Gloffset-Tile`` header: ``rendered`` (a new frontier tile,
+rendered on the GL thread), ``cached``, ``inside`` / ``outside`` (decided without
+rendering). Each client count gets a fresh server (an empty cache); its RSS is sampled
+every second. The clients run in this process (asyncio, a minimal keep-alive HTTP/1.1
+client, 6 connections per client as browsers open) and share the machine's cores with
+the server; the CPU seconds of both are recorded.
+
+Run: python benchmarks/serve.py [--seconds 20] [--clients 1 4 16 64] [--input FILE]
+     [--render-samples 60] [--workers 1]
+Writes benchmarks/results/serve.json (key: the input's file stem, and the workers if more
+than one). RSS and CPU are those of the server process and its workers together.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import mercantile
+import numpy as np
+from common import DATA, RESULTS, ROOT, write
+
+import gloffset
+from gloffset.gl import context_info
+from gloffset.grids import Tile
+from gloffset.sphere import xyz_to_lonlat
+
+#: today's figures of one gloffset.render per tile at a new distance (issue 16, Mexico)
+TODAY = {"p50_ms": 115.0, "p90_ms": 545.0}
+VIEW = (4, 3)  # tiles per view: columns, rows
+MAXZOOM = 14
+
+
+def family(pid: int) -> list[int]:
+    """``pid`` and its descendants (Linux /proc): the server and its workers."""
+    parent = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            parent[int(stat.parent.name)] = int(stat.read_text().rsplit(")", 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):
+            pass
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        out.append(p)
+        todo += [c for c, pp in parent.items() if pp == p]
+    return out
+
+
+def rss_mb(pid: int) -> float | None:
+    """Resident memory of process ``pid`` and its descendants in MB (Linux), or None."""
+    total = None
+    for p in family(pid):
+        try:
+            for line in Path(f"/proc/{p}/status").read_text().splitlines():
+                if line.startswith("VmRSS:"):
+                    total = (total or 0.0) + int(line.split()[1]) / 1024.0
+        except OSError:
+            pass
+    return total
+
+
+def cpu_s(pid: int) -> float | None:
+    """CPU seconds (user + system) used so far by process ``pid`` and its descendants
+    (Linux), or None."""
+    total = None
+    for p in family(pid):
+        try:
+            fields = Path(f"/proc/{p}/stat").read_text().rsplit(")", 1)[1].split()
+            total = (total or 0.0) + (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+        except (OSError, ValueError, IndexError):
+            pass
+    return total
+
+
+def pick_view(rng, bounds):
+    """A zoom, the tiles of a view around a point near the input, and a distance (km)."""
+    w, s, e, n = bounds
+    lon = rng.uniform(w - 3.0, e + 3.0)
+    lat = rng.uniform(max(s - 3.0, -85.0), min(n + 3.0, 85.0))
+    z = int(rng.integers(0, MAXZOOM + 1))
+    t = mercantile.tile(lon, lat, z)
+    m = 1 << z
+    xs = {(t.x + dx) % m for dx in range(-(VIEW[0] // 2), VIEW[0] - VIEW[0] // 2)}
+    ys = {t.y + dy for dy in range(-(VIEW[1] // 2), VIEW[1] - VIEW[1] // 2) if 0 <= t.y + dy < m}
+    km = int(rng.integers(1, 501))
+    return km, z, sorted((x, y) for x in xs for y in ys)
+
+
+class Connection:
+    """One HTTP/1.1 keep-alive connection (a minimal client: GET, status, headers,
+    Content-Length body), so that the clients' own cost stays small beside the server's
+    on a shared machine."""
+
+    def __init__(self, host: str, port: int):
+        self.host, self.port = host, port
+        self.reader = self.writer = None
+
+    async def get(self, path: str) -> tuple[int, dict, bytes]:
+        """The response to ``GET path``; a kept-alive connection that the server closed
+        meanwhile (its idle timeout) is opened again once, as browsers do."""
+        reused = self.writer is not None
+        try:
+            return await self._get(path)
+        except (asyncio.IncompleteReadError, ConnectionError) as exc:
+            await self.close()
+            if not reused or getattr(exc, "partial", b""):
+                raise
+            return await self._get(path)
+
+    async def _get(self, path: str) -> tuple[int, dict, bytes]:
+        if self.writer is None:
+            self.reader, self.writer = await asyncio.open_connection(self.host, self.port)
+        self.writer.write(f"GET {path} HTTP/1.1\r\nHost: {self.host}\r\n\r\n".encode())
+        head = await self.reader.readuntil(b"\r\n\r\n")
+        lines = head.decode("latin-1").split("\r\n")
+        status = int(lines[0].split()[1])
+        headers = {}
+        for line in lines[1:]:
+            if ":" in line:
+                k, v = line.split(":", 1)
+                headers[k.strip().lower()] = v.strip()
+        body = await self.reader.readexactly(int(headers.get("content-length", 0)))
+        if headers.get("connection", "").lower() == "close":
+            await self.close()
+        return status, headers, body
+
+    async def close(self):
+        if self.writer is not None:
+            self.writer.close()
+            self.reader = self.writer = None
+
+
+async def client(host, port, layer, bounds, seed, stop_at, out):
+    """A map page: views of tiles fetched over 6 connections at once (as browsers do)."""
+    rng = np.random.default_rng(seed)
+    conns = [Connection(host, port) for _ in range(6)]
+    seen = []
+    try:
+        while time.perf_counter() < stop_at:
+            if seen and rng.random() < 0.25:
+                km, z, tiles = seen[int(rng.integers(len(seen)))]
+            else:
+                km, z, tiles = pick_view(rng, bounds)
+                seen.append((km, z, tiles))
+            paths = [f"/tiles/{layer}/{km}km/{z}/{x}/{y}.png" for x, y in tiles]
+            await asyncio.gather(
+                *(fetch(c, paths[i :: len(conns)], out) for i, c in enumerate(conns))
+            )
+    finally:
+        for c in conns:
+            await c.close()
+
+
+async def fetch(conn, paths, out):
+    for path in paths:
+        t = time.perf_counter()
+        try:
+            status, headers, body = await conn.get(path)
+            ok = status == 200 and body[:4] == b"\x89PNG"
+            kind = headers.get("x-gloffset-tile", "?") if ok else f"error {status}"
+        except (OSError, asyncio.IncompleteReadError, ValueError) as exc:
+            kind = f"error {type(exc).__name__}"
+            await conn.close()
+        out.append((kind, time.perf_counter() - t))
+
+
+def start_server(path: Path, port: int, log, workers: int = 1):
+    cmd = [sys.executable, "-m", "gloffset", "serve", str(path), "--port", str(port)]
+    cmd += ["--workers", str(workers)]
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.Popen(cmd, stdout=log, stderr=log, env=env)
+    end = time.monotonic() + 120
+    while time.monotonic() < end:
+        try:
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/layers", timeout=1) as r:
+                json.loads(r.read())
+                return proc
+        except OSError:
+            time.sleep(0.2)
+    proc.kill()
+    raise SystemExit("the server did not start")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def summary(samples, seconds: float) -> dict:
+    """Throughput and latency percentiles per kind of tile."""
+    kinds: dict = {}
+    for kind, dt in samples:
+        kinds.setdefault(kind, []).append(dt)
+    rec = {"tiles": len(samples), "tiles_per_s": len(samples) / seconds, "kinds": {}}
+    for kind, dts in sorted(kinds.items()):
+        ms = np.asarray(dts) * 1e3
+        rec["kinds"][kind] = {
+            "count": len(ms),
+            "per_s": len(ms) / seconds,
+            "p50_ms": float(np.percentile(ms, 50)),
+            "p99_ms": float(np.percentile(ms, 99)),
+        }
+    rec["errors"] = sum(v["count"] for k, v in rec["kinds"].items() if k.startswith("error"))
+    return rec
+
+
+async def load(host, port, layer, bounds, n_clients, seconds, pid):
+    out: list = []
+    rss = []
+    cpu0, own0 = cpu_s(pid), time.process_time()
+    t0 = time.perf_counter()
+    stop_at = t0 + seconds
+    tasks = [
+        asyncio.create_task(client(host, port, layer, bounds, 1000 + i, stop_at, out))
+        for i in range(n_clients)
+    ]
+    while not all(t.done() for t in tasks):
+        rss.append((time.perf_counter() - t0, rss_mb(pid)))
+        await asyncio.wait(tasks, timeout=1.0)
+    await asyncio.gather(*tasks)
+    elapsed = time.perf_counter() - t0
+    rec = summary(out, elapsed)
+    rec["seconds"] = elapsed
+    cpu1 = cpu_s(pid)
+    rec["cpu_s"] = {
+        "server": None if cpu0 is None or cpu1 is None else cpu1 - cpu0,
+        "clients": time.process_time() - own0,
+    }
+    rec["rss_mb"] = {
+        "after_1s": rss[1][1] if len(rss) > 1 else None,
+        "end": rss_mb(pid),
+        "max": max((m for _, m in rss if m is not None), default=None),
+        "samples": [(round(t, 1), m) for t, m in rss],
+    }
+    return rec
+
+
+def plain_render(shape, bounds, samples: int, seed: int = 7) -> dict:
+    """One ``gloffset.render(shape, d, Tile(z, x, y))`` per request, each at a new
+    distance: p50/p99 over random tiles near the input (zooms 4-14, as issue 16)."""
+    rng = np.random.default_rng(seed)
+    gloffset.render(shape, 0.01, Tile(3, 1, 3))  # the context and programs
+    times = []
+    for _ in range(samples):
+        km = int(rng.integers(1, 501))
+        _, z, tiles = pick_view(rng, bounds)
+        z = max(z, 4)
+        w, s, e, n = bounds
+        t = mercantile.tile(rng.uniform(w, e), rng.uniform(s, n), z)
+        t0 = time.perf_counter()
+        gloffset.render(shape, km * 1e3, Tile(z, t.x, t.y))
+        times.append(time.perf_counter() - t0)
+    ms = np.asarray(times) * 1e3
+    return {
+        "samples": samples,
+        "p50_ms": float(np.percentile(ms, 50)),
+        "p90_ms": float(np.percentile(ms, 90)),
+        "p99_ms": float(np.percentile(ms, 99)),
+        "max_ms": float(ms.max()),
+    }
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--seconds", type=float, default=20.0, help="per client count")
+    ap.add_argument("--clients", type=int, nargs="+", default=[1, 4, 16, 64])
+    ap.add_argument("--input", type=Path, default=DATA / "mexico_10m.geojson")
+    ap.add_argument("--render-samples", type=int, default=60)
+    ap.add_argument(
+        "--workers", type=int, default=1, help="server processes (gloffset serve --workers)"
+    )
+    args = ap.parse_args()
+    shape = gloffset.read(args.input)
+    layer = args.input.stem
+    bounds = shape_bounds(shape)
+    print(f"{layer}: {shape.n_vertices} vertices, bounds {bounds}", flush=True)
+    plain = plain_render(shape, bounds, args.render_samples)
+    print(f"gloffset.render per tile: p50 {plain['p50_ms']:.1f} ms, p99 {plain['p99_ms']:.1f} ms")
+    runs = {}
+    RESULTS.mkdir(exist_ok=True)
+    for n_clients in args.clients:
+        port = free_port()
+        with open(RESULTS / "serve.log.tmp", "ab") as log:
+            proc = start_server(args.input, port, log, args.workers)
+            try:
+                rec = asyncio.run(
+                    load("127.0.0.1", port, layer, bounds, n_clients, args.seconds, proc.pid)
+                )
+            finally:
+                proc.terminate()
+                proc.wait(timeout=60)
+        runs[str(n_clients)] = rec
+        print(f"{n_clients:>3} clients: {json.dumps(rec)}", flush=True)
+    (RESULTS / "serve.log.tmp").unlink(missing_ok=True)
+    record = load_previous()
+    key = layer if args.workers == 1 else f"{layer} --workers {args.workers}"
+    record[key] = {
+        "input": args.input.name,
+        "vertices": int(shape.n_vertices),
+        "workers": args.workers,
+        "seconds_per_run": args.seconds,
+        "view_tiles": VIEW,
+        "gl": context_info()["renderer"],
+        "plain_render_per_tile": plain,
+        "plain_render_today_issue16": TODAY,
+        "server": runs,
+    }
+    print(write("serve", {"inputs": record}))
+    print(table(record[key]))
+
+
+def table(rec: dict) -> str:
+    """The README's table of one input's runs (markdown)."""
+
+    def cell(kinds, *names):
+        got = [kinds[n] for n in names if n in kinds]
+        if not got:
+            return "-"
+        best = max(got, key=lambda v: v["count"])
+        return f"{best['p50_ms']:.1f} / {best['p99_ms']:.0f} ms"
+
+    rows = [
+        "| clients | tiles/s (rendered/s) | new frontier tiles p50 / p99 | cached p50 / p99 "
+        "| inside p50 / p99 | outside p50 / p99 | RSS after 1 s / end / max | errors |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for n, r in rec["server"].items():
+        k, m = r["kinds"], r["rss_mb"]
+        rendered = k.get("rendered", {}).get("per_s", 0.0)
+        rows.append(
+            f"| {n} | {r['tiles_per_s']:.0f} ({rendered:.0f}) | {cell(k, 'rendered')} "
+            f"| {cell(k, 'cached')} | {cell(k, 'inside')} | {cell(k, 'outside')} "
+            f"| {m['after_1s']:.0f} / {m['end']:.0f} / {m['max']:.0f} MB | {r['errors']} |"
+        )
+    p = rec["plain_render_per_tile"]
+    rows.append(
+        f"\nOne `gloffset.render(shape, d, Tile(z, x, y))` per tile at a new distance: "
+        f"p50 {p['p50_ms']:.0f} ms, p90 {p['p90_ms']:.0f} ms, p99 {p['p99_ms']:.0f} ms "
+        f"({p['samples']} tiles)."
+    )
+    return "\n".join(rows)
+
+
+def load_previous() -> dict:
+    """The inputs measured before (one JSON for all inputs)."""
+    try:
+        return json.loads((RESULTS / "serve.json").read_text()).get("inputs", {})
+    except (OSError, ValueError):
+        return {}
+
+
+def shape_bounds(shape):
+    """West, south, east, north of the shape's vertices (the benchmark inputs do not
+    cross the antimeridian)."""
+    pts = np.concatenate([np.asarray(r) for r in [*shape.rings, *shape.lines]])
+    lon, lat = xyz_to_lonlat(pts)
+    return float(lon.min()), float(lat.min()), float(lon.max()), float(lat.max())
+
+
+if __name__ == "__main__":
+    main()

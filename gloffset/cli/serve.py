@@ -1,0 +1,97 @@
+"""``gloffset serve``: a tile server of the offset regions of the inputs, any distance."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import click
+
+from ..errors import InputFormatError, OptionError
+from ..shape import read
+from . import main
+
+
+@main.command("serve")
+@click.argument("inputs", metavar="INPUT...", nargs=-1, required=True)
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address to listen on.")
+@click.option("--port", type=click.IntRange(0, 65535), default=8080, show_default=True)
+@click.option(
+    "--cache-mb",
+    type=click.FloatRange(min=0),
+    default=256.0,
+    show_default=True,
+    help="Rendered tiles kept in memory, MB.",
+)
+@click.option(
+    "--cache-control",
+    default="public, max-age=3600",
+    show_default=True,
+    help="The Cache-Control header of tiles.",
+)
+@click.option(
+    "--queue",
+    "queue_size",
+    type=click.IntRange(min=1),
+    default=256,
+    show_default=True,
+    help="Tiles waiting to render at most; more are answered 503 with Retry-After.",
+)
+@click.option(
+    "--render-timeout",
+    type=click.FloatRange(min=0.1),
+    default=60.0,
+    show_default=True,
+    help="Seconds a request waits for its tile; then 503 with Retry-After.",
+)
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=1,
+    show_default=True,
+    help="Server processes sharing the port, each with its own GL context and caches.",
+)
+def serve_cmd(inputs, host, port, cache_mb, cache_control, queue_size, render_timeout, workers):
+    """Serve the offset regions of INPUT... as map tiles for any distance:
+    /tiles/LAYER/127km/z/x/y.png, /tilejson/LAYER.json?distance=127km, /offset, /shape,
+    /distance, /layers, and at / a map and globe page with a distance slider (each INPUT
+    is a layer named after its file stem).
+
+    One process renders on one GL thread, batching the tiles asked for together; for
+    more throughput, --workers N runs N processes on the port (each with its own GL
+    context, render thread and caches), or run several behind a load balancer. Stop
+    with Ctrl-C. Needs pip install 'gloffset[serve]'.
+    """
+    try:
+        import uvicorn
+
+        from ..serve.app import ENVIRONMENT, create_app
+    except ImportError:
+        raise OptionError("gloffset serve needs: pip install 'gloffset[serve]'") from None
+    layers = {}
+    for path in inputs:
+        name = Path(path).stem
+        if name in layers:
+            raise InputFormatError(f"two inputs are named {name!r}: layers are named by file stem")
+        layers[name] = read(path)
+    opts = dict(
+        cache_control=cache_control,
+        queue_size=queue_size,
+        cache_mb=cache_mb,
+        render_timeout=render_timeout,
+    )
+    click.echo(
+        f"gloffset serve: http://{host}:{port}/ ({', '.join(layers)}"
+        + (f"; {workers} processes" if workers > 1 else "")
+        + "); Ctrl-C stops",
+        err=True,
+    )
+    if workers > 1:  # each worker (spawned) reads the inputs and makes its own context
+        paths = [str(Path(p).resolve()) for p in inputs]
+        os.environ[ENVIRONMENT] = json.dumps({"inputs": paths, **opts})
+        target, kw = "gloffset.serve.app:app_from_environment", {"factory": True}
+        kw["workers"] = workers
+    else:
+        target, kw = create_app(layers, **opts), {}
+    uvicorn.run(target, host=host, port=port, log_level="warning", **kw)

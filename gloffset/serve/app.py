@@ -1,0 +1,320 @@
+"""The HTTP side of ``gloffset serve``: a Starlette application over a
+:class:`~gloffset.serve.service.TileService`.
+
+Endpoints (each input is a layer named after its file stem):
+
+- ``GET /tiles/{layer}/{distance}/{z}/{x}/{y}.png`` (``{y}@2x.png``: 512 px): the offset
+  region at that distance (``127km``, ``500m``, ``0.02rad``, ``1.5deg``; a bare number is
+  metres) as a web-mercator tile, the pixels of ``gloffset.render(shape, d, Tile(z, x,
+  y))``, styled by the query (``fill``, ``opacity``, ``outline``, ``outline_width``) as
+  ``gloffset tiles`` styles them;
+- ``GET /tilejson/{layer}.json?distance=127km``: TileJSON 3.0.0 with absolute URLs;
+- ``GET /offset/{layer}.geojson?distance=127km``: the resolved vector offset;
+- ``GET /shape/{layer}.geojson``: the input;
+- ``GET /distance/{layer}?lon=..&lat=..``: the distance to the layer in metres;
+- ``GET /layers``;
+- ``GET /``: the page (``static/index.html``, ``static/page.js``): the tiles on a map
+  and a globe (MapLibre GL JS, vendored in ``static/vendor`` by
+  ``scripts/vendor_maplibre.py``) with a distance slider, the input drawn over them, a
+  click showing the distance to the curves; ``/static/...`` serves its files.
+
+HEAD works wherever GET does. Bad input is 400 with ``{"detail": ...}`` naming the
+problem, an unknown layer 404, a full render queue (or a tile not rendered within
+``render_timeout``) 503 with ``Retry-After``. Tiles carry a strong ETag (a hash of their
+bytes; ``If-None-Match`` gives 304), the configured ``Cache-Control``, and
+``X-Gloffset-Tile``: how the tile was found (``cached``, ``inside``, ``outside``: decided
+without rendering, or ``rendered``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import os
+from pathlib import Path
+from urllib.parse import urlencode
+
+from starlette.applications import Starlette
+from starlette.exceptions import HTTPException
+from starlette.requests import Request
+from starlette.responses import HTMLResponse, JSONResponse, Response
+from starlette.routing import Mount, Route
+from starlette.staticfiles import StaticFiles
+
+from ..errors import GloffsetError
+from ..grids.mercator import MAX_ZOOM
+from ..raster.tilepaint import TileStyle
+from ..reference import distance as distance_to
+from ..shape import read
+from ..sphere import lonlat_to_xyz
+from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
+from ..vector.offset import offset
+from .service import UNKNOWN, QueueFull, TileKey, TileService, centre_inside, etag
+
+__all__ = ["create_app", "app_from_environment", "ENVIRONMENT", "STATIC"]
+
+#: the environment variable through which ``gloffset serve --workers N`` hands its options
+#: to the worker processes (JSON: ``inputs`` and the keywords of :func:`create_app`)
+ENVIRONMENT = "GLOFFSET_SERVE"
+
+#: the page and the vendored MapLibre GL JS (package data)
+STATIC = Path(__file__).resolve().parent / "static"
+
+
+def _bad(detail: str, status: int = 400):
+    raise HTTPException(status_code=status, detail=detail)
+
+
+class _Server:
+    """The layers, the tile service and the response options."""
+
+    def __init__(
+        self,
+        layers: dict,
+        *,
+        cache_control: str,
+        queue_size: int,
+        cache_mb: float,
+        render_timeout: float,
+    ):
+        self.layers = layers
+        self.cache_control = cache_control
+        self.render_timeout = render_timeout
+        self.tiles = TileService(layers, queue_size=queue_size, cache_mb=cache_mb)
+
+    def layer(self, name: str):
+        if name not in self.layers:
+            _bad(f"no layer {name!r}; the layers are {', '.join(sorted(self.layers))}", 404)
+        return self.layers[name]
+
+    def angle(self, shape, text: str | None) -> float:
+        if text is None:
+            _bad("give the distance, e.g. ?distance=127km")
+        try:
+            value = parse_distance(text, EARTH_RADIUS)  # an angle
+            return offset_angle(shape, value, 1.0, limit=RASTER_LIMIT, what="a tile")
+        except GloffsetError as exc:
+            _bad(str(exc))
+
+    # ------------------------------------------------------------------ endpoints
+    async def tile(self, request: Request) -> Response:
+        p = request.path_params
+        shape = self.layer(p["layer"])
+        d = self.angle(shape, p["distance"])
+        z, x, y, size = _zxy(p["z"], p["x"], p["y"])
+        key = TileKey(p["layer"], d, z, x, y, size, _style(request.query_params))
+        found = self.tiles.answer(key, measure=False)  # the cache, a known centre
+        if found is UNKNOWN:
+            found = await asyncio.to_thread(self.tiles.answer, key)
+        if found is not None:
+            data, how = found
+        else:
+            data, how = await self._render(key), "rendered"
+            if isinstance(data, Response):
+                return data
+        tag = etag(data)
+        headers = {"ETag": tag, "Cache-Control": self.cache_control, "X-Gloffset-Tile": how}
+        match = {t.strip() for t in request.headers.get("if-none-match", "").split(",")}
+        if tag in match or "*" in match:
+            return Response(status_code=304, headers=headers)
+        return Response(data, media_type="image/png", headers=headers)
+
+    async def _render(self, key: TileKey) -> bytes | Response:
+        """The tile rendered on the render thread, or the 503 that says why not."""
+        busy = {"Retry-After": "1"}
+        try:
+            fut = self.tiles.submit(key)
+        except QueueFull:
+            detail = "the render queue is full; try again"
+            return JSONResponse({"detail": detail}, status_code=503, headers=busy)
+        try:
+            return await asyncio.wait_for(asyncio.wrap_future(fut), self.render_timeout)
+        except asyncio.TimeoutError:
+            detail = f"the tile was not rendered within {self.render_timeout:g} s; try again"
+            return JSONResponse({"detail": detail}, status_code=503, headers=busy)
+        except GloffsetError as exc:
+            _bad(str(exc))
+
+    async def tilejson(self, request: Request) -> Response:
+        name = request.path_params["layer"]
+        shape = self.layer(name)
+        text = request.query_params.get("distance")
+        self.angle(shape, text)
+        _style(request.query_params)
+        base = str(request.base_url).rstrip("/")
+        w, s, e, n = _bounds(shape)
+        rest = [(k, v) for k, v in request.query_params.multi_items() if k != "distance"]
+        query = urlencode(rest)
+        tiles = f"{base}/tiles/{name}/{text}/{{z}}/{{x}}/{{y}}.png" + (f"?{query}" if query else "")
+        return JSONResponse(
+            {
+                "tilejson": "3.0.0",
+                "name": f"{name} within {text}",
+                "tiles": [tiles],
+                "minzoom": 0,
+                "maxzoom": MAX_ZOOM,
+                "bounds": [w, s, e, n],
+                "center": [(w + e) / 2, (s + n) / 2, 2],
+            }
+        )
+
+    async def offset_geojson(self, request: Request) -> Response:
+        shape = self.layer(request.path_params["layer"])
+        d = self.angle(shape, request.query_params.get("distance"))
+        try:
+            feat = await asyncio.to_thread(lambda: offset(shape, d, radius=1.0).to_geojson())
+        except GloffsetError as exc:
+            _bad(str(exc))
+        return JSONResponse({"type": "FeatureCollection", "features": [feat]})
+
+    async def shape_geojson(self, request: Request) -> Response:
+        shape = self.layer(request.path_params["layer"])
+        body = await asyncio.to_thread(_geojson_bytes, shape)
+        return Response(body, media_type="application/geo+json")
+
+    async def distance(self, request: Request) -> Response:
+        name = request.path_params["layer"]
+        shape = self.layer(name)
+        try:
+            lon = float(request.query_params["lon"])
+            lat = float(request.query_params["lat"])
+        except (KeyError, ValueError):
+            _bad("give lon and lat in degrees, e.g. ?lon=-100&lat=20")
+        if not (math.isfinite(lon) and math.isfinite(lat) and -180 <= lon <= 180):
+            _bad(f"lon must be in -180..180, got {lon}")
+        if not -90 <= lat <= 90:
+            _bad(f"lat must be in -90..90, got {lat}")
+        metres, inside = await asyncio.to_thread(_distance_inside, shape, lon, lat)
+        body = {"layer": name, "lon": lon, "lat": lat, "distance_m": metres, "inside": inside}
+        return JSONResponse(body)
+
+    async def layer_list(self, request: Request) -> Response:
+        return JSONResponse([_describe(n, s) for n, s in sorted(self.layers.items())])
+
+    async def index(self, request: Request) -> Response:
+        return HTMLResponse((STATIC / "index.html").read_text())
+
+
+def _zxy(z: str, x: str, y: str) -> tuple[int, int, int, int]:
+    size = 256
+    if y.endswith("@2x"):
+        y, size = y[:-3], 512
+    try:
+        zi, xi, yi = int(z), int(x), int(y)
+    except ValueError:
+        _bad(f"z/x/y must be integers, got {z}/{x}/{y}")
+    if not 0 <= zi <= MAX_ZOOM:
+        _bad(f"zoom must be 0..{MAX_ZOOM}, got {zi}")
+    n = 1 << zi
+    if not (0 <= xi < n and 0 <= yi < n):
+        _bad(f"tile {zi}/{xi}/{yi} does not exist: x and y must be in 0..{n - 1}")
+    return zi, xi, yi, size
+
+
+def _style(q) -> TileStyle:
+    try:
+        return TileStyle(
+            q.get("fill", "#3070c0"),
+            float(q.get("opacity", 1.0)),
+            q.get("outline"),
+            int(q.get("outline_width", 1)),
+        )
+    except (GloffsetError, ValueError) as exc:
+        _bad(f"bad style: {exc}")
+
+
+def _bounds(shape) -> tuple[float, float, float, float]:
+    """West, south, east, north of the layer's vertices (latitudes clipped to web
+    mercator's), kept on the shape."""
+    return shape.cached("serve.bounds", lambda: _vertex_bounds(shape))
+
+
+def _vertex_bounds(shape) -> tuple[float, float, float, float]:
+    pts = []
+
+    def walk(c):
+        if c and isinstance(c[0], (int, float)):
+            pts.append(c[:2])
+        else:
+            for v in c:
+                walk(v)
+
+    feats = shape.to_geojson()
+    for f in feats.get("features", [feats]):
+        g = f.get("geometry", f)
+        walk(g.get("coordinates", []))
+    lon, lat = zip(*pts)
+    return (min(lon), max(min(lat), -85.0511), max(lon), min(max(lat), 85.0511))
+
+
+def _geojson_bytes(shape) -> bytes:
+    """The layer's input as GeoJSON bytes, made once and kept on the shape."""
+    return shape.cached("serve.geojson", lambda: json.dumps(shape.to_geojson()).encode())
+
+
+def _distance_inside(shape, lon: float, lat: float) -> tuple[float, bool]:
+    """The distance in metres from a point to the layer's curves (:func:`gloffset.distance`:
+    the nearest candidate arcs only) and whether the point is inside its polygons."""
+    metres = float(distance_to(shape, [lon], [lat])[0])
+    inside = bool(centre_inside(shape, lonlat_to_xyz(lon, lat).reshape(1, 3))[0])
+    return metres, inside
+
+
+def _describe(name: str, shape) -> dict:
+    w, s, e, n = _bounds(shape)
+    bounds = [w, s, e, n]
+    return {"name": name, "bounds": bounds, "center": [(w + e) / 2, (s + n) / 2]} | {
+        "vertices": int(shape.n_vertices)
+    }
+
+
+async def _error(request: Request, exc: HTTPException) -> Response:
+    return JSONResponse({"detail": exc.detail}, status_code=exc.status_code)
+
+
+def create_app(
+    layers: dict,
+    *,
+    cache_control: str = "public, max-age=3600",
+    queue_size: int = 256,
+    cache_mb: float = 256.0,
+    render_timeout: float = 60.0,
+) -> Starlette:
+    """The application serving ``layers`` (name -> :class:`~gloffset.Shape`).
+
+    ``cache_control``: the tiles' Cache-Control header; ``queue_size``: tiles waiting to
+    render at most (more are answered 503); ``cache_mb``: the LRU of rendered tiles;
+    ``render_timeout``: seconds a request waits for its tile before a 503.
+    """
+    srv = _Server(
+        layers,
+        cache_control=cache_control,
+        queue_size=queue_size,
+        cache_mb=cache_mb,
+        render_timeout=render_timeout,
+    )
+    get = ["GET", "HEAD"]
+    routes = [
+        Route("/", srv.index, methods=get),
+        Route("/layers", srv.layer_list, methods=get),
+        Route("/tiles/{layer}/{distance}/{z}/{x}/{y}.png", srv.tile, methods=get),
+        Route("/tilejson/{layer}.json", srv.tilejson, methods=get),
+        Route("/offset/{layer}.geojson", srv.offset_geojson, methods=get),
+        Route("/shape/{layer}.geojson", srv.shape_geojson, methods=get),
+        Route("/distance/{layer}", srv.distance, methods=get),
+        Mount("/static", StaticFiles(directory=STATIC), name="static"),
+    ]
+    app = Starlette(routes=routes, exception_handlers={HTTPException: _error})
+    app.state.server = srv
+    return app
+
+
+def app_from_environment() -> Starlette:
+    """The application of one worker process of ``gloffset serve --workers N`` (a factory
+    for uvicorn): the inputs and options from :data:`ENVIRONMENT`. Each worker reads the
+    inputs and makes its own GL context on its own render thread (workers are spawned,
+    never forked)."""
+    opts = json.loads(os.environ[ENVIRONMENT])
+    layers = {Path(p).stem: read(p) for p in opts.pop("inputs")}
+    return create_app(layers, **opts)

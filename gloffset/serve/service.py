@@ -1,0 +1,300 @@
+"""The tile service behind ``gloffset serve``: tiles decided at once where they can be,
+one GL render thread with a bounded queue and batches for the rest, and a cache of tile
+bytes.
+
+A tile wholly inside or wholly outside the offset region is decided without the render
+thread or the GPU (:meth:`TileService.answer`): the exact distances from the tile's
+centre to the curves and whether the centre is inside, against the tile's rigorous
+bound, with the decision rule of the raster levels (:func:`gloffset.raster.levels.decide`);
+those distances do not depend on the offset distance, so they are measured once per tile.
+The answer is one shared PNG per size and style (empty: fully transparent).
+
+A moderngl context is current on one thread only, so every other tile is rendered on one
+render thread. Requests wait on a :class:`concurrent.futures.Future`; the queue holds at
+most ``queue_size`` pending tiles (a full queue raises :class:`QueueFull`, which the
+server answers with 503 and ``Retry-After``). The render thread takes every pending
+request at once and renders those of one layer, distance, zoom, size and style together
+(:func:`gloffset.raster.tiles.render_tiles`: one walk down the zooms and batched GPU
+runs), so throughput grows with load. Rendered tiles are kept in an LRU bounded in
+bytes. A request whose client went away is still rendered when its batch had started
+(the tile is cached, the answer dropped); one cancelled before is skipped.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import io
+import logging
+import math
+import queue
+import threading
+from collections import OrderedDict
+from concurrent.futures import Future
+from dataclasses import dataclass
+
+import numpy as np
+from PIL import Image
+
+from ..classes import CONTAINED, OUTSIDE
+from ..edges import CurveArcs, component_status, inside_any
+from ..errors import QueueFullError as QueueFull
+from ..grids.mercator import Tile, TilePyramid
+from ..raster.levels import at_cells, cell_distances, decide
+from ..raster.render import render
+from ..raster.tilepaint import TileStyle
+from ..raster.tiles import render_tiles
+
+__all__ = [
+    "TileKey",
+    "TileService",
+    "QueueFull",
+    "EMPTY_PNG",
+    "UNKNOWN",
+    "centre_inside",
+    "full_png",
+    "etag",
+]
+
+log = logging.getLogger("gloffset.serve")
+
+
+def _empty_png(size: int) -> bytes:
+    buf = io.BytesIO()
+    Image.fromarray(np.zeros((size, size, 4), np.uint8), mode="RGBA").save(buf, format="PNG")
+    return buf.getvalue()
+
+
+#: A fully transparent tile of 256 and 512 pixels (every tile with nothing in it).
+EMPTY_PNG = {256: _empty_png(256), 512: _empty_png(512)}
+
+
+#: zooms up to which a tile is rendered on its own grid (gloffset.render), not with the
+#: pyramid's levels (render_tiles): 2-5 times faster there (measured, Mexico and
+#: countries_10m), slower below (z4 on), where render_tiles also batches
+ALONE_ZOOM = 3
+#: tiles whose centre's distance and status are kept (about 100 bytes each)
+CENTRES = 200_000
+#: :meth:`TileService.answer` without ``measure``: the tile's centre is not measured yet
+UNKNOWN = object()
+
+
+@functools.cache
+def _pyramid(z: int) -> TilePyramid:
+    return TilePyramid(z)
+
+
+@functools.lru_cache(maxsize=64)
+def full_png(size: int, style: TileStyle) -> bytes:
+    """The one PNG of a tile wholly inside the region, per size and style."""
+    return style.encode(np.ones((size, size), dtype=bool))
+
+
+@dataclass(frozen=True)
+class TileKey:
+    """What a tile is: layer, distance (radians), z/x/y, pixel size and style."""
+
+    layer: str
+    d: float
+    z: int
+    x: int
+    y: int
+    size: int
+    style: TileStyle
+
+    def group(self) -> tuple:
+        return (self.layer, self.d, self.z, self.size, self.style)
+
+
+class TileService:
+    """Tiles of ``layers`` (name -> Shape): decided at once, cached, or rendered on one
+    thread in batches (see the module notes)."""
+
+    def __init__(self, layers: dict, *, queue_size: int = 256, cache_mb: float = 256.0):
+        self.layers = layers
+        self.queue: queue.Queue = queue.Queue(maxsize=max(1, int(queue_size)))
+        self.cache: OrderedDict = OrderedDict()
+        self.cache_bytes, self.cache_limit = 0, int(cache_mb * (1 << 20))
+        self.centres: OrderedDict = OrderedDict()  # (layer, z, x, y) -> what triage needs
+        self.lock = threading.Lock()
+        #: cleared, the render thread waits after taking a request (tests, draining)
+        self.gate = threading.Event()
+        self.gate.set()
+        self.rendered = 0  # tiles rendered on the render thread
+        self.thread = threading.Thread(target=self._loop, name="gloffset-render", daemon=True)
+        self.thread.start()
+
+    # ------------------------------------------------------------------ requests
+    def cached(self, key: TileKey) -> bytes | None:
+        with self.lock:
+            data = self.cache.get(key)
+            if data is not None:
+                self.cache.move_to_end(key)
+            return data
+
+    def answer(self, key: TileKey, *, measure: bool = True):
+        """The tile's bytes and how they were found (``"cached"``, ``"inside"`` or
+        ``"outside"``) when that needs no rendering, else None. With ``measure=False``
+        only what is known already is used (fast enough for the event loop), and
+        :data:`UNKNOWN` says that the tile's centre must be measured first (call again
+        with ``measure=True`` off the event loop)."""
+        data = self.cached(key)
+        if data is not None:
+            return data, "cached"
+        cls = self.triage(key, measure=measure)
+        if cls is UNKNOWN:
+            return UNKNOWN
+        if cls == CONTAINED:
+            return full_png(key.size, key.style), "inside"
+        if cls == OUTSIDE:
+            return EMPTY_PNG[key.size], "outside"
+        return None
+
+    def triage(self, key: TileKey, *, measure: bool = True):
+        """CONTAINED or OUTSIDE when the whole tile is decided at its own zoom (the
+        classification of the raster levels, :func:`gloffset.raster.levels.decide`, with
+        the tile's rigorous bound), else None (:data:`UNKNOWN` when the tile is not
+        measured yet and ``measure`` is False). What the decision needs (the exact
+        distances from the tile's centre to the nearest boundary arc and ring edge, and
+        whether it is inside) does not depend on the offset distance: it is measured once
+        per tile and kept. Tiles with an outline of the input are left to the renderer."""
+        if key.style.outline is not None:
+            return None
+        where = (key.layer, key.z, key.x, key.y)
+        with self.lock:
+            geo = self.centres.get(where)
+        if geo is None:
+            if not measure:
+                return UNKNOWN
+            geo = self._measure(key)
+            with self.lock:
+                self.centres[where] = geo
+                if len(self.centres) > CENTRES:
+                    self.centres.popitem(last=False)
+        dist, dring, inside, rho = geo
+        cls = int(decide(dist, dring, inside, rho, key.d, False)[0])
+        return cls if cls in (CONTAINED, OUTSIDE) else None
+
+    def _measure(self, key: TileKey):
+        """The tile entered directly at its zoom (:func:`gloffset.raster.levels.at_cells`)
+        with every arc that can be its centre's nearest as candidates (no distance
+        limit): the exact distances to the nearest boundary arc and ring edge, the
+        centre's inside status and the tile's decision bound (1-element arrays)."""
+        shape = self.layers[key.layer]
+        grid = _pyramid(key.z)
+        arcs = CurveArcs.from_shape(shape)
+        f = at_cells(shape, arcs, grid, math.pi, key.z, [(key.y, key.x)])
+        dist, dring = cell_distances(f, arcs)
+        return dist, dring, inside_any(f.status), grid.decision_rho(key.z, f.cells[:, 0])
+
+    def submit(self, key: TileKey) -> Future:
+        """A future of the tile's PNG bytes, rendered on the render thread (raises
+        :class:`QueueFull`)."""
+        fut: Future = Future()
+        data = self.cached(key)
+        if data is not None:
+            fut.set_result(data)
+            return fut
+        return self._put(key, fut)
+
+    def call(self, fn) -> Future:
+        """A future of ``fn()`` run on the render thread (GL work must run there: the
+        context is current on that thread only). Raises :class:`QueueFull`."""
+        return self._put(fn, Future())
+
+    def _put(self, item, fut: Future) -> Future:
+        try:
+            self.queue.put_nowait((item, fut))
+        except queue.Full:
+            raise QueueFull("the render queue is full") from None
+        return fut
+
+    def _keep(self, key: TileKey, data: bytes) -> None:
+        with self.lock:
+            if key in self.cache:
+                return
+            self.cache[key] = data
+            self.cache_bytes += len(data)
+            while self.cache_bytes > self.cache_limit and self.cache:
+                _, old = self.cache.popitem(last=False)
+                self.cache_bytes -= len(old)
+
+    # ------------------------------------------------------------------ the render thread
+    def _loop(self) -> None:
+        while True:
+            batch = [self.queue.get()]
+            self.gate.wait()
+            while True:
+                try:
+                    batch.append(self.queue.get_nowait())
+                except queue.Empty:
+                    break
+            try:
+                self._run(batch)
+            except Exception:  # noqa: BLE001 - the thread must outlive any one batch
+                log.exception("render batch failed")
+                for _, fut in batch:
+                    if not fut.done():
+                        fut.set_exception(RuntimeError("the render thread failed"))
+
+    def _run(self, batch) -> None:
+        # a request cancelled before it ran (its client went away) is skipped; the
+        # others can no longer be cancelled
+        batch = [(k, f) for k, f in batch if f.set_running_or_notify_cancel()]
+        groups: dict = {}
+        for key, fut in batch:
+            if callable(key):
+                _run_call(key, fut)
+            else:
+                groups.setdefault(key.group(), []).append((key, fut))
+        for items in groups.values():
+            self._render(items)
+
+    def _render(self, items) -> None:
+        key0 = items[0][0]
+        shape, tiles = self.layers[key0.layer], {(k.x, k.y) for k, _ in items}
+        try:
+            if key0.z <= ALONE_ZOOM and key0.style.outline is None:
+                got = {t: _render_alone(shape, key0, *t) for t in tiles}
+            else:
+                got = render_tiles(shape, key0.d, key0.z, tiles, size=key0.size, style=key0.style)
+        except Exception as exc:  # noqa: BLE001 - every waiting request hears of it
+            for _, fut in items:
+                fut.set_exception(exc)
+            return
+        for key, fut in items:
+            data = got[(key.x, key.y)]
+            data = EMPTY_PNG[key.size] if data is None else data
+            self._keep(key, data)
+            self.rendered += 1
+            fut.set_result(data)
+
+
+def centre_inside(shape, p: np.ndarray) -> np.ndarray:
+    """Whether points ``p`` (unit vectors, (k, 3)) are inside the shape's polygons: the
+    raster levels' own test (crossings to the shape's reference points against the arcs
+    whose caps reach, :func:`gloffset.edges.component_status`), a few milliseconds a point
+    whatever the input, with no index to build first."""
+    arcs = CurveArcs.from_shape(shape)
+    if not arcs.n_groups:  # lines and points have no inside
+        return np.zeros(len(p), dtype=bool)
+    return inside_any(component_status(shape, arcs, np.asarray(p, dtype=np.float64)))
+
+
+def _render_alone(shape, key: TileKey, x: int, y: int) -> bytes | None:
+    """Tile ``x, y`` of ``key``'s zoom by :func:`gloffset.render` on its own
+    :class:`~gloffset.grids.Tile` (the same pixels as :func:`render_tiles`), styled."""
+    mask = render(shape, key.d, Tile(key.z, x, y, key.size), radius=1.0)
+    return key.style.encode(mask > 0)
+
+
+def _run_call(fn, fut: Future) -> None:
+    try:
+        fut.set_result(fn())
+    except Exception as exc:  # noqa: BLE001 - handed to the caller
+        fut.set_exception(exc)
+
+
+def etag(data: bytes) -> str:
+    """A strong ETag: the same bytes, the same tag."""
+    return '"' + hashlib.sha256(data).hexdigest()[:32] + '"'

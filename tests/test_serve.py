@@ -1,0 +1,465 @@
+"""``gloffset serve``: every endpoint, the error codes, ETag/304, HEAD, a full queue, a
+client that goes away, tiles decided without rendering, and tiles equal to
+gloffset.render on the same Tile. Nothing here can hang: every wait has a timeout."""
+
+from __future__ import annotations
+
+import io
+import json
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+import urllib.request
+from pathlib import Path
+
+import mercantile
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from PIL import Image
+
+import gloffset
+from gloffset.cli import main
+from gloffset.grids import Tile
+
+pytest.importorskip("starlette")
+pytest.importorskip("httpx")
+from starlette.testclient import TestClient  # noqa: E402
+
+from gloffset.raster.tilepaint import TileStyle  # noqa: E402
+from gloffset.serve.app import STATIC, create_app  # noqa: E402
+from gloffset.serve.service import EMPTY_PNG, QueueFull, TileKey, full_png  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+TRI = {"type": "Polygon", "coordinates": [[[-110, 15], [-90, 15], [-100, 30], [-110, 15]]]}
+LINE_AM = {"type": "LineString", "coordinates": [[170, -10], [-170, 5], [-160, 20]]}
+
+
+@pytest.fixture(scope="module")
+def client():
+    layers = {"tri": gloffset.read(TRI), "am": gloffset.read(LINE_AM)}
+    app = create_app(layers, queue_size=64, cache_mb=16, render_timeout=60)
+    with TestClient(app) as c:
+        yield c
+
+
+def on_gl_thread(client, fn):
+    """``fn()`` on the server's render thread (the GL context is current there only)."""
+    return client.app.state.server.tiles.call(fn).result(timeout=120)
+
+
+def alpha(png: bytes) -> np.ndarray:
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGBA"))[..., 3]
+
+
+@pytest.mark.parametrize(
+    "layer, dist, z, x, y",
+    [
+        ("tri", "300km", 3, 1, 3),
+        ("tri", "127km", 5, 6, 13),
+        ("tri", "2000km", 2, 0, 1),
+        ("am", "200km", 3, 7, 4),  # across the antimeridian
+        ("am", "200km", 3, 0, 3),
+        ("tri", "0.002rad", 7, 28, 58),
+    ],
+)
+def test_tiles_equal_render(client, layer, dist, z, x, y):
+    r = client.get(f"/tiles/{layer}/{dist}/{z}/{x}/{y}.png")
+    assert r.status_code == 200 and r.headers["content-type"] == "image/png"
+    shape = client.app.state.server.layers[layer]
+    d = gloffset.parse_distance(dist)  # radians
+    want = on_gl_thread(client, lambda: gloffset.render(shape, d, Tile(z, x, y), radius=1.0)) > 0
+    assert want.any() and not want.all()
+    np.testing.assert_array_equal(alpha(r.content) > 0, want)
+
+
+def test_coarse_tiles_rendered_alone_are_the_bytes_of_render_tiles(client):
+    """Zooms up to ALONE_ZOOM go through gloffset.render on their own Tile: the same
+    bytes as render_tiles gives (the same pixels, the same encoding)."""
+    from gloffset.raster.tiles import render_tiles
+    from gloffset.serve.service import ALONE_ZOOM
+
+    shape = client.app.state.server.layers["tri"]
+    style = TileStyle("#3070c0", 0.5)
+    d = gloffset.parse_distance("2100km")
+    for z, x, y in [(ALONE_ZOOM, 1, 3), (2, 0, 1), (1, 0, 0)]:
+        r = client.get(f"/tiles/tri/2100km/{z}/{x}/{y}@2x.png?opacity=0.5")
+        assert r.status_code == 200 and r.headers["x-gloffset-tile"] == "rendered"
+        want = on_gl_thread(
+            client, lambda z=z, x=x, y=y: render_tiles(shape, d, z, [(x, y)], size=512, style=style)
+        )[(x, y)]
+        assert r.content == want
+
+
+def test_batched_tiles_equal_render_on_a_real_border(client):
+    """Views of 3 x 3 tiles of Mexico's border at random zooms and distances (inward
+    too), rendered as one batch each (render_tiles, as the server batches them): every
+    tile has the pixels of gloffset.render on its Tile."""
+    from gloffset.raster.tiles import render_tiles
+
+    shape = gloffset.read(ROOT / "data" / "mexico_10m.geojson")
+    rng = np.random.default_rng(16)
+    kinds = {"frontier": 0, "full": 0, "empty": 0}
+    views = [(8, 0.05, -102.0, 24.0), (7, -0.01, -102.0, 24.0), (6, 0.01, -60.0, 0.0)]
+    for _ in range(6):
+        z = int(rng.integers(3, 13))
+        d = float(rng.choice([-1.0, 1.0])) * rng.uniform(1e3, 500e3) / gloffset.EARTH_RADIUS
+        views.append((z, d, rng.uniform(-117, -87), rng.uniform(15, 32)))
+    for z, d, lon, lat in views:
+        t = mercantile.tile(lon, lat, z)
+        view = [(t.x + dx, t.y + dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
+        got = on_gl_thread(client, lambda v=view, z=z, d=d: render_tiles(shape, d, z, v))
+        for x, y in view:
+            want = on_gl_thread(
+                client,
+                lambda x=x, y=y, z=z, d=d: gloffset.render(shape, d, Tile(z, x, y), radius=1.0),
+            )
+            png = got[(x, y)]
+            mask = np.zeros((256, 256), bool) if png is None else alpha(png) > 0
+            np.testing.assert_array_equal(mask, want > 0, err_msg=f"{z}/{x}/{y} at {d}")
+            kind = "full" if want.all() else "frontier" if want.any() else "empty"
+            kinds[kind] += 1
+    assert min(kinds.values()) >= 5, kinds
+
+
+def test_retina_tiles_and_style(client):
+    r = client.get("/tiles/tri/300km/4/3/6@2x.png?fill=%23ff0000&opacity=0.5")
+    assert r.status_code == 200
+    a = alpha(r.content)
+    assert a.shape == (512, 512)
+    shape = client.app.state.server.layers["tri"]
+    want = on_gl_thread(client, lambda: gloffset.render(shape, 300e3, Tile(4, 3, 6, 512)))
+    np.testing.assert_array_equal(a > 0, want > 0)
+    assert set(np.unique(a)) <= {0, 128}
+
+
+def test_etag_304_head_and_cache_control(client):
+    url = "/tiles/tri/300km/3/1/3.png"
+    r = client.get(url)
+    tag = r.headers["etag"]
+    assert tag.startswith('"') and r.headers["cache-control"] == "public, max-age=3600"
+    again = client.get(url)
+    assert again.headers["etag"] == tag and again.content == r.content
+    assert client.get(url, headers={"If-None-Match": tag}).status_code == 304
+    assert client.get(url, headers={"If-None-Match": f'"x", {tag}'}).status_code == 304
+    assert client.get(url, headers={"If-None-Match": "*"}).status_code == 304
+    other = client.get(url, headers={"If-None-Match": '"something else"'})
+    assert other.status_code == 200 and other.content == r.content
+    h = client.head(url)
+    assert h.status_code == 200 and h.headers["etag"] == tag and h.content == b""
+    assert client.head("/layers").status_code == 200
+
+
+def test_inside_and_outside_tiles_need_no_rendering(client):
+    svc = client.app.state.server.tiles
+    before = svc.rendered
+    # far from the triangle: empty; deep inside it at a large distance: full
+    empty = client.get("/tiles/tri/100km/6/0/0.png")
+    assert empty.status_code == 200 and not alpha(empty.content).any()
+    assert empty.headers["x-gloffset-tile"] == "outside" and empty.content == EMPTY_PNG[256]
+    full = client.get("/tiles/tri/1000km/7/28/56.png")
+    assert full.status_code == 200 and alpha(full.content).all()
+    assert full.headers["x-gloffset-tile"] == "inside"
+    assert full.content == full_png(256, TileStyle())
+    # another distance and tile: the same shared bytes, the same ETag
+    other = client.get("/tiles/tri/900km/7/28/56.png")
+    assert other.content == full.content and other.headers["etag"] == full.headers["etag"]
+    assert svc.rendered == before  # the render thread (and the GPU) had no part in it
+    # the same pixels as a render
+    shape = client.app.state.server.layers["tri"]
+    want = on_gl_thread(client, lambda: gloffset.render(shape, 1000e3, Tile(7, 28, 56)))
+    assert (want > 0).all()
+    # a frontier tile is rendered, then cached
+    r = client.get("/tiles/tri/300km/3/1/3.png?opacity=0.9")
+    assert r.headers["x-gloffset-tile"] == "rendered" and svc.rendered == before + 1
+    again = client.get("/tiles/tri/300km/3/1/3.png?opacity=0.9")
+    assert again.headers["x-gloffset-tile"] == "cached" and again.content == r.content
+
+
+def test_tiles_decided_at_once_agree_with_render_everywhere(client):
+    """Every tile of zooms 2-6 around the triangle, at an outward and an inward distance:
+    the triage's inside/outside tiles are those of gloffset.render."""
+    svc = client.app.state.server.tiles
+    shape = client.app.state.server.layers["tri"]
+    style, seen = TileStyle(), set()
+    for d in (0.03, -0.01):
+        for z in range(2, 7):
+            n = 1 << z
+            for x in range(int(n * 0.19), int(n * 0.27) + 1):
+                for y in range(int(n * 0.40), int(n * 0.48) + 1):
+                    cls = svc.triage(TileKey("tri", d, z, x, y, 256, style))
+                    if cls is None:
+                        continue
+                    seen.add(cls)
+                    tile = Tile(z, x, y)
+                    got = on_gl_thread(
+                        client, lambda t=tile, d=d: gloffset.render(shape, d, t, radius=1.0)
+                    )
+                    assert (got > 0).all() if cls == 2 else not got.any(), (d, z, x, y)
+    assert seen == {0, 2}
+
+
+@pytest.mark.parametrize(
+    "url, status, words",
+    [
+        ("/tiles/nope/100km/1/0/0.png", 404, "no layer 'nope'"),
+        ("/tiles/tri/12parsec/1/0/0.png", 400, "parsec"),
+        ("/tiles/tri/100km/23/0/0.png", 400, "zoom must be 0..22"),
+        ("/tiles/tri/100km/2/4/0.png", 400, "does not exist"),
+        ("/tiles/tri/100km/a/0/0.png", 400, "integers"),
+        ("/tiles/tri/100km/1/0/0.png?opacity=2", 400, "opacity"),
+        ("/tiles/tri/100km/1/0/0.png?fill=notacolour", 400, "colour"),
+        ("/tilejson/tri.json", 400, "distance"),
+        ("/distance/tri?lon=200&lat=0", 400, "lon"),
+        ("/distance/tri?lat=0", 400, "lon and lat"),
+        ("/offset/tri.geojson?distance=-1km", 200, ""),
+        ("/offset/tri.geojson?distance=abc", 400, "abc"),
+        ("/offset/tri.geojson", 400, "distance"),
+        ("/tiles/tri/nan/1/0/0.png", 400, "nan"),
+        ("/tiles/tri/1e999km/1/0/0.png", 400, "1e999km"),
+        ("/tiles/tri/20000km/1/0/0.png", 400, "a tile"),
+        ("/tiles/am/-5km/1/0/0.png", 400, "no polygon"),
+        ("/tiles/tri/100km/99999999999999999999/0/0.png", 400, "zoom must be 0..22"),
+        ("/tiles/tri/100km/1/-1/0.png", 400, "does not exist"),
+        ("/tiles/tri/100km/1/0/0.png?outline_width=x", 400, "style"),
+        ("/tiles/tri/100km/1/0/0.png?outline_width=99&outline=%23000000", 400, "outline width"),
+        ("/tilejson/nope.json?distance=1km", 404, "no layer"),
+        ("/tilejson/tri.json?distance=1km&opacity=-1", 400, "opacity"),
+        ("/distance/tri?lon=nan&lat=0", 400, "lon"),
+        ("/distance/tri?lon=0&lat=x", 400, "lon and lat"),
+        ("/shape/nope.geojson", 404, "no layer"),
+        ("/nothing", 404, ""),
+    ],
+)
+def test_errors_name_the_problem(client, url, status, words):
+    r = client.get(url)
+    assert r.status_code == status, r.text
+    if status != 200:
+        assert words in r.json()["detail"]
+
+
+def test_tilejson_shape_offset_distance_layers(client):
+    tj = client.get("/tilejson/tri.json?distance=127km&outline=%23000000").json()
+    assert tj["tilejson"] == "3.0.0" and tj["maxzoom"] == 22
+    assert tj["tiles"][0].startswith("http://testserver/tiles/tri/127km/{z}/{x}/{y}.png")
+    assert "outline" in tj["tiles"][0]
+    w, s, e, n = tj["bounds"]
+    assert (w, s, e, n) == (-110, 15, -90, 30)
+    assert client.get("/shape/tri.geojson").json()["geometry"]["type"] in (
+        "Polygon",
+        "MultiPolygon",
+    )
+    off = client.get("/offset/tri.geojson?distance=127km").json()
+    assert off["features"][0]["geometry"]["type"] == "Polygon"
+    got = client.get("/distance/tri?lon=-100&lat=10").json()
+    want = float(gloffset.distance(TRI, [-100.0], [10.0])[0])
+    assert abs(got["distance_m"] - want) < 1e-6 and got["inside"] is False
+    assert client.get("/distance/tri?lon=-100&lat=20").json()["inside"] is True
+    layers = client.get("/layers").json()
+    assert [x["name"] for x in layers] == ["am", "tri"] and layers[1]["vertices"] == 3
+    page = client.get("/")
+    assert page.status_code == 200 and "/static/vendor/maplibre-gl.js" in page.text
+    js = client.get("/static/page.js")
+    assert js.status_code == 200 and "setProjection" in js.text and "/distance/" in js.text
+    assert client.head("/").status_code == 200
+
+
+def test_distance_endpoint_answers_for_lines_and_across_the_antimeridian(client):
+    got = client.get("/distance/am?lon=180&lat=-2").json()
+    want = float(gloffset.distance(LINE_AM, [180.0], [-2.0])[0])
+    assert abs(got["distance_m"] - want) < 1e-6 and got["inside"] is False
+    assert client.get("/distance/tri?lon=0&lat=91").status_code == 400
+
+
+def test_vendored_maplibre_matches_its_pinned_integrity():
+    """The page's MapLibre GL JS ships in the package (no CDN) and is the version the
+    vendoring script pins."""
+    vendor = STATIC / "vendor"
+    for name in ("maplibre-gl.js", "maplibre-gl.css", "maplibre-gl.LICENSE.txt"):
+        assert (vendor / name).stat().st_size > 1000, name
+    version, integrity = (vendor / "VERSION").read_text().split()[1:3]
+    assert version.startswith("5.")
+    script = (STATIC.parents[2] / "scripts" / "vendor_maplibre.py").read_text()
+    assert f'VERSION = "{version}"' in script and integrity in script
+    head = (vendor / "maplibre-gl.js").read_bytes()[:2000].decode("utf-8", "replace")
+    assert "maplibre" in head.lower() and version in head
+    # package data: the wheel holds every file under gloffset/ that git does not ignore
+    root = STATIC.parents[2]
+    if (root / ".git").exists() and shutil.which("git"):
+        files = [str(p.relative_to(root)) for p in STATIC.rglob("*") if p.is_file()]
+        run = subprocess.run(["git", "check-ignore", *files], cwd=root, capture_output=True)
+        assert run.returncode == 1, run.stdout.decode()  # 1: none is ignored
+
+
+def _wait(cond, what: str, timeout: float = 60.0) -> None:
+    end = time.monotonic() + timeout
+    while not cond():
+        if time.monotonic() > end:
+            pytest.fail(f"timed out waiting for {what}")
+        time.sleep(0.01)
+
+
+def test_full_queue_is_503_and_dropped_requests_do_no_harm():
+    shape = gloffset.read(TRI)
+    app = create_app({"tri": shape}, queue_size=1, render_timeout=60)
+    svc = app.state.server.tiles
+    style = TileStyle()
+    keys = [TileKey("tri", 0.02, 4, x, 6, 256, style) for x in (3, 4, 5)]
+    with TestClient(app) as c:
+        svc.gate.clear()  # the render thread waits after taking a request
+        try:
+            first = svc.submit(keys[0])
+            _wait(svc.queue.empty, "the render thread to take the first tile")
+            second = svc.submit(keys[1])  # the queue (of one) is full now
+            with pytest.raises(QueueFull):
+                svc.submit(keys[2])
+            r = c.get("/tiles/tri/100km/4/3/6.png")
+            assert r.status_code == 503 and r.headers["retry-after"] == "1"
+            assert "queue is full" in r.json()["detail"]
+            # a request whose client went away before its turn: skipped, no harm done
+            assert second.cancel()
+        finally:
+            svc.gate.set()
+        assert first.result(timeout=60)[:8] == b"\x89PNG\r\n\x1a\n"
+        assert second.cancelled()
+        _wait(lambda: svc.queue.empty(), "the queue to drain")
+        r = c.get("/tiles/tri/100km/4/3/6.png")
+        assert r.status_code == 200 and svc.thread.is_alive()
+
+
+def test_the_render_thread_outlives_a_failing_batch(monkeypatch):
+    import gloffset.serve.service as service
+
+    app = create_app({"tri": gloffset.read(TRI)}, render_timeout=60)
+    svc = app.state.server.tiles
+    real = service.render_tiles
+    calls = []
+
+    def broken(*args, **kw):
+        calls.append(1)
+        if len(calls) == 1:
+            raise RuntimeError("the GPU went away")
+        return real(*args, **kw)
+
+    monkeypatch.setattr(service, "render_tiles", broken)
+    with TestClient(app, raise_server_exceptions=False) as c:
+        assert c.get("/tiles/tri/100km/4/3/6.png").status_code == 500
+        with pytest.raises(ZeroDivisionError):
+            svc.call(lambda: 1 / 0).result(timeout=60)
+        r = c.get("/tiles/tri/100km/4/3/6.png")
+        assert r.status_code == 200 and r.headers["x-gloffset-tile"] == "rendered"
+    assert svc.thread.is_alive() and len(calls) == 2
+
+
+def test_a_tile_not_rendered_in_time_is_503():
+    app = create_app({"tri": gloffset.read(TRI)}, render_timeout=0.2)
+    svc = app.state.server.tiles
+    with TestClient(app) as c:
+        svc.gate.clear()
+        try:
+            r = c.get("/tiles/tri/100km/4/3/6.png")
+        finally:
+            svc.gate.set()
+        assert r.status_code == 503 and "within 0.2 s" in r.json()["detail"]
+        assert r.headers["retry-after"] == "1"
+        assert c.get("/tiles/tri/100km/4/3/6.png").status_code == 200
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def live_server():
+    """A real uvicorn server on a free port, in a thread; yields (base URL, app)."""
+    uvicorn = pytest.importorskip("uvicorn")
+    app = create_app({"tri": gloffset.read(TRI)}, render_timeout=60)
+    port = _free_port()
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="error"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    _wait(lambda: server.started, "the server to start")
+    yield f"http://127.0.0.1:{port}", app
+    server.should_exit = True
+    thread.join(timeout=30)
+
+
+def test_a_client_that_disconnects_mid_request(live_server):
+    base, app = live_server
+    svc = app.state.server.tiles
+    port = int(base.rsplit(":", 1)[1])
+    path = "/tiles/tri/100km/4/3/6.png"
+    svc.gate.clear()
+    try:
+        with socket.create_connection(("127.0.0.1", port), timeout=10) as s:
+            s.sendall(f"GET {path} HTTP/1.1\r\nHost: x\r\n\r\n".encode())
+            _wait(svc.queue.empty, "the render thread to take the tile")
+        # the client is gone while its tile waits on the render thread
+    finally:
+        svc.gate.set()
+    _wait(lambda: svc.rendered >= 1, "the tile to render")
+    with urllib.request.urlopen(base + path, timeout=60) as r:
+        assert r.status == 200 and r.headers["X-Gloffset-Tile"] == "cached"
+    assert svc.thread.is_alive()
+
+
+def test_cli_refuses_two_layers_of_one_name(tmp_path):
+    for sub in ("a", "b"):
+        (tmp_path / sub).mkdir()
+        (tmp_path / sub / "x.geojson").write_text(json.dumps(TRI))
+    r = CliRunner().invoke(
+        main, ["serve", str(tmp_path / "a" / "x.geojson"), str(tmp_path / "b" / "x.geojson")]
+    )
+    assert r.exit_code == 2 and "two inputs are named 'x'" in r.output
+
+
+def _children(pid: int) -> int:
+    """How many processes have ``pid`` as parent (Linux /proc; -1 elsewhere)."""
+    proc = Path("/proc")
+    if not proc.is_dir():
+        return -1
+    n = 0
+    for stat in proc.glob("[0-9]*/stat"):
+        try:
+            n += int(stat.read_text().rsplit(")", 1)[1].split()[1]) == pid
+        except (OSError, ValueError, IndexError):
+            pass
+    return n
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_cli_serves_and_stops_on_ctrl_c(tmp_path, workers):
+    src = tmp_path / "tri.geojson"
+    src.write_text(json.dumps(TRI))
+    port = _free_port()
+    cmd = [sys.executable, "-m", "gloffset", "serve", str(src), "--port", str(port)]
+    proc = subprocess.Popen(cmd + ["--workers", str(workers)], stderr=subprocess.PIPE)
+    try:
+        for _ in range(200):
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/layers", timeout=1) as r:
+                    layers = json.loads(r.read())
+                break
+            except OSError:
+                time.sleep(0.1)
+        else:
+            pytest.fail("the server did not answer")
+        assert layers[0]["name"] == "tri"
+        for z, x, y in [(3, 1, 3), (5, 6, 13), (4, 3, 6), (6, 12, 27)]:
+            url = f"http://127.0.0.1:{port}/tiles/tri/300km/{z}/{x}/{y}.png"
+            with urllib.request.urlopen(url, timeout=60) as r:
+                assert r.status == 200 and r.read()[:4] == b"\x89PNG"
+        if workers > 1:  # the worker processes run beside the supervisor
+            n = _children(proc.pid)  # the workers (and multiprocessing's resource tracker)
+            assert n == -1 or n >= workers
+    finally:
+        proc.send_signal(signal.SIGINT)
+        err = proc.communicate(timeout=30)[1].decode()
+    assert proc.returncode == 0, err
+    assert f"http://127.0.0.1:{port}/" in err

@@ -1,0 +1,223 @@
+"""The page of ``gloffset serve`` in a real browser: Debian's chromium driven by
+playwright against a real server. It loads the page, moves the distance slider, checks
+that the tiles of the new distance were requested and drawn, and compares screenshot
+pixels at points known to be inside and outside the region (gloffset.contains), on the
+map and on the globe; the globe screenshot is the README's (docs/serve_globe.png).
+
+Skipped, with the reason, only where chromium or playwright cannot be found (.ci/run
+installs chromium with apt-get)."""
+
+from __future__ import annotations
+
+import io
+import shutil
+import socket
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import gloffset
+
+pytest.importorskip("starlette")
+uvicorn = pytest.importorskip("uvicorn")
+sync_api = pytest.importorskip(
+    "playwright.sync_api", reason="playwright is not installed (pip install -e '.[test]')"
+)
+
+from gloffset.serve.app import create_app  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
+VIEW = (960, 640)
+PANEL = (330, 150)  # the control panel's corner: no pixel is compared under it
+
+
+@pytest.fixture(scope="module")
+def server():
+    shape = gloffset.read(ROOT / "data" / "mexico_10m.geojson")
+    app = create_app({"mexico": shape}, render_timeout=120)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    srv = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="error"))
+    thread = threading.Thread(target=srv.run, daemon=True)
+    thread.start()
+    end = time.monotonic() + 60
+    while not srv.started:
+        assert time.monotonic() < end, "the server did not start"
+        time.sleep(0.05)
+    yield f"http://127.0.0.1:{port}", shape
+    srv.should_exit = True
+    thread.join(timeout=30)
+
+
+@pytest.fixture(scope="module")
+def page(server):
+    if CHROMIUM is None:
+        pytest.skip("chromium is not installed (apt-get install chromium)")
+    with sync_api.sync_playwright() as pw, tempfile.TemporaryDirectory() as profile:
+        ctx = pw.chromium.launch_persistent_context(
+            profile,
+            executable_path=CHROMIUM,
+            headless=True,
+            args=ARGS,
+            viewport={"width": VIEW[0], "height": VIEW[1]},
+            device_scale_factor=1,
+        )
+        ctx.set_default_timeout(120_000)
+        pg = ctx.new_page()
+        errors: list = []
+        pg.on("pageerror", lambda e: errors.append(str(e)))
+        pg.tiles = []  # (url, status) of every tile response
+        pg.on("response", lambda r: "/tiles/" in r.url and pg.tiles.append((r.url, r.status)))
+        try:
+            yield pg
+        finally:
+            ctx.close()
+        assert not errors, errors
+
+
+def _settle(pg, distance: str) -> None:
+    """Wait until the map shows the tiles of ``distance`` and has stopped rendering."""
+    pg.wait_for_function(
+        """(d) => {
+            const p = window.gloffsetPage;
+            if (!p) return false;
+            const src = p.map.getSource('offset');
+            return src && src.tiles[0].includes('/' + d + '/') && p.map.loaded()
+                && p.map.areTilesLoaded() && !p.map.isMoving();
+        }""",
+        arg=distance,
+    )
+    pg.evaluate(
+        "() => new Promise((ok) => { const m = gloffsetPage.map;"
+        " m.once('idle', ok); m.triggerRepaint(); })"
+    )
+
+
+def _screenshot(pg, path: Path | None = None) -> np.ndarray:
+    png = pg.screenshot()
+    if path is not None:
+        path.write_bytes(png)
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+
+
+def _probes(pg, shape, d_m: float, margin_m: float):
+    """Screen points with their expected membership: lon/lat on a grid around the
+    input, kept where the answer is clear (farther than ``margin_m`` from the region's
+    edge and from the drawn input) and visible away from the panel."""
+    lon, lat = np.meshgrid(np.linspace(-125, -75, 41), np.linspace(5, 40, 29))
+    lon, lat = lon.ravel(), lat.ravel()
+    dist = gloffset.distance(shape, lon, lat)
+    inside = gloffset.contains(shape, lon, lat, distance=d_m)
+    clear = (np.abs(dist - d_m) > margin_m) & (dist > margin_m)
+    pts = pg.evaluate(
+        """(ll) => ll.map(([x, y]) => { const p = gloffsetPage.map.project([x, y]);
+                return [p.x, p.y]; })""",
+        np.c_[lon, lat].tolist(),
+    )
+    xy = np.asarray(pts)
+    seen = (
+        (xy[:, 0] > 4)
+        & (xy[:, 0] < VIEW[0] - 4)
+        & (xy[:, 1] > 4)
+        & (xy[:, 1] < VIEW[1] - 4)
+        & ~((xy[:, 0] < PANEL[0]) & (xy[:, 1] < PANEL[1]))
+    )
+    keep = clear & seen
+    return xy[keep].round().astype(int), inside[keep], lon[keep], lat[keep]
+
+
+def _colours(pg) -> tuple[np.ndarray, np.ndarray]:
+    fill, bg, a = pg.evaluate(
+        "() => [gloffsetPage.FILL, gloffsetPage.BACKGROUND, gloffsetPage.FILL_OPACITY]"
+    )
+
+    def rgb(h):
+        return np.array([int(h[i : i + 2], 16) for i in (1, 3, 5)])
+
+    return a * rgb(fill) + (1 - a) * rgb(bg), rgb(bg)
+
+
+def _check_pixels(pg, img, xy, inside) -> None:
+    want_in, want_out = _colours(pg)
+    px = img[xy[:, 1], xy[:, 0]]
+    d_in = np.abs(px - want_in).max(axis=1)
+    d_out = np.abs(px - want_out).max(axis=1)
+    got = d_in < d_out
+    bad = np.flatnonzero(got != inside)
+    assert len(bad) == 0, [(tuple(xy[i]), bool(inside[i]), tuple(px[i])) for i in bad[:10]]
+    assert (np.minimum(d_in, d_out) <= 12).all(), "pixels match neither the fill nor the background"
+
+
+def _move_slider(pg, value: int) -> None:
+    pg.locator("#distance").fill(str(value))
+
+
+def test_page_map_slider_and_globe(server, page):
+    base, shape = server
+    pg = page
+    pg.goto(f"{base}/#map=3.6/23/-102&layer=mexico&d=127km")
+    _settle(pg, "127km")
+    assert any("/tiles/mexico/127km/" in u and s == 200 for u, s in pg.tiles)
+    # the view comes from the URL hash
+    zoom, lon, lat = pg.evaluate(
+        "() => { const m = gloffsetPage.map; const c = m.getCenter();"
+        " return [m.getZoom(), c.lng, c.lat]; }"
+    )
+    assert abs(zoom - 3.6) < 1e-6 and abs(lon + 102) < 1e-6 and abs(lat - 23) < 1e-6
+
+    # the slider: tiles of the new distance are requested and drawn
+    _move_slider(pg, 400)
+    _settle(pg, "400km")
+    new = [(u, s) for u, s in pg.tiles if "/tiles/mexico/400km/" in u]
+    assert new and all(s == 200 for _, s in new)
+    assert "d=400km" in pg.evaluate("() => location.hash")
+    img = _screenshot(pg)
+    xy, inside, lon, lat = _probes(pg, shape, 400e3, margin_m=90e3)
+    # some probes changed with the slider: the pixels follow the new distance
+    before = gloffset.contains(shape, lon, lat, distance=127e3)
+    assert inside.sum() > 20 and (~inside).sum() > 20 and (inside & ~before).sum() > 10
+    _check_pixels(pg, img, xy, inside)
+
+    # a click shows the distance to the curves
+    x, y = xy[np.flatnonzero(~inside)[0]]
+    ll = pg.evaluate(f"() => gloffsetPage.map.unproject([{x}, {y}]).toArray()")
+    pg.mouse.click(int(x), int(y))
+    pg.wait_for_function("() => document.getElementById('info').textContent.includes('km from')")
+    text = pg.locator("#info").text_content()
+    want = float(gloffset.distance(shape, [round(ll[0], 6)], [round(ll[1], 6)])[0]) / 1e3
+    assert abs(float(text.split()[0]) - want) < 0.01, (text, want)
+    pg.keyboard.press("Escape")
+    pg.evaluate("() => document.querySelectorAll('.maplibregl-popup').forEach((e) => e.remove())")
+
+    # the globe
+    pg.locator("#globe").check()
+    pg.evaluate("() => gloffsetPage.map.jumpTo({zoom: 2.3, center: [-100, 22]})")
+    _settle(pg, "400km")
+    assert pg.evaluate("() => gloffsetPage.map.getProjection().type") == "globe"
+    assert "globe=1" in pg.evaluate("() => location.hash")
+    img = _screenshot(pg, ROOT / "docs" / "serve_globe.png")
+    xy, inside, _, _ = _probes(pg, shape, 400e3, margin_m=150e3)
+    assert inside.sum() > 10 and (~inside).sum() > 10
+    _check_pixels(pg, img, xy, inside)
+    # off the globe's disc the page's own background shows: the map is a sphere
+    assert img[VIEW[1] - 3, VIEW[0] - 3].tolist() == [0x10, 0x20, 0x2E]
+    mercator_corner = _colours(pg)[1].tolist()
+    pg.locator("#globe").uncheck()
+    _settle(pg, "400km")
+    assert pg.evaluate("() => gloffsetPage.map.getProjection().type") == "mercator"
+    assert _screenshot(pg)[VIEW[1] - 3, VIEW[0] - 3].tolist() == mercator_corner
