@@ -41,3 +41,19 @@ def radius_option(f):
 def angle(text: str, radius: float) -> float:
     """A CLI distance as an angle in radians (raises InvalidDistanceError on bad input)."""
     return parse_distance(text, radius)
+
+
+def input_options(f):
+    """``--layer`` and ``--where``: which layer and features of a vector file to read."""
+    f = click.option(
+        "--where",
+        default=None,
+        metavar="SQL",
+        help="Read only the features of a vector file that match this attribute filter "
+        "(OGR SQL), e.g. \"continent = 'Africa'\".",
+    )(f)
+    return click.option(
+        "--layer",
+        default=None,
+        help="The layer of a vector file with several (a name or a 0-based index).",
+    )(f)
