@@ -15,6 +15,7 @@ import sys as _sys
 from . import errors, grids
 from ._version import __version__
 from .errors import *  # noqa: F403  (every exception class, listed in errors.__all__)
+from .geoseries import buffer
 from .index.contains import Index, contains
 from .raster import tiles
 from .raster.rasterized import raster_offset, rasterize
@@ -37,6 +38,7 @@ __all__ = [
     "ResolvedOffset",
     "Shape",
     "__version__",
+    "buffer",
     "contains",
     "decompose",
     "distance",
