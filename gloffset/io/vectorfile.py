@@ -19,6 +19,7 @@ import json
 import math
 import os
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -243,10 +244,15 @@ def write(path, features: list[dict]) -> None:
                 geoparquet.write(name, list(wkb), columns)
             else:
                 data = [_column(columns[k]) for k in fields]
-                pyogrio.raw.write(
-                    name, wkb, data, fields, driver=WRITE_FORMATS[suffix],
-                    geometry_type="MultiPolygon", crs="EPSG:4326", promote_to_multi=True,
-                )  # fmt: skip
+                driver = WRITE_FORMATS[suffix]
+                # FlatGeobuf's spatial index would reorder the features
+                options = {"SPATIAL_INDEX": "NO"} if driver == "FlatGeobuf" else None
+                with warnings.catch_warnings():  # Shapefiles cut field names to 10 letters
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    pyogrio.raw.write(
+                        name, wkb, data, fields, driver=driver, geometry_type="MultiPolygon",
+                        crs="EPSG:4326", promote_to_multi=True, layer_options=options,
+                    )  # fmt: skip
             _move_all(tmp, folder)
     except OSError as exc:
         if isinstance(exc, OutputError):
