@@ -26,6 +26,7 @@ __all__ = [
     "read_mask",
     "write_classes",
     "write_mask",
+    "write_image",
 ]
 
 #: Colours of the paper's Fig. 13: contained black, frontier red, outside white.
@@ -200,3 +201,8 @@ def read_mask(path) -> np.ndarray:
                 "opaque)"
             )
     return arr[..., 0] >= 128
+
+
+def write_image(rgba: np.ndarray, target) -> None:
+    """Write an RGBA picture (h, w, 4) uint8 (PNG, or TIFF by the name; ``-`` stdout)."""
+    return _save(Image.fromarray(np.ascontiguousarray(rgba, dtype=np.uint8), mode="RGBA"), target)
