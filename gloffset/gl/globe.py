@@ -36,6 +36,10 @@ def draw_globe(region: np.ndarray, input_: np.ndarray, frame: np.ndarray, size: 
     tex_r, tex_i = _cube_texture(ctx, region), _cube_texture(ctx, input_)
     target = ctx.texture((size, size), 4, dtype="f1")
     fbo = ctx.framebuffer(color_attachments=[target])
+    # moderngl's framebuffer set-up makes a query that GL rejects while the engine's
+    # integer class target is bound (GL_INVALID_OPERATION, no effect; see
+    # textures.class_target): clear it so that real errors stay visible
+    ctx.error  # noqa: B018
     vao = ctx.vertex_array(prog, [])
     try:
         tex_r.use(0)

@@ -85,7 +85,7 @@ def globe(
     """An RGBA image (size, size, 4) of the region within ``distance`` of ``shape`` on an
     orthographic globe centred on ``center`` (lon, lat; default: the input's centre).
 
-    ``cube``: the side of the cube-map faces (default: ``size // 2``, about one texel per
+    ``cube``: the side of the cube-map faces (default: ``size``, about two texels per
     pixel at the centre of the disc).
     """
     from ..gl.globe import draw_globe
@@ -95,7 +95,7 @@ def globe(
     shape = read(shape)
     style = style or GlobeStyle()
     uniforms = style.uniforms()  # fail before the work
-    n = int(cube) if cube is not None else max(64, size // 2)
+    n = int(cube) if cube is not None else max(64, int(size))
     region = render(shape, distance, Cube(n), radius=radius)
     texel = 2.0 / n  # a texel's angular size at the face centre
     curves = 0.0 if shape.rings and not shape.lines else 0.75 * texel
