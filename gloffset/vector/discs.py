@@ -54,8 +54,9 @@ def disc_rings(centres: np.ndarray, d: float, resolution: int = 16) -> np.ndarra
     k = 4 * segments_per_quarter(resolution)
     t = 2.0 * np.pi * np.arange(k) / k
     east, north = _frame(centres)
-    u = np.cos(t)[None, :, None] * east[:, None] + np.sin(t)[None, :, None] * north[:, None]
-    return np.cos(d) * centres[:, None] + np.sin(d) * u
+    # vertex = cos d c + sin d (cos t east + sin t north): one (k, 3) @ (3, 3) per centre
+    coeffs = np.column_stack([np.full(k, np.cos(d)), np.sin(d) * np.cos(t), np.sin(d) * np.sin(t)])
+    return coeffs @ np.stack([centres, east, north], axis=1)
 
 
 def _side_count(length: np.ndarray, d: float, resolution: int) -> int:
