@@ -96,3 +96,23 @@ def test_cli_writes_a_png(tmp_path):
     assert bad.exit_code == 2 and "--center" in bad.output
     with pytest.raises(gloffset.OptionError, match="shading"):
         GlobeStyle(shading=2.0).uniforms()
+
+
+def test_spin_turns_the_globe(tmp_path):
+    shape = gloffset.read(DATA / "mexico_10m.geojson")
+    frames = globe(shape, 300e3, size=64, center=(-100.0, 20.0), spin=4, style=FLAT)
+    assert len(frames) == 4
+    assert np.array_equal(
+        frames[0], globe(shape, 300e3, size=64, center=(-100.0, 20.0), style=FLAT)
+    )
+    assert np.array_equal(
+        frames[1], globe(shape, 300e3, size=64, center=(-190.0 + 360, 20.0), style=FLAT)
+    )
+    out = tmp_path / "spin.gif"
+    r = CliRunner().invoke(
+        main,
+        ["preview", str(DATA / "mexico_10m.geojson"), "-d", "127km", "-o", str(out),
+         "--size", "64", "--spin", "3"],
+    )  # fmt: skip
+    assert r.exit_code == 0, r.output
+    assert Image.open(out).n_frames == 3

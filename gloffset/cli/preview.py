@@ -7,7 +7,7 @@ import click
 
 from ..errors import OptionError
 from ..io.output import check_output
-from ..io.png import write_image
+from ..io.png import write_animation, write_image
 from ..raster.globe import GlobeStyle, globe
 from ..shape import read
 from . import main
@@ -41,12 +41,19 @@ def _center(text: str | None):
 @click.option("--graticule", type=float, default=15.0, show_default=True, help="Degrees; 0: none.")
 @click.option("--graticule-color", default=GlobeStyle.grid_color, show_default=True)
 @click.option("--shading", type=float, default=0.6, show_default=True, help="0 (flat) to 1.")
+@click.option(
+    "--spin",
+    type=click.IntRange(1, 3600),
+    default=None,
+    help="Write N frames of the globe turning once round: an animated PNG, or a GIF (.gif).",
+)
 def preview_cmd(
     input, distance, radius, layer, where, output, center, size, fill, ocean, input_color,
-    background, graticule, graticule_color, shading,
+    background, graticule, graticule_color, shading, spin,
 ):  # fmt: skip
     """Draw the region within DIST of INPUT on an orthographic globe (a PNG), sampled from
-    the cube-map faces that 'render --grid cube' writes, in one GL pass."""
+    the cube-map faces that 'render --grid cube' writes, in one GL pass; with --spin, an
+    animation of the globe turning (APNG, or GIF for a .gif name)."""
     angle(distance, radius)  # fail before the work
     style = GlobeStyle(fill, ocean, input_color, background, graticule_color, graticule, shading)
     style.uniforms()
@@ -54,6 +61,9 @@ def preview_cmd(
     shape = read(input, layer=layer, where=where)
     img = globe(
         shape, angle(distance, radius), size=size, center=_center(center), style=style,
-        radius=1.0,
+        radius=1.0, spin=spin,
     )  # fmt: skip
-    write_image(img, output)
+    if spin is None:
+        write_image(img, output)
+    else:
+        write_animation(img, output)

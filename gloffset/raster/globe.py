@@ -81,17 +81,21 @@ def globe(
     cube: int | None = None,
     style: GlobeStyle | None = None,
     radius: float = EARTH_RADIUS,
-) -> np.ndarray:
+    spin: int | None = None,
+):
     """An RGBA image (size, size, 4) of the region within ``distance`` of ``shape`` on an
     orthographic globe centred on ``center`` (lon, lat; default: the input's centre).
 
     ``cube``: the side of the cube-map faces (default: ``size``, about two texels per
-    pixel at the centre of the disc).
+    pixel at the centre of the disc). ``spin``: a list of that many images instead, the
+    globe turning eastwards once round (the cube maps are rendered once).
     """
     from ..gl.globe import draw_globe
 
     if not isinstance(size, (int, np.integer)) or not 16 <= size <= 8192:
         raise OptionError(f"size must be a whole number of pixels in 16..8192, got {size!r}")
+    if spin is not None and (not isinstance(spin, (int, np.integer)) or not 1 <= spin <= 3600):
+        raise OptionError(f"spin must be a number of frames in 1..3600, got {spin!r}")
     shape = read(shape)
     style = style or GlobeStyle()
     uniforms = style.uniforms()  # fail before the work
@@ -100,5 +104,10 @@ def globe(
     texel = 2.0 / n  # a texel's angular size at the face centre
     curves = 0.0 if shape.rings and not shape.lines else 0.75 * texel
     own = render(shape, curves, Cube(n), radius=1.0)
-    frame = view_frame(center if center is not None else _default_center(shape))
-    return draw_globe(region, own, frame, int(size), uniforms)
+    lon, lat = center if center is not None else _default_center(shape)
+    if spin is None:
+        return draw_globe(region, own, view_frame((lon, lat)), int(size), uniforms)
+    return [
+        draw_globe(region, own, view_frame((lon - 360.0 * k / spin, lat)), int(size), uniforms)
+        for k in range(spin)
+    ]
