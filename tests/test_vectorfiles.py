@@ -145,3 +145,10 @@ def test_offset_each_writes_one_row_per_feature_with_its_properties(tmp_path, wo
     names = list(world[world.continent == "Oceania"].name)
     assert list(got.name) == names and set(got["distance"]) == {"20km"}
     assert (got.geom_type == "MultiPolygon").all() and got.is_valid.all()
+
+
+def test_where_on_a_geojson_file_reads_it_through_gdal():
+    got = gloffset.read(WORLD, where="name IN ('Fiji', 'Russia')")
+    fc = json.loads(WORLD.read_text())
+    fc["features"] = [f for f in fc["features"] if f["properties"]["name"] in ("Fiji", "Russia")]
+    assert_same_shape(got, gloffset.read(fc))
