@@ -151,9 +151,9 @@ def _buffer_each(shapely, geoms: np.ndarray, d: np.ndarray, res: int) -> np.ndar
     points = ok & (kind == 0) & (ncoord == 1)
     segments = ok & (kind == 1) & (ncoord == 2)
     segments[segments] = _plain_segments(shapely, geoms[segments])
-    for value in np.unique(d[points | segments]):
-        for rows, make in ((points, discs.discs), (segments, discs.stadiums)):
-            _simple(shapely, geoms, out, np.flatnonzero(rows & (d == value)), make, value, res)
+    for rows, make in ((points, discs.discs), (segments, discs.stadiums)):
+        sel = np.flatnonzero(rows)
+        _simple(shapely, geoms, out, sel, make, d[sel], res)
     general = ~missing & ~points & ~segments & ~(curve & (d <= 0))
     for i in np.flatnonzero(general).tolist():
         shape = Shape.from_geojson(shapely.geometry.mapping(geoms[i]))
@@ -173,16 +173,17 @@ def _plain_segments(shapely, geoms: np.ndarray) -> np.ndarray:
     return ok & (ang > 1e-9) & (ang < np.pi - 1e-9)
 
 
-def _simple(shapely, geoms, out, sel: np.ndarray, make, d: float, res: int) -> None:
-    """Points (circles) or segments (stadiums) ``sel`` buffered with numpy."""
+def _simple(shapely, geoms, out, sel: np.ndarray, make, d: np.ndarray, res: int) -> None:
+    """Points (circles) or segments (stadiums) ``sel`` buffered with numpy (``d``: their
+    distances, radians)."""
     if not len(sel):
         return
     xy = shapely.get_coordinates(geoms[sel]).reshape(len(sel), -1, 2)
     labels = _label(sel)
     if make is discs.discs:
-        rings = discs.discs(xy[:, 0], float(d), res, labels=labels)
+        rings = discs.discs(xy[:, 0], d, res, labels=labels)
     else:
-        rings = discs.stadiums(xy[:, 0], xy[:, 1], float(d), res, labels=labels)
+        rings = discs.stadiums(xy[:, 0], xy[:, 1], d, res, labels=labels)
     plain = np.ones(len(sel), dtype=bool)
     plain[list(rings.special)] = False
     out[sel[plain]] = shapely.polygons(rings.lonlat[plain])

@@ -120,9 +120,13 @@ def test_crs_distances_and_the_union(frame):
     nad = frame.iloc[[7, 8]].to_crs("EPSG:4269")  # another geographic CRS: transformed
     assert gloffset.buffer(nad, D).crs.equals("EPSG:4326")
     assert gloffset.buffer(frame.iloc[[7, 8]].set_crs(None, allow_override=True), D).crs
-    d = np.array([50e3, 100e3])
-    two = gloffset.buffer(frame.iloc[[7, 8]], d)
-    assert two.geometry.iloc[0].area < two.geometry.iloc[1].area * 10
+    d = np.array([20e3, 50e3, 100e3, 30e3])  # one per feature: points and segments
+    four = gloffset.buffer(frame.iloc[[7, 8, 5, 6]], d)
+    for k, (geom, buf) in enumerate(zip(frame.geometry.iloc[[7, 8, 5, 6]], four.geometry)):
+        xy = shapely.get_coordinates(buf)
+        free = (np.abs(np.abs(xy[:, 0]) - 180) > 1e-9) & (np.abs(np.abs(xy[:, 1]) - 90) > 1e-9)
+        shape = gloffset.read(shapely.geometry.mapping(geom))
+        assert np.abs(gloffset.distance(shape, *xy[free].T) - d[k]).max() < 1e-4
     assert gloffset.buffer(frame.iloc[[7]], -1e3).geometry.iloc[0].is_empty
     fiji = frame.iloc[[0]]
     assert gloffset.buffer(fiji, -1e3).geometry.iloc[0].area < fiji.geometry.iloc[0].area

@@ -48,51 +48,63 @@ def _frame(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return east, np.cross(c, east)
 
 
-def disc_rings(centres: np.ndarray, d: float, resolution: int = 16) -> np.ndarray:
-    """(n, 4 * resolution, 3) rings: the small circles of radius ``d`` (radians) around
-    ``centres`` (n, 3), counter-clockwise, first vertex due east."""
+def _per_row(d, n: int) -> np.ndarray:
+    """``d`` (one value, or one per ring) as an (n, 1, 1) array."""
+    return np.broadcast_to(np.asarray(d, dtype=np.float64).reshape(-1, 1, 1), (n, 1, 1))
+
+
+def disc_rings(centres: np.ndarray, d, resolution: int = 16) -> np.ndarray:
+    """(n, 4 * resolution, 3) rings: the small circles of radius ``d`` (radians; one, or
+    one per centre) around ``centres`` (n, 3), counter-clockwise, first vertex due east."""
     k = 4 * segments_per_quarter(resolution)
     t = 2.0 * np.pi * np.arange(k) / k
     east, north = _frame(centres)
-    # vertex = cos d c + sin d (cos t east + sin t north): one (k, 3) @ (3, 3) per centre
-    coeffs = np.column_stack([np.full(k, np.cos(d)), np.sin(d) * np.cos(t), np.sin(d) * np.sin(t)])
-    return coeffs @ np.stack([centres, east, north], axis=1)
+    dd = _per_row(d, len(centres))
+    # vertex = cos d c + sin d (cos t east + sin t north): one (k, 2) @ (2, 3) per centre
+    around = np.column_stack([np.cos(t), np.sin(t)]) @ np.stack([east, north], axis=1)
+    return np.cos(dd) * centres[:, None] + np.sin(dd) * around
 
 
-def _side_count(length: np.ndarray, d: float, resolution: int) -> int:
+def _side_count(length: np.ndarray, d, resolution: int) -> int:
     """Segments along a stadium's straight side that keep its chords as close to the
-    small circle as the caps' chords are to theirs."""
+    small circle as the caps' chords are to theirs (the most any of the rings needs)."""
+    if len(length) == 0:
+        return 1
     step = np.pi / (2 * segments_per_quarter(resolution))
+    d = np.asarray(d, dtype=np.float64)
     sag = np.sin(d) * (1.0 - np.cos(step / 2))  # the caps' chord deviation
-    ratio = np.clip(1.0 - sag / max(np.cos(d), 1e-300), -1.0, 1.0)
-    side_step = max(2.0 * np.arccos(ratio), 1e-9)
-    return int(max(1, np.ceil(float(np.max(length, initial=0.0)) / side_step)))
+    ratio = np.clip(1.0 - sag / np.maximum(np.cos(d), 1e-300), -1.0, 1.0)
+    side_step = np.maximum(2.0 * np.arccos(ratio), 1e-9)
+    return int(max(1, np.ceil(float(np.max(length / side_step)))))
 
 
-def stadium_rings(a: np.ndarray, b: np.ndarray, d: float, resolution: int = 16) -> np.ndarray:
-    """(n, m, 3) rings: the offsets by ``d`` of the segments ``a[i] -> b[i]`` (n, 3).
+def stadium_rings(a: np.ndarray, b: np.ndarray, d, resolution: int = 16) -> np.ndarray:
+    """(n, m, 3) rings: the offsets by ``d`` (one, or one per segment) of the segments
+    ``a[i] -> b[i]`` (n, 3).
 
     Each ring: the right side from a to b, the half circle around b, the left side
     back from b to a, the half circle around a; counter-clockwise. Every ring has the
-    same number of vertices (the longest segment sets the sides' sampling).
+    same number of vertices (the most any segment needs sets the sides' sampling).
     """
     n = normalize(np.cross(a, b))
     length = np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.sum(a * b, axis=1))
     fa, fb = np.cross(n, a), np.cross(n, b)  # directions of travel at a and b
     q = 2 * segments_per_quarter(resolution)
-    s = _side_count(length, d, resolution)
+    dd = _per_row(d, len(a))
+    cd, sd = np.cos(dd), np.sin(dd)
+    s = _side_count(length, dd[:, 0, 0], resolution)
     frac = np.arange(s) / s  # along the side, the far end excluded (the cap starts there)
     t = frac[None, :] * length[:, None]
     g = np.cos(t)[..., None] * a[:, None] + np.sin(t)[..., None] * fa[:, None]
-    right = np.cos(d) * g - np.sin(d) * n[:, None]
+    right = cd * g - sd * n[:, None]
     th = np.pi * np.arange(q) / q
     ub = -np.cos(th)[None, :, None] * n[:, None] + np.sin(th)[None, :, None] * fb[:, None]
-    cap_b = np.cos(d) * b[:, None] + np.sin(d) * ub
+    cap_b = cd * b[:, None] + sd * ub
     t2 = (1.0 - frac)[None, :] * length[:, None]
     g2 = np.cos(t2)[..., None] * a[:, None] + np.sin(t2)[..., None] * fa[:, None]
-    left = np.cos(d) * g2 + np.sin(d) * n[:, None]
+    left = cd * g2 + sd * n[:, None]
     ua = np.cos(th)[None, :, None] * n[:, None] - np.sin(th)[None, :, None] * fa[:, None]
-    cap_a = np.cos(d) * a[:, None] + np.sin(d) * ua
+    cap_a = cd * a[:, None] + sd * ua
     return np.concatenate([right, cap_b, left, cap_a], axis=1)
 
 
@@ -158,8 +170,9 @@ def _finish(rings: np.ndarray, reach, north, digits) -> Rings:
     return Rings(lonlat, special)
 
 
-def discs(ll: np.ndarray, d: float, resolution: int, *, digits=None, labels=str) -> Rings:
-    """The offsets by ``d`` (radians, 0 < d < pi/2) of the points ``ll`` (n, 2) lon/lat.
+def discs(ll: np.ndarray, d, resolution: int, *, digits=None, labels=str) -> Rings:
+    """The offsets by ``d`` (radians, 0 < d < pi/2; one, or one per point) of the points
+    ``ll`` (n, 2) lon/lat.
 
     ``labels(i)`` names point ``i`` in error messages."""
     c = _unit(ll, labels)
@@ -168,9 +181,9 @@ def discs(ll: np.ndarray, d: float, resolution: int, *, digits=None, labels=str)
     return _finish(rings, d, north, digits)
 
 
-def stadiums(a_ll, b_ll, d: float, resolution: int, *, digits=None, labels=str) -> Rings:
-    """The offsets by ``d`` (radians, 0 < d < pi/2) of the segments ``a_ll[i] -> b_ll[i]``
-    (lon/lat, distinct and not antipodal)."""
+def stadiums(a_ll, b_ll, d, resolution: int, *, digits=None, labels=str) -> Rings:
+    """The offsets by ``d`` (radians, 0 < d < pi/2; one, or one per segment) of the
+    segments ``a_ll[i] -> b_ll[i]`` (lon/lat, distinct and not antipodal)."""
     a, b = _unit(a_ll, labels), _unit(b_ll, labels)
     rings = stadium_rings(a, b, d, resolution)
     north = arc_distance(np.array([0.0, 0.0, 1.0]), a, b) < d
