@@ -117,9 +117,16 @@ def test_layers_and_errors_name_the_problem(tmp_path, world):
 
 def test_a_missing_extra_is_named(tmp_path, world, monkeypatch):
     path = write(world, tmp_path / "w.fgb")
+    projected = write(pyogrio.read_dataframe(MEXICO).to_crs(3857), tmp_path / "m.gpkg")
+    monkeypatch.setitem(sys.modules, "pyproj", None)
+    with pytest.raises(gloffset.InputFormatError, match=r"needs pyproj.*gloffset\[files\]"):
+        gloffset.read(projected)
     monkeypatch.setitem(sys.modules, "pyogrio", None)
     with pytest.raises(gloffset.InputFormatError, match=r"needs pyogrio.*gloffset\[files\]"):
         gloffset.read(path)
+    r = run("offset", MEXICO, "-d", "1km", "-o", tmp_path / "out.gpkg")
+    assert r.exit_code == 2 and "needs pyogrio" in r.output
+    assert not (tmp_path / "out.gpkg").exists()
 
 
 @pytest.mark.parametrize("fmt", FORMATS)

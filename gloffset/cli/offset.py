@@ -17,7 +17,7 @@ import click
 from ..io.features import features as _features
 from ..io.features import load
 from ..io.output import check_output, write_bytes
-from ..io.vectorfile import WRITE_FORMATS
+from ..io.vectorfile import WRITE_FORMATS, check_writable
 from ..io.vectorfile import write as write_vector
 from ..shape import read
 from ..vector.each import offset_each
@@ -74,6 +74,8 @@ def offset_cmd(input, distance, radius, layer, where, output, tolerance, digits,
     tol = angle(tolerance, radius)
     check_output(output)  # fail before the work
     vector = str(output).lower().endswith(tuple(WRITE_FORMATS))
+    if vector:
+        check_writable(output)
     if each:
         feats = offset_each(
             _features(load(input, layer=layer, where=where)),

@@ -28,7 +28,7 @@ from ..errors import InputFormatError, OutputError
 from . import geoparquet
 from .crs import to_lonlat
 
-__all__ = ["READ_SUFFIXES", "WRITE_FORMATS", "is_vector_file", "read", "write"]
+__all__ = ["READ_SUFFIXES", "WRITE_FORMATS", "check_writable", "is_vector_file", "read", "write"]
 
 #: File name endings read through GDAL rather than as GeoJSON text.
 READ_SUFFIXES = (
@@ -210,6 +210,18 @@ def _plain(column) -> list:
 
 
 # ---------------------------------------------------------------------------- writing
+
+
+def check_writable(path) -> None:
+    """Fail early (before the work) when ``path`` names no vector format gloffset writes
+    or the ``files`` extra is missing."""
+    path = os.fspath(path)
+    if not path.lower().endswith(tuple(WRITE_FORMATS)):
+        raise OutputError(
+            f"{path!r}: unknown vector format; name the output .geojson, "
+            + ", ".join(WRITE_FORMATS)
+        )
+    _needs(f"writing {path!r}", OutputError)
 
 
 def write(path, features: list[dict]) -> None:
