@@ -141,3 +141,17 @@ def test_crs_distances_and_the_union(frame):
 def by_offset_shape(shape):
     off = gloffset.offset(shape, D)
     return shapely.geometry.shape(off.to_geojson(tolerance=tolerance(D))["geometry"])
+
+
+def test_countries_10m_buffered_equal_offset_per_feature():
+    """Natural Earth 1:10m: Kiribati across 180 degrees, Greenland near the pole, France's
+    border as lines; each buffer equals offset of the feature alone."""
+    fc = json.loads((DATA / "countries_10m.geojson").read_text())["features"]
+    by_name = {f["properties"]["name"]: f for f in fc}
+    rows = [shapely.geometry.shape(by_name[n]["geometry"]) for n in ("Kiribati", "Greenland")]
+    rows.append(shapely.geometry.shape(by_name["France"]["geometry"]).boundary)
+    frame = gpd.GeoDataFrame({"k": range(3)}, geometry=rows, crs="EPSG:4326")
+    got = gloffset.buffer(frame, 50e3, resolution=RES)
+    for geom, buf in zip(frame.geometry, got.geometry):
+        want = by_offset(geom, 50e3)
+        assert buf.equals_exact(want, 0.0) and buf.is_valid

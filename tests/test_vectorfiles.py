@@ -159,3 +159,17 @@ def test_where_on_a_geojson_file_reads_it_through_gdal():
     fc = json.loads(WORLD.read_text())
     fc["features"] = [f for f in fc["features"] if f["properties"]["name"] in ("Fiji", "Russia")]
     assert_same_shape(got, gloffset.read(fc))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fmt", ["gpkg", "parquet"])
+def test_countries_10m_in_a_vector_file_give_the_geojson_shape(tmp_path, fmt):
+    """All 234 countries at 1:10m (308k vertices; uniting them takes seconds)."""
+    src = DATA / "countries_10m.geojson"
+    path = write(pyogrio.read_dataframe(src), tmp_path / f"countries.{fmt}")
+    assert_same_shape(gloffset.read(path), gloffset.read(src))
+    europe = "name IN ('France', 'Spain', 'Andorra', 'Portugal')"
+    fc = json.loads(src.read_text())
+    names = ("France", "Spain", "Andorra", "Portugal")
+    fc["features"] = [f for f in fc["features"] if f["properties"]["name"] in names]
+    assert_same_shape(gloffset.read(path, where=europe), gloffset.read(fc))
