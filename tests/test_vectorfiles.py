@@ -173,3 +173,16 @@ def test_countries_10m_in_a_vector_file_give_the_geojson_shape(tmp_path, fmt):
     names = ("France", "Spain", "Andorra", "Portugal")
     fc["features"] = [f for f in fc["features"] if f["properties"]["name"] in names]
     assert_same_shape(gloffset.read(path, where=europe), gloffset.read(fc))
+
+
+def test_geojson_with_a_legacy_crs_member_is_transformed(tmp_path):
+    mexico = pyogrio.read_dataframe(MEXICO).to_crs(3857)
+    path = tmp_path / "mexico_3857.geojson"
+    pyogrio.write_dataframe(mexico, path, driver="GeoJSON", layer_options={"RFC7946": "NO"})
+    assert "crs" in json.loads(path.read_text())
+    assert_same_shape(gloffset.read(path), gloffset.read(MEXICO), atol=1e-9)
+    with pytest.raises(gloffset.InputFormatError, match="pre-RFC 7946 'crs' member"):
+        gloffset.read(json.loads(path.read_text()))
+    named = json.loads(MEXICO.read_text())
+    named["crs"] = {"type": "name", "properties": {"name": "urn:ogc:def:crs:OGC:1.3:CRS84"}}
+    assert_same_shape(gloffset.read(named), gloffset.read(MEXICO))

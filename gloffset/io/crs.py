@@ -16,7 +16,15 @@ from ..errors import InputFormatError
 __all__ = ["is_lonlat", "to_lonlat"]
 
 #: Names of plain WGS84 lon/lat, read as they are (no pyproj needed).
-_LONLAT = {"EPSG:4326", "OGC:CRS84", "CRS84", "WGS84", "EPSG:4979"}
+_LONLAT = {
+    "EPSG:4326",
+    "OGC:CRS84",
+    "CRS84",
+    "WGS84",
+    "EPSG:4979",
+    "URN:OGC:DEF:CRS:OGC:1.3:CRS84",
+    "URN:OGC:DEF:CRS:EPSG::4326",
+}
 
 
 def _pyproj(where: str):

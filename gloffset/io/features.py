@@ -10,6 +10,7 @@ import os
 
 from ..errors import InputFormatError
 from . import geojson, vectorfile
+from .crs import is_lonlat
 
 __all__ = ["load", "features"]
 
@@ -33,7 +34,24 @@ def load(source, *, layer=None, where: str | None = None) -> dict:
             "--layer and --where select from a file; they do not apply to stdin, GeoJSON text "
             "or objects"
         )
-    return geojson.load(source)
+    obj = geojson.load(source)
+    legacy = _legacy_crs(obj)
+    if legacy is None or is_lonlat(legacy, "the GeoJSON's 'crs'"):
+        return obj
+    if isinstance(source, (str, os.PathLike)) and os.path.isfile(os.fspath(source)):
+        return vectorfile.read(source)  # GDAL reads the legacy member; then to lon/lat
+    raise InputFormatError(
+        f"GeoJSON in CRS {legacy!r} (a pre-RFC 7946 'crs' member): give it as a file, which "
+        "is transformed to lon/lat, or write it in lon/lat (EPSG:4326)"
+    )
+
+
+def _legacy_crs(obj):
+    """The CRS named by a GeoJSON object's 'crs' member (GeoJSON 2008), or None."""
+    crs = obj.get("crs") if isinstance(obj, dict) else None
+    props = crs.get("properties") if isinstance(crs, dict) else None
+    name = props.get("name") if isinstance(props, dict) else None
+    return name if isinstance(name, str) and name.strip() else None
 
 
 def features(obj: dict) -> list[dict]:
