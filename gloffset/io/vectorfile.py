@@ -204,9 +204,20 @@ def _features(shapely, path: str, crs, wkb: list, columns: dict) -> dict:
 
 
 def _plain(column) -> list:
-    """A column as JSON values (NaN and missing values as None)."""
+    """A column as JSON values (NaN and missing values as None, binary as hex, dates as
+    text)."""
     out = np.asarray(column).tolist()
-    return [None if isinstance(v, float) and not math.isfinite(v) else v for v in out]
+    return [_json_value(v) for v in out]
+
+
+def _json_value(v):
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, (bytes, bytearray)):
+        return v.hex()  # binary fields: as hex text
+    if v is not None and not isinstance(v, (str, int, float, bool, list, dict)):
+        return str(v)  # dates, decimals and other values pyarrow gives
+    return v
 
 
 # ---------------------------------------------------------------------------- writing
