@@ -3,9 +3,11 @@
 Exact vector offsets made of small-circle arcs (:mod:`gloffset.vector`), a fast inside
 test (:mod:`gloffset.index`), rasters over grids (:mod:`gloffset.grids`,
 :mod:`gloffset.raster`, rendered on the GPU by :mod:`gloffset.gl`) and a float64
-reference for distances and membership (:mod:`gloffset.reference`). Distances are angles
-inside; metres appear only through the ``radius`` keyword. The layers are described in
-``ARCHITECTURE.md``; everything public is re-exported here.
+reference for distances and membership (:mod:`gloffset.reference`); vector files through
+:mod:`gloffset.io.vectorfile` and metric buffers of GeoPandas data (:func:`buffer`,
+:mod:`gloffset.geoseries`). Distances are angles inside; metres appear only through the
+``radius`` keyword. The layers are described in ``ARCHITECTURE.md``; everything public is
+re-exported here.
 """
 
 from __future__ import annotations
