@@ -113,7 +113,11 @@ def buffer(data, distance, *, each: bool = True, resolution: int = 16, radius=EA
     series = _lonlat_series(gpd, data)
     res = discs.segments_per_quarter(resolution)
     if not each:
-        d = _angles(distance, 1, radius)[0]
+        if not isinstance(distance, str) and np.size(distance) != 1:
+            raise InvalidDistanceError("each=False (the union) takes one distance")
+        d = _angles(
+            np.ravel(distance)[0] if not isinstance(distance, str) else distance, 1, radius
+        )[0]
         shape = Shape.from_geojson(series.__geo_interface__)
         geom = _general(shapely, shape, d, res)
         return gpd.GeoSeries([geom], crs="EPSG:4326")

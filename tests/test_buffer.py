@@ -134,6 +134,8 @@ def test_crs_distances_and_the_union(frame):
     both = gloffset.read({"type": "GeometryCollection", "geometries": [
         shapely.geometry.mapping(g) for g in frame.geometry.iloc[[7, 8]]]})  # fmt: skip
     assert union.iloc[0].equals_exact(by_offset_shape(both), 0.0)
+    with pytest.raises(gloffset.InvalidDistanceError, match="one distance"):
+        gloffset.buffer(frame.iloc[[7, 8]], [1e3, 2e3], each=False)
     with pytest.raises(gloffset.InputFormatError, match="GeoSeries or GeoDataFrame"):
         gloffset.buffer([shapely.Point(0, 0)], D)
 
