@@ -177,8 +177,23 @@ def _coarse_mask(mask, b):
     return pad.reshape(h, b, w, b).any(axis=(1, 3))
 
 
+def globe_preview(path=HERE / "globe_preview.png", size=560, center=(-60.0, 15.0)):
+    """``gloffset preview``: the countries (110m) and the region within 250 km of them on
+    an orthographic globe, drawn from the cube maps in one GL pass."""
+    from click.testing import CliRunner
+
+    from gloffset.cli import main
+
+    args = ["preview", str(DATA / "world_110m.geojson"), "-d", "250km", "-o", str(path)]
+    args += ["--size", str(size), "--center", f"{center[0]},{center[1]}"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0, result.output
+    return path
+
+
 if __name__ == "__main__":
     print(vector_offsets())
     print(raster_offset_fig13())
     print(cube_globe())
+    print(globe_preview())
     print(tile_example())

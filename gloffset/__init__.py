@@ -3,11 +3,13 @@
 Exact vector offsets made of small-circle arcs (:mod:`gloffset.vector`), a fast inside
 test (:mod:`gloffset.index`), rasters over grids (:mod:`gloffset.grids`,
 :mod:`gloffset.raster`, rendered on the GPU by :mod:`gloffset.gl`) and a float64
-reference for distances and membership (:mod:`gloffset.reference`). Distances are angles
-inside; metres appear only through the ``radius`` keyword, or, with ``ellipsoid="WGS84"``
-on :func:`distance`, :func:`contains` and :func:`render`, as geodesic lengths on the
-ellipsoid (:mod:`gloffset.ellipsoidal`, :mod:`gloffset.ellipsoid`). The layers are
-described in ``ARCHITECTURE.md``; everything public is re-exported here.
+reference for distances and membership (:mod:`gloffset.reference`); vector files through
+:mod:`gloffset.io.vectorfile` and metric buffers of GeoPandas data (:func:`buffer`,
+:mod:`gloffset.geoseries`). Distances are angles inside; metres appear only through the
+``radius`` keyword, or, with ``ellipsoid="WGS84"`` on :func:`distance`, :func:`contains`
+and :func:`render`, as geodesic lengths on the ellipsoid (:mod:`gloffset.ellipsoidal`,
+:mod:`gloffset.ellipsoid`). The layers are described in ``ARCHITECTURE.md``; everything
+public is re-exported here.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from ._version import __version__
 from .ellipsoid import Ellipsoid
 from .ellipsoidal import contains, distance
 from .errors import *  # noqa: F403  (every exception class, listed in errors.__all__)
+from .geoseries import buffer
 from .index.contains import Index
 from .raster import tiles
 from .raster.rasterized import raster_offset, rasterize
@@ -41,6 +44,7 @@ __all__ = [
     "ResolvedOffset",
     "Shape",
     "__version__",
+    "buffer",
     "contains",
     "decompose",
     "distance",

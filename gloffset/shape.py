@@ -43,6 +43,7 @@ import numpy as np
 
 from .caps import arc_cap, pad
 from .errors import InputFormatError, InvalidGeometryError
+from .io import features as _features
 from .io import geojson as _gj
 from .region import unite
 from .sphere import SEAM_EPS_DEG, angle, arc_distance, lonlat_to_xyz, normalize, robust_cross
@@ -138,9 +139,9 @@ class Shape:
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def from_geojson(cls, obj) -> Shape:
+    def from_geojson(cls, obj, *, layer=None, where: str | None = None) -> Shape:
         """Build a shape from a GeoJSON object (dict) or anything :func:`read` accepts."""
-        return _from_parts(_gj.parse(_gj.load(obj)))
+        return _from_parts(_gj.parse(_features.load(obj, layer=layer, where=where)))
 
     @classmethod
     def from_lonlat(cls, lon, lat, *, closed: bool = False) -> Shape:
@@ -312,17 +313,23 @@ class Shape:
         )
 
 
-def read(source) -> Shape:
+def read(source, *, layer=None, where: str | None = None) -> Shape:
     """Read geometry into a :class:`Shape`.
 
     Parameters
     ----------
     source
-        A path to a GeoJSON file, ``"-"`` for stdin, a GeoJSON string or dict
-        (Geometry, Feature or FeatureCollection), an object with
+        A path to a GeoJSON file or another vector file (Shapefile, GeoPackage,
+        FlatGeobuf, GeoParquet...: the ``files`` extra), ``"-"`` for stdin, a GeoJSON
+        string or dict (Geometry, Feature or FeatureCollection), an object with
         ``__geo_interface__`` (shapely), an existing :class:`Shape`, or an (n, 2)
         array of lon/lat in degrees (a polygon ring when its first and last rows
-        are equal, else a line).
+        are equal, else a line). A file in another CRS is transformed to lon/lat.
+    layer : str or int, optional
+        The layer of a vector file with several.
+    where : str, optional
+        An attribute filter (OGR SQL) selecting features of a vector file, e.g.
+        ``"continent = 'Africa'"``.
 
     Examples
     --------
@@ -330,14 +337,14 @@ def read(source) -> Shape:
     >>> len(s.lines), len(s.lines[0])
     (1, 2)
     """
-    if isinstance(source, Shape):
+    if isinstance(source, Shape) and layer is None and where is None:
         return source
     if isinstance(source, np.ndarray):
         if source.ndim != 2 or source.shape[1] != 2:
             raise InputFormatError(f"a lon/lat array must have shape (n, 2), got {source.shape}")
         closed = len(source) >= 4 and np.array_equal(source[0], source[-1])
         return Shape.from_lonlat(source[:, 0], source[:, 1], closed=closed)
-    return Shape.from_geojson(source)
+    return Shape.from_geojson(source, layer=layer, where=where)
 
 
 # ---------------------------------------------------------------------- building

@@ -59,6 +59,7 @@ def main():
 
 from . import contains as _contains  # noqa: E402,F401  (registers the subcommands)
 from . import offset as _offset  # noqa: E402,F401
+from . import preview as _preview  # noqa: E402,F401
 from . import render as _render  # noqa: E402,F401
 from . import serve as _serve  # noqa: E402,F401
 from . import tiles as _tiles  # noqa: E402,F401

@@ -13,6 +13,7 @@ import numpy as np
 from ..ellipsoidal import contains as ellipsoidal_contains
 from ..errors import InputFormatError
 from ..index.contains import Index, depth_for
+from ..io.features import features, load
 from ..io.output import check_output, open_output
 from ..shape import read
 from . import main
@@ -20,6 +21,7 @@ from .options import (
     angle,
     distance_option,
     ellipsoid_option,
+    input_options,
     metres,
     parse_ellipsoid,
     radius_option,
@@ -120,22 +122,38 @@ def _chunks(reader, size: int):
 @click.option(
     "--chunk", type=click.IntRange(1), default=100_000, show_default=True, help="Rows per batch."
 )
-def contains_cmd(input, points, distance, radius, ellipsoid, output, level, chunk):
+@input_options
+@click.option(
+    "--each",
+    is_flag=True,
+    help="Test each feature of INPUT on its own: a row per point and feature it lies in, "
+    "with the feature's index and properties.",
+)
+def contains_cmd(
+    input, points, distance, radius, ellipsoid, output, level, chunk, layer, where, each
+):
     """Mark the points of POINTS (CSV with lon and lat columns in degrees, - for stdin) that
-    lie in the region within DIST of the curves and polygons of INPUT (GeoJSON).
+    lie in the region within DIST of the curves and polygons of INPUT (GeoJSON or another
+    vector file).
 
-    The output repeats every row with a column 'inside' (true or false). Large files
-    are read and written in batches; a progress bar shows on a terminal. With
-    --ellipsoid, DIST is a geodesic length on that ellipsoid and polygon edges are
-    geodesics.
+    The output repeats every row with a column 'inside' (true or false). With --each, a
+    point is written once per feature whose region it lies in, with the columns 'feature'
+    (the feature's 0-based index) and the feature's properties, and once with 'inside'
+    false if it lies in none. Large files are read and written in batches; a progress bar
+    shows on a terminal. With --ellipsoid, DIST is a geodesic length on that ellipsoid
+    and polygon edges are geodesics.
     """
     if input == "-" and points == "-":
         raise InputFormatError("INPUT and POINTS cannot both be read from stdin (-)")
     ell = parse_ellipsoid(ellipsoid)
     d = angle(distance, radius) if ell is None else (ell, metres(distance))
     check_output(output)  # fail before the work
-    shape = read(input)
-    where = "<stdin>" if points == "-" else points
+    if each:
+        feats = features(load(input, layer=layer, where=where))
+        tester = PerFeature(feats, d, level)
+    else:
+        tester = Union(read(input, layer=layer, where=where), d, level)
+    where = "<stdin>" if points == "-" else points  # from here on, the name of POINTS
     if points == "-":
         src = io.TextIOWrapper(sys.stdin.buffer, encoding="utf-8-sig", newline="")
         size = None
@@ -147,25 +165,12 @@ def contains_cmd(input, points, distance, radius, ellipsoid, output, level, chun
         size = os.fstat(src.fileno()).st_size
     try:
         with open_output(output, text=True) as dst:
-            _run(shape, d, level, src, dst, where, size, chunk)
+            _run(tester, src, dst, where, size, chunk)
     finally:
         src.close()
 
 
-def _tester(shape, d, level, expect):
-    """``inside(lon, lat)`` for the batches: the spherical index for an angle ``d``, the
-    ellipsoidal contains for ``d = (ellipsoid, metres)``."""
-    if isinstance(d, tuple):
-        ell, m = d
-
-        def on_ellipsoid(lon, lat):
-            return ellipsoidal_contains(shape, lon, lat, distance=m, level=level, ellipsoid=ell)
-
-        return on_ellipsoid
-    return Index(shape, d, radius=1.0, level=level, depth=depth_for(expect)).contains
-
-
-def _run(shape, d, level, src, dst, where, size, chunk):
+def _run(tester, src, dst, where, size, chunk):
     reader = csv.reader(src)
     try:
         header = next(reader)
@@ -183,7 +188,7 @@ def _run(shape, d, level, src, dst, where, size, chunk):
         from tqdm import tqdm
 
         bar = tqdm(total=size, unit="B", unit_scale=True, file=sys.stderr, dynamic_ncols=True)
-    index = None
+    started = False
     done = 0
     try:
         batches = _chunks(reader, chunk)
@@ -191,28 +196,22 @@ def _run(shape, d, level, src, dst, where, size, chunk):
             try:
                 rows, lines = next(batches)
             except StopIteration:
-                if index is None:  # no rows: the header alone
-                    writer.writerow(header if iout is not None else [*header, "inside"])
+                if not started:  # no rows: the header alone
+                    writer.writerow(tester.header(header, iout))
                 break
             except (csv.Error, UnicodeDecodeError) as exc:
                 raise InputFormatError(f"{where}, line {reader.line_num}: {exc}") from None
             lon, lat = _coordinates(rows, lines, len(header), ilon, ilat, where)
-            if index is None:  # the first batch is good: start the output
-                writer.writerow(header if iout is not None else [*header, "inside"])
+            if not started:  # the first batch is good: start the output
+                writer.writerow(tester.header(header, iout))
                 # bins as deep as the expected number of points makes worthwhile
                 expect = len(rows)
                 read_so_far = _position(src)
                 if size and read_so_far:
                     expect = max(expect, int(size / read_so_far * len(rows)))
-                index = _tester(shape, d, level, expect)
-            inside = index(lon, lat)
-            flag = np.where(inside, "true", "false")
-            if iout is None:
-                writer.writerows(r + [f] for r, f in zip(rows, flag.tolist()))
-            else:
-                for r, f in zip(rows, flag.tolist()):
-                    r[iout] = f
-                writer.writerows(rows)
+                tester.start(expect)
+                started = True
+            writer.writerows(tester.rows(rows, lon, lat, iout))
             done += len(rows)
             if bar is not None:
                 bar.update(((_position(src) or 0) if size else done) - bar.n)
@@ -220,3 +219,82 @@ def _run(shape, d, level, src, dst, where, size, chunk):
         if bar is not None:
             bar.close()
     return done
+
+
+def _flagged(rows, inside, iout):
+    """The rows with their 'inside' column (added at the end, or set where it was)."""
+    flag = np.where(inside, "true", "false").tolist()
+    if iout is None:
+        return [r + [f] for r, f in zip(rows, flag)]
+    for r, f in zip(rows, flag):
+        r[iout] = f
+    return rows
+
+
+def _tester(shape, d, level, expect):
+    """``inside(lon, lat)`` for the batches: the spherical index for an angle ``d``, the
+    ellipsoidal contains for ``d = (ellipsoid, metres)``."""
+    if isinstance(d, tuple):
+        ell, m = d
+
+        def on_ellipsoid(lon, lat):
+            return ellipsoidal_contains(shape, lon, lat, distance=m, level=level, ellipsoid=ell)
+
+        return on_ellipsoid
+    return Index(shape, d, radius=1.0, level=level, depth=depth_for(expect)).contains
+
+
+class Union:
+    """Points tested against the region of the whole input (the default)."""
+
+    def __init__(self, shape, d, level):
+        self.shape, self.d, self.level, self.index = shape, d, level, None
+
+    def header(self, header, iout):
+        return header if iout is not None else [*header, "inside"]
+
+    def start(self, expect):
+        self.index = _tester(self.shape, self.d, self.level, expect)
+
+    def rows(self, rows, lon, lat, iout):
+        return _flagged(rows, self.index(lon, lat), iout)
+
+
+class PerFeature:
+    """Points tested against each feature alone (``--each``): a row per point and feature
+    it lies in, with the feature's index and properties; a row with 'inside' false for a
+    point in none."""
+
+    def __init__(self, feats, d, level):
+        self.d, self.level = d, level
+        self.rows_of = [i for i, f in enumerate(feats) if isinstance(f, dict) and f.get("geometry")]
+        self.shapes = [
+            read({"type": "FeatureCollection", "features": [feats[i]]}) for i in self.rows_of
+        ]
+        props = [dict(feats[i].get("properties") or {}) for i in self.rows_of]
+        self.names = list(dict.fromkeys(k for p in props for k in p))
+        self.values = [
+            ["" if p.get(k) is None else str(p.get(k)) for k in self.names] for p in props
+        ]
+        self.indexes = []
+
+    def header(self, header, iout):
+        base = header if iout is not None else [*header, "inside"]
+        return [*base, "feature", *self.names]
+
+    def start(self, expect):
+        self.indexes = [_tester(s, self.d, self.level, expect) for s in self.shapes]
+
+    def rows(self, rows, lon, lat, iout):
+        hits = np.array([inside(lon, lat) for inside in self.indexes]).reshape(
+            len(self.indexes), len(rows)
+        )
+        out = []
+        blank = [""] * (1 + len(self.names))
+        for r, row in enumerate(_flagged(rows, hits.any(axis=0), iout)):
+            found = np.flatnonzero(hits[:, r])
+            if len(found) == 0:
+                out.append(row + blank)
+            for k in found.tolist():
+                out.append(row + [str(self.rows_of[k]), *self.values[k]])
+        return out

@@ -1,8 +1,11 @@
-"""``gloffset offset``: the vector offset of a GeoJSON file, written as GeoJSON.
+"""``gloffset offset``: the vector offset of an input, written as GeoJSON or a vector file.
 
 By default the boundary of the offset region is written as valid polygons (self-
 intersections removed, parts united, holes kept; see :mod:`gloffset.vector.selfintersect`);
-``--raw`` writes the raw offset rings of the paper's Sec. 4.1 instead.
+``--raw`` writes the raw offset rings of the paper's Sec. 4.1 instead. ``--each`` offsets
+every feature on its own and keeps its properties (:mod:`gloffset.vector.each`). The output
+is GeoJSON, or a GeoPackage, Shapefile, FlatGeobuf or GeoParquet file by its name
+(:mod:`gloffset.io.vectorfile`), with a ``distance`` field.
 """
 
 from __future__ import annotations
@@ -11,19 +14,29 @@ import json
 
 import click
 
+from ..io.features import features as _features
+from ..io.features import load
 from ..io.output import check_output, write_bytes
+from ..io.vectorfile import WRITE_FORMATS, check_writable
+from ..io.vectorfile import write as write_vector
 from ..shape import read
+from ..vector.each import offset_each
 from ..vector.offset import offset as _offset
 from . import main
-from .options import angle, distance_option, radius_option
+from .options import angle, distance_option, input_options, radius_option
 
 
 @main.command("offset")
 @click.argument("input", metavar="INPUT")
 @distance_option
 @radius_option
+@input_options
 @click.option(
-    "-o", "--output", default="-", show_default=True, help="Output GeoJSON file, - for stdout."
+    "-o",
+    "--output",
+    default="-",
+    show_default=True,
+    help="Output file: GeoJSON (- for stdout), or .gpkg, .shp, .fgb, .parquet.",
 )
 @click.option(
     "--tolerance",
@@ -49,14 +62,37 @@ from .options import angle, distance_option, radius_option
     show_default=True,
     help="Self-intersection removal: exact and general, or the paper's Algorithm 1.",
 )
-def offset_cmd(input, distance, radius, output, tolerance, digits, raw, method):
-    """Offset the curves and polygons of INPUT (GeoJSON path, or - for stdin)."""
+@click.option(
+    "--each",
+    is_flag=True,
+    help="Offset each feature on its own, keeping its properties (default: the union).",
+)
+def offset_cmd(input, distance, radius, layer, where, output, tolerance, digits, raw, method, each):
+    """Offset the curves and polygons of INPUT (GeoJSON or another vector file, - for
+    GeoJSON on stdin)."""
     d = angle(distance, radius)
     tol = angle(tolerance, radius)
     check_output(output)  # fail before the work
-    shape = read(input)
-    off = _offset(shape, d, radius=1.0)
-    feat = off.to_geojson(tolerance=tol, digits=digits, raw=raw, method=method)
-    feat["properties"]["distance"] = distance
-    text = json.dumps({"type": "FeatureCollection", "features": [feat]})
+    vector = str(output).lower().endswith(tuple(WRITE_FORMATS))
+    if vector:
+        check_writable(output)
+    if each:
+        feats = offset_each(
+            _features(load(input, layer=layer, where=where)),
+            d,
+            tolerance=tol,
+            digits=digits,
+            raw=raw,
+            method=method,
+        )
+    else:
+        shape = read(input, layer=layer, where=where)
+        off = _offset(shape, d, radius=1.0)
+        feats = [off.to_geojson(tolerance=tol, digits=digits, raw=raw, method=method)]
+    for feat in feats:
+        feat["properties"]["distance"] = distance
+    if vector:
+        write_vector(output, feats)
+        return
+    text = json.dumps({"type": "FeatureCollection", "features": feats})
     write_bytes(output, (text + "\n").encode("utf-8"))

@@ -80,3 +80,19 @@ def metres(text: str) -> float:
             "lengths: give it in m, km, mi, nmi or ft"
         )
     return parse_distance(text, 1.0)
+
+
+def input_options(f):
+    """``--layer`` and ``--where``: which layer and features of a vector file to read."""
+    f = click.option(
+        "--where",
+        default=None,
+        metavar="SQL",
+        help="Read only the features of a vector file that match this attribute filter "
+        "(OGR SQL), e.g. \"continent = 'Africa'\".",
+    )(f)
+    return click.option(
+        "--layer",
+        default=None,
+        help="The layer of a vector file with several (a name or a 0-based index).",
+    )(f)

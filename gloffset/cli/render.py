@@ -19,7 +19,7 @@ from ..raster.rasterized import CONTAINED
 from ..raster.render import render as _render
 from ..shape import read
 from . import main
-from .options import angle, distance_option, radius_option
+from .options import angle, distance_option, input_options, radius_option
 
 #: The former name of :class:`~gloffset.errors.InputFormatError` (cube-face mask PNGs that
 #: are missing, not square, or of different sizes), kept so that ``except CubeFacesError``
@@ -122,6 +122,7 @@ def _bounds(text: str | None) -> tuple:
     is_flag=True,
     help="Write no world file (.pgw) and .prj beside a PNG.",
 )
+@input_options
 def render_cmd(
     input,
     distance,
@@ -138,6 +139,8 @@ def render_cmd(
     mask_only,
     cog,
     no_worldfile,
+    layer=None,
+    where=None,
 ):
     """Render the region within DIST of the curves of INPUT as a PNG or TIFF (row 0 north),
     or as six cube-map faces px nx py ny pz nz that load straight into a GL or three.js
@@ -186,7 +189,7 @@ def render_cmd(
         w, h = _size(size or "4096x2048")
         grid = Equirect(w, h, _bounds(bounds))
         levels = grid.n_levels
-    shape = read(input)
+    shape = read(input, layer=layer, where=where)
     show = sys.stderr.isatty()
     t0 = time.perf_counter()
 

@@ -13,7 +13,7 @@ from ..raster.tilepaint import TileStyle
 from ..raster.tiles import parse_zooms, pyramid
 from ..shape import read
 from . import main
-from .options import angle, distance_option, radius_option
+from .options import angle, distance_option, input_options, radius_option
 
 
 @main.command("tiles")
@@ -54,6 +54,7 @@ from .options import angle, distance_option, radius_option
 @click.option(
     "--scheduler", default=None, help="Render on a running Dask cluster (its scheduler address)."
 )
+@input_options
 def tiles_cmd(
     input,
     distance,
@@ -70,6 +71,8 @@ def tiles_cmd(
     force,
     workers,
     scheduler,
+    layer=None,
+    where=None,
 ):
     """Write the tile pyramid of the region within DIST of the curves of INPUT: tiles
     outside the region are skipped, tiles fully inside share one image and are not
@@ -82,7 +85,7 @@ def tiles_cmd(
     TileStyle(fill, opacity, outline, outline_width)
     if resume and force:
         raise click.UsageError("--resume and --force exclude each other")
-    shape = read(input)
+    shape = read(input, layer=layer, where=where)
     bar = None
     if sys.stderr.isatty():
         from tqdm import tqdm

@@ -342,8 +342,14 @@ def _split_ring(ring: np.ndarray) -> tuple[list[np.ndarray] | None, np.ndarray]:
         _, clat0 = xyz_to_lonlat(c)
         _, clat1 = xyz_to_lonlat(crossings[(k + 1) % len(crossings)][1])
         pts = np.column_stack([lon[idx], lat[idx]])
-        # a vertex exactly on the antimeridian is on the east side (half-open rule)
-        pts[np.abs(np.abs(pts[:, 0]) - 180.0) < _AM_TOL, 0] = 180.0
+        # a vertex on the antimeridian takes the side of its chain (y >= 0: east, +180)
+        near = np.abs(np.abs(pts[:, 0]) - 180.0) < _AM_TOL
+        pts[near, 0] = np.where(side[idx][near], 180.0, -180.0)
+        # one at either end of the chain is its crossing point: keep the crossing alone
+        keep = np.ones(len(pts), dtype=bool)
+        keep[[0, -1]] &= ~near[[0, -1]]
+        if keep.any():
+            pts = pts[keep]
         chain = np.vstack([[first, float(clat0)], pts, [last, float(clat1)]])
         chains.append(_expand_poles(chain, cyclic=False))
     return chains, None

@@ -26,6 +26,8 @@ __all__ = [
     "read_mask",
     "write_classes",
     "write_mask",
+    "write_image",
+    "write_animation",
 ]
 
 #: Colours of the paper's Fig. 13: contained black, frontier red, outside white.
@@ -200,3 +202,25 @@ def read_mask(path) -> np.ndarray:
                 "opaque)"
             )
     return arr[..., 0] >= 128
+
+
+def write_image(rgba: np.ndarray, target) -> None:
+    """Write an RGBA picture (h, w, 4) uint8 (PNG, or TIFF by the name; ``-`` stdout)."""
+    return _save(Image.fromarray(np.ascontiguousarray(rgba, dtype=np.uint8), mode="RGBA"), target)
+
+
+def write_animation(frames: list, target, *, duration_ms: int = 80) -> None:
+    """Write RGBA frames as an animated PNG (APNG), or a GIF when the name ends in .gif;
+    looping forever."""
+    name = os.fspath(target)
+    fmt = "GIF" if name.lower().endswith(".gif") else "PNG"
+    if fmt == "PNG":
+        image_format(target)  # refuses other extensions
+    images = [Image.fromarray(np.ascontiguousarray(f, dtype=np.uint8), mode="RGBA") for f in frames]
+    buf = io.BytesIO()
+    extra = {"disposal": 2} if fmt == "GIF" else {"disposal": 1}
+    images[0].save(
+        buf, format=fmt, save_all=True, append_images=images[1:], duration=duration_ms, loop=0,
+        **extra,
+    )  # fmt: skip
+    write_bytes(target, buf.getvalue())
