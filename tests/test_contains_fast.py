@@ -280,3 +280,37 @@ def test_touching_countries_do_not_count_as_overlapping(world):
         "features": [world["France"], world["Spain"], world["Italy"]],
     }
     assert len(gloffset.read(fc).overlapping_components()) == 0
+
+
+@pytest.mark.parametrize("budget", [1 << 8, 1 << 11])
+def test_cell_budget_keeps_simplified_arcs_and_every_answer(world, monkeypatch, budget):
+    """A long boundary stops the default depth at the cell budget; the leaves then keep
+    simplified arcs (levels from ``floor``) and every answer is still the reference's,
+    on the borders as read and densified tenfold, near the curves and around them."""
+    s = gloffset.read(world["Chile"])
+    dense = gloffset.read(
+        {"type": "Polygon", "coordinates": [_densified(r, 10) for r in s.rings]}
+        if len(s.rings) == 1
+        else {"type": "MultiPolygon", "coordinates": [[_densified(r, 10)] for r in s.rings]}
+    )
+    monkeypatch.setattr(fast, "BUILD_CELLS", budget)
+    for shape in (s, dense):
+        lon, lat = box(shape, 6000, seed=8)
+        nl, nt = near_curves(shape, 2e-9, n=300, seed=9)
+        lon, lat = np.r_[lon, nl], np.r_[lat, nt]
+        for d in (0.0, 0.004, -0.002):
+            ix = gloffset.Index(shape, d, radius=1.0)
+            assert ix.depth < fast.DEFAULT_DEPTH and ix.floor > 0, (ix.depth, ix.floor)
+            want = reference.contains(shape, lon, lat, distance=d, radius=1.0)
+            assert np.array_equal(ix.contains(lon, lat), want), (budget, d)
+
+
+def _densified(ring_xyz, k):
+    """A ring (unit vectors, closed) as lon/lat with ``k - 1`` points added on each edge."""
+    t = np.arange(k) / k
+    pts = slerp(
+        ring_xyz[:-1, None, :], ring_xyz[1:, None, :], np.broadcast_to(t, (len(ring_xyz) - 1, k))
+    )
+    pts = np.vstack([pts.reshape(-1, 3), ring_xyz[-1:]])
+    lon, lat = xyz_to_lonlat(pts)
+    return np.column_stack([lon, lat]).tolist()

@@ -79,6 +79,10 @@ DEFAULT_DEPTH = 13
 MAX_DEPTH = bins.MAX_LEVEL
 #: Refinement stops before the frontier would hold more cells than this.
 MAX_CELLS = 1 << 21
+#: With the default depth, refinement stops before the frontier would hold more cells
+#: than this (a long boundary: the build costs about its frontier cells), and the
+#: leaves keep simplified arcs (see :attr:`Index.floor`).
+BUILD_CELLS = 1 << 16
 #: The automatic level is chosen among 0 .. this, on this many sample points.
 AUTO_MAX_LEVEL = 5
 AUTO_SAMPLE = 1024
@@ -186,14 +190,18 @@ class _Arcs:
         self._ancestors: dict[int, np.ndarray] = {}
 
     def ancestors(self, k: int) -> np.ndarray:
-        """For every original edge, the arc of level ``k`` that stands for it."""
+        """For every tree node of level ``<= k`` (original edges first), the arc of
+        level ``k`` that stands for it (-1 for the nodes above level ``k``)."""
         if k not in self._ancestors:
             count = np.ones(len(self.a), dtype=np.int64)
-            for lev in range(1, k + 1):  # children are always made before parents
+            first = np.arange(len(self.a))  # each node's first original edge
+            for lev in range(1, self.levels + 1):  # children are made before parents
                 ids = np.flatnonzero(self.level == lev)
                 count[ids] = count[self.child[ids, 0]] + count[self.child[ids, 1]]
+                first[ids] = first[self.child[ids, 0]]
             cut = self.decomposition.level_nodes(k)
-            self._ancestors[k] = np.repeat(cut, count[cut])
+            by_edge = np.repeat(cut, count[cut])
+            self._ancestors[k] = np.where(self.level <= k, by_edge[first], -1)
         return self._ancestors[k]
 
 
@@ -228,7 +236,8 @@ class Index:
     depth : int, optional
         Level of the finest bins (default :data:`DEFAULT_DEPTH`: cells of 0.022 deg).
         Deeper bins cost more to build and leave fewer points to the exact tests
-        (see :func:`depth_for`).
+        (see :func:`depth_for`). By default the bins also stop before the frontier
+        exceeds :data:`BUILD_CELLS` cells.
 
     Attributes
     ----------
@@ -239,6 +248,11 @@ class Index:
         :data:`MAX_CELLS` cells).
     n_leaves, n_candidates : int
         Frontier cells of the deepest level, and their candidate arcs in all.
+    floor : int
+        The lowest decomposition level in the leaves' lists: 0 (original edges) unless
+        the default depth stopped early for a long boundary (:data:`BUILD_CELLS`);
+        then the leaves keep simplified arcs of level ``floor`` where their error
+        regions hold no anchor, and levels below ``floor`` are not offered.
 
     Notes
     -----
@@ -274,13 +288,16 @@ class Index:
         self.distance = offset_angle(self.shape, distance, radius)
         self._arcs = _arcs(self.shape)
         self.level = self._choose_level(level)
-        if depth is None:
+        default_depth = depth is None
+        if default_depth:
             depth = DEFAULT_DEPTH
         if isinstance(depth, bool) or not isinstance(depth, (int, np.integer)):
             raise InvalidLevelError(f"depth must be an integer or None, got {depth!r}")
         if not 1 <= depth <= MAX_DEPTH:
             raise InvalidLevelError(f"depth must be in 1..{MAX_DEPTH}, got {depth!r}")
         self.requested_depth = self.depth = int(depth)
+        self._budget = BUILD_CELLS if default_depth else MAX_CELLS
+        self.floor = 0
         self._build()
 
     # ------------------------------------------------------------------ level
@@ -328,7 +345,9 @@ class Index:
             fronts[cells.level] = (cells.j[front], cells.i[front])
             if len(front) == 0:
                 break
-            if cells.level >= self.depth or 4 * len(front) > MAX_CELLS:
+            if cells.level >= self.depth or 4 * len(front) > self._budget:
+                if cells.level < self.depth and 4 * len(front) <= MAX_CELLS:
+                    self.floor = self._floor_for(cells.level)
                 self.depth = cells.level
                 leaves = cells.subset(front)
                 leaves.par[:] = par_need[front]
@@ -346,12 +365,22 @@ class Index:
             self._leaf_lists(None, none, none, no, no)
         self._paint(tiles, fronts)
 
+    def _floor_for(self, level: int) -> int:
+        """The level floor of leaves at ``level`` when the cell budget stops the default
+        depth there: one decomposition level per bin level above :data:`DEFAULT_DEPTH`
+        (a level has about half the arcs, a cell twice the size), at most the highest
+        level a query may choose, and at most the level asked for."""
+        top = min(AUTO_MAX_LEVEL, self._arcs.levels)
+        floor = max(0, min(top, DEFAULT_DEPTH - level))
+        return floor if self.level is None else min(floor, self.level)
+
     def _settle(self, cells, pc, pn, *, force, parent=None):
         """Replace arcs by their two halves until every (cell, arc) pair is settled.
 
         An arc is reconstructed when the cell's anchor lies in its error region (the
         parity rule needs the anchor outside), or when it is simplified and larger
-        than the cell (or ``force``: at a leaf, where only original edges are kept).
+        than the cell (or ``force``: at a leaf, where only arcs of level :attr:`floor`
+        or below are kept, original edges by default).
         Returns the pairs that matter for the cell, ``(pc, pn, dist, par, dst)``, and,
         with ``parent`` (parent anchors), the parity of the crossings of each cell's
         short arc anchor -> parent anchor with the ring arcs it inherited.
@@ -395,6 +424,8 @@ class Index:
             coarse = internal & (par | dst)
             if not force:
                 coarse &= f[:, 5] > r
+            if force:  # at the leaves: down to the level floor
+                coarse &= arcs.level[pn] > self.floor
             expand |= coarse
             settled = ~expand
             if parity is not None:
@@ -523,9 +554,10 @@ class Index:
             # for each level, the (point, arc) pairs tested per point (a random point in
             # each leaf) and the passes needed; a query picks by its count of points
             top = min(AUTO_MAX_LEVEL, arcs.levels) if n_leaves >= AUTO_MIN_LEAVES else 0
-            sample = _sample_points(leaves, AUTO_SAMPLE) if top else None
+            top = max(top, self.floor)
+            sample = _sample_points(leaves, AUTO_SAMPLE) if top > self.floor else None
             self._choices = []
-            for k in range(top + 1):
+            for k in range(self.floor, top + 1):
                 lists = self._lift(k, leaves, pc, pn, par, dst)
                 pairs, passes = (
                     (0, 1) if sample is None else self._frontier(*sample, lists=lists, cost=True)
@@ -562,6 +594,10 @@ class Index:
             node = arcs.ancestors(level)[pn]
             todo = np.flatnonzero(par)
             for k in range(level, 0, -1):
+                # an arc of level k or above was kept: its region holds no anchor
+                final = arcs.level[pn[todo]] >= k
+                node[todo[final]] = pn[todo[final]]
+                todo = todo[~final]
                 if len(todo) == 0:
                     break
                 nd = arcs.ancestors(k)[pn[todo]]
