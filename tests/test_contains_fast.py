@@ -314,3 +314,35 @@ def _densified(ring_xyz, k):
     pts = np.vstack([pts.reshape(-1, 3), ring_xyz[-1:]])
     lon, lat = xyz_to_lonlat(pts)
     return np.column_stack([lon, lat]).tolist()
+
+
+def _spiked_square(k=40):
+    """A 10 x 10 degree square, its edges densified (``k`` points each), with a needle
+    0.02 degrees wide and 3 degrees long on its east side: a detail that every coarse
+    level of the decomposition cuts off."""
+    t = np.linspace(0.0, 10.0, k, endpoint=False)
+    south = [[x, 0.0] for x in t]
+    east = [[10.0, y] for y in t if y < 4.99 or y > 5.01]
+    i = next(j for j, p in enumerate(east) if p[1] > 5.0)
+    needle = [[10.0, 4.99], [11.5, 4.99], [13.0, 4.99], [13.0, 5.01], [11.5, 5.01], [10.0, 5.01]]
+    east = east[:i] + needle + east[i:]
+    north = [[10.0 - x, 10.0] for x in t]
+    west = [[0.0, 10.0 - y] for y in t]
+    ring = south + east + north + west
+    return {"type": "Polygon", "coordinates": [ring + [ring[0]]]}
+
+
+@pytest.mark.parametrize("d", [0.0, 0.001, -0.0005])
+def test_simplified_leaves_keep_a_detail_the_coarse_levels_miss(monkeypatch, d):
+    """With leaves of simplified arcs (a small cell budget, ``floor > 0``), points in and
+    beside a needle that the coarse levels cut off get the reference's answer: the
+    arcs' error bounds widen every test that uses a simplified arc."""
+    s = gloffset.read(_spiked_square())
+    monkeypatch.setattr(fast, "BUILD_CELLS", 1 << 6)
+    ix = gloffset.Index(s, d, radius=1.0)
+    assert ix.floor > 0
+    rng = np.random.default_rng(3)
+    lon = np.r_[rng.uniform(9.5, 13.5, 20_000), rng.uniform(0.0, 10.0, 2000)]
+    lat = np.r_[rng.uniform(4.9, 5.1, 20_000), rng.uniform(0.0, 10.0, 2000)]
+    want = reference.contains(s, lon, lat, distance=d, radius=1.0)
+    assert np.array_equal(ix.contains(lon, lat), want)
