@@ -80,9 +80,11 @@ MAX_DEPTH = bins.MAX_LEVEL
 #: Refinement stops before the frontier would hold more cells than this.
 MAX_CELLS = 1 << 21
 #: With the default depth, refinement stops before the frontier would hold more cells
-#: than this (a long boundary: the build costs about its frontier cells), and the
-#: leaves keep simplified arcs (see :attr:`Index.floor`).
+#: than this (a long boundary: the build costs about its frontier cells).
 BUILD_CELLS = 1 << 16
+#: The leaves' arcs are expanded toward original edges, a decomposition level at a time,
+#: while they stay within this many candidate pairs per cell (see :attr:`Index.floor`).
+LEAF_PAIRS = 8
 #: The automatic level is chosen among 0 .. this, on this many sample points.
 AUTO_MAX_LEVEL = 5
 AUTO_SAMPLE = 1024
@@ -250,9 +252,10 @@ class Index:
         Frontier cells of the deepest level, and their candidate arcs in all.
     floor : int
         The lowest decomposition level in the leaves' lists: 0 (original edges) unless
-        the default depth stopped early for a long boundary (:data:`BUILD_CELLS`);
-        then the leaves keep simplified arcs of level ``floor`` where their error
-        regions hold no anchor, and levels below ``floor`` are not offered.
+        that would put more than :data:`LEAF_PAIRS` candidate arcs per cell in the
+        leaves (large cells on a long, fine boundary); then the leaves keep simplified
+        arcs of levels up to ``floor`` where their error regions hold no anchor, and
+        levels below ``floor`` are not offered.
 
     Notes
     -----
@@ -267,11 +270,12 @@ class Index:
     Cost: building is proportional to the length of the boundary (and of the offset
     boundary) measured in cells of the deepest level: about 0.1-0.3 s for Mexico
     (7,368 vertices) at the default depth. With the default depth a long boundary
-    stops the bins at :data:`BUILD_CELLS` frontier cells (all 234 countries of
-    Natural Earth 1:10m at 0.02 rad: depth 9 with leaves of level 4, about 1.5 s
-    instead of 17 s at depth 13), at the price of more points in frontier cells
-    (1e6 uniform points on the globe: about 0.5 s instead of 0.03 s); pass
-    ``depth=13`` for the deep bins, or let :func:`contains` choose by the number of
+    stops the bins at :data:`BUILD_CELLS` frontier cells, and large leaves on a fine
+    boundary keep simplified arcs (:attr:`floor`): all 234 countries of Natural Earth
+    1:10m at 0.02 rad build at depth 9 with leaves of level 5 in about 2 s instead of
+    17 s at depth 13, at the price of more points in frontier cells (1e6 uniform
+    points on the globe: about 0.6 s instead of 0.02 s); pass ``depth=13`` for the
+    deep bins, or let :func:`contains` choose by the number of
     points (:func:`depth_for`). A query costs a table look-up from the
     lon/lat of each point (a few tens of nanoseconds), plus, for the few points in
     frontier cells, a lon/lat to vector conversion and the tests against their
@@ -341,7 +345,7 @@ class Index:
         pc = np.repeat(np.arange(n), len(arcs.top))
         pn = np.tile(arcs.top, n)
         self._forced = self.depth == 1
-        kept = self._settle(cells, pc, pn, force=self._forced)
+        kept = self._settle_leaves(cells, pc, pn) if self._forced else self._settle(cells, pc, pn)
         leaves = None
         while True:
             state, par_need, dst_need, kept = self._classify(cells, kept)
@@ -352,35 +356,47 @@ class Index:
             if len(front) == 0:
                 break
             if cells.level >= self.depth or 4 * len(front) > self._budget:
-                if cells.level < self.depth and 4 * len(front) <= MAX_CELLS:
-                    self.floor = self._floor_for(cells.level)
                 self.depth = cells.level
                 leaves = cells.subset(front)
                 leaves.par[:] = par_need[front]
                 leaves.dst[:] = dst_need[front]
                 pc, pn, _, par, dst = _subset_pairs(kept, front)
                 if not self._forced:  # expand to original edges (the last level did)
-                    pc, pn, _, par, dst = self._settle(leaves, pc, pn, force=True)
+                    pc, pn, _, par, dst = self._settle_leaves(leaves, pc, pn)
                 self._leaf_lists(leaves, pc, pn, par, dst)
                 tiles.append((leaves.level, leaves.j, leaves.i, 2 + np.arange(len(front))))
                 break
             cells, kept = self._refine(cells, front, par_need, dst_need, kept)
         if leaves is None:  # everything decided above the depth asked for
-            self.depth = cells.level
+            self.depth, self.floor = cells.level, 0
             none, no = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)
             self._leaf_lists(None, none, none, no, no)
         self._paint(tiles, fronts)
 
-    def _floor_for(self, level: int) -> int:
-        """The level floor of leaves at ``level`` when the cell budget stops the default
-        depth there: one decomposition level per bin level above :data:`DEFAULT_DEPTH`
-        (a level has about half the arcs, a cell twice the size), at most the highest
-        level a query may choose, and at most the level asked for."""
-        top = min(AUTO_MAX_LEVEL, self._arcs.levels)
-        floor = max(0, min(top, DEFAULT_DEPTH - level))
-        return floor if self.level is None else min(floor, self.level)
+    def _settle_leaves(self, cells, pc, pn, parent=None):
+        """:meth:`_settle` at the leaves: the arcs expanded down to the highest level a
+        query may use, then one decomposition level at a time while the pairs stay within
+        :data:`LEAF_PAIRS` per cell, down to original edges for a short boundary; sets
+        :attr:`floor` to the level reached. An arc kept counts for parity as the edges it
+        stands for (its error region holds neither anchor), so only the first pass counts
+        crossings."""
+        arcs = self._arcs
+        top = min(AUTO_MAX_LEVEL, arcs.levels) if self.level is None else self.level
+        self.floor = top
+        out = self._settle(cells, pc, pn, force=True, parent=parent)
+        kept = out[0] if parent is not None else out
+        budget = LEAF_PAIRS * len(cells.x)
+        while self.floor > 0:
+            at = arcs.level[kept[1]] == self.floor
+            if len(kept[0]) + np.count_nonzero(at) > budget:
+                break
+            self.floor -= 1
+            if at.any():
+                more = self._settle(cells, kept[0][at], kept[1][at], force=True)
+                kept = tuple(np.concatenate([k[~at], m]) for k, m in zip(kept, more))
+        return (kept, out[1]) if parent is not None else kept
 
-    def _settle(self, cells, pc, pn, *, force, parent=None):
+    def _settle(self, cells, pc, pn, *, force=False, parent=None):
         """Replace arcs by their two halves until every (cell, arc) pair is settled.
 
         An arc is reconstructed when the cell's anchor lies in its error region (the
@@ -539,11 +555,11 @@ class Index:
             parity = 0
         near = ~far
         self._forced = lev >= self.depth  # the last level keeps original edges only
-        kept, parity2 = self._settle(
+        settle = self._settle_leaves if self._forced else self._settle
+        kept, parity2 = settle(
             child,
             child_of_pair[near],
             np.broadcast_to(pn[:, None], near.shape)[near],
-            force=self._forced,
             parent=cells.x[parent],
         )
         child.status = child.status ^ ((parity + parity2) & 1).astype(bool)
