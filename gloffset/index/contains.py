@@ -361,7 +361,7 @@ class Index:
                 leaves.par[:] = par_need[front]
                 leaves.dst[:] = dst_need[front]
                 pc, pn, _, par, dst = _subset_pairs(kept, front)
-                if not self._forced:  # expand to original edges (the last level did)
+                if not self._forced:  # settle as leaves (the last level did)
                     pc, pn, _, par, dst = self._settle_leaves(leaves, pc, pn)
                 self._leaf_lists(leaves, pc, pn, par, dst)
                 tiles.append((leaves.level, leaves.j, leaves.i, 2 + np.arange(len(front))))
@@ -554,7 +554,7 @@ class Index:
         else:
             parity = 0
         near = ~far
-        self._forced = lev >= self.depth  # the last level keeps original edges only
+        self._forced = lev >= self.depth  # the last level: leaves (_settle_leaves)
         settle = self._settle_leaves if self._forced else self._settle
         kept, parity2 = settle(
             child,
