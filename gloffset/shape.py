@@ -46,7 +46,16 @@ from .errors import InputFormatError, InvalidGeometryError
 from .io import features as _features
 from .io import geojson as _gj
 from .region import unite
-from .sphere import SEAM_EPS_DEG, angle, arc_distance, lonlat_to_xyz, normalize, robust_cross
+from .sphere import (
+    SEAM_EPS_DEG,
+    angle,
+    arc_distance,
+    arcs_cross,
+    dot,
+    lonlat_to_xyz,
+    normalize,
+    robust_cross,
+)
 
 __all__ = ["Shape", "Edges", "read"]
 
@@ -209,29 +218,7 @@ class Shape:
         edge than to any other) to the reference point, counting crossings.
         """
         if self._ref_status is None:
-            from .crossings import crossings
-
-            e = self.edges()
-            status = np.zeros((2, self.n_groups), dtype=bool)
-            # each component's edges (in edge order), found once rather than per component
-            order = np.argsort(e.group, kind="stable")
-            bounds = np.searchsorted(e.group[order], np.arange(self.n_groups + 1))
-
-            def parity(p, r, idx):
-                return np.count_nonzero(crossings(p, r, e.a[idx], e.b[idx])[0]) % 2 == 1
-
-            for grp in range(self.n_groups):
-                idx = order[bounds[grp] : bounds[grp + 1]]
-                inner = _inner_point(self, grp, idx)
-                for k in range(2):
-                    ref = _REF[k]
-                    if np.dot(inner, ref) > -0.5:
-                        par = parity(inner[None], ref, idx)
-                    else:  # go round through the other reference point
-                        via = _REF[1 - k]
-                        par = parity(inner[None], via, idx) ^ parity(via[None], ref, idx)
-                    status[k, grp] = not par
-            self._ref_status = status
+            self._ref_status = _reference_status(self)
         return _REF, self._ref_status
 
     def overlapping_components(self) -> np.ndarray:
@@ -521,32 +508,77 @@ def _source_geometry(parts: _gj.Parts, digits: int | None) -> dict:
     return _merge_geometries(geoms)
 
 
-def _inner_point(shape: Shape, grp: int, idx: np.ndarray | None = None) -> np.ndarray:
-    """A point just left of a boundary edge of component ``grp``, hence inside it.
+def _reference_status(shape: Shape) -> np.ndarray:
+    """(2, n_groups) bool: whether each reference point lies inside each component.
 
-    ``idx``: the indices of the component's edges, ascending (found here if not given).
+    Per component, from a point just inside it (:func:`_inner_points`) to each reference
+    point (through the other one when the two are far apart), by the parity of the
+    crossings with the component's own edges; all components in a fixed number of
+    numpy calls (one crossing test per edge and route).
     """
     e = shape.edges()
-    if idx is None:
-        idx = np.flatnonzero(e.group == grp)
-    sel = idx[e.boundary[idx]]
-    if len(sel) == 0:
-        sel = idx
-    a, b = e.a[sel], e.b[sel]
-    i = int(np.argmax(angle(a, b)))  # the longest edge is the most robust
-    m = normalize(a[i] + b[i])
-    n = normalize(robust_cross(a[i], b[i]))
-    # only this component's edges decide its inside: neighbours sharing a border
-    # (countries of one map) are other components and do not count
-    others = idx[idx != sel[i]]
-    dist = arc_distance(m, e.a[others], e.b[others]) if len(others) else np.array([1.0])
-    eps = min(1e-3, 0.25 * float(dist.min()), 0.25 * float(angle(a[i], b[i])))
-    if eps <= 1e-13:
+    status = np.zeros((2, shape.n_groups), dtype=bool)
+    if shape.n_groups == 0:
+        return status
+    order = np.argsort(e.group, kind="stable")
+    order = order[e.group[order] >= 0]
+    grp = e.group[order]
+    inner = _inner_points(shape, order, grp)
+    a, b = e.a[order], e.b[order]
+    ab = robust_cross(a, b)
+
+    def parity(p, r):
+        """Per component: parity of the crossings of its arc ``p[g] -> r`` (or ``r[g]``)."""
+        p = np.broadcast_to(p, inner.shape)
+        q = np.broadcast_to(r, inner.shape)
+        hit = arcs_cross(p[grp], q[grp], a, b, ab)
+        return np.bincount(grp[hit], minlength=shape.n_groups) % 2 == 1
+
+    for k in range(2):
+        ref, via = _REF[k], _REF[1 - k]
+        near = dot(inner, ref) > -0.5
+        par = np.where(near, parity(inner, ref), parity(inner, via) ^ parity(via[None], ref))
+        status[k] = ~par
+    return status
+
+
+def _inner_points(shape: Shape, order: np.ndarray, grp: np.ndarray) -> np.ndarray:
+    """(n_groups, 3): per component a point just left of a boundary edge, hence inside it.
+
+    ``order``: the ring edges sorted by component (stably), ``grp`` their components.
+    The edge is the component's longest boundary edge (any edge where it has none: the
+    most robust), the point at ``eps`` from its middle, closer to it than to any other
+    edge of the component (neighbours sharing a border are other components and do
+    not count).
+    """
+    e = shape.edges()
+    n_groups = shape.n_groups
+    starts = np.searchsorted(grp, np.arange(n_groups))
+    if np.any(np.diff(np.r_[starts, len(grp)]) == 0):
+        raise InvalidGeometryError("a region component has no edges")
+    a, b = e.a[order], e.b[order]
+    bd = e.boundary[order]
+    has_bd = np.bincount(grp[bd], minlength=n_groups) > 0
+    length = angle(a, b)
+    score = np.where(bd | ~has_bd[grp], length, -1.0)
+    best = np.maximum.reduceat(score, starts)
+    pos = np.arange(len(grp))
+    pick = np.minimum.reduceat(np.where(score == best[grp], pos, len(grp)), starts)
+    m = normalize(a[pick] + b[pick])
+    n = normalize(robust_cross(a[pick], b[pick]))
+    dist = arc_distance(m[grp], a, b)
+    dist[pick] = np.inf
+    dmin = np.minimum.reduceat(dist, starts)
+    dmin[np.isinf(dmin)] = 1.0
+    eps = np.minimum(np.minimum(1e-3, 0.25 * dmin), 0.25 * length[pick])
+    bad = np.flatnonzero(eps <= 1e-13)
+    if len(bad):
+        g = int(bad[0])
         raise InvalidGeometryError(
-            f"{shape.labels[int(np.flatnonzero(shape.ring_groups == grp)[0])]}: ring is degenerate "
+            f"{shape.labels[int(np.flatnonzero(shape.ring_groups == g)[0])]}: ring is degenerate "
             "(its edges overlap), so its inside is undefined"
         )
-    return normalize(np.cos(eps) * m + np.sin(eps) * n)
+    return normalize(np.cos(eps)[:, None] * m + np.sin(eps)[:, None] * n)
 
 
 def _overlapping_components(shape: Shape) -> np.ndarray:

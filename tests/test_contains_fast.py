@@ -280,3 +280,75 @@ def test_touching_countries_do_not_count_as_overlapping(world):
         "features": [world["France"], world["Spain"], world["Italy"]],
     }
     assert len(gloffset.read(fc).overlapping_components()) == 0
+
+
+@pytest.mark.parametrize("budget", [1 << 8, 1 << 11])
+def test_cell_budget_keeps_simplified_arcs_and_every_answer(world, monkeypatch, budget):
+    """A long boundary stops the default depth at the cell budget, and leaves with many
+    arcs keep simplified ones (levels up to ``floor``); every answer is still the
+    reference's, on the borders as read and densified tenfold, near the curves and
+    around them."""
+    s = gloffset.read(world["Chile"])
+    dense = gloffset.read(
+        {"type": "Polygon", "coordinates": [_densified(r, 10) for r in s.rings]}
+        if len(s.rings) == 1
+        else {"type": "MultiPolygon", "coordinates": [[_densified(r, 10)] for r in s.rings]}
+    )
+    monkeypatch.setattr(fast, "BUILD_CELLS", budget)
+    monkeypatch.setattr(fast, "LEAF_PAIRS", 2)
+    floors = []
+    for shape in (s, dense):
+        lon, lat = box(shape, 6000, seed=8)
+        nl, nt = near_curves(shape, 2e-9, n=300, seed=9)
+        lon, lat = np.r_[lon, nl], np.r_[lat, nt]
+        for d in (0.0, 0.004, -0.002):
+            ix = gloffset.Index(shape, d, radius=1.0)
+            assert ix.depth < fast.DEFAULT_DEPTH, ix.depth
+            floors.append(ix.floor)
+            want = reference.contains(shape, lon, lat, distance=d, radius=1.0)
+            assert np.array_equal(ix.contains(lon, lat), want), (budget, d)
+    assert max(floors) > 0, floors
+
+
+def _densified(ring_xyz, k):
+    """A ring (unit vectors, closed) as lon/lat with ``k - 1`` points added on each edge."""
+    t = np.arange(k) / k
+    pts = slerp(
+        ring_xyz[:-1, None, :], ring_xyz[1:, None, :], np.broadcast_to(t, (len(ring_xyz) - 1, k))
+    )
+    pts = np.vstack([pts.reshape(-1, 3), ring_xyz[-1:]])
+    lon, lat = xyz_to_lonlat(pts)
+    return np.column_stack([lon, lat]).tolist()
+
+
+def _spiked_square(k=40):
+    """A 10 x 10 degree square, its edges densified (``k`` points each), with a needle
+    0.02 degrees wide and 3 degrees long on its east side: a detail that every coarse
+    level of the decomposition cuts off."""
+    t = np.linspace(0.0, 10.0, k, endpoint=False)
+    south = [[x, 0.0] for x in t]
+    east = [[10.0, y] for y in t if y < 4.99 or y > 5.01]
+    i = next(j for j, p in enumerate(east) if p[1] > 5.0)
+    needle = [[10.0, 4.99], [11.5, 4.99], [13.0, 4.99], [13.0, 5.01], [11.5, 5.01], [10.0, 5.01]]
+    east = east[:i] + needle + east[i:]
+    north = [[10.0 - x, 10.0] for x in t]
+    west = [[0.0, 10.0 - y] for y in t]
+    ring = south + east + north + west
+    return {"type": "Polygon", "coordinates": [ring + [ring[0]]]}
+
+
+@pytest.mark.parametrize("d", [0.0, 0.001, -0.0005])
+def test_simplified_leaves_keep_a_detail_the_coarse_levels_miss(monkeypatch, d):
+    """With leaves of simplified arcs (small budgets, ``floor > 0``), points in and
+    beside a needle that the coarse levels cut off get the reference's answer: the
+    arcs' error bounds widen every test that uses a simplified arc."""
+    s = gloffset.read(_spiked_square())
+    monkeypatch.setattr(fast, "BUILD_CELLS", 1 << 6)
+    monkeypatch.setattr(fast, "LEAF_PAIRS", 1)
+    ix = gloffset.Index(s, d, radius=1.0)
+    assert ix.floor > 0
+    rng = np.random.default_rng(3)
+    lon = np.r_[rng.uniform(9.5, 13.5, 20_000), rng.uniform(0.0, 10.0, 2000)]
+    lat = np.r_[rng.uniform(4.9, 5.1, 20_000), rng.uniform(0.0, 10.0, 2000)]
+    want = reference.contains(s, lon, lat, distance=d, radius=1.0)
+    assert np.array_equal(ix.contains(lon, lat), want)

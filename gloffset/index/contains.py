@@ -79,6 +79,12 @@ DEFAULT_DEPTH = 13
 MAX_DEPTH = bins.MAX_LEVEL
 #: Refinement stops before the frontier would hold more cells than this.
 MAX_CELLS = 1 << 21
+#: With the default depth, refinement stops before the frontier would hold more cells
+#: than this (a long boundary: the build costs about its frontier cells).
+BUILD_CELLS = 1 << 16
+#: The leaves' arcs are expanded toward original edges, a decomposition level at a time,
+#: while they stay within this many candidate pairs per cell (see :attr:`Index.floor`).
+LEAF_PAIRS = 8
 #: The automatic level is chosen among 0 .. this, on this many sample points.
 AUTO_MAX_LEVEL = 5
 AUTO_SAMPLE = 1024
@@ -186,14 +192,18 @@ class _Arcs:
         self._ancestors: dict[int, np.ndarray] = {}
 
     def ancestors(self, k: int) -> np.ndarray:
-        """For every original edge, the arc of level ``k`` that stands for it."""
+        """For every tree node of level ``<= k`` (original edges first), the arc of
+        level ``k`` that stands for it (-1 for the nodes above level ``k``)."""
         if k not in self._ancestors:
             count = np.ones(len(self.a), dtype=np.int64)
-            for lev in range(1, k + 1):  # children are always made before parents
+            first = np.arange(len(self.a))  # each node's first original edge
+            for lev in range(1, self.levels + 1):  # children are made before parents
                 ids = np.flatnonzero(self.level == lev)
                 count[ids] = count[self.child[ids, 0]] + count[self.child[ids, 1]]
+                first[ids] = first[self.child[ids, 0]]
             cut = self.decomposition.level_nodes(k)
-            self._ancestors[k] = np.repeat(cut, count[cut])
+            by_edge = np.repeat(cut, count[cut])
+            self._ancestors[k] = np.where(self.level <= k, by_edge[first], -1)
         return self._ancestors[k]
 
 
@@ -228,7 +238,8 @@ class Index:
     depth : int, optional
         Level of the finest bins (default :data:`DEFAULT_DEPTH`: cells of 0.022 deg).
         Deeper bins cost more to build and leave fewer points to the exact tests
-        (see :func:`depth_for`).
+        (see :func:`depth_for`). By default the bins also stop before the frontier
+        exceeds :data:`BUILD_CELLS` cells.
 
     Attributes
     ----------
@@ -239,6 +250,12 @@ class Index:
         :data:`MAX_CELLS` cells).
     n_leaves, n_candidates : int
         Frontier cells of the deepest level, and their candidate arcs in all.
+    floor : int
+        The lowest decomposition level in the leaves' lists: 0 (original edges) unless
+        that would put more than :data:`LEAF_PAIRS` candidate arcs per cell in the
+        leaves (large cells on a long, fine boundary); then the leaves keep simplified
+        arcs of levels up to ``floor`` where their error regions hold no anchor, and
+        levels below ``floor`` are not offered.
 
     Notes
     -----
@@ -252,7 +269,14 @@ class Index:
 
     Cost: building is proportional to the length of the boundary (and of the offset
     boundary) measured in cells of the deepest level: about 0.1-0.3 s for Mexico
-    (7,368 vertices) at the default depth. A query costs a table look-up from the
+    (7,368 vertices) at the default depth. With the default depth a long boundary
+    stops the bins at :data:`BUILD_CELLS` frontier cells, and large leaves on a fine
+    boundary keep simplified arcs (:attr:`floor`): all 234 countries of Natural Earth
+    1:10m at 0.02 rad build at depth 9 with leaves of level 5 in about 2 s instead of
+    17 s at depth 13, at the price of more points in frontier cells (1e6 uniform
+    points on the globe: about 0.6 s instead of 0.02 s); pass ``depth=13`` for the
+    deep bins, or let :func:`contains` choose by the number of
+    points (:func:`depth_for`). A query costs a table look-up from the
     lon/lat of each point (a few tens of nanoseconds), plus, for the few points in
     frontier cells, a lon/lat to vector conversion and the tests against their
     cell's candidate arcs.
@@ -274,13 +298,16 @@ class Index:
         self.distance = offset_angle(self.shape, distance, radius)
         self._arcs = _arcs(self.shape)
         self.level = self._choose_level(level)
-        if depth is None:
+        default_depth = depth is None
+        if default_depth:
             depth = DEFAULT_DEPTH
         if isinstance(depth, bool) or not isinstance(depth, (int, np.integer)):
             raise InvalidLevelError(f"depth must be an integer or None, got {depth!r}")
         if not 1 <= depth <= MAX_DEPTH:
             raise InvalidLevelError(f"depth must be in 1..{MAX_DEPTH}, got {depth!r}")
         self.requested_depth = self.depth = int(depth)
+        self._budget = BUILD_CELLS if default_depth else MAX_CELLS
+        self.floor = 0
         self._build()
 
     # ------------------------------------------------------------------ level
@@ -318,7 +345,7 @@ class Index:
         pc = np.repeat(np.arange(n), len(arcs.top))
         pn = np.tile(arcs.top, n)
         self._forced = self.depth == 1
-        kept = self._settle(cells, pc, pn, force=self._forced)
+        kept = self._settle_leaves(cells, pc, pn) if self._forced else self._settle(cells, pc, pn)
         leaves = None
         while True:
             state, par_need, dst_need, kept = self._classify(cells, kept)
@@ -328,30 +355,54 @@ class Index:
             fronts[cells.level] = (cells.j[front], cells.i[front])
             if len(front) == 0:
                 break
-            if cells.level >= self.depth or 4 * len(front) > MAX_CELLS:
+            if cells.level >= self.depth or 4 * len(front) > self._budget:
                 self.depth = cells.level
                 leaves = cells.subset(front)
                 leaves.par[:] = par_need[front]
                 leaves.dst[:] = dst_need[front]
                 pc, pn, _, par, dst = _subset_pairs(kept, front)
-                if not self._forced:  # expand to original edges (the last level did)
-                    pc, pn, _, par, dst = self._settle(leaves, pc, pn, force=True)
+                if not self._forced:  # settle as leaves (the last level did)
+                    pc, pn, _, par, dst = self._settle_leaves(leaves, pc, pn)
                 self._leaf_lists(leaves, pc, pn, par, dst)
                 tiles.append((leaves.level, leaves.j, leaves.i, 2 + np.arange(len(front))))
                 break
             cells, kept = self._refine(cells, front, par_need, dst_need, kept)
         if leaves is None:  # everything decided above the depth asked for
-            self.depth = cells.level
+            self.depth, self.floor = cells.level, 0
             none, no = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)
             self._leaf_lists(None, none, none, no, no)
         self._paint(tiles, fronts)
 
-    def _settle(self, cells, pc, pn, *, force, parent=None):
+    def _settle_leaves(self, cells, pc, pn, parent=None):
+        """:meth:`_settle` at the leaves: the arcs expanded down to the highest level a
+        query may use, then one decomposition level at a time while the pairs stay within
+        :data:`LEAF_PAIRS` per cell, down to original edges for a short boundary; sets
+        :attr:`floor` to the level reached. An arc kept counts for parity as the edges it
+        stands for (its error region holds neither anchor), so only the first pass counts
+        crossings."""
+        arcs = self._arcs
+        top = min(AUTO_MAX_LEVEL, arcs.levels) if self.level is None else self.level
+        self.floor = top
+        out = self._settle(cells, pc, pn, force=True, parent=parent)
+        kept = out[0] if parent is not None else out
+        budget = LEAF_PAIRS * len(cells.x)
+        while self.floor > 0:
+            at = arcs.level[kept[1]] == self.floor
+            if len(kept[0]) + np.count_nonzero(at) > budget:
+                break
+            self.floor -= 1
+            if at.any():
+                more = self._settle(cells, kept[0][at], kept[1][at], force=True)
+                kept = tuple(np.concatenate([k[~at], m]) for k, m in zip(kept, more))
+        return (kept, out[1]) if parent is not None else kept
+
+    def _settle(self, cells, pc, pn, *, force=False, parent=None):
         """Replace arcs by their two halves until every (cell, arc) pair is settled.
 
         An arc is reconstructed when the cell's anchor lies in its error region (the
         parity rule needs the anchor outside), or when it is simplified and larger
-        than the cell (or ``force``: at a leaf, where only original edges are kept).
+        than the cell (or ``force``: at a leaf, where only arcs of level :attr:`floor`
+        or below are kept, original edges by default).
         Returns the pairs that matter for the cell, ``(pc, pn, dist, par, dst)``, and,
         with ``parent`` (parent anchors), the parity of the crossings of each cell's
         short arc anchor -> parent anchor with the ring arcs it inherited.
@@ -395,6 +446,8 @@ class Index:
             coarse = internal & (par | dst)
             if not force:
                 coarse &= f[:, 5] > r
+            if force:  # at the leaves: down to the level floor
+                coarse &= arcs.level[pn] > self.floor
             expand |= coarse
             settled = ~expand
             if parity is not None:
@@ -501,12 +554,12 @@ class Index:
         else:
             parity = 0
         near = ~far
-        self._forced = lev >= self.depth  # the last level keeps original edges only
-        kept, parity2 = self._settle(
+        self._forced = lev >= self.depth  # the last level: leaves (_settle_leaves)
+        settle = self._settle_leaves if self._forced else self._settle
+        kept, parity2 = settle(
             child,
             child_of_pair[near],
             np.broadcast_to(pn[:, None], near.shape)[near],
-            force=self._forced,
             parent=cells.x[parent],
         )
         child.status = child.status ^ ((parity + parity2) & 1).astype(bool)
@@ -523,9 +576,10 @@ class Index:
             # for each level, the (point, arc) pairs tested per point (a random point in
             # each leaf) and the passes needed; a query picks by its count of points
             top = min(AUTO_MAX_LEVEL, arcs.levels) if n_leaves >= AUTO_MIN_LEAVES else 0
-            sample = _sample_points(leaves, AUTO_SAMPLE) if top else None
+            top = max(top, self.floor)
+            sample = _sample_points(leaves, AUTO_SAMPLE) if top > self.floor else None
             self._choices = []
-            for k in range(top + 1):
+            for k in range(self.floor, top + 1):
                 lists = self._lift(k, leaves, pc, pn, par, dst)
                 pairs, passes = (
                     (0, 1) if sample is None else self._frontier(*sample, lists=lists, cost=True)
@@ -562,6 +616,10 @@ class Index:
             node = arcs.ancestors(level)[pn]
             todo = np.flatnonzero(par)
             for k in range(level, 0, -1):
+                # an arc of level k or above was kept: its region holds no anchor
+                final = arcs.level[pn[todo]] >= k
+                node[todo[final]] = pn[todo[final]]
+                todo = todo[~final]
                 if len(todo) == 0:
                     break
                 nd = arcs.ancestors(k)[pn[todo]]
