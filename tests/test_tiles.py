@@ -578,3 +578,18 @@ def test_pyramid_on_two_dask_workers_is_byte_identical(tmp_path):
     assert 0 < len(read_mbtiles(part)[0]) < one.written
     pyramid(SQUARE, 1500e3, "0-6", part, resume=True, workers=2, **kw)
     assert read_mbtiles(part) == read_mbtiles(tmp_path / "one.mbtiles")
+
+
+@pytest.mark.parametrize("d", [100e3, -100e3])
+def test_vertex_at_a_tile_corner(d, tmp_path):
+    """A vertex at (0, 0), the centre of tile 0/0/0 and a corner of every tile around it,
+    with an edge along the equator: a child's status is its parent's toggled by the
+    crossings of child -> parent, which are not exact when the parent's centre lies on
+    an edge (the whole northern hemisphere used to be written inside at 100 km)."""
+    tri = {"type": "Polygon", "coordinates": [[[0, 0], [10, 0], [5, 8], [0, 0]]]}
+    pyramid(tri, d, "0-4", tmp_path / "t", size=SIZE)
+    tiles = read_dir(tmp_path / "t")
+    assert len(tiles) >= 5
+    for (z, x, y), png in tiles.items():
+        want = gloffset.render(tri, d, Tile(z, x, y, SIZE)) > 0
+        np.testing.assert_array_equal(alpha(png) > 0, want, err_msg=f"tile {z}/{x}/{y}")

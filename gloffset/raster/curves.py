@@ -90,7 +90,7 @@ class CurveCells:
 
     def refine(self, prev: Level) -> Level:
         parent = self.kept(prev)
-        lev = self._level(refine(parent, self.grid, self.arcs, self.e))
+        lev = self._level(refine(parent, self.grid, self.arcs, self.e, self.shape))
         if prev.forced is not None and (prev.forced != NOT_FORCED).any():
             parent_keys = (parent.cells[:, 0] << 32) | parent.cells[:, 1]
             rows, cols = lev.cells[:, 0], lev.cells[:, 1]

@@ -250,8 +250,9 @@ def decide(dist, dring, inside, rho, d: float, final: bool) -> np.ndarray:
     return cls
 
 
-def refine(f: Frontier, grid, arcs: CurveArcs, e: float) -> Frontier:
-    """Children of the cells of ``f`` (all assumed frontier) with refined lists and statuses."""
+def refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
+    """Children of the cells of ``f`` (all assumed frontier) with refined lists and
+    statuses (``shape``: the shape of ``arcs``, for its reference points)."""
     lev = f.level + 1
     h, w = grid.level_shape(lev)
     kids = []
@@ -295,9 +296,34 @@ def refine(f: Frontier, grid, arcs: CurveArcs, e: float) -> Frontier:
         g = arcs.group[pa[cr]]
         np.bitwise_xor.at(status, (pc[cr], g >> 3), (1 << (g & 7)).astype(np.uint8))
 
+    on = _on_ring(f, arcs)[parent]
+    if on.any():  # a parent centre on a ring edge is no anchor: ask the reference points
+        status[on] = component_status(shape, arcs, c[on])
+
     # candidates: arcs whose bounding cap comes within e + rho of the child's centre
     keep = cap_within(cm, e + rho[child_of_pair] + half)
     return Frontier(lev, cells, c, rho, child_of_pair[keep], arc_of_pair[keep], status)
+
+
+#: A centre within this angle (rad) of a ring edge's great circle, inside the edge's cap,
+#: is taken to lie on the edge (crossing tests that end there are not exact).
+ON_EDGE = 1e-13
+
+
+def _on_ring(f: Frontier, arcs: CurveArcs) -> np.ndarray:
+    """Which cells of ``f`` have their centre on one of their candidate ring edges (to
+    :data:`ON_EDGE`). A child's status is its parent's toggled by the crossings of the
+    arc child -> parent, and :func:`~gloffset.sphere.arcs_cross` is exact only when
+    neither end lies on the other arc (a parent centre at a shared vertex, e.g. a tile
+    corner at (0, 0), counts the two edges there inconsistently)."""
+    ring = arcs.group[f.pair_arc] >= 0
+    pc, pa = f.pair_cell[ring], f.pair_arc[ring]
+    x = f.centers[pc]
+    near = np.abs(np.einsum("ij,ij->i", x, arcs.n[pa])) <= ON_EDGE
+    near &= cap_within(np.einsum("ij,ij->i", x, arcs.mid[pa]), arcs.half[pa] + ON_EDGE)
+    out = np.zeros(len(f.cells), dtype=bool)
+    out[pc[near]] = True
+    return out
 
 
 def subset(f: Frontier, sel: np.ndarray) -> Frontier:
