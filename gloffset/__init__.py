@@ -5,8 +5,9 @@ test (:mod:`gloffset.index`), rasters over grids (:mod:`gloffset.grids`,
 :mod:`gloffset.raster`, rendered on the GPU by :mod:`gloffset.gl`) and a float64
 reference for distances and membership (:mod:`gloffset.reference`). Distances are angles
 inside; metres appear only through the ``radius`` keyword, or, with ``ellipsoid="WGS84"``
-on :func:`distance`, :func:`contains` and :func:`render`, as geodesic lengths on the
-ellipsoid (:mod:`gloffset.ellipsoidal`, :mod:`gloffset.ellipsoid`). The layers are
+on :func:`distance`, :func:`contains`, :func:`render` and :func:`offset`, as geodesic
+lengths on the ellipsoid (:mod:`gloffset.ellipsoidal`, :mod:`gloffset.geodesic_offset`,
+:mod:`gloffset.ellipsoid`). The layers are
 described in ``ARCHITECTURE.md``; everything public is re-exported here.
 """
 
@@ -19,6 +20,7 @@ from ._version import __version__
 from .ellipsoid import Ellipsoid
 from .ellipsoidal import contains, distance
 from .errors import *  # noqa: F403  (every exception class, listed in errors.__all__)
+from .geodesic_offset import GeodesicOffset, offset
 from .index.contains import Index
 from .raster import tiles
 from .raster.rasterized import raster_offset, rasterize
@@ -26,7 +28,7 @@ from .raster.render import render
 from .shape import Shape, read
 from .units import EARTH_RADIUS, parse_distance
 from .vector.multires import Decomposition, decompose
-from .vector.offset import Offset, offset
+from .vector.offset import Offset
 from .vector.resolved import ResolvedOffset
 
 # ``gloffset.tiles`` (tile pyramids) is public: importable under that name too
@@ -37,6 +39,7 @@ __all__ = [
     "Index",
     "Decomposition",
     "Ellipsoid",
+    "GeodesicOffset",
     "Offset",
     "ResolvedOffset",
     "Shape",
