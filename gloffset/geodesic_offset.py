@@ -102,7 +102,13 @@ class GeodesicOffset:
         for ring in self.sphere.rings:
             pts, arc = sample_ring(ring, tol / (2.0 * ell.k_max))
             gen = _generators(ring, arc)
-            pts = tracer.move(pts, gen)
+            u = _away(pts, gen)
+            # a junction (an arc's first point) leaves both arcs' generators: the sum of
+            # the two directions increases both distances
+            first = np.flatnonzero(arc != np.roll(arc, 1))
+            prev = (gen[0][first - 1], gen[1][first - 1])
+            u[first] = normalize(u[first] + _away(pts[first], prev))
+            pts = tracer.move(pts, gen, u)
             pts, gen = tracer.densify(pts, gen)
             lon, chi = xyz_to_lonlat(pts)
             self.rings.append(lonlat_to_xyz(lon, ell.geodetic(chi)))
@@ -166,6 +172,9 @@ class _Tracer:
     def __init__(self, conf: Conformal, m: float, tol: float):
         self.conf, self.m, self.tol = conf, m, tol
         self.eps = VERTEX_TOL * tol
+        ell = conf.ell
+        #: The farthest (rad) a point is moved: twice the width of the ratio band
+        self.reach = 2.0 * (m / ell.k_min - m / ell.k_max + conf.h_max) + 10.0 * tol / ell.k_min
         self.worst = 0.0
 
     def excess(self, p) -> np.ndarray:
@@ -174,13 +183,14 @@ class _Tracer:
         lat = self.conf.ell.geodetic(chi)
         return nearest_geodesic(self.conf, lon, lat) - self.m
 
-    def move(self, p, gen) -> np.ndarray:
-        """The points moved along their great circles away from the generators to
-        distance ``m`` (secant steps; the local scale as the first slope)."""
+    def move(self, p, gen, u=None) -> np.ndarray:
+        """The points moved along their great circles away from the generators (or along
+        ``u``) to distance ``m`` (secant steps; the local scale as the first slope), by
+        at most :attr:`reach`."""
         p = np.array(p, dtype=np.float64)
         if len(p) == 0:
             return p
-        u = _away(p, gen)
+        u = _away(p, gen) if u is None else u
         ell = self.conf.ell
         _, chi = xyz_to_lonlat(p)
         k = ell.scale(np.radians(ell.geodetic(chi)))
@@ -202,7 +212,7 @@ class _Tracer:
             slope = (f1[idx] - f0[idx]) / np.where(ds == 0.0, 1.0, ds)
             slope = np.where((slope < 0.2 * k[idx]) | (ds == 0.0), k[idx], slope)
             s0[idx], f0[idx] = s1[idx], f1[idx]
-            s1[idx] = s1[idx] - f1[idx] / slope
+            s1[idx] = np.clip(s1[idx] - f1[idx] / slope, -self.reach, self.reach)
         out = normalize(at(np.arange(len(p)), s1))
         idx = np.flatnonzero(act)
         if len(idx):  # a corner where the generator's direction does not reach m
@@ -227,7 +237,10 @@ class _Tracer:
             gn = (self.excess(normalize(q + h * north)) - f[act]) / h
             g = ge[:, None] * east + gn[:, None] * north
             g2 = np.maximum(np.sum(g * g, axis=1), (0.2 * k) ** 2)
-            p[act] = normalize(q - (f[act] / g2)[:, None] * g)
+            step = (f[act] / g2)[:, None] * g
+            size = np.linalg.norm(step, axis=1)
+            step *= np.minimum(1.0, self.reach / np.maximum(size, 1e-300))[:, None]
+            p[act] = normalize(q - step)
             f[act] = self.excess(p[act])
         return p, f
 
