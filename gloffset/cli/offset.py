@@ -11,9 +11,9 @@ import json
 
 import click
 
-from ..io.output import check_output, write_bytes
 from ..errors import OptionError
 from ..geodesic_offset import offset as geodesic_offset
+from ..io.output import check_output, write_bytes
 from ..shape import read
 from ..vector.offset import offset as _offset
 from . import main
