@@ -246,23 +246,31 @@ class _Tracer:
 
     def densify(self, p, gen):
         """Insert moved midpoints where an edge's midpoint is off ``m`` by more than
-        half the tolerance (less the edge's deviation from its great circle)."""
+        half the tolerance (less the edge's deviation from its great circle); only the
+        edges made by the last round are measured again."""
         vertex, axis = gen
         ell = self.conf.ell
+        todo = np.arange(len(p))  # edges (i, i + 1) to measure
         for _ in range(MAX_ROUNDS):
-            q = np.roll(p, -1, axis=0)
-            mid = normalize(p + q)
-            theta = 2.0 * np.arcsin(np.minimum(0.5 * np.linalg.norm(p - q, axis=1), 1.0))
+            q = np.roll(p, -1, axis=0)[todo]
+            mid = normalize(p[todo] + q)
+            chord = np.linalg.norm(p[todo] - q, axis=1)
+            theta = 2.0 * np.arcsin(np.minimum(0.5 * chord, 1.0))
             slack = ell.k_max * edge_deviation(ell, theta)
-            bad = np.flatnonzero(np.abs(self.excess(mid)) + slack > 0.5 * self.tol)
+            bad = todo[np.abs(self.excess(mid)) + slack > 0.5 * self.tol]
             if len(bad) == 0:
                 return p, gen
+            mid = mid[np.isin(todo, bad)]
             sub = (vertex[bad], axis[bad])
-            new = self.move(mid[bad], sub)
+            new = self.move(mid, sub)
             p = np.insert(p, bad + 1, new, axis=0)
             vertex = np.insert(vertex, bad + 1, sub[0])
             axis = np.insert(axis, bad + 1, sub[1], axis=0)
             gen = (vertex, axis)
+            # after insertion edge bad[k] is at bad[k] + k, its new half right after it
+            first = bad + np.arange(len(bad))
+            todo = np.concatenate([first, first + 1])
+            todo = np.sort(todo % len(p))
         raise InvalidDistanceError(  # pragma: no cover  (never seen)
             f"the offset's rings did not reach the tolerance {self.tol!r} m in {MAX_ROUNDS} "
             f"rounds of densification"

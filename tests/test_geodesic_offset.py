@@ -80,20 +80,20 @@ def test_line_and_point():
     line = gloffset.read({"type": "LineString", "coordinates": [[0, 0], [1, 0.5], [2, 0]]})
     check_offset(line, 1000.0, n=100)
     pt = gloffset.read({"type": "Point", "coordinates": [10.0, 60.0]})
-    off = check_offset(pt, 50e3, n=100)
+    off = check_offset(pt, 20e3, tol=5.0, n=100)
     assert len(off.rings) == 1
 
 
 def test_square_in_and_out():
     ring = [[0, 0], [3, 0], [3, 3], [0, 3], [0, 0]]
     sq = gloffset.read({"type": "Polygon", "coordinates": [ring]})
-    check_offset(sq, 20e3, n=150)
-    check_offset(sq, -50e3, n=150)
+    check_offset(sq, 5e3, tol=2.0, n=100)
+    check_offset(sq, -20e3, tol=2.0, n=100)
 
 
 def test_fiji_antimeridian():
     fiji = _features(DATA / "world_110m.geojson", ["Fiji"])
-    off = check_offset(fiji, 30e3, n=200)
+    off = check_offset(fiji, 10e3, tol=5.0, n=100)
     geom = off.to_geojson()["geometry"]
     lons = [c[0] for poly in geom["coordinates"] for ring in poly for c in ring]
     assert max(lons) <= 180.0 and min(lons) >= -180.0 and max(lons) > 179 and min(lons) < -179
@@ -117,6 +117,27 @@ def test_zero_and_errors():
         gloffset.offset(line, 10.0, ellipsoid="WGS84", tolerance=0.0)
     with pytest.raises(gloffset.InvalidEllipsoidError):
         gloffset.offset(line, 10.0, ellipsoid="Mars")
+
+
+def test_cli(tmp_path):
+    from click.testing import CliRunner
+
+    from gloffset.cli import main
+
+    src = tmp_path / "line.geojson"
+    src.write_text(json.dumps({"type": "LineString", "coordinates": [[0, 0], [1, 0]]}))
+    out = tmp_path / "off.geojson"
+    args = ["offset", str(src), "-d", "2km", "--ellipsoid", "WGS84", "--tolerance", "0.5m"]
+    r = CliRunner().invoke(main, args + ["-o", str(out)])
+    assert r.exit_code == 0, r.output
+    feat = json.loads(out.read_text())["features"][0]
+    assert feat["properties"]["ellipsoid"] == "WGS84" and feat["properties"]["tolerance_m"] == 0.5
+    ring = np.array(feat["geometry"]["coordinates"][0])
+    shape = gloffset.read(json.loads(src.read_text()))
+    dist = reference.geodesic_distance(shape, ring[:, 0], ring[:, 1], "WGS84")
+    assert np.abs(dist - 2000.0).max() < 1e-3
+    r = CliRunner().invoke(main, ["offset", str(src), "-d", "0.1rad", "--ellipsoid", "WGS84"])
+    assert r.exit_code != 0 and "angle" in r.output
 
 
 @pytest.mark.slow
