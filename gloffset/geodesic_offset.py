@@ -41,7 +41,7 @@ from __future__ import annotations
 import numpy as np
 
 from .ellipsoid import as_ellipsoid, edge_deviation
-from .ellipsoidal import Conformal, nearest_geodesic
+from .ellipsoidal import Conformal, conformal, nearest_geodesic
 from .ellipsoidal import contains as ellipsoidal_contains
 from .errors import InvalidDistanceError
 from .shape import read
@@ -93,7 +93,7 @@ class GeodesicOffset:
 
     def _trace(self) -> None:
         ell, m, tol = self.ellipsoid, abs(self.distance), self.tolerance
-        conf = Conformal(self.shape, ell)
+        conf = conformal(self.shape, ell)
         lat = np.degrees(np.arcsin(np.clip(self.shape.edges().a[:, 2], -1.0, 1.0)))
         k_ref = float(ell.scale(np.radians(np.median(np.abs(lat))))) if len(lat) else ell.k_max
         d_s = np.copysign(m / k_ref, self.distance)
