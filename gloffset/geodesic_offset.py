@@ -45,7 +45,7 @@ from .ellipsoidal import Conformal, conformal, nearest_geodesic
 from .ellipsoidal import contains as ellipsoidal_contains
 from .errors import InvalidDistanceError
 from .shape import read
-from .sphere import dot, lonlat_to_xyz, normalize, xyz_to_lonlat
+from .sphere import angle, dot, lonlat_to_xyz, normalize, xyz_to_lonlat
 from .units import EARTH_RADIUS, VECTOR_LIMIT, offset_angle
 from .vector.arcrings import sample_ring
 from .vector.offset import Offset
@@ -159,10 +159,16 @@ def _generators(ring, arc) -> tuple[np.ndarray, np.ndarray]:
     return vertex, axis
 
 
+def _foot(p, gen) -> np.ndarray:
+    """The generators' points nearest to ``p``: the vertex, or the foot on the edge's
+    great circle."""
+    vertex, axis = gen
+    return np.where(vertex[:, None], axis, normalize(p - dot(p, axis)[:, None] * axis))
+
+
 def _away(p, gen) -> np.ndarray:
     """Unit tangents at ``p`` pointing away from the generators' feet."""
-    vertex, axis = gen
-    foot = np.where(vertex[:, None], axis, normalize(p - dot(p, axis)[:, None] * axis))
+    foot = _foot(p, gen)
     return normalize(foot - dot(foot, p)[:, None] * p) * -1.0
 
 
@@ -192,13 +198,15 @@ class _Tracer:
             return p
         u = _away(p, gen) if u is None else u
         ell = self.conf.ell
-        _, chi = xyz_to_lonlat(p)
+        # the start: the geodesic distance is about K at the path's middle times the
+        # spherical one (to O(f (d / a)^2) relative), so aim at m / K
+        foot = _foot(p, gen)
+        _, chi = xyz_to_lonlat(normalize(p + foot))
         k = ell.scale(np.radians(ell.geodetic(chi)))
-        s0, f0 = np.zeros(len(p)), self.excess(p)
-        s1 = -f0 / k
-        act = np.abs(f0) > self.eps
-        f1 = f0.copy()
-        s1[~act] = 0.0
+        s1 = self.m / k - angle(p, foot)
+        s1[np.abs(s1) > 0.5 * self.reach] = 0.0  # another generator is nearer: no guess
+        s0, f0, f1 = s1.copy(), np.zeros(len(p)), np.zeros(len(p))
+        act = np.ones(len(p), dtype=bool)
         at = lambda i, s: np.cos(s)[:, None] * p[i] + np.sin(s)[:, None] * u[i]  # noqa: E731
         for _ in range(MAX_STEPS):
             idx = np.flatnonzero(act)
