@@ -13,12 +13,17 @@ self-intersections removed, Sec. 4.4) of the shape's image at ``|d| / K`` (``K``
 scale at the shape's median latitude) has the topology of the ellipsoidal boundary
 and lies within the ratio band of it. Its rings are densified, and every point is
 moved along the great circle leaving its generator (the arc's vertex, or the foot on
-the arc's edge: the direction in which the distance grows) until its geodesic
-distance (:func:`gloffset.ellipsoidal.nearest_geodesic`, within 1 um) is ``|d|`` to
-within :data:`VERTEX_TOL`: a secant iteration, started with the local scale as slope
-(the distance grows at ``K`` metres per radian there). The parallel curves of the
-geodesic edges and the geodesic circles about the vertices, with their junctions,
-are what this traces; no formula of theirs is needed.
+the arc's edge: the direction in which the distance grows; at a junction of two arcs
+the mean of both directions) until its geodesic distance
+(:func:`gloffset.ellipsoidal.nearest_geodesic`, within 1 um) is ``|d|`` to within
+:data:`VERTEX_TOL` times the tolerance (1 mm for 1 m): secant steps, started at ``|d|
+/ K`` from the generator with ``K`` the scale at the middle of the path (right to a
+relative ``O(f (d/a)^2)``, so one or two distances per point), moves bounded by twice
+the ratio band. A point whose direction does not reach ``|d|`` (beside a corner of
+the ellipsoidal boundary that the spherical one has elsewhere) takes Newton steps
+along the distance's gradient (finite differences) instead. The parallel curves of
+the geodesic edges and the geodesic circles about the vertices, with their
+junctions, are what this traces; no formula of theirs is needed.
 
 Tolerance. Between consecutive points a ring's edge is the geodesic (within
 :func:`gloffset.ellipsoid.edge_deviation` of the great circle of the conformal
@@ -27,8 +32,9 @@ distance differs from ``|d|`` by more than ``tolerance / 2`` minus the edge's
 deviation bound, the moved midpoint is inserted. Between two samples the boundary is
 smooth (its deviation from the chord is largest near the middle) or has one corner
 (a junction; the deviation at the midpoint is then at least half that at the
-corner), so the whole edge is within ``tolerance``. Tested against the brute force
-of :mod:`gloffset.reference` on every vertex and edge midpoint.
+corner), so the whole edge is within ``tolerance``. This argument is not a proof
+(two corners between samples would escape it); the tests check it against the brute
+force of :mod:`gloffset.reference` at every vertex and every edge's geodesic midpoint.
 
 Limits. Parts or gaps of the region narrower than the ratio band (0.34 % of ``d``
 plus the edges' deviation bounds) may be joined or split as on the sphere at
