@@ -91,6 +91,16 @@ def test_square_in_and_out():
     check_offset(sq, -20e3, tol=2.0, n=100)
 
 
+def test_polygon_with_hole():
+    outer = [[0, 0], [2, 0], [2, 2], [0, 2], [0, 0]]
+    hole = [[0.5, 0.5], [0.5, 1.5], [1.5, 1.5], [1.5, 0.5], [0.5, 0.5]]
+    shape = gloffset.read({"type": "Polygon", "coordinates": [outer, hole]})
+    off = check_offset(shape, 10e3, tol=5.0, n=100)
+    assert len(off.rings) == 2  # the hole shrinks, and stays
+    off = check_offset(shape, -10e3, tol=5.0, n=100)
+    assert len(off.rings) == 2
+
+
 def test_fiji_antimeridian():
     fiji = _features(DATA / "world_110m.geojson", ["Fiji"])
     off = check_offset(fiji, 10e3, tol=5.0, n=100)
