@@ -7,6 +7,10 @@ In one run, for Mexico 10m (Natural Earth, 7,368 vertices):
   each the first call (indexes built) and a second one (indexes cached);
 * ``distance`` on points near the border, sphere and ellipsoid;
 * ``render`` of a 4096 x 2048 globe at 127 km, sphere (GPU) and ellipsoid;
+* ``offset`` at 10 km and 100 km: the sphere's resolved offset written as GeoJSON at
+  its default tolerance (1e-6 rad, 6.4 m) and the ellipsoid's at 1 m, with the
+  largest error of the ellipsoid's vertices and geodesic midpoints (brute force);
+* ``tiles.pyramid`` z0-6 (256 px tiles) at 127 km, sphere (GPU) and ellipsoid;
 * what users do today: the border projected with pyproj to UTM, buffered with shapely
   (``buffer(d)``, 16 segments a quarter circle) and tested with ``contains_xy``, both
   in one zone (14N, Mexico's middle) and per zone (each point tested in its own zone,
@@ -16,8 +20,9 @@ In one run, for Mexico 10m (Natural Earth, 7,368 vertices):
   of points each method puts on the wrong side, how far from the true boundary the
   worst of them lies (metres), and for distances the largest error (metres).
 
-Run: python benchmarks/ellipsoid.py [--points 1000000] [--sample 600]
-Writes benchmarks/results/ellipsoid.json.
+Run: python benchmarks/ellipsoid.py [--points 1000000] [--sample 600] [--only vector]
+Writes benchmarks/results/ellipsoid.json (``--only vector``: the offset and pyramid
+figures only, merged into the file).
 """
 
 from __future__ import annotations
@@ -187,11 +192,64 @@ def render_globe(d=127e3):
     }
 
 
+def offsets(distances=(10e3, 100e3)):
+    """Vector offsets of Mexico: sphere (resolved, GeoJSON) and ellipsoid (1 m)."""
+    out = {}
+    for d in distances:
+        shape = gloffset.read(DATA / "mexico_10m.geojson")
+        t_s, _ = _timed(lambda s=shape, d=d: gloffset.offset(s, d).to_geojson())
+        t_e, off = _timed(lambda s=shape, d=d: gloffset.offset(s, d, ellipsoid="WGS84"))
+        lon, lat = [], []
+        for ll in off.lonlat():
+            b = np.roll(ll, -1, axis=0)
+            az, _, dist = GEOD.inv(ll[:, 0], ll[:, 1], b[:, 0], b[:, 1])
+            mlon, mlat, _ = GEOD.fwd(ll[:, 0], ll[:, 1], az, 0.5 * dist)
+            lon += [ll[:, 0], mlon]
+            lat += [ll[:, 1], mlat]
+        truth = reference.geodesic_distance(
+            shape, np.concatenate(lon), np.concatenate(lat), "WGS84"
+        )
+        out[f"{d:g}"] = {
+            "sphere_s": t_s,
+            "ellipsoid_s": t_e,
+            "ellipsoid_points": int(sum(len(r) for r in off.rings)),
+            "ellipsoid_max_error_m": float(np.abs(truth - abs(d)).max()),
+        }
+        print(f"offset d={d:g}", out[f"{d:g}"], flush=True)
+    return out
+
+
+def pyramids(d=127e3, zooms="0-6"):
+    """Tile pyramids of Mexico into memory-backed folders: sphere (GPU) and ellipsoid."""
+    import tempfile
+
+    shape = gloffset.read(DATA / "mexico_10m.geojson")
+    out = {"zooms": zooms, "distance_m": d}
+    with tempfile.TemporaryDirectory() as tmp:
+        for key, ell in (("sphere", None), ("ellipsoid", "WGS84")):
+            st = gloffset.tiles.pyramid(shape, d, zooms, f"{tmp}/{key}", ellipsoid=ell)
+            out[key] = {"s": st.seconds, "written": st.written, "rendered": st.rendered}
+    print("pyramid", out, flush=True)
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--sample", type=int, default=600)
+    ap.add_argument("--only", choices=["vector"], default=None)
     args = ap.parse_args()
+    if args.only == "vector":
+        import json
+
+        from common import RESULTS
+
+        record = json.loads((RESULTS / "ellipsoid.json").read_text())
+        record.pop("machine", None)
+        record["offset"] = offsets()
+        record["pyramid_z0_6"] = pyramids()
+        print(write("ellipsoid", record))
+        return
     lon, lat = points_around(BOX, args.points, seed=0)
     record = {"points": args.points, "sample": args.sample, "contains": {}, "accuracy": {}}
     for d in DISTANCES:
@@ -213,6 +271,8 @@ def main():
     print(record["distance"])
     record["render_globe_4096x2048"] = render_globe()
     print(record["render_globe_4096x2048"])
+    record["offset"] = offsets()
+    record["pyramid_z0_6"] = pyramids()
     print(write("ellipsoid", record))
 
 

@@ -6,10 +6,10 @@ test (:mod:`gloffset.index`), rasters over grids (:mod:`gloffset.grids`,
 reference for distances and membership (:mod:`gloffset.reference`); vector files through
 :mod:`gloffset.io.vectorfile` and metric buffers of GeoPandas data (:func:`buffer`,
 :mod:`gloffset.geoseries`). Distances are angles inside; metres appear only through the
-``radius`` keyword, or, with ``ellipsoid="WGS84"`` on :func:`distance`, :func:`contains`
-and :func:`render`, as geodesic lengths on the ellipsoid (:mod:`gloffset.ellipsoidal`,
-:mod:`gloffset.ellipsoid`). The layers are described in ``ARCHITECTURE.md``; everything
-public is re-exported here.
+``radius`` keyword, or, with ``ellipsoid="WGS84"`` on :func:`distance`, :func:`contains`,
+:func:`render` and :func:`offset`, as geodesic lengths on the ellipsoid
+(:mod:`gloffset.ellipsoidal`, :mod:`gloffset.geodesic_offset`, :mod:`gloffset.ellipsoid`).
+The layers are described in ``ARCHITECTURE.md``; everything public is re-exported here.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from ._version import __version__
 from .ellipsoid import Ellipsoid
 from .ellipsoidal import contains, distance
 from .errors import *  # noqa: F403  (every exception class, listed in errors.__all__)
+from .geodesic_offset import GeodesicOffset, offset
 from .geoseries import buffer
 from .index.contains import Index
 from .raster import tiles
@@ -29,7 +30,7 @@ from .raster.render import render
 from .shape import Shape, read
 from .units import EARTH_RADIUS, parse_distance
 from .vector.multires import Decomposition, decompose
-from .vector.offset import Offset, offset
+from .vector.offset import Offset
 from .vector.resolved import ResolvedOffset
 
 # ``gloffset.tiles`` (tile pyramids) is public: importable under that name too
@@ -40,6 +41,7 @@ __all__ = [
     "Index",
     "Decomposition",
     "Ellipsoid",
+    "GeodesicOffset",
     "Offset",
     "ResolvedOffset",
     "Shape",

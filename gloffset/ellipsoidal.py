@@ -49,7 +49,7 @@ from .shape import read
 from .sphere import angle, arc_distance, dot, normalize, robust_cross, xyz_to_lonlat
 from .units import EARTH_RADIUS, offset_angle
 
-__all__ = ["distance", "contains", "Conformal"]
+__all__ = ["distance", "contains", "Conformal", "conformal", "thresholds", "signed_distance"]
 
 #: Slack (rad) on the thresholds handed to the spherical index (its answers are exact
 #: 1e-13 rad away from them).
@@ -130,7 +130,8 @@ class Conformal:
         )
 
 
-def _conformal(shape, ell) -> Conformal:
+def conformal(shape, ell) -> Conformal:
+    """The shape's :class:`Conformal` image for ``ell``, made once per shape."""
     return shape.cached(f"ellipsoidal.{ell.a!r}.{ell.f!r}", lambda: Conformal(shape, ell))
 
 
@@ -168,7 +169,7 @@ def distance(shape, lon, lat, *, radius: float = EARTH_RADIUS, ellipsoid=None) -
         return _sphere_distance(shape, lon, lat, radius=radius)
     shape = read(shape)
     lon, lat, shp = check_lonlat(lon, lat)
-    return nearest_geodesic(_conformal(shape, ell), lon, lat).reshape(shp)
+    return nearest_geodesic(conformal(shape, ell), lon, lat).reshape(shp)
 
 
 def nearest_geodesic(conf: Conformal, lon, lat) -> np.ndarray:
@@ -244,14 +245,14 @@ def contains(
     shape = read(shape)
     d = offset_angle(shape, distance, 1.0)  # metres; checks d <= 0 without polygons
     lon, lat, shp = check_lonlat(lon, lat)
-    conf = _conformal(shape, ell)
+    conf = conformal(shape, ell)
     out, band = screen(conf, lon, lat, d, level)
     idx = np.flatnonzero(band)
     out[idx] = decide(conf, lon[idx], lat[idx], d)
     return out.reshape(shp)
 
 
-def _thresholds(conf: Conformal, d: float) -> tuple[float | None, float | None]:
+def thresholds(conf: Conformal, d: float) -> tuple[float | None, float | None]:
     """Signed spherical distances of the two index tests: membership at ``t_in`` proves
     membership on the ellipsoid, non-membership at ``t_out`` proves non-membership
     (``None``: no such test)."""
@@ -268,10 +269,20 @@ def _thresholds(conf: Conformal, d: float) -> tuple[float | None, float | None]:
     return t_in, t_out
 
 
+def signed_distance(conf: Conformal, p) -> np.ndarray:
+    """Signed distance (rad) on the conformal sphere from unit vectors ``p`` to the
+    shape's image: negative inside its polygons (1-Lipschitz, as the thresholds of
+    :func:`thresholds` are)."""
+    theta = distance_xyz(conf.shape, p)
+    if conf.shape.rings:
+        theta = np.where(inside_indexed(conf.shape, p), -theta, theta)
+    return theta
+
+
 def screen(conf: Conformal, lon, lat, d: float, level) -> tuple[np.ndarray, np.ndarray]:
     """Decide points with the spherical ``contains`` on the conformal sphere: ``(out,
     band)``, ``out`` right wherever ``band`` is False."""
-    t_in, t_out = _thresholds(conf, d)
+    t_in, t_out = thresholds(conf, d)
     chi = conf.ell.conformal(lat)
     sure_in = np.zeros(len(lon), dtype=bool)
     maybe = np.ones(len(lon), dtype=bool)

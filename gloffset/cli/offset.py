@@ -14,6 +14,8 @@ import json
 
 import click
 
+from ..errors import OptionError
+from ..geodesic_offset import offset as geodesic_offset
 from ..io.features import features as _features
 from ..io.features import load
 from ..io.output import check_output, write_bytes
@@ -23,7 +25,15 @@ from ..shape import read
 from ..vector.each import offset_each
 from ..vector.offset import offset as _offset
 from . import main
-from .options import angle, distance_option, input_options, radius_option
+from .options import (
+    angle,
+    distance_option,
+    ellipsoid_option,
+    input_options,
+    metres,
+    parse_ellipsoid,
+    radius_option,
+)
 
 
 @main.command("offset")
@@ -31,6 +41,7 @@ from .options import angle, distance_option, input_options, radius_option
 @distance_option
 @radius_option
 @input_options
+@ellipsoid_option
 @click.option(
     "-o",
     "--output",
@@ -40,9 +51,9 @@ from .options import angle, distance_option, input_options, radius_option
 )
 @click.option(
     "--tolerance",
-    default="1e-6rad",
-    show_default=True,
-    help="Largest deviation of the written edges from the true arcs (a distance).",
+    default=None,
+    help="Largest deviation of the written edges from the true arcs (a distance; default "
+    "1e-6rad, or 1m with --ellipsoid: every point of the rings within it of DIST).",
 )
 @click.option(
     "--digits",
@@ -62,16 +73,24 @@ from .options import angle, distance_option, input_options, radius_option
     show_default=True,
     help="Self-intersection removal: exact and general, or the paper's Algorithm 1.",
 )
-@click.option(
-    "--each",
-    is_flag=True,
-    help="Offset each feature on its own, keeping its properties (default: the union).",
-)
-def offset_cmd(input, distance, radius, layer, where, output, tolerance, digits, raw, method, each):
+def offset_cmd(
+    input, distance, radius, ellipsoid, layer, where, output, tolerance, digits, raw, method, each
+):
     """Offset the curves and polygons of INPUT (GeoJSON or another vector file, - for
-    GeoJSON on stdin)."""
-    d = angle(distance, radius)
-    tol = angle(tolerance, radius)
+    GeoJSON on stdin).
+
+    With --ellipsoid, DIST is a geodesic length in metres on that ellipsoid (polygon
+    edges are geodesics) and the rings are densified until every point of them lies
+    within --tolerance of DIST."""
+    ell = parse_ellipsoid(ellipsoid)
+    if ell is not None:
+        if raw or method != "general" or each:
+            raise OptionError(
+                "--raw, --method paper and --each are for the sphere, not --ellipsoid"
+            )
+        m, tol = metres(distance), metres(tolerance or "1m")
+    else:
+        d, tol = angle(distance, radius), angle(tolerance or "1e-6rad", radius)
     check_output(output)  # fail before the work
     vector = str(output).lower().endswith(tuple(WRITE_FORMATS))
     if vector:
@@ -85,6 +104,10 @@ def offset_cmd(input, distance, radius, layer, where, output, tolerance, digits,
             raw=raw,
             method=method,
         )
+    elif ell is not None:
+        shape = read(input, layer=layer, where=where)
+        off = geodesic_offset(shape, m, ellipsoid=ell, tolerance=tol)
+        feats = [off.to_geojson(digits=digits)]
     else:
         shape = read(input, layer=layer, where=where)
         off = _offset(shape, d, radius=1.0)

@@ -19,7 +19,15 @@ from ..raster.rasterized import CONTAINED
 from ..raster.render import render as _render
 from ..shape import read
 from . import main
-from .options import angle, distance_option, input_options, radius_option
+from .options import (
+    angle,
+    distance_option,
+    ellipsoid_option,
+    input_options,
+    metres,
+    parse_ellipsoid,
+    radius_option,
+)
 
 #: The former name of :class:`~gloffset.errors.InputFormatError` (cube-face mask PNGs that
 #: are missing, not square, or of different sizes), kept so that ``except CubeFacesError``
@@ -62,6 +70,7 @@ def _bounds(text: str | None) -> tuple:
 @click.argument("input", metavar="INPUT", required=False)
 @distance_option
 @radius_option
+@ellipsoid_option
 @click.option(
     "--grid",
     "grid_kind",
@@ -127,6 +136,7 @@ def render_cmd(
     input,
     distance,
     radius,
+    ellipsoid,
     grid_kind,
     size,
     bounds,
@@ -149,15 +159,9 @@ def render_cmd(
     Equirect images are georeferenced (EPSG:4326): a .tif is a tiled, compressed GeoTIFF
     (rasterio: pip install 'gloffset[geo]'), a .png gets a world file (.pgw, pixel centres)
     and a .prj beside it."""
-    d = angle(distance, radius)
-    cog = cog or str(output).lower().endswith((".cog.tif", ".cog.tiff"))
-    if cog and (grid_kind == "cube" or image_format(output) != "TIFF"):
-        raise OptionError("--cog needs an equirect image written to NAME.tif")
-    if grid_kind == "cube":
-        refuse_stdout(output, "--grid cube writes six images into a folder")
-    else:  # fail before the work
-        image_format(output)
-        check_output(output)
+    ell = parse_ellipsoid(ellipsoid)
+    d = _distance(distance, radius, ell, classes_level, from_raster)
+    cog = _check_output(output, grid_kind, cog)
     if from_raster is not None:
         if input is not None or size is not None:
             raise OptionError("--from-raster takes no INPUT or --size (the PNGs' size)")
@@ -179,16 +183,7 @@ def render_cmd(
     for colour in (fill, background):
         if colour is not None:
             parse_color(colour)  # fail before the work
-    if grid_kind == "cube":
-        if bounds is not None:
-            raise OptionError("--bounds does not apply to --grid cube")
-        n = _face(size or "1024")
-        grid = Cube(n)
-        levels = CubeFace(0, n).n_levels
-    else:
-        w, h = _size(size or "4096x2048")
-        grid = Equirect(w, h, _bounds(bounds))
-        levels = grid.n_levels
+    grid, levels = _grid(grid_kind, size, bounds)
     shape = read(input, layer=layer, where=where)
     show = sys.stderr.isatty()
     t0 = time.perf_counter()
@@ -211,8 +206,9 @@ def render_cmd(
         radius=1.0,
         out=out,
         level=classes_level,
-        callback=progress,
+        callback=progress if ell is None else None,
         backend=backend,
+        ellipsoid=ell,
     )
     if grid_kind == "cube":
         folder = _out_folder(output)
@@ -229,6 +225,41 @@ def render_cmd(
             write_mask(img, path, fill=fill, background=background, place=place)
     if show:
         click.echo("", err=True)
+
+
+def _distance(distance, radius, ell, classes_level, from_raster) -> float:
+    """The offset distance: an angle on the sphere, metres with ``--ellipsoid`` (masks of
+    vector input only)."""
+    if ell is None:
+        return angle(distance, radius)
+    if from_raster is not None or classes_level is not None:
+        raise OptionError("--ellipsoid renders masks of vector INPUT: no --from-raster, --classes")
+    return metres(distance)
+
+
+def _check_output(output, grid_kind, cog) -> bool:
+    """Check the output options before the work; whether a COG is written."""
+    cog = cog or str(output).lower().endswith((".cog.tif", ".cog.tiff"))
+    if cog and (grid_kind == "cube" or image_format(output) != "TIFF"):
+        raise OptionError("--cog needs an equirect image written to NAME.tif")
+    if grid_kind == "cube":
+        refuse_stdout(output, "--grid cube writes six images into a folder")
+    else:  # fail before the work
+        image_format(output)
+        check_output(output)
+    return cog
+
+
+def _grid(grid_kind, size, bounds):
+    """The grid of ``--grid``/``--size``/``--bounds`` and its number of levels."""
+    if grid_kind == "cube":
+        if bounds is not None:
+            raise OptionError("--bounds does not apply to --grid cube")
+        n = _face(size or "1024")
+        return Cube(n), CubeFace(0, n).n_levels
+    w, h = _size(size or "4096x2048")
+    grid = Equirect(w, h, _bounds(bounds))
+    return grid, grid.n_levels
 
 
 def _placement(grid, cog: bool, worldfile: bool, what: str) -> Placement:

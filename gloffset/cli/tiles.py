@@ -13,13 +13,22 @@ from ..raster.tilepaint import TileStyle
 from ..raster.tiles import parse_zooms, pyramid
 from ..shape import read
 from . import main
-from .options import angle, distance_option, input_options, radius_option
+from .options import (
+    angle,
+    distance_option,
+    ellipsoid_option,
+    input_options,
+    metres,
+    parse_ellipsoid,
+    radius_option,
+)
 
 
 @main.command("tiles")
 @click.argument("input", metavar="INPUT")
 @distance_option
 @radius_option
+@ellipsoid_option
 @click.option("-z", "--zoom", "zooms", required=True, help="Zoom range MIN-MAX (0..22), e.g. 0-14.")
 @click.option(
     "-o",
@@ -59,6 +68,7 @@ def tiles_cmd(
     input,
     distance,
     radius,
+    ellipsoid,
     zooms,
     output,
     fill,
@@ -76,8 +86,10 @@ def tiles_cmd(
 ):
     """Write the tile pyramid of the region within DIST of the curves of INPUT: tiles
     outside the region are skipped, tiles fully inside share one image and are not
-    rendered, only tiles on the region's edge are rendered."""
-    angle(distance, radius)  # fail before reading the input
+    rendered, only tiles on the region's edge are rendered. With --ellipsoid, DIST is a
+    geodesic length on that ellipsoid (no --outline, --workers)."""
+    ell = parse_ellipsoid(ellipsoid)
+    metres(distance) if ell is not None else angle(distance, radius)  # fail before the work
     refuse_stdout(
         output, "a tile pyramid is an .mbtiles or .pmtiles file or a folder of z/x/y.png tiles"
     )
@@ -131,6 +143,7 @@ def tiles_cmd(
             progress=progress if bar is not None else None,
             workers=workers,
             scheduler=scheduler,
+            ellipsoid=ell,
         )
     finally:
         if bar is not None:

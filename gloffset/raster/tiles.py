@@ -60,6 +60,7 @@ from pathlib import Path
 import numpy as np
 
 from .._version import __version__
+from ..ellipsoid import as_ellipsoid
 from ..errors import TilesError
 from ..grids.mercator import MAX_ZOOM, TilePyramid, check_tile_size, lat_at
 from ..io.tilestore import open_store
@@ -68,6 +69,7 @@ from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
 from . import driver
 from .curves import CurveCells
 from .driver import CONTAINED, FRONTIER, NOT_FORCED, OUTSIDE, Level
+from .ellipsoid_tiles import run_ellipsoid_pyramid
 from .layout import BinLayout
 from .levels import subset
 from .tilepaint import OutlineArcs, TileStyle
@@ -369,9 +371,11 @@ class _Tracker:
 
 
 # ---------------------------------------------------------------------- the pyramid
-def _params(d, zooms, size, style) -> str:
+def _params(d, zooms, size, style, ell=None) -> str:
+    extra = {} if ell is None else {"ellipsoid": [ell.a, ell.f]}
     return json.dumps(
         {
+            **extra,
             "distance_rad": repr(float(d)),
             "zooms": list(zooms),
             "tile_size": size,
@@ -470,6 +474,7 @@ def pyramid(
     max_block: int = MAX_BLOCK,
     workers: int | None = None,
     scheduler: str | None = None,
+    ellipsoid=None,
 ) -> PyramidStats:
     """Write the web-mercator tile pyramid of the offset region of ``shape``.
 
@@ -516,6 +521,11 @@ def pyramid(
         run in one process.
     scheduler : str, optional
         The address of a running Dask scheduler to use instead of a local cluster.
+    ellipsoid : None, "WGS84", "GRS80", (a, f) or Ellipsoid
+        ``None``: the sphere of ``radius``. Otherwise ``distance`` is a geodesic length
+        in metres on the ellipsoid (a string takes length units only), and every tile
+        equals ``render(shape, distance, Tile(z, x, y, size), ellipsoid=...)``
+        (:mod:`gloffset.raster.ellipsoid_tiles`; no outline, no workers).
 
     Returns
     -------
@@ -542,7 +552,12 @@ def pyramid(
     t0 = time.perf_counter()
     source = source if source is not None else _source_name(shape)
     shape = read(shape)
+    ell = as_ellipsoid(ellipsoid)
+    if ell is not None:
+        radius = ell.a  # the distance in metres, its angle on the sphere of radius a
     if isinstance(distance, str):  # "127km": its angle (the limits apply to it)
+        if ell is not None and distance.strip().lower().endswith(("rad", "deg")):
+            raise TilesError(f"distance {distance!r}: on an ellipsoid give a length (m, km)")
         value, unit = parse_distance(distance, radius), 1.0
     else:
         value, unit = distance, radius
@@ -550,10 +565,14 @@ def pyramid(
     zlo, zhi = parse_zooms(zooms)
     size = check_tile_size(size, TilesError)
     style = TileStyle(fill, opacity, outline, outline_width)
-    params = _params(d, (zlo, zhi), size, style)
+    params = _params(d, (zlo, zhi), size, style, ell)
+    if ell is not None and (outline is not None or workers is not None or scheduler):
+        raise TilesError("on an ellipsoid, pyramids take no outline, workers or scheduler")
     if isinstance(out, (str, Path)):
         label = name or Path(out).stem or "gloffset"
         desc = _describe(distance, d, radius, source)
+        if ell is not None:
+            desc += f"; geodesic distance on {ell}"
         store = open_store(
             out, _metadata(label, desc, (zlo, zhi), params), resume=resume, overwrite=overwrite
         )
@@ -569,7 +588,11 @@ def pyramid(
                     f"other options ({have}); use --force to start again"
                 )
         have = store.existing() if resume else set()
-        if workers is None and scheduler is None:
+        if ell is not None:
+            full = style.encode(np.ones((size, size), dtype=bool))
+            args = (store, have, stats, full)
+            run_ellipsoid_pyramid(shape, d * ell.a, ell, (zlo, zhi), size, style, *args)
+        elif workers is None and scheduler is None:
             run_pyramid(shape, d, zlo, zhi, size, style, store, have, progress, max_block, stats)
         else:
             from .distributed import run_distributed

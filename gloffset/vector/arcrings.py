@@ -34,6 +34,7 @@ __all__ = [
     "line_arcs",
     "ring_arcs",
     "sample_arc",
+    "sample_ring",
     "sample_rings",
 ]
 
@@ -148,25 +149,30 @@ def sample_rings(rings, tolerance: float = DEFAULT_TOLERANCE) -> list[np.ndarray
     """
     if not tolerance > 0:
         raise InvalidDistanceError(f"tolerance must be positive, got {tolerance!r}")
-    out = []
-    for ring in rings:
-        q, r = ring.centers, ring.junctions
-        start = np.roll(r, 1, axis=0)
-        rad = np.linalg.norm(start - q, axis=1)  # sin of the circle's angular radius
-        u0 = normalize(start - q)
-        u1 = normalize(r - q)
-        sweep = 2.0 * np.arctan2(np.linalg.norm(u0 - u1, axis=1), np.linalg.norm(u0 + u1, axis=1))
-        # sagitta of a sub-arc of turn a: rad * (1 - cos(a / 2)) <= tolerance
-        ratio = np.clip(1.0 - tolerance / np.maximum(rad, 1e-300), -1.0, 1.0)
-        step = 2.0 * np.arccos(ratio)
-        counts = np.maximum(1, np.ceil(sweep / np.maximum(step, 1e-12))).astype(np.int64)
-        counts = np.minimum(counts, 1 << 20)
-        arc_id = np.repeat(np.arange(len(q)), counts)
-        first = np.cumsum(counts) - counts
-        t = (np.arange(counts.sum()) - first[arc_id]) / counts[arc_id]
-        pts = sample_arc(q[arc_id], start[arc_id], r[arc_id], t)
-        out.append(normalize(pts))
-    return out
+    return [sample_ring(ring, tolerance)[0] for ring in rings]
+
+
+def sample_ring(ring: OffsetRing, tolerance: float = DEFAULT_TOLERANCE):
+    """One ring of :func:`sample_rings`: ``(points, arc)``, ``arc[i]`` the index of the
+    arc that point ``i`` lies on (its first point being the arc's start)."""
+    if not tolerance > 0:
+        raise InvalidDistanceError(f"tolerance must be positive, got {tolerance!r}")
+    q, r = ring.centers, ring.junctions
+    start = np.roll(r, 1, axis=0)
+    rad = np.linalg.norm(start - q, axis=1)  # sin of the circle's angular radius
+    u0 = normalize(start - q)
+    u1 = normalize(r - q)
+    sweep = 2.0 * np.arctan2(np.linalg.norm(u0 - u1, axis=1), np.linalg.norm(u0 + u1, axis=1))
+    # sagitta of a sub-arc of turn a: rad * (1 - cos(a / 2)) <= tolerance
+    ratio = np.clip(1.0 - tolerance / np.maximum(rad, 1e-300), -1.0, 1.0)
+    step = 2.0 * np.arccos(ratio)
+    counts = np.maximum(1, np.ceil(sweep / np.maximum(step, 1e-12))).astype(np.int64)
+    counts = np.minimum(counts, 1 << 20)
+    arc_id = np.repeat(np.arange(len(q)), counts)
+    first = np.cumsum(counts) - counts
+    t = (np.arange(counts.sum()) - first[arc_id]) / counts[arc_id]
+    pts = sample_arc(q[arc_id], start[arc_id], r[arc_id], t)
+    return normalize(pts), arc_id
 
 
 class ArcRings:

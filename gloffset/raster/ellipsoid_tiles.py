@@ -1,0 +1,127 @@
+"""Tile pyramids on the ellipsoid (``tiles.pyramid(..., ellipsoid="WGS84")``).
+
+Zoom by zoom from the root tile, each candidate tile (a child of a frontier tile of
+the zoom above) is classified on the ellipsoid's conformal sphere
+(:mod:`gloffset.ellipsoidal`): the tile, a lon/lat rectangle, maps to a lon/lat
+rectangle there (same longitudes, conformal latitudes), bounded by a cap of centre
+``c`` and radius ``r``. With ``s`` the signed spherical distance to the shape's image
+(1-Lipschitz) and ``t_in``, ``t_out`` the thresholds at which the spherical region
+proves membership and non-membership on the ellipsoid
+(:func:`gloffset.ellipsoidal.thresholds`), ``s(c) + r < t_in`` makes the whole tile
+(and its descendants) inside, ``s(c) - r > t_out`` the whole tile outside; the other
+tiles are frontier tiles, rendered with :func:`gloffset.render` on the ellipsoid
+(every pixel centre decided exactly) and written when a pixel is inside. So each
+tile equals ``render(shape, d, Tile(z, x, y), ellipsoid=...)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..ellipsoidal import conformal, signed_distance, thresholds
+from ..grids.mercator import Tile
+from ..sphere import angle, lonlat_to_xyz
+from .render import render
+
+__all__ = ["run_ellipsoid_pyramid", "tile_caps"]
+
+#: Samples along each side of a tile for its cap's radius (the farthest point of a
+#: small lon/lat rectangle from its centre is a corner; the samples and a relative
+#: margin cover larger ones).
+_SIDE = 9
+#: Relative and absolute margins on the caps' radii.
+_MARGIN = (1e-6, 1e-12)
+
+
+def tile_caps(ell, z: int, xs, ys):
+    """Caps (centres, radii in rad) on the conformal sphere of ``ell`` holding the tiles
+    ``z/xs/ys``."""
+    n = float(1 << z)
+    xs, ys = np.asarray(xs, dtype=np.float64), np.asarray(ys, dtype=np.float64)
+    west, east = xs / n * 360.0 - 180.0, (xs + 1) / n * 360.0 - 180.0
+
+    def lat(y):
+        return np.degrees(np.arctan(np.sinh(np.pi * (1.0 - 2.0 * y / n))))
+
+    north, south = ell.conformal(lat(ys)), ell.conformal(lat(ys + 1))
+    clon, clat = 0.5 * (west + east), 0.5 * (north + south)
+    c = lonlat_to_xyz(clon, clat)
+    t = np.linspace(0.0, 1.0, _SIDE)[None, :]
+    along = west[:, None] + (east - west)[:, None] * t  # longitudes along a parallel
+    up = south[:, None] + (north - south)[:, None] * t  # latitudes along a meridian
+    ones = np.ones_like(t)
+    sides = [
+        (along, north[:, None] * ones),
+        (along, south[:, None] * ones),
+        (west[:, None] * ones, up),
+        (east[:, None] * ones, up),
+    ]
+    r = np.zeros(len(xs))
+    for lo, la in sides:
+        pts = lonlat_to_xyz(lo.ravel(), la.ravel()).reshape(len(xs), -1, 3)
+        r = np.maximum(r, angle(pts, c[:, None, :]).max(axis=1))
+    # a tile wider than a quarter turn: no useful cap
+    r = np.where(east - west > 90.0, np.pi, r * (1.0 + _MARGIN[0]) + _MARGIN[1])
+    return c, r
+
+
+def classify(conf, m: float, z: int, xs, ys):
+    """``(inside, outside)`` flags of tiles ``z/xs/ys`` for signed distance ``m``."""
+    t_in, t_out = thresholds(conf, m)
+    c, r = tile_caps(conf.ell, z, xs, ys)
+    s = signed_distance(conf, c)
+    slack = 1e-12
+    inside = np.zeros(len(c), bool) if t_in is None else s + r < t_in - slack
+    outside = np.zeros(len(c), bool) if t_out is None else s - r > t_out + slack
+    return inside, outside
+
+
+def run_ellipsoid_pyramid(shape, m, ell, zooms, size, style, store, have, stats, full):
+    """Write the tiles of zooms ``zooms`` (inclusive) into ``store`` (skipping ``have``):
+    contained tiles and their descendants as ``full``, frontier tiles rendered."""
+    zlo, zhi = zooms
+    conf = conformal(shape, ell)
+    xs, ys = np.zeros(1, np.int64), np.zeros(1, np.int64)
+    for z in range(zhi + 1):
+        if len(xs) == 0:
+            break
+        inside, outside = classify(conf, m, z, xs, ys)
+        front = ~inside & ~outside
+        stats.zooms[z] = {
+            "contained": int(inside.sum()),
+            "outside": int(outside.sum()),
+            "frontier": int(front.sum()),
+        }
+        for x, y in zip(xs[inside], ys[inside]):
+            _write_subtree(store, have, stats, full, z, int(x), int(y), zooms)
+        if z >= zlo:
+            stats.outside += int(outside.sum())
+            for x, y in zip(xs[front], ys[front]):
+                key = (z, int(x), int(y))
+                if key in have:
+                    stats.present += 1
+                    continue
+                mask = render(shape, m, Tile(z, key[1], key[2], size), ellipsoid=ell)
+                data = style.encode(mask)
+                stats.rendered += 1
+                if data is None:
+                    stats.empty += 1
+                else:
+                    store.put(*key, data)
+            store.commit()
+        xs = np.repeat(2 * xs[front], 4) + np.tile([0, 1, 0, 1], int(front.sum()))
+        ys = np.repeat(2 * ys[front], 4) + np.tile([0, 0, 1, 1], int(front.sum()))
+
+
+def _write_subtree(store, have, stats, full, z, x, y, zooms):
+    """A fully inside tile and its descendants within ``zooms``."""
+    zlo, zhi = zooms
+    for zz in range(max(z, zlo), zhi + 1):
+        k = zz - z
+        span = np.arange(1 << k)
+        tiles = [(zz, (x << k) + int(i), (y << k) + int(j)) for j in span for i in span]
+        new = [t for t in tiles if t not in have]
+        stats.present += len(tiles) - len(new)
+        if new:
+            store.put_many(new, full)
+        stats.inside += len(new)
