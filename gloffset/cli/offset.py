@@ -73,6 +73,11 @@ from .options import (
     show_default=True,
     help="Self-intersection removal: exact and general, or the paper's Algorithm 1.",
 )
+@click.option(
+    "--each",
+    is_flag=True,
+    help="Offset each feature on its own, keeping its properties (default: the union).",
+)
 def offset_cmd(
     input, distance, radius, ellipsoid, layer, where, output, tolerance, digits, raw, method, each
 ):
