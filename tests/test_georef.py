@@ -120,3 +120,32 @@ def test_from_raster_reads_a_geotiff_and_refuses_other_crs(tmp_path):
         ds.write((mask * 255).astype(np.uint8), 1)
     r = run("render", "--from-raster", merc, "-d", "100km", "-o", tmp_path / "x.tif")
     assert r.exit_code == 2 and "EPSG:3857" in r.output and "EPSG:4326" in r.output
+
+
+def test_mask_png_says_which_value_is_inside_and_opacity_scales_the_fill(tmp_path):
+    """A plain mask PNG names its inside value in its Description; --fill with --opacity
+    writes the fill's alpha times the opacity inside and the background outside."""
+    from click.testing import CliRunner
+    from PIL import Image
+
+    from gloffset.cli import main
+
+    src = tmp_path / "sq.geojson"
+    src.write_text(
+        '{"type": "Polygon", "coordinates": [[[0, 0], [20, 0], [20, 20], [0, 20], [0, 0]]]}'
+    )
+    plain, styled = tmp_path / "plain.png", tmp_path / "styled.png"
+    args = ["render", str(src), "-d", "100km", "--size", "360x180"]
+    r = CliRunner().invoke(main, [*args, "-o", str(plain)])
+    assert r.exit_code == 0, r.output
+    img = Image.open(plain)
+    assert img.mode == "L" and "255 inside" in img.info["Description"]
+    mask = np.asarray(img) == 255
+    r = CliRunner().invoke(
+        main, [*args, "--fill", "#ff000080", "--opacity", "0.5", "-o", str(styled)]
+    )
+    assert r.exit_code == 0, r.output
+    rgba = np.asarray(Image.open(styled))
+    assert (rgba[mask] == [255, 0, 0, 64]).all() and (rgba[~mask] == 0).all() and mask.any()
+    r = CliRunner().invoke(main, [*args, "--opacity", "1.5", "-o", str(styled)])
+    assert r.exit_code == 2 and "opacity" in r.output

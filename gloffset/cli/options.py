@@ -96,3 +96,26 @@ def input_options(f):
         default=None,
         help="The layer of a vector file with several (a name or a 0-based index).",
     )(f)
+
+
+def fill_options(default: str | None, what: str = "the region"):
+    """``--fill COLOUR`` and ``--opacity 0..1`` (multiplies the fill's alpha): one style
+    for ``render``, ``tiles`` and ``serve``'s query (``fill``, ``opacity``)."""
+
+    def deco(f):
+        f = click.option(
+            "--opacity",
+            type=click.FloatRange(0.0, 1.0),
+            default=1.0,
+            show_default=True,
+            help="Opacity of the fill, 0..1 (multiplies the colour's own alpha).",
+        )(f)
+        return click.option(
+            "--fill",
+            default=default,
+            show_default=default is not None,
+            metavar="COLOUR",
+            help=f"Colour of {what}: '#rrggbb', '#rrggbbaa' or 'r,g,b[,a]'.",
+        )(f)
+
+    return deco

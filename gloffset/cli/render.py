@@ -23,6 +23,7 @@ from .options import (
     angle,
     distance_option,
     ellipsoid_option,
+    fill_options,
     input_options,
     metres,
     parse_ellipsoid,
@@ -108,8 +109,10 @@ def _bounds(text: str | None) -> tuple:
 @click.option(
     "--mask-only", is_flag=True, help="With --from-raster: write contained cells as 255, else 0."
 )
-@click.option(
-    "--fill", default=None, help="Colour inside the region (RGBA overlay), e.g. '#3070c0cc'."
+@fill_options(
+    None,
+    "the region (an RGBA image; with neither --fill nor --background a grey mask, "
+    "255 inside, 0 outside)",
 )
 @click.option("--background", default=None, help="Colour outside the region, e.g. '0,0,0,0'.")
 @click.option(
@@ -142,6 +145,7 @@ def render_cmd(
     bounds,
     output,
     fill,
+    opacity,
     background,
     classes_level,
     backend,
@@ -215,14 +219,16 @@ def render_cmd(
         targets = [(folder / f"{name}.png", result[k]) for k, name in enumerate(FACE_NAMES)]
     else:
         targets = [(Path(output), result)]
-    place = None if grid_kind == "cube" else _placement(grid, cog, not no_worldfile, out)
+    styled = out == "mask" and (fill, background, opacity) != (None, None, 1.0)
+    what = "styled" if styled else out
+    place = None if grid_kind == "cube" else _placement(grid, cog, not no_worldfile, what)
     if out == "classes" and place is not None and classes_level != grid.n_levels - 1:
         place = None  # a coarser level's classes are not the grid's pixels
     for path, img in targets:
         if out == "classes":
             write_classes(img, path, place=place)
         else:
-            write_mask(img, path, fill=fill, background=background, place=place)
+            write_mask(img, path, fill=fill, opacity=opacity, background=background, place=place)
     if show:
         click.echo("", err=True)
 
@@ -266,6 +272,8 @@ def _placement(grid, cog: bool, worldfile: bool, what: str) -> Placement:
     """Where the equirect image of ``grid`` lies, for the writers."""
     if what == "mask":
         desc = "gloffset mask: 255 inside the region, 0 outside"
+    elif what == "styled":
+        desc = "gloffset region: the fill colour inside, the background outside"
     else:
         desc = "gloffset classes: black contained, red frontier, white outside"
     return Placement(Georef(grid.transform(), description=desc), cog=cog, worldfile=worldfile)

@@ -17,6 +17,7 @@ from .options import (
     angle,
     distance_option,
     ellipsoid_option,
+    fill_options,
     input_options,
     metres,
     parse_ellipsoid,
@@ -37,10 +38,7 @@ from .options import (
     help="OUT.mbtiles (MBTiles 1.3), OUT.pmtiles (PMTiles v3, needs the pmtiles package) "
     "or a directory for z/x/y.png tiles.",
 )
-@click.option("--fill", default="#3070c0", show_default=True, help="Colour of the region.")
-@click.option(
-    "--opacity", type=float, default=1.0, show_default=True, help="Opacity of the fill, 0..1."
-)
+@fill_options("#3070c0")
 @click.option("--outline", default=None, help="Draw the input curves in this colour.")
 @click.option("--outline-width", type=int, default=1, show_default=True, help="In pixels.")
 @click.option(

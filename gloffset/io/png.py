@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from PIL import Image, ImageColor, features
+from PIL.PngImagePlugin import PngInfo
 
 from ..errors import InputFormatError, OptionError, OutputError
 from .georef import Georef, write_geotiff, write_world_files
@@ -106,7 +107,11 @@ def _save(img: Image.Image, target, place=None) -> None:
         compression = "tiff_adobe_deflate" if features.check("libtiff") else None
         img.save(buf, format="TIFF", compression=compression)
     else:
-        img.save(buf, format="PNG")
+        info = None
+        if place is not None and place.ref.description:
+            info = PngInfo()
+            info.add_text("Description", place.ref.description)
+        img.save(buf, format="PNG", pnginfo=info)
     write_bytes(target, buf.getvalue())
     if place is not None and place.worldfile and fmt == "PNG" and _is_file_name(target):
         write_world_files(target, place.ref)
@@ -128,15 +133,21 @@ def _is_file_name(target) -> bool:
     return name != STDOUT and (not os.path.exists(name) or os.path.isfile(name))
 
 
-def write_mask(mask: np.ndarray, target, *, fill=None, background=None, place=None) -> None:
-    """Write a 0/255 mask: greyscale, or RGBA with ``fill`` inside and ``background`` outside.
+def write_mask(
+    mask: np.ndarray, target, *, fill=None, opacity=1.0, background=None, place=None
+) -> None:
+    """Write a 0/255 mask: greyscale (255 inside), or RGBA with ``fill`` inside (its alpha
+    times ``opacity``) and ``background`` outside.
 
     ``target`` is a path (PNG, or TIFF for ``.tif``/``.tiff``) or ``-`` for standard output;
-    ``place`` georeferences it (see :func:`_save`).
+    ``place`` georeferences it (see :func:`_save`). A PNG says in its ``Description`` text
+    which value is inside.
     """
-    if fill is None and background is None:
+    if fill is None and background is None and opacity == 1.0:
         return _save(Image.fromarray(mask.astype(np.uint8), mode="L"), target, place)
-    fg = np.array(parse_color(fill) if fill else (255, 255, 255, 255), dtype=np.uint8)
+    fg = list(parse_color(fill) if fill else (255, 255, 255, 255))
+    fg[3] = int(round(fg[3] * opacity))
+    fg = np.array(fg, dtype=np.uint8)
     bg = np.array(parse_color(background) if background else (0, 0, 0, 0), dtype=np.uint8)
     rgba = np.where(mask[..., None] > 0, fg, bg).astype(np.uint8)
     return _save(Image.fromarray(rgba, mode="RGBA"), target, place)
