@@ -57,14 +57,5 @@ def _legacy_crs(obj):
 def features(obj: dict) -> list[dict]:
     """The features of a GeoJSON object: a FeatureCollection's, a Feature alone, or a bare
     geometry as a Feature with no properties."""
-    if not isinstance(obj, dict) or "type" not in obj:
-        raise InputFormatError("not a GeoJSON object: no 'type' member")
-    kind = obj["type"]
-    if kind == "FeatureCollection":
-        feats = obj.get("features")
-        if not isinstance(feats, list):
-            raise InputFormatError("FeatureCollection has no 'features' list")
-        return feats
-    if kind == "Feature":
-        return [obj]
-    return [{"type": "Feature", "properties": {}, "geometry": obj}]
+    feats = geojson.members(obj)
+    return [{"type": "Feature", "properties": {}, "geometry": obj}] if feats is None else feats

@@ -205,8 +205,10 @@ def parse(obj) -> Parts:
         raise InputFormatError("GeoJSON nested too deeply to read") from None
 
 
-def _parse(obj) -> Parts:
-    parts = Parts()
+def members(obj) -> list | None:
+    """The features of a GeoJSON object: a FeatureCollection's list, ``[obj]`` for a
+    Feature, None for a bare geometry (an error names a missing ``type`` or
+    ``features``)."""
     if not isinstance(obj, dict) or "type" not in obj:
         raise InputFormatError("not a GeoJSON object: no 'type' member")
     kind = obj["type"]
@@ -214,12 +216,17 @@ def _parse(obj) -> Parts:
         feats = obj.get("features")
         if not isinstance(feats, list):
             raise InputFormatError("FeatureCollection has no 'features' list")
-        for i, f in enumerate(feats):
-            _feature(f, _feature_label(f, i), parts)
-    elif kind == "Feature":
-        _feature(obj, _feature_label(obj, 0), parts)
-    else:
+        return feats
+    return [obj] if kind == "Feature" else None
+
+
+def _parse(obj) -> Parts:
+    parts = Parts()
+    feats = members(obj)
+    if feats is None:
         _geometry(obj, "geometry", parts)
+    for i, f in enumerate(feats or ()):
+        _feature(f, _feature_label(f, i), parts)
     return parts
 
 
