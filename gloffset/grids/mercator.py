@@ -153,6 +153,10 @@ def _xyz(lon, lat) -> np.ndarray:
     return np.stack([c * np.cos(lon), c * np.sin(lon), np.sin(lat)], axis=-1)
 
 
+#: :meth:`TilePyramid.decision_rho` of more rows than this is computed once per distinct row
+_UNIQUE_ROWS = 64
+
+
 class TilePyramid:
     """The XYZ quadtree down to zoom ``maxzoom`` as a level hierarchy (level = zoom, cell
     ``(row, column)`` = tile ``(y, x)``): the grid of tile pyramids.
@@ -201,6 +205,10 @@ class TilePyramid:
         the robust :func:`gloffset.sphere.angle` too and the larger value is kept.
         """
         j = np.asarray(j, dtype=np.float64)
+        if j.size > _UNIQUE_ROWS:  # many cells of few rows: each row once
+            rows, inv = np.unique(j, return_inverse=True)
+            if len(rows) < j.size // 2:
+                return self.decision_rho(z, rows)[inv].reshape(j.shape)
         n = 1 << z
         north, south, mid = lat_at(j, n), lat_at(j + 1.0, n), lat_at(j + 0.5, n)
         dl = math.pi / n

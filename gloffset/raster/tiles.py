@@ -49,6 +49,7 @@ the time left follows a per-zoom cost plus a per-tile cost, both measured as it 
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import re
@@ -944,6 +945,12 @@ class _BinChain:
         return tiles, layout, fb, (t, jr, jc)
 
 
+@functools.lru_cache(maxsize=64)
+def _pyramid(maxzoom: int) -> TilePyramid:
+    """The :class:`TilePyramid` down to ``maxzoom``, made once (its bounds per zoom)."""
+    return TilePyramid(maxzoom)
+
+
 def render_tiles(
     shape, d: float, z: int, tiles, *, size: int = 256, style=None, max_block=MAX_BLOCK
 ):
@@ -960,7 +967,7 @@ def render_tiles(
     style = style if style is not None else TileStyle()
     want = sorted({(int(x), int(y)) for x, y in tiles})
     plog = size.bit_length() - 1
-    cells = CurveCells(shape, d, TilePyramid(z + plog))
+    cells = CurveCells(shape, d, _pyramid(z + plog))
     chain = _BinChain(cells, max(0, plog - _BIN_LOG2))
     stats = PyramidStats()
     job = _Zoom(cells, style, MemoryStore(), set(), size, stats, _Tracker(z, z, None))
