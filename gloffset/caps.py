@@ -160,9 +160,9 @@ def cap_within_pairs(cm, first, cell, half, arc) -> np.ndarray:
     the others take the exact test. Addition, ``min`` and (to 1 ulp) ``cos`` are
     monotone, so the two bounds are on either side of every pair's exact threshold.
     """
+    if len(cm) <= 4 * len(half):  # few pairs: the bounds of every arc would cost more
+        return cap_within(cm, first[cell] + half[arc])
     out = np.zeros(len(cm), dtype=bool)
-    if len(cm) == 0:
-        return out
     lo = np.cos(np.minimum(first.max() + half, np.pi)) - COS_SLACK - _PAIR_MARGIN
     hi = np.cos(np.minimum(first.min() + half, np.pi)) - COS_SLACK + _PAIR_MARGIN
     may = np.flatnonzero(cm >= lo[arc])

@@ -926,9 +926,10 @@ class _BinChain:
         for k, (dc, dcls, fr) in enumerate(self.lev, start=1):
             sel, t, jr, jc = place(dc, k)
             span = 1 << (nb - k)  # bins per side of a cell of this level
-            for dy in range(span):
-                for dx in range(span):
-                    tiles[t, jr * span + dy, jc * span + dx] = dcls[sel]
+            dd = np.arange(span)
+            rr = (jr * span)[:, None, None] + dd[None, :, None]
+            cc = (jc * span)[:, None, None] + dd[None, None, :]
+            tiles[t[:, None, None], rr, cc] = dcls[sel][:, None, None]
             if k == nb:
                 fb = subset(fr, place(fr.cells, k)[0])
         _, t, jr, jc = place(fb.cells, nb)
