@@ -84,6 +84,13 @@ def _pyramid(z: int) -> TilePyramid:
     return TilePyramid(z)
 
 
+@functools.lru_cache(maxsize=1024)
+def _tile(z: int, x: int, y: int, size: int) -> Tile:
+    """The :class:`~gloffset.grids.Tile`, made once: it keeps its levels' bounds and
+    geometry, the same for every distance (the zooms rendered alone have 85 tiles)."""
+    return Tile(z, x, y, size)
+
+
 @functools.lru_cache(maxsize=64)
 def full_png(size: int, style: TileStyle) -> bytes:
     """The one PNG of a tile wholly inside the region, per size and style."""
@@ -310,7 +317,7 @@ def centre_inside(shape, p: np.ndarray) -> np.ndarray:
 def _render_alone(shape, key: TileKey, x: int, y: int) -> bytes | None:
     """Tile ``x, y`` of ``key``'s zoom by :func:`gloffset.render` on its own
     :class:`~gloffset.grids.Tile` (the same pixels as :func:`render_tiles`), styled."""
-    mask = render(shape, key.d, Tile(key.z, x, y, key.size), radius=1.0)
+    mask = render(shape, key.d, _tile(key.z, x, y, key.size), radius=1.0)
     return key.style.encode(mask > 0)
 
 
