@@ -41,6 +41,9 @@ WORKLOADS = {
     "tiles mexico z0-8 256": (
         "g.tiles.pyramid(mexico, 0.02 * 6371008.8, '0-8', tmp(), overwrite=True)"
     ),
+    "serve views mexico z4-14 (render_tiles)": (
+        "[render_tiles(mexico, d, z, tiles) for d, z, tiles in views]"
+    ),
     "offset+resolve mexico": "g.offset(mexico, 0.02, radius=1.0).resolve()",
     "contains mexico 1e6 points": "g.contains(mexico, lon, lat, distance=0.02, radius=1.0)",
 }
@@ -57,6 +60,16 @@ line_mask_small = g.rasterize(mexico, Equirect(1024, 512))
 rng = np.random.default_rng(0)
 lon = rng.uniform(-120.0, -85.0, 1_000_000)
 lat = rng.uniform(12.0, 34.0, 1_000_000)
+import mercantile
+from gloffset.raster.tiles import render_tiles
+# 40 map views near Mexico as benchmarks/serve.py makes them (zooms 4-14, 4 x 3 tiles, a
+# new distance each): the tiles the render thread of gloffset serve renders
+views = []
+for _ in range(40):
+    z = int(rng.integers(4, 15))
+    t = mercantile.tile(rng.uniform(-121.0, -83.0), rng.uniform(11.0, 36.0), z)
+    tiles = [(t.x + i, t.y + j) for i in range(-2, 2) for j in range(-1, 2)]
+    views.append((int(rng.integers(1, 501)) / 6371.0088, z, tiles))
 _tmp = tempfile.mkdtemp()
 _n = itertools.count()
 def tmp():

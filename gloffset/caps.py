@@ -34,6 +34,7 @@ __all__ = [
     "angle_of_chord",
     "cap_range",
     "cap_within",
+    "cap_within_pairs",
     "cos_sum_lower",
 ]
 
@@ -142,6 +143,35 @@ def cap_within(cm, reach) -> np.ndarray:
     1.4e-6 rad for reaches near 0 or pi: a few extra candidates, never a missing one.
     """
     return cm >= np.cos(np.minimum(reach, np.pi)) - COS_SLACK
+
+
+#: Margin on the cosine thresholds of :func:`cap_within_pairs` (far above the 1 ulp by
+#: which ``cos`` may be off, so the bounds never cross the exact thresholds).
+_PAIR_MARGIN = 1e-12
+
+
+def cap_within_pairs(cm, first, cell, half, arc) -> np.ndarray:
+    """``cap_within(cm, first[cell] + half[arc])`` for pairs ``(cell, arc)``: the same
+    booleans, with ``cos`` evaluated only for the pairs near their threshold.
+
+    With ``first`` between its least and greatest value, each arc's reach lies between
+    two values, so its threshold lies between two cosines computed once per arc; a pair
+    above the higher (by :data:`_PAIR_MARGIN`) passes, one below the lower fails, and
+    the others take the exact test. Addition, ``min`` and (to 1 ulp) ``cos`` are
+    monotone, so the two bounds are on either side of every pair's exact threshold.
+    """
+    if len(cm) <= 4 * len(half):  # few pairs: the bounds of every arc would cost more
+        return cap_within(cm, first[cell] + half[arc])
+    out = np.zeros(len(cm), dtype=bool)
+    lo = np.cos(np.minimum(first.max() + half, np.pi)) - COS_SLACK - _PAIR_MARGIN
+    hi = np.cos(np.minimum(first.min() + half, np.pi)) - COS_SLACK + _PAIR_MARGIN
+    may = np.flatnonzero(cm >= lo[arc])
+    a, cmm = arc[may], cm[may]
+    unsure = cmm < hi[a]
+    out[may] = ~unsure
+    u = may[unsure]
+    out[u] = cap_within(cm[u], first[cell[u]] + half[arc[u]])
+    return out
 
 
 def cos_sum_lower(total, cos_x, sin_x, cos_y, sin_y):

@@ -25,6 +25,7 @@ __all__ = [
     "xyz_to_lonlat",
     "normalize",
     "dot",
+    "pair_dots",
     "cross",
     "norm",
     "robust_cross",
@@ -101,6 +102,19 @@ def dot(u, v) -> np.ndarray:
     u = np.asarray(u, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
     return u[..., 0] * v[..., 0] + u[..., 1] * v[..., 1] + u[..., 2] * v[..., 2]
+
+
+def pair_dots(u, ui, v, vi) -> np.ndarray:
+    """``u[ui] . v[vi]`` for index arrays ``ui``, ``vi`` into (n, 3) arrays: the same
+    bits as ``np.einsum("ij,ij->i", u[ui], v[vi])``, whose sum is ``(x0 y0 + x2 y2) +
+    x1 y1``, from gathers of single coordinates (no (k, 3) copies: several times
+    faster for millions of pairs)."""
+    u = np.asarray(u, dtype=np.float64)
+    v = np.asarray(v, dtype=np.float64)
+    out = u[:, 0][ui] * v[:, 0][vi]
+    out += u[:, 2][ui] * v[:, 2][vi]
+    out += u[:, 1][ui] * v[:, 1][vi]
+    return out
 
 
 def cross(u, v) -> np.ndarray:

@@ -94,3 +94,23 @@ def test_hierarchy_reexports_the_cap_bounds():
     assert hierarchy.cap_range is caps.cap_range
     assert hierarchy.cap_within is caps.cap_within
     assert hierarchy.CAP_SLACK == caps.CAP_SLACK
+
+
+def test_cap_within_pairs_is_cap_within():
+    """The bounded test gives the booleans of the plain one, at and around the thresholds
+    (many pairs: the per-arc bounds; few: the plain test)."""
+    rng = np.random.default_rng(5)
+    mid = normalize(rng.normal(size=(300, 3)))
+    half = rng.uniform(0.0, 0.2, 300)
+    c = normalize(rng.normal(size=(50, 3)))
+    first = 0.3 + rng.uniform(0.0, 1e-3, 50)
+    for n in (20_000, 500):
+        cell, arc = rng.integers(0, 50, n), rng.integers(0, 300, n)
+        cm = np.einsum("ij,ij->i", c[cell], mid[arc])
+        # some pairs exactly at their threshold, and one ulp either side
+        thr = np.cos(np.minimum(first[cell] + half[arc], np.pi)) - caps.COS_SLACK
+        k = rng.integers(0, n, n // 10)
+        cm[k] = np.nextafter(thr[k], rng.choice([-2.0, 2.0], len(k)))
+        cm[k[::3]] = thr[k[::3]]
+        want = caps.cap_within(cm, first[cell] + half[arc])
+        assert np.array_equal(caps.cap_within_pairs(cm, first, cell, half, arc), want)

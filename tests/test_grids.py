@@ -165,3 +165,18 @@ def test_tile_pixels_are_the_pyramid_quadtree(z, x, y, size):
     assert np.array_equal(got, want)
     lon, lat = t.pixel_lonlat(ii, jj)
     assert np.abs(lonlat_to_xyz(lon, lat) - want).max() < 1e-15
+
+
+def test_tile_pyramid_decision_rho_memo_same_values():
+    """Rows looked up in the memo, computed with many distinct rows, or computed alone:
+    the same values."""
+    from gloffset.grids.mercator import TilePyramid
+
+    rows = np.random.default_rng(2).integers(0, 1 << 12, 3000)
+    many = TilePyramid(14).decision_rho(12, rows)  # more distinct rows than the memo takes
+    memo = TilePyramid(14)
+    few = np.concatenate([memo.decision_rho(12, rows[i : i + 100]) for i in range(0, 3000, 100)])
+    again = memo.decision_rho(12, rows[:100])
+    alone = [TilePyramid(14).decision_rho(12, r) for r in rows[:20]]
+    assert np.array_equal(many, few) and np.array_equal(again, few[:100])
+    assert np.array_equal(np.asarray(alone), few[:20])

@@ -32,7 +32,14 @@ from starlette.testclient import TestClient  # noqa: E402
 
 from gloffset.raster.tilepaint import TileStyle  # noqa: E402
 from gloffset.serve.app import STATIC, create_app  # noqa: E402
-from gloffset.serve.service import EMPTY_PNG, QueueFull, TileKey, full_png  # noqa: E402
+from gloffset.serve.service import (  # noqa: E402
+    EMPTY_PNG,
+    UNKNOWN,
+    QueueFull,
+    TileKey,
+    TileService,
+    full_png,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 TRI = {"type": "Polygon", "coordinates": [[[-110, 15], [-90, 15], [-100, 30], [-110, 15]]]}
@@ -201,6 +208,26 @@ def test_tiles_decided_at_once_agree_with_render_everywhere(client):
                     )
                     assert (got > 0).all() if cls == 2 else not got.any(), (d, z, x, y)
     assert seen == {0, 2}
+
+
+def test_centres_measured_together_as_alone():
+    """TileService.measure (the tiles of a view at once) keeps the same values as the
+    triage measuring each tile on its own, bit for bit, and then answers without
+    measuring."""
+    shape = gloffset.read(ROOT / "data" / "mexico_10m.geojson")
+    alone, together = TileService({"m": shape}), TileService({"m": shape})
+    style = TileStyle()
+    for z, x0, y0 in [(4, 2, 6), (6, 12, 26), (9, 110, 220), (12, 900, 1760)]:
+        keys = [
+            TileKey("m", 0.02, z, x0 + i, y0 + j, 256, style) for i in range(4) for j in range(3)
+        ]
+        together.measure(keys)
+        for k in keys:
+            assert together.triage(k, measure=False) is not UNKNOWN
+            alone.triage(k)
+            where = ("m", k.z, k.x, k.y)
+            for a, b in zip(alone.centres[where], together.centres[where]):
+                assert np.array_equal(a, b), (where, a, b)
 
 
 @pytest.mark.parametrize(

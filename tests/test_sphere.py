@@ -91,3 +91,12 @@ def test_rotate_preserves_angle():
     v, axis = rand_unit(100), rand_unit(100)
     w = rotate(v, axis, 0.7)
     assert np.allclose(np.sum(v * axis, 1), np.sum(w * axis, 1), atol=1e-15)
+
+
+def test_pair_dots_are_einsum_bits():
+    from gloffset.sphere import pair_dots
+
+    rng = np.random.default_rng(3)
+    u, v = rng.normal(size=(100, 3)), rng.normal(size=(80, 3))
+    ui, vi = rng.integers(0, 100, 5000), rng.integers(0, 80, 5000)
+    assert np.array_equal(pair_dots(u, ui, v, vi), np.einsum("ij,ij->i", u[ui], v[vi]))

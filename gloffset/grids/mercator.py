@@ -153,6 +153,12 @@ def _xyz(lon, lat) -> np.ndarray:
     return np.stack([c * np.cos(lon), c * np.sin(lon), np.sin(lat)], axis=-1)
 
 
+#: :meth:`TilePyramid.decision_rho`: calls with at most this many distinct rows use the
+#: memo, which holds up to :data:`_MEMO_SIZE` rows (then starts again)
+_MEMO_ROWS = 512
+_MEMO_SIZE = 1 << 20
+
+
 class TilePyramid:
     """The XYZ quadtree down to zoom ``maxzoom`` as a level hierarchy (level = zoom, cell
     ``(row, column)`` = tile ``(y, x)``): the grid of tile pyramids.
@@ -199,8 +205,26 @@ class TilePyramid:
         ``rect_radius`` is exact but loses digits for tiny tiles (arccos near 1); the
         corners, the farthest points of every tile below zoom 0, are measured with
         the robust :func:`gloffset.sphere.angle` too and the larger value is kept.
+        Rows are computed once each: a call's few distinct rows are looked up in (and
+        added to) a memo of the pyramid's, many are computed as they come.
         """
         j = np.asarray(j, dtype=np.float64)
+        rows, inv = np.unique(j, return_inverse=True)
+        if len(rows) > _MEMO_ROWS:
+            return self._row_rho(z, rows)[inv].reshape(j.shape)
+        memo = self.__dict__.setdefault("_rho_memo", {})
+        got = np.array([memo.get((z, r), -1.0) for r in rows.tolist()])
+        miss = np.flatnonzero(got < 0.0)
+        if len(miss):
+            got[miss] = self._row_rho(z, rows[miss])
+            if len(memo) > _MEMO_SIZE:
+                memo.clear()
+            memo.update(zip([(z, r) for r in rows[miss].tolist()], got[miss].tolist()))
+        return got[inv].reshape(j.shape)
+
+    @staticmethod
+    def _row_rho(z: int, j: np.ndarray) -> np.ndarray:
+        """:meth:`decision_rho` of rows ``j`` (float64), computed."""
         n = 1 << z
         north, south, mid = lat_at(j, n), lat_at(j + 1.0, n), lat_at(j + 0.5, n)
         dl = math.pi / n

@@ -37,10 +37,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..caps import CAP_SLACK, arc_cap, cap_range, cap_within, pad
+from ..caps import CAP_SLACK, arc_cap, cap_range, cap_within, cap_within_pairs, pad
 from ..classes import CONTAINED, FRONTIER, OUTSIDE
 from ..edges import CurveArcs, component_status, status_bits
-from ..sphere import angle, arc_distance, arcs_cross
+from ..sphere import angle, arc_distance, arcs_cross, pair_dots
 
 __all__ = [
     "CurveArcs",
@@ -186,7 +186,7 @@ def cell_distances(f: Frontier, arcs: CurveArcs) -> tuple[np.ndarray, np.ndarray
     dring = np.full(k, np.inf)  # to ring edges including seams (inside uniformity)
     for s in range(0, len(f.pair_cell), _PAIRS):
         ci, ai = f.pair_cell[s : s + _PAIRS], f.pair_arc[s : s + _PAIRS]
-        cm = np.einsum("ij,ij->i", f.centers[ci], arcs.mid[ai])
+        cm = pair_dots(f.centers, ci, arcs.mid, ai)
         nearest(arcs, ci, ai, cm, lambda idx, ci=ci: f.centers[ci[idx]], dist, dring)
     return dist, dring
 
@@ -278,17 +278,13 @@ def refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
     arc_of_pair = f.pair_arc[first + offs]
 
     # one dot product per pair serves both cap tests below
-    cm = np.empty(len(child_of_pair))
-    for s in range(0, len(cm), _PAIRS):
-        sl = slice(s, s + _PAIRS)
-        cm[sl] = np.einsum("ij,ij->i", c[child_of_pair[sl]], arcs.mid[arc_of_pair[sl]])
-    half = arcs.half[arc_of_pair]
+    cm = pair_dots(c, child_of_pair, arcs.mid, arc_of_pair)
 
     # statuses: parent's, toggled by crossings of child -> parent centre; an arc that
     # crosses it has its bounding cap within angle(child, parent) of the child
     status = f.status[parent].copy()
     seg = angle(c, f.centers[parent])
-    near = cap_within(cm, seg[child_of_pair] + half)
+    near = cap_within_pairs(cm, seg, child_of_pair, arcs.half, arc_of_pair)
     ring = near & (arcs.group[arc_of_pair] >= 0)
     if ring.any():
         pc, pa = child_of_pair[ring], arc_of_pair[ring]
@@ -301,7 +297,7 @@ def refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
         status[on] = component_status(shape, arcs, c[on])
 
     # candidates: arcs whose bounding cap comes within e + rho of the child's centre
-    keep = cap_within(cm, e + rho[child_of_pair] + half)
+    keep = cap_within_pairs(cm, e + rho, child_of_pair, arcs.half, arc_of_pair)
     return Frontier(lev, cells, c, rho, child_of_pair[keep], arc_of_pair[keep], status)
 
 

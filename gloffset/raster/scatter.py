@@ -58,7 +58,16 @@ _REL, _ABS = 1e-9, 1e-12
 
 
 def _levels_geometry(grid, level: int):
-    """Row latitudes, column longitudes (unwrapped, increasing), rho and centre spacing."""
+    """Row latitudes, column longitudes (unwrapped, increasing), rho and centre spacing
+    (read-only arrays, kept on the grid: a grid used again, such as the tiles a server
+    renders at every distance, does not compute them again)."""
+    memo = grid.__dict__.setdefault("_scatter_geometry", {})
+    if level not in memo:
+        memo[level] = _geometry(grid, level)
+    return memo[level]
+
+
+def _geometry(grid, level: int):
     h, w = grid.level_shape(level)
     rows = np.arange(h)
     lat = np.asarray(grid.cell_lat(level, rows), dtype=np.float64)
@@ -67,7 +76,10 @@ def _levels_geometry(grid, level: int):
     c0 = grid.centers(level, rows, 0)
     spacing = angle(c0, grid.centers(level, rows, min(1, w - 1)))  # left neighbour
     spacing[1:] = np.maximum(spacing[1:], angle(c0[:-1], c0[1:]))  # above (first column)
-    return lat, lon, rho, pad(spacing)
+    out = lat, lon, rho, pad(spacing)
+    for a in out:
+        a.setflags(write=False)
+    return out
 
 
 def _boxes(arcs: CurveArcs, lat, lon, reach: float):

@@ -49,6 +49,7 @@ the time left follows a per-zoom cost plus a per-tile cost, both measured as it 
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import re
@@ -948,9 +949,10 @@ class _BinChain:
         for k, (dc, dcls, fr) in enumerate(self.lev, start=1):
             sel, t, jr, jc = place(dc, k)
             span = 1 << (nb - k)  # bins per side of a cell of this level
-            for dy in range(span):
-                for dx in range(span):
-                    tiles[t, jr * span + dy, jc * span + dx] = dcls[sel]
+            dd = np.arange(span)
+            rr = (jr * span)[:, None, None] + dd[None, :, None]
+            cc = (jc * span)[:, None, None] + dd[None, None, :]
+            tiles[t[:, None, None], rr, cc] = dcls[sel][:, None, None]
             if k == nb:
                 fb = subset(fr, place(fr.cells, k)[0])
         _, t, jr, jc = place(fb.cells, nb)
@@ -965,6 +967,12 @@ class _BinChain:
             lambda s, cols: self.levels.tile_lon(zb + s, cols + 0.5),
         )
         return tiles, layout, fb, (t, jr, jc)
+
+
+@functools.lru_cache(maxsize=64)
+def _pyramid(maxzoom: int) -> TilePyramid:
+    """The :class:`TilePyramid` down to ``maxzoom``, made once (its bounds per zoom)."""
+    return TilePyramid(maxzoom)
 
 
 def render_tiles(
@@ -983,7 +991,7 @@ def render_tiles(
     style = style if style is not None else TileStyle()
     want = sorted({(int(x), int(y)) for x, y in tiles})
     plog = size.bit_length() - 1
-    cells = CurveCells(shape, d, TilePyramid(z + plog))
+    cells = CurveCells(shape, d, _pyramid(z + plog))
     chain = _BinChain(cells, max(0, plog - _BIN_LOG2))
     stats = PyramidStats()
     job = _Zoom(cells, style, MemoryStore(), set(), size, stats, _Tracker(z, z, None))

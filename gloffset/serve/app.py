@@ -82,6 +82,7 @@ class _Server:
         self.cache_control = cache_control
         self.render_timeout = render_timeout
         self.tiles = TileService(layers, queue_size=queue_size, cache_mb=cache_mb)
+        self._batch = None  # the tiles whose centres are about to be measured, and the task
 
     def layer(self, name: str):
         if name not in self.layers:
@@ -106,6 +107,9 @@ class _Server:
         key = TileKey(p["layer"], d, z, x, y, size, _style(request.query_params))
         found = self.tiles.answer(key, measure=False)  # the cache, a known centre
         if found is UNKNOWN:
+            await self._measured(key)
+            found = self.tiles.answer(key, measure=False)
+        if found is UNKNOWN:  # measured but since forgotten: measure it alone
             found = await asyncio.to_thread(self.tiles.answer, key)
         if found is not None:
             data, how = found
@@ -119,6 +123,22 @@ class _Server:
         if tag in match or "*" in match:
             return Response(status_code=304, headers=headers)
         return Response(data, media_type="image/png", headers=headers)
+
+    async def _measured(self, key: TileKey) -> None:
+        """Wait until the centre of the tile is measured: the requests that arrive together
+        (the tiles of a view) are measured together, off the event loop
+        (:meth:`~gloffset.serve.service.TileService.measure`)."""
+        if self._batch is None:
+            keys: list = []
+            self._batch = (keys, asyncio.ensure_future(self._measure_batch(keys)))
+        keys, task = self._batch
+        keys.append(key)
+        await asyncio.shield(task)
+
+    async def _measure_batch(self, keys: list) -> None:
+        await asyncio.sleep(0)  # the requests read with the first one join it
+        self._batch = None
+        await asyncio.to_thread(self.tiles.measure, keys)
 
     async def _render(self, key: TileKey) -> bytes | Response:
         """The tile rendered on the render thread, or the 503 that says why not."""

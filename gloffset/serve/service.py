@@ -84,6 +84,13 @@ def _pyramid(z: int) -> TilePyramid:
     return TilePyramid(z)
 
 
+@functools.lru_cache(maxsize=1024)
+def _tile(z: int, x: int, y: int, size: int) -> Tile:
+    """The :class:`~gloffset.grids.Tile`, made once: it keeps its levels' bounds and
+    geometry, the same for every distance (the zooms rendered alone have 85 tiles)."""
+    return Tile(z, x, y, size)
+
+
 @functools.lru_cache(maxsize=64)
 def full_png(size: int, style: TileStyle) -> bytes:
     """The one PNG of a tile wholly inside the region, per size and style."""
@@ -180,12 +187,24 @@ class TileService:
         with every arc that can be its centre's nearest as candidates (no distance
         limit): the exact distances to the nearest boundary arc and ring edge, the
         centre's inside status and the tile's decision bound (1-element arrays)."""
-        shape = self.layers[key.layer]
-        grid = _pyramid(key.z)
-        arcs = CurveArcs.from_shape(shape)
-        f = at_cells(shape, arcs, grid, math.pi, key.z, [(key.y, key.x)])
-        dist, dring = cell_distances(f, arcs)
-        return dist, dring, inside_any(f.status), grid.decision_rho(key.z, f.cells[:, 0])
+        return _measure_tiles(self.layers[key.layer], key.z, [(key.x, key.y)])[(key.x, key.y)]
+
+    def measure(self, keys) -> None:
+        """Measure the centres of the tiles ``keys`` not known yet, those of one layer and
+        zoom together (one :func:`~gloffset.raster.levels.at_cells` for the tiles of a
+        view: the same values as :meth:`triage` measuring each)."""
+        groups: dict = {}
+        with self.lock:
+            for k in keys:
+                if (k.layer, k.z, k.x, k.y) not in self.centres:
+                    groups.setdefault((k.layer, k.z), set()).add((k.x, k.y))
+        for (layer, z), tiles in groups.items():
+            got = _measure_tiles(self.layers[layer], z, sorted(tiles))
+            with self.lock:
+                for (x, y), geo in got.items():
+                    self.centres[(layer, z, x, y)] = geo
+                while len(self.centres) > CENTRES:
+                    self.centres.popitem(last=False)
 
     def submit(self, key: TileKey) -> Future:
         """A future of the tile's PNG bytes, rendered on the render thread (raises
@@ -270,6 +289,20 @@ class TileService:
             fut.set_result(data)
 
 
+def _measure_tiles(shape, z: int, tiles) -> dict:
+    """What :meth:`TileService.triage` needs of tiles ``(x, y)`` of zoom ``z``, per tile
+    (1-element arrays; see :meth:`TileService._measure`), measured together."""
+    grid = _pyramid(z)
+    arcs = CurveArcs.from_shape(shape)
+    f = at_cells(shape, arcs, grid, math.pi, z, [(y, x) for x, y in tiles])
+    dist, dring = cell_distances(f, arcs)
+    inside, rho = inside_any(f.status), grid.decision_rho(z, f.cells[:, 0])
+    return {
+        (int(x), int(y)): (dist[i : i + 1], dring[i : i + 1], inside[i : i + 1], rho[i : i + 1])
+        for i, (y, x) in enumerate(f.cells)
+    }
+
+
 def centre_inside(shape, p: np.ndarray) -> np.ndarray:
     """Whether points ``p`` (unit vectors, (k, 3)) are inside the shape's polygons: the
     raster levels' own test (crossings to the shape's reference points against the arcs
@@ -284,7 +317,7 @@ def centre_inside(shape, p: np.ndarray) -> np.ndarray:
 def _render_alone(shape, key: TileKey, x: int, y: int) -> bytes | None:
     """Tile ``x, y`` of ``key``'s zoom by :func:`gloffset.render` on its own
     :class:`~gloffset.grids.Tile` (the same pixels as :func:`render_tiles`), styled."""
-    mask = render(shape, key.d, Tile(key.z, x, y, key.size), radius=1.0)
+    mask = render(shape, key.d, _tile(key.z, x, y, key.size), radius=1.0)
     return key.style.encode(mask > 0)
 
 
