@@ -42,6 +42,7 @@ from starlette.responses import HTMLResponse, JSONResponse, Response
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
+from ..edges import points_inside
 from ..errors import GloffsetError
 from ..grids.mercator import MAX_ZOOM
 from ..raster.tilepaint import TileStyle
@@ -50,7 +51,7 @@ from ..shape import read
 from ..sphere import lonlat_to_xyz
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
 from ..vector.offset import offset
-from .service import UNKNOWN, QueueFull, TileKey, TileService, centre_inside, etag
+from .service import UNKNOWN, QueueFull, TileKey, TileService, etag
 
 __all__ = ["create_app", "app_from_environment", "ENVIRONMENT", "STATIC"]
 
@@ -277,7 +278,7 @@ def _distance_inside(shape, lon: float, lat: float) -> tuple[float, bool]:
     """The distance in metres from a point to the layer's curves (:func:`gloffset.distance`:
     the nearest candidate arcs only) and whether the point is inside its polygons."""
     metres = float(distance_to(shape, [lon], [lat])[0])
-    inside = bool(centre_inside(shape, lonlat_to_xyz(lon, lat).reshape(1, 3))[0])
+    inside = bool(points_inside(shape, lonlat_to_xyz(lon, lat).reshape(1, 3))[0])
     return metres, inside
 
 

@@ -5,8 +5,9 @@ bytes.
 A tile wholly inside or wholly outside the offset region is decided without the render
 thread or the GPU (:meth:`TileService.answer`): the exact distances from the tile's
 centre to the curves and whether the centre is inside, against the tile's rigorous
-bound, with the decision rule of the raster levels (:func:`gloffset.raster.levels.decide`);
-those distances do not depend on the offset distance, so they are measured once per tile.
+bound, with the decision rule of the raster levels (:func:`gloffset.raster.tiles.measure_tiles`,
+:class:`~gloffset.raster.tiles.TileCentre`); those distances do not depend on the offset
+distance, so they are measured once per tile.
 The answer is one shared PNG per size and style (empty: fully transparent).
 
 A moderngl context is current on one thread only, so every other tile is rendered on one
@@ -26,7 +27,6 @@ import functools
 import hashlib
 import io
 import logging
-import math
 import queue
 import threading
 from collections import OrderedDict
@@ -37,13 +37,9 @@ import numpy as np
 from PIL import Image
 
 from ..classes import CONTAINED, OUTSIDE
-from ..edges import CurveArcs, component_status, inside_any
 from ..errors import QueueFullError as QueueFull
-from ..grids.mercator import Tile, TilePyramid
-from ..raster.levels import at_cells, cell_distances, decide
-from ..raster.render import render
 from ..raster.tilepaint import TileStyle
-from ..raster.tiles import render_tiles
+from ..raster.tiles import measure_tiles, render_tiles
 
 __all__ = [
     "TileKey",
@@ -51,7 +47,6 @@ __all__ = [
     "QueueFull",
     "EMPTY_PNG",
     "UNKNOWN",
-    "centre_inside",
     "full_png",
     "etag",
 ]
@@ -69,26 +64,10 @@ def _empty_png(size: int) -> bytes:
 EMPTY_PNG = {256: _empty_png(256), 512: _empty_png(512)}
 
 
-#: zooms up to which a tile is rendered on its own grid (gloffset.render), not with the
-#: pyramid's levels (render_tiles): 2-5 times faster there (measured, Mexico and
-#: countries_10m), slower below (z4 on), where render_tiles also batches
-ALONE_ZOOM = 3
 #: tiles whose centre's distance and status are kept (about 100 bytes each)
 CENTRES = 200_000
 #: :meth:`TileService.answer` without ``measure``: the tile's centre is not measured yet
 UNKNOWN = object()
-
-
-@functools.cache
-def _pyramid(z: int) -> TilePyramid:
-    return TilePyramid(z)
-
-
-@functools.lru_cache(maxsize=1024)
-def _tile(z: int, x: int, y: int, size: int) -> Tile:
-    """The :class:`~gloffset.grids.Tile`, made once: it keeps its levels' bounds and
-    geometry, the same for every distance (the zooms rendered alone have 85 tiles)."""
-    return Tile(z, x, y, size)
 
 
 @functools.lru_cache(maxsize=64)
@@ -178,16 +157,14 @@ class TileService:
                 self.centres[where] = geo
                 if len(self.centres) > CENTRES:
                     self.centres.popitem(last=False)
-        dist, dring, inside, rho = geo
-        cls = int(decide(dist, dring, inside, rho, key.d, False)[0])
-        return cls if cls in (CONTAINED, OUTSIDE) else None
+        return geo.decide(key.d)
 
     def _measure(self, key: TileKey):
         """The tile entered directly at its zoom (:func:`gloffset.raster.levels.at_cells`)
         with every arc that can be its centre's nearest as candidates (no distance
         limit): the exact distances to the nearest boundary arc and ring edge, the
         centre's inside status and the tile's decision bound (1-element arrays)."""
-        return _measure_tiles(self.layers[key.layer], key.z, [(key.x, key.y)])[(key.x, key.y)]
+        return measure_tiles(self.layers[key.layer], key.z, [(key.x, key.y)])[(key.x, key.y)]
 
     def measure(self, keys) -> None:
         """Measure the centres of the tiles ``keys`` not known yet, those of one layer and
@@ -199,7 +176,7 @@ class TileService:
                 if (k.layer, k.z, k.x, k.y) not in self.centres:
                     groups.setdefault((k.layer, k.z), set()).add((k.x, k.y))
         for (layer, z), tiles in groups.items():
-            got = _measure_tiles(self.layers[layer], z, sorted(tiles))
+            got = measure_tiles(self.layers[layer], z, sorted(tiles))
             with self.lock:
                 for (x, y), geo in got.items():
                     self.centres[(layer, z, x, y)] = geo
@@ -273,10 +250,7 @@ class TileService:
         key0 = items[0][0]
         shape, tiles = self.layers[key0.layer], {(k.x, k.y) for k, _ in items}
         try:
-            if key0.z <= ALONE_ZOOM and key0.style.outline is None:
-                got = {t: _render_alone(shape, key0, *t) for t in tiles}
-            else:
-                got = render_tiles(shape, key0.d, key0.z, tiles, size=key0.size, style=key0.style)
+            got = render_tiles(shape, key0.d, key0.z, tiles, size=key0.size, style=key0.style)
         except Exception as exc:  # noqa: BLE001 - every waiting request hears of it
             for _, fut in items:
                 fut.set_exception(exc)
@@ -287,38 +261,6 @@ class TileService:
             self._keep(key, data)
             self.rendered += 1
             fut.set_result(data)
-
-
-def _measure_tiles(shape, z: int, tiles) -> dict:
-    """What :meth:`TileService.triage` needs of tiles ``(x, y)`` of zoom ``z``, per tile
-    (1-element arrays; see :meth:`TileService._measure`), measured together."""
-    grid = _pyramid(z)
-    arcs = CurveArcs.from_shape(shape)
-    f = at_cells(shape, arcs, grid, math.pi, z, [(y, x) for x, y in tiles])
-    dist, dring = cell_distances(f, arcs)
-    inside, rho = inside_any(f.status), grid.decision_rho(z, f.cells[:, 0])
-    return {
-        (int(x), int(y)): (dist[i : i + 1], dring[i : i + 1], inside[i : i + 1], rho[i : i + 1])
-        for i, (y, x) in enumerate(f.cells)
-    }
-
-
-def centre_inside(shape, p: np.ndarray) -> np.ndarray:
-    """Whether points ``p`` (unit vectors, (k, 3)) are inside the shape's polygons: the
-    raster levels' own test (crossings to the shape's reference points against the arcs
-    whose caps reach, :func:`gloffset.edges.component_status`), a few milliseconds a point
-    whatever the input, with no index to build first."""
-    arcs = CurveArcs.from_shape(shape)
-    if not arcs.n_groups:  # lines and points have no inside
-        return np.zeros(len(p), dtype=bool)
-    return inside_any(component_status(shape, arcs, np.asarray(p, dtype=np.float64)))
-
-
-def _render_alone(shape, key: TileKey, x: int, y: int) -> bytes | None:
-    """Tile ``x, y`` of ``key``'s zoom by :func:`gloffset.render` on its own
-    :class:`~gloffset.grids.Tile` (the same pixels as :func:`render_tiles`), styled."""
-    mask = render(shape, key.d, _tile(key.z, x, y, key.size), radius=1.0)
-    return key.style.encode(mask > 0)
 
 
 def _run_call(fn, fut: Future) -> None:
