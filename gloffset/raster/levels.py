@@ -312,13 +312,13 @@ def _on_ring(f: Frontier, arcs: CurveArcs) -> np.ndarray:
     arc child -> parent, and :func:`~gloffset.sphere.arcs_cross` is exact only when
     neither end lies on the other arc (a parent centre at a shared vertex, e.g. a tile
     corner at (0, 0), counts the two edges there inconsistently)."""
-    ring = arcs.group[f.pair_arc] >= 0
+    ring = np.flatnonzero(arcs.group[f.pair_arc] >= 0)
     pc, pa = f.pair_cell[ring], f.pair_arc[ring]
-    x = f.centers[pc]
-    near = np.abs(np.einsum("ij,ij->i", x, arcs.n[pa])) <= ON_EDGE
-    near &= cap_within(np.einsum("ij,ij->i", x, arcs.mid[pa]), arcs.half[pa] + ON_EDGE)
+    on = np.abs(pair_dots(f.centers, pc, arcs.n, pa)) <= ON_EDGE  # on the great circle
+    pc, pa = pc[on], pa[on]
+    on = cap_within(pair_dots(f.centers, pc, arcs.mid, pa), arcs.half[pa] + ON_EDGE)
     out = np.zeros(len(f.cells), dtype=bool)
-    out[pc[near]] = True
+    out[pc[on]] = True
     return out
 
 
