@@ -245,11 +245,18 @@ def contains(
     shape = read(shape)
     d = offset_angle(shape, distance, 1.0)  # metres; checks d <= 0 without polygons
     lon, lat, shp = check_lonlat(lon, lat)
-    conf = conformal(shape, ell)
-    out, band = screen(conf, lon, lat, d, level)
+    return members(conformal(shape, ell), lon, lat, d, level=level).reshape(shp)
+
+
+def members(conf: Conformal, lon, lat, d: float, *, chi=None, level=None) -> np.ndarray:
+    """Membership on the ellipsoid of checked flat geodetic ``lon``, ``lat`` (degrees) in
+    the region at geodesic distance ``d`` (metres): :func:`screen`, then :func:`decide`
+    on the band. ``chi``: the conformal latitudes of ``lat`` when the caller has them
+    (a grid's rows share theirs)."""
+    out, band = screen(conf, lon, lat, d, level, chi=chi)
     idx = np.flatnonzero(band)
     out[idx] = decide(conf, lon[idx], lat[idx], d)
-    return out.reshape(shp)
+    return out
 
 
 def thresholds(conf: Conformal, d: float) -> tuple[float | None, float | None]:
@@ -279,11 +286,15 @@ def signed_distance(conf: Conformal, p) -> np.ndarray:
     return theta
 
 
-def screen(conf: Conformal, lon, lat, d: float, level) -> tuple[np.ndarray, np.ndarray]:
+def screen(
+    conf: Conformal, lon, lat, d: float, level, *, chi=None
+) -> tuple[np.ndarray, np.ndarray]:
     """Decide points with the spherical ``contains`` on the conformal sphere: ``(out,
-    band)``, ``out`` right wherever ``band`` is False."""
+    band)``, ``out`` right wherever ``band`` is False (``chi``: the conformal latitudes
+    of ``lat``, made here when not given)."""
     t_in, t_out = thresholds(conf, d)
-    chi = conf.ell.conformal(lat)
+    if chi is None:
+        chi = conf.ell.conformal(lat)
     sure_in = np.zeros(len(lon), dtype=bool)
     maybe = np.ones(len(lon), dtype=bool)
     if t_in is not None:

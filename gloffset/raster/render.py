@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..ellipsoid import as_ellipsoid
-from ..ellipsoidal import contains as ellipsoidal_contains
+from ..ellipsoidal import conformal, members
 from ..errors import OptionError
 from ..grids import Cube, CubeFace, Equirect, Tile
 from ..shape import read
@@ -70,28 +70,33 @@ def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoi
         return np.stack(
             [_render_on_ellipsoid(shape, distance, f, out, backend, None, ell) for f in grid.faces]
         )
+    conf = conformal(shape, ell)
     lev = grid.n_levels - 1
     h, w = grid.level_shape(lev)
     image = np.empty((h, w), dtype=np.uint8)
     rows = max(1, _ELLIPSOID_BATCH // w)
     for j0 in range(0, h, rows):
         j1 = min(h, j0 + rows)
-        lon, lat = _centres_lonlat(grid, lev, j0, j1, w)
-        inside = ellipsoidal_contains(shape, lon, lat, distance=distance, ellipsoid=ell)
+        lon, lat, chi = _centres_lonlat(grid, lev, j0, j1, w, ell)
+        inside = members(conf, lon, lat, distance, chi=chi)
         image[j0:j1] = np.where(inside, 255, 0).reshape(j1 - j0, w)
     return image
 
 
-def _centres_lonlat(grid, level, j0, j1, w):
-    """Lon/lat (degrees, flat) of the centres of rows ``j0:j1`` of ``level``: straight
-    from the rows and columns on lon/lat grids, from the unit vectors otherwise."""
+def _centres_lonlat(grid, level, j0, j1, w, ell):
+    """Lon/lat and conformal latitude (degrees, flat) of the centres of rows ``j0:j1`` of
+    ``level``: straight from the rows and columns on lon/lat grids (one conformal
+    latitude per row), from the unit vectors otherwise."""
     if grid.lonlat:
         lon = np.degrees(grid.cell_lon(level, np.arange(w)))
         lat = np.degrees(grid.cell_lat(level, np.arange(j0, j1)))
-        lon, lat = np.broadcast_arrays(lon[None, :], lat[:, None])
-        return lon.ravel(), lat.ravel()
+        chi = ell.conformal(lat)
+        shape = (j1 - j0, w)
+        lon, lat, chi = (np.broadcast_to(x, shape).ravel() for x in (lon, lat[:, None], chi[:, None]))
+        return lon, lat, chi
     j, i = np.meshgrid(np.arange(j0, j1), np.arange(w), indexing="ij")
-    return xyz_to_lonlat(grid.centers(level, j.ravel(), i.ravel()))
+    lon, lat = xyz_to_lonlat(grid.centers(level, j.ravel(), i.ravel()))
+    return lon, lat, ell.conformal(lat)
 
 
 def _render_one(shape, d, grid, *, backend, level, callback, mask):
