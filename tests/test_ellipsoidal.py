@@ -219,6 +219,60 @@ def test_render_z16_tile_on_the_ellipsoid(mexico):
         assert 0 < np.count_nonzero(mask) < mask.size
 
 
+@pytest.mark.parametrize("name", ["mexico", "antarctica", "russia", "fiji"])
+def test_gpu_screen_equals_the_cpu_path(mexico, world_parts, name):
+    """The GPU path of render(..., ellipsoid=) (two spherical renders on the conformal
+    rows, the band between them decided exactly) gives the same pixels as the CPU path
+    (every centre through the ellipsoidal contains): at the pole, across the
+    antimeridian, at small, large and negative distances, in parts of an image too."""
+    from gloffset.grids import Equirect, Tile
+
+    shape = mexico if name == "mexico" else world_parts[name]
+    grids = [Equirect(96, 48), Equirect(40, 30, (170.0, -90.0, -170.0, -60.0)), Tile(2, 0, 1)]
+    for d in (10e3, 127e3, 1000e3, -50e3):
+        for grid in grids:
+            gpu = gloffset.render(shape, d, grid, ellipsoid="WGS84")
+            cpu = gloffset.render(shape, d, grid, ellipsoid="WGS84", backend="cpu")
+            assert np.array_equal(gpu, cpu), (name, d, grid, int((gpu != cpu).sum()))
+    grid = Equirect(96, 48)
+    parts = gloffset.render(shape, 127e3, grid, ellipsoid="WGS84", tile=32)
+    assert np.array_equal(parts, gloffset.render(shape, 127e3, grid, ellipsoid="WGS84"))
+
+
+def test_conformal_rows_bound_their_cells():
+    """ConformalRows: rows at the conformal latitudes of the grid's, and bounds rho that
+    hold every child centre (the level hierarchy's rule)."""
+    from gloffset.ellipsoid import as_ellipsoid
+    from gloffset.grids import Equirect
+    from gloffset.grids.conformal import ConformalRows
+    from gloffset.sphere import angle
+
+    ell = as_ellipsoid("WGS84")
+    base = Equirect(256, 128)
+    grid = ConformalRows(base, ell)
+    last = grid.n_levels - 1
+    rows = np.arange(128)
+    np.testing.assert_allclose(
+        np.degrees(grid.cell_lat(last, rows)),
+        ell.conformal(np.degrees(base.cell_lat(last, rows))),
+        atol=1e-12,
+    )
+    for lev in range(last):
+        h, w = grid.level_shape(lev)
+        j = np.arange(h)
+        c = grid.centers(lev, j, 0)
+        for dj in (0, 1):
+            for di in (0, 1):
+                cc = grid.centers(
+                    lev + 1, np.minimum(2 * j + dj, grid.level_shape(lev + 1)[0] - 1), di
+                )
+                assert np.all(angle(c, cc) <= grid.rho(lev))
+    with pytest.raises(TypeError):
+        from gloffset.grids import CubeFace
+
+        ConformalRows(CubeFace(0, 16), ell)
+
+
 @pytest.mark.slow
 def test_render_cube_face_on_the_ellipsoid(mexico):
     from gloffset.grids import CubeFace

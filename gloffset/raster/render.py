@@ -11,9 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..ellipsoid import as_ellipsoid
-from ..ellipsoidal import conformal, members
+from ..ellipsoidal import conformal, members, thresholds
 from ..errors import OptionError
 from ..grids import Cube, CubeFace, Equirect, Tile
+from ..grids.conformal import ConformalRows
 from ..shape import read
 from ..sphere import xyz_to_lonlat
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
@@ -58,9 +59,14 @@ _MASK = np.array([0, 0, 255], dtype=np.uint8)
 _ELLIPSOID_BATCH = 1 << 18
 
 
-def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoid):
-    """The mask of ``render(..., ellipsoid=...)``: every pixel centre through the
-    ellipsoidal ``contains`` (geodetic lon/lat of the centres), in batches of rows."""
+def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoid, tile):
+    """The mask of ``render(..., ellipsoid=...)``.
+
+    On lon/lat grids with the GPU backend (:func:`_screened_on_gpu`): two spherical GPU
+    renders on the conformal sphere decide every pixel but a thin band, which is
+    decided exactly on the CPU. Otherwise every pixel centre goes through the
+    ellipsoidal ``contains`` (geodetic lon/lat of the centres), in batches of rows.
+    """
     ell = as_ellipsoid(ellipsoid)
     _check(out, backend, grid)
     if out != "mask" or callback is not None:
@@ -68,9 +74,18 @@ def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoi
     offset_angle(shape, distance, ell.a, limit=RASTER_LIMIT, what="render")
     if isinstance(grid, Cube):
         return np.stack(
-            [_render_on_ellipsoid(shape, distance, f, out, backend, None, ell) for f in grid.faces]
+            [
+                _render_on_ellipsoid(shape, distance, f, out, backend, None, ell, tile)
+                for f in grid.faces
+            ]
         )
     conf = conformal(shape, ell)
+    if backend == "gpu" and grid.lonlat:
+        tile = _tile_limit(tile, backend)
+        image = np.empty(grid.shape, dtype=np.uint8)
+        for y0, x0, sub in _parts(grid, tile):
+            image[y0 : y0 + sub.height, x0 : x0 + sub.width] = _screened_on_gpu(conf, sub, distance)
+        return image
     lev = grid.n_levels - 1
     h, w = grid.level_shape(lev)
     image = np.empty((h, w), dtype=np.uint8)
@@ -83,6 +98,79 @@ def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoi
     return image
 
 
+#: The GPU renders' error bound, in pixel sizes (``render``'s accuracy contract), and
+#: the multiple of it the screening thresholds are moved by.
+_GPU_EPS, _GPU_MARGIN = 1e-3, 4.0
+
+
+def _screened_on_gpu(conf, grid, d: float) -> np.ndarray:
+    """The ellipsoidal mask of a lon/lat grid (within the GL size limit) at geodesic
+    distance ``d`` (metres) from the shape whose conformal image is ``conf``.
+
+    :func:`gloffset.ellipsoidal.thresholds` gives signed spherical distances ``t_in``,
+    ``t_out`` on the conformal sphere: a point within ``t_in`` of the image is in the
+    region on the ellipsoid, a point beyond ``t_out`` is not. The GPU renders the image
+    at ``t_in - m`` and ``t_out + m`` on :class:`~gloffset.grids.conformal.ConformalRows`,
+    with ``m`` = :data:`_GPU_MARGIN` times the GPU's error bound ``eps`` (1e-3 of the
+    largest pixel): a GPU render is wrong only at pixels within ``eps`` of its distance or
+    of a polygon boundary, so a pixel the first calls a member is within ``t_in`` (and a
+    pixel the second calls outside is beyond ``t_out``) at any distance of more than
+    ``2 eps``, and near zero the rules of both signs of distance agree on it. Pixels in
+    between (the ratio band of the thresholds, a fraction of a pixel wide at most
+    distances, plus ``2 m``) are decided exactly (:func:`gloffset.ellipsoidal.members`).
+    """
+    cgrid = ConformalRows(grid, conf.ell)
+    margin = _GPU_MARGIN * _GPU_EPS * cgrid.pixel_size()
+    t_in, t_out = thresholds(conf, d)
+    rings = bool(conf.shape.rings)
+
+    def gpu(t):  # uint8 mask, 255 inside
+        return _render_one(
+            conf.shape, t, cgrid, backend="gpu", level=None, callback=None, mask=True
+        )
+
+    if t_in is not None and (t_in - margin > 0.0 or rings):
+        image = gpu(t_in - margin)
+    else:
+        image = np.zeros(grid.shape, dtype=np.uint8)
+    band = np.flatnonzero(gpu(t_out + margin) > image)  # maybe in, not surely in
+    if len(band):
+        last = grid.n_levels - 1
+        j, i = np.divmod(band, grid.width)
+        lon = np.degrees(grid.cell_lon(last, i))
+        lat = np.degrees(grid.cell_lat(last, j))
+        image.ravel()[band] = np.where(members(conf, lon, lat, d), 255, 0)
+    return image
+
+
+def _tile_limit(tile: int | None, backend: str) -> int:
+    """The largest side rendered at once: ``tile``, or 8192 and the GL texture limit."""
+    if tile is not None:
+        return tile
+    if backend != "gpu":
+        return 8192
+    from ..gl.context import context_info
+
+    return min(8192, context_info()["max_texture_size"])
+
+
+def _parts(grid, tile: int):
+    """``(y0, x0, sub)``: the grid cut into parts of at most ``tile`` pixels a side
+    (:meth:`Equirect.subgrid`; the grid itself when it fits)."""
+    if grid.width <= tile and grid.height <= tile:
+        yield 0, 0, grid
+        return
+    if not isinstance(grid, Equirect):
+        raise OptionError(
+            f"a {grid.width}x{grid.height} {type(grid).__name__} is larger than the GL limit "
+            f"{tile}; use a smaller size"
+        )
+    for y0 in range(0, grid.height, tile):
+        for x0 in range(0, grid.width, tile):
+            w, h = min(tile, grid.width - x0), min(tile, grid.height - y0)
+            yield y0, x0, grid.subgrid(x0, y0, w, h)
+
+
 def _centres_lonlat(grid, level, j0, j1, w, ell):
     """Lon/lat and conformal latitude (degrees, flat) of the centres of rows ``j0:j1`` of
     ``level``: straight from the rows and columns on lon/lat grids (one conformal
@@ -92,7 +180,9 @@ def _centres_lonlat(grid, level, j0, j1, w, ell):
         lat = np.degrees(grid.cell_lat(level, np.arange(j0, j1)))
         chi = ell.conformal(lat)
         shape = (j1 - j0, w)
-        lon, lat, chi = (np.broadcast_to(x, shape).ravel() for x in (lon, lat[:, None], chi[:, None]))
+        lon, lat, chi = (
+            np.broadcast_to(x, shape).ravel() for x in (lon, lat[:, None], chi[:, None])
+        )
         return lon, lat, chi
     j, i = np.meshgrid(np.arange(j0, j1), np.arange(w), indexing="ij")
     lon, lat = xyz_to_lonlat(grid.centers(level, j.ravel(), i.ravel()))
@@ -186,19 +276,14 @@ def render(
     """
     shape = read(shape)
     if ellipsoid is not None:
-        return _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoid)
+        return _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoid, tile)
     d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="render")
     _check(out, backend, grid)
     if out == "classes" and level is not None and not 0 <= level < grid.n_levels:
         raise OptionError(f"level must be in 0..{grid.n_levels - 1}, got {level!r}")
     if out == "mask":
         level = None
-    if tile is None:
-        tile = 8192
-        if backend == "gpu":
-            from ..gl.context import context_info
-
-            tile = min(tile, context_info()["max_texture_size"])
+    tile = _tile_limit(tile, backend)
     if isinstance(grid, Cube):
         faces = [
             render(
@@ -215,23 +300,15 @@ def render(
             for f in grid.faces
         ]
         return np.stack(faces)
-    big = grid.width > tile or grid.height > tile
-    if big and not isinstance(grid, Equirect):
-        raise OptionError(
-            f"a {grid.width}x{grid.height} {type(grid).__name__} is larger than the GL limit "
-            f"{tile}; use a smaller size"
-        )
     mask = out == "mask"
-    if level is not None or not big:
+    parts = list(_parts(grid, tile))
+    if level is not None or len(parts) == 1:
         return _render_one(
             shape, d, grid, backend=backend, level=level, callback=callback, mask=mask
         )
     image = np.empty(grid.shape, dtype=np.uint8)
-    for y0 in range(0, grid.height, tile):
-        for x0 in range(0, grid.width, tile):
-            w, h = min(tile, grid.width - x0), min(tile, grid.height - y0)
-            sub = grid.subgrid(x0, y0, w, h)
-            image[y0 : y0 + h, x0 : x0 + w] = _render_one(
-                shape, d, sub, backend=backend, level=None, callback=None, mask=mask
-            )
+    for y0, x0, sub in parts:
+        image[y0 : y0 + sub.height, x0 : x0 + sub.width] = _render_one(
+            shape, d, sub, backend=backend, level=None, callback=None, mask=mask
+        )
     return image
