@@ -316,20 +316,27 @@ def decide(conf: Conformal, lon, lat, d: float) -> np.ndarray:
     near = np.zeros(len(lon), dtype=bool)  # within m surely
     np.logical_or.at(near, qi, up <= m)
     ins = inside_indexed(conf.shape, p) if conf.shape.rings else np.zeros(len(lon), bool)
-    out = np.zeros(len(lon), dtype=bool)
     lune = theta <= conf.h[ei] + INDEX_SLACK
+    # the points the bounds decide, at once: within m surely, or beyond m surely (no
+    # pair's lower bound within m) with no lune about them (the spherical inside holds)
+    maybe = np.zeros(len(lon), dtype=bool)
+    np.logical_or.at(maybe, qi, low <= m)
+    in_lune = np.zeros(len(lon), dtype=bool)
+    np.logical_or.at(in_lune, qi, lune)
+    within = near & (m > 0.0)
+    out = np.where(within, d > 0.0, ins)
+    slow = np.flatnonzero(~within & ((maybe & (m > 0.0)) | in_lune))
+    if len(slow) == 0:
+        return out
     order = np.lexsort((low, qi))
     qi, ei, low, lune = qi[order], ei[order], low[order], lune[order]
     starts = np.searchsorted(qi, np.arange(len(lon) + 1))
-    for k in range(len(lon)):
+    for k in slow:
         js = range(starts[k], starts[k + 1])
-        within = bool(near[k]) and m > 0.0
-        if m > 0.0 and not within:
-            within = any(conf.exact(lat[k], lon[k], p[k], ei[j])[0] <= m for j in js if low[j] <= m)
-        if d > 0.0 and within:
-            out[k] = True
-            continue
-        if d < 0.0 and within:
+        if m > 0.0 and any(
+            conf.exact(lat[k], lon[k], p[k], ei[j])[0] <= m for j in js if low[j] <= m
+        ):
+            out[k] = d > 0.0
             continue
         out[k] = _inside(conf, lat[k], lon[k], p[k], bool(ins[k]), [ei[j] for j in js if lune[j]])
     return out

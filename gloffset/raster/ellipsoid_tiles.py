@@ -9,19 +9,21 @@ rectangle there (same longitudes, conformal latitudes), bounded by a cap of cent
 proves membership and non-membership on the ellipsoid
 (:func:`gloffset.ellipsoidal.thresholds`), ``s(c) + r < t_in`` makes the whole tile
 (and its descendants) inside, ``s(c) - r > t_out`` the whole tile outside; the other
-tiles are frontier tiles, rendered with :func:`gloffset.render` on the ellipsoid
-(every pixel centre decided exactly) and written when a pixel is inside. So each
-tile equals ``render(shape, d, Tile(z, x, y), ellipsoid=...)``.
+tiles are frontier tiles, rendered as :func:`gloffset.render` on the ellipsoid does
+(two spherical GPU renders on the conformal sphere, the frontier tiles of a zoom
+batched, and the thin band between them decided exactly: :func:`frontier_masks`) and
+written when a pixel is inside. So each tile equals ``render(shape, d, Tile(z, x, y),
+ellipsoid=...)``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..ellipsoidal import conformal, signed_distance, thresholds
+from ..ellipsoidal import conformal, members, signed_distance, thresholds
 from ..grids.mercator import Tile
 from ..sphere import angle, lonlat_to_xyz
-from .render import render
+from .render import GPU_EPS, SCREEN_MARGIN
 
 __all__ = ["run_ellipsoid_pyramid", "tile_caps"]
 
@@ -76,9 +78,10 @@ def classify(conf, m: float, z: int, xs, ys):
     return inside, outside
 
 
-def run_ellipsoid_pyramid(shape, m, ell, zooms, size, style, store, have, stats, full):
+def run_ellipsoid_pyramid(shape, m, ell, zooms, size, style, store, have, stats, full, masks):
     """Write the tiles of zooms ``zooms`` (inclusive) into ``store`` (skipping ``have``):
-    contained tiles and their descendants as ``full``, frontier tiles rendered."""
+    contained tiles and their descendants as ``full``, frontier tiles rendered
+    (:func:`frontier_masks`, with ``masks``, :func:`gloffset.raster.tiles.tile_masks`)."""
     zlo, zhi = zooms
     conf = conformal(shape, ell)
     xs, ys = np.zeros(1, np.int64), np.zeros(1, np.int64)
@@ -96,21 +99,61 @@ def run_ellipsoid_pyramid(shape, m, ell, zooms, size, style, store, have, stats,
             _write_subtree(store, have, stats, full, z, int(x), int(y), zooms)
         if z >= zlo:
             stats.outside += int(outside.sum())
+            todo = []
             for x, y in zip(xs[front], ys[front]):
                 key = (z, int(x), int(y))
                 if key in have:
                     stats.present += 1
-                    continue
-                mask = render(shape, m, Tile(z, key[1], key[2], size), ellipsoid=ell)
+                else:
+                    todo.append(key[1:])
+            for key, mask in frontier_masks(conf, m, z, todo, size, masks).items():
                 data = style.encode(mask)
                 stats.rendered += 1
                 if data is None:
                     stats.empty += 1
                 else:
-                    store.put(*key, data)
+                    store.put(z, *key, data)
             store.commit()
         xs = np.repeat(2 * xs[front], 4) + np.tile([0, 1, 0, 1], int(front.sum()))
         ys = np.repeat(2 * ys[front], 4) + np.tile([0, 0, 1, 1], int(front.sum()))
+
+
+def frontier_masks(conf, m: float, z: int, tiles, size: int, masks) -> dict:
+    """The ellipsoidal masks of tiles ``(x, y)`` of zoom ``z``, equal to ``render(shape,
+    m, Tile(z, x, y, size), ellipsoid=...)``: the tiles rendered together on the
+    conformal sphere at the thresholds moved by the GPU's error bound (``masks``, see
+    :func:`gloffset.raster.render._screened_on_gpu` for the argument), the pixels
+    between the two decided exactly (:func:`gloffset.ellipsoidal.members`). The largest
+    pixel of a zoom on the conformal sphere is at the equator, within ``2 pi sqrt(2) /
+    (2^z size)`` across."""
+    if not tiles:
+        return {}
+    t_in, t_out = thresholds(conf, m)
+    margin = SCREEN_MARGIN * GPU_EPS * 2.0 * np.pi * np.sqrt(2.0) / ((1 << z) * size) * 1.01
+    rings = bool(conf.shape.rings)
+    if t_in is not None and (t_in - margin > 0.0 or rings):
+        sure = masks(conf.shape, t_in - margin, z, tiles, size=size, ell=conf.ell)
+    else:
+        sure = {t: np.zeros((size, size), dtype=bool) for t in tiles}
+    maybe = masks(conf.shape, t_out + margin, z, tiles, size=size, ell=conf.ell)
+    out, where, lons, lats = {}, [], [], []
+    for x, y in tiles:  # the band pixels of every tile, decided in one call
+        image = out[(x, y)] = sure[(x, y)].copy()
+        band = np.flatnonzero(maybe[(x, y)] & ~image)
+        if len(band):
+            grid = Tile(z, x, y, size)
+            last = grid.n_levels - 1
+            j, i = np.divmod(band, size)
+            lons.append(np.degrees(grid.cell_lon(last, i)))
+            lats.append(np.degrees(grid.cell_lat(last, j)))
+            where.append((image, band))
+    if where:
+        inside = members(conf, np.concatenate(lons), np.concatenate(lats), m)
+        k = 0
+        for image, band in where:
+            image.ravel()[band] = inside[k : k + len(band)]
+            k += len(band)
+    return out
 
 
 def _write_subtree(store, have, stats, full, z, x, y, zooms):

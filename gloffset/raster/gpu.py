@@ -38,7 +38,7 @@ def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs) -> BinPl
         last=layout.last,
         stop=layout.stop,
         e=e,
-        positive=d >= 0,
+        positive=bool(d >= 0),
         records=rec,
         first=first,
         counts=counts,

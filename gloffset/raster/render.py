@@ -99,8 +99,8 @@ def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoi
 
 
 #: The GPU renders' error bound, in pixel sizes (``render``'s accuracy contract), and
-#: the multiple of it the screening thresholds are moved by.
-_GPU_EPS, _GPU_MARGIN = 1e-3, 4.0
+#: the multiple of it the ellipsoid's screening thresholds are moved by.
+GPU_EPS, SCREEN_MARGIN = 1e-3, 4.0
 
 
 def _screened_on_gpu(conf, grid, d: float) -> np.ndarray:
@@ -111,7 +111,7 @@ def _screened_on_gpu(conf, grid, d: float) -> np.ndarray:
     ``t_out`` on the conformal sphere: a point within ``t_in`` of the image is in the
     region on the ellipsoid, a point beyond ``t_out`` is not. The GPU renders the image
     at ``t_in - m`` and ``t_out + m`` on :class:`~gloffset.grids.conformal.ConformalRows`,
-    with ``m`` = :data:`_GPU_MARGIN` times the GPU's error bound ``eps`` (1e-3 of the
+    with ``m`` = :data:`SCREEN_MARGIN` times the GPU's error bound ``eps`` (1e-3 of the
     largest pixel): a GPU render is wrong only at pixels within ``eps`` of its distance or
     of a polygon boundary, so a pixel the first calls a member is within ``t_in`` (and a
     pixel the second calls outside is beyond ``t_out``) at any distance of more than
@@ -120,26 +120,21 @@ def _screened_on_gpu(conf, grid, d: float) -> np.ndarray:
     distances, plus ``2 m``) are decided exactly (:func:`gloffset.ellipsoidal.members`).
     """
     cgrid = ConformalRows(grid, conf.ell)
-    margin = _GPU_MARGIN * _GPU_EPS * cgrid.pixel_size()
+    margin = SCREEN_MARGIN * GPU_EPS * cgrid.pixel_size()
     t_in, t_out = thresholds(conf, d)
     rings = bool(conf.shape.rings)
 
-    def gpu(t):  # uint8 mask, 255 inside
-        return _render_one(
-            conf.shape, t, cgrid, backend="gpu", level=None, callback=None, mask=True
-        )
-
     if t_in is not None and (t_in - margin > 0.0 or rings):
-        image = gpu(t_in - margin)
+        image = render_grid(conf.shape, t_in - margin, cgrid)
     else:
         image = np.zeros(grid.shape, dtype=np.uint8)
-    band = np.flatnonzero(gpu(t_out + margin) > image)  # maybe in, not surely in
+    band = np.flatnonzero(render_grid(conf.shape, t_out + margin, cgrid) > image)
     if len(band):
         last = grid.n_levels - 1
         j, i = np.divmod(band, grid.width)
         lon = np.degrees(grid.cell_lon(last, i))
         lat = np.degrees(grid.cell_lat(last, j))
-        image.ravel()[band] = np.where(members(conf, lon, lat, d), 255, 0)
+        image[j, i] = np.where(members(conf, lon, lat, d), 255, 0)
     return image
 
 
@@ -187,6 +182,13 @@ def _centres_lonlat(grid, level, j0, j1, w, ell):
     j, i = np.meshgrid(np.arange(j0, j1), np.arange(w), indexing="ij")
     lon, lat = xyz_to_lonlat(grid.centers(level, j.ravel(), i.ravel()))
     return lon, lat, ell.conformal(lat)
+
+
+def render_grid(shape, d: float, grid) -> np.ndarray:
+    """The GPU mask (uint8, 255 inside) of ``shape`` at ``d`` radians on any grid of the
+    levels (one within the GL size limit; a :class:`~gloffset.grids.conformal.ConformalRows`
+    too), without ``render``'s checks."""
+    return _render_one(shape, float(d), grid, backend="gpu", level=None, callback=None, mask=True)
 
 
 def _render_one(shape, d, grid, *, backend, level, callback, mask):

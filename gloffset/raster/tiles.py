@@ -64,6 +64,7 @@ from .._version import __version__
 from ..edges import CurveArcs, inside_any
 from ..ellipsoid import as_ellipsoid
 from ..errors import TilesError
+from ..grids.conformal import ConformalRows
 from ..grids.mercator import MAX_ZOOM, Tile, TilePyramid, check_tile_size, lat_at
 from ..io.tilestore import open_store
 from ..shape import read
@@ -74,7 +75,7 @@ from .driver import CONTAINED, FRONTIER, NOT_FORCED, OUTSIDE, Level
 from .ellipsoid_tiles import run_ellipsoid_pyramid
 from .layout import BinLayout
 from .levels import at_cells, cell_distances, decide, subset
-from .render import render
+from .render import render, render_grid
 from .tilepaint import OutlineArcs, TileStyle
 
 __all__ = [
@@ -597,7 +598,7 @@ def pyramid(
         have = store.existing() if resume else set()
         if ell is not None:
             full = style.encode(np.ones((size, size), dtype=bool))
-            args = (store, have, stats, full)
+            args = (store, have, stats, full, tile_masks)
             run_ellipsoid_pyramid(shape, d * ell.a, ell, (zlo, zhi), size, style, *args)
         elif workers is None and scheduler is None:
             run_pyramid(shape, d, zlo, zhi, size, style, store, have, progress, max_block, stats)
@@ -976,9 +977,10 @@ class _BinChain:
 
 
 @functools.lru_cache(maxsize=64)
-def _pyramid(maxzoom: int) -> TilePyramid:
-    """The :class:`TilePyramid` down to ``maxzoom``, made once (its bounds per zoom)."""
-    return TilePyramid(maxzoom)
+def _pyramid(maxzoom: int, ell=None) -> TilePyramid:
+    """The :class:`TilePyramid` down to ``maxzoom`` (on the conformal sphere of ``ell``),
+    made once (its bounds per zoom)."""
+    return TilePyramid(maxzoom, ell)
 
 
 #: zooms up to which :func:`render_tiles` renders each tile on its own grid
@@ -1089,6 +1091,43 @@ def render_tiles(
         for k, mask in _render_tiles(chain, which, size, max_block, stats):
             keep(front[k], mask)
     return {t: out.get(t) for t in want}
+
+
+def tile_masks(
+    shape, d: float, z: int, tiles, *, size: int = 256, ell=None, alone_zoom: int = ALONE_ZOOM
+) -> dict:
+    """The masks (bool, ``size x size``) of tiles ``(x, y)`` of zoom ``z`` at ``d``
+    (radians), the pixels of :func:`gloffset.render` on their :class:`~gloffset.grids.Tile`,
+    by the route of :func:`render_tiles` (decided tiles answered at once, frontier tiles
+    rendered in batched GPU runs). ``ell``: the tiles' latitudes are geodetic latitudes
+    of that ellipsoid and ``shape`` lies on its conformal sphere (each pixel is the
+    spherical answer at the conformal image of its centre,
+    :class:`~gloffset.grids.conformal.ConformalRows`)."""
+    want = sorted({(int(x), int(y)) for x, y in tiles})
+    if z <= alone_zoom:
+        out = {}
+        for x, y in want:
+            grid = _tile(z, x, y, size)
+            if ell is not None:
+                grid = ConformalRows(grid, ell)
+            out[(x, y)] = render_grid(shape, d, grid) > 0
+        return out
+    plog = size.bit_length() - 1
+    cells = CurveCells(shape, d, _pyramid(z + plog, ell))
+    chain = _BinChain(cells, max(0, plog - _BIN_LOG2))
+    lev = cells.enter_cells(z, [(y, x) for x, y in want])
+    rows, cols, cls = lev.cells[:, 0], lev.cells[:, 1], lev.cls
+    out = {}
+    for i in np.flatnonzero(cls != FRONTIER):
+        out[(int(cols[i]), int(rows[i]))] = np.full((size, size), cls[i] == CONTAINED)
+    front = np.flatnonzero(cls == FRONTIER)
+    if len(front):
+        chain.advance(subset(lev.state, front))
+        which = np.arange(len(front), dtype=np.int64)
+        for k, mask in _render_tiles(chain, which, size, MAX_BLOCK, PyramidStats()):
+            i = front[k]
+            out[(int(cols[i]), int(rows[i]))] = mask
+    return {t: out[t] for t in want}
 
 
 def _render_tiles(chain, which, size, max_block, stats):
