@@ -41,7 +41,14 @@ from .caps import arc_cap, pad
 from .captree import CapTree
 from .crossings import inside as crossings_inside
 from .crossings import inside_indexed
-from .ellipsoid import as_ellipsoid, edge_deviation, edge_distance, lower_distance, upper_distance
+from .ellipsoid import (
+    as_ellipsoid,
+    edge_deviation,
+    edge_distance,
+    edge_distances,
+    lower_distance,
+    upper_distance,
+)
 from .index.contains import contains as _sphere_contains
 from .reference import check_lonlat, distance_xyz
 from .reference import distance as _sphere_distance
@@ -122,6 +129,13 @@ class Conformal:
         t = np.arctan2(dot(foot, np.cross(n, self.a[e])), dot(foot, self.a[e]))
         return np.clip(t / np.maximum(self.theta[e], 1e-300), 0.0, 1.0)
 
+    def exact_many(self, lat, lon, p, e) -> np.ndarray:
+        """The geodesic intercepts (distances, metres) of points to edges ``e``, pair by
+        pair, vectorised (:func:`gloffset.ellipsoid.intercept.edge_distances`)."""
+        e = np.asarray(e, dtype=np.int64)
+        s0 = self.start(p, e)
+        return edge_distances(self.ell, lat, lon, self.a_ll[e], self.b_ll[e], s0)
+
     def exact(self, lat, lon, p, e) -> tuple[float, float, float]:
         """The geodesic intercept from one point to edge ``e``."""
         s0 = float(self.start(p[None], np.array([e]))[0])
@@ -189,15 +203,18 @@ def nearest_geodesic(conf: Conformal, lon, lat) -> np.ndarray:
     order = np.lexsort((low, qi))
     qi, ei, low = qi[order], ei[order], low[order]
     starts = np.searchsorted(qi, np.arange(len(lon) + 1))
-    for k in range(len(lon)):
-        best = upper0[k] * (1 + 1e-9) + 1e-6  # no candidate: cannot happen, kept safe
-        found = np.inf
-        for j in range(starts[k], starts[k + 1]):
-            if low[j] > min(best, found):
-                break
-            d = conf.exact(lat[k], lon[k], p[k], ei[j])[0]
-            found = min(found, d)
-        out[k] = found
+    count = np.diff(starts)
+    best = upper0 * (1 + 1e-9) + 1e-6  # no candidate: cannot happen, kept safe
+    # rounds: each point's next candidate by lower bound, while it can still be nearer
+    act = np.flatnonzero(count > 0)
+    for r in range(int(count.max(initial=0))):
+        act = act[count[act] > r]
+        j = starts[act] + r
+        go = low[j] <= np.minimum(best[act], out[act])
+        act, j = act[go], j[go]
+        if len(act) == 0:
+            break
+        np.minimum.at(out, act, conf.exact_many(lat[act], lon[act], p[act], ei[j]))
     return out
 
 
@@ -255,7 +272,9 @@ def members(conf: Conformal, lon, lat, d: float, *, chi=None, level=None) -> np.
     (a grid's rows share theirs)."""
     out, band = screen(conf, lon, lat, d, level, chi=chi)
     idx = np.flatnonzero(band)
-    out[idx] = decide(conf, lon[idx], lat[idx], d)
+    t_in, t_out = thresholds(conf, d)
+    lo = -np.inf if t_in is None else t_in - INDEX_SLACK
+    out[idx] = decide(conf, lon[idx], lat[idx], d, band=(lo, t_out + INDEX_SLACK))
     return out
 
 
@@ -304,8 +323,12 @@ def screen(
     return sure_in, maybe & ~sure_in
 
 
-def decide(conf: Conformal, lon, lat, d: float) -> np.ndarray:
-    """Exact membership on the ellipsoid of band points (flat geodetic lon/lat)."""
+def decide(conf: Conformal, lon, lat, d: float, *, band=None) -> np.ndarray:
+    """Exact membership on the ellipsoid of band points (flat geodetic lon/lat).
+
+    ``band``: ``(lo, hi)``, bounds on the points' signed spherical distance on the
+    conformal sphere (:func:`signed_distance`) when the caller knows them: a band that
+    excludes 0 tells the points' spherical inside without a crossing count."""
     ell = conf.ell
     m = abs(d)
     p = ell.to_sphere(lon, lat)
@@ -315,7 +338,12 @@ def decide(conf: Conformal, lon, lat, d: float) -> np.ndarray:
     low = lower_distance(ell, chi[qi], theta - conf.h[ei], m)
     near = np.zeros(len(lon), dtype=bool)  # within m surely
     np.logical_or.at(near, qi, up <= m)
-    ins = inside_indexed(conf.shape, p) if conf.shape.rings else np.zeros(len(lon), bool)
+    if not conf.shape.rings or (band is not None and band[0] > 0.0):
+        ins = np.zeros(len(lon), dtype=bool)
+    elif band is not None and band[1] < 0.0:
+        ins = np.ones(len(lon), dtype=bool)
+    else:
+        ins = inside_indexed(conf.shape, p)
     lune = theta <= conf.h[ei] + INDEX_SLACK
     # the points the bounds decide, at once: within m surely, or beyond m surely (no
     # pair's lower bound within m) with no lune about them (the spherical inside holds)
@@ -328,16 +356,22 @@ def decide(conf: Conformal, lon, lat, d: float) -> np.ndarray:
     slow = np.flatnonzero(~within & ((maybe & (m > 0.0)) | in_lune))
     if len(slow) == 0:
         return out
-    order = np.lexsort((low, qi))
-    qi, ei, low, lune = qi[order], ei[order], low[order], lune[order]
+    is_slow = np.zeros(len(lon), dtype=bool)
+    is_slow[slow] = True
+    if m > 0.0:  # the intercepts of the slow points' pairs that can be within m
+        j = np.flatnonzero(is_slow[qi] & (low <= m))
+        k = qi[j]
+        hit = conf.exact_many(lat[k], lon[k], p[k], ei[j]) <= m
+        found = np.zeros(len(lon), dtype=bool)
+        found[k[hit]] = True
+        out[found] = d > 0.0
+        is_slow &= ~found
+    # the rest lie beyond m: inside the polygons with geodesic edges, one at a time
+    order = np.lexsort((ei, qi))
+    qi, ei, lune = qi[order], ei[order], lune[order]
     starts = np.searchsorted(qi, np.arange(len(lon) + 1))
-    for k in slow:
+    for k in np.flatnonzero(is_slow):
         js = range(starts[k], starts[k + 1])
-        if m > 0.0 and any(
-            conf.exact(lat[k], lon[k], p[k], ei[j])[0] <= m for j in js if low[j] <= m
-        ):
-            out[k] = d > 0.0
-            continue
         out[k] = _inside(conf, lat[k], lon[k], p[k], bool(ins[k]), [ei[j] for j in js if lune[j]])
     return out
 

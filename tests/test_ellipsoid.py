@@ -15,6 +15,7 @@ from gloffset.ellipsoid import (
     as_ellipsoid,
     edge_deviation,
     edge_distance,
+    edge_distances,
     lower_distance,
     upper_distance,
 )
@@ -95,7 +96,29 @@ def _check_intercept(plon, plat, alon, alat, blon, blat, tol=1e-3):
         ]
     )
     assert np.all(np.abs(ours - brute) <= tol), np.abs(ours - brute).max()
+    # the vectorised intercept (pyproj's C geodesics): the same iteration and bound
+    a = np.column_stack([alat, alon])
+    b = np.column_stack([blat, blon])
+    many = edge_distances(WGS84, plat, plon, a, b, 0.5)
+    assert np.all(np.abs(many - brute) <= tol), np.abs(many - brute).max()
+    assert np.abs(many - ours).max() <= 1e-6
     return ours
+
+
+def test_intercepts_without_pyproj_are_the_scalar_ones(monkeypatch):
+    from gloffset.ellipsoid import intercept
+
+    rng = np.random.default_rng(4)
+    alon, alat, blon, blat = _cases(rng, 20)
+    plon, plat = alon + rng.uniform(-1, 1, 20), np.clip(alat + rng.uniform(-1, 1, 20), -90, 90)
+    a, b = np.column_stack([alat, alon]), np.column_stack([blat, blon])
+    fast = edge_distances(WGS84, plat, plon, a, b, 0.3)
+    monkeypatch.setattr(intercept, "_proj_geod", lambda ell: None)
+    slow = edge_distances(WGS84, plat, plon, a, b, 0.3)
+    g = WGS84.geodesic
+    one = [edge_distance(g, plat[i], plon[i], a[i], b[i], 0.3)[0] for i in range(20)]
+    assert np.array_equal(slow, one)
+    assert np.abs(fast - slow).max() <= 1e-6
 
 
 def test_intercept_against_brute_force_interior_and_vertices():

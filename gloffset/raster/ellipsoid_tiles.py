@@ -20,10 +20,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ellipsoidal import conformal, members, signed_distance, thresholds
+from ..ellipsoidal import conformal, decide, signed_distance, thresholds
 from ..grids.mercator import Tile
 from ..sphere import angle, lonlat_to_xyz
-from .render import GPU_EPS, SCREEN_MARGIN
+from .render import GPU_EPS, SCREEN_MARGIN, screened
 
 __all__ = ["run_ellipsoid_pyramid", "tile_caps"]
 
@@ -148,7 +148,8 @@ def frontier_masks(conf, m: float, z: int, tiles, size: int, masks) -> dict:
             lats.append(np.degrees(grid.cell_lat(last, j)))
             where.append((image, band))
     if where:
-        inside = members(conf, np.concatenate(lons), np.concatenate(lats), m)
+        band = screened(t_in, t_out, margin)
+        inside = decide(conf, np.concatenate(lons), np.concatenate(lats), m, band=band)
         k = 0
         for image, band in where:
             image.ravel()[band] = inside[k : k + len(band)]

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..ellipsoid import as_ellipsoid
-from ..ellipsoidal import conformal, members, thresholds
+from ..ellipsoidal import conformal, decide, members, thresholds
 from ..errors import OptionError
 from ..grids import Cube, CubeFace, Equirect, Tile
 from ..grids.conformal import ConformalRows
@@ -134,8 +134,20 @@ def _screened_on_gpu(conf, grid, d: float) -> np.ndarray:
         j, i = np.divmod(band, grid.width)
         lon = np.degrees(grid.cell_lon(last, i))
         lat = np.degrees(grid.cell_lat(last, j))
-        image[j, i] = np.where(members(conf, lon, lat, d), 255, 0)
+        image[j, i] = np.where(
+            decide(conf, lon, lat, d, band=screened(t_in, t_out, margin)), 255, 0
+        )
     return image
+
+
+def screened(t_in, t_out, margin: float) -> tuple[float, float]:
+    """Bounds on the signed spherical distance of the pixels that two GPU renders at
+    ``t_in - margin`` and ``t_out + margin`` leave undecided (for
+    :func:`gloffset.ellipsoidal.decide`): a GPU render errs only within ``eps = margin /
+    SCREEN_MARGIN`` of its distance or of a polygon boundary, so such a pixel lies
+    within ``margin + 3 eps`` beyond the thresholds; ``2 margin`` covers that."""
+    lo = -np.inf if t_in is None else t_in - 2.0 * margin
+    return lo, t_out + 2.0 * margin
 
 
 def _tile_limit(tile: int | None, backend: str) -> int:
