@@ -16,7 +16,7 @@ import numpy as np
 from ..edges import CurveArcs, inside_any
 from . import driver
 from .driver import FRONTIER, NOT_FORCED, Level
-from .levels import Frontier, at_cells, cell_distances, coarse, decide, refine, subset
+from .levels import Frontier, at_cells, cell_distances, coarse, decide, prune, refine, subset
 from .scatter import scatter, start_level
 
 __all__ = ["CurveCells", "classify"]
@@ -75,11 +75,11 @@ class CurveCells:
     def _level(self, f: Frontier) -> Level:
         """The cells of ``f`` classified: exact float64 distances to their candidates
         (kept as ``measure``), decided with the grid's ``decision_rho``."""
-        dist, dring = cell_distances(f, self.arcs)
+        dist, dring, low = cell_distances(f, self.arcs, lows=True)
         rho = self.grid.decision_rho(f.level, f.cells[:, 0], f.cells[:, 1])
         final = f.level == self.last
         cls = decide(dist, dring, inside_any(f.status), rho, self.d, final)
-        return Level(f.level, f.cells, cls, f, measure=dist)
+        return Level(f.level, f.cells, cls, prune(f, low, dist, self.e), measure=dist)
 
     def kept(self, lev: Level) -> Frontier:
         """The :class:`Frontier` of the cells ``lev`` keeps (its frontier by default)."""

@@ -173,22 +173,56 @@ def _nearest_bound(arcs: CurveArcs, c) -> np.ndarray:
     return out
 
 
-def cell_distances(f: Frontier, arcs: CurveArcs) -> tuple[np.ndarray, np.ndarray]:
+def cell_distances(f: Frontier, arcs: CurveArcs, *, lows: bool = False):
     """Exact float64 distances from the cells of ``f`` to their candidate arcs.
 
     Returns ``(dist, dring)``: the distance to the nearest candidate boundary arc
     (the offset distance) and to the nearest candidate ring edge, seams included
     (inside uniformity); ``inf`` where a cell has none. Only the pairs that can be a
-    cell's nearest are measured (:func:`nearest`).
+    cell's nearest are measured (:func:`nearest`). With ``lows``, also each pair's
+    lower bound on its distance (:func:`~gloffset.caps.cap_range`), for :func:`prune`.
     """
     k = len(f.cells)
     dist = np.full(k, np.inf)  # to boundary arcs (distance)
     dring = np.full(k, np.inf)  # to ring edges including seams (inside uniformity)
+    low = np.empty(len(f.pair_cell)) if lows else None
     for s in range(0, len(f.pair_cell), _PAIRS):
         ci, ai = f.pair_cell[s : s + _PAIRS], f.pair_arc[s : s + _PAIRS]
         cm = pair_dots(f.centers, ci, arcs.mid, ai)
-        nearest(arcs, ci, ai, cm, lambda idx, ci=ci: f.centers[ci[idx]], dist, dring)
-    return dist, dring
+        lo = nearest(arcs, ci, ai, cm, lambda idx, ci=ci: f.centers[ci[idx]], dist, dring)
+        if lows:
+            low[s : s + len(ci)] = lo
+    return (dist, dring, low) if lows else (dist, dring)
+
+
+#: Relative slack of :func:`prune` on the cell bound (the GPU levels' float32 work is
+#: good to a few 1e-8 of a bin: an arc pruned is farther than the nearest by more).
+PRUNE_SLACK = 1e-6
+
+
+def prune(f: Frontier, low: np.ndarray, dist: np.ndarray, e: float) -> Frontier:
+    """``f`` with the pairs no descendant point needs: an arc whose lower bound ``low``
+    exceeds ``min(e + rho, dist + 2 rho)`` (``dist`` the cell's nearest boundary arc).
+
+    Every point within ``rho`` of the centre is within ``dist + rho`` of that arc, and
+    such an arc is farther than that from it, so it is never a point's nearest (nor
+    within ``e`` of a point whose nearest is farther than ``e``); ring edges within
+    ``rho``, which the crossing tests of the descendants can meet, are kept
+    (``dist + 2 rho >= rho``). The bound is widened by :data:`~gloffset.caps.CAP_SLACK`
+    and :data:`PRUNE_SLACK` ``rho``, so the pixels are those without pruning, bit for
+    bit. Candidate lists then hold the arcs near the nearest, not every arc within
+    ``e + rho``: at large distances the lists of coarse cells shrink by orders of
+    magnitude.
+    """
+    if len(f.pair_cell) == 0:
+        return f
+    reach = np.minimum(e + f.rho, dist + 2.0 * f.rho) * (1.0 + PRUNE_SLACK) + CAP_SLACK
+    keep = low <= reach[f.pair_cell]
+    if keep.all():
+        return f
+    return Frontier(
+        f.level, f.cells, f.centers, f.rho, f.pair_cell[keep], f.pair_arc[keep], f.status
+    )
 
 
 def nearest(arcs: CurveArcs, cell, ai, cm, point, dist, dring) -> None:
@@ -200,10 +234,10 @@ def nearest(arcs: CurveArcs, cell, ai, cm, point, dist, dring) -> None:
     with ``t = angle(c, m)`` and the cap radius ``h``, ``t - h <= dist(c, arc) <= t + h``,
     so a pair whose lower bound exceeds the cell's least upper bound is skipped.
     The comparison allows :data:`CAP_SLACK` (:func:`cap_range`), so the minima are
-    those of all pairs, bit for bit.
+    those of all pairs, bit for bit. Returns each pair's lower bound ``t - h``.
     """
     if len(cell) == 0:
-        return
+        return np.zeros(0)
     starts = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]])
     seg = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(cell)]))
     owner = cell[starts]
@@ -220,6 +254,7 @@ def nearest(arcs: CurveArcs, cell, ai, cm, point, dist, dring) -> None:
     for kind, out in kinds:
         if kind.any():
             np.minimum.at(out, owner, np.minimum.reduceat(np.where(kind, dd, np.inf), starts))
+    return lo
 
 
 def decide(dist, dring, inside, rho, d: float, final: bool) -> np.ndarray:

@@ -46,7 +46,7 @@ import numpy as np
 from ..caps import cap_within, pad
 from ..edges import CurveArcs, status_bits
 from ..sphere import angle, arcs_cross
-from .levels import FRONTIER, Frontier, decide, nearest, row_statuses
+from .levels import FRONTIER, Frontier, decide, nearest, prune, row_statuses
 
 __all__ = ["start_level", "scatter", "PAIRS_PER_ARC"]
 
@@ -191,7 +191,7 @@ def scatter(shape, arcs: CurveArcs, grid, d: float, level: int, final: bool, *, 
     jj, ii, ai, cell, cm = jj[cand], ii[cand], ai[cand], cell[cand], cm[cand]
     dist = np.full(h * w, np.inf)
     dring = np.full(h * w, np.inf)
-    nearest(arcs, cell, ai, cm, lambda k: center(jj[k], ii[k]), dist, dring)
+    low = nearest(arcs, cell, ai, cm, lambda k: center(jj[k], ii[k]), dist, dring)
     inside = status.any(axis=1)
     cls = decide(dist, dring, inside, np.repeat(rho, w), d, final)
     classes = cls.reshape(h, w)
@@ -211,4 +211,4 @@ def scatter(shape, arcs: CurveArcs, grid, d: float, level: int, final: bool, *, 
         ai[sel],
         status[fr],
     )
-    return classes, f
+    return classes, prune(f, low[sel], dist[fr], e)
