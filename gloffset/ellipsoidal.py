@@ -49,6 +49,8 @@ from .ellipsoid import (
     lower_distance,
     upper_distance,
 )
+from .errors import OptionError
+from .index.contains import Index
 from .index.contains import contains as _sphere_contains
 from .reference import check_lonlat, distance_xyz
 from .reference import distance as _sphere_distance
@@ -56,7 +58,15 @@ from .shape import read
 from .sphere import angle, arc_distance, dot, normalize, robust_cross, xyz_to_lonlat
 from .units import EARTH_RADIUS, offset_angle
 
-__all__ = ["distance", "contains", "Conformal", "conformal", "thresholds", "signed_distance"]
+__all__ = [
+    "distance",
+    "contains",
+    "Conformal",
+    "EllipsoidIndex",
+    "conformal",
+    "thresholds",
+    "signed_distance",
+]
 
 #: Slack (rad) on the thresholds handed to the spherical index (its answers are exact
 #: 1e-13 rad away from them).
@@ -263,6 +273,46 @@ def contains(
     d = offset_angle(shape, distance, 1.0)  # metres; checks d <= 0 without polygons
     lon, lat, shp = check_lonlat(lon, lat)
     return members(conformal(shape, ell), lon, lat, d, level=level).reshape(shp)
+
+
+class EllipsoidIndex:
+    """A shape prepared for membership queries on an ellipsoid at one geodesic distance
+    (``gloffset.Index(shape, d, ellipsoid=...)``): its conformal image with the
+    geodesic edges' bounds, and the two spherical indexes of :func:`screen` (made on
+    the first query, kept on the image).
+
+    ``contains(lon, lat)`` equals :func:`contains` on the ellipsoid: exact for points
+    whose geodesic distance differs from ``|distance|`` by more than 1 um.
+
+    Examples
+    --------
+    >>> import gloffset
+    >>> ring = [[0, 0], [10, 0], [10, 10], [0, 10], [0, 0]]
+    >>> sq = gloffset.read({"type": "Polygon", "coordinates": [ring]})
+    >>> ix = gloffset.Index(sq, 56e3, ellipsoid="WGS84")
+    >>> ix.contains([5.0, 10.5, 12.0], [5.0, 5.0, 5.0]).tolist()
+    [True, True, False]
+    """
+
+    def __init__(self, shape, distance: float = 0.0, *, ellipsoid="WGS84", level=None, **_):
+        self.ellipsoid = as_ellipsoid(ellipsoid)
+        if self.ellipsoid is None:
+            raise OptionError("EllipsoidIndex needs an ellipsoid")
+        self.shape = read(shape)
+        self.distance = float(offset_angle(self.shape, distance, 1.0))  # metres; checks
+        self.level = level
+        self._conf = conformal(self.shape, self.ellipsoid)
+
+    def contains(self, lon, lat) -> np.ndarray:
+        """Membership of points given by geodetic lon/lat in degrees (broadcast)."""
+        lon, lat, shp = check_lonlat(lon, lat)
+        return members(self._conf, lon, lat, self.distance, level=self.level).reshape(shp)
+
+    def __repr__(self) -> str:
+        return f"EllipsoidIndex(distance={self.distance!r} m, {self.ellipsoid})"
+
+
+Index.on_ellipsoid = EllipsoidIndex
 
 
 def members(conf: Conformal, lon, lat, d: float, *, chi=None, level=None) -> np.ndarray:

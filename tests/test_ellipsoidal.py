@@ -101,6 +101,25 @@ def test_mexico_random_points(mexico):
         _check(mexico, lon, lat, d)
 
 
+def test_index_on_the_ellipsoid(mexico):
+    """gloffset.Index(..., ellipsoid=) answers as contains() on the ellipsoid, against the
+    brute force, and refuses what contains refuses."""
+    lon, lat = _near_offset(mexico, 30e3, 40, seed=11)
+    ix = gloffset.Index(mexico, 30e3, ellipsoid="WGS84")
+    assert isinstance(ix, ellipsoidal.EllipsoidIndex)
+    got = ix.contains(lon, lat)
+    assert np.array_equal(got, _check(mexico, lon, lat, 30e3))
+    assert ix.contains(lon.reshape(5, 8), lat.reshape(5, 8)).shape == (5, 8)
+    with pytest.raises(gloffset.InvalidGeometryError):
+        ix.contains([0.0], [91.0])
+    with pytest.raises(gloffset.errors.InvalidEllipsoidError):
+        gloffset.Index(mexico, 30e3, ellipsoid="Mars")
+    line = gloffset.read({"type": "LineString", "coordinates": [[0, 0], [1, 0]]})
+    with pytest.raises(gloffset.InvalidDistanceError):
+        gloffset.Index(line, -10.0, ellipsoid="WGS84")
+    assert isinstance(gloffset.Index(mexico, 30e3), gloffset.Index)  # the sphere as before
+
+
 def test_neighbours_of_countries_10m():
     shape = _feature_shape(DATA / "countries_10m.geojson", ["Guatemala", "Belize"])
     for d in (10.0, 200.0, -500.0):

@@ -46,7 +46,7 @@ import numpy as np
 
 from ..caps import arc_cap, cap_within, chord2, cos_sum_lower, pad
 from ..crossings import inside as _inside_reference
-from ..errors import InvalidLevelError
+from ..errors import InvalidLevelError, OptionError
 from ..reference import check_lonlat
 from ..shape import read
 from ..sphere import (
@@ -240,6 +240,11 @@ class Index:
         Deeper bins cost more to build and leave fewer points to the exact tests
         (see :func:`depth_for`). By default the bins also stop before the frontier
         exceeds :data:`BUILD_CELLS` cells.
+    ellipsoid : None, "WGS84", "GRS80", (a, f) or Ellipsoid
+        ``None``: the sphere of ``radius``. Otherwise ``distance`` is a geodesic length
+        in metres, latitudes are geodetic and polygon edges geodesics: the result is a
+        :class:`gloffset.ellipsoidal.EllipsoidIndex` (the same ``contains``, exact as
+        :func:`gloffset.contains` is on the ellipsoid).
 
     Attributes
     ----------
@@ -291,8 +296,27 @@ class Index:
     [True, True, False]
     """
 
+    #: The class of the index on an ellipsoid (``Index(..., ellipsoid=...)`` makes one):
+    #: :class:`gloffset.ellipsoidal.EllipsoidIndex`, which sets it on import.
+    on_ellipsoid = None
+
+    def __new__(cls, shape=None, distance: float = 0.0, *, ellipsoid=None, **options):
+        if ellipsoid is None:
+            return super().__new__(cls)
+        if Index.on_ellipsoid is None:  # pragma: no cover - gloffset imports it
+            raise OptionError("an index on an ellipsoid needs gloffset.ellipsoidal")
+        options.pop("radius", None)  # distances are metres on the ellipsoid
+        return Index.on_ellipsoid(shape, distance, ellipsoid=ellipsoid, **options)
+
     def __init__(
-        self, shape, distance: float = 0.0, *, radius: float = EARTH_RADIUS, level=None, depth=None
+        self,
+        shape,
+        distance: float = 0.0,
+        *,
+        radius: float = EARTH_RADIUS,
+        level=None,
+        depth=None,
+        ellipsoid=None,
     ):
         self.shape = read(shape)
         self.distance = offset_angle(self.shape, distance, radius)
