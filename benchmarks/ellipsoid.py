@@ -6,11 +6,13 @@ In one run, for Mexico 10m (Natural Earth, 7,368 vertices):
   100 km and -10 km: the spherical mode (``ellipsoid=None``) and ``ellipsoid="WGS84"``,
   each the first call (indexes built) and a second one (indexes cached);
 * ``distance`` on points near the border, sphere and ellipsoid;
-* ``render`` of a 4096 x 2048 globe at 127 km, sphere (GPU) and ellipsoid;
+* ``render`` of 4096 x 2048 and 16384 x 8192 globes at 127 km, sphere (GPU) and
+  ellipsoid;
 * ``offset`` at 10 km and 100 km: the sphere's resolved offset written as GeoJSON at
   its default tolerance (1e-6 rad, 6.4 m) and the ellipsoid's at 1 m, with the
   largest error of the ellipsoid's vertices and geodesic midpoints (brute force);
-* ``tiles.pyramid`` z0-6 (256 px tiles) at 127 km, sphere (GPU) and ellipsoid;
+* ``tiles.pyramid`` z0-10 (``--zooms``; 256 px tiles) at 127 km, sphere (GPU) and
+  ellipsoid;
 * what users do today: the border projected with pyproj to UTM, buffered with shapely
   (``buffer(d)``, 16 segments a quarter circle) and tested with ``contains_xy``, both
   in one zone (14N, Mexico's middle) and per zone (each point tested in its own zone,
@@ -20,9 +22,10 @@ In one run, for Mexico 10m (Natural Earth, 7,368 vertices):
   of points each method puts on the wrong side, how far from the true boundary the
   worst of them lies (metres), and for distances the largest error (metres).
 
-Run: python benchmarks/ellipsoid.py [--points 1000000] [--sample 600] [--only vector]
-Writes benchmarks/results/ellipsoid.json (``--only vector``: the offset and pyramid
-figures only, merged into the file).
+Run: python benchmarks/ellipsoid.py [--points 1000000] [--sample 600] [--zooms 0-10]
+[--only vector|raster]
+Writes benchmarks/results/ellipsoid.json (``--only vector``: the offset figures only,
+``--only raster``: the render and pyramid figures only, merged into the file).
 """
 
 from __future__ import annotations
@@ -171,25 +174,31 @@ def timings(shape, rings, lon, lat, d):
     }
 
 
-def render_globe(d=127e3):
-    """Mexico at 127 km on a 4096 x 2048 globe: the GPU on the sphere, and the mask on
-    the ellipsoid (first call with its indexes built, then again)."""
+def render_globe(d=127e3, sizes=(4096, 16384)):
+    """Mexico at 127 km on globes of ``sizes`` (width; height half of it): the GPU on the
+    sphere, and the mask on the ellipsoid (two GPU renders on the conformal sphere and
+    the band between them exact), first call and best of three."""
     from gloffset.grids import Equirect
 
-    grid = Equirect(4096, 2048)
     shape = gloffset.read(DATA / "mexico_10m.geojson")
     gloffset.render(shape, d, Equirect(256, 128))  # the GL context, once
-    t_s, a = _timed(lambda: gloffset.render(shape, d, grid))
-    t_s2, _ = best_of(lambda: gloffset.render(shape, d, grid), 3)
-    t_e, b = _timed(lambda: gloffset.render(shape, d, grid, ellipsoid="WGS84"))
-    t_e2, _ = best_of(lambda: gloffset.render(shape, d, grid, ellipsoid="WGS84"), 3)
-    return {
-        "sphere_gpu_first_s": t_s,
-        "sphere_gpu_s": t_s2,
-        "ellipsoid_first_s": t_e,
-        "ellipsoid_s": t_e2,
-        "pixels_differing": int((a != b).sum()),
-    }
+    out = {}
+    for w in sizes:
+        grid = Equirect(w, w // 2)
+        t_s, a = _timed(lambda g=grid: gloffset.render(shape, d, g))
+        t_s2, _ = best_of(lambda g=grid: gloffset.render(shape, d, g), 3)
+        t_e, b = _timed(lambda g=grid: gloffset.render(shape, d, g, ellipsoid="WGS84"))
+        t_e2, _ = best_of(lambda g=grid: gloffset.render(shape, d, g, ellipsoid="WGS84"), 3)
+        out[f"{w}x{w // 2}"] = {
+            "sphere_gpu_first_s": t_s,
+            "sphere_gpu_s": t_s2,
+            "ellipsoid_first_s": t_e,
+            "ellipsoid_s": t_e2,
+            "ellipsoid_over_sphere": t_e2 / t_s2,
+            "pixels_differing": int((a != b).sum()),
+        }
+        print("render", w, out[f"{w}x{w // 2}"], flush=True)
+    return out
 
 
 def offsets(distances=(10e3, 100e3)):
@@ -219,8 +228,9 @@ def offsets(distances=(10e3, 100e3)):
     return out
 
 
-def pyramids(d=127e3, zooms="0-6"):
-    """Tile pyramids of Mexico into memory-backed folders: sphere (GPU) and ellipsoid."""
+def pyramids(d=127e3, zooms="0-10"):
+    """Tile pyramids of Mexico into folders: sphere (GPU) and ellipsoid (the frontier
+    tiles of a zoom on the GPU on the conformal sphere, the band exact)."""
     import tempfile
 
     shape = gloffset.read(DATA / "mexico_10m.geojson")
@@ -229,6 +239,7 @@ def pyramids(d=127e3, zooms="0-6"):
         for key, ell in (("sphere", None), ("ellipsoid", "WGS84")):
             st = gloffset.tiles.pyramid(shape, d, zooms, f"{tmp}/{key}", ellipsoid=ell)
             out[key] = {"s": st.seconds, "written": st.written, "rendered": st.rendered}
+    out["ellipsoid_over_sphere"] = out["ellipsoid"]["s"] / out["sphere"]["s"]
     print("pyramid", out, flush=True)
     return out
 
@@ -237,17 +248,23 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--sample", type=int, default=600)
-    ap.add_argument("--only", choices=["vector"], default=None)
+    ap.add_argument("--only", choices=["vector", "raster"], default=None)
+    ap.add_argument("--zooms", default="0-10", help="zooms of the pyramids")
     args = ap.parse_args()
-    if args.only == "vector":
+    if args.only is not None:
         import json
 
         from common import RESULTS
 
         record = json.loads((RESULTS / "ellipsoid.json").read_text())
         record.pop("machine", None)
-        record["offset"] = offsets()
-        record["pyramid_z0_6"] = pyramids()
+        if args.only == "vector":
+            record["offset"] = offsets()
+        else:
+            record["render_globe"] = render_globe()
+            record["pyramid"] = pyramids(zooms=args.zooms)
+        for old in ("render_globe_4096x2048", "pyramid_z0_6"):
+            record.pop(old, None)
         print(write("ellipsoid", record))
         return
     lon, lat = points_around(BOX, args.points, seed=0)
@@ -269,10 +286,9 @@ def main():
         "ellipsoid_ms_per_point": 1e3 * t_e / args.sample,
     }
     print(record["distance"])
-    record["render_globe_4096x2048"] = render_globe()
-    print(record["render_globe_4096x2048"])
+    record["render_globe"] = render_globe()
     record["offset"] = offsets()
-    record["pyramid_z0_6"] = pyramids()
+    record["pyramid"] = pyramids(zooms=args.zooms)
     print(write("ellipsoid", record))
 
 
