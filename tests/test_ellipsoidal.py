@@ -355,3 +355,24 @@ def test_overlapping_polygons_with_long_edges():
     plon, plat, _ = GEOD.fwd(mlon, mlat, back + 90 * rng.choice([-1, 1], n), rng.uniform(1, 3e3, n))
     for d in (0.0, 10.0, -10.0):
         _check(shape, plon, plat, d)
+
+
+def test_conformal_tile_pyramid_bounds():
+    """TilePyramid(maxzoom, ell) (the pyramid on the conformal sphere) takes its list
+    bounds from the sphere's equator tiles: every conformal tile of zooms 0-12 is within
+    them, and its centres are the conformal images of the tiles' centres."""
+    from gloffset.ellipsoid import as_ellipsoid
+    from gloffset.grids.mercator import TilePyramid
+    from gloffset.sphere import xyz_to_lonlat
+
+    ell = as_ellipsoid("WGS84")
+    sphere, conf = TilePyramid(12), TilePyramid(12, ell)
+    for z in range(13):
+        rows = np.arange(1 << z, dtype=np.float64)
+        eq = sphere.decision_rho(z, max(0, (1 << z) // 2 - 1))
+        assert conf._row_rho(z, rows).max() <= eq
+    assert conf._extra == sphere._extra
+    j = np.arange(16)
+    _, lat_s = xyz_to_lonlat(sphere.centers(4, j, 3))
+    _, lat_c = xyz_to_lonlat(conf.centers(4, j, 3))
+    np.testing.assert_allclose(lat_c, ell.conformal(lat_s), atol=1e-12)
