@@ -376,3 +376,40 @@ def test_conformal_tile_pyramid_bounds():
     _, lat_s = xyz_to_lonlat(sphere.centers(4, j, 3))
     _, lat_c = xyz_to_lonlat(conf.centers(4, j, 3))
     np.testing.assert_allclose(lat_c, ell.conformal(lat_s), atol=1e-12)
+
+
+def test_raster_offset_on_the_ellipsoid():
+    """raster_offset(..., ellipsoid=) on a curve whose cells are known exactly (two
+    meridian segments, geodesics through the centres of two columns): contained cell
+    centres within d of the curve on the ellipsoid, outside cells farther (the brute
+    force, geodesic distances), the GPU classes equal to the CPU's."""
+    from gloffset.grids import Equirect
+
+    grid = Equirect(80, 60, (-120.0, 5.0, -80.0, 35.0))  # 0.5 degree cells
+    curve = gloffset.read(
+        {
+            "type": "MultiLineString",
+            "coordinates": [
+                [[-100.25, 10.25], [-100.25, 29.75]],
+                [[-90.25, 20.25], [-90.25, 25.75]],
+            ],
+        }
+    )
+    mask = np.zeros(grid.shape, dtype=bool)
+    mask[10:50, 39] = True  # rows of 10.25 .. 29.75
+    mask[18:30, 59] = True  # rows of 20.25 .. 25.75
+    for d in (150e3, 600e3):
+        cls = gloffset.raster_offset(mask, d, grid, ellipsoid="WGS84", backend="cpu")
+        assert np.array_equal(cls, gloffset.raster_offset(mask, d, grid, ellipsoid="WGS84"))
+        rng = np.random.default_rng(int(d))
+        for c in (2, 0):  # 150 cells of each class, against the brute force
+            flat = np.flatnonzero(cls == c)
+            assert len(flat) > 50
+            j, i = np.divmod(rng.choice(flat, 150, replace=False), grid.width)
+            lon, lat = grid.pixel_lonlat(i, j)
+            dist = reference.distance(curve, lon, lat, ellipsoid="WGS84")
+            assert np.all(dist <= d) if c == 2 else np.all(dist > d)
+    with pytest.raises(gloffset.OptionError):
+        gloffset.raster_offset(mask, 1e5, grid, ellipsoid="WGS84", return_info=True)
+    with pytest.raises(gloffset.InvalidDistanceError):
+        gloffset.raster_offset(mask, "0.1rad", grid, ellipsoid="WGS84")

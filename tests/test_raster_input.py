@@ -212,6 +212,15 @@ def test_cli_from_raster(tmp_path):
     np.testing.assert_array_equal(np.asarray(Image.open(out_mask)), np.where(want == 2, 255, 0))
     r = run(main, ["render", "-d", "400km", "-o", str(out)])
     assert r.exit_code == 2 and "--from-raster" in r.output
+    # on the ellipsoid: geodesic metres, the classes of raster_offset(..., ellipsoid=)
+    args = ["render", "--from-raster", str(src), "-d", "400km", "--ellipsoid", "WGS84"]
+    r = run(main, [*args, "--mask-only", "-o", str(out_mask)])
+    assert r.exit_code == 0, r.output
+    want_e = raster_offset(img >= 128, 400e3, Equirect(256, 128), ellipsoid="WGS84")
+    np.testing.assert_array_equal(np.asarray(Image.open(out_mask)), np.where(want_e == 2, 255, 0))
+    assert (want_e != want).any()
+    r = run(main, [*args[:-2], "--ellipsoid", "WGS84", "-d", "0.1rad", "-o", str(out)])
+    assert r.exit_code == 2 and "angle" in r.output
 
 
 # ---------------------------------------------------------------------------- cube grids

@@ -170,6 +170,8 @@ def render_cmd(
         if input is not None or size is not None:
             raise OptionError("--from-raster takes no INPUT or --size (the PNGs' size)")
         if grid_kind == "cube":
+            if ell is not None:
+                raise OptionError("--ellipsoid with --from-raster takes an equirect mask")
             if bounds is not None:
                 raise OptionError("--bounds does not apply to --grid cube")
             return _from_raster_cube(from_raster, d, output, classes_level, backend, mask_only)
@@ -180,7 +182,7 @@ def render_cmd(
             )
         place = (cog, not no_worldfile)
         return _from_raster(
-            from_raster, d, bounds, output, classes_level, backend, mask_only, place
+            from_raster, d, bounds, output, classes_level, backend, mask_only, place, ell
         )
     if input is None:
         raise OptionError("give an INPUT file (or - for stdin), or --from-raster MASK.png")
@@ -238,8 +240,8 @@ def _distance(distance, radius, ell, classes_level, from_raster) -> float:
     vector input only)."""
     if ell is None:
         return angle(distance, radius)
-    if from_raster is not None or classes_level is not None:
-        raise OptionError("--ellipsoid renders masks of vector INPUT: no --from-raster, --classes")
+    if from_raster is None and classes_level is not None:
+        raise OptionError("--ellipsoid renders masks of vector INPUT: no --classes")
     return metres(distance)
 
 
@@ -295,7 +297,7 @@ def _grid_of_geotiff(path, bounds) -> tuple[np.ndarray, Equirect]:
     return band >= 128, grid
 
 
-def _from_raster(path, d, bounds, output, level, backend, mask_only, place):
+def _from_raster(path, d, bounds, output, level, backend, mask_only, place, ell=None):
     from ..raster.rasterized import raster_offset
 
     if str(path).lower().endswith((".tif", ".tiff")):
@@ -303,7 +305,7 @@ def _from_raster(path, d, bounds, output, level, backend, mask_only, place):
     else:
         mask = read_mask(path)
         grid = Equirect(mask.shape[1], mask.shape[0], _bounds(bounds))
-    classes = raster_offset(mask, d, grid, radius=1.0, backend=backend, level=level)
+    classes = raster_offset(mask, d, grid, radius=1.0, backend=backend, level=level, ellipsoid=ell)
     at = None
     if level is None or level == grid.n_levels - 1:
         at = _placement(grid, place[0], place[1], "mask" if mask_only else "classes")

@@ -63,8 +63,10 @@ from functools import lru_cache
 import numpy as np
 
 from ..classes import CONTAINED, FRONTIER, OUTSIDE
+from ..ellipsoid import as_ellipsoid
 from ..errors import InvalidDistanceError, InvalidMaskError, OptionError
 from ..grids import Cube, Equirect
+from ..grids.conformal import ConformalRows
 from ..grids.cube import CubeCells, locate, project
 from ..shape import read
 from ..sphere import angle, normalize, robust_cross
@@ -591,8 +593,39 @@ def cube_cells(size: int) -> CubeCells:
     return CubeCells(size)
 
 
+def _on_ellipsoid(mask, distance, grid, ellipsoid, return_info, callback, **options):
+    """:func:`raster_offset` on an ellipsoid (see its ``ellipsoid``): two spherical
+    offsets on the conformal rows, contained from the nearer, outside from the farther."""
+    ell = as_ellipsoid(ellipsoid)
+    if not isinstance(grid, Equirect):
+        raise OptionError(
+            f"raster offsets on an ellipsoid take an Equirect grid, got {type(grid).__name__}"
+        )
+    if return_info or callback is not None:
+        raise OptionError(
+            "raster offsets on an ellipsoid give classes only (no return_info, callback)"
+        )
+    m = float(distance) if isinstance(distance, (int, float, np.floating, np.integer)) else None
+    if m is None or not math.isfinite(m) or m <= 0.0:
+        raise InvalidDistanceError(
+            f"distance must be a positive number of metres on the ellipsoid, got {distance!r}"
+        )
+    near = m / (ell.k_max * (1.0 + 1e-11))  # within it on the sphere: within m surely
+    far = m / (ell.k_min * (1.0 - 1e-11))  # beyond it on the sphere: beyond m surely
+    if far >= 1.5:
+        raise InvalidDistanceError(
+            f"distance {m!r} m is {far:.4g} rad on the conformal sphere; raster offsets need "
+            "less than 1.5 rad"
+        )
+    cgrid = ConformalRows(grid, ell)
+    inner = raster_offset(mask, near, cgrid, radius=1.0, **options)
+    outer = raster_offset(mask, far, cgrid, radius=1.0, **options)
+    out = np.where(inner == CONTAINED, CONTAINED, np.where(outer == OUTSIDE, OUTSIDE, FRONTIER))
+    return out.astype(np.uint8)
+
+
 def _check_mask(mask, grid) -> np.ndarray:
-    if not isinstance(grid, (Equirect, Cube)):
+    if not isinstance(grid, (Equirect, Cube, ConformalRows)):
         raise OptionError(
             f"grid must be a gloffset.grids.Equirect or Cube grid, got {type(grid).__name__}"
         )
@@ -620,6 +653,7 @@ def raster_offset(
     order=None,
     return_info: bool = False,
     callback=None,
+    ellipsoid=None,
 ):
     """Offset a rasterized curve without its vector data (paper Sec. 5).
 
@@ -650,6 +684,14 @@ def raster_offset(
         Also return a :class:`RasterOffsetInfo`.
     callback : callable, optional
         ``callback(level, classes)`` after each level (CPU levels only).
+    ellipsoid : None, "WGS84", "GRS80", (a, f) or Ellipsoid
+        ``None``: the sphere of ``radius``. Otherwise (Equirect grids) ``distance`` is a
+        geodesic length in metres and the grid's latitudes are geodetic: the classes
+        are those of the spherical offsets on the ellipsoid's conformal sphere
+        (:class:`~gloffset.grids.conformal.ConformalRows`) at ``distance / K_max``
+        (contained) and ``distance / K_min`` (outside), frontier between, so the
+        contract below holds with geodesic distances (the frontier is wider by the
+        ratio bound, 0.34 % of ``distance``). No ``return_info`` or ``callback``.
 
     Returns
     -------
@@ -674,6 +716,19 @@ def raster_offset(
     >>> bool(c[16, 30] == 2), bool(c[0, 0] == 0)
     (True, True)
     """
+    if ellipsoid is not None:
+        return _on_ellipsoid(
+            mask,
+            distance,
+            grid,
+            ellipsoid,
+            return_info,
+            callback,
+            backend=backend,
+            mode=mode,
+            level=level,
+            order=order,
+        )
     t0 = time.perf_counter()
     m = _check_mask(mask, grid)
     cube = cube_cells(int(grid.size)) if isinstance(grid, Cube) else None
