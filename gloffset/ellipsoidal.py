@@ -48,6 +48,7 @@ from .ellipsoid import (
     edge_distances,
     lower_distance,
     upper_distance,
+    window_scale,
 )
 from .errors import OptionError
 from .index.contains import Index
@@ -328,15 +329,26 @@ def members(conf: Conformal, lon, lat, d: float, *, chi=None, level=None) -> np.
     return out
 
 
-def thresholds(conf: Conformal, d: float) -> tuple[float | None, float | None]:
+def thresholds(conf: Conformal, d: float, *, window=None) -> tuple[float | None, float | None]:
     """Signed spherical distances of the two index tests: membership at ``t_in`` proves
     membership on the ellipsoid, non-membership at ``t_out`` proves non-membership
-    (``None``: no such test)."""
+    (``None``: no such test).
+
+    ``window``: ``(chi, r)`` (radians) when every point tested has its conformal
+    latitude within ``chi +- r``: the scale's bounds are then those over that window
+    widened by the reach ``m / k_min`` of any path that matters (:mod:`.ellipsoid.bounds`:
+    the spherical path to the set within ``t_in`` and the geodesic within ``m`` both
+    stay that close), tighter than the whole ellipsoid's ``k_min``, ``k_max``."""
     ell, hm = conf.ell, conf.h_max
     rings = bool(conf.shape.rings)
     m = abs(d)
-    far = m / (ell.k_min * (1 - 1e-11)) + hm + INDEX_SLACK  # beyond: D_e > m surely
-    near = m / (ell.k_max * (1 + 1e-11)) - hm - INDEX_SLACK  # within: D_e <= m surely
+    k_min, k_max = ell.k_min, ell.k_max
+    if window is not None:
+        reach = m / (ell.k_min * (1 - 1e-11)) + hm + INDEX_SLACK
+        lo, hi = window_scale(ell, window[0], window[1] + reach)
+        k_min, k_max = float(lo), float(hi)
+    far = m / (k_min * (1 - 1e-11)) + hm + INDEX_SLACK  # beyond: D_e > m surely
+    near = m / (k_max * (1 + 1e-11)) - hm - INDEX_SLACK  # within: D_e <= m surely
     if d > 0.0:
         t_in = near if near > hm else (-hm if rings else None)
         return t_in, far

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..ellipsoidal import conformal, decide, signed_distance, thresholds
-from ..grids.mercator import Tile
+from ..grids.mercator import Tile, lat_at
 from ..sphere import angle, lonlat_to_xyz
 from .render import GPU_EPS, SCREEN_MARGIN, screened
 
@@ -118,18 +118,46 @@ def run_ellipsoid_pyramid(shape, m, ell, zooms, size, style, store, have, stats,
         ys = np.repeat(2 * ys[front], 4) + np.tile([0, 0, 1, 1], int(front.sum()))
 
 
+#: Conformal latitude (rad) spanned by a group of tile rows sharing their thresholds.
+GROUP = 0.1
+
+
 def frontier_masks(conf, m: float, z: int, tiles, size: int, masks) -> dict:
     """The ellipsoidal masks of tiles ``(x, y)`` of zoom ``z``, equal to ``render(shape,
     m, Tile(z, x, y, size), ellipsoid=...)``: the tiles rendered together on the
     conformal sphere at the thresholds moved by the GPU's error bound (``masks``, see
     :func:`gloffset.raster.render._screened_on_gpu` for the argument), the pixels
-    between the two decided exactly (:func:`gloffset.ellipsoidal.members`). The largest
+    between the two decided exactly (:func:`gloffset.ellipsoidal.decide`). The largest
     pixel of a zoom on the conformal sphere is at the equator, within ``2 pi sqrt(2) /
-    (2^z size)`` across."""
+    (2^z size)`` across.
+
+    The tiles go in groups of rows spanning about :data:`GROUP` of conformal latitude,
+    each with the thresholds of its latitudes (:func:`gloffset.ellipsoidal.thresholds`
+    with a window): the band between them is then the scale's variation over a few
+    degrees, not over the whole ellipsoid (at 127 km: 11 m at 5 degrees, 39 m at 20, 60 m
+    at 45, against 427 m), and far fewer pixels take the exact decision; larger groups
+    would leave wider bands, smaller ones more GPU runs (0.1 was the fastest of 0.02,
+    0.05, 0.1 and 0.2 on Mexico z0-10)."""
     if not tiles:
         return {}
-    t_in, t_out = thresholds(conf, m)
     margin = SCREEN_MARGIN * GPU_EPS * 2.0 * np.pi * np.sqrt(2.0) / ((1 << z) * size) * 1.01
+    n = float(1 << z)
+    ys = np.array([y for _, y in tiles], dtype=np.float64)
+    north = np.radians(conf.ell.conformal(np.degrees(lat_at(ys, n))))
+    south = np.radians(conf.ell.conformal(np.degrees(lat_at(ys + 1.0, n))))
+    key = np.floor(0.5 * (north + south) / GROUP).astype(np.int64)
+    out = {}
+    for g in np.unique(key):
+        sel = np.flatnonzero(key == g)
+        lo, hi = float(south[sel].min()), float(north[sel].max())
+        group = [tiles[i] for i in sel]
+        t_in, t_out = thresholds(conf, m, window=(0.5 * (lo + hi), 0.5 * (hi - lo)))
+        out.update(_group_masks(conf, m, z, group, size, masks, t_in, t_out, margin))
+    return out
+
+
+def _group_masks(conf, m, z, tiles, size, masks, t_in, t_out, margin) -> dict:
+    """:func:`frontier_masks` of tiles sharing the thresholds ``t_in``, ``t_out``."""
     rings = bool(conf.shape.rings)
     if t_in is not None and (t_in - margin > 0.0 or rings):
         sure = masks(conf.shape, t_in - margin, z, tiles, size=size, ell=conf.ell)
