@@ -117,7 +117,7 @@ def _screened_on_gpu(conf, grid, d: float) -> np.ndarray:
     pixel the second calls outside is beyond ``t_out``) at any distance of more than
     ``2 eps``, and near zero the rules of both signs of distance agree on it. Pixels in
     between (the ratio band of the thresholds, a fraction of a pixel wide at most
-    distances, plus ``2 m``) are decided exactly (:func:`gloffset.ellipsoidal.members`).
+    distances, plus ``2 m``) are decided exactly (:func:`gloffset.ellipsoidal.decide`).
     """
     cgrid = ConformalRows(grid, conf.ell)
     margin = SCREEN_MARGIN * GPU_EPS * cgrid.pixel_size()
