@@ -253,6 +253,12 @@ def test_gpu_screen_equals_the_cpu_path(mexico, world_parts, name):
             gpu = gloffset.render(shape, d, grid, ellipsoid="WGS84")
             cpu = gloffset.render(shape, d, grid, ellipsoid="WGS84", backend="cpu")
             assert np.array_equal(gpu, cpu), (name, d, grid, int((gpu != cpu).sum()))
+    if name == "mexico":  # the polygons themselves and metres from them
+        grid = Equirect(200, 100, (-120.0, 10.0, -80.0, 35.0))
+        for d in (0.0, 10.0, -10.0):
+            gpu = gloffset.render(shape, d, grid, ellipsoid="WGS84")
+            cpu = gloffset.render(shape, d, grid, ellipsoid="WGS84", backend="cpu")
+            assert np.array_equal(gpu, cpu), d
     if name == "mexico":  # a padded level (the mask a view of a larger array)
         grid = Equirect(720, 360)
         gpu = gloffset.render(shape, 1000e3, grid, ellipsoid="WGS84")
