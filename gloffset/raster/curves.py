@@ -41,6 +41,19 @@ class CurveCells:
         self.e = abs(d)
         self.last = grid.n_levels - 1
         self.start = start
+        #: refined levels kept for a second caller (:meth:`remember`), by parent cells
+        self._memo: dict | None = None
+
+    def remember(self, ahead: int | None) -> None:
+        """Keep each refined level until it is asked for again (once), by the level and
+        the cells of its parents. A tile pyramid refines the same frontier twice: its
+        bin levels run ahead of the zoom walk (:class:`gloffset.raster.tiles._BinChain`)
+        and the walk reaches the same cells later. The classes, candidates and
+        measures are those of computing the level again: only the work is saved.
+        ``ahead``: how many levels the first caller runs ahead of the second (levels
+        further behind are dropped); ``None`` stops keeping them."""
+        self._memo = None if ahead is None else {}
+        self._ahead = ahead
 
     def _entry(self, stop: int):
         """The level entered directly and its plan, or ``(None, None)``."""
@@ -90,13 +103,29 @@ class CurveCells:
 
     def refine(self, prev: Level) -> Level:
         parent = self.kept(prev)
-        lev = self._level(refine(parent, self.grid, self.arcs, self.e, self.shape))
+        lev = self._refined(parent)
         if prev.forced is not None and (prev.forced != NOT_FORCED).any():
             parent_keys = (parent.cells[:, 0] << 32) | parent.cells[:, 1]
             rows, cols = lev.cells[:, 0], lev.cells[:, 1]
             pf = prev.forced[np.searchsorted(parent_keys, ((rows >> 1) << 32) | (cols >> 1))]
             lev.cls = np.where(pf != NOT_FORCED, pf, lev.cls).astype(np.uint8)
         return lev
+
+
+    def _refined(self, parent: Frontier) -> Level:
+        """The children of ``parent``'s cells, classified (or kept from before)."""
+        memo = self._memo
+        if memo is None:
+            return self._level(refine(parent, self.grid, self.arcs, self.e, self.shape))
+        key = (parent.level, parent.cells.tobytes())
+        lev = memo.pop(key, None)
+        if lev is None:
+            lev = self._level(refine(parent, self.grid, self.arcs, self.e, self.shape))
+            for k in [k for k in memo if k[0] < parent.level - self._ahead]:  # not asked for
+                del memo[k]
+            memo[key] = lev
+        # a copy: callers set keep, forced and classes on the level they get
+        return Level(lev.level, lev.cells, lev.cls, lev.state, measure=lev.measure)
 
 
 def classify(

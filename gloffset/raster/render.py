@@ -20,6 +20,7 @@ from ..sphere import xyz_to_lonlat
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
 from . import driver
 from .curves import CurveCells
+from .simplified import PIXEL_FRACTION, band_members, simplified
 
 __all__ = ["render", "RenderError", "MAX_PIXELS"]
 
@@ -203,13 +204,19 @@ def render_grid(shape, d: float, grid) -> np.ndarray:
     return _render_one(shape, float(d), grid, backend="gpu", level=None, callback=None, mask=True)
 
 
-def _render_one(shape, d, grid, *, backend, level, callback, mask):
+def _render_one(shape, d, grid, *, backend, level, callback, mask, simplify=True):
     """Classes of ``level`` (default: the output level) or, with ``mask``, the mask.
 
     The float64 levels (:class:`~gloffset.raster.levels.CurveCells`) run down to the
     bins, the GL levels (:mod:`gloffset.gl.engine`) below them; ``backend="cpu"``
-    runs every level in float64.
+    runs every level in float64. A GPU mask of a shape far finer than the pixels is
+    rendered from the shape simplified to a fraction of a pixel
+    (:mod:`gloffset.raster.simplified`), with the same pixels.
     """
+    if simplify and mask and backend == "gpu" and level is None and callback is None:
+        image = _simplified_mask(shape, d, grid)
+        if image is not None:
+            return image
     stop = grid.n_levels - 1 if level is None else level
     bins = grid.bin_level_for(abs(d))
     if backend == "cpu" or stop <= bins:
@@ -232,6 +239,39 @@ def _render_one(shape, d, grid, *, backend, level, callback, mask):
         )
 
     return driver.run(cells, stop, handoff=bins, backend=on_gpu, callback=callback)
+
+
+def _simplified_mask(shape, d: float, grid) -> np.ndarray | None:
+    """The GPU mask from the shape simplified to ``eps`` (:data:`PIXEL_FRACTION` of the
+    smallest pixel): rendered at ``d - t`` and ``d + t`` (``t = eps`` plus
+    :data:`SCREEN_MARGIN` times the GPU's error bound), the pixels between decided by
+    their exact distance (:mod:`gloffset.raster.simplified`); None where simplifying
+    does not pay or ``|d| <= 4 t``."""
+    last = grid.n_levels - 1
+    h, w = grid.level_shape(last)
+    rows = np.arange(h)
+    if grid.lonlat:  # every cell of a row alike
+        r = grid.area_rho_cells(last, rows * w)
+    else:  # a cube face: the rows' first, middle and last cells (smallest and largest)
+        r = np.concatenate([grid.area_rho_at(last, rows, np.full(h, i)) for i in (0, w // 2)])
+    eps = PIXEL_FRACTION * 2.0 * float(r.min())
+    t = eps + SCREEN_MARGIN * GPU_EPS * 2.0 * float(r.max())
+    if abs(d) <= 4.0 * t:
+        return None
+    s = simplified(shape, eps)
+    if s is None:
+        return None
+
+    def one(dd):
+        return _render_one(
+            s, dd, grid, backend="gpu", level=None, callback=None, mask=True, simplify=False
+        )
+
+    image = one(d - t)  # within the region
+    j, i = np.nonzero(one(d + t) > image)  # the band: the region's boundary is there
+    if len(j):
+        image[j, i] = np.where(band_members(shape, grid.centers(last, j, i), d), 255, 0)
+    return image
 
 
 def render(

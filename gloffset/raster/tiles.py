@@ -654,6 +654,7 @@ def run_pyramid(
     levels = TilePyramid(zhi + plog)  # down to the pixels of the deepest tiles
     cells = CurveCells(shape, d, levels)
     chain = _BinChain(cells, max(0, plog - _BIN_LOG2))
+    cells.remember(chain.nb)  # the walk reaches the chain's levels later: computed once
     track = _Tracker(zlo, zhi, progress)
     job = _Zoom(cells, style, store, have, size, stats, track)
     roots = []
@@ -1066,6 +1067,7 @@ def render_tiles(
     plog = size.bit_length() - 1
     cells = CurveCells(shape, d, _pyramid(z + plog))
     chain = _BinChain(cells, max(0, plog - _BIN_LOG2))
+    cells.remember(chain.nb)  # the walk reaches the chain's levels later: computed once
     stats = PyramidStats()
     job = _Zoom(cells, style, MemoryStore(), set(), size, stats, _Tracker(z, z, None))
     lev = cells.enter_cells(z, [(y, x) for x, y in want])
@@ -1115,6 +1117,7 @@ def tile_masks(
     plog = size.bit_length() - 1
     cells = CurveCells(shape, d, _pyramid(z + plog, ell))
     chain = _BinChain(cells, max(0, plog - _BIN_LOG2))
+    cells.remember(chain.nb)  # the walk reaches the chain's levels later: computed once
     lev = cells.enter_cells(z, [(y, x) for x, y in want])
     rows, cols, cls = lev.cells[:, 0], lev.cells[:, 1], lev.cls
     out = {}

@@ -1,0 +1,177 @@
+"""Renders whose cost follows the output: the curves simplified to a fraction of a pixel.
+
+A render costs about its (frontier bin, candidate arc) pairs, so an input far finer than
+the output's pixels (a 1:10m coastline on a globe of 10 km pixels) pays for arcs the
+image cannot show. The multiresolution decomposition (paper Sec. 4.2,
+:mod:`gloffset.vector.multires`) gives a coarser curve with a rigorous bound on how far it
+is from the original (Sec. 4.3, Eq. 9), and this module renders that curve instead,
+then decides exactly the few pixels the bound leaves open.
+
+The simplified curve. Every arc of the decomposition's tree stands for a run of
+original edges, with a bound ``err`` (:attr:`~gloffset.vector.multires.ArcTree.e`). The
+bound is two-sided: the merge ``A -> B -> C`` to ``A -> C`` pairs each point of the
+coarse arc with the point at the same fraction of the two fine arcs, no farther than
+``dist(B, SLERP(A, C, 1/2))``, and by induction every point of the coarse arc and every
+point of the original run are matched within ``err`` (a Frechet bound). :func:`cut`
+takes, from the coarsest level down, the tree arcs whose ``err <= eps`` (seams are
+never simplified: they keep their original edges). For the shape ``S`` so made and
+every point ``p``:
+
+* ``|D(p) - D_S(p)| <= eps``, with ``D`` and ``D_S`` the distances to the boundary arcs;
+* the insides of the polygons differ only between matched points, so only at points
+  with ``D <= eps`` and ``D_S <= eps``.
+
+The render. With ``t = eps + m`` (``m`` four times the GPU's error bound of 1e-3
+pixel, as for the ellipsoid: :data:`~gloffset.raster.render.SCREEN_MARGIN`) and ``|d| >
+2 t``, the regions at signed distances satisfy ``R_S(d - t) <= R(d) <= R_S(d + t)``: a
+point inside ``S`` but outside the original polygons is within ``eps < |d|`` of the
+curve, a point within ``d - t`` of ``S`` is within ``d`` of the curve, and so on for
+``d < 0``. So ``S`` is rendered on the GPU at ``d - t`` and at ``d + t``; a pixel the
+first puts in the region is in it, a pixel the second leaves out is out (a GPU render
+errs only within 1e-3 pixel of its distance). The pixels in between, the *band*, lie
+outside the original polygons for ``d > 0`` and inside them for ``d < 0`` (by the same
+bounds), so the distance alone decides them: each is in the region when an original
+boundary arc lies within ``|d|`` of its centre (for ``d > 0``; not in it, for ``d < 0``),
+found in float64 through the arcs' cap tree (exact float64 point-to-arc distances).
+
+Accuracy: every pixel outside the band is decided as by the exact distance (the GPU's
+own error is inside the margin ``m``), and every band pixel by the exact float64
+distance; so the mask equals the float64 reference except, as every GPU render, at
+pixels within 1e-3 pixel of a seam's crossing test. Cost: two renders of ``S``, the
+decomposition of the shape once (kept on it), and the band (``2 t`` wide: about a
+quarter of the pixels along the offset boundary).
+
+It is used where it pays (:func:`render_simplified`): when ``S`` has at most
+:data:`MAX_FRACTION` of the original arcs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..caps import cap_within
+from ..edges import CurveArcs
+from ..shape import Edges
+from ..sphere import arc_distance, dot
+from ..vector.multires import Decomposition
+
+__all__ = ["MAX_FRACTION", "PIXEL_FRACTION", "Simplified", "cut", "band_members", "simplified"]
+
+#: ``eps`` as a fraction of the smallest pixel's diameter (a band of about a quarter of
+#: a pixel either side of the boundary).
+PIXEL_FRACTION = 0.25
+#: A simplified shape is rendered only when it keeps at most this fraction of the arcs.
+MAX_FRACTION = 0.35
+#: Arcs below which simplifying is never worth its second render.
+MIN_ARCS = 20_000
+
+
+def decomposition(shape) -> Decomposition:
+    """The shape's multiresolution decomposition, as far as arcs merge (kept on it)."""
+    return shape.cached("multires.exhaust", lambda: Decomposition(shape, 64, exhaust=True))
+
+
+def cut(shape, eps: float) -> np.ndarray:
+    """The tree arcs (rows of the decomposition's :attr:`tree`) of the shape simplified
+    to ``eps``: from the coarsest level, every arc whose error bound exceeds ``eps``,
+    or that is a seam, replaced by the two it was made of, until none is; in the order
+    of the curves."""
+    dec = decomposition(shape)
+    tree = dec.tree
+    leaf = tree.child[:, 0] < 0
+    ok = leaf | ((tree.e <= eps) & tree.boundary)
+    cur = dec.level_nodes(dec.levels)
+    while True:
+        bad = ~ok[cur]
+        if not bad.any():
+            return cur
+        reps = np.where(bad, 2, 1)
+        pos = np.cumsum(reps) - reps
+        new = np.repeat(cur, reps)
+        bi = np.flatnonzero(bad)
+        new[pos[bi]] = tree.child[cur[bi], 0]
+        new[pos[bi] + 1] = tree.child[cur[bi], 1]
+        cur = new
+
+
+class Simplified:
+    """The shape's curves simplified to within ``eps`` (:func:`cut`), as the raster levels
+    read a shape: its edges, components and reference points (the original's, valid
+    when they lie farther than ``eps`` from every ring edge: :func:`simplified` checks)."""
+
+    def __init__(self, shape, eps: float, nodes: np.ndarray):
+        tree = decomposition(shape).tree
+        self.original, self.eps = shape, eps
+        self._edges = Edges(tree.a[nodes], tree.b[nodes], tree.boundary[nodes], tree.group[nodes])
+        self.n_groups, self.rings = shape.n_groups, shape.rings
+        self._cache: dict = {}
+
+    def edges(self) -> Edges:
+        return self._edges
+
+    def reference_points(self):
+        return self.original.reference_points()
+
+    def cached(self, key: str, make):
+        if key not in self._cache:
+            self._cache[key] = make()
+        return self._cache[key]
+
+    def __len__(self) -> int:
+        return len(self._edges.a)
+
+
+def _clearance(shape) -> float:
+    """The least distance (rad) from the shape's reference points to its ring edges,
+    seams included (kept on the shape)."""
+
+    def make():
+        arcs = CurveArcs.from_shape(shape)
+        ring = arcs.group >= 0
+        if not ring.any():
+            return np.inf
+        refs, _ = shape.reference_points()
+        a, b, n = arcs.a[ring], arcs.b[ring], arcs.n[ring]
+        return float(min(arc_distance(r, a, b, n).min() for r in refs))
+
+    return shape.cached("raster.ref_clearance", make)
+
+
+def simplified(shape, eps: float) -> Simplified | None:
+    """The shape simplified to ``eps`` (rad), or None where that does not pay (fewer than
+    :data:`MIN_ARCS` arcs, or more than :data:`MAX_FRACTION` of them kept) or is not
+    safe (a reference point within ``eps`` of a ring edge). Kept on the shape, by
+    ``eps``."""
+    n = len(shape.edges().a)
+    if n < MIN_ARCS or not eps > 0.0:
+        return None
+
+    def make():
+        nodes = cut(shape, eps)
+        if len(nodes) > MAX_FRACTION * n or _clearance(shape) <= 2.0 * eps + 1e-12:
+            return None
+        return Simplified(shape, eps, nodes)
+
+    return shape.cached(f"raster.simplified.{float(eps)!r}", make)
+
+
+def band_members(shape, p: np.ndarray, d: float) -> np.ndarray:
+    """Members of the region at signed distance ``d`` (rad) among points ``p`` (unit
+    vectors) known to lie outside the polygons for ``d > 0`` (inside for ``d < 0``):
+    whether an original boundary arc lies within ``|d|`` (exact float64 distances to
+    the arcs whose caps reach, from the cap tree)."""
+    arcs = CurveArcs.from_shape(shape)
+    e = abs(d)
+    within = np.zeros(len(p), dtype=bool)
+    step = 1 << 16
+    for s in range(0, len(p), step):
+        q = p[s : s + step]
+        qi, ai, _ = arcs.tree.near(q, e)
+        keep = arcs.boundary[ai]
+        qi, ai = qi[keep], ai[keep]
+        # the cap test first (cheap, never false where it should hold), then the distance
+        near = cap_within(dot(q[qi], arcs.mid[ai]), e + arcs.half[ai])
+        qi, ai = qi[near], ai[near]
+        hit = arc_distance(q[qi], arcs.a[ai], arcs.b[ai], arcs.n[ai]) <= e
+        within[s : s + len(q)][qi[hit]] = True
+    return within if d > 0 else ~within

@@ -1,0 +1,148 @@
+"""Renders from the curves simplified to a fraction of a pixel (gloffset.raster.simplified)
+on real borders: the two-sided error bound of the simplified curve, and masks equal to
+the float64 reference pixel by pixel."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from conftest import DATA
+from test_render import boundary_distance
+
+import gloffset
+from gloffset.grids import CubeFace, Equirect, Tile
+from gloffset.raster import render as render_mod
+from gloffset.raster import simplified as simp
+from gloffset.reference import contains_xyz, distance_xyz
+from gloffset.sphere import arc_distance
+
+
+@pytest.fixture(scope="module")
+def arctic():
+    """Greenland and Iceland from countries_10m: fjords, 23,000 vertices, up to 83.6 N."""
+    fc = json.loads((DATA / "countries_10m.geojson").read_text())
+    names = ("Greenland", "Iceland")
+    feats = [f for f in fc["features"] if f["properties"].get("name") in names]
+    assert len(feats) == 2
+    return gloffset.read({"type": "FeatureCollection", "features": feats})
+
+
+def _near_points(shape, n, spread, seed=0):
+    """Points near the curves: vertices moved up to ``spread`` rad in random directions."""
+    rng = np.random.default_rng(seed)
+    e = shape.edges()
+    p = e.a[rng.integers(0, len(e.a), n)] + rng.normal(scale=spread, size=(n, 3))
+    return p / np.linalg.norm(p, axis=1)[:, None]
+
+
+@pytest.mark.parametrize("eps", [2e-5, 3e-4, 3e-3])
+def test_cut_is_within_eps_both_ways(arctic, eps):
+    """|D(p) - D_S(p)| <= eps for points near the curves (D to the original boundary
+    arcs, D_S to the simplified ones), and the simplified curve is much shorter."""
+    nodes = simp.cut(arctic, eps)
+    n = len(arctic.edges().a)
+    assert len(nodes) < n
+    s = simp.Simplified(arctic, eps, nodes)
+    e = s.edges()
+    a, b = e.a[e.boundary], e.b[e.boundary]
+    p = _near_points(arctic, 400, 0.01)
+    ds = np.full(len(p), np.inf)
+    for k in range(0, len(a), 512):
+        ds = np.minimum(ds, arc_distance(p[:, None], a[None, k : k + 512], b[None, k : k + 512]).min(1))
+    d = distance_xyz(arctic, p)
+    assert np.all(np.abs(d - ds) <= eps + 1e-12), float(np.abs(d - ds).max())
+    # the bound is used, not idle: some points are off by more than a tenth of it
+    assert np.abs(d - ds).max() > 0.1 * eps
+
+
+def test_seams_are_never_simplified():
+    """A polygon cut at the antimeridian: its seam edges (along 180 degrees, no distance)
+    stay the original ones however coarse the rest."""
+    lat = np.linspace(0.0, 10.0, 41)
+    west = np.column_stack([170.0 + 0.3 * np.sin(7.0 * lat[::-1]), lat[::-1]])
+    seam = np.column_stack([np.full(len(lat), 180.0), lat])
+    ring = np.vstack([west[-1:], seam, west[1:]]).tolist()
+    shape = gloffset.read({"type": "Polygon", "coordinates": [ring + [ring[0]]]})
+    e0 = shape.edges()
+    nodes = simp.cut(shape, 0.05)
+    s = simp.Simplified(shape, 0.05, nodes).edges()
+    seams0 = {(tuple(a), tuple(b)) for a, b in zip(e0.a[~e0.boundary], e0.b[~e0.boundary])}
+    seams = {(tuple(a), tuple(b)) for a, b in zip(s.a[~s.boundary], s.b[~s.boundary])}
+    assert len(seams0) >= 30 and seams == seams0
+    assert s.boundary.sum() < e0.boundary.sum()
+
+
+def _taken(monkeypatch):
+    """Record the band points of simplified renders (the path is taken)."""
+    calls = []
+    orig = render_mod.band_members
+
+    def spy(shape, p, d):
+        calls.append(p)
+        return orig(shape, p, d)
+
+    monkeypatch.setattr(render_mod, "band_members", spy)
+    return calls
+
+
+@pytest.mark.parametrize(
+    "grid, d",
+    [
+        (Equirect(1024, 512), 0.02),
+        (Equirect(1024, 512), -0.012),
+        (Equirect(300, 150, bounds=(-75, 58, -10, 85)), 0.006),
+        (Tile(0, 0, 0), 0.02),
+        (Tile(2, 1, 1), -0.01),
+        (CubeFace(4, 256), 0.015),  # +Z: the north pole
+    ],
+)
+def test_simplified_render_equals_reference(arctic, monkeypatch, grid, d):
+    """The mask from the simplified curves equals the float64 reference renderer
+    (``backend="cpu"``) at every pixel, and the brute-force reference at the band's
+    pixels and at random pixels (but within 1e-9 rad of |d|: float64 rounding)."""
+    monkeypatch.setattr(simp, "MIN_ARCS", 1000)
+    calls = _taken(monkeypatch)
+    mask = gloffset.render(arctic, d, grid, radius=1.0)
+    assert len(calls) == 1 and len(calls[0]) > 0, "the simplified path was not taken"
+    cpu = gloffset.render(arctic, d, grid, radius=1.0, backend="cpu")
+    assert np.array_equal(mask, cpu)
+    h, w = grid.shape
+    assert 0 < np.count_nonzero(mask) < h * w
+    rng = np.random.default_rng(1)
+    jj, ii = rng.integers(0, h, 1500), rng.integers(0, w, 1500)
+    p = np.vstack([calls[0], grid.centers(grid.n_levels - 1, jj, ii)])
+    got = np.concatenate([simp.band_members(arctic, calls[0], d), mask[jj, ii] == 255])
+    bad = got != contains_xyz(arctic, p, d)
+    assert np.all(np.abs(distance_xyz(arctic, p[bad]) - abs(d)) <= 1e-9), int(bad.sum())
+    # the render without simplification differs only where its own contract allows
+    plain = render_mod._render_one(
+        arctic, d, grid, backend="gpu", level=None, callback=None, mask=True, simplify=False
+    )
+    j, i = np.nonzero(plain != mask)
+    if len(j):
+        q = grid.centers(grid.n_levels - 1, j, i)
+        pix = 2.0 * np.pi / (4 * max(h, w))  # no pixel is larger
+        near = np.abs(distance_xyz(arctic, q) - abs(d)) <= 1e-3 * pix
+        assert np.all(near | (boundary_distance(arctic, q) <= 1e-3 * pix))
+
+
+def test_band_decided_by_distance(arctic):
+    """band_members answers by the exact distance to the boundary arcs."""
+    p = _near_points(arctic, 2000, 0.01, seed=3)
+    d = 0.005
+    got = simp.band_members(arctic, p, d)
+    want = distance_xyz(arctic, p) <= d
+    assert np.array_equal(got, want)
+    assert np.array_equal(simp.band_members(arctic, p, -d), ~want)
+
+
+def test_not_used_where_it_does_not_pay(arctic):
+    """A small input, or a simplification that keeps most arcs, renders as before."""
+    assert len(arctic.edges().a) > simp.MIN_ARCS
+    assert simp.simplified(arctic, 1e-9) is None  # keeps every arc
+    assert simp.simplified(arctic, 3e-3) is not None
+    mexico = gloffset.read(DATA / "mexico_10m.geojson")
+    assert len(mexico.edges().a) < simp.MIN_ARCS
+    assert simp.simplified(mexico, 3e-3) is None
