@@ -50,7 +50,9 @@ def test_cut_is_within_eps_both_ways(arctic, eps):
     p = _near_points(arctic, 400, 0.01)
     ds = np.full(len(p), np.inf)
     for k in range(0, len(a), 512):
-        ds = np.minimum(ds, arc_distance(p[:, None], a[None, k : k + 512], b[None, k : k + 512]).min(1))
+        ds = np.minimum(
+            ds, arc_distance(p[:, None], a[None, k : k + 512], b[None, k : k + 512]).min(1)
+        )
     d = distance_xyz(arctic, p)
     assert np.all(np.abs(d - ds) <= eps + 1e-12), float(np.abs(d - ds).max())
     # the bound is used, not idle: some points are off by more than a tenth of it

@@ -111,7 +111,6 @@ class CurveCells:
             lev.cls = np.where(pf != NOT_FORCED, pf, lev.cls).astype(np.uint8)
         return lev
 
-
     def _refined(self, parent: Frontier) -> Level:
         """The children of ``parent``'s cells, classified (or kept from before)."""
         memo = self._memo
