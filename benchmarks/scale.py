@@ -3,8 +3,9 @@
 Inputs: Mexico 1:10m (7k vertices), the 16 countries of ``countries_10m`` with the most
 vertices after the 4 largest (a mid-size subset, united on reading), and all 234
 countries of ``countries_10m`` (308k vertices) as one region. Per input, at d = 0.02 rad
-(127 km): reading (validation and the union), a GPU render at 4096x2048 and at
-16384x8192 (``--big``), the inside-test index build (``gloffset.Index``), ``offset(...)
+(127 km): reading (validation and the union), GPU renders at 1024x512 (and the same
+without the simplified curves of :mod:`gloffset.raster.simplified`), of the z0 tile, at
+4096x2048 and at 16384x8192 (``--big``), the inside-test index build (``gloffset.Index``), ``offset(...)
 .resolve()`` at +127 km and -127 km, and a z0-8 tile pyramid (256 px, MBTiles); and the
 planar pipeline users write instead: shapely's ``buffer`` in degrees, then rasterio's
 ``rasterize`` at 4096x2048 (planar and in degrees, so not the same region: its time is
@@ -60,6 +61,15 @@ t_read = time.perf_counter() - t0
 #: name -> (code timed after a warm-up where ``warm`` is True, warm)
 TASKS = {
     "read_and_unite": ("shape = g.read(shape_input)", False),
+    "render_1024x512": (f"g.render(shape, {D}, Equirect(1024, 512), radius=1.0)", True),
+    # the same render without the simplified curves (what the release before did)
+    "render_1024x512_unsimplified": (
+        "from gloffset.raster.render import _render_one\n"
+        f"_render_one(shape, {D}, Equirect(1024, 512), backend='gpu', level=None, "
+        "callback=None, mask=True, simplify=False)",
+        True,
+    ),
+    "render_tile_z0": (f"g.render(shape, {D}, g.grids.Tile(0, 0, 0), radius=1.0)", True),
     "render_4096x2048": (f"g.render(shape, {D}, Equirect(4096, 2048), radius=1.0)", True),
     "render_16384x8192": (f"g.render(shape, {D}, Equirect(16384, 8192), radius=1.0)", True),
     "index_build": (f"g.Index(shape, {D}, radius=1.0)", False),

@@ -851,9 +851,23 @@ class _Zoom:
         self.track.tick(heavy=len(front) - len(todo), skipped=len(front) - len(todo))
         if todo:
             self.track.setup(_engine)  # the GL context, once: not a tile's cost
-        for k, mask in _render_tiles(
-            chain, np.asarray(todo, dtype=np.int64), self.size, max_block, stats
-        ):
+        if z <= ALONE_ZOOM and self.outline is None:
+            # few tiles, each far coarser than the input: one render per tile, from the
+            # curves simplified to its pixels where that pays (as render_tiles does)
+            shape, d, size = self.cells.shape, self.cells.d, self.size
+            masks = (
+                (
+                    k,
+                    render_grid(shape, d, _tile(z, int(cols[front[k]]), int(rows[front[k]]), size))
+                    > 0,
+                )
+                for k in todo
+            )
+        else:
+            masks = _render_tiles(
+                chain, np.asarray(todo, dtype=np.int64), self.size, max_block, stats
+            )
+        for k, mask in masks:
             i = front[k]
             data = self.style.encode(mask, self.lines_of(lev, i, r))
             stats.rendered += 1
@@ -1067,7 +1081,6 @@ def render_tiles(
     plog = size.bit_length() - 1
     cells = CurveCells(shape, d, _pyramid(z + plog))
     chain = _BinChain(cells, max(0, plog - _BIN_LOG2))
-    cells.remember(chain.nb)  # the walk reaches the chain's levels later: computed once
     stats = PyramidStats()
     job = _Zoom(cells, style, MemoryStore(), set(), size, stats, _Tracker(z, z, None))
     lev = cells.enter_cells(z, [(y, x) for x, y in want])
@@ -1117,7 +1130,6 @@ def tile_masks(
     plog = size.bit_length() - 1
     cells = CurveCells(shape, d, _pyramid(z + plog, ell))
     chain = _BinChain(cells, max(0, plog - _BIN_LOG2))
-    cells.remember(chain.nb)  # the walk reaches the chain's levels later: computed once
     lev = cells.enter_cells(z, [(y, x) for x, y in want])
     rows, cols, cls = lev.cells[:, 0], lev.cells[:, 1], lev.cls
     out = {}
