@@ -255,12 +255,13 @@ def _simplified_mask(shape, d: float, grid) -> np.ndarray | None:
     else:  # a cube face: the rows' first, middle and last cells (smallest and largest)
         r = np.concatenate([grid.area_rho_at(last, rows, np.full(h, i)) for i in (0, w // 2)])
     eps = PIXEL_FRACTION * 2.0 * float(r.min())
-    t = eps + SCREEN_MARGIN * GPU_EPS * 2.0 * float(r.max())
-    if abs(d) <= 4.0 * t:
+    margin = SCREEN_MARGIN * GPU_EPS * 2.0 * float(r.max())
+    if abs(d) <= 4.0 * (eps + margin):
         return None
     s = simplified(shape, eps)
     if s is None:
         return None
+    t = s.eps + margin  # s.eps <= eps: the bound the simplified curve keeps
 
     def one(dd):
         return _render_one(

@@ -140,11 +140,14 @@ def _clearance(shape) -> float:
 def simplified(shape, eps: float) -> Simplified | None:
     """The shape simplified to ``eps`` (rad), or None where that does not pay (fewer than
     :data:`MIN_ARCS` arcs, or more than :data:`MAX_FRACTION` of them kept) or is not
-    safe (a reference point within ``eps`` of a ring edge). Kept on the shape, by
-    ``eps``."""
+    safe (a reference point within ``eps`` of a ring edge). ``eps`` is rounded down to
+    a quarter power of two; the result is kept on the shape, by that ``eps``."""
     n = len(shape.edges().a)
     if n < MIN_ARCS or not eps > 0.0:
         return None
+    # a quarter power of two at most eps: a smaller eps is as valid, and a long-running
+    # process (a tile server's many grids) keeps a few simplified shapes, not one per grid
+    eps = float(2.0 ** (np.floor(4.0 * np.log2(eps)) / 4.0))
 
     def make():
         nodes = cut(shape, eps)
