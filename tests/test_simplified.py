@@ -140,11 +140,23 @@ def test_band_decided_by_distance(arctic):
     assert np.array_equal(simp.band_members(arctic, p, -d), ~want)
 
 
-def test_not_used_where_it_does_not_pay(arctic):
+def test_not_used_where_it_does_not_pay(arctic, world):
     """A small input, or a simplification that keeps most arcs, renders as before."""
     assert len(arctic.edges().a) > simp.MIN_ARCS
     assert simp.simplified(arctic, 1e-9) is None  # keeps every arc
     assert simp.simplified(arctic, 3e-3) is not None
-    mexico = gloffset.read(DATA / "mexico_10m.geojson")
-    assert len(mexico.edges().a) < simp.MIN_ARCS
-    assert simp.simplified(mexico, 3e-3) is None
+    fiji = gloffset.read(world["Fiji"])
+    assert len(fiji.edges().a) < simp.MIN_ARCS
+    assert simp.simplified(fiji, 3e-3) is None
+
+
+@pytest.mark.parametrize("d", [0.05, 0.5, 1.4, -0.06])
+def test_mexico_equals_reference_renderer(monkeypatch, mexico_path, d):
+    """Mexico 1:10m (7,368 arcs) on a 512 x 256 globe, out to 1.4 rad, where every bin
+    sees most of the coast: from the simplified curves, equal to the float64 renderer."""
+    mexico = gloffset.read(mexico_path)
+    calls = _taken(monkeypatch)
+    grid = Equirect(512, 256)
+    mask = gloffset.render(mexico, d, grid, radius=1.0)
+    assert len(calls) == 1, "the simplified path was not taken"
+    assert np.array_equal(mask, gloffset.render(mexico, d, grid, radius=1.0, backend="cpu"))

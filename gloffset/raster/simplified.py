@@ -63,7 +63,7 @@ PIXEL_FRACTION = 0.25
 #: A simplified shape is rendered only when it keeps at most this fraction of the arcs.
 MAX_FRACTION = 0.35
 #: Arcs below which simplifying is never worth its second render.
-MIN_ARCS = 20_000
+MIN_ARCS = 2_000
 
 
 def decomposition(shape) -> Decomposition:
