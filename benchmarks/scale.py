@@ -6,8 +6,8 @@ countries of ``countries_10m`` (308k vertices) as one region. Per input, at d = 
 (127 km): reading (validation and the union), GPU renders at 1024x512 (and the same
 without the simplified curves of :mod:`gloffset.raster.simplified`), of the z0 tile, at
 4096x2048 and at 16384x8192 (``--big``), the inside-test index build
-(``gloffset.Index``), ``offset(...).resolve()`` at +127 km and -127 km, and a z0-8 tile pyramid (256 px, MBTiles); and the
-planar pipeline users write instead: shapely's ``buffer`` in degrees, then rasterio's
+(``gloffset.Index``), ``offset(...).resolve()`` at +127 km and -127 km, and a z0-8 tile
+pyramid (256 px, MBTiles); and the planar pipeline users write instead: shapely's ``buffer`` in degrees, then rasterio's
 ``rasterize`` at 4096x2048 (planar and in degrees, so not the same region: its time is
 the comparison, not its answer).
 
