@@ -3,13 +3,13 @@
 Inputs: Mexico 1:10m (7k vertices), the 16 countries of ``countries_10m`` with the most
 vertices after the 4 largest (a mid-size subset, united on reading), and all 234
 countries of ``countries_10m`` (308k vertices) as one region. Per input, at d = 0.02 rad
-(127 km): reading (validation and the union), GPU renders at 1024x512 (and the same
+(127 km): reading (validation and the union); GPU renders at 1024x512 (and the same
 without the simplified curves of :mod:`gloffset.raster.simplified`), of the z0 tile, at
-4096x2048 and at 16384x8192 (``--big``), the inside-test index build
-(``gloffset.Index``), ``offset(...).resolve()`` at +127 km and -127 km, and a z0-8 tile
-pyramid (256 px, MBTiles); and the planar pipeline users write instead: shapely's ``buffer`` in degrees, then rasterio's
-``rasterize`` at 4096x2048 (planar and in degrees, so not the same region: its time is
-the comparison, not its answer).
+4096x2048 and at 16384x8192 (``--big``); the inside-test index build
+(``gloffset.Index``); ``offset(...).resolve()`` at +127 km and -127 km; a z0-8 tile
+pyramid (256 px, MBTiles); and the planar pipeline users write instead: shapely's
+``buffer`` in degrees, then rasterio's ``rasterize`` at 4096x2048 (planar and in
+degrees, so not the same region: its time is the comparison, not its answer).
 
 Every measurement runs in its own process with a time limit (``--limit``, default
 120 s), so a case that takes too long is reported as over the limit instead of stopping
