@@ -851,7 +851,7 @@ class _Zoom:
         self.track.tick(heavy=len(front) - len(todo), skipped=len(front) - len(todo))
         if todo:
             self.track.setup(_engine)  # the GL context, once: not a tile's cost
-        if z <= ALONE_ZOOM and self.outline is None:
+        if z <= PYRAMID_ALONE_ZOOM and self.outline is None:
             # few tiles, each far coarser than the input: one render per tile, from the
             # curves simplified to its pixels where that pays (as render_tiles does)
             shape, d, size = self.cells.shape, self.cells.d, self.size
@@ -1003,6 +1003,13 @@ def _pyramid(maxzoom: int, ell=None) -> TilePyramid:
 #: levels: 2-5 times faster there (measured, Mexico and countries_10m), slower below (z4
 #: on), where the levels also batch the tiles
 ALONE_ZOOM = 3
+
+
+#: zooms up to which a pyramid renders each frontier tile on its own grid (as
+#: :func:`render_tiles` does up to :data:`ALONE_ZOOM`): there the pyramid's bins hold
+#: thousands of arcs each and a tile's own render, from the simplified curves, is 1.5-2.6
+#: times faster (countries_10m, zooms 0-2); from zoom 3 on the batched levels are faster
+PYRAMID_ALONE_ZOOM = 2
 
 
 @functools.lru_cache(maxsize=1024)
