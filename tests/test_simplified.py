@@ -160,3 +160,20 @@ def test_mexico_equals_reference_renderer(monkeypatch, mexico_path, d):
     mask = gloffset.render(mexico, d, grid, radius=1.0)
     assert len(calls) == 1, "the simplified path was not taken"
     assert np.array_equal(mask, gloffset.render(mexico, d, grid, radius=1.0, backend="cpu"))
+
+
+def test_lines_equal_reference_renderer(monkeypatch):
+    """Coastlines as lines (no inside: the band is decided by distance alone)."""
+    fc = json.loads((DATA / "countries_10m.geojson").read_text())
+    lines = []
+    for f in fc["features"]:
+        if f["properties"].get("name") in ("Greenland", "Iceland", "Norway", "Sweden"):
+            g = f["geometry"]
+            polys = [g["coordinates"]] if g["type"] == "Polygon" else g["coordinates"]
+            lines += [p[0] for p in polys]
+    shape = gloffset.read({"type": "MultiLineString", "coordinates": lines})
+    calls = _taken(monkeypatch)
+    grid = Equirect(1024, 512)
+    mask = gloffset.render(shape, 0.02, grid, radius=1.0)
+    assert len(calls) == 1, "the simplified path was not taken"
+    assert np.array_equal(mask, gloffset.render(shape, 0.02, grid, radius=1.0, backend="cpu"))
