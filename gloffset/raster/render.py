@@ -241,6 +241,21 @@ def _render_one(shape, d, grid, *, backend, level, callback, mask, simplify=True
     return driver.run(cells, stop, handoff=bins, backend=on_gpu, callback=callback)
 
 
+def simplify_eps(grid) -> tuple[float, float]:
+    """``(eps, margin)`` for a render of ``grid`` from simplified curves: ``eps``
+    :data:`~gloffset.raster.simplified.PIXEL_FRACTION` of the smallest pixel's diameter,
+    ``margin`` :data:`SCREEN_MARGIN` times the GPU's error bound (of the largest pixel)."""
+    last = grid.n_levels - 1
+    h, w = grid.level_shape(last)
+    rows = np.arange(h)
+    if grid.lonlat:  # every cell of a row alike
+        r = grid.area_rho_cells(last, rows * w)
+    else:  # a cube face: the rows' first and middle cells (smallest and largest)
+        r = np.concatenate([grid.area_rho_at(last, rows, np.full(h, i)) for i in (0, w // 2)])
+    eps = PIXEL_FRACTION * 2.0 * float(r.min())
+    return eps, SCREEN_MARGIN * GPU_EPS * 2.0 * float(r.max())
+
+
 def _simplified_mask(shape, d: float, grid) -> np.ndarray | None:
     """The GPU mask from the shape simplified to ``eps`` (:data:`PIXEL_FRACTION` of the
     smallest pixel): rendered at ``d - t`` and ``d + t`` (``t = eps`` plus
@@ -248,14 +263,7 @@ def _simplified_mask(shape, d: float, grid) -> np.ndarray | None:
     their exact distance (:mod:`gloffset.raster.simplified`); None where simplifying
     does not pay or ``|d| <= 4 t``."""
     last = grid.n_levels - 1
-    h, w = grid.level_shape(last)
-    rows = np.arange(h)
-    if grid.lonlat:  # every cell of a row alike
-        r = grid.area_rho_cells(last, rows * w)
-    else:  # a cube face: the rows' first, middle and last cells (smallest and largest)
-        r = np.concatenate([grid.area_rho_at(last, rows, np.full(h, i)) for i in (0, w // 2)])
-    eps = PIXEL_FRACTION * 2.0 * float(r.min())
-    margin = SCREEN_MARGIN * GPU_EPS * 2.0 * float(r.max())
+    eps, margin = simplify_eps(grid)
     if abs(d) <= 4.0 * (eps + margin):
         return None
     s = simplified(shape, eps)

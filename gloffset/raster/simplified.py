@@ -142,6 +142,8 @@ def simplified(shape, eps: float) -> Simplified | None:
     :data:`MIN_ARCS` arcs, or more than :data:`MAX_FRACTION` of them kept) or is not
     safe (a reference point within ``eps`` of a ring edge). ``eps`` is rounded down to
     a quarter power of two; the result is kept on the shape, by that ``eps``."""
+    if isinstance(shape, Simplified):
+        return None  # simplified once
     n = len(shape.edges().a)
     if n < MIN_ARCS or not eps > 0.0:
         return None
