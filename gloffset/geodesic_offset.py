@@ -92,6 +92,10 @@ VERTEX_TOL = 1e-3
 MAX_ROUNDS = 30
 #: Secant steps per point.
 MAX_STEPS = 12
+#: The spherical rings are first sampled to this fraction of the tolerance (their
+#: sagitta on the conformal sphere), below the midpoint rule's half so that its
+#: curvature terms do not split every sampled edge once more.
+SAMPLE = 0.45
 
 
 class GeodesicOffset:
@@ -135,7 +139,7 @@ class GeodesicOffset:
         self.sphere = Offset(conf.shape, d_s).resolve()
         tracer = _Tracer(conf, m, tol, self.distance < 0.0)
         for ring in self.sphere.rings:
-            pts, arc = sample_ring(ring, tol / (2.0 * ell.k_max))
+            pts, arc = sample_ring(ring, SAMPLE * tol / ell.k_max)
             gen = _generators(ring, arc)
             u = _away(pts, gen)
             # a junction (an arc's first point) leaves both arcs' generators: the sum of
