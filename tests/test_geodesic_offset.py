@@ -101,6 +101,19 @@ def test_polygon_with_hole():
     assert len(off.rings) == 2
 
 
+@pytest.mark.parametrize(("tip", "d"), [(0.02, 1000.0), (0.01, 500.0)])
+def test_hairpin_far_from_the_median_latitude(tip, d):
+    """A hairpin at the equator whose inner parallels meet at a sharp junction, the
+    shape's median latitude (hence the spherical offset's scale) at 60 degrees: the
+    junction lies hundreds of metres from the sphere's, and the ring's edge beside it
+    runs along a generator's direction (its midpoint used to fall back onto its end,
+    2.3 m off)."""
+    far = [[20, 60], [20.5, 60.2], [21, 60], [21.5, 60.2], [22, 60]]
+    coords = [[[0, 0], [1, 0], [0, tip]], far]
+    shape = gloffset.read({"type": "MultiLineString", "coordinates": coords})
+    check_offset(shape, d, n=100)
+
+
 def test_fiji_antimeridian():
     fiji = _features(DATA / "world_110m.geojson", ["Fiji"])
     off = check_offset(fiji, 10e3, tol=5.0, n=100)
