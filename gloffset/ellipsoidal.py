@@ -132,6 +132,25 @@ class Conformal:
         keep = theta - self.h[ei] <= np.asarray(reach, dtype=np.float64)[qi]
         return qi[keep], ei[keep], theta[keep]
 
+    def nearest_pairs(self, p, chi):
+        """The candidate (point, edge) pairs of :func:`nearest_geodesic` with their
+        spherical distances, and each point's upper bound on its geodesic distance:
+        the edges within the reach of the exact spherical distance to the image. That
+        distance is the least over the edges within the reach of an upper bound of it
+        (the nearest of every ``n / 256``-th vertex), so no (point, edge) matrix is
+        made."""
+        ell = self.ell
+        sub = self.a[:: max(1, len(self.a) // 256)]
+        near = sub[np.argmax(p @ sub.T, axis=1)]
+        above = angle(p, near) + 1e-12
+        reach = upper_distance(ell, chi, above + self.h_max) / ell.k_min + self.h_max
+        qi, ei, theta = self.pairs(p, reach)
+        theta0 = np.full(len(p), np.inf)
+        np.minimum.at(theta0, qi, theta)
+        upper0 = upper_distance(ell, chi, theta0 + self.h_max)
+        keep = theta - self.h[ei] <= (upper0 / ell.k_min + self.h_max)[qi]
+        return qi[keep], ei[keep], theta[keep], upper0
+
     def start(self, p, e) -> np.ndarray:
         """Where along edges ``e`` (fractions) the feet of points ``p`` lie on the
         conformal sphere: the intercept's starting points."""
@@ -207,9 +226,7 @@ def nearest_geodesic(conf: Conformal, lon, lat) -> np.ndarray:
     ell = conf.ell
     p = ell.to_sphere(lon, lat)
     chi = conf.chi(lat)
-    theta0 = distance_xyz(conf.shape, p)
-    upper0 = upper_distance(ell, chi, theta0 + conf.h_max)
-    qi, ei, theta = conf.pairs(p, upper0 / ell.k_min + conf.h_max)
+    qi, ei, theta, upper0 = conf.nearest_pairs(p, chi)
     low = lower_distance(ell, chi[qi], theta - conf.h[ei], upper0[qi])
     order = np.lexsort((low, qi))
     qi, ei, low = qi[order], ei[order], low[order]

@@ -11,42 +11,69 @@ geodesic distance is the spherical one times a scale within 0.34 % of the local 
 (:mod:`gloffset.ellipsoid.bounds`), so the *resolved* spherical offset (union,
 self-intersections removed, Sec. 4.4) of the shape's image at ``|d| / K`` (``K`` the
 scale at the shape's median latitude) has the topology of the ellipsoidal boundary
-and lies within the ratio band of it. Its rings are densified, and every point is
+and lies within the ratio band of it. Its rings are densified (sagitta :data:`SAMPLE`
+times the tolerance), and every point is
 moved along the great circle leaving its generator (the arc's vertex, or the foot on
 the arc's edge: the direction in which the distance grows; at a junction of two arcs
-the mean of both directions) until its geodesic distance
-(:func:`gloffset.ellipsoidal.nearest_geodesic`, within 1 um) is ``|d|`` to within
-:data:`VERTEX_TOL` times the tolerance (1 mm for 1 m): secant steps, started at ``|d|
-/ K`` from the generator with ``K`` the scale at the middle of the path (right to a
-relative ``O(f (d/a)^2)``, so one or two distances per point), moves bounded by twice
-the ratio band. A point whose direction does not reach ``|d|`` (beside a corner of
-the ellipsoidal boundary that the spherical one has elsewhere) takes Newton steps
-along the distance's gradient (finite differences) instead. The parallel curves of
-the geodesic edges and the geodesic circles about the vertices, with their
-junctions, are what this traces; no formula of theirs is needed.
+the mean of both directions, along which the distance grows only as the cosine of
+half their angle, so that a sharp junction may move the farther) until its geodesic
+distance (:func:`gloffset.ellipsoidal.nearest_geodesic`, within 1 um) is ``|d|`` to
+within :data:`VERTEX_TOL` times the tolerance (1 mm for 1 m): secant steps, started
+at ``|d| / K`` from the generator with ``K`` the scale at the middle of the path
+(right to a relative ``O(f (d/a)^2)``, so one or two distances per point), and once
+the distance minus ``|d|`` has taken both signs kept in that bracket (bisecting when
+a step leaves it or does not halve the excess). A point whose direction does not
+reach ``|d|`` takes Newton steps along the distance's gradient (finite differences)
+instead. The parallel curves of the geodesic edges and the geodesic circles about
+the vertices, with their junctions, are what this traces; no formula of theirs is
+needed.
 
-Tolerance. Between consecutive points a ring's edge is the geodesic (within
-:func:`gloffset.ellipsoid.edge_deviation` of the great circle of the conformal
-sphere). Each edge's midpoint on the conformal sphere is measured; while its
-distance differs from ``|d|`` by more than ``tolerance / 2`` minus the edge's
-deviation bound, the moved midpoint is inserted. Between two samples the boundary is
-smooth (its deviation from the chord is largest near the middle) or has one corner
-(a junction; the deviation at the midpoint is then at least half that at the
-corner), so the whole edge is within ``tolerance``. This argument is not a proof
-(two corners between samples would escape it); the tests check it against the brute
-force of :mod:`gloffset.reference` at every vertex and every edge's geodesic midpoint.
+Tolerance. Between consecutive points a ring's edge is the geodesic. Along a
+geodesic, the distance ``g`` to one edge of the shape (less ``|d|``) has a second
+derivative within ``[-c, C]`` (:func:`_curvatures`: ``C = 1 / |d|`` beside the
+edge's ends, where it is the distance to a point; ``c = tan(|d| / b) / b`` bounds the
+bending of the parallel curve beside its middle, where it is also at most 0): it is
+convex up to ``c``. Each ring edge's geodesic midpoint is measured (``g_m``, its
+length ``L``, its ends within ``eps`` = :data:`VERTEX_TOL` times the tolerance of
+``|d|``), and the midpoint, moved to ``|d|`` along the edge's normal on the conformal
+sphere (its perpendicular bisector, which crosses the boundary between the ends also
+beside a corner), is inserted until, with ``h = (tolerance - eps) / 2``:
+
+* ``|g_m| <= h`` and ``-g_m + c L^2 / 8 <= h``: an edge nearer than ``|d|`` to one
+  generator is, that generator's distance being convex up to ``c``, at most twice as
+  deep as at its midpoint;
+* where both ends lie on one generator's curve (the same arc of the spherical
+  offset, or a vertex's circle and the parallel curve of an edge through it, which
+  meet tangentially): ``eps + c L^2 / 8 <= tolerance``, which bounds how far beyond
+  ``|d|`` a function convex up to ``c`` gets between ends at ``|d|``;
+* where the ends lie on two generators (a junction between them: a corner, whose
+  peak beyond ``|d|`` the midpoint sees at least half of when both distances are
+  linear): ``g_m + (C' + c / 2) L^2 / 8 <= h`` and ``-g_m + (c + C' / 4) L^2 / 8 <=
+  h``, ``C' = C`` where one of them is a vertex and 0 between two edges' parallel
+  curves: the first bounds the corner's peak by the tent of the two distances, the
+  second a dip of one of them between the samples.
+
+An edge whose ends' errors plus half its length (the distance is 1-Lipschitz) stay
+within the tolerance needs no midpoint. So every point of an edge is within
+``tolerance`` of ``|d|`` provided that at most one corner lies between its ends and
+the ends' generators are those of the ring's arcs (the spherical offset's junctions
+are all sampled, and only generators whose curves lie within the ratio band of the
+boundary could add one); this is an argument, not a proof of those premises, and the
+tests check it against the brute force of :mod:`gloffset.reference` at every vertex
+and every edge's geodesic midpoint.
 
 Limits. Parts or gaps of the region narrower than the ratio band (0.34 % of ``d``
 plus the edges' deviation bounds) may be joined or split as on the sphere at
-``|d| / K`` rather than as on the ellipsoid. Cost: a few geodesic distances per
-output point (about 1 ms each, pure Python).
+``|d| / K`` rather than as on the ellipsoid. Cost: one or two geodesic distances per
+output point (about 0.1 ms each: pyproj's C geodesics, vectorised, on the candidate
+edges that spherical bounds leave).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .ellipsoid import as_ellipsoid, edge_deviation
+from .ellipsoid import as_ellipsoid, geodesic_midpoints
 from .ellipsoidal import Conformal, conformal, nearest_geodesic
 from .ellipsoidal import contains as ellipsoidal_contains
 from .errors import InvalidDistanceError
@@ -67,6 +94,10 @@ VERTEX_TOL = 1e-3
 MAX_ROUNDS = 30
 #: Secant steps per point.
 MAX_STEPS = 12
+#: The spherical rings are first sampled to this fraction of the tolerance (their
+#: sagitta on the conformal sphere), below the midpoint rule's half so that its
+#: curvature terms do not split every sampled edge once more.
+SAMPLE = 0.45
 
 
 class GeodesicOffset:
@@ -108,17 +139,22 @@ class GeodesicOffset:
         k_ref = float(ell.scale(np.radians(np.median(np.abs(lat))))) if len(lat) else ell.k_max
         d_s = np.copysign(m / k_ref, self.distance)
         self.sphere = Offset(conf.shape, d_s).resolve()
-        tracer = _Tracer(conf, m, tol)
+        tracer = _Tracer(conf, m, tol, self.distance < 0.0)
         for ring in self.sphere.rings:
-            pts, arc = sample_ring(ring, tol / (2.0 * ell.k_max))
+            pts, arc = sample_ring(ring, SAMPLE * tol / ell.k_max)
             gen = _generators(ring, arc)
             u = _away(pts, gen)
             # a junction (an arc's first point) leaves both arcs' generators: the sum of
             # the two directions increases both distances
             first = np.flatnonzero(arc != np.roll(arc, 1))
             prev = (gen[0][first - 1], gen[1][first - 1])
-            u[first] = normalize(u[first] + _away(pts[first], prev))
-            pts = tracer.move(pts, gen, u)
+            both = u[first] + _away(pts[first], prev)
+            u[first] = normalize(both)
+            # along it the distance grows as the cosine of half the angle between the
+            # two directions: slowly at a sharp junction, which moves the more for it
+            reach = np.full(len(pts), tracer.reach)
+            reach[first] /= np.maximum(0.5 * np.linalg.norm(both, axis=1), 0.05)
+            pts = tracer.move(pts, gen, u, reach)
             pts, gen = tracer.densify(pts, gen)
             lon, chi = xyz_to_lonlat(pts)
             self.rings.append(lonlat_to_xyz(lon, ell.geodetic(chi)))
@@ -186,8 +222,11 @@ def _away(p, gen) -> np.ndarray:
 class _Tracer:
     """Moves points of the conformal sphere to geodesic distance ``m`` and densifies."""
 
-    def __init__(self, conf: Conformal, m: float, tol: float):
+    def __init__(self, conf: Conformal, m: float, tol: float, inward: bool = False):
         self.conf, self.m, self.tol = conf, m, tol
+        #: The side of the rings' edges on which the distance grows: +1 left (inward
+        #: offsets, the region farther than m), -1 right (the region within m on the left)
+        self.side = 1.0 if inward else -1.0
         self.eps = VERTEX_TOL * tol
         self.unresolved = 0
         ell = conf.ell
@@ -201,25 +240,42 @@ class _Tracer:
         lat = self.conf.ell.geodetic(chi)
         return nearest_geodesic(self.conf, lon, lat) - self.m
 
-    def move(self, p, gen, u=None, reach=None) -> np.ndarray:
+    def move(self, p, gen, u=None, reach=None, f0=None) -> np.ndarray:
         """The points moved along their great circles away from the generators (or along
-        ``u``) to distance ``m`` (secant steps; the local scale as the first slope), by
-        at most :attr:`reach`."""
+        ``u``, a direction in which the distance grows) to distance ``m``, by at most
+        :attr:`reach` (or ``reach``, per point).
+
+        Secant steps from ``m / K`` (``K`` the scale at the middle of the path to the
+        generator), or, where the excess ``f0`` at the points themselves is given, from
+        the points with the local scale as the first slope. Once the excess has taken
+        both signs the root is bracketed: a step leaving the bracket, or one that did
+        not halve the excess, bisects it instead. No floor on the slope: beside a sharp
+        junction the distance grows slowly along the direction (as the cosine of half
+        the angle between the two generators' directions)."""
         p = np.array(p, dtype=np.float64)
-        if len(p) == 0:
+        n = len(p)
+        if n == 0:
             return p
         u = _away(p, gen) if u is None else u
-        reach = np.broadcast_to(self.reach if reach is None else reach, (len(p),)).copy()
+        reach = np.broadcast_to(self.reach if reach is None else reach, (n,)).copy()
         ell = self.conf.ell
-        # the start: the geodesic distance is about K at the path's middle times the
-        # spherical one (to O(f (d / a)^2) relative), so aim at m / K
-        foot = _foot(p, gen)
-        _, chi = xyz_to_lonlat(normalize(p + foot))
-        k = ell.scale(np.radians(ell.geodetic(chi)))
-        s1 = self.m / k - angle(p, foot)
-        s1[np.abs(s1) > 0.5 * reach] = 0.0  # another generator is nearer: no guess
-        s0, f0, f1 = s1.copy(), np.zeros(len(p)), np.zeros(len(p))
-        act = np.ones(len(p), dtype=bool)
+        if f0 is None:
+            # the start: the geodesic distance is about K at the path's middle times the
+            # spherical one (to O(f (d / a)^2) relative), so aim at m / K
+            foot = _foot(p, gen)
+            _, chi = xyz_to_lonlat(normalize(p + foot))
+            k = ell.scale(np.radians(ell.geodetic(chi)))
+            s1 = self.m / k - angle(p, foot)
+            s1[np.abs(s1) > 0.5 * reach] = 0.0  # another generator is nearer: no guess
+            s0, f0 = np.full(n, np.nan), np.full(n, np.nan)
+        else:
+            _, chi = xyz_to_lonlat(p)
+            k = ell.scale(np.radians(ell.geodetic(chi)))
+            s0, f0 = np.zeros(n), np.array(f0, dtype=np.float64)
+            s1 = np.clip(-f0 / k, -reach, reach)
+        f1 = np.zeros(n)
+        s_neg, s_pos = np.full(n, np.nan), np.full(n, np.nan)  # the latest of each sign
+        act = np.ones(n, dtype=bool)
         at = lambda i, s: np.cos(s)[:, None] * p[i] + np.sin(s)[:, None] * u[i]  # noqa: E731
         for _ in range(MAX_STEPS):
             idx = np.flatnonzero(act)
@@ -229,12 +285,21 @@ class _Tracer:
             done = np.abs(f1[idx]) <= self.eps
             act[idx[done]] = False
             idx = idx[~done]
-            ds = s1[idx] - s0[idx]
-            slope = (f1[idx] - f0[idx]) / np.where(ds == 0.0, 1.0, ds)
-            slope = np.where((slope < 0.2 * k[idx]) | (ds == 0.0), k[idx], slope)
-            s0[idx], f0[idx] = s1[idx], f1[idx]
-            s1[idx] = np.clip(s1[idx] - f1[idx] / slope, -reach[idx], reach[idx])
-        out = normalize(at(np.arange(len(p)), s1))
+            s, f, ki = s1[idx], f1[idx], k[idx]
+            s_neg[idx] = np.where(f < 0.0, s, s_neg[idx])
+            s_pos[idx] = np.where(f > 0.0, s, s_pos[idx])
+            ds = s - s0[idx]
+            slope = (f - f0[idx]) / np.where(ds == 0.0, 1.0, ds)
+            flat = ~(np.abs(slope) > 1e-3 * ki) | (ds == 0.0)  # also NaN: no previous
+            new = s - f / np.where(flat, ki, slope)
+            lo, hi = np.fmin(s_neg[idx], s_pos[idx]), np.fmax(s_neg[idx], s_pos[idx])
+            bracket = np.isfinite(s_neg[idx]) & np.isfinite(s_pos[idx])
+            slow = np.abs(f) > 0.5 * np.abs(f0[idx])  # False without a previous step
+            bisect = bracket & ((new <= lo) | (new >= hi) | slow)
+            new = np.where(bisect, 0.5 * (lo + hi), new)
+            s0[idx], f0[idx] = s, f
+            s1[idx] = np.clip(new, -reach[idx], reach[idx])
+        out = normalize(at(np.arange(n), s1))
         idx = np.flatnonzero(act)
         if len(idx):  # a corner where the generator's direction does not reach m
             out[idx], f1[idx] = self.climb(out[idx], reach[idx])
@@ -266,33 +331,54 @@ class _Tracer:
         return p, f
 
     def densify(self, p, gen):
-        """Insert moved midpoints where an edge's midpoint is off ``m`` by more than
-        half the tolerance (less the edge's deviation from its great circle); only the
-        edges made by the last round are measured again. An edge so short that its
-        ends' errors plus half its length (the distance is 1-Lipschitz) stay within the
-        tolerance needs no midpoint. Midpoints move at most a few times their own error
-        (the boundary is that close)."""
+        """Insert moved midpoints where an edge's geodesic midpoint breaks the rules of
+        the module's docstring (half the tolerance, less the curvature terms of
+        :func:`_curvatures` where the ends lie on different generators, see
+        :func:`_corner`); only the edges made by the last round are measured again. An
+        edge so short that its ends' errors plus half its length (the distance is
+        1-Lipschitz) stay within the tolerance needs no midpoint. A midpoint moves along
+        the edge's normal (its perpendicular bisector on the conformal sphere), which
+        crosses the boundary between the ends also where a generator's own direction
+        runs along the edge (beside a corner), by at most a few times its own error
+        plus half the edge; it takes the generator of the end whose generator is
+        nearer on the conformal sphere."""
         vertex, axis = gen
         ell = self.conf.ell
+        half = 0.5 * (self.tol - self.eps)
+        big_c, small_c = _curvatures(ell, self.m)
+        lon, chi = xyz_to_lonlat(p)
+        lat = ell.geodetic(chi)
         todo = np.arange(len(p))  # edges (i, i + 1) to measure
         for _ in range(MAX_ROUNDS):
-            q = np.roll(p, -1, axis=0)[todo]
-            mid = normalize(p[todo] + q)
-            chord = np.linalg.norm(p[todo] - q, axis=1)
-            theta = 2.0 * np.arcsin(np.minimum(0.5 * chord, 1.0))
-            slack = ell.k_max * edge_deviation(ell, theta)
-            short = self.eps + 0.5 * ell.k_max * theta + slack <= self.tol
-            f = self.excess(mid)
-            off = (np.abs(f) + slack > 0.5 * self.tol) & ~short
-            bad = todo[off]
+            nxt = (todo + 1) % len(p)
+            mlon, mlat, length = geodesic_midpoints(ell, lon[todo], lat[todo], lon[nxt], lat[nxt])
+            f = nearest_geodesic(self.conf, mlon, mlat) - self.m
+            corner = _corner((vertex[todo], axis[todo]), (vertex[nxt], axis[nxt]))
+            big = np.where(corner & (vertex[todo] | vertex[nxt]), big_c, 0.0)
+            k2 = 0.125 * length**2
+            off = (
+                (np.abs(f) > half)
+                | (-f + (small_c + 0.25 * big) * k2 > half)
+                | (corner & (f + (0.5 * small_c + big) * k2 > half))
+                | (~corner & (self.eps + small_c * k2 > self.tol))
+            )
+            off &= self.eps + 0.5 * length > self.tol  # else short enough (1-Lipschitz)
+            bad, nb = todo[off], nxt[off]
             if len(bad) == 0:
                 return p, gen
-            sub = (vertex[bad], axis[bad])
-            reach = 3.0 * np.abs(f[off]) / ell.k_min + self.tol / ell.k_min
-            new = self.move(mid[off], sub, reach=reach)
+            mid = ell.to_sphere(mlon[off], mlat[off])
+            normal = np.cross(p[bad], p[nb])
+            normal = self.side * normalize(normal - dot(normal, mid)[:, None] * mid)
+            reach = (3.0 * np.abs(f[off]) + self.tol + 0.5 * length[off]) / ell.k_min
+            ga, gb = (vertex[bad], axis[bad]), (vertex[nb], axis[nb])
+            new = self.move(mid, ga, normal, reach, f0=f[off])
+            nearer = angle(new, _foot(new, ga)) <= angle(new, _foot(new, gb))
+            new_lon, new_chi = xyz_to_lonlat(new)
             p = np.insert(p, bad + 1, new, axis=0)
-            vertex = np.insert(vertex, bad + 1, sub[0])
-            axis = np.insert(axis, bad + 1, sub[1], axis=0)
+            lon = np.insert(lon, bad + 1, new_lon)
+            lat = np.insert(lat, bad + 1, ell.geodetic(new_chi))
+            vertex = np.insert(vertex, bad + 1, np.where(nearer, ga[0], gb[0]))
+            axis = np.insert(axis, bad + 1, np.where(nearer[:, None], ga[1], gb[1]), axis=0)
             gen = (vertex, axis)
             # after insertion edge bad[k] is at bad[k] + k, its new half right after it
             first = bad + np.arange(len(bad))
@@ -300,6 +386,27 @@ class _Tracer:
             todo = np.sort(todo % len(p))
         self.unresolved += len(todo)
         return p, gen
+
+
+def _corner(ga, gb) -> np.ndarray:
+    """Whether the boundary may turn (a junction) between points of generators ``ga``
+    and ``gb``: they differ, and are not a vertex and an edge through it (whose circle
+    and parallel curve meet tangentially)."""
+    (va, aa), (vb, ab) = ga, gb
+    c = dot(aa, ab)
+    same = (va == vb) & (c > 1.0 - 1e-12)
+    tangent = (va != vb) & (np.abs(c) < 1e-9)
+    return ~(same | tangent)
+
+
+def _curvatures(ell, m: float) -> tuple[float, float]:
+    """Bounds on the second derivative, along a geodesic at distance about ``m``, of
+    the distance to a geodesic edge: at most ``C = 1 / m`` (beside its ends, the
+    distance to a point, on a surface of positive curvature) and at least ``-c``,
+    ``c = tan(m / b) / b`` (beside its middle; ``1 / b^2`` the largest curvature of the
+    ellipsoid). Beside its middle it is also at most 0."""
+    b = ell.a * (1.0 - ell.f)
+    return 1.0 / m, float(np.tan(min(m / b, 1.5)) / b)
 
 
 def offset(

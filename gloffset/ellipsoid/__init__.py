@@ -5,7 +5,7 @@
 when installed, the same routines vectorised), nothing above."""
 
 from .bounds import edge_deviation, lower_distance, upper_distance, window_scale
-from .intercept import edge_distance, edge_distances
+from .intercept import edge_distance, edge_distances, geodesic_midpoints
 from .model import ELLIPSOIDS, Ellipsoid, as_ellipsoid
 
 __all__ = [
@@ -15,6 +15,7 @@ __all__ = [
     "edge_deviation",
     "edge_distance",
     "edge_distances",
+    "geodesic_midpoints",
     "lower_distance",
     "upper_distance",
     "window_scale",

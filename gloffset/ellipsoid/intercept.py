@@ -162,6 +162,24 @@ def edge_distances(ell, lat, lon, a, b, s0) -> np.ndarray:
     return out
 
 
+def geodesic_midpoints(ell, lon1, lat1, lon2, lat2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The midpoints (geodetic lon, lat in degrees) and lengths (metres) of the shortest
+    geodesics between pairs of points: pyproj's C geodesics, vectorised, or
+    geographiclib pair by pair without pyproj."""
+    lon1, lat1, lon2, lat2 = (np.asarray(x, dtype=np.float64) for x in (lon1, lat1, lon2, lat2))
+    geod = _proj_geod(ell)
+    if geod is not None:
+        az, _, length = geod.inv(lon1, lat1, lon2, lat2)
+        lon, lat, _ = geod.fwd(lon1, lat1, az, 0.5 * np.asarray(length))
+        return np.asarray(lon), np.asarray(lat), np.asarray(length)
+    out = np.empty((3, len(lon1)))  # pragma: no cover - pyproj is an optional extra
+    for i in range(len(lon1)):  # pragma: no cover
+        line = ell.geodesic.InverseLine(lat1[i], lon1[i], lat2[i], lon2[i])
+        pos = line.Position(0.5 * line.s13)
+        out[:, i] = pos["lon2"], pos["lat2"], line.s13
+    return out[0], out[1], out[2]  # pragma: no cover
+
+
 def _proj_geod(ell):
     """``pyproj.Geod`` of the ellipsoid (made once per ellipsoid), or None without
     pyproj."""
