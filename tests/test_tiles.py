@@ -593,3 +593,32 @@ def test_vertex_at_a_tile_corner(d, tmp_path):
     for (z, x, y), png in tiles.items():
         want = gloffset.render(tri, d, Tile(z, x, y, SIZE)) > 0
         np.testing.assert_array_equal(alpha(png) > 0, want, err_msg=f"tile {z}/{x}/{y}")
+
+
+def test_each_level_is_refined_once(tmp_path, mexico_path, monkeypatch):
+    """The bin levels run ahead of the zoom walk and the walk reaches the same frontier
+    later: each level is classified once (CurveCells.remember), with the tiles of a run
+    that classifies it twice."""
+    from gloffset.raster import curves
+
+    calls = []
+    orig = curves.refine
+
+    def counting(f, *args):
+        calls.append((f.level, f.cells.tobytes()))
+        return orig(f, *args)
+
+    monkeypatch.setattr(curves, "refine", counting)
+    mexico = gloffset.read(mexico_path)
+    a = pyramid(mexico, 100e3, "0-6", str(tmp_path / "a.mbtiles"))
+    assert calls and len(calls) == len(set(calls)), "a level was classified twice"
+    monkeypatch.setattr(curves.CurveCells, "remember", lambda self, ahead: None)
+    calls.clear()
+    b = pyramid(mexico, 100e3, "0-6", str(tmp_path / "b.mbtiles"))
+    assert len(calls) > len(set(calls))  # without it, the walk does the chain's work again
+
+    def tiles(path):
+        with sqlite3.connect(path) as con:
+            return sorted(con.execute("SELECT * FROM tiles"))
+
+    assert a.written == b.written and tiles(tmp_path / "a.mbtiles") == tiles(tmp_path / "b.mbtiles")
