@@ -335,7 +335,9 @@ def render(
     the curves differs from ``|distance|`` by more than 1e-3 of the pixel's angular
     size, and whose centre is farther than that from a polygon boundary; a cell
     reported contained or outside at any level has only descendant pixels of that
-    class.
+    class. A GPU mask of an input far finer than the pixels is rendered from its curves
+    simplified to a quarter pixel (:mod:`gloffset.raster.simplified`): it then equals the
+    float64 reference at every pixel but within 1e-3 of a pixel of a seam.
     """
     shape = read(shape)
     if ellipsoid is not None:
