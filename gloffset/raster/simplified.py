@@ -38,11 +38,11 @@ Accuracy: every pixel outside the band is decided as by the exact distance (the 
 own error is inside the margin ``m``), and every band pixel by the exact float64
 distance; so the mask equals the float64 reference except, as every GPU render, at
 pixels within 1e-3 pixel of a seam's crossing test. Cost: two renders of ``S``, the
-decomposition of the shape once (kept on it), and the band (``2 t`` wide: about a
-quarter of the pixels along the offset boundary).
+decomposition of the shape once (kept on it), and the band (``2 t`` wide: about half
+of the pixels along the offset boundary).
 
-It is used where it pays (:func:`render_simplified`): when ``S`` has at most
-:data:`MAX_FRACTION` of the original arcs.
+:func:`gloffset.render` uses it for GPU masks where it pays: inputs of at least
+:data:`MIN_ARCS` arcs whose simplified curve keeps at most :data:`MAX_FRACTION` of them.
 """
 
 from __future__ import annotations
