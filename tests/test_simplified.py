@@ -177,3 +177,53 @@ def test_lines_equal_reference_renderer(monkeypatch):
     mask = gloffset.render(shape, 0.02, grid, radius=1.0)
     assert len(calls) == 1, "the simplified path was not taken"
     assert np.array_equal(mask, gloffset.render(shape, 0.02, grid, radius=1.0, backend="cpu"))
+
+
+@pytest.mark.parametrize(
+    "grid, d",
+    [
+        (Equirect(160, 110, bounds=(-12, 34, 20, 56)), 0.006),
+        (Equirect(512, 256), -0.015),
+        (Tile(2, 2, 1), 0.01),
+    ],
+)
+def test_neighbours_sharing_borders(monkeypatch, grid, d):
+    """Nine western European countries of countries_10m united: their shared borders
+    cancel, so the simplified curve is the union's coast and outer border only."""
+    names = {
+        "France", "Spain", "Portugal", "Andorra", "Germany",
+        "Belgium", "Luxembourg", "Netherlands", "Austria",
+    }  # fmt: skip
+    fc = json.loads((DATA / "countries_10m.geojson").read_text())
+    feats = [f for f in fc["features"] if f["properties"].get("name") in names]
+    assert len(feats) == len(names)
+    shape = gloffset.read({"type": "FeatureCollection", "features": feats})
+    separate = sum(len(gloffset.read(f).edges().a) for f in feats)
+    assert len(shape.edges().a) < separate - 1000  # the shared borders are gone
+    calls = _taken(monkeypatch)
+    mask = gloffset.render(shape, d, grid, radius=1.0)
+    assert len(calls) == 1, "the simplified path was not taken"
+    assert np.array_equal(mask, gloffset.render(shape, d, grid, radius=1.0, backend="cpu"))
+    assert 0 < np.count_nonzero(mask) < mask.size
+
+
+@pytest.mark.parametrize(
+    "name, grid, d",
+    [
+        ("Russia", Equirect(360, 180), 0.05),
+        ("Russia", Equirect(300, 150, bounds=(150, 40, -150, 80)), -0.02),  # across 180
+        ("Fiji", Equirect(200, 100, bounds=(170, -25, -170, -10)), 0.01),
+        ("Antarctica", Equirect(360, 180), -0.05),  # round the pole
+    ],
+)
+def test_antimeridian_and_pole(monkeypatch, world, name, grid, d):
+    """Shapes across the antimeridian and round the pole (world_110m, simplified however
+    little that saves: the mechanism, not its payoff): equal to the float64 renderer."""
+    monkeypatch.setattr(simp, "MIN_ARCS", 10)
+    monkeypatch.setattr(simp, "MAX_FRACTION", 1.0)
+    shape = gloffset.read(world[name])
+    calls = _taken(monkeypatch)
+    mask = gloffset.render(shape, d, grid, radius=1.0)
+    assert len(calls) == 1, "the simplified path was not taken"
+    assert np.array_equal(mask, gloffset.render(shape, d, grid, radius=1.0, backend="cpu"))
+    assert 0 < np.count_nonzero(mask) < mask.size

@@ -61,7 +61,7 @@ from ..sphere import (
     xyz_to_lonlat,
 )
 from ..units import EARTH_RADIUS, offset_angle
-from ..vector.multires import Decomposition
+from ..vector.multires import full_decomposition
 from . import bins
 
 __all__ = ["Index", "contains", "depth_for"]
@@ -159,7 +159,7 @@ class _Arcs:
     """The arc tree of a full decomposition, with what the index needs (distance-free)."""
 
     def __init__(self, shape):
-        dec = Decomposition(shape, 64, exhaust=True)  # as far as arcs merge
+        dec = full_decomposition(shape)  # as far as arcs merge, shared with renders
         t = dec.tree
         self.decomposition = dec
         self.top = dec.level_nodes(dec.levels)

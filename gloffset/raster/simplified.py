@@ -53,7 +53,7 @@ from ..caps import cap_within
 from ..edges import CurveArcs
 from ..shape import Edges
 from ..sphere import arc_distance, dot
-from ..vector.multires import Decomposition
+from ..vector.multires import full_decomposition
 
 __all__ = ["MAX_FRACTION", "PIXEL_FRACTION", "Simplified", "cut", "band_members", "simplified"]
 
@@ -66,17 +66,12 @@ MAX_FRACTION = 0.35
 MIN_ARCS = 2_000
 
 
-def decomposition(shape) -> Decomposition:
-    """The shape's multiresolution decomposition, as far as arcs merge (kept on it)."""
-    return shape.cached("multires.exhaust", lambda: Decomposition(shape, 64, exhaust=True))
-
-
 def cut(shape, eps: float) -> np.ndarray:
     """The tree arcs (rows of the decomposition's :attr:`tree`) of the shape simplified
     to ``eps``: from the coarsest level, every arc whose error bound exceeds ``eps``,
     or that is a seam, replaced by the two it was made of, until none is; in the order
     of the curves."""
-    dec = decomposition(shape)
+    dec = full_decomposition(shape)
     tree = dec.tree
     leaf = tree.child[:, 0] < 0
     ok = leaf | ((tree.e <= eps) & tree.boundary)
@@ -100,7 +95,7 @@ class Simplified:
     when they lie farther than ``eps`` from every ring edge: :func:`simplified` checks)."""
 
     def __init__(self, shape, eps: float, nodes: np.ndarray):
-        tree = decomposition(shape).tree
+        tree = full_decomposition(shape).tree
         self.original, self.eps = shape, eps
         self._edges = Edges(tree.a[nodes], tree.b[nodes], tree.boundary[nodes], tree.group[nodes])
         self.n_groups, self.rings = shape.n_groups, shape.rings

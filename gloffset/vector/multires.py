@@ -53,7 +53,7 @@ from ..units import EARTH_RADIUS
 from .arcrings import line_arcs, ring_arcs
 from .offset import Offset, offset
 
-__all__ = ["ArcTree", "Decomposition", "MultiresOffset", "decompose", "E_MAX"]
+__all__ = ["ArcTree", "Decomposition", "MultiresOffset", "decompose", "full_decomposition", "E_MAX"]
 
 #: Error bounds (rad) above this are clamped to pi: such an arc is always reconstructed
 #: (beyond it the error region of an arc need not be a disk).
@@ -453,6 +453,13 @@ class MultiresOffset(Offset):
         if d > 0.0:
             rings += [line_arcs(p, d) for p in parts[nr:]]
         return MultiresOffset(dec, level, d, rings)
+
+
+def full_decomposition(shape: Shape) -> Decomposition:
+    """The shape's decomposition as far as arcs merge (``exhaust``), made once per shape:
+    what the inside-test index (:mod:`gloffset.index.contains`) and the renders from
+    simplified curves (:mod:`gloffset.raster.simplified`) share."""
+    return shape.cached("multires.exhaust", lambda: Decomposition(shape, 64, exhaust=True))
 
 
 def decompose(shape, levels: int) -> Decomposition:
