@@ -136,6 +136,14 @@ class Shape:
         self._overlap: bool | None = None
         self._cache: dict = {}
 
+    def __getstate__(self):
+        # what was derived from the shape (``cached``) is left out of a pickle: it is
+        # rebuilt where needed, and a shape sent to worker processes stays the size
+        # of its input
+        state = dict(self.__dict__)
+        state["_cache"] = {}
+        return state
+
     def cached(self, key: str, make):
         """The one place where other modules keep what they derive from a shape.
 

@@ -6,6 +6,7 @@ import io
 import json
 import math
 import os
+import pickle
 import sqlite3
 
 import numpy as np
@@ -578,6 +579,79 @@ def test_pyramid_on_two_dask_workers_is_byte_identical(tmp_path):
     assert 0 < len(read_mbtiles(part)[0]) < one.written
     pyramid(SQUARE, 1500e3, "0-6", part, resume=True, workers=2, **kw)
     assert read_mbtiles(part) == read_mbtiles(tmp_path / "one.mbtiles")
+
+
+class _Done:
+    def __init__(self, value):
+        self.value = value
+
+    def result(self):
+        return self.value
+
+
+class _SyncClient:
+    """A Dask client that runs each task at once, in this process and thread."""
+
+    def scatter(self, x, broadcast=False):
+        return x
+
+    def run(self, fn, wait=True):
+        __import__("asyncio").run(fn())
+
+    def submit(self, fn, *args, pure=True):
+        return _Done(fn(*args))
+
+    def close(self):
+        pass
+
+
+@pytest.mark.parametrize(
+    "name, d, zooms, workers, kw",
+    [
+        ("Mexico", 127e3, "0-6", 1, {}),  # frontier tiles of z0-1 as tasks of one tile
+        ("Mexico", 127e3, "0-6", 4, {}),  # a deeper split
+        ("Mexico", -60e3, "3-6", 1, {}),  # the split below zoom min
+        ("Mexico", 127e3, "0-1", 2, {}),  # the split at the deepest zoom
+        ("square", 1500e3, "0-5", 2, {"outline": "#202020"}),  # outlined tiles
+    ],
+)
+def test_split_pyramid_tasks_make_the_same_tiles(
+    tmp_path, mexico_path, monkeypatch, name, d, zooms, workers, kw
+):
+    """A pyramid split into tasks (the frontier tiles above the split one by one, the
+    kept tiles of the split zoom with their subtrees; run here one after the other by a
+    client in this process) writes the tiles, the counts and the metadata of a run in
+    one process; the shape sent to the tasks carries nothing derived from it."""
+    pytest.importorskip("distributed")
+    import distributed
+
+    from gloffset.raster import distributed as dist
+    from gloffset.raster import tiles as tl
+
+    shape = gloffset.read(mexico_path if name == "Mexico" else SQUARE)
+    sizes = []
+    subpyramid = tl.subpyramid
+
+    def task(job, *args):
+        sizes.append(len(pickle.dumps(job)))
+        return subpyramid(pickle.loads(pickle.dumps(job)), *args)
+
+    (tmp_path / "one").mkdir()
+    (tmp_path / "two").mkdir()
+    one = pyramid(shape, d, zooms, tmp_path / "one" / "t.mbtiles", size=SIZE, **kw)
+    monkeypatch.setattr(dist, "_client", lambda workers, scheduler: (_SyncClient(), None))
+    monkeypatch.setattr(distributed, "as_completed", iter)
+    monkeypatch.setattr(tl, "subpyramid", task)
+    split = pyramid(
+        shape, d, zooms, tmp_path / "two" / "t.mbtiles", size=SIZE, workers=workers, **kw
+    )
+    assert read_mbtiles(tmp_path / "one" / "t.mbtiles") == read_mbtiles(
+        tmp_path / "two" / "t.mbtiles"
+    )
+    same = {"seconds": 0, "render_calls": 0}  # batches differ
+    assert split.as_dict() | same == one.as_dict() | same
+    fresh = gloffset.read(mexico_path if name == "Mexico" else SQUARE)
+    assert sizes and max(sizes) < 4 * len(pickle.dumps(fresh))  # its edges, no caches
 
 
 @pytest.mark.parametrize("d", [100e3, -100e3])

@@ -1,26 +1,32 @@
 """Tile pyramids on a Dask cluster: sub-pyramids rendered by worker processes, tiles
 written by one.
 
-The pyramid is walked in this process down to a coarse zoom: the first zoom from
-``max(zmin, 2)`` on where at least eight tiles per worker are kept (frontier tiles, and
-tiles an outline crosses), or the zoom before the deepest. Everything down to that zoom
-is written here as in a single-process run. Each kept tile of that zoom is the root of a
-task, :func:`~gloffset.raster.tiles.subpyramid`: a worker starts from the root's cell as
-the split classified it (its candidate arcs, inside statuses and class: what the whole
-run has for it, since a cell's lists and classes depend on its ancestors only), renders
-the root's descendants down to the deepest zoom and returns their PNG bytes, each
-distinct image once. Tasks are submitted frontier tiles first (tiles kept only for an
-outline are cheap) and their tiles are written as they come back, so the output is
-byte-identical to a run in one process (MBTiles rows, XYZ files and PMTiles archives do not
-depend on the order of writes) and an interrupted run resumes like any other: a task
-skips the tiles the output has.
+The pyramid is classified in this process down to a coarse zoom, the *split*: the
+first zoom from ``max(zmin, 2)`` on where at least eight tiles per worker are kept
+(frontier tiles, and tiles an outline crosses), or the deepest zoom. This process
+writes the decided tiles of those zooms (fully inside tiles with their subtrees, tiles
+an outline crosses above the split) and renders nothing: every other tile is a task,
+:func:`~gloffset.raster.tiles.subpyramid`. The frontier tiles above the split are
+tasks of one tile each, the kept tiles of the split zoom tasks of their subtrees down
+to the deepest zoom. A worker starts from the task's cell as the split classified it
+(its candidate arcs, inside statuses and class: what the whole run has for it, since a
+cell's lists and classes depend on its ancestors only) and returns the PNG bytes of its
+tiles, each distinct image once. Tasks are submitted subtrees of frontier tiles first
+(tiles kept only for an outline are cheap) and their tiles are written as they come
+back, so the output is byte-identical to a run in one process (MBTiles rows, XYZ files
+and PMTiles archives do not depend on the order of writes) and an interrupted run
+resumes like any other: a task skips the tiles the output has.
 
 Workers are processes started with spawn (Dask's default: a process must not fork once
 it has a GL context); each makes its one GL context lazily, on its first frontier tile.
-``scheduler=`` uses a running cluster; its workers need gloffset importable.
+The shape travels without what was derived from it (:meth:`gloffset.shape.Shape.cached`):
+each worker derives what its tasks need once. ``scheduler=`` uses a running cluster;
+its workers need gloffset importable.
 """
 
 from __future__ import annotations
+
+import os
 
 import numpy as np
 
@@ -32,9 +38,14 @@ __all__ = ["run_distributed"]
 TASKS_PER_WORKER = 8
 
 
-def _in_subtree(have: set, root) -> set:
+def _in_subtree(have: set, root, last: int) -> set:
+    """The tiles of ``have`` that are ``root`` or below it, down to zoom ``last``."""
     zr, xr, yr = root
-    return {(z, x, y) for z, x, y in have if z > zr and (x >> (z - zr), y >> (z - zr)) == (xr, yr)}
+    return {
+        (z, x, y)
+        for z, x, y in have
+        if zr <= z <= last and (x >> (z - zr), y >> (z - zr)) == (xr, yr)
+    }
 
 
 def _client(workers, scheduler):
@@ -46,39 +57,62 @@ def _client(workers, scheduler):
         ) from None
     if scheduler is not None:
         return Client(scheduler), None
-    cluster = LocalCluster(
-        n_workers=int(workers), threads_per_worker=1, processes=True, dashboard_address=None
-    )
+    import dask
+
+    # Mesa's llvmpipe draws on as many threads as the machine has cores, in each
+    # worker: the workers share the cores instead (where the user has not chosen)
+    env = {}
+    if "LP_NUM_THREADS" not in os.environ:
+        env["LP_NUM_THREADS"] = str(max(1, (os.cpu_count() or 1) // int(workers)))
+    # Dask sets MALLOC_TRIM_THRESHOLD_ in its workers to give memory back to the system
+    # sooner; glibc then stops raising its mmap threshold, so every large numpy
+    # temporary is mapped and zeroed afresh: a pyramid's tasks ran half as fast
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+        cluster = LocalCluster(
+            n_workers=int(workers),
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            env=env,
+        )
     return Client(cluster), cluster
 
 
-def run_distributed(job, store, have, progress, stats, *, run, task, workers=None, scheduler=None):
-    """Write the pyramid ``job`` into ``store`` with its sub-pyramids on a Dask cluster.
+async def _warm() -> None:
+    """Import what a task needs (on each worker, while the split is made; a coroutine
+    so that the call does not wait for it)."""
+    from ..gl import engine  # noqa: F401
+    from . import render  # noqa: F401  (the task module itself is imported by Dask)
 
-    ``run(split, first, count, last)`` writes the zooms down to the split (see
-    :class:`gloffset.raster.tiles.Part`) and returns the roots and the progress tracker;
-    ``task(job, root, have, start)`` (importable by the workers) renders one root's
-    subtree from ``start``, the root's level as the split classified it (so no worker
-    walks the coarse zooms again).
+
+def run_distributed(job, store, have, progress, stats, *, run, task, workers=None, scheduler=None):
+    """Write the pyramid ``job`` into ``store`` with its tiles rendered on a Dask cluster.
+
+    ``run(split, first, count, last)`` classifies the zooms down to the split and writes
+    their decided tiles (see :class:`gloffset.raster.tiles.Part`); it returns the tasks
+    ``(tile, forced class, start, last zoom)`` and the progress tracker.
+    ``task(job, tile, have, start, last)`` (importable by the workers) renders one
+    task's tiles from ``start``, the tile's level as the split classified it (so no
+    worker walks the coarse zooms again).
     """
     zlo, zhi = job[2], job[3]
     if workers is not None and not (isinstance(workers, (int, np.integer)) and workers >= 1):
         raise OptionError(f"workers must be a positive integer, got {workers!r}")
-    n = workers if workers is not None else 1
-    first = max(zlo, 2)
-    roots, track = run(first, TASKS_PER_WORKER * int(n), zhi - 1)
-    if not roots:  # the pyramid ended above the split: written, and finished
-        return
-    # frontier roots (forced class: none) first: they hold the rendering
-    roots = sorted(roots, key=lambda r: r[1] != 255)
+    # the workers start (and import) while this process classifies the coarse zooms
     client, cluster = _client(workers, scheduler)
     try:
         from distributed import as_completed
 
+        client.run(_warm, wait=False)
+        n = workers if workers is not None else (len(client.scheduler_info()["workers"]) or 1)
+        tasks, track = run(max(zlo, 2), TASKS_PER_WORKER * int(n), zhi)
+        # subtrees before single tiles, frontier roots (forced class: none) first: they
+        # hold the rendering
+        tasks = sorted(tasks, key=lambda t: (t[3] == t[0][0], t[1] != 255))
         job_f = client.scatter(job, broadcast=True)
         futures = [
-            client.submit(task, job_f, root, _in_subtree(have, root), start, pure=False)
-            for root, _, start in roots
+            client.submit(task, job_f, tile, _in_subtree(have, tile, last), start, last, pure=False)
+            for tile, _, start, last in tasks
         ]
         for fut in as_completed(futures):
             groups, part = fut.result()

@@ -20,7 +20,7 @@ from ..sphere import xyz_to_lonlat
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
 from . import driver
 from .curves import CurveCells
-from .simplified import PIXEL_FRACTION, band_members, simplified
+from .simplified import PIXEL_FRACTION, band_members, simplified, z_order
 
 __all__ = ["render", "RenderError", "MAX_PIXELS"]
 
@@ -279,6 +279,8 @@ def _simplified_mask(shape, d: float, grid) -> np.ndarray | None:
     image = one(d - t)  # within the region
     j, i = np.nonzero(one(d + t) > image)  # the band: the region's boundary is there
     if len(j):
+        o = np.argsort(z_order(j, i))  # near pixels together: the cap tree's queries prune
+        j, i = j[o], i[o]
         image[j, i] = np.where(band_members(shape, grid.centers(last, j, i), d), 255, 0)
     return image
 

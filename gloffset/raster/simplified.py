@@ -55,7 +55,15 @@ from ..shape import Edges
 from ..sphere import arc_distance, dot
 from ..vector.multires import full_decomposition
 
-__all__ = ["MAX_FRACTION", "PIXEL_FRACTION", "Simplified", "cut", "band_members", "simplified"]
+__all__ = [
+    "MAX_FRACTION",
+    "PIXEL_FRACTION",
+    "Simplified",
+    "cut",
+    "band_members",
+    "simplified",
+    "z_order",
+]
 
 #: ``eps`` as a fraction of the smallest pixel's diameter (a band of about a quarter of
 #: a pixel either side of the boundary).
@@ -175,3 +183,22 @@ def band_members(shape, p: np.ndarray, d: float) -> np.ndarray:
         hit = arc_distance(q[qi], arcs.a[ai], arcs.b[ai], arcs.n[ai]) <= e
         within[s : s + len(q)][qi[hit]] = True
     return within if d > 0 else ~within
+
+
+def z_order(j: np.ndarray, i: np.ndarray) -> np.ndarray:
+    """The Morton (Z-order) key of pixels ``(j, i)`` (each below 2**32): sorted by it,
+    pixels near each other come together, as the cap tree's queries want them."""
+
+    def spread(x):
+        x = np.asarray(x).astype(np.uint64) & np.uint64(0xFFFFFFFF)
+        for shift, mask in (
+            (16, 0x0000FFFF0000FFFF),
+            (8, 0x00FF00FF00FF00FF),
+            (4, 0x0F0F0F0F0F0F0F0F),
+            (2, 0x3333333333333333),
+            (1, 0x5555555555555555),
+        ):
+            x = (x | (x << np.uint64(shift))) & np.uint64(mask)
+        return x
+
+    return spread(j) | (spread(i) << np.uint64(1))

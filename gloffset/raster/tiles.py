@@ -657,23 +657,37 @@ def run_pyramid(
     cells.remember(chain.nb)  # the walk reaches the chain's levels later: computed once
     track = _Tracker(zlo, zhi, progress)
     job = _Zoom(cells, style, store, have, size, stats, track)
-    roots = []
     start = None if part is None else part.start
-    for lev in driver.walk(cells, zhi, start=start):
+    stop = zhi if part is None or part.last is None else min(zhi, part.last)
+    split = part is not None and part.split is not None
+    tasks = []  # a split run's: (tile, forced class, its one-cell level, last zoom)
+    for lev in driver.walk(cells, stop, start=start):
         if len(lev.cells) == 0:
             break
-        if part is not None and part.root is not None and lev.level <= part.root[0]:
+        if part is not None and part.root is not None and lev.level < part.root[0]:
             job.follow(lev, part.root, chain, zlo)
             continue
-        job.run(lev, chain, (zlo, zhi), max_block)
-        if part is not None and part.split_at(lev):
-            roots = [(lev.level, int(x), int(y)) for y, x in lev.cells[lev.keep]]
-            if not roots:
-                track.finish()
-            starts = [_one(lev, i) for i in lev.keep]
-            return list(zip(roots, (int(c) for c in lev.forced), starts)), track
-    track.finish()
-    return [], track
+        root = part is not None and part.root is not None and lev.level == part.root[0]
+        if not split:
+            job.run(lev, chain, (zlo, zhi), max_block, root=root, final=lev.level >= stop)
+            continue
+        # a split run writes the decided tiles; the others become tasks: the frontier
+        # tiles above the split zoom one by one, the kept tiles of the split zoom with
+        # their subtrees
+        job.choose(lev)
+        at = part.split_at(lev)
+        front = job.run(lev, chain, (zlo, zhi), max_block, defer=True, kept_too=at)
+        z = lev.level
+        mine = lev.keep if at else front
+        for i in mine:
+            y, x = (int(v) for v in lev.cells[i])
+            forced = int(lev.forced[np.searchsorted(lev.keep, i)])
+            tasks.append(((z, x, y), forced, _one(lev, i), zhi if at else z))
+        if at:
+            break
+    if not split:
+        track.finish()
+    return tasks, track
 
 
 def _one(lev: Level, i: int) -> Level:
@@ -685,18 +699,21 @@ def _one(lev: Level, i: int) -> Level:
 
 @dataclass
 class Part:
-    """A part of a pyramid run: ``split`` (the run stops after the first zoom ``z``
-    from ``split[0]`` on where at least ``split[1]`` tiles are kept, or at ``split[2]``,
-    and returns those tiles: the roots of the tasks below, each with its one-cell
-    :class:`~gloffset.raster.driver.Level`) or ``root`` (``(z, x, y)``: only that tile's
-    descendants are written; the walk starts from ``start``, the root's level, or
-    follows the root's ancestors from zoom 0 without writing). Every tile's pixels are
-    those of the whole run: a tile's candidate arcs and classes depend on its ancestors
-    only."""
+    """A part of a pyramid run: ``split`` (the run classifies the zooms down to the
+    first zoom ``z`` from ``split[0]`` on where at least ``split[1]`` tiles are kept,
+    or to ``split[2]``, and writes only their decided tiles: it returns the others as
+    tasks, the frontier tiles of the zooms above ``z`` one by one and the kept tiles of
+    ``z`` with their subtrees, each with its one-cell
+    :class:`~gloffset.raster.driver.Level`) or ``root`` (``(z, x, y)``: only that tile
+    and its descendants down to ``last`` are written; the walk starts from ``start``,
+    the root's level, or follows the root's ancestors from zoom 0 without writing).
+    Every tile's pixels are those of the whole run: a tile's candidate arcs and classes
+    depend on its ancestors only."""
 
     split: tuple[int, int, int] | None = None
     root: tuple[int, int, int] | None = None
     start: Level | None = None  # the root's level as the split made it (no walk above it)
+    last: int | None = None  # the deepest zoom written (default: the pyramid's)
 
     def split_at(self, lev: Level) -> bool:
         if self.split is None:
@@ -726,13 +743,16 @@ class MemoryStore:
         pass
 
 
-def subpyramid(job, root, have, start: Level | None = None) -> tuple[list, PyramidStats]:
-    """The tiles below ``root`` (``(z, x, y)``) of the pyramid ``job``, as ``[(tiles,
-    image)]``, and the task's counts; ``have``: tiles to skip (a resumed output's)."""
+def subpyramid(
+    job, root, have, start: Level | None = None, last: int | None = None
+) -> tuple[list, PyramidStats]:
+    """The tile ``root`` (``(z, x, y)``) of the pyramid ``job`` and its descendants down
+    to zoom ``last`` (default: the pyramid's deepest), as ``[(tiles, image)]``, and the
+    task's counts; ``have``: tiles to skip (a resumed output's)."""
     shape, d, zlo, zhi, size, style, max_block = job
     store = MemoryStore()
     stats = PyramidStats()
-    part = Part(root=root, start=start)
+    part = Part(root=root, start=start, last=last)
     run_pyramid(shape, d, zlo, zhi, size, style, store, have, None, max_block, stats, part=part)
     return [(tiles, data) for data, tiles in store.groups.items()], stats
 
@@ -758,13 +778,26 @@ class _Zoom:
         y, x = (int(v) for v in f.cells[i])
         return self.outline.lines(cand, f.centers[i], float(r[i]), lev.level, x, y, self.size)
 
-    def run(self, lev: Level, chain, zooms: tuple[int, int], max_block: int):
+    def run(
+        self,
+        lev: Level,
+        chain,
+        zooms: tuple[int, int],
+        max_block: int,
+        *,
+        root: bool = False,
+        defer: bool = False,
+        kept_too: bool = False,
+        final: bool = False,
+    ):
+        """Write the zoom's tiles and choose the cells refined next (``lev.keep``).
+
+        ``root``: the level is a task's root tile, whose zoom the split counted.
+        ``defer``: a split run's zoom: the frontier tiles are returned, not rendered
+        (with ``kept_too``, the outlined tiles are not drawn either). ``final``: the
+        run's last zoom."""
         (zlo, zhi), z, cls, stats = zooms, lev.level, lev.cls, self.stats
-        r = self.cells.grid.decision_rho(z, lev.cells[:, 0])
-        # decided tiles an outline crosses are kept: their children inherit the class
-        carry = (cls != FRONTIER) & (lev.measure <= r)
-        if self.outline is None:
-            carry[:] = False
+        r, carry = self.choose(lev)
         cont = np.flatnonzero((cls == CONTAINED) & ~carry)
         front = np.flatnonzero(cls == FRONTIER)
         paint = np.flatnonzero(carry)
@@ -773,12 +806,15 @@ class _Zoom:
             "outside": int(((cls == OUTSIDE) & ~carry).sum()),
             "frontier": int(len(front)),
         }
-        stats.zooms[z] = zs
+        if not root:
+            stats.zooms[z] = zs
         if z >= zlo:
             stats.outside += zs["outside"]
         # the bin levels below the frontier tiles: rendering needs them from zoom min on,
-        # the estimate of the tiles to come from the zoom before
-        if z >= zlo - 1:
+        # the estimate of the tiles to come from the zoom before (a split run renders
+        # nothing: its tasks make their own)
+        ahead = z >= zlo - 1 and not defer and not (final and self.alone(z))
+        if ahead:
             chain.advance(subset(lev.state, front))
         self.track.plan(
             z,
@@ -786,15 +822,34 @@ class _Zoom:
             contained=len(cont),
             carried_in=int((cls[paint] == CONTAINED).sum()),
             carried_out=int((cls[paint] == OUTSIDE).sum()),
-            ahead=chain.counts() if z >= zlo - 1 else [],
+            ahead=chain.counts() if ahead else [],
         )
         self.inside(lev, cont, zlo, zhi)
         if z >= zlo:
-            self.painted(lev, paint, r)
-            self.rendered(lev, front, r, chain, max_block)
+            if not kept_too:
+                self.painted(lev, paint, r)
+            if not defer:
+                self.rendered(lev, front, r, chain, max_block)
             self.store.commit()
+        return front if z >= zlo else front[:0]
+
+    def choose(self, lev: Level):
+        """The cells refined next (``lev.keep``: frontier tiles, and decided tiles an
+        outline crosses, whose children inherit the class: ``lev.forced``); returns the
+        zoom's decision radii and which tiles are carried so."""
+        cls = lev.cls
+        r = self.cells.grid.decision_rho(lev.level, lev.cells[:, 0])
+        carry = (cls != FRONTIER) & (lev.measure <= r)
+        if self.outline is None:
+            carry[:] = False
         lev.keep = np.flatnonzero((cls == FRONTIER) | carry)
         lev.forced = np.where(carry, cls, NOT_FORCED).astype(np.uint8)[lev.keep]
+        return r, carry
+
+    def alone(self, z: int) -> bool:
+        """Whether the frontier tiles of zoom ``z`` are rendered one by one (without
+        the bin chain)."""
+        return z <= PYRAMID_ALONE_ZOOM and self.outline is None
 
     def follow(self, lev: Level, root, chain, zlo: int):
         """A zoom above ``root`` (or at it) in a run of its subtree: keep its ancestor
@@ -851,7 +906,7 @@ class _Zoom:
         self.track.tick(heavy=len(front) - len(todo), skipped=len(front) - len(todo))
         if todo:
             self.track.setup(_engine)  # the GL context, once: not a tile's cost
-        if z <= PYRAMID_ALONE_ZOOM and self.outline is None:
+        if self.alone(z):
             # few tiles, each far coarser than the input: one render per tile, from the
             # curves simplified to its pixels where that pays (as render_tiles does)
             shape, d, size = self.cells.shape, self.cells.d, self.size
