@@ -1,0 +1,45 @@
+"""The C allocator's settings for long runs of large numpy temporaries (glibc only).
+
+A tile pyramid classifies each zoom's cells with arrays of tens to hundreds of MB,
+made and freed many times per zoom. By default glibc serves each allocation above its
+mmap threshold (128 KiB, raised as large blocks are freed, to 32 MiB at most) with fresh
+pages from the kernel and gives the memory freed at the heap's top back to it, so every
+new temporary costs page faults and zeroing. :func:`keep_freed_memory` keeps that
+memory for reuse instead: blocks up to 32 MiB (glibc's largest threshold) come from the
+heap, which is never trimmed and grows in steps of 256 MiB. Measured on
+``countries_10m`` at 127 km, zooms 0-7 in one process: 20.9 s (6.7 s of it in the
+kernel) before, 16.2 s (2.8 s) after. The process then keeps its peak heap until it
+ends: :func:`gloffset.tiles.pyramid` and the workers of a Dask pyramid call it, a
+library user's process otherwise keeps glibc's defaults.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+
+__all__ = ["keep_freed_memory"]
+
+# mallopt parameters (malloc.h)
+_M_TRIM_THRESHOLD = -1
+_M_TOP_PAD = -2
+_M_MMAP_THRESHOLD = -3
+
+SETTINGS = {
+    _M_MMAP_THRESHOLD: 32 << 20,  # glibc's largest
+    _M_TRIM_THRESHOLD: (1 << 31) - 1,  # never trim (mallopt takes an int)
+    _M_TOP_PAD: 256 << 20,
+}
+
+
+@functools.lru_cache(maxsize=1)
+def keep_freed_memory() -> bool:
+    """Set the settings above in this process, once; False where the C library has no
+    ``mallopt`` (not glibc) or refuses one."""
+    try:
+        mallopt = ctypes.CDLL(None).mallopt
+    except (AttributeError, OSError):
+        return False
+    mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
+    mallopt.restype = ctypes.c_int
+    return all(mallopt(k, v) == 1 for k, v in SETTINGS.items())
