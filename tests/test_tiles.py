@@ -654,6 +654,22 @@ def test_split_pyramid_tasks_make_the_same_tiles(
     assert sizes and max(sizes) < 4 * len(pickle.dumps(fresh))  # its edges, no caches
 
 
+def test_a_resumed_split_hands_each_task_the_tiles_it_has():
+    """A task skips the tiles of a resumed output that are its tile or below it, down to
+    its last zoom: a sub-pyramid's, or its one tile's."""
+    from gloffset.raster.distributed import _have_of
+
+    have = {(2, 1, 1), (3, 2, 2), (3, 3, 3), (4, 4, 4), (3, 0, 0), (2, 0, 0), (5, 9, 9)}
+    tasks = [((2, 1, 1), 255, None, 4), ((2, 0, 0), 255, None, 2), ((1, 0, 0), 255, None, 1)]
+    tasks.append(((2, 1, 1), 255, None, 3))
+    assert _have_of(have, tasks) == [
+        {(2, 1, 1), (3, 2, 2), (3, 3, 3), (4, 4, 4)},
+        {(2, 0, 0)},
+        set(),
+        {(2, 1, 1), (3, 2, 2), (3, 3, 3)},
+    ]
+
+
 @pytest.mark.parametrize("d", [100e3, -100e3])
 def test_vertex_at_a_tile_corner(d, tmp_path):
     """A vertex at (0, 0), the centre of tile 0/0/0 and a corner of every tile around it,

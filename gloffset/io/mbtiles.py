@@ -53,12 +53,14 @@ class MBTilesWriter:
         Metadata rows (name -> value); values are stored as text.
     resume, overwrite : bool
     batch : int
-        Map rows per committed transaction.
+        Map rows per committed transaction at most (a pyramid also commits after each
+        zoom and each task). Each commit waits for the disk: a million entries took
+        16 s in batches of 2,000 and 5.5 s in batches of 50,000.
     """
 
     suffix = ".mbtiles"
 
-    def __init__(self, path, metadata: dict, *, resume=False, overwrite=False, batch=2000):
+    def __init__(self, path, metadata: dict, *, resume=False, overwrite=False, batch=50_000):
         self.path = Path(path)
         self.batch = int(batch)
         self._pending = 0

@@ -38,14 +38,21 @@ __all__ = ["run_distributed"]
 TASKS_PER_WORKER = 8
 
 
-def _in_subtree(have: set, root, last: int) -> set:
-    """The tiles of ``have`` that are ``root`` or below it, down to zoom ``last``."""
-    zr, xr, yr = root
-    return {
-        (z, x, y)
-        for z, x, y in have
-        if zr <= z <= last and (x >> (z - zr), y >> (z - zr)) == (xr, yr)
-    }
+def _have_of(have: set, tasks) -> list[set]:
+    """Per task ``(tile, forced, start, last)``: the tiles of ``have`` that are its tile
+    or below it down to zoom ``last`` (grouped in one pass over ``have``)."""
+    groups: dict = {}
+    for zr in {tile[0] for tile, _, _, last in tasks if last > tile[0]}:
+        for z, x, y in have:
+            if z >= zr:
+                groups.setdefault((zr, x >> (z - zr), y >> (z - zr)), set()).add((z, x, y))
+    out = []
+    for tile, _, _, last in tasks:
+        if last > tile[0]:
+            out.append({t for t in groups.get(tile, ()) if t[0] <= last})
+        else:
+            out.append({tile} & have)
+    return out
 
 
 def _client(workers, scheduler):
@@ -111,8 +118,8 @@ def run_distributed(job, store, have, progress, stats, *, run, task, workers=Non
         tasks = sorted(tasks, key=lambda t: (t[3] == t[0][0], t[1] != 255))
         job_f = client.scatter(job, broadcast=True)
         futures = [
-            client.submit(task, job_f, tile, _in_subtree(have, tile, last), start, last, pure=False)
-            for tile, _, start, last in tasks
+            client.submit(task, job_f, tile, mine, start, last, pure=False)
+            for (tile, _, start, last), mine in zip(tasks, _have_of(have, tasks))
         ]
         for fut in as_completed(futures):
             groups, part = fut.result()
