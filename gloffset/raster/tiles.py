@@ -657,7 +657,7 @@ def run_pyramid(
     shape, d, zlo, zhi, size, style, store, have, progress, max_block, stats, *, part=None
 ):
     """Write the pyramid's tiles into ``store`` (skipping ``have``); see :class:`Part`
-    for a run that stops at a zoom (the roots of the tasks below it are returned) or
+    for a run that classifies down to a split and returns the tasks of the tiles left, or
     writes one tile's subtree only."""
     plog = size.bit_length() - 1
     levels = TilePyramid(zhi + plog)  # down to the pixels of the deepest tiles
@@ -667,15 +667,14 @@ def run_pyramid(
     track = _Tracker(zlo, zhi, progress)
     job = _Zoom(cells, style, store, have, size, stats, track)
     start = None if part is None else part.start
+    if part is not None and part.root is not None and start is None:
+        raise ValueError("a run of one tile's subtree starts from the tile's level")
     stop = zhi if part is None or part.last is None else min(zhi, part.last)
     split = part is not None and part.split is not None
     tasks = []  # a split run's: (tile, forced class, its one-cell level, last zoom)
     for lev in driver.walk(cells, stop, start=start):
         if len(lev.cells) == 0:
             break
-        if part is not None and part.root is not None and lev.level < part.root[0]:
-            job.follow(lev, part.root, chain, zlo)
-            continue
         root = part is not None and part.root is not None and lev.level == part.root[0]
         if not split:
             job.run(lev, chain, (zlo, zhi), max_block, root=root, final=lev.level >= stop)
@@ -715,13 +714,13 @@ class Part:
     ``z`` with their subtrees, each with its one-cell
     :class:`~gloffset.raster.driver.Level`) or ``root`` (``(z, x, y)``: only that tile
     and its descendants down to ``last`` are written; the walk starts from ``start``,
-    the root's level, or follows the root's ancestors from zoom 0 without writing).
+    the root's one-cell level as the split made it).
     Every tile's pixels are those of the whole run: a tile's candidate arcs and classes
     depend on its ancestors only."""
 
     split: tuple[int, int, int] | None = None
     root: tuple[int, int, int] | None = None
-    start: Level | None = None  # the root's level as the split made it (no walk above it)
+    start: Level | None = None  # the root's level as the split made it
     last: int | None = None  # the deepest zoom written (default: the pyramid's)
 
     def split_at(self, lev: Level) -> bool:
@@ -860,20 +859,6 @@ class _Zoom:
         """Whether the frontier tiles of zoom ``z`` are rendered one by one (without
         the bin chain)."""
         return z <= PYRAMID_ALONE_ZOOM and self.outline is None
-
-    def follow(self, lev: Level, root, chain, zlo: int):
-        """A zoom above ``root`` (or at it) in a run of its subtree: keep its ancestor
-        (or itself) as the whole run would, write nothing."""
-        zr, xr, yr = root
-        z, cls, sh = lev.level, lev.cls, zr - lev.level
-        i = np.flatnonzero((lev.cells[:, 0] == yr >> sh) & (lev.cells[:, 1] == xr >> sh))
-        r = self.cells.grid.decision_rho(z, lev.cells[i, 0])
-        carry = (cls[i] != FRONTIER) & (lev.measure[i] <= r) & (self.outline is not None)
-        kept = (cls[i] == FRONTIER) | carry
-        lev.keep = i[kept]
-        lev.forced = np.where(carry, cls[i], NOT_FORCED).astype(np.uint8)[kept]
-        if z == zr and z >= zlo - 1:
-            chain.advance(subset(lev.state, i[cls[i] == FRONTIER]))
 
     def inside(self, lev: Level, cont, zlo: int, zhi: int):
         """Fully inside: the tiles ``cont`` and all their descendants, one shared image."""
