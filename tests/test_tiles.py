@@ -642,14 +642,31 @@ def test_split_pyramid_tasks_make_the_same_tiles(
     monkeypatch.setattr(dist, "_client", lambda workers, scheduler: (_SyncClient(), None))
     monkeypatch.setattr(distributed, "as_completed", iter)
     monkeypatch.setattr(tl, "subpyramid", task)
+    events = []
     split = pyramid(
-        shape, d, zooms, tmp_path / "two" / "t.mbtiles", size=SIZE, workers=workers, **kw
+        shape,
+        d,
+        zooms,
+        tmp_path / "two" / "t.mbtiles",
+        size=SIZE,
+        workers=workers,
+        progress=events.append,
+        **kw,
     )
     assert read_mbtiles(tmp_path / "one" / "t.mbtiles") == read_mbtiles(
         tmp_path / "two" / "t.mbtiles"
     )
     same = {"seconds": 0, "render_calls": 0}  # batches differ
     assert split.as_dict() | same == one.as_dict() | same
+    # the progress covers the tasks: every tile counted once, the total reached at the end
+    # only, an ETA from the tasks' pace
+    first, last = events[0], events[-1]
+    assert first.done == 0 and last.done == last.total and last.eta == 0.0
+    if "outline" not in kw:
+        assert last.done == split.written + split.empty == split.rendered + split.inside
+    done = [e.done for e in events]
+    assert done == sorted(done) and all(e.done < e.total for e in events[:-1])
+    assert any(e.eta is not None and e.eta > 0.0 for e in events)
     fresh = gloffset.read(mexico_path if name == "Mexico" else SQUARE)
     assert sizes and max(sizes) < 4 * len(pickle.dumps(fresh))  # its edges, no caches
 

@@ -121,13 +121,14 @@ def run_distributed(job, store, have, progress, stats, *, run, task, workers=Non
             client.submit(task, job_f, tile, mine, start, last, pure=False)
             for (tile, _, start, last), mine in zip(tasks, _have_of(have, tasks))
         ]
+        track.start_tasks(len(futures))
         for fut in as_completed(futures):
             groups, part = fut.result()
             for tiles, data in groups:
                 store.put_many(tiles, data)
-                track.tick(light=len(tiles))
             store.commit()
             _merge(stats, part)
+            track.task_done(part.rendered + part.painted, part.inside, part.present)
     finally:
         client.close()
         if cluster is not None:

@@ -198,15 +198,17 @@ class TileProgress:
         so far are known exactly, the next zooms' frontier and inside tiles too where the
         bin levels below the frontier tiles already hold them (from the zoom before the
         first one written; 4 zooms ahead for 256 px tiles), and deeper zooms follow the
-        growth of the frontier from zoom to zoom. Never below ``done``; equal to it at
-        the end, and only there.
+        growth of the frontier from zoom to zoom. On Dask workers, once a task has
+        ended, the tasks left count the mean tiles of those ended. Never below ``done``;
+        equal to it at the end, and only there.
     seconds : float
         Since the run started.
     eta : float or None
         Estimated seconds left: the tiles left of each kind (rendered or outlined, and
         inside) at the seconds per tile measured so far for that kind, plus a fixed cost
         per zoom (measured too); None during the first zoom (for a one-zoom run: until a
-        tile has been rendered); 0 at the end.
+        tile has been rendered); 0 at the end. On Dask workers: the heavy tiles left at
+        the pace the tasks have kept so far (None until one has ended).
     """
 
     zoom: int
@@ -262,6 +264,7 @@ class _Tracker:
         self.zooms: list[tuple[int, float]] = []  # per finished zoom: heavy tiles, seconds
         self.mark = None  # at the current zoom's start: (heavy worked, heavy seconds)
         self.last: TileProgress | None = None
+        self.tasks: dict | None = None  # a split run's tasks (:meth:`start_tasks`)
 
     def _sub(self, z: int) -> int:
         """Tiles of a subtree rooted at zoom ``z`` within zooms min..max."""
@@ -365,16 +368,55 @@ class _Tracker:
         light = self.light_s / worked_light if worked_light else b * _LIGHT_PRIOR
         return a * self.future_zooms + b * left[0] + light * left[1]
 
+    def start_tasks(self, n: int):
+        """The split is made: ``n`` tasks (run elsewhere) bring the tiles left."""
+        self.tasks = {"n": n, "done": 0, "t0": time.perf_counter(), "heavy": 0, "light": 0}
+        self._emit()
+
+    def task_done(self, heavy: int, light: int, skipped: int):
+        """A task ended with ``heavy`` rendered or outlined tiles and ``light`` inside
+        ones (``skipped`` of them already present)."""
+        t = self.tasks
+        t["done"] += 1
+        t["heavy"] += heavy
+        t["light"] += light
+        self.done[0] += heavy
+        self.done[1] += light
+        self.skipped[1] += skipped
+        self._emit()
+
+    def _task_left(self, now: float):
+        """Tiles left (heavy, light) and the ETA while tasks run: the tasks left at the
+        mean tiles of those ended, and the time per heavy tile the tasks took so far
+        (the split's estimates, and no ETA, until a task has ended); at least one tile
+        per task left, so that the total is reached at the end only."""
+        t = self.tasks
+        n_left = t["n"] - t["done"]
+        if t["done"] == 0:
+            left = [max(0.0, self.known[i] + self.future[i] - self.done[i]) for i in (0, 1)]
+            left[0] = max(left[0], float(n_left))
+            return left, None
+        left = [n_left * t["heavy"] / t["done"], n_left * t["light"] / t["done"]]
+        left[0] = max(left[0], float(n_left))
+        if n_left == 0:
+            return [0.0, 0.0], 0.0
+        work = max(t["heavy"], t["done"])
+        return left, (now - t["t0"]) * max(left[0], n_left) / work
+
     def _emit(self):
         if self.progress is None:
             return
         done = self.done[0] + self.done[1]
-        left = [max(0.0, self.known[i] + self.future[i] - self.done[i]) for i in (0, 1)]
+        now = time.perf_counter()
+        if self.tasks is not None:
+            left, eta = self._task_left(now)
+        else:
+            left = [max(0.0, self.known[i] + self.future[i] - self.done[i]) for i in (0, 1)]
         total = done + math.ceil(left[0] + left[1])
         if total == done and self.last is not None and self.last.done == self.last.total:
             return  # the end, already reported
-        now = time.perf_counter()
-        eta = 0.0 if total == done else self._eta(now, left)
+        if self.tasks is None or total == done:
+            eta = 0.0 if total == done else self._eta(now, left)
         self.last = TileProgress(self.zoom, done, total, now - self.t0, eta)
         self.progress(self.last)
 
