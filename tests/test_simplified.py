@@ -98,6 +98,10 @@ def _taken(monkeypatch):
         (Tile(0, 0, 0), 0.02),
         (Tile(2, 1, 1), -0.01),
         (CubeFace(4, 256), 0.015),  # +Z: the north pole
+        # distances below a few pixels: simplified to an eighth of the distance
+        (Equirect(64, 32), 0.02),
+        (Equirect(128, 64), -0.03),
+        (Tile(0, 0, 0, 64), 0.01),
     ],
 )
 def test_simplified_render_equals_reference(arctic, monkeypatch, grid, d):

@@ -258,13 +258,16 @@ def simplify_eps(grid) -> tuple[float, float]:
 
 def _simplified_mask(shape, d: float, grid) -> np.ndarray | None:
     """The GPU mask from the shape simplified to ``eps`` (:data:`PIXEL_FRACTION` of the
-    smallest pixel): rendered at ``d - t`` and ``d + t`` (``t = eps`` plus
+    smallest pixel, or ``|d| / 8`` less the margin where that is smaller: a distance of
+    less than a few pixels): rendered at ``d - t`` and ``d + t`` (``t = eps`` plus
     :data:`SCREEN_MARGIN` times the GPU's error bound), the pixels between decided by
     their exact distance (:mod:`gloffset.raster.simplified`); None where simplifying
     does not pay or ``|d| <= 4 t``."""
     last = grid.n_levels - 1
     eps, margin = simplify_eps(grid)
-    if abs(d) <= 4.0 * (eps + margin):
+    # a distance below a few pixels: simplify to a fraction of the distance instead
+    eps = min(eps, abs(d) / 8.0 - margin)
+    if not eps > 0.0 or abs(d) <= 4.0 * (eps + margin):
         return None
     s = simplified(shape, eps)
     if s is None:
