@@ -58,7 +58,10 @@ class CurveArcs:
         spread along the curves: what :func:`gloffset.raster.levels.coarse` bounds the
         nearest arc with (made once)."""
         out = []
-        for kind in (self.boundary, self.group >= 0):
+        kinds = [self.boundary, self.group >= 0]
+        if np.array_equal(kinds[0], kinds[1]):  # polygons without seams: one set serves
+            kinds.pop()
+        for kind in kinds:
             if kind.any():
                 ends = self.a[kind]
                 out.append(ends[:: max(1, len(ends) // 4096)])
