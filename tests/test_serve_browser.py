@@ -97,7 +97,8 @@ def _settle(pg, distance: str) -> None:
             const p = window.gloffsetPage;
             if (!p) return false;
             const src = p.map.getSource('offset');
-            return src && src.tiles[0].includes('/' + d + '/') && p.map.loaded()
+            // a raster source has no tiles until its style is in place
+            return src && src.tiles && src.tiles[0].includes('/' + d + '/') && p.map.loaded()
                 && p.map.areTilesLoaded() && !p.map.isMoving();
         }""",
         arg=distance,
