@@ -8,7 +8,7 @@ new temporary costs page faults and zeroing. :func:`keep_freed_memory` keeps tha
 memory for reuse instead: blocks up to 32 MiB (glibc's largest threshold) come from the
 heap, which is never trimmed and grows in steps of 256 MiB. Measured on
 ``countries_10m`` at 127 km, zooms 0-7 in one process: 20.9 s (6.7 s of it in the
-kernel) before, 16.2 s (2.8 s) after. The process then keeps its peak heap until it
+kernel) before, 16.2-17.1 s (2.8-3.3 s) after. The process then keeps its peak heap until it
 ends: :func:`gloffset.tiles.pyramid` and the workers of a Dask pyramid call it, a
 library user's process otherwise keeps glibc's defaults.
 """

@@ -613,6 +613,7 @@ class _SyncClient:
         ("Mexico", -60e3, "3-6", 1, {}),  # the split below zoom min
         ("Mexico", 127e3, "0-1", 2, {}),  # the split at the deepest zoom
         ("square", 1500e3, "0-5", 2, {"outline": "#202020"}),  # outlined tiles
+        ("neighbours", 60e3, "0-6", 2, {}),  # shared borders of countries_10m
     ],
 )
 def test_split_pyramid_tasks_make_the_same_tiles(
@@ -628,7 +629,17 @@ def test_split_pyramid_tasks_make_the_same_tiles(
     from gloffset.raster import distributed as dist
     from gloffset.raster import tiles as tl
 
-    shape = gloffset.read(mexico_path if name == "Mexico" else SQUARE)
+    def source():
+        if name == "neighbours":  # nine countries of countries_10m that share borders
+            fc = json.loads((mexico_path.parent / "countries_10m.geojson").read_text())
+            names = {"France", "Spain", "Portugal", "Andorra", "Germany", "Belgium"}
+            names |= {"Luxembourg", "Netherlands", "Austria"}
+            feats = [f for f in fc["features"] if f["properties"].get("name") in names]
+            assert len(feats) == len(names)
+            return {"type": "FeatureCollection", "features": feats}
+        return mexico_path if name == "Mexico" else SQUARE
+
+    shape = gloffset.read(source())
     sizes = []
     subpyramid = tl.subpyramid
 
@@ -667,8 +678,25 @@ def test_split_pyramid_tasks_make_the_same_tiles(
     done = [e.done for e in events]
     assert done == sorted(done) and all(e.done < e.total for e in events[:-1])
     assert any(e.eta is not None and e.eta > 0.0 for e in events)
-    fresh = gloffset.read(mexico_path if name == "Mexico" else SQUARE)
+    fresh = gloffset.read(source())
     assert sizes and max(sizes) < 4 * len(pickle.dumps(fresh))  # its edges, no caches
+    # resumed on the whole output: every task finds its tiles there, and the progress
+    # counts them as done, as a run in one process does
+    events.clear()
+    again = pyramid(
+        shape,
+        d,
+        zooms,
+        tmp_path / "two" / "t.mbtiles",
+        size=SIZE,
+        workers=workers,
+        progress=events.append,
+        resume=True,
+        **kw,
+    )
+    # (empty tiles are not stored: they are rendered again)
+    assert again.present == one.written and again.rendered == one.empty
+    assert events[-1].done == events[-1].total == last.done
 
 
 def test_a_resumed_split_hands_each_task_the_tiles_it_has():

@@ -374,14 +374,14 @@ class _Tracker:
         self._emit()
 
     def task_done(self, heavy: int, light: int, skipped: int):
-        """A task ended with ``heavy`` rendered or outlined tiles and ``light`` inside
-        ones (``skipped`` of them already present)."""
+        """A task ended with ``heavy`` rendered or outlined tiles, ``light`` inside ones
+        and ``skipped`` already present (counted as done, as in one process)."""
         t = self.tasks
         t["done"] += 1
         t["heavy"] += heavy
-        t["light"] += light
+        t["light"] += light + skipped
         self.done[0] += heavy
-        self.done[1] += light
+        self.done[1] += light + skipped
         self.skipped[1] += skipped
         self._emit()
 
@@ -724,9 +724,9 @@ def run_pyramid(
         # a split run writes the decided tiles; the others become tasks: the frontier
         # tiles above the split zoom one by one, the kept tiles of the split zoom with
         # their subtrees
-        job.choose(lev)
+        chosen = job.choose(lev)
         at = part.split_at(lev)
-        front = job.run(lev, chain, (zlo, zhi), max_block, defer=True, kept_too=at)
+        front = job.run(lev, chain, (zlo, zhi), max_block, chosen=chosen, kept_too=at)
         z = lev.level
         mine = lev.keep if at else front
         for i in mine:
@@ -837,18 +837,19 @@ class _Zoom:
         max_block: int,
         *,
         root: bool = False,
-        defer: bool = False,
+        chosen=None,
         kept_too: bool = False,
         final: bool = False,
     ):
         """Write the zoom's tiles and choose the cells refined next (``lev.keep``).
 
         ``root``: the level is a task's root tile, whose zoom the split counted.
-        ``defer``: a split run's zoom: the frontier tiles are returned, not rendered
-        (with ``kept_too``, the outlined tiles are not drawn either). ``final``: the
-        run's last zoom."""
+        ``chosen``: a split run's zoom, :meth:`choose` made: the frontier tiles are
+        returned, not rendered (with ``kept_too``, the outlined tiles are not drawn
+        either). ``final``: the run's last zoom."""
         (zlo, zhi), z, cls, stats = zooms, lev.level, lev.cls, self.stats
-        r, carry = self.choose(lev)
+        defer = chosen is not None
+        r, carry = chosen if defer else self.choose(lev)
         cont = np.flatnonzero((cls == CONTAINED) & ~carry)
         front = np.flatnonzero(cls == FRONTIER)
         paint = np.flatnonzero(carry)
