@@ -108,6 +108,26 @@ def test_records_are_the_reference_records(cases):
         assert rows_by_bin(rec, first) == rows_by_bin(want, want_first)
 
 
+def test_records_with_the_sorted_component_keys(cases, monkeypatch):
+    """The (bin, component) keys of a large frontier are ranked by a sort, not a dense
+    table: the records are the same, and the sort equals ``np.unique``."""
+    monkeypatch.setattr(E, "_DENSE", 0)
+    for (f, arcs), e in cases:
+        rec, first, bits, *_ = E.records(f, arcs, e)
+        want, want_first, want_bits = reference_records(f, arcs, e)
+        assert np.array_equal(bits, want_bits)
+        assert rows_by_bin(rec, first) == rows_by_bin(want, want_first)
+    rng = np.random.default_rng(3)
+    for key in (
+        np.sort(rng.integers(0, 50, 1000)),
+        np.repeat(np.arange(300), 3) * 7 + rng.integers(0, 7, 900),  # nearly sorted
+        rng.integers(0, 1 << 40, 5000),
+        np.zeros(0, dtype=np.int64),
+    ):
+        got, want = E._unique_inverse(key), np.unique(key, return_inverse=True)
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+
+
 def test_record_distances_are_lower_bounds(cases):
     """t0.x, the distance the shader culls by, is at most the exact distance from the
     bin centre to the arc, and short of it by at most the arc's length and 3e-7."""
