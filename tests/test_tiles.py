@@ -734,16 +734,20 @@ def test_each_level_is_refined_once(tmp_path, mexico_path, monkeypatch):
     """The bin levels run ahead of the zoom walk and the walk reaches the same frontier
     later: each level is classified once (CurveCells.remember), with the tiles of a run
     that classifies it twice."""
-    from gloffset.raster import curves
+    from gloffset.raster import curves, node_levels
 
     calls = []
-    orig = curves.refine
 
-    def counting(f, *args):
-        calls.append((f.level, f.cells.tobytes()))
-        return orig(f, *args)
+    def counting(orig):
+        def refine(f, *args, **kw):
+            calls.append((f.level, f.cells.tobytes()))
+            return orig(f, *args, **kw)
 
-    monkeypatch.setattr(curves, "refine", counting)
+        return refine
+
+    # the levels of original arcs and those of the multiresolution curve (the coarse ones)
+    monkeypatch.setattr(curves, "refine", counting(curves.refine))
+    monkeypatch.setattr(node_levels, "refine", counting(node_levels.refine))
     mexico = gloffset.read(mexico_path)
     a = pyramid(mexico, 100e3, "0-6", str(tmp_path / "a.mbtiles"))
     assert calls and len(calls) == len(set(calls)), "a level was classified twice"

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..edges import CurveArcs, inside_any
-from . import driver
+from . import driver, node_levels
 from .driver import FRONTIER, NOT_FORCED, Level
 from .levels import Frontier, at_cells, cell_distances, coarse, decide, prune, refine, subset
 from .scatter import scatter, start_level
@@ -35,12 +35,19 @@ class CurveCells:
     its classified cells (of its frontier cells when the level was entered directly).
     """
 
-    def __init__(self, shape, d: float, grid, *, start: str | int = "coarse"):
+    def __init__(
+        self, shape, d: float, grid, *, start: str | int = "coarse", nodes_until: int | None = None
+    ):
         self.shape, self.d, self.grid = shape, d, grid
         self.arcs = CurveArcs.from_shape(shape)
         self.e = abs(d)
         self.last = grid.n_levels - 1
         self.start = start
+        if nodes_until is not None and not 0 <= nodes_until < self.last:
+            nodes_until = None
+        #: the last level whose lists hold arcs of the multiresolution curve
+        #: (:mod:`gloffset.raster.node_levels`), or None
+        self.nodes_until = nodes_until
         #: refined levels kept for a second caller (:meth:`remember`), by parent cells
         self._memo: dict | None = None
 
@@ -71,6 +78,8 @@ class CurveCells:
 
     def enter(self, stop: int) -> Level:
         at, plan = self._entry(stop)
+        if at is None and self.nodes_until is not None:
+            return self._node_level(node_levels.enter(self.shape, self._nodes(), self.grid, self.e))
         if at is None:
             f = coarse(self.shape, self.arcs, self.grid, self.e)
             return self._level(f)
@@ -94,6 +103,30 @@ class CurveCells:
         cls = decide(dist, dring, inside_any(f.status), rho, self.d, final)
         return Level(f.level, f.cells, cls, prune(f, low, dist, self.e), measure=dist)
 
+    def _nodes(self) -> node_levels.NodeArcs:
+        return node_levels.NodeArcs.from_shape(self.shape)
+
+    def _node_level(self, f: Frontier) -> Level:
+        """The cells of ``f`` (lists of nodes) classified (:func:`node_levels.classify`)."""
+        rho = self.grid.decision_rho(f.level, f.cells[:, 0], f.cells[:, 1])
+        cls, dist = node_levels.classify(f, self._nodes(), rho, self.d)
+        return Level(f.level, f.cells, cls, f, measure=dist)
+
+    def _children(self, parent: Frontier) -> Level:
+        """The children of ``parent``'s cells, classified: lists of nodes down to
+        ``nodes_until``, of the original arcs below."""
+        until = self.nodes_until
+        if until is not None and parent.level < until:
+            nodes = self._nodes()
+            return self._node_level(
+                node_levels.refine(parent, self.grid, nodes, self.e, self.shape)
+            )
+        if until is not None and parent.level == until:
+            nodes = self._nodes()
+            f = node_levels.refine(parent, self.grid, nodes, self.e, self.shape, leaves=True)
+            return self._level(f)
+        return self._level(refine(parent, self.grid, self.arcs, self.e, self.shape))
+
     def kept(self, lev: Level) -> Frontier:
         """The :class:`Frontier` of the cells ``lev`` keeps (its frontier by default)."""
         keep = lev.frontier() if lev.keep is None else lev.keep
@@ -115,11 +148,11 @@ class CurveCells:
         """The children of ``parent``'s cells, classified (or kept from before)."""
         memo = self._memo
         if memo is None:
-            return self._level(refine(parent, self.grid, self.arcs, self.e, self.shape))
+            return self._children(parent)
         key = (parent.level, parent.cells.tobytes())
         lev = memo.pop(key, None)
         if lev is None:
-            lev = self._level(refine(parent, self.grid, self.arcs, self.e, self.shape))
+            lev = self._children(parent)
             for k in [k for k in memo if k[0] < parent.level - self._ahead]:  # not asked for
                 del memo[k]
             memo[key] = lev

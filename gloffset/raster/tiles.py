@@ -703,8 +703,12 @@ def run_pyramid(
     writes one tile's subtree only."""
     plog = size.bit_length() - 1
     levels = TilePyramid(zhi + plog)  # down to the pixels of the deepest tiles
-    cells = CurveCells(shape, d, levels)
-    chain = _BinChain(cells, max(0, plog - _BIN_LOG2))
+    nb = max(0, plog - _BIN_LOG2)
+    # the levels no tile is rendered from (bins of zooms drawn alone or not written)
+    # classify with the multiresolution curve: their lists follow the cells' size
+    until = None if style.outline is not None else max(PYRAMID_ALONE_ZOOM, zlo - 1) + nb
+    cells = CurveCells(shape, d, levels, nodes_until=until)
+    chain = _BinChain(cells, nb)
     cells.remember(chain.nb)  # the walk reaches the chain's levels later: computed once
     track = _Tracker(zlo, zhi, progress)
     job = _Zoom(cells, style, store, have, size, stats, track)

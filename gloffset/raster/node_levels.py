@@ -1,0 +1,257 @@
+"""Coarse levels whose candidate lists hold arcs of the multiresolution curve.
+
+A coarse cell of a tile pyramid (a zoom-3 tile is 0.3 rad across) lies within reach
+of thousands of the input's arcs, and refining those lists level by level costs about
+as much as a deep zoom, although no coarse cell needs the fine arcs to be decided. The
+multiresolution decomposition (paper Sec. 4.2, :func:`gloffset.vector.multires.full_decomposition`)
+gives every run of original edges a coarse arc and a bound ``err`` on how far the run
+strays from it (Sec. 4.3, Eq. 9; two-sided, a Frechet match: every point of the run is
+within ``err`` of the coarse arc, :mod:`gloffset.raster.simplified`). Here a cell's
+candidate list holds *nodes* of the decomposition's tree (:class:`NodeArcs`; the
+original edges are its leaves, with the indices of :class:`~gloffset.edges.CurveArcs`),
+each with ``err <= KAPPA * rho`` of the cell. The rules of
+:mod:`gloffset.raster.levels` then hold with these bounds:
+
+* **Candidates.** A node is a candidate when its bounding cap grown by ``err`` (which
+  holds its whole run) comes within ``e + rho`` of the centre; a child's list is its
+  parent's, nodes with ``err > KAPPA * rho`` split into the two they replace. Every run
+  within ``e + rho`` of a cell is so represented.
+* **Classes.** With ``D`` the distance to the nearest candidate node and ``E`` the
+  largest ``err`` of the cell's nodes, the distance to the original arcs lies in
+  ``[D - E, D + E]``; the cell is decided by the rules of
+  :func:`~gloffset.raster.levels.decide` with the bound ``rho + E``: only ever called
+  contained or outside when every descendant pixel is (more cells stay frontier than
+  with the original arcs, none is decided otherwise).
+* **Statuses** are those of the original polygons, exactly. A child's is its parent's
+  toggled by the crossings of the short arc child -> parent with the original ring
+  edges. For a node whose cap (grown by ``err``) comes near that arc: when both ends lie
+  farther than ``err`` from the node's arc, the run crosses it as often as the node's arc
+  does, modulo 2 (the closed loop of the run and the node's arc lies within ``err`` of
+  the node's arc, a disc-like set that neither end is in); otherwise the node is split
+  and its halves tested the same way, down to original edges where needed (whose test is
+  the one of :func:`~gloffset.raster.levels.refine`, with its guard for a parent centre
+  on an edge).
+
+The last coarse level hands over with every node split into original edges
+(:func:`refine` with ``leaves=True``): from there on the levels are those of
+:mod:`gloffset.raster.levels`, their lists complete (every original arc within reach
+of a cell; at most a few more arcs than the levels of original arcs keep, which no
+decision reads). A pyramid's pixels are therefore unchanged; tiles that the coarse
+bound leaves undecided are rendered and come out whole, as their decided class would
+have made them.
+
+Cost: the coarse levels' lists follow the cells' size, not the input: a few hundred
+nodes for a zoom-3 tile of every country instead of hundreds of thousands of arcs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..caps import arc_cap, cap_within, pad
+from ..edges import CurveArcs, component_status, status_bits
+from ..sphere import angle, arc_distance, arcs_cross, dot, normalize, pair_dots, robust_cross
+from ..vector.multires import full_decomposition
+from .levels import ON_EDGE, Frontier, cell_distances, decide
+
+__all__ = ["KAPPA", "NodeArcs", "enter", "refine", "classify"]
+
+#: A coarse cell's candidate nodes have an error bound of at most this fraction of its rho.
+KAPPA = 1.0 / 16.0
+#: Slack (rad) by which an end must lie farther than a node's error bound from its arc
+#: for the node's arc to stand for its run in a crossing test (distances are exact
+#: float64, good to 1e-15 rad).
+_FAR = 1e-12
+
+
+class NodeArcs:
+    """Every arc of the shape's decomposition tree (:class:`~gloffset.vector.multires.ArcTree`)
+    as the table the level operations read (``a, b, n, mid, half, boundary, group,
+    n_groups``, as :class:`~gloffset.edges.CurveArcs`), with each node's error bound
+    ``err``, the cap ``reach = half + err`` that holds its run, and its children. Rows
+    ``0 .. n - 1`` are the original edges, the rows of :class:`CurveArcs` bit for bit;
+    ``top`` the nodes of the coarsest level, in the order of the curves."""
+
+    def __init__(self, shape):
+        dec = full_decomposition(shape)
+        tree = dec.tree
+        arcs = CurveArcs.from_shape(shape)
+        n0 = len(arcs.a)
+        self.a, self.b = tree.a, tree.b
+        self.n = normalize(robust_cross(tree.a, tree.b))
+        mid, half = arc_cap(tree.a, tree.b)
+        self.mid, self.half = mid, pad(half)
+        # the leaves are the original edges: the same bits as the levels of original arcs
+        self.n[:n0], self.mid[:n0], self.half[:n0] = arcs.n, arcs.mid, arcs.half
+        self.child = tree.child
+        self.leaf = tree.child[:, 0] < 0
+        self.err = np.where(np.isfinite(tree.e), tree.e, np.pi)
+        self.err[:n0] = 0.0
+        # a merged node whose arc has no direction is never used as itself
+        self.err[~self.leaf & ~(np.abs(self.n).sum(axis=1) > 0)] = np.pi
+        self.reach = self.half + pad(self.err)
+        self.boundary, self.group = tree.boundary, tree.group
+        self.n_groups = arcs.n_groups
+        self.top = dec.level_nodes(dec.levels)
+
+    @classmethod
+    def from_shape(cls, shape) -> NodeArcs:
+        """The shape's node table (made once per shape and kept on it)."""
+        return shape.cached("raster.node_arcs", lambda: cls(shape))
+
+
+def _split(nodes: NodeArcs, cell, node, c, reach, bound, checked=None):
+    """Pairs ``(cell, node)`` with every node whose ``err`` exceeds ``bound[cell]`` (or,
+    with ``bound < 0``, every merged node) replaced by the two it was made of, and every
+    pair whose grown cap lies farther than ``reach[cell]`` from the centre ``c[cell]``
+    dropped; grouped by cell as they came, each cell's nodes in the order of the curves.
+    ``checked``: pairs known to pass the cap test already."""
+    if checked is None:
+        checked = np.zeros(len(cell), dtype=bool)
+    while True:
+        todo = np.flatnonzero(~checked)
+        if len(todo):
+            far = ~cap_within(
+                pair_dots(c, cell[todo], nodes.mid, node[todo]),
+                reach[cell[todo]] + nodes.reach[node[todo]],
+            )
+            drop = todo[far]
+            if len(drop):
+                keep = np.ones(len(cell), dtype=bool)
+                keep[drop] = False
+                cell, node = cell[keep], node[keep]
+        bad = ~nodes.leaf[node] & (nodes.err[node] > bound[cell])
+        if not bad.any():
+            return cell, node
+        reps = np.where(bad, 2, 1)
+        pos = np.cumsum(reps) - reps
+        bi = np.flatnonzero(bad)
+        new_cell = np.repeat(cell, reps)
+        new_node = np.repeat(node, reps)
+        new_node[pos[bi]] = nodes.child[node[bi], 0]
+        new_node[pos[bi] + 1] = nodes.child[node[bi], 1]
+        checked = np.ones(len(new_cell), dtype=bool)
+        checked[pos[bi]] = False
+        checked[pos[bi] + 1] = False
+        cell, node = new_cell, new_node
+
+
+def enter(shape, nodes: NodeArcs, grid, e: float) -> Frontier:
+    """All cells of level 0 with their candidate nodes (the coarsest curve, split to
+    ``KAPPA * rho``) and their statuses (by crossings to the shape's reference points)."""
+    h, w = grid.level_shape(0)
+    jj, ii = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
+    cells = np.column_stack([jj.ravel(), ii.ravel()])
+    c = grid.centers(0, cells[:, 0], cells[:, 1])
+    rho = grid.rho_at(0, cells[:, 0], cells[:, 1])
+    arcs = CurveArcs.from_shape(shape)
+    status = status_bits(arcs.n_groups, len(c))
+    if arcs.n_groups:
+        status = component_status(shape, arcs, c)
+    k = len(c)
+    cell = np.repeat(np.arange(k), len(nodes.top))
+    node = np.tile(nodes.top, k)
+    cell, node = _split(nodes, cell, node, c, e + rho, KAPPA * rho)
+    return Frontier(0, cells, c, rho, cell, node, status)
+
+
+def refine(f: Frontier, grid, nodes: NodeArcs, e: float, shape, *, leaves: bool = False):
+    """Children of the cells of ``f`` (all assumed frontier, lists of nodes) with their
+    lists (nodes split to ``KAPPA * rho``, or with ``leaves`` to original edges: a
+    :class:`Frontier` of :class:`CurveArcs` rows) and exact statuses."""
+    lev = f.level + 1
+    h, w = grid.level_shape(lev)
+    kids = [
+        np.column_stack([2 * f.cells[:, 0] + dj, 2 * f.cells[:, 1] + di])
+        for dj in (0, 1)
+        for di in (0, 1)
+    ]
+    parent = np.tile(np.arange(len(f.cells)), 4)
+    cells = np.concatenate(kids)
+    ok = (cells[:, 0] < h) & (cells[:, 1] < w)
+    cells, parent = cells[ok], parent[ok]
+    order = np.lexsort((cells[:, 1], cells[:, 0]))
+    cells, parent = cells[order], parent[order]
+    c = grid.centers(lev, cells[:, 0], cells[:, 1])
+    rho = grid.rho_at(lev, cells[:, 0], cells[:, 1])
+    pc = f.centers[parent]
+
+    # the parent's pairs for each child
+    starts = np.searchsorted(f.pair_cell, np.arange(len(f.cells)))
+    ends = np.searchsorted(f.pair_cell, np.arange(len(f.cells)), side="right")
+    counts = (ends - starts)[parent]
+    cell = np.repeat(np.arange(len(cells)), counts)
+    offs = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    node = f.pair_arc[np.repeat(starts[parent], counts) + offs]
+
+    status = f.status[parent].copy()
+    if nodes.n_groups:
+        seg = angle(c, pc)
+        ring = nodes.group[node] >= 0
+        near = np.flatnonzero(ring)
+        near = near[
+            cap_within(
+                pair_dots(c, cell[near], nodes.mid, node[near]),
+                seg[cell[near]] + nodes.reach[node[near]],
+            )
+        ]
+        toggles, on = _crossings(nodes, c, pc, seg, cell[near], node[near])
+        g = nodes.group[toggles[1]]
+        np.bitwise_xor.at(status, (toggles[0], g >> 3), (1 << (g & 7)).astype(np.uint8))
+        if on.any():  # a parent centre on a ring edge is no anchor: ask the reference points
+            status[on] = component_status(shape, CurveArcs.from_shape(shape), c[on])
+
+    bound = np.full(len(cells), -1.0) if leaves else KAPPA * rho
+    cell, node = _split(nodes, cell, node, c, e + rho, bound)
+    return Frontier(lev, cells, c, rho, cell, node, status)
+
+
+def _crossings(nodes: NodeArcs, c, pc, seg, cell, node):
+    """The original ring edges that cross the arcs ``c[cell] -> pc[cell]``, from the
+    nodes near them: ``((cells, one node each of the crossing runs), on)``, the node
+    standing for a run of which an odd number of edges cross, and ``on`` which cells'
+    parent centre lies on one of the edges (see the module notes)."""
+    hit_cell, hit_node = [np.zeros(0, dtype=np.int64)], [np.zeros(0, dtype=np.int64)]
+    on = np.zeros(len(c), dtype=bool)
+    while len(cell):
+        a, b, n = nodes.a[node], nodes.b[node], nodes.n[node]
+        p, q = c[cell], pc[cell]
+        leaf = nodes.leaf[node]
+        err = nodes.err[node]
+        sure = leaf.copy()
+        m = np.flatnonzero(~leaf)
+        if len(m):
+            lim = err[m] + _FAR
+            sure[m] = (arc_distance(p[m], a[m], b[m], n[m]) > lim) & (
+                arc_distance(q[m], a[m], b[m], n[m]) > lim
+            )
+        s = np.flatnonzero(sure)
+        cr = arcs_cross(p[s], q[s], a[s], b[s], n[s])
+        hit_cell.append(cell[s[cr]])
+        hit_node.append(node[s[cr]])
+        lf = s[leaf[s]]  # the guard of levels.refine: a parent centre on an edge
+        ql = q[lf]
+        edge = np.abs(dot(ql, n[lf])) <= ON_EDGE
+        edge[edge] = cap_within(
+            dot(ql[edge], nodes.mid[node[lf[edge]]]), nodes.half[node[lf[edge]]] + ON_EDGE
+        )
+        on[cell[lf[edge]]] = True
+        # the others: their halves, where they come near the arc
+        u = np.flatnonzero(~sure)
+        cell = np.repeat(cell[u], 2)
+        node = nodes.child[node[u]].ravel()
+        keep = cap_within(pair_dots(c, cell, nodes.mid, node), seg[cell] + nodes.reach[node])
+        cell, node = cell[keep], node[keep]
+    return (np.concatenate(hit_cell), np.concatenate(hit_node)), on
+
+
+def classify(f: Frontier, nodes: NodeArcs, rho_decide, d: float) -> tuple[np.ndarray, np.ndarray]:
+    """Classes and distances (to the nearest candidate node) of the cells of ``f`` (lists
+    of nodes), decided with the bound ``rho_decide`` widened by the largest error bound
+    of each cell's nodes."""
+    dist, dring = cell_distances(f, nodes)
+    worst = np.zeros(len(f.cells))
+    if len(f.pair_cell):
+        np.maximum.at(worst, f.pair_cell, nodes.err[f.pair_arc])
+    inside = f.status.any(axis=1)
+    return decide(dist, dring, inside, rho_decide + pad(worst), d, final=False), dist
