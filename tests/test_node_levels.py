@@ -147,3 +147,23 @@ def test_pyramid_tiles_with_and_without_node_levels(tmp_path, shapes, monkeypatc
     b = tl.pyramid(shape, d, zooms, tmp_path / "b.mbtiles", size=64)
     assert _tiles(tmp_path / "a.mbtiles") == _tiles(tmp_path / "b.mbtiles")
     assert a.written == b.written and a.rendered >= b.rendered
+
+
+@pytest.mark.parametrize("name, d", [("neighbours", 0.01), ("seams", -0.01)])
+def test_refine_in_parts_of_rows_is_refine_at_once(shapes, monkeypatch, name, d):
+    """levels.refine refines a large frontier in parts of whole rows of parents: the
+    children, their lists and statuses are those of one refine of all of them."""
+    from gloffset.raster import levels
+
+    shape = shapes[name]
+    grid = TilePyramid(9)
+    cells = CurveCells(shape, d, grid)
+    f = cells.kept(list(driver.walk(cells, 6))[-1])
+    arcs = cells.arcs
+    whole = levels._refine(f, grid, arcs, abs(d), shape)
+    monkeypatch.setattr(levels, "_REFINE_PAIRS", 97)  # many parts, rows of every size
+    parts = levels.refine(f, grid, arcs, abs(d), shape)
+    assert len(f.pair_cell) > 20 * 97
+    for k in ("cells", "centers", "rho", "pair_cell", "pair_arc", "status"):
+        assert np.array_equal(getattr(parts, k), getattr(whole, k)), k
+    assert parts.level == whole.level == 7

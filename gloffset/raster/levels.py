@@ -285,9 +285,56 @@ def decide(dist, dring, inside, rho, d: float, final: bool) -> np.ndarray:
     return cls
 
 
+#: Parent pairs per part of :func:`refine` (their children's pairs, about four times as
+#: many, stay below glibc's largest mmap threshold: reused heap, not fresh pages).
+_REFINE_PAIRS = 1 << 19
+
+
 def refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
     """Children of the cells of ``f`` (all assumed frontier) with refined lists and
-    statuses (``shape``: the shape of ``arcs``, for its reference points)."""
+    statuses (``shape``: the shape of ``arcs``, for its reference points).
+
+    Refined in parts of whole rows of parents (their children are whole rows too, so
+    the parts' results follow each other in row-major order): the same result, with
+    temporaries of a few million pairs at most."""
+    k = len(f.cells)
+    if len(f.pair_cell) <= _REFINE_PAIRS or k < 2:
+        return _refine(f, grid, arcs, e, shape)
+    rows = f.cells[:, 0]
+    row_start = np.flatnonzero(np.r_[True, rows[1:] != rows[:-1]])
+    before = np.searchsorted(f.pair_cell, row_start)  # pairs before each row
+    part = before // _REFINE_PAIRS
+    cuts = row_start[np.flatnonzero(np.r_[True, part[1:] != part[:-1]])]
+    if len(cuts) < 2:
+        return _refine(f, grid, arcs, e, shape)
+    bounds = np.r_[cuts, k]
+    pair_at = np.searchsorted(f.pair_cell, bounds)
+    outs = []
+    for (a, b), (pa, pb) in zip(zip(bounds[:-1], bounds[1:]), zip(pair_at[:-1], pair_at[1:])):
+        sub = Frontier(
+            f.level,
+            f.cells[a:b],
+            f.centers[a:b],
+            f.rho[a:b],
+            f.pair_cell[pa:pb] - a,
+            f.pair_arc[pa:pb],
+            f.status[a:b],
+        )
+        outs.append(_refine(sub, grid, arcs, e, shape))
+    offsets = np.cumsum([0] + [len(o.cells) for o in outs[:-1]])
+    return Frontier(
+        f.level + 1,
+        np.concatenate([o.cells for o in outs]),
+        np.concatenate([o.centers for o in outs]),
+        np.concatenate([o.rho for o in outs]),
+        np.concatenate([o.pair_cell + off for o, off in zip(outs, offsets)]),
+        np.concatenate([o.pair_arc for o in outs]),
+        np.concatenate([o.status for o in outs]),
+    )
+
+
+def _refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
+    """:func:`refine` of all the cells of ``f`` at once."""
     lev = f.level + 1
     h, w = grid.level_shape(lev)
     kids = []
