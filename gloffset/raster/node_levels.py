@@ -90,6 +90,11 @@ class NodeArcs:
         # a merged node whose arc has no direction is never used as itself
         self.err[~self.leaf & ~(np.abs(self.n).sum(axis=1) > 0)] = np.pi
         self.reach = self.half + pad(self.err)
+        # each node's first original edge (its run's place along the curves)
+        self.first = np.arange(len(tree.a))
+        for k in range(1, int(tree.level.max(initial=0)) + 1):
+            made = np.flatnonzero(tree.level == k)
+            self.first[made] = self.first[tree.child[made, 0]]
         self.boundary, self.group = tree.boundary, tree.group
         self.n_groups = arcs.n_groups
         self.top = dec.level_nodes(dec.levels)
@@ -100,40 +105,27 @@ class NodeArcs:
         return shape.cached("raster.node_arcs", lambda: cls(shape))
 
 
-def _split(nodes: NodeArcs, cell, node, c, reach, bound, checked=None):
+def _split(nodes: NodeArcs, cell, node, c, reach, bound):
     """Pairs ``(cell, node)`` with every node whose ``err`` exceeds ``bound[cell]`` (or,
     with ``bound < 0``, every merged node) replaced by the two it was made of, and every
     pair whose grown cap lies farther than ``reach[cell]`` from the centre ``c[cell]``
-    dropped; grouped by cell as they came, each cell's nodes in the order of the curves.
-    ``checked``: pairs known to pass the cap test already."""
-    if checked is None:
-        checked = np.zeros(len(cell), dtype=bool)
-    while True:
-        todo = np.flatnonzero(~checked)
-        if len(todo):
-            far = ~cap_within(
-                pair_dots(c, cell[todo], nodes.mid, node[todo]),
-                reach[cell[todo]] + nodes.reach[node[todo]],
-            )
-            drop = todo[far]
-            if len(drop):
-                keep = np.ones(len(cell), dtype=bool)
-                keep[drop] = False
-                cell, node = cell[keep], node[keep]
+    dropped; sorted by cell, each cell's nodes in the order of the curves (by their first
+    original edge). Each round splits only the pairs left to split."""
+    done_cell, done_node = [], []
+    while len(cell):
+        near = cap_within(pair_dots(c, cell, nodes.mid, node), reach[cell] + nodes.reach[node])
+        cell, node = cell[near], node[near]
         bad = ~nodes.leaf[node] & (nodes.err[node] > bound[cell])
-        if not bad.any():
-            return cell, node
-        reps = np.where(bad, 2, 1)
-        pos = np.cumsum(reps) - reps
-        bi = np.flatnonzero(bad)
-        new_cell = np.repeat(cell, reps)
-        new_node = np.repeat(node, reps)
-        new_node[pos[bi]] = nodes.child[node[bi], 0]
-        new_node[pos[bi] + 1] = nodes.child[node[bi], 1]
-        checked = np.ones(len(new_cell), dtype=bool)
-        checked[pos[bi]] = False
-        checked[pos[bi] + 1] = False
-        cell, node = new_cell, new_node
+        done_cell.append(cell[~bad])
+        done_node.append(node[~bad])
+        split = np.flatnonzero(bad)
+        cell = np.repeat(cell[split], 2)
+        node = nodes.child[node[split]].ravel()
+    cell = np.concatenate(done_cell) if done_cell else np.zeros(0, dtype=np.int64)
+    node = np.concatenate(done_node) if done_node else np.zeros(0, dtype=np.int64)
+    # each round's pairs come sorted: a stable sort merges the rounds
+    order = np.argsort(cell * len(nodes.first) + nodes.first[node], kind="stable")
+    return cell[order], node[order]
 
 
 def enter(shape, nodes: NodeArcs, grid, e: float) -> Frontier:
