@@ -333,8 +333,11 @@ def refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
     )
 
 
-def _refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
-    """:func:`refine` of all the cells of ``f`` at once."""
+def children(f: Frontier, grid):
+    """The children of the cells of ``f`` at the next level, sorted row-major, with
+    their parent's candidate pairs: ``(cells, parent, centres, rho, pair_child,
+    pair_arc)`` (``parent`` each child's index in ``f``; the pairs grouped by child, each
+    child's in its parent's order)."""
     lev = f.level + 1
     h, w = grid.level_shape(lev)
     kids = []
@@ -357,7 +360,13 @@ def _refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
     child_of_pair = np.repeat(np.arange(len(cells)), counts)
     first = np.repeat(starts[parent], counts)
     offs = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    arc_of_pair = f.pair_arc[first + offs]
+    return cells, parent, c, rho, child_of_pair, f.pair_arc[first + offs]
+
+
+def _refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
+    """:func:`refine` of all the cells of ``f`` at once."""
+    lev = f.level + 1
+    cells, parent, c, rho, child_of_pair, arc_of_pair = children(f, grid)
 
     # one dot product per pair serves both cap tests below
     cm = pair_dots(c, child_of_pair, arcs.mid, arc_of_pair)

@@ -52,7 +52,7 @@ from ..caps import arc_cap, cap_within, pad
 from ..edges import CurveArcs, component_status, status_bits
 from ..sphere import angle, arc_distance, arcs_cross, dot, normalize, pair_dots, robust_cross
 from ..vector.multires import full_decomposition
-from .levels import ON_EDGE, Frontier, cell_distances, decide
+from .levels import ON_EDGE, Frontier, cell_distances, children, decide
 
 __all__ = ["KAPPA", "NodeArcs", "enter", "refine", "classify"]
 
@@ -152,29 +152,8 @@ def refine(f: Frontier, grid, nodes: NodeArcs, e: float, shape, *, leaves: bool 
     lists (nodes split to ``KAPPA * rho``, or with ``leaves`` to original edges: a
     :class:`Frontier` of :class:`CurveArcs` rows) and exact statuses."""
     lev = f.level + 1
-    h, w = grid.level_shape(lev)
-    kids = [
-        np.column_stack([2 * f.cells[:, 0] + dj, 2 * f.cells[:, 1] + di])
-        for dj in (0, 1)
-        for di in (0, 1)
-    ]
-    parent = np.tile(np.arange(len(f.cells)), 4)
-    cells = np.concatenate(kids)
-    ok = (cells[:, 0] < h) & (cells[:, 1] < w)
-    cells, parent = cells[ok], parent[ok]
-    order = np.lexsort((cells[:, 1], cells[:, 0]))
-    cells, parent = cells[order], parent[order]
-    c = grid.centers(lev, cells[:, 0], cells[:, 1])
-    rho = grid.rho_at(lev, cells[:, 0], cells[:, 1])
+    cells, parent, c, rho, cell, node = children(f, grid)
     pc = f.centers[parent]
-
-    # the parent's pairs for each child
-    starts = np.searchsorted(f.pair_cell, np.arange(len(f.cells)))
-    ends = np.searchsorted(f.pair_cell, np.arange(len(f.cells)), side="right")
-    counts = (ends - starts)[parent]
-    cell = np.repeat(np.arange(len(cells)), counts)
-    offs = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    node = f.pair_arc[np.repeat(starts[parent], counts) + offs]
 
     status = f.status[parent].copy()
     if nodes.n_groups:
