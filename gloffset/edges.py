@@ -85,10 +85,15 @@ class CurveArcs:
     @classmethod
     def _make(cls, shape) -> CurveArcs:
         e = shape.edges()
-        n = normalize(robust_cross(e.a, e.b))
-        mid, half = arc_cap(e.a, e.b)
-        half = pad(half)
-        return cls(e.a, e.b, n, mid, half, e.boundary, e.group, shape.n_groups)
+        return cls.of(e.a, e.b, e.boundary, e.group, shape.n_groups)
+
+    @classmethod
+    def of(cls, a, b, boundary, group, n_groups: int) -> CurveArcs:
+        """The arcs ``a -> b`` with their normals and bounding caps (row by row: the
+        same bits for the same ends wherever they sit)."""
+        n = normalize(robust_cross(a, b))
+        mid, half = arc_cap(a, b)
+        return cls(a, b, n, mid, pad(half), boundary, group, n_groups)
 
 
 def status_bits(n_groups: int, k: int) -> np.ndarray:

@@ -137,7 +137,16 @@ def test_pyramid_tiles_with_and_without_node_levels(tmp_path, shapes, monkeypatc
     """A pyramid whose coarse zooms are classified from the multiresolution curve writes
     the tiles of one classified from the original arcs, byte for byte."""
     shape = shapes[name]
+    levels = []
+    refine = node_levels.refine
+
+    def counting(f, *args, **kw):
+        levels.append(f.level)
+        return refine(f, *args, **kw)
+
+    monkeypatch.setattr(node_levels, "refine", counting)
     a = tl.pyramid(shape, d, zooms, tmp_path / "a.mbtiles", size=64)
+    assert levels and min(levels) == 0  # the coarse levels were those of the nodes
     orig = tl.CurveCells
 
     def without(*args, nodes_until=None, **kw):

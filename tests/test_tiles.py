@@ -1,6 +1,7 @@
 """Tile pyramids: the tiles held are exactly those the reference puts pixels of the region
 in; fully-inside tiles are all inside; resume; MBTiles and directory layouts; CLI."""
 
+import functools
 import hashlib
 import io
 import json
@@ -654,7 +655,8 @@ def test_split_pyramid_tasks_make_the_same_tiles(
     monkeypatch.setattr(distributed, "as_completed", iter)
     monkeypatch.setattr(tl, "subpyramid", task)
     events = []
-    split = pyramid(
+    run_split = functools.partial(
+        pyramid,
         shape,
         d,
         zooms,
@@ -664,6 +666,7 @@ def test_split_pyramid_tasks_make_the_same_tiles(
         progress=events.append,
         **kw,
     )
+    split = run_split()
     assert read_mbtiles(tmp_path / "one" / "t.mbtiles") == read_mbtiles(
         tmp_path / "two" / "t.mbtiles"
     )
@@ -683,17 +686,7 @@ def test_split_pyramid_tasks_make_the_same_tiles(
     # resumed on the whole output: every task finds its tiles there, and the progress
     # counts them as done, as a run in one process does
     events.clear()
-    again = pyramid(
-        shape,
-        d,
-        zooms,
-        tmp_path / "two" / "t.mbtiles",
-        size=SIZE,
-        workers=workers,
-        progress=events.append,
-        resume=True,
-        **kw,
-    )
+    again = run_split(resume=True)
     # (empty tiles are not stored: they are rendered again)
     assert again.present == one.written and again.rendered == one.empty
     assert events[-1].done == events[-1].total == last.done

@@ -405,12 +405,18 @@ def _on_ring(f: Frontier, arcs: CurveArcs) -> np.ndarray:
     corner at (0, 0), counts the two edges there inconsistently)."""
     ring = np.flatnonzero(arcs.group[f.pair_arc] >= 0)
     pc, pa = f.pair_cell[ring], f.pair_arc[ring]
-    on = np.abs(pair_dots(f.centers, pc, arcs.n, pa)) <= ON_EDGE  # on the great circle
-    pc, pa = pc[on], pa[on]
-    on = cap_within(pair_dots(f.centers, pc, arcs.mid, pa), arcs.half[pa] + ON_EDGE)
     out = np.zeros(len(f.cells), dtype=bool)
-    out[pc[on]] = True
+    out[pc[on_edge(f.centers[pc], arcs, pa)]] = True
     return out
+
+
+def on_edge(p: np.ndarray, arcs, ai: np.ndarray) -> np.ndarray:
+    """Whether each point ``p`` lies on its arc ``ai`` (to :data:`ON_EDGE`): on the
+    great circle, and inside the arc's cap."""
+    idx = np.arange(len(p))
+    on = np.abs(pair_dots(p, idx, arcs.n, ai)) <= ON_EDGE
+    on[on] = cap_within(pair_dots(p, idx[on], arcs.mid, ai[on]), arcs.half[ai[on]] + ON_EDGE)
+    return on
 
 
 def subset(f: Frontier, sel: np.ndarray) -> Frontier:

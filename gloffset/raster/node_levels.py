@@ -48,11 +48,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..caps import arc_cap, cap_within, pad
-from ..edges import CurveArcs, component_status, status_bits
-from ..sphere import angle, arc_distance, arcs_cross, dot, normalize, pair_dots, robust_cross
+from ..caps import cap_within, pad
+from ..edges import CurveArcs, component_status, inside_any, status_bits
+from ..sphere import angle, arc_distance, arcs_cross, pair_dots
 from ..vector.multires import full_decomposition
-from .levels import ON_EDGE, Frontier, cell_distances, children, decide
+from .levels import Frontier, cell_distances, children, decide, on_edge
 
 __all__ = ["KAPPA", "NodeArcs", "enter", "refine", "classify"]
 
@@ -75,18 +75,14 @@ class NodeArcs:
     def __init__(self, shape):
         dec = full_decomposition(shape)
         tree = dec.tree
-        arcs = CurveArcs.from_shape(shape)
-        n0 = len(arcs.a)
-        self.a, self.b = tree.a, tree.b
-        self.n = normalize(robust_cross(tree.a, tree.b))
-        mid, half = arc_cap(tree.a, tree.b)
-        self.mid, self.half = mid, pad(half)
-        # the leaves are the original edges: the same bits as the levels of original arcs
-        self.n[:n0], self.mid[:n0], self.half[:n0] = arcs.n, arcs.mid, arcs.half
+        # the leaves' ends are the original edges' bits: so are their normals and caps
+        t = CurveArcs.of(tree.a, tree.b, tree.boundary, tree.group, shape.n_groups)
+        self.a, self.b, self.n, self.mid, self.half = t.a, t.b, t.n, t.mid, t.half
+        self.boundary, self.group, self.n_groups = t.boundary, t.group, t.n_groups
         self.child = tree.child
         self.leaf = tree.child[:, 0] < 0
         self.err = np.where(np.isfinite(tree.e), tree.e, np.pi)
-        self.err[:n0] = 0.0
+        self.err[self.leaf] = 0.0
         # a merged node whose arc has no direction is never used as itself
         self.err[~self.leaf & ~(np.abs(self.n).sum(axis=1) > 0)] = np.pi
         self.reach = self.half + pad(self.err)
@@ -95,8 +91,6 @@ class NodeArcs:
         for k in range(1, int(tree.level.max(initial=0)) + 1):
             made = np.flatnonzero(tree.level == k)
             self.first[made] = self.first[tree.child[made, 0]]
-        self.boundary, self.group = tree.boundary, tree.group
-        self.n_groups = arcs.n_groups
         self.top = dec.level_nodes(dec.levels)
 
     @classmethod
@@ -201,12 +195,7 @@ def _crossings(nodes: NodeArcs, c, pc, seg, cell, node):
         hit_cell.append(cell[s[cr]])
         hit_node.append(node[s[cr]])
         lf = s[leaf[s]]  # the guard of levels.refine: a parent centre on an edge
-        ql = q[lf]
-        edge = np.abs(dot(ql, n[lf])) <= ON_EDGE
-        edge[edge] = cap_within(
-            dot(ql[edge], nodes.mid[node[lf[edge]]]), nodes.half[node[lf[edge]]] + ON_EDGE
-        )
-        on[cell[lf[edge]]] = True
+        on[cell[lf[on_edge(q[lf], nodes, node[lf])]]] = True
         # the others: their halves, where they come near the arc
         u = np.flatnonzero(~sure)
         cell = np.repeat(cell[u], 2)
@@ -224,5 +213,5 @@ def classify(f: Frontier, nodes: NodeArcs, rho_decide, d: float) -> tuple[np.nda
     worst = np.zeros(len(f.cells))
     if len(f.pair_cell):
         np.maximum.at(worst, f.pair_cell, nodes.err[f.pair_arc])
-    inside = f.status.any(axis=1)
+    inside = inside_any(f.status)
     return decide(dist, dring, inside, rho_decide + pad(worst), d, final=False), dist
