@@ -13,13 +13,15 @@ import sqlite3
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from PIL import Image
+from PIL import Image, ImageDraw
 
 import gloffset
 from gloffset.cli import main
 from gloffset.edges import CurveArcs
 from gloffset.grids import Tile
 from gloffset.grids.mercator import TilePyramid
+from gloffset.io.png import palette_png
+from gloffset.raster.tilepaint import TileStyle
 from gloffset.raster.tiles import TilesError, parse_zooms, pyramid
 from gloffset.reference import contains_xyz, distance_xyz
 from gloffset.sphere import angle, arc_distance, lonlat_to_xyz
@@ -309,6 +311,47 @@ def test_outline_across_the_antimeridian(tmp_path):
 
 class Stop(Exception):
     pass
+
+
+@pytest.mark.parametrize("colors", [1, 2, 3, 4])
+@pytest.mark.parametrize("shape", [(1, 1), (5, 7), (3, 13), (64, 64), (256, 256)])
+def test_palette_png_decodes_to_its_index_and_colours(colors, shape):
+    rng = np.random.default_rng(colors * 1000 + shape[1])
+    index = rng.integers(0, colors, size=shape).astype(np.uint8)
+    palette = [tuple(int(v) for v in rng.integers(0, 256, 4)) for _ in range(colors)]
+    img = Image.open(io.BytesIO(palette_png(index, palette)))
+    img.load()
+    assert img.mode == "P" and img.size == (shape[1], shape[0])
+    assert np.array_equal(np.asarray(img), index)  # rows padded to whole bytes, high bits first
+    lut = np.array(palette, dtype=np.uint8)
+    assert np.array_equal(np.asarray(img.convert("RGBA")), lut[index])
+    with pytest.raises(ValueError, match="1 to 4 colours"):
+        palette_png(index, palette * 5)
+
+
+@pytest.mark.parametrize("outline", [None, "#202020"])
+def test_tile_png_shows_the_mask_and_outline_pillow_draws(outline):
+    """Tiles are encoded by ``palette_png`` (1 bit a pixel, 2 with outline pixels): they
+    decode to the colours of the mask, with the outline Pillow draws on top."""
+    style = TileStyle("#3070c0", 0.5, outline, 3)
+    yy, xx = np.mgrid[:SIZE, :SIZE]
+    mask = (xx - 20) ** 2 + (yy - 30) ** 2 < 400
+    lines = [np.array([[0.5, 3.0], [40.2, 60.7], [63.0, 10.0]]), [10.0, 10.0, 50.0, 12.0]]
+    img = Image.fromarray(mask.astype(np.uint8), mode="P")
+    if outline is not None:
+        draw = ImageDraw.Draw(img)
+        for pts in lines:
+            draw.line(np.ravel(pts).tolist(), fill=2, width=3)
+    want = np.array(style.palette(), dtype=np.uint8)[np.asarray(img)]
+    png = style.encode(mask, lines)
+    got = Image.open(io.BytesIO(png))
+    assert got.info["transparency"][0] == 0  # outside is transparent
+    assert np.array_equal(np.asarray(got.convert("RGBA")), want)
+    assert (outline is not None) == (np.asarray(got).max() == 2)
+    assert style.encode(np.zeros((SIZE, SIZE), bool)) is None
+    if outline is not None:  # an outline alone shows
+        assert style.encode(np.zeros((SIZE, SIZE), bool), lines) is not None
+        assert style.encode(np.zeros((SIZE, SIZE), bool), [[-9.0, -9.0, -5.0, -5.0]]) is None
 
 
 @pytest.mark.parametrize(

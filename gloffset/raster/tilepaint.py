@@ -1,5 +1,6 @@
 """How a map tile looks: fill colour and opacity on a transparent background, and an
-optional outline of the original curves, encoded as a small palette PNG.
+optional outline of the original curves, encoded as a small palette PNG
+(:func:`~gloffset.io.png.palette_png`).
 
 The outline is drawn from the shape's boundary arcs (seams excluded): the part of
 each great-circle arc within the tile's bound of its centre is densified to steps
@@ -11,7 +12,6 @@ drawn with Pillow's ``ImageDraw.line``. The arcs are prepared once per shape
 
 from __future__ import annotations
 
-import io
 import math
 from dataclasses import dataclass
 
@@ -19,7 +19,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from ..errors import OptionError
-from ..io.png import parse_color
+from ..io.png import palette_png, parse_color
 from ..sphere import dot, xyz_to_lonlat
 
 __all__ = ["TileStyle", "StyleError", "OutlineArcs"]
@@ -83,25 +83,26 @@ class TileStyle:
 
         ``lines`` holds polylines in Pillow pixel coordinates: (k, 2) arrays or flat
         lists ``[x0, y0, x1, y1, ...]`` (:meth:`OutlineArcs.lines`). Returns None when
-        the tile shows nothing (no pixel inside and no outline pixel).
+        the tile shows nothing (no pixel inside and no outline pixel). The PNG is a
+        palette image (:func:`~gloffset.io.png.palette_png`): 1 bit a pixel with entries
+        0 and 1 of :meth:`palette`, 2 bits when outline pixels are drawn.
         """
-        idx = (np.asarray(mask) > 0).astype(np.uint8)
-        img = Image.fromarray(idx, mode="P")
+        inside = np.asarray(mask) > 0
         if self.outline is not None and len(lines):
+            img = Image.fromarray(inside.astype(np.uint8), mode="P")
             draw = ImageDraw.Draw(img)
             for pts in lines:
                 if isinstance(pts, np.ndarray):
                     pts = pts.ravel().tolist()
                 draw.line(pts, fill=2, width=self.outline_width)
-            if not np.asarray(img).any():
+            idx = np.asarray(img)
+            if not idx.any():
                 return None
-        elif not idx.any():
+            if (idx == 2).any():
+                return palette_png(idx, self.palette())
+        elif not inside.any():
             return None
-        pal = self.palette()
-        img.putpalette([c for rgba in pal for c in rgba[:3]])
-        buf = io.BytesIO()
-        img.save(buf, format="PNG", transparency=bytes(rgba[3] for rgba in pal))
-        return buf.getvalue()
+        return palette_png(inside, self.palette()[:2])
 
 
 class OutlineArcs:
