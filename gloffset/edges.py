@@ -46,6 +46,15 @@ class CurveArcs:
         return cross(self.n, self.a), cross(self.b, self.n)
 
     @cached_property
+    def columns(self) -> np.ndarray:
+        """(19, n) float64, one row per coordinate: ``a``, ``b``, ``n``, the two
+        :attr:`lunes` normals, ``mid`` (three rows each) and ``half``; what the GPU
+        records gather per (bin, arc) pair, in one gather (made once)."""
+        lune1, lune2 = self.lunes
+        parts = (self.a, self.b, self.n, lune1, lune2, self.mid)
+        return np.ascontiguousarray(np.vstack([v.T for v in parts] + [self.half[None, :]]))
+
+    @cached_property
     def tree(self):
         """The bounding-cap tree over the arcs (built once)."""
         from .captree import CapTree

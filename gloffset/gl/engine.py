@@ -234,12 +234,13 @@ class GpuLevels:
         for g0, g1 in groups:
             r0, r1 = int(first[g0]), int(first[g1 - 1] + counts[g1 - 1])
             c0, c1 = int(cfirst[g0]), int(cfirst[g1 - 1] + ccount[g1 - 1])
+            # the records are read in place (no bytes copy: they are most of the upload)
             recs = ctx.buffer(
-                plan.records[r0:r1].tobytes() if r1 > r0 else bytes(RECORD_TEXELS * 16)
+                np.ascontiguousarray(plan.records[r0:r1]) if r1 > r0 else bytes(RECORD_TEXELS * 16)
             )
             hg = hdr[c0:c1].copy()
             hg[:, 1, 3] -= np.uint32(16 * r0)  # first records within the group's buffer
-            clus = ctx.buffer(hg.tobytes() if c1 > c0 else bytes(_CLUSTER_BYTES))
+            clus = ctx.buffer(hg if c1 > c0 else bytes(_CLUSTER_BYTES))
             inst = ctx.buffer(fb[g0:g1].tobytes())
             vao = ctx.vertex_array(p, [(inst, "2i/i", "in_bin")])
             draws.append((recs, clus, inst, vao, g1 - g0))

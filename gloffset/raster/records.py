@@ -85,10 +85,10 @@ def records(f: Frontier, arcs: CurveArcs, e: float, cluster: int = CLUSTER) -> A
         raise ValueError(f"cluster must be 1..16, got {cluster}")
     ci, ai = _pairs(f)
     k, npair = len(f.cells), len(ci)
-    out, code = _arc_terms(f, arcs, ci, ai, e)
+    out, code, cols = _arc_terms(f, arcs, ci, ai, e)
     ring, bits = _components(f, arcs, ci, ai, code)
     out[:, 1] = code
-    hdr, first_cluster, n_clusters = _clusters(out, ci, ai, ring, k, cluster)
+    hdr, first_cluster, n_clusters = _clusters(cols, ci, ai, ring, k, cluster)
     first = np.searchsorted(ci, np.arange(k)).astype(np.uint32)
     return ArcRecords(
         out.reshape(npair, RECORD_TEXELS, 4),
@@ -112,44 +112,65 @@ def _pairs(f: Frontier) -> tuple[np.ndarray, np.ndarray]:
     return ci, ai
 
 
-def _arc_terms(f: Frontier, arcs: CurveArcs, ci, ai, e: float) -> tuple[np.ndarray, np.ndarray]:
-    """The records' float terms, (pairs, 24) float32 (word 1, the code, left to fill), and
-    the code's first flag (:data:`ARC_IS_ARC`), made in float64 in blocks of pairs."""
+def _arc_terms(f: Frontier, arcs: CurveArcs, ci, ai, e: float):
+    """The records' float terms, (pairs, 24) float32 (word 1, the code, left to fill);
+    the code's first flag (:data:`ARC_IS_ARC`); and (8, pairs) float32 copies of the
+    words ``t0.x``, ``t0.z``, ``t4.xyz`` and ``t5.xyz`` for the clusters.
+
+    Made in float64 in blocks of pairs, coordinate by coordinate (rows of
+    :attr:`CurveArcs.columns` and of the centres), then cast once per block. Dot products
+    are summed ``x0 y0 + x1 y1 + x2 y2`` (as :func:`gloffset.sphere.dot`) or as ``einsum``
+    sums (:func:`_einsum_dot`), the records' bits those of the (pairs, 3) computation.
+    """
     npair = len(ci)
     se = math.sin(e)
     chord_e = float(chord2(e))
     out = np.empty((npair, RECORD_TEXELS * 4), dtype=np.float32)  # cast on assignment
     code = np.empty(npair, dtype=np.int64)
-    lune1, lune2 = arcs.lunes
+    cols = np.empty((8, npair), dtype=np.float32)
+    arc_rows = arcs.columns
+    center_rows = np.ascontiguousarray(f.centers.T, dtype=np.float64)
+    w = np.empty((RECORD_TEXELS * 4, min(_BLOCK, npair)))
     for s0 in range(0, npair, _BLOCK):
-        sl = slice(s0, min(s0 + _BLOCK, npair))
-        c = np.take(f.centers, ci[sl], axis=0)
-        a, b, n, w1, w2, mid = (
-            np.take(v, ai[sl], axis=0) for v in (arcs.a, arcs.b, arcs.n, lune1, lune2, arcs.mid)
-        )
-        ea = c - a
-        eb = c - b
-        is_arc = dot(n, n) > 0.5  # n is a unit vector or zero
+        s1 = min(s0 + _BLOCK, npair)
+        m = s1 - s0
+        c = np.take(center_rows, ci[s0:s1], axis=1)
+        g = np.take(arc_rows, ai[s0:s1], axis=1)
+        a, b, n, w1, w2, mid, half = g[0:3], g[3:6], g[6:9], g[9:12], g[12:15], g[15:18], g[18]
+        t = w[:, :m]
+        ea, eb = t[16:19], t[20:23]
+        np.subtract(c, a, out=ea)
+        np.subtract(c, b, out=eb)
+        is_arc = n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 0.5  # n is a unit vector or zero
         # D: a lower bound on the distance from c to the arc, by its bounding cap
-        d = cap_range(dot(c, mid), np.take(arcs.half, ai[sl]))[0] - CAP_SLACK
+        d = cap_range(c[0] * mid[0] + c[1] * mid[1] + c[2] * mid[2], half)[0] - CAP_SLACK
         np.maximum(d, 0.0, out=d)
-        h = dot(c, n)
-        o = out[sl]
-        o[:, 0] = d * (1.0 - 1e-7)  # rounded down: still a lower bound after the cast
-        o[:, 2] = np.where((h < 0.0) & (h > -_F32_TINY), -_F32_TINY, h)
-        o[:, 3] = -h - se
-        o[:, 4:7] = n
-        o[:, 7] = h - se
-        o[:, 8:11] = w1
-        o[:, 11] = np.einsum("ij,ij->i", c, w1)
-        o[:, 12:15] = w2
-        o[:, 15] = np.einsum("ij,ij->i", c, w2)
-        o[:, 16:19] = ea
-        o[:, 19] = chord_e - np.einsum("ij,ij->i", ea, ea)
-        o[:, 20:23] = eb
-        o[:, 23] = chord_e - np.einsum("ij,ij->i", eb, eb)
-        code[sl] = np.where(is_arc, ARC_IS_ARC, 0)
-    return out, code
+        h = c[0] * n[0] + c[1] * n[1] + c[2] * n[2]
+        t[0] = d * (1.0 - 1e-7)  # rounded down: still a lower bound after the cast
+        t[1] = 0.0
+        t[2] = np.where((h < 0.0) & (h > -_F32_TINY), -_F32_TINY, h)
+        t[3] = -h - se
+        t[4:7] = n
+        t[7] = h - se
+        t[8:11] = w1
+        t[11] = _einsum_dot(c, w1)
+        t[12:15] = w2
+        t[15] = _einsum_dot(c, w2)
+        t[19] = chord_e - _einsum_dot(ea, ea)
+        t[23] = chord_e - _einsum_dot(eb, eb)
+        out[s0:s1] = t.T
+        cols[0:2, s0:s1] = t[0:3:2]
+        cols[2:5, s0:s1] = ea
+        cols[5:8, s0:s1] = eb
+        code[s0:s1] = np.where(is_arc, ARC_IS_ARC, 0)
+    return out, code, cols
+
+
+def _einsum_dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Dot products of (3, k) rows, the bits of ``np.einsum("ij,ij->i", u.T, v.T)``: the sum
+    ``(x0 y0 + x2 y2) + x1 y1``, plus 0 (einsum's sum starts from +0, so products that are
+    all -0 sum to +0)."""
+    return (u[0] * v[0] + u[2] * v[2]) + u[1] * v[1] + 0.0
 
 
 def _components(f: Frontier, arcs: CurveArcs, ci, ai, code: np.ndarray):
@@ -206,9 +227,10 @@ def _unique_inverse(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return sk[new], inv
 
 
-def _clusters(out: np.ndarray, ci, ai, ring, k: int, cluster: int):
-    """The cluster headers (m, 2, 4) uint32 of the records ``out`` (pairs, 24) float32,
-    each bin's by increasing ``Dmin``; and each bin's first cluster and cluster count.
+def _clusters(cols: np.ndarray, ci, ai, ring, k: int, cluster: int):
+    """The cluster headers (m, 2, 4) uint32 of the records whose words ``t0.x``, ``t0.z``,
+    ``t4.xyz``, ``t5.xyz`` are the rows of ``cols`` (8, pairs) float32, each bin's by
+    increasing ``Dmin``; and each bin's first cluster and cluster count.
 
     A cluster is a run of consecutive arcs of a bin, cut every ``cluster`` pairs.
     """
@@ -219,9 +241,9 @@ def _clusters(out: np.ndarray, ci, ai, ring, k: int, cluster: int):
     pos = np.arange(npair) - np.repeat(run_first, np.diff(np.append(run_first, npair)))
     cfirst = np.flatnonzero(start | (pos % cluster == 0))
     csize = np.diff(np.append(cfirst, npair))
-    q32, rho32, s32 = _balls(out, cfirst, csize)
-    dmin = np.minimum.reduceat(out[:, 0], cfirst)  # the smallest t0.x, exactly
-    hmin = np.minimum.reduceat(np.where(ring, np.abs(out[:, 2]), np.float32(np.inf)), cfirst)
+    q32, rho32, s32 = _balls(cols[2:5], cols[5:8], cfirst, csize)
+    dmin = np.minimum.reduceat(cols[0], cfirst)  # the smallest t0.x, exactly
+    hmin = np.minimum.reduceat(np.where(ring, np.abs(cols[1]), np.float32(np.inf)), cfirst)
 
     # A bin's clusters by Dmin: the key is the float32 value itself (nonnegative, so
     # its bits sort as integers), so the shader's break on Dmin > skip is exact.
@@ -243,10 +265,11 @@ def _clusters(out: np.ndarray, ci, ai, ring, k: int, cluster: int):
     return hdr, first_cluster, n_clusters
 
 
-def _balls(out: np.ndarray, cfirst: np.ndarray, csize: np.ndarray):
+def _balls(t4: np.ndarray, t5: np.ndarray, cfirst: np.ndarray, csize: np.ndarray):
     """Per cluster (records ``cfirst`` .. ``+ csize``), float32 ``(Q, rho, S)``: the
     ball around the bin centre ``c`` that holds every point of its arcs, and ``S >=
-    |Q| + rho``.
+    |Q| + rho``; ``t4``, ``t5`` (3, pairs) float32 are the records' words ``t4.xyz`` and
+    ``t5.xyz``, coordinate by coordinate.
 
     A short arc lies in the ball of centre (a + b) / 2 and radius |a - b| / 2. The offsets
     A = a - c, B = b - c are taken from the records: -t4, -t5 are within 6e-8 |A|, 6e-8
@@ -256,23 +279,28 @@ def _balls(out: np.ndarray, cfirst: np.ndarray, csize: np.ndarray):
     far more than its rounding (1e-9 relative) and by Q's float32 rounding, then rho and
     S = |Q| + rho are rounded up to float32.
     """
-    npair, m = len(out), len(cfirst)
+    npair, m = t4.shape[1], len(cfirst)
     cid = np.repeat(np.arange(m), csize)
-    t4, t5 = out[:, 16:19], out[:, 20:23]
     q = np.empty((m, 3))
     for j in range(3):
-        lo = np.minimum.reduceat(np.minimum(t4[:, j], t5[:, j]), cfirst)
-        hi = np.maximum.reduceat(np.maximum(t4[:, j], t5[:, j]), cfirst)
+        lo = np.minimum.reduceat(np.minimum(t4[j], t5[j]), cfirst)
+        hi = np.maximum.reduceat(np.maximum(t4[j], t5[j]), cfirst)
         q[:, j] = -0.5 * (lo.astype(np.float64) + hi)
+    q_rows = np.ascontiguousarray(q.T)
     r = np.empty(npair)
     for s0 in range(0, npair, _BLOCK):
         sl = slice(s0, min(s0 + _BLOCK, npair))
-        u, v = t4[sl].astype(np.float64), t5[sl].astype(np.float64)
-        dm = np.take(q, cid[sl], axis=0)
+        u, v = t4[:, sl].astype(np.float64), t5[:, sl].astype(np.float64)
+        dm = np.take(q_rows, cid[sl], axis=1)
         dm += 0.5 * (u + v)  # Q - centre
         uv = u - v
-        lu, lv = np.sqrt(dot(u, u)), np.sqrt(dot(v, v))
-        r[sl] = np.sqrt(dot(dm, dm)) + 0.5 * np.sqrt(dot(uv, uv)) + 1.2e-7 * (lu + lv)
+        lu = np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+        lv = np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+        r[sl] = (
+            np.sqrt(dm[0] * dm[0] + dm[1] * dm[1] + dm[2] * dm[2])
+            + 0.5 * np.sqrt(uv[0] * uv[0] + uv[1] * uv[1] + uv[2] * uv[2])
+            + 1.2e-7 * (lu + lv)
+        )
     rho = np.maximum.reduceat(r, cfirst) if m else np.zeros(0)
     q32 = q.astype(np.float32)
     dq = q - q32
