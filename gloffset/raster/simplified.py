@@ -65,8 +65,8 @@ __all__ = [
     "z_order",
 ]
 
-#: ``eps`` as a fraction of the smallest pixel's diameter (a band of about a quarter of
-#: a pixel either side of the boundary).
+#: ``eps`` as a fraction of the (median row's) pixel diameter (a band of about a quarter
+#: of a pixel either side of the boundary; :func:`gloffset.raster.render.simplify_eps`).
 PIXEL_FRACTION = 0.25
 #: A simplified shape is rendered only when it keeps at most this fraction of the arcs.
 MAX_FRACTION = 0.35
