@@ -90,7 +90,7 @@ def palette_png(index: np.ndarray, palette) -> bytes:
         raise ValueError("palette_png takes an h x w index array and 1 to 4 colours")
     h, w = index.shape
     if len(palette) <= 2:
-        depth, bits = 1, index.astype(bool)
+        depth, bits = 1, index if index.dtype == bool else index.astype(bool)
     else:  # two bits a pixel, high bit first
         idx = index.astype(np.uint8)
         depth, bits = 2, np.stack([idx & 2, idx & 1], axis=-1).reshape(h, 2 * w).astype(bool)

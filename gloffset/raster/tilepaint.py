@@ -87,7 +87,9 @@ class TileStyle:
         palette image (:func:`~gloffset.io.png.palette_png`): 1 bit a pixel with entries
         0 and 1 of :meth:`palette`, 2 bits when outline pixels are drawn.
         """
-        inside = np.asarray(mask) > 0
+        inside = np.asarray(mask)
+        if inside.dtype != bool:
+            inside = inside > 0
         if self.outline is not None and len(lines):
             img = Image.fromarray(inside.astype(np.uint8), mode="P")
             draw = ImageDraw.Draw(img)
