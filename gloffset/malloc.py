@@ -1,15 +1,18 @@
 """The C allocator's settings for long runs of large numpy temporaries (glibc only).
 
-A tile pyramid classifies each zoom's cells with arrays of tens to hundreds of MB,
-made and freed many times per zoom. By default glibc serves each allocation above its
-mmap threshold (128 KiB, raised as large blocks are freed, to 32 MiB at most) with fresh
+A tile pyramid classifies each zoom's cells with arrays of tens to hundreds of MB, made
+and freed many times per zoom. By default glibc serves each allocation above its mmap
+threshold (128 KiB, raised as large blocks are freed, to 32 MiB at most) with fresh
 pages from the kernel and gives the memory freed at the heap's top back to it, so every
-new temporary costs page faults and zeroing. :func:`keep_freed_memory` keeps that
-memory for reuse instead: blocks up to 32 MiB (glibc's largest threshold) come from the
-heap, which is never trimmed and grows in steps of 256 MiB. Measured on
-``countries_10m`` at 127 km, zooms 0-7 in one process: 20.9 s (6.7 s of it in the
-kernel) before, 16.2-17.1 s (2.8-3.3 s) after. The process then keeps its peak heap until it
-ends: :func:`gloffset.tiles.pyramid` and the workers of a Dask pyramid call it, a
+new temporary costs page faults and zeroing. :func:`keep_freed_memory` keeps that memory
+for reuse instead: every block comes from the heap (no mmap at all, so the records of a
+coarse zoom, hundreds of MB, reuse freed memory too), which is never trimmed and grows
+in steps of 256 MiB. Measured on ``countries_10m`` at 127 km, zooms 0-7 in one process:
+20.9 s (6.7 s of it in the kernel) before, 16.2-17.1 s (2.8-3.3 s) with blocks up to 32
+MiB (glibc's largest mmap threshold) from the heap; z0-8 after reading the GeoJSON:
+13.9-14.5 s (1.6-1.9 s in the kernel) with those, 13.3-14.1 s (1.5 s) with every block
+from the heap, the same peak memory (1.6 GB). The process then keeps its peak heap until
+it ends: :func:`gloffset.tiles.pyramid` and the workers of a Dask pyramid call it, a
 library user's process otherwise keeps glibc's defaults.
 """
 
@@ -24,11 +27,13 @@ __all__ = ["keep_freed_memory"]
 _M_TRIM_THRESHOLD = -1
 _M_TOP_PAD = -2
 _M_MMAP_THRESHOLD = -3
+_M_MMAP_MAX = -4
 
 SETTINGS = {
     _M_MMAP_THRESHOLD: 32 << 20,  # glibc's largest
     _M_TRIM_THRESHOLD: (1 << 31) - 1,  # never trim (mallopt takes an int)
     _M_TOP_PAD: 256 << 20,
+    _M_MMAP_MAX: 0,  # no block from mmap: all from the heap
 }
 
 
