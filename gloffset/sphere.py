@@ -104,11 +104,21 @@ def dot(u, v) -> np.ndarray:
     return u[..., 0] * v[..., 0] + u[..., 1] * v[..., 1] + u[..., 2] * v[..., 2]
 
 
+def einsum_dot(u, v) -> np.ndarray:
+    """Dot products along the last axis (length 3) with the bits of
+    ``np.einsum("ij,ij->i", u, v)``: its sum ``(x0 y0 + x2 y2) + x1 y1``, plus 0 (einsum's
+    sum starts from +0, so products that are all -0 sum to +0). Rows of (3, k) arrays
+    are taken as ``einsum_dot(u.T, v.T)`` (views, no copies)."""
+    u = np.asarray(u, dtype=np.float64)
+    v = np.asarray(v, dtype=np.float64)
+    return (u[..., 0] * v[..., 0] + u[..., 2] * v[..., 2]) + u[..., 1] * v[..., 1] + 0.0
+
+
 def pair_dots(u, ui, v, vi) -> np.ndarray:
-    """``u[ui] . v[vi]`` for index arrays ``ui``, ``vi`` into (n, 3) arrays: the same
-    bits as ``np.einsum("ij,ij->i", u[ui], v[vi])``, whose sum is ``(x0 y0 + x2 y2) +
-    x1 y1``, from gathers of single coordinates (no (k, 3) copies: several times
-    faster for millions of pairs)."""
+    """``u[ui] . v[vi]`` for index arrays ``ui``, ``vi`` into (n, 3) arrays: the values
+    of ``np.einsum("ij,ij->i", u[ui], v[vi])``, whose sum is ``(x0 y0 + x2 y2) + x1 y1``
+    (the same bits but for the sign of a zero: see :func:`einsum_dot`), from gathers of
+    single coordinates (no (k, 3) copies: several times faster for millions of pairs)."""
     u = np.asarray(u, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
     out = u[:, 0][ui] * v[:, 0][vi]

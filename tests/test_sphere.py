@@ -93,6 +93,21 @@ def test_rotate_preserves_angle():
     assert np.allclose(np.sum(v * axis, 1), np.sum(w * axis, 1), atol=1e-15)
 
 
+def test_einsum_dot_is_einsum_bit_for_bit():
+    """``einsum_dot`` gives einsum's bits, the sign of zero included (the GPU records
+    are compared byte for byte), on (k, 3) arrays and on (3, k) rows taken as ``.T``."""
+    from gloffset.sphere import einsum_dot
+
+    rng = np.random.default_rng(5)
+    u, v = rng.normal(size=(5000, 3)), rng.normal(size=(5000, 3))
+    u[:10] = [-0.0, 0.0, -0.0]  # products all -0 (einsum: +0)
+    v[:10] = [1.0, -2.0, 3.0]
+    want = np.einsum("ij,ij->i", u, v).view(np.int64)
+    assert np.array_equal(einsum_dot(u, v).view(np.int64), want)
+    rows_u, rows_v = np.ascontiguousarray(u.T), np.ascontiguousarray(v.T)
+    assert np.array_equal(einsum_dot(rows_u.T, rows_v.T).view(np.int64), want)
+
+
 def test_pair_dots_are_einsum_bits():
     from gloffset.sphere import pair_dots
 

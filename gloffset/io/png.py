@@ -82,8 +82,9 @@ def palette_png(index: np.ndarray, palette) -> bytes:
     The image is written at the smallest bit depth that holds the palette (1 bit for 2
     colours, 2 bits for 3 or 4), rows unfiltered (the PNG specification's advice for
     palette images) and deflated by zlib at its default level. Decoders give back exactly
-    ``index``. This is the map tiles' encoder: for a 256 x 256 mask it is about 3 times
-    faster than Pillow's writer and its files are about a quarter smaller.
+    ``index``. This is the map tiles' encoder: on Mexico's rendered 256 px tiles it takes
+    67 us and 328 bytes a tile against Pillow's 166 us and 448 bytes
+    (``benchmarks/tile_png.py``).
     """
     index = np.asarray(index)
     if index.ndim != 2 or not 1 <= len(palette) <= 4:

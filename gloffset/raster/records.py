@@ -27,7 +27,7 @@ import numpy as np
 from ..caps import CAP_SLACK, cap_range, chord2
 from ..edges import CurveArcs
 from ..errors import GLContextError
-from ..sphere import dot
+from ..sphere import dot, einsum_dot
 from .levels import Frontier
 
 __all__ = [
@@ -119,8 +119,8 @@ def _arc_terms(f: Frontier, arcs: CurveArcs, ci, ai, e: float):
 
     Made in float64 in blocks of pairs, coordinate by coordinate (rows of
     :attr:`CurveArcs.columns` and of the centres), then cast once per block. Dot products
-    are summed ``x0 y0 + x1 y1 + x2 y2`` (as :func:`gloffset.sphere.dot`) or as ``einsum``
-    sums (:func:`_einsum_dot`), the records' bits those of the (pairs, 3) computation.
+    are :func:`gloffset.sphere.dot` or :func:`gloffset.sphere.einsum_dot` of the rows (as
+    ``.T`` views): the records' bits are those of the (pairs, 3) computation.
     """
     npair = len(ci)
     se = math.sin(e)
@@ -141,11 +141,11 @@ def _arc_terms(f: Frontier, arcs: CurveArcs, ci, ai, e: float):
         ea, eb = t[16:19], t[20:23]
         np.subtract(c, a, out=ea)
         np.subtract(c, b, out=eb)
-        is_arc = n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 0.5  # n is a unit vector or zero
+        is_arc = dot(n.T, n.T) > 0.5  # n is a unit vector or zero
         # D: a lower bound on the distance from c to the arc, by its bounding cap
-        d = cap_range(c[0] * mid[0] + c[1] * mid[1] + c[2] * mid[2], half)[0] - CAP_SLACK
+        d = cap_range(dot(c.T, mid.T), half)[0] - CAP_SLACK
         np.maximum(d, 0.0, out=d)
-        h = c[0] * n[0] + c[1] * n[1] + c[2] * n[2]
+        h = dot(c.T, n.T)
         t[0] = d * (1.0 - 1e-7)  # rounded down: still a lower bound after the cast
         t[1] = 0.0
         t[2] = np.where((h < 0.0) & (h > -_F32_TINY), -_F32_TINY, h)
@@ -153,24 +153,17 @@ def _arc_terms(f: Frontier, arcs: CurveArcs, ci, ai, e: float):
         t[4:7] = n
         t[7] = h - se
         t[8:11] = w1
-        t[11] = _einsum_dot(c, w1)
+        t[11] = einsum_dot(c.T, w1.T)
         t[12:15] = w2
-        t[15] = _einsum_dot(c, w2)
-        t[19] = chord_e - _einsum_dot(ea, ea)
-        t[23] = chord_e - _einsum_dot(eb, eb)
+        t[15] = einsum_dot(c.T, w2.T)
+        t[19] = chord_e - einsum_dot(ea.T, ea.T)
+        t[23] = chord_e - einsum_dot(eb.T, eb.T)
         out[s0:s1] = t.T
         cols[0:2, s0:s1] = t[0:3:2]
         cols[2:5, s0:s1] = ea
         cols[5:8, s0:s1] = eb
         code[s0:s1] = np.where(is_arc, ARC_IS_ARC, 0)
     return out, code, cols
-
-
-def _einsum_dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Dot products of (3, k) rows, the bits of ``np.einsum("ij,ij->i", u.T, v.T)``: the sum
-    ``(x0 y0 + x2 y2) + x1 y1``, plus 0 (einsum's sum starts from +0, so products that are
-    all -0 sum to +0)."""
-    return (u[0] * v[0] + u[2] * v[2]) + u[1] * v[1] + 0.0
 
 
 def _components(f: Frontier, arcs: CurveArcs, ci, ai, code: np.ndarray):
@@ -294,13 +287,9 @@ def _balls(t4: np.ndarray, t5: np.ndarray, cfirst: np.ndarray, csize: np.ndarray
         dm = np.take(q_rows, cid[sl], axis=1)
         dm += 0.5 * (u + v)  # Q - centre
         uv = u - v
-        lu = np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
-        lv = np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-        r[sl] = (
-            np.sqrt(dm[0] * dm[0] + dm[1] * dm[1] + dm[2] * dm[2])
-            + 0.5 * np.sqrt(uv[0] * uv[0] + uv[1] * uv[1] + uv[2] * uv[2])
-            + 1.2e-7 * (lu + lv)
-        )
+        u, v, dm, uv = u.T, v.T, dm.T, uv.T  # (k, 3) views for dot
+        lu, lv = np.sqrt(dot(u, u)), np.sqrt(dot(v, v))
+        r[sl] = np.sqrt(dot(dm, dm)) + 0.5 * np.sqrt(dot(uv, uv)) + 1.2e-7 * (lu + lv)
     rho = np.maximum.reduceat(r, cfirst) if m else np.zeros(0)
     q32 = q.astype(np.float32)
     dq = q - q32
