@@ -5,6 +5,7 @@ driver whose walk does what its callers rely on."""
 from __future__ import annotations
 
 import ast
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -66,6 +67,45 @@ def test_the_layering_contract_holds():
         pytest.skip("import-linter is not installed (pip install -e '.[test]')")
     run = subprocess.run([exe], cwd=ROOT, capture_output=True, text=True)
     assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
+
+
+#: what a name in ARCHITECTURE.md looks like when it is a file or folder of the repository
+_FILE = re.compile(r"[\w./-]+(?:/|\.(?:py|frag|vert|glsl|md|toml|json|geojson))")
+
+
+def _named_paths(text: str) -> set[str]:
+    """The paths ARCHITECTURE.md names: `quoted` paths, and the folders and modules of its
+    layer diagram (a name without a top-level folder of the repository is under gloffset/)."""
+    diagram = "\n".join(re.findall(r"```\n(.*?)```", text, re.S))
+    names = set(re.findall(r"`([^`\s]+)`", text)) | set(re.findall(r"[\w.]+(?:/|\.py)\b", diagram))
+    return {n for n in names if _FILE.fullmatch(n)}
+
+
+def test_every_path_architecture_names_exists():
+    named = _named_paths((ROOT / "ARCHITECTURE.md").read_text())
+    assert len(named) > 80, sorted(named)  # the module list is read, not skipped
+    top = {p.name for p in ROOT.iterdir()}
+    missing = []
+    for name in sorted(named):
+        base = ROOT if name.split("/")[0] in top else PACKAGE
+        if not (base / name).exists():
+            missing.append(name)
+    assert not missing, "ARCHITECTURE.md names paths that do not exist:\n" + "\n".join(missing)
+
+
+def test_architecture_lists_every_module_once_in_its_layer_diagram():
+    text = (ROOT / "ARCHITECTURE.md").read_text()
+    diagram = re.findall(r"```\n(.*?)```", text, re.S)[0]
+    packages = re.findall(r"^ (\w+)/", diagram, re.M)
+    assert len(packages) == len(set(packages)), packages
+    named = _named_paths(text)
+    modules = [
+        str(p.relative_to(ROOT))
+        for p in PACKAGE.rglob("*.py")
+        if p.name != "__init__.py" and "__pycache__" not in p.parts
+    ]
+    unnamed = [m for m in sorted(modules) if m not in named]
+    assert not unnamed, "ARCHITECTURE.md does not describe:\n" + "\n".join(unnamed)
 
 
 def test_no_two_classes_share_a_name():
