@@ -1,7 +1,8 @@
 """What a render and a tile pyramid cost, against what their output holds.
 
 The raster engine's work at the output level is proportional to the boundary of the
-region, not to its area nor to the input's vertex count (DESIGN, "The raster engine").
+region, not to its area nor to the input's vertex count (docs/design.md, "The cost
+model").
 This benchmark measures that on real borders: per input and image, the time of a GPU
 mask (warm, best of 3), the pixels of the output's boundary (pixels with a 4-neighbour
 of the other value) and the time per boundary pixel; per input, a z0-8 pyramid (256 px,

@@ -5,6 +5,7 @@ driver whose walk does what its callers rely on."""
 from __future__ import annotations
 
 import ast
+import importlib
 import re
 import shutil
 import subprocess
@@ -106,6 +107,41 @@ def test_architecture_lists_every_module_once_in_its_layer_diagram():
     ]
     unnamed = [m for m in sorted(modules) if m not in named]
     assert not unnamed, "ARCHITECTURE.md does not describe:\n" + "\n".join(unnamed)
+
+
+#: a Sphinx-style reference to a full name, e.g. :class:`~gloffset.raster.curves.CurveCells`
+_REFERENCE = re.compile(r":(?:class|func|mod|meth|attr|data|exc):`~?(gloffset(?:\.\w+)+)`")
+
+
+def _resolves(name: str) -> bool:
+    """Whether ``gloffset.a.b.C.d`` names something: the longest importable module, then
+    attributes (a name only annotated in a class body counts as an attribute)."""
+    parts = name.split(".")
+    for i in range(len(parts), 0, -1):
+        module = ".".join(parts[:i])
+        try:
+            obj = importlib.import_module(module)
+        except ImportError:
+            continue
+        for attr in parts[i:]:
+            if hasattr(obj, attr):
+                obj = getattr(obj, attr)
+            elif attr in getattr(obj, "__annotations__", {}):
+                return attr == parts[-1]
+            else:
+                return False
+        return True
+    return False
+
+
+def test_every_full_name_a_docstring_references_exists():
+    broken = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for lineno, line in enumerate(path.read_text().splitlines(), 1):
+            for name in _REFERENCE.findall(line):
+                if not _resolves(name):
+                    broken.append(f"{path.relative_to(ROOT)}:{lineno} {name}")
+    assert not broken, "references to names that do not exist:\n" + "\n".join(broken)
 
 
 def test_no_two_classes_share_a_name():

@@ -1,10 +1,10 @@
 """GeoParquet (1.0 / 1.1, WKB geometry) read and written with pyarrow.
 
 GDAL builds without the Parquet driver (as in pyogrio's wheels) cannot open GeoParquet,
-so :mod:`gloffset.io.vectorfile` hands such files here. A table is returned as a
-:class:`~gloffset.io.vectorfile.Table`-like tuple ``(crs, wkb, columns)``: the CRS of the
-primary geometry column (PROJJSON, OGC:CRS84 when the file gives none, as the
-specification says), its WKB values, and the other columns as numpy arrays.
+so :mod:`gloffset.io.vectorfile` hands such files here. A table is returned as a tuple
+``(crs, wkb, columns)``, the parts :func:`gloffset.io.vectorfile.read` makes features of:
+the CRS of the primary geometry column (PROJJSON, OGC:CRS84 when the file gives none, as
+the specification says), its WKB values, and the other columns as numpy arrays.
 """
 
 from __future__ import annotations

@@ -207,7 +207,7 @@ def render_grid(shape, d: float, grid) -> np.ndarray:
 def _render_one(shape, d, grid, *, backend, level, callback, mask, simplify=True):
     """Classes of ``level`` (default: the output level) or, with ``mask``, the mask.
 
-    The float64 levels (:class:`~gloffset.raster.levels.CurveCells`) run down to the
+    The float64 levels (:class:`~gloffset.raster.curves.CurveCells`) run down to the
     bins, the GL levels (:mod:`gloffset.gl.engine`) below them; ``backend="cpu"``
     runs every level in float64. A GPU mask of a shape far finer than the pixels is
     rendered from the shape simplified to a fraction of a pixel
