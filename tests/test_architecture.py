@@ -109,6 +109,18 @@ def test_architecture_lists_every_module_once_in_its_layer_diagram():
     assert not unnamed, "ARCHITECTURE.md does not describe:\n" + "\n".join(unnamed)
 
 
+def test_the_readme_is_short_and_its_links_exist():
+    """The README stays a front page (the rest is in docs/ and benchmarks/README.md), and
+    every file it links to exists."""
+    text = (ROOT / "README.md").read_text()
+    assert len(text.splitlines()) <= 300
+    links = re.findall(r"\]\(([^)\s]+)\)", text)
+    local = {link.split("#")[0] for link in links if not re.match(r"\w+:", link)} - {""}
+    assert local, "no local links found"
+    missing = sorted(link for link in local if not (ROOT / link).exists())
+    assert not missing, missing
+
+
 #: a Sphinx-style reference to a full name, e.g. :class:`~gloffset.raster.curves.CurveCells`
 _REFERENCE = re.compile(r":(?:class|func|mod|meth|attr|data|exc):`~?(gloffset(?:\.\w+)+)`")
 
