@@ -26,10 +26,34 @@ def test_offset_file_to_file(tmp_path, mexico_path):
     fc = json.loads(out.read_text())
     feat = fc["features"][0]
     assert feat["geometry"]["type"] in ("Polygon", "MultiPolygon")
-    assert feat["properties"]["distance"] == "127km"
+    assert feat["properties"] == {"distance_m": 127000.0, "distance": "127km"}
     shape = gloffset.read(fc)
     # the written region contains Mexico City and a point 100 km off the coast
     assert gloffset.reference.contains(shape, [-99.13, -115.5], [19.43, 28.0]).all()
+
+
+@pytest.mark.parametrize(
+    "flags, extra",
+    [
+        ([], {}),
+        (["--each"], {"name": "a line"}),
+        (["--raw"], {"raw": True}),
+        (["--ellipsoid", "WGS84"], {"ellipsoid": "WGS84", "tolerance_m": 1.0}),
+    ],
+)
+def test_offset_outputs_name_the_distance_one_way(flags, extra):
+    """The union, --each, --raw and --ellipsoid write the same two distance properties:
+    ``distance_m`` (metres; the geodesic length on the ellipsoid) and ``distance`` (as
+    given)."""
+    line = {"type": "LineString", "coordinates": [[-99.1, 19.4], [-98.2, 19.0], [-97, 20]]}
+    g = json.dumps({"type": "Feature", "properties": {"name": "a line"}, "geometry": line})
+    r = run("offset", "-", "-d", "2.5km", *flags, input=g)
+    assert r.exit_code == 0, r.output
+    (feat,) = json.loads(r.output)["features"]
+    assert feat["properties"] == {"distance_m": 2500.0, "distance": "2.5km"} | extra
+    if "--ellipsoid" not in flags:  # on the sphere of --radius (metres)
+        r = run("offset", "-", "-d", "0.001rad", "--radius", "1000", *flags, input=g)
+        assert json.loads(r.output)["features"][0]["properties"]["distance_m"] == 1.0
 
 
 def test_offset_stdin_to_stdout():

@@ -5,7 +5,9 @@ intersections removed, parts united, holes kept; see :mod:`gloffset.vector.selfi
 ``--raw`` writes the raw offset rings of the paper's Sec. 4.1 instead. ``--each`` offsets
 every feature on its own and keeps its properties (:mod:`gloffset.vector.each`). The output
 is GeoJSON, or a GeoPackage, Shapefile, FlatGeobuf or GeoParquet file by its name
-(:mod:`gloffset.io.vectorfile`), with a ``distance`` field.
+(:mod:`gloffset.io.vectorfile`). Every output feature has the fields ``distance_m`` (the
+distance in metres: the geodesic length with ``--ellipsoid``, else on the sphere of
+``--radius``) and ``distance`` (as given, e.g. ``"127km"``).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from ..io.output import check_output, write_bytes
 from ..io.vectorfile import WRITE_FORMATS, check_writable
 from ..io.vectorfile import write as write_vector
 from ..shape import read
+from ..units import distance_properties
 from ..vector.each import offset_each
 from ..vector.offset import offset as _offset
 from . import main
@@ -64,7 +67,9 @@ from .options import (
 @click.option(
     "--raw",
     is_flag=True,
-    help="Write the raw offset rings (self-intersections and overlaps left in).",
+    help="Write the raw offset curves (paper Sec. 4.1) before self-intersections and "
+    "overlaps are removed: closed rings as LineStrings (a MultiLineString per feature, "
+    "property raw: true), as they may cross themselves and each other.",
 )
 @click.option(
     "--method",
@@ -95,7 +100,8 @@ def offset_cmd(
             )
         m, tol = metres(distance), metres(tolerance or "1m")
     else:
-        d, tol = angle(distance, radius), angle(tolerance or "1e-6rad", radius)
+        angle(distance, radius)  # read before the work
+        tol = angle(tolerance or "1e-6rad", radius)
     check_output(output)  # fail before the work
     vector = str(output).lower().endswith(tuple(WRITE_FORMATS))
     if vector:
@@ -103,7 +109,8 @@ def offset_cmd(
     if each:
         feats = offset_each(
             _features(load(input, layer=layer, where=where)),
-            d,
+            distance,
+            radius=radius,
             tolerance=tol,
             digits=digits,
             raw=raw,
@@ -115,10 +122,11 @@ def offset_cmd(
         feats = [off.to_geojson(digits=digits)]
     else:
         shape = read(input, layer=layer, where=where)
-        off = _offset(shape, d, radius=1.0)
+        off = _offset(shape, distance, radius=radius)
         feats = [off.to_geojson(tolerance=tol, digits=digits, raw=raw, method=method)]
+    props = distance_properties(distance, 1.0 if ell is not None else radius)
     for feat in feats:
-        feat["properties"]["distance"] = distance
+        feat["properties"].update(props)
     if vector:
         write_vector(output, feats)
         return

@@ -16,6 +16,7 @@ import numpy as np
 from ..errors import InputFormatError, InvalidDistanceError, InvalidGeometryError
 from ..io.geojson import parse
 from ..shape import Shape
+from ..units import parse_distance
 from . import discs
 from .arcrings import DEFAULT_TOLERANCE
 from .offset import offset
@@ -52,8 +53,9 @@ def _position(p) -> bool:
 
 def offset_each(
     features: list[dict],
-    d: float,
+    d: float | str,
     *,
+    radius: float = 1.0,
     tolerance: float = DEFAULT_TOLERANCE,
     resolution: int | None = None,
     digits: int | None = None,
@@ -62,11 +64,14 @@ def offset_each(
 ) -> list[dict]:
     """The offset of each GeoJSON feature alone, as GeoJSON features with its properties.
 
-    ``d`` and ``tolerance`` are angles (radians); ``resolution`` (segments per quarter
+    ``d`` is a distance in the units of ``radius`` (an angle in radians by default) or a
+    string with a unit such as ``"127km"``; messages quote it as given. ``tolerance`` is an
+    angle (radians); ``resolution`` (segments per quarter
     circle), if given, sets the density of the circles of points and segments, else they
     are densified to ``tolerance`` as every other arc is. The output's properties are the
     input's; the caller adds the distance.
     """
+    given, d = d, parse_distance(d, radius)
     if not 0.0 < d < np.pi / 2:
         simple = []  # inward offsets or d = 0: every feature goes the general way
     else:
@@ -87,7 +92,7 @@ def offset_each(
             out[i] = _feature(features[i], rings.geometry(j))
     for i, f in enumerate(features):
         if out[i] is None:
-            out[i] = _general(f, i, d, tolerance, digits, raw, method)
+            out[i] = _general(f, i, given, radius, tolerance, digits, raw, method)
     return out
 
 
@@ -107,12 +112,12 @@ def _feature(f, geometry) -> dict:
     return {"type": "Feature", "properties": dict(props or {}), "geometry": geometry}
 
 
-def _general(f, i: int, d, tolerance, digits, raw, method) -> dict:
+def _general(f, i: int, distance, radius, tolerance, digits, raw, method) -> dict:
     if not isinstance(f, dict) or f.get("geometry") is None:
         return _feature(f, None)
     try:
         shape = Shape.from_geojson({"type": "FeatureCollection", "features": [f]})
-        feat = offset(shape, d, radius=1.0).to_geojson(
+        feat = offset(shape, distance, radius=radius).to_geojson(
             tolerance=tolerance, digits=digits, raw=raw, method=method
         )
     except (InvalidGeometryError, InputFormatError) as exc:  # named as feature 0 alone
