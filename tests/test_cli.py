@@ -1,6 +1,8 @@
 import json
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -200,3 +202,29 @@ def test_render_cube_faces(tmp_path, world):
     for k, name in enumerate(gloffset.grids.FACE_NAMES):
         assert np.array_equal(faces[name], want[k])
     assert faces["nz"].any() and not faces["pz"].any()
+
+
+@pytest.mark.parametrize("flags", [[], ["--each"], ["--raw"]])
+def test_offset_reports_its_stages_on_a_terminal_only(tmp_path, flags):
+    """Long vector work says what it is doing on stderr: on a terminal, or forced with
+    GLOFFSET_PROGRESS=1; nothing otherwise (stderr here is a pipe)."""
+    src = Path(__file__).resolve().parents[1] / "data" / "world_110m.geojson"
+    out = tmp_path / "w.geojson"
+    args = [sys.executable, "-m", "gloffset", "offset", src, "-d", "50km", "-o", out, *flags]
+    quiet = subprocess.run(args, capture_output=True, text=True)
+    assert quiet.returncode == 0 and quiet.stderr == "", quiet.stderr
+    written = out.read_bytes()
+    env = {**os.environ, "GLOFFSET_PROGRESS": "1"}
+    shown = subprocess.run(args, capture_output=True, text=True, env=env)
+    assert shown.returncode == 0, shown.stderr
+    stages = ["reading the input", f"writing {str(out)!r}"]
+    if flags == ["--each"]:
+        stages.insert(1, "offsetting each feature 177/177")
+    else:
+        stages.insert(1, "densifying the arcs")
+        if not flags:
+            stages.insert(1, "removing self-intersections")
+    n = len(stages)
+    for k, stage in enumerate(stages, 1):
+        assert f"{k}/{n} {stage}" in shown.stderr, shown.stderr
+    assert out.read_bytes() == written  # the same output either way

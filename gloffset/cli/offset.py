@@ -29,6 +29,7 @@ from ..vector.each import offset_each
 from ..vector.offset import offset as _offset
 from . import main
 from .options import (
+    Stages,
     angle,
     distance_option,
     ellipsoid_option,
@@ -91,14 +92,19 @@ def offset_cmd(
 
     With --ellipsoid, DIST is a geodesic length in metres on that ellipsoid (polygon
     edges are geodesics) and the rings are densified until every point of them lies
-    within --tolerance of DIST."""
+    within --tolerance of DIST.
+
+    On a terminal the stages (reading, removing self-intersections, densifying, writing;
+    with --each the features done) are shown on stderr; GLOFFSET_PROGRESS=1 shows them
+    anywhere, GLOFFSET_PROGRESS=0 nowhere."""
     ell = parse_ellipsoid(ellipsoid)
     if ell is not None:
         if raw or method != "general" or each:
             raise OptionError(
                 "--raw, --method paper and --each are for the sphere, not --ellipsoid"
             )
-        m, tol = metres(distance), metres(tolerance or "1m")
+        metres(distance)  # read before the work
+        tol = metres(tolerance or "1m")
     else:
         angle(distance, radius)  # read before the work
         tol = angle(tolerance or "1e-6rad", radius)
@@ -106,29 +112,46 @@ def offset_cmd(
     vector = str(output).lower().endswith(tuple(WRITE_FORMATS))
     if vector:
         check_writable(output)
+    with Stages(3 if each or ell is not None or raw else 4) as stages:
+        feats = _offsets(
+            stages, input, layer, where, distance, radius, ell, each, tol, digits, raw, method
+        )
+        props = distance_properties(distance, 1.0 if ell is not None else radius)
+        for feat in feats:
+            feat["properties"].update(props)
+        stages.stage("writing " + ("stdout" if output == "-" else repr(str(output))))
+        if vector:
+            write_vector(output, feats)
+            return
+        text = json.dumps({"type": "FeatureCollection", "features": feats})
+        write_bytes(output, (text + "\n").encode("utf-8"))
+
+
+def _offsets(stages, input, layer, where, distance, radius, ell, each, tol, digits, raw, method):
+    """The output features, the stages reported to ``stages`` (all but the writing)."""
     if each:
-        feats = offset_each(
-            _features(load(input, layer=layer, where=where)),
+        stages.stage("reading the input")
+        feats = _features(load(input, layer=layer, where=where))
+        stages.stage("offsetting each feature", len(feats))
+        return offset_each(
+            feats,
             distance,
             radius=radius,
             tolerance=tol,
             digits=digits,
             raw=raw,
             method=method,
+            progress=stages.tick,
         )
-    elif ell is not None:
-        shape = read(input, layer=layer, where=where)
-        off = geodesic_offset(shape, m, ellipsoid=ell, tolerance=tol)
-        feats = [off.to_geojson(digits=digits)]
-    else:
-        shape = read(input, layer=layer, where=where)
-        off = _offset(shape, distance, radius=radius)
-        feats = [off.to_geojson(tolerance=tol, digits=digits, raw=raw, method=method)]
-    props = distance_properties(distance, 1.0 if ell is not None else radius)
-    for feat in feats:
-        feat["properties"].update(props)
-    if vector:
-        write_vector(output, feats)
-        return
-    text = json.dumps({"type": "FeatureCollection", "features": feats})
-    write_bytes(output, (text + "\n").encode("utf-8"))
+    stages.stage("reading the input")
+    shape = read(input, layer=layer, where=where)
+    if ell is not None:
+        stages.stage(f"offsetting on {ell}")
+        off = geodesic_offset(shape, metres(distance), ellipsoid=ell, tolerance=tol)
+        return [off.to_geojson(digits=digits)]
+    off = _offset(shape, distance, radius=radius)
+    if not raw and off.distance != 0.0:
+        stages.stage("removing self-intersections and overlaps")
+        off.resolve(method)  # kept on the offset for to_geojson
+    stages.stage("densifying the arcs and cutting at the antimeridian")
+    return [off.to_geojson(tolerance=tol, digits=digits, raw=raw, method=method)]

@@ -61,6 +61,7 @@ def offset_each(
     digits: int | None = None,
     raw: bool = False,
     method: str = "general",
+    progress=None,
 ) -> list[dict]:
     """The offset of each GeoJSON feature alone, as GeoJSON features with its properties.
 
@@ -69,7 +70,8 @@ def offset_each(
     angle (radians); ``resolution`` (segments per quarter
     circle), if given, sets the density of the circles of points and segments, else they
     are densified to ``tolerance`` as every other arc is. The output's properties are the
-    input's; the caller adds the distance.
+    input's; the caller adds the distance. ``progress``, if given, is called with no
+    argument once per feature offset (the points and segments after their batch).
     """
     given, d = d, parse_distance(d, radius)
     if not 0.0 < d < np.pi / 2:
@@ -90,9 +92,13 @@ def offset_each(
             rings = discs.stadiums(ends[:, 0], ends[:, 1], d, res, digits=digits, labels=labels)
         for j, i in enumerate(rows):
             out[i] = _feature(features[i], rings.geometry(j))
+            if progress is not None:
+                progress()
     for i, f in enumerate(features):
         if out[i] is None:
             out[i] = _general(f, i, given, radius, tolerance, digits, raw, method)
+            if progress is not None:
+                progress()
     return out
 
 
