@@ -35,9 +35,9 @@ class Offset(ArcRings):
     ----------
     distance : float
         Signed angular distance in radians.
-    given : float or str
+    given : float, str or None
         The distance as given to :func:`offset` (``"127km"``, or a number in the units
-        of ``radius``); the angle itself when the class is made directly.
+        of ``radius``); None when the class is made directly (then the angle is named).
     radius : float
         The sphere radius that ``given`` is measured with (1.0: an angle).
     rings : list of OffsetRing
@@ -45,10 +45,13 @@ class Offset(ArcRings):
         (both sides with round caps, ``d > 0``) and a circle per isolated point.
     """
 
+    given = None  # subclasses made without them (multiresolution levels): the angle
+    radius = 1.0
+
     def __init__(self, shape: Shape, d: float, *, given=None, radius: float = 1.0):
         self.shape = shape
         self.distance = d
-        self.given = d if given is None else given
+        self.given = given
         self.radius = radius
         self.rings: list[OffsetRing] = []
         for ring in shape.rings:
@@ -117,7 +120,9 @@ class Offset(ArcRings):
         """
         from ..io.geojson import lines_to_geometry
 
-        props = distance_properties(self.given, self.radius)
+        props = distance_properties(
+            self.distance if self.given is None else self.given, self.radius
+        )
         if self.distance == 0.0:
             feat = self.shape.to_geojson(digits=digits)
             feat["properties"] = props
