@@ -79,7 +79,7 @@ from .ellipsoidal import contains as ellipsoidal_contains
 from .errors import InvalidDistanceError
 from .shape import read
 from .sphere import angle, dot, lonlat_to_xyz, normalize, xyz_to_lonlat
-from .units import EARTH_RADIUS, VECTOR_LIMIT, offset_angle
+from .units import EARTH_RADIUS, VECTOR_LIMIT, distance_properties, offset_angle
 from .vector.arcrings import sample_ring
 from .vector.offset import Offset
 from .vector.offset import offset as sphere_offset
@@ -167,11 +167,12 @@ class GeodesicOffset:
 
     def to_geojson(self, *, digits: int | None = None) -> dict:
         """The region as an RFC 7946 Feature: rings cut at the antimeridian, exterior
-        rings counter-clockwise, holes clockwise."""
+        rings counter-clockwise, holes clockwise. Properties: ``distance_m`` and
+        ``distance`` (as everywhere: the geodesic length in metres, and as given),
+        ``ellipsoid`` and ``tolerance_m``."""
         from .io.geojson import rings_to_geometry
 
-        props = {
-            "distance_m": self.distance,
+        props = distance_properties(self.distance) | {
             "ellipsoid": str(self.ellipsoid),
             "tolerance_m": self.tolerance,
         }

@@ -15,13 +15,15 @@ geopandas is imported only when :func:`buffer` is called (the ``geopandas`` extr
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from .errors import InputFormatError, InvalidDistanceError
+from .errors import InputFormatError, InvalidDistanceError, InvalidGeometryError
 from .io.crs import is_lonlat
 from .shape import Shape
 from .sphere import angle, lonlat_to_xyz
-from .units import EARTH_RADIUS, parse_distance
+from .units import EARTH_RADIUS, VECTOR_LIMIT, parse_distance
 from .vector import discs
 from .vector.offset import offset
 
@@ -83,6 +85,19 @@ def _angles(distance, n: int, radius: float) -> np.ndarray:
     return arr / radius
 
 
+def _check_limit(d: np.ndarray, distance, index) -> None:
+    """Refuse distances of a quarter of a great circle or more, naming the first row."""
+    far = np.flatnonzero(np.abs(d) >= VECTOR_LIMIT)
+    if len(far):
+        i = int(far[0])
+        given = distance if np.ndim(distance) == 0 else float(np.ravel(distance)[i])
+        raise InvalidDistanceError(
+            f"distance {given!r} of row {index[i]!r} is {abs(d[i]):.4g} rad on the sphere: "
+            "buffers need less than a quarter of a great circle (pi/2 rad)"
+            + (f"; {len(far)} rows are that far" if len(far) > 1 else "")
+        )
+
+
 def buffer(data, distance, *, each: bool = True, resolution: int = 16, radius=EARTH_RADIUS):
     """The region within ``distance`` of each feature of a GeoSeries or GeoDataFrame.
 
@@ -94,7 +109,9 @@ def buffer(data, distance, *, each: bool = True, resolution: int = 16, radius=EA
     distance : float, str or array of floats
         In the units of ``radius`` (metres by default), or a string such as ``"500m"``;
         one per feature or one for all. Negative distances shrink polygons; points and
-        lines then give empty polygons.
+        lines then give empty polygons (so do geometry collections without polygons).
+        Less than a quarter of a great circle; a farther distance raises
+        :class:`~gloffset.InvalidDistanceError` naming the row.
     each : bool
         True (the default): each feature alone, as GeoPandas buffers. False: the union
         of all features' regions, as a GeoSeries of one geometry.
@@ -108,6 +125,16 @@ def buffer(data, distance, *, each: bool = True, resolution: int = 16, radius=EA
     -------
     A GeoSeries (for a GeoSeries, or with ``each=False``) or a copy of the GeoDataFrame
     with the buffers as its geometry, in EPSG:4326 with the input's index.
+
+    Notes
+    -----
+    Rows are buffered one by one as GeoPandas does: a missing or empty geometry gives
+    None, a LinearRing is buffered as its line, and a row whose geometry cannot be
+    buffered (a coordinate out of range, a line of one distinct point...) gives None
+    too, with one ``UserWarning`` for the whole call that names those rows (their index
+    labels) and what is wrong with each; the other rows are buffered as usual. With
+    ``each=False`` the rows are one input, and a bad row raises
+    :class:`~gloffset.InvalidGeometryError`.
     """
     gpd, shapely = _geopandas()
     series = _lonlat_series(gpd, data)
@@ -122,7 +149,10 @@ def buffer(data, distance, *, each: bool = True, resolution: int = 16, radius=EA
         geom = _general(shapely, shape, d, res)
         return gpd.GeoSeries([geom], crs="EPSG:4326")
     d = _angles(distance, len(series), radius)
-    geoms = _buffer_each(shapely, np.asarray(series.values, dtype=object), d, res)
+    _check_limit(d, distance, series.index)
+    geoms, bad = _buffer_each(shapely, np.asarray(series.values, dtype=object), d, res)
+    if bad:
+        _warn_bad_rows(bad, series.index, len(series))
     out = gpd.GeoSeries(geoms, index=series.index, crs="EPSG:4326")
     if isinstance(data, gpd.GeoDataFrame):
         frame = data.copy()
@@ -142,35 +172,70 @@ def _general(shapely, shape, d: float, res: int):
     return shapely.geometry.shape(feat["geometry"])
 
 
-def _buffer_each(shapely, geoms: np.ndarray, d: np.ndarray, res: int) -> np.ndarray:
-    """Buffers of an array of shapely geometries, the simple ones all at once."""
+def _buffer_each(shapely, geoms: np.ndarray, d: np.ndarray, res: int):
+    """Buffers of an array of shapely geometries, the simple ones all at once, and
+    ``{row: message}`` for the rows that cannot be buffered (None in the output)."""
     out = np.empty(len(geoms), dtype=object)
     missing = shapely.is_missing(geoms) | shapely.is_empty(geoms)
     kind = np.where(missing, -1, shapely.get_type_id(np.where(missing, None, geoms)))
+    rings = np.flatnonzero(kind == 2)
+    if len(rings):  # a LinearRing is buffered as its line, as GeoPandas does
+        geoms = geoms.copy()
+        for i in rings.tolist():
+            geoms[i] = shapely.LineString(geoms[i].coords)
+        kind[rings] = 1
     ncoord = shapely.get_num_coordinates(geoms)
     curve = np.isin(kind, _CURVES)
     out[missing] = None
     out[curve & (d <= 0)] = shapely.Polygon()
     ok = (d > 0) & (d < np.pi / 2)
     points = ok & (kind == 0) & (ncoord == 1)
+    points[points] = _in_range(shapely.get_coordinates(geoms[points]))
     segments = ok & (kind == 1) & (ncoord == 2)
     segments[segments] = _plain_segments(shapely, geoms[segments])
     for rows, make in ((points, discs.discs), (segments, discs.stadiums)):
         sel = np.flatnonzero(rows)
         _simple(shapely, geoms, out, sel, make, d[sel], res)
     general = ~missing & ~points & ~segments & ~(curve & (d <= 0))
+    bad: dict[int, str] = {}
     for i in np.flatnonzero(general).tolist():
-        shape = Shape.from_geojson(shapely.geometry.mapping(geoms[i]))
-        out[i] = _general(shapely, shape, float(d[i]), res)
-    return out
+        try:
+            shape = Shape.from_geojson(shapely.geometry.mapping(geoms[i]))
+            if d[i] <= 0.0 and not shape.rings:  # points and lines only: nothing is left
+                out[i] = shapely.Polygon()
+            else:
+                out[i] = _general(shapely, shape, float(d[i]), res)
+        except (InvalidGeometryError, InputFormatError) as exc:
+            out[i], bad[i] = None, str(exc)
+    return out, bad
+
+
+def _warn_bad_rows(bad: dict, index, n: int) -> None:
+    """One warning naming the rows that could not be buffered (the first five with why)."""
+    rows = list(bad)
+    why = "; ".join(f"row {index[i]!r}: {bad[i]}" for i in rows[:5])
+    more = f"; and {len(rows) - 5} more" if len(rows) > 5 else ""
+    labels = ", ".join(repr(index[i]) for i in rows[:20]) + (", ..." if len(rows) > 20 else "")
+    warnings.warn(
+        f"gloffset.buffer: {len(rows)} of {n} rows could not be buffered and are None "
+        f"(rows {labels}): {why}{more}",
+        UserWarning,
+        stacklevel=3,
+    )
+
+
+def _in_range(xy: np.ndarray) -> np.ndarray:
+    """Which positions (n, 2) are finite lon/lat in range; the others go the general way,
+    which names what is wrong with them."""
+    ok = np.isfinite(xy).all(axis=-1) & (np.abs(xy[..., 1]) <= 90)
+    return ok & (np.abs(xy[..., 0]) <= 180)
 
 
 def _plain_segments(shapely, geoms: np.ndarray) -> np.ndarray:
     """Which two-point lines are plain segments (ends distinct, not antipodal, in range);
     the others go the general way, which names what is wrong with them."""
     xy = shapely.get_coordinates(geoms).reshape(len(geoms), 2, 2)
-    ok = np.isfinite(xy).all(axis=(1, 2)) & (np.abs(xy[..., 1]) <= 90).all(axis=1)
-    ok &= (np.abs(xy[..., 0]) <= 180).all(axis=1)
+    ok = _in_range(xy).all(axis=1)
     a = lonlat_to_xyz(*np.where(ok[:, None], xy[:, 0], 0.0).T)
     b = lonlat_to_xyz(*np.where(ok[:, None], xy[:, 1], 0.0).T)
     ang = angle(a, b)

@@ -60,15 +60,22 @@ RASTER_LIMIT = 1.5
 def offset_angle(shape, distance, radius, *, limit: float | None = None, what: str = "") -> float:
     """The offset distance of an operation as an angle, with the limits that hold for it.
 
+    ``distance`` is a number in the units of ``radius`` or a string with a unit
+    (``"127km"``, ``"0.02rad"``, read by :func:`parse_distance` with ``radius``). The
+    messages quote it as given, never as the internal angle.
+
     Raises :class:`InvalidDistanceError` when the distance is not a finite number,
     when ``|d| >= limit`` (``what`` names the operation), and when ``d <= 0`` on an
     input without polygons: lines and points bound no region, so a zero or negative
     distance would leave nothing.
     """
-    d = to_angle(distance, radius)
+    if isinstance(distance, str):
+        d, given = parse_distance(distance, radius), distance.strip()
+    else:
+        d, given = to_angle(distance, radius), repr(distance)
     if d <= 0.0 and not shape.rings:
         raise InvalidDistanceError(
-            f"distance {distance!r} is {'zero' if d == 0 else 'negative'}, but the input has no "
+            f"distance {given} is {'zero' if d == 0 else 'negative'}, but the input has no "
             "polygon: lines and points bound no region, so only a positive distance gives one "
             "(negative distances shrink polygons)"
         )
@@ -83,11 +90,30 @@ def offset_angle(shape, distance, radius, *, limit: float | None = None, what: s
         else:
             need = f"{what} needs |d| < {limit:g} rad"
             other = "contains() and distance() answer any distance"
+        r = check_radius(radius)
+        sphere = "" if r == 1.0 else f" on a sphere of radius {r:.10g}"
         raise InvalidDistanceError(
-            f"distance {distance!r} is {abs(d):.4g} rad (radius {check_radius(radius):g}); "
-            f"{need}; {other}"
+            f"distance {given} ({abs(d):.4g} rad{sphere}) is too large: {need}; {other}"
         )
     return d
+
+
+def _read(text: str) -> tuple[float, str]:
+    """The number and the unit (lower case, ``"m"`` for none) of a distance string."""
+    m = _PATTERN.match(str(text))
+    if not m:
+        raise InvalidDistanceError(
+            f"cannot read distance {text!r}: expected a number and a unit, e.g. 500m, 127km, "
+            f"0.02rad, 1.5deg"
+        )
+    value, unit = float(m.group(1)), m.group(2).lower() or "m"
+    if not math.isfinite(value):
+        raise InvalidDistanceError(f"distance must be finite, got {text!r}")
+    if unit not in _ANGLE_UNITS and unit not in _UNITS_TO_METRES:
+        raise InvalidDistanceError(
+            f"unknown distance unit {m.group(2)!r} in {text!r}; use one of {', '.join(UNITS)}"
+        )
+    return value, unit
 
 
 def parse_distance(text: str | float, radius: float = EARTH_RADIUS) -> float:
@@ -116,21 +142,44 @@ def parse_distance(text: str | float, radius: float = EARTH_RADIUS) -> float:
     """
     if isinstance(text, (int, float)):
         return to_angle(text, radius)
-    m = _PATTERN.match(str(text))
-    if not m:
-        raise InvalidDistanceError(
-            f"cannot read distance {text!r}: expected a number and a unit, e.g. 500m, 127km, "
-            f"0.02rad, 1.5deg"
-        )
-    value, unit = float(m.group(1)), m.group(2).lower()
-    if not math.isfinite(value):
-        raise InvalidDistanceError(f"distance must be finite, got {text!r}")
-    if unit == "":
-        unit = "m"
+    value, unit = _read(text)
     if unit in _ANGLE_UNITS:
         return value * _ANGLE_UNITS[unit]
-    if unit in _UNITS_TO_METRES:
-        return to_angle(value * _UNITS_TO_METRES[unit], radius)
-    raise InvalidDistanceError(
-        f"unknown distance unit {m.group(2)!r} in {text!r}; use one of {', '.join(UNITS)}"
-    )
+    return to_angle(value * _UNITS_TO_METRES[unit], radius)
+
+
+def parse_length(text: str | float, radius: float = EARTH_RADIUS) -> float:
+    """A distance such as ``"127km"`` or ``"0.02rad"`` as a length in the units of
+    ``radius`` (metres for the default radius and for every metric unit).
+
+    Exact for metric units (one product by the unit's length in metres) and for numbers
+    (returned as they are); angles are multiplied by ``radius``.
+
+    Examples
+    --------
+    >>> parse_length("127km")
+    127000.0
+    >>> parse_length("0.5rad", radius=2.0)
+    1.0
+    """
+    if isinstance(text, (int, float)):
+        to_angle(text, radius)  # checks both
+        return float(text)
+    value, unit = _read(text)
+    if unit in _ANGLE_UNITS:
+        return value * _ANGLE_UNITS[unit] * check_radius(radius)
+    return value * _UNITS_TO_METRES[unit]
+
+
+def distance_properties(distance, radius: float = 1.0) -> dict:
+    """The properties that name the distance of an output feature, the same everywhere:
+    ``distance_m`` (the length in metres, or in the units of ``radius``) and ``distance``
+    (the distance as given: ``"127km"``, or the number).
+
+    Examples
+    --------
+    >>> distance_properties("127km", 6371008.8)
+    {'distance_m': 127000.0, 'distance': '127km'}
+    """
+    given = distance.strip() if isinstance(distance, str) else distance
+    return {"distance_m": parse_length(distance, radius), "distance": given}

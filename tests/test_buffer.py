@@ -157,3 +157,48 @@ def test_countries_10m_buffered_equal_offset_per_feature():
     for geom, buf in zip(frame.geometry, got.geometry):
         want = by_offset(geom, 50e3)
         assert buf.equals_exact(want, 0.0) and buf.is_valid
+
+
+def test_rings_collections_and_bad_rows_as_geopandas_users_expect(frame, recwarn):
+    """A frame mixing good and bad rows: a LinearRing is buffered as its line (Chile's
+    border, closed), a collection of points and lines shrinks to an empty polygon, rows
+    that cannot be buffered give None with one warning naming them, and every other row
+    is buffered as it is alone."""
+    border = frame.geometry.iloc[3]
+    chile = max(getattr(border, "geoms", [border]), key=lambda g: len(g.coords))  # mainland
+    ring = shapely.LinearRing(chile.coords)
+    mixed = shapely.GeometryCollection([frame.geometry.iloc[7], frame.geometry.iloc[4]])
+    rows = {
+        "ring": ring,
+        "collection": mixed,
+        "latitude 100": shapely.Point(10, 100),
+        "one point": shapely.LineString([(3, 4), (3, 4), (3, 4)]),
+        "river": frame.geometry.iloc[4],
+        "point": frame.geometry.iloc[7],
+    }
+    data = gpd.GeoDataFrame({"name": list(rows)}, geometry=list(rows.values()), crs=4326)
+    data.index = list(rows)
+    with pytest.warns(UserWarning) as caught:
+        out = gloffset.buffer(data, D, resolution=RES)
+    (w,) = [w for w in caught if "gloffset.buffer" in str(w.message)]
+    msg = str(w.message)
+    assert "2 of 6 rows" in msg and "'latitude 100'" in msg and "'one point'" in msg
+    assert "latitude 100.0 out of range" in msg and "2 distinct points" in msg
+    assert out.loc["latitude 100"].geometry is None and out.loc["one point"].geometry is None
+    assert list(out["name"]) == list(rows)
+    want = by_offset(shapely.LineString(chile.coords))
+    assert out.loc["ring"].geometry.equals_exact(want, 1e-9)
+    assert len(out.loc["ring"].geometry.interiors) >= 1  # a band round the line, not a disc
+    assert out.loc["collection"].geometry.equals_exact(by_offset(mixed), 1e-9)
+    for name in ("river", "point"):
+        alone = gloffset.buffer(data.loc[[name]], D, resolution=RES)
+        assert out.loc[name].geometry.equals_exact(alone.geometry.iloc[0], 0.0)
+    inward = gloffset.buffer(data.loc[["ring", "collection"]], -D)
+    assert inward.geometry.is_empty.all() and inward.geometry.geom_type.eq("Polygon").all()
+
+
+def test_a_distance_too_far_names_its_row(frame):
+    dist = np.full(len(frame), D)
+    dist[5] = 4e7
+    with pytest.raises(gloffset.InvalidDistanceError, match=r"^distance 40000000.0 of row 105 "):
+        gloffset.buffer(frame, dist)

@@ -1,6 +1,8 @@
 import json
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,10 +28,34 @@ def test_offset_file_to_file(tmp_path, mexico_path):
     fc = json.loads(out.read_text())
     feat = fc["features"][0]
     assert feat["geometry"]["type"] in ("Polygon", "MultiPolygon")
-    assert feat["properties"]["distance"] == "127km"
+    assert feat["properties"] == {"distance_m": 127000.0, "distance": "127km"}
     shape = gloffset.read(fc)
     # the written region contains Mexico City and a point 100 km off the coast
     assert gloffset.reference.contains(shape, [-99.13, -115.5], [19.43, 28.0]).all()
+
+
+@pytest.mark.parametrize(
+    "flags, extra",
+    [
+        ([], {}),
+        (["--each"], {"name": "a line"}),
+        (["--raw"], {"raw": True}),
+        (["--ellipsoid", "WGS84"], {"ellipsoid": "WGS84", "tolerance_m": 1.0}),
+    ],
+)
+def test_offset_outputs_name_the_distance_one_way(flags, extra):
+    """The union, --each, --raw and --ellipsoid write the same two distance properties:
+    ``distance_m`` (metres; the geodesic length on the ellipsoid) and ``distance`` (as
+    given)."""
+    line = {"type": "LineString", "coordinates": [[-99.1, 19.4], [-98.2, 19.0], [-97, 20]]}
+    g = json.dumps({"type": "Feature", "properties": {"name": "a line"}, "geometry": line})
+    r = run("offset", "-", "-d", "2.5km", *flags, input=g)
+    assert r.exit_code == 0, r.output
+    (feat,) = json.loads(r.output)["features"]
+    assert feat["properties"] == {"distance_m": 2500.0, "distance": "2.5km"} | extra
+    if "--ellipsoid" not in flags:  # on the sphere of --radius (metres)
+        r = run("offset", "-", "-d", "0.001rad", "--radius", "1000", *flags, input=g)
+        assert json.loads(r.output)["features"][0]["properties"]["distance_m"] == 1.0
 
 
 def test_offset_stdin_to_stdout():
@@ -176,3 +202,29 @@ def test_render_cube_faces(tmp_path, world):
     for k, name in enumerate(gloffset.grids.FACE_NAMES):
         assert np.array_equal(faces[name], want[k])
     assert faces["nz"].any() and not faces["pz"].any()
+
+
+@pytest.mark.parametrize("flags", [[], ["--each"], ["--raw"]])
+def test_offset_reports_its_stages_on_a_terminal_only(tmp_path, flags):
+    """Long vector work says what it is doing on stderr: on a terminal, or forced with
+    GLOFFSET_PROGRESS=1; nothing otherwise (stderr here is a pipe)."""
+    src = Path(__file__).resolve().parents[1] / "data" / "world_110m.geojson"
+    out = tmp_path / "w.geojson"
+    args = [sys.executable, "-m", "gloffset", "offset", src, "-d", "50km", "-o", out, *flags]
+    quiet = subprocess.run(args, capture_output=True, text=True)
+    assert quiet.returncode == 0 and quiet.stderr == "", quiet.stderr
+    written = out.read_bytes()
+    env = {**os.environ, "GLOFFSET_PROGRESS": "1"}
+    shown = subprocess.run(args, capture_output=True, text=True, env=env)
+    assert shown.returncode == 0, shown.stderr
+    stages = ["reading the input", f"writing {str(out)!r}"]
+    if flags == ["--each"]:
+        stages.insert(1, "offsetting each feature 177/177")
+    else:
+        stages.insert(1, "densifying the arcs")
+        if not flags:
+            stages.insert(1, "removing self-intersections")
+    n = len(stages)
+    for k, stage in enumerate(stages, 1):
+        assert f"{k}/{n} {stage}" in shown.stderr, shown.stderr
+    assert out.read_bytes() == written  # the same output either way

@@ -447,3 +447,21 @@ def test_limits_of_the_region(tmp_path, geometry, args, words):
     if "pi/2" not in words:
         assert_one_line_error(cli("render", src, *args, "--size", "64x32", "-o", png), *words[:1])
     assert_unchanged(png)
+
+
+@pytest.mark.parametrize(
+    "dist, each, words",
+    [
+        ("40000km", False, ("distance 40000km (6.278 rad", "radius 6371008.8", "pi/2")),
+        ("-1km", False, ("distance -1km is negative", "no polygon")),
+        ("40000km", True, ("feature 0: distance 40000km (", "pi/2")),
+        ("-1km", True, ("feature 0: distance -1km is negative",)),
+    ],
+)
+def test_offset_distance_errors_quote_the_distance_as_given(tmp_path, dist, each, words):
+    """A distance out of range is named as the user wrote it, not as the internal angle."""
+    line = tmp_path / "line.geojson"
+    line.write_text(json.dumps({"type": "LineString", "coordinates": [[-99, 19], [-98, 20]]}))
+    proc = cli("offset", line, "-d", dist, *(["--each"] if each else []))
+    assert_one_line_error(proc, *words)
+    assert "0.000156" not in proc.stderr.decode()

@@ -65,7 +65,8 @@ def alone(tmp_path, feature) -> dict:
 def test_properties_are_kept_and_the_distance_added(each):
     assert len(each) == len(features())
     for i, f in enumerate(each):
-        assert f["properties"] == {"name": f"f{i}", "n": i, "distance": "50km"}
+        want = {"name": f"f{i}", "n": i, "distance_m": 50000.0, "distance": "50km"}
+        assert f["properties"] == want
     assert each[4]["geometry"] is None
 
 

@@ -5,6 +5,9 @@ against geodesics from pyproj (Karney's C library)."""
 from __future__ import annotations
 
 import math
+import sys
+import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -273,3 +276,31 @@ def test_intercept_against_geographiclib_lines_at_1mm():
         )
         ours = edge_distance(g, p["lat2"], p["lon2"], (lat, lon), (b["lat2"], b["lon2"]))[0]
         assert abs(ours - brute) <= 1e-3 and ours <= brute + 1e-7
+
+
+def test_without_pyproj_one_warning_says_what_to_install(monkeypatch):
+    """pyproj is a dependency, but an install may lack it: the geographiclib fallback
+    gives the same midpoints and says once per process what it costs and what to
+    install."""
+    from gloffset.ellipsoid import intercept
+
+    rng = np.random.default_rng(5)
+    alon, alat, blon, blat = _cases(rng, 8)
+    fast = intercept.geodesic_midpoints(WGS84, alon, alat, blon, blat)
+    monkeypatch.setitem(sys.modules, "pyproj", None)  # import pyproj raises ImportError
+    monkeypatch.setattr(intercept, "_warned_no_pyproj", False)
+    with pytest.warns(UserWarning, match=r"pyproj is not installed.*pip install 'pyproj"):
+        slow = intercept.geodesic_midpoints(WGS84, alon, alat, blon, blat)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # once only
+        again = intercept.geodesic_midpoints(WGS84, alon, alat, blon, blat)
+    for f, s, t in zip(fast, slow, again):
+        assert np.abs(f - s).max() <= 1e-8 and np.array_equal(s, t)
+
+
+def test_pyproj_is_a_dependency_and_the_ellipsoid_extra_still_installs():
+    tomllib = pytest.importorskip("tomllib")
+    meta = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())
+    project = meta["project"]
+    assert "pyproj>=3.4" in project["dependencies"]
+    assert project["optional-dependencies"]["ellipsoid"] == ["pyproj>=3.4"]

@@ -148,7 +148,46 @@ def test_distance_errors():
         gloffset.offset(s, 2.0, radius=1.0)
     with pytest.raises(InvalidDistanceError, match="radius"):
         gloffset.offset(s, 1.0, radius=-1.0)
+    # the distance as given, in the units of the radius, never the internal angle
+    with pytest.raises(InvalidDistanceError, match=r"^distance 40000000.0 \(6.278 rad on a sph"):
+        gloffset.offset(s, 4e7)
+    with pytest.raises(InvalidDistanceError, match=r"^distance -1000 is negative"):
+        gloffset.offset(s, -1000)
+    with pytest.raises(InvalidDistanceError, match=r"^distance 20000km \(3.139 rad"):
+        gloffset.offset(s, "20000km")
     with pytest.raises(InvalidDistanceError, match="unknown distance unit"):
         gloffset.parse_distance("5 furlongs")
     assert gloffset.parse_distance("1.5deg") == pytest.approx(np.radians(1.5))
     assert gloffset.parse_distance("500") == pytest.approx(500 / gloffset.EARTH_RADIUS)
+
+
+def test_geojson_properties_name_the_distance_in_metres_and_as_given(mexico_path):
+    """One scheme for every output: ``distance_m`` (the length in the radius' units) and
+    ``distance`` (as given), for the resolved, the raw and the zero offset."""
+    mexico = gloffset.read(mexico_path)
+    want = {"distance_m": 127000.0, "distance": "127km"}
+    off = gloffset.offset(mexico, "127km")
+    assert off.distance == pytest.approx(127000.0 / gloffset.EARTH_RADIUS, rel=1e-15)
+    assert off.to_geojson(tolerance=1e-4)["properties"] == want
+    assert off.to_geojson(tolerance=1e-4, raw=True)["properties"] == want | {"raw": True}
+    props = gloffset.offset(mexico, 5000.0).to_geojson(tolerance=1e-4)["properties"]
+    assert props == {"distance_m": 5000.0, "distance": 5000.0}
+    props = gloffset.offset(mexico, 0.0).to_geojson()["properties"]
+    assert props == {"distance_m": 0.0, "distance": 0.0}
+    props = gloffset.offset(mexico, "0.01rad", radius=2.0).to_geojson(tolerance=1e-4)
+    assert props["properties"] == {"distance_m": 0.02, "distance": "0.01rad"}
+
+
+def test_raw_offset_is_written_as_the_closed_curves_it_is(mexico_path):
+    """The raw offset crosses itself, so it is no (Multi)Polygon: each ring is a closed
+    LineString, cut at the antimeridian only where a ring crosses it."""
+    shapely = pytest.importorskip("shapely")
+    off = gloffset.offset(gloffset.read(mexico_path), 0.02, radius=1.0)
+    feat = off.to_geojson(raw=True, tolerance=1e-5)
+    geom = feat["geometry"]
+    assert geom["type"] == "MultiLineString" and feat["properties"]["raw"] is True
+    lines = geom["coordinates"]
+    assert len(lines) == len(off.rings)  # Mexico is far from the antimeridian
+    for line in lines:
+        assert line[0] == line[-1]
+    assert not shapely.geometry.shape(geom).is_simple  # loops at concave corners

@@ -261,6 +261,9 @@ def test_centres_measured_together_as_alone():
         ("/tilejson/nope.json?distance=1km", 404, "no layer"),
         ("/tilejson/tri.json?distance=1km&opacity=-1", 400, "opacity"),
         ("/distance/tri?lon=nan&lat=0", 400, "lon"),
+        ("/distance/tri?lon=0&lat=nan", 400, "lat must be in -90..90, got nan"),
+        ("/offset/tri.geojson?distance=1.6rad", 400, "vector offsets need |d| < pi/2"),
+        ("/offset/tri.geojson?distance=-40000km", 400, "distance -40000km ("),
         ("/distance/tri?lon=0&lat=x", 400, "lon and lat"),
         ("/shape/nope.geojson", 404, "no layer"),
         ("/nothing", 404, ""),
@@ -297,6 +300,19 @@ def test_tilejson_shape_offset_distance_layers(client):
     js = client.get("/static/page.js")
     assert js.status_code == 200 and "setProjection" in js.text and "/distance/" in js.text
     assert client.head("/").status_code == 200
+
+
+def test_offset_endpoint_takes_what_offsets_take_and_names_the_distance_as_given(client):
+    """Vector offsets go up to pi/2, farther than tiles (1.5 rad): the offset endpoint
+    answers 1.5 rad, a tile at 1.5 rad is refused with the tiles' limit, and the
+    feature names the distance as the other outputs do."""
+    r = client.get("/offset/tri.geojson?distance=1.5rad")
+    assert r.status_code == 200, r.text
+    assert r.json()["features"][0]["properties"]["distance"] == "1.5rad"
+    tile = client.get("/tiles/tri/1.5rad/1/0/0.png")
+    assert tile.status_code == 400 and "a tile needs |d| < 1.5 rad" in tile.json()["detail"]
+    props = client.get("/offset/tri.geojson?distance=127km").json()["features"][0]["properties"]
+    assert props == {"distance_m": 127000.0, "distance": "127km"}
 
 
 def test_distance_endpoint_answers_for_lines_and_across_the_antimeridian(client):

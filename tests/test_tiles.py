@@ -8,7 +8,10 @@ import json
 import math
 import os
 import pickle
+import re
 import sqlite3
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -797,3 +800,48 @@ def test_each_level_is_refined_once(tmp_path, mexico_path, monkeypatch):
             return sorted(con.execute("SELECT * FROM tiles"))
 
     assert a.written == b.written and tiles(tmp_path / "a.mbtiles") == tiles(tmp_path / "b.mbtiles")
+
+
+def _cli(*args, **env):
+    proc = subprocess.run(
+        [sys.executable, "-m", "gloffset", *map(str, args)],
+        capture_output=True,
+        text=True,
+        env={**os.environ, **env},
+    )
+    assert proc.returncode == 0, proc.stderr
+    return proc.stderr
+
+
+def test_the_summary_counts_the_tiles_the_progress_counts(tmp_path, mexico_path):
+    """Mexico z0-6: the progress ends at the tiles handled, which the summary names and
+    splits into written, rendered empty (not written) and already present, fresh and
+    resumed."""
+    out = tmp_path / "mx.mbtiles"
+    for flags in ([], ["--resume"]):
+        err = _cli(
+            "tiles",
+            mexico_path,
+            "-d",
+            "400km",
+            "-z",
+            "0-6",
+            "-o",
+            out,
+            *flags,
+            GLOFFSET_PROGRESS="1",
+        )
+        bars = re.findall(r"z6, ([\d,]+)/([\d,]+) tiles", err)
+        assert bars and bars[-1][0] == bars[-1][1], err
+        total = int(bars[-1][1].replace(",", ""))
+        m = re.search(
+            r"([\d,]+) tiles handled: ([\d,]+) tiles written .*, ([\d,]+) rendered "
+            r"empty and not written, ([\d,]+) already present",
+            err,
+        )
+        assert m, err
+        handled, written, empty, present = (int(g.replace(",", "")) for g in m.groups())
+        assert handled == total == written + empty + present
+        assert empty > 0 and (present > 0) == bool(flags)
+    stats = pyramid(gloffset.read(mexico_path), "400km", (0, 6), tmp_path / "p")
+    assert stats.handled == total and stats.as_dict()["handled"] == total

@@ -5,7 +5,9 @@ intersections removed, parts united, holes kept; see :mod:`gloffset.vector.selfi
 ``--raw`` writes the raw offset rings of the paper's Sec. 4.1 instead. ``--each`` offsets
 every feature on its own and keeps its properties (:mod:`gloffset.vector.each`). The output
 is GeoJSON, or a GeoPackage, Shapefile, FlatGeobuf or GeoParquet file by its name
-(:mod:`gloffset.io.vectorfile`), with a ``distance`` field.
+(:mod:`gloffset.io.vectorfile`). Every output feature has the fields ``distance_m`` (the
+distance in metres: the geodesic length with ``--ellipsoid``, else on the sphere of
+``--radius``) and ``distance`` (as given, e.g. ``"127km"``).
 """
 
 from __future__ import annotations
@@ -22,10 +24,12 @@ from ..io.output import check_output, write_bytes
 from ..io.vectorfile import WRITE_FORMATS, check_writable
 from ..io.vectorfile import write as write_vector
 from ..shape import read
+from ..units import distance_properties
 from ..vector.each import offset_each
 from ..vector.offset import offset as _offset
 from . import main
 from .options import (
+    Stages,
     angle,
     distance_option,
     ellipsoid_option,
@@ -64,7 +68,9 @@ from .options import (
 @click.option(
     "--raw",
     is_flag=True,
-    help="Write the raw offset rings (self-intersections and overlaps left in).",
+    help="Write the raw offset curves (paper Sec. 4.1) before self-intersections and "
+    "overlaps are removed: closed rings as LineStrings (a MultiLineString per feature, "
+    "property raw: true), as they may cross themselves and each other.",
 )
 @click.option(
     "--method",
@@ -86,41 +92,66 @@ def offset_cmd(
 
     With --ellipsoid, DIST is a geodesic length in metres on that ellipsoid (polygon
     edges are geodesics) and the rings are densified until every point of them lies
-    within --tolerance of DIST."""
+    within --tolerance of DIST.
+
+    On a terminal the stages (reading, removing self-intersections, densifying, writing;
+    with --each the features done) are shown on stderr; GLOFFSET_PROGRESS=1 shows them
+    anywhere, GLOFFSET_PROGRESS=0 nowhere."""
     ell = parse_ellipsoid(ellipsoid)
     if ell is not None:
         if raw or method != "general" or each:
             raise OptionError(
                 "--raw, --method paper and --each are for the sphere, not --ellipsoid"
             )
-        m, tol = metres(distance), metres(tolerance or "1m")
+        metres(distance)  # read before the work
+        tol = metres(tolerance or "1m")
     else:
-        d, tol = angle(distance, radius), angle(tolerance or "1e-6rad", radius)
+        angle(distance, radius)  # read before the work
+        tol = angle(tolerance or "1e-6rad", radius)
     check_output(output)  # fail before the work
     vector = str(output).lower().endswith(tuple(WRITE_FORMATS))
     if vector:
         check_writable(output)
+    with Stages(3 if each or ell is not None or raw else 4) as stages:
+        feats = _offsets(
+            stages, input, layer, where, distance, radius, ell, each, tol, digits, raw, method
+        )
+        props = distance_properties(distance, 1.0 if ell is not None else radius)
+        for feat in feats:
+            feat["properties"].update(props)
+        stages.stage("writing " + ("stdout" if output == "-" else repr(str(output))))
+        if vector:
+            write_vector(output, feats)
+            return
+        text = json.dumps({"type": "FeatureCollection", "features": feats})
+        write_bytes(output, (text + "\n").encode("utf-8"))
+
+
+def _offsets(stages, input, layer, where, distance, radius, ell, each, tol, digits, raw, method):
+    """The output features, the stages reported to ``stages`` (all but the writing)."""
     if each:
-        feats = offset_each(
-            _features(load(input, layer=layer, where=where)),
-            d,
+        stages.stage("reading the input")
+        feats = _features(load(input, layer=layer, where=where))
+        stages.stage("offsetting each feature", len(feats))
+        return offset_each(
+            feats,
+            distance,
+            radius=radius,
             tolerance=tol,
             digits=digits,
             raw=raw,
             method=method,
+            progress=stages.tick,
         )
-    elif ell is not None:
-        shape = read(input, layer=layer, where=where)
-        off = geodesic_offset(shape, m, ellipsoid=ell, tolerance=tol)
-        feats = [off.to_geojson(digits=digits)]
-    else:
-        shape = read(input, layer=layer, where=where)
-        off = _offset(shape, d, radius=1.0)
-        feats = [off.to_geojson(tolerance=tol, digits=digits, raw=raw, method=method)]
-    for feat in feats:
-        feat["properties"]["distance"] = distance
-    if vector:
-        write_vector(output, feats)
-        return
-    text = json.dumps({"type": "FeatureCollection", "features": feats})
-    write_bytes(output, (text + "\n").encode("utf-8"))
+    stages.stage("reading the input")
+    shape = read(input, layer=layer, where=where)
+    if ell is not None:
+        stages.stage(f"offsetting on {ell}")
+        off = geodesic_offset(shape, metres(distance), ellipsoid=ell, tolerance=tol)
+        return [off.to_geojson(digits=digits)]
+    off = _offset(shape, distance, radius=radius)
+    if not raw and off.distance != 0.0:
+        stages.stage("removing self-intersections and overlaps")
+        off.resolve(method)  # kept on the offset for to_geojson
+    stages.stage("densifying the arcs and cutting at the antimeridian")
+    return [off.to_geojson(tolerance=tol, digits=digits, raw=raw, method=method)]

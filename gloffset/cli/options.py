@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import os
+import sys
+import time
+
 import click
 
 from ..ellipsoid import ELLIPSOIDS, as_ellipsoid
@@ -119,3 +123,73 @@ def fill_options(default: str | None, what: str = "the region"):
         )(f)
 
     return deco
+
+
+#: ``GLOFFSET_PROGRESS=1`` shows progress on stderr even when it is not a terminal (logs,
+#: tests), ``=0`` never; unset: on a terminal only.
+PROGRESS_ENV = "GLOFFSET_PROGRESS"
+
+
+def show_progress() -> bool:
+    """Whether a long command shows its progress on stderr: on a terminal, unless
+    :data:`PROGRESS_ENV` says otherwise."""
+    forced = os.environ.get(PROGRESS_ENV, "").strip()
+    if forced in ("0", "1"):
+        return forced == "1"
+    return sys.stderr.isatty()
+
+
+class Stages:
+    """The stages of a long vector command on one stderr line (tqdm): the stage, how
+    many of a stage's items are done, and the time so far; nothing unless
+    :func:`show_progress`. Use as a context manager, calling :meth:`stage` as each stage
+    begins and :meth:`tick` after each item of a stage with items."""
+
+    def __init__(self, n_stages: int):
+        self.bar = None
+        if show_progress():
+            from tqdm import tqdm
+
+            self.bar = tqdm(
+                total=n_stages,
+                file=sys.stderr,
+                dynamic_ncols=True,
+                bar_format="{desc} [{elapsed}]",
+            )
+        self.name, self.items, self.done, self.shown = "", 0, 0, 0.0
+
+    def stage(self, name: str, items: int = 0) -> None:
+        """Begin stage ``name`` (``items``: how many items it handles, 0 for none)."""
+        if self.bar is None:
+            return
+        if self.name:
+            self.bar.update(1)
+        self.name, self.items, self.done = name, items, 0
+        self._show(force=True)
+
+    def tick(self) -> None:
+        """One more item of the current stage done."""
+        if self.bar is None:
+            return
+        self.done += 1
+        self._show(force=self.done == self.items)
+
+    def _show(self, force: bool) -> None:
+        now = time.monotonic()
+        if not force and now - self.shown < 0.1:
+            return
+        self.shown = now
+        count = f" {self.done:,}/{self.items:,}" if self.items else ""
+        step = f"{self.bar.n + 1}/{self.bar.total}"
+        self.bar.set_description_str(f"{step} {self.name}{count}", refresh=False)
+        self.bar.refresh()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.bar is not None:
+            if exc[0] is None:
+                self.bar.update(self.bar.total - self.bar.n)
+                self.bar.set_description_str("done", refresh=False)
+            self.bar.close()

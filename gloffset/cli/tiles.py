@@ -22,6 +22,7 @@ from .options import (
     metres,
     parse_ellipsoid,
     radius_option,
+    show_progress,
 )
 
 
@@ -97,7 +98,7 @@ def tiles_cmd(
         raise click.UsageError("--resume and --force exclude each other")
     shape = read(input, layer=layer, where=where)
     bar = None
-    if sys.stderr.isatty():
+    if show_progress():
         from tqdm import tqdm
 
         bar = tqdm(
@@ -146,10 +147,12 @@ def tiles_cmd(
     finally:
         if bar is not None:
             bar.close()
+    # the progress counts every tile handled; say what became of each
     click.echo(
-        f"{stats.written} tiles written ({stats.rendered - stats.empty} rendered, "
-        f"{stats.inside} inside without rendering, {stats.painted} outlined), "
-        f"{stats.outside} outside skipped, {stats.present} already present, "
+        f"{stats.handled:,} tiles handled: {stats.written:,} tiles written "
+        f"({stats.rendered - stats.empty:,} rendered, {stats.inside:,} inside without "
+        f"rendering, {stats.painted:,} outlined), {stats.empty:,} rendered empty and not "
+        f"written, {stats.present:,} already present; {stats.outside:,} outside skipped; "
         f"{stats.seconds:.1f} s",
         err=True,
     )

@@ -35,6 +35,7 @@ seen; possible for points nearly antipodal to the edge) a golden-section search 
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -172,20 +173,35 @@ def geodesic_midpoints(ell, lon1, lat1, lon2, lat2) -> tuple[np.ndarray, np.ndar
         az, _, length = geod.inv(lon1, lat1, lon2, lat2)
         lon, lat, _ = geod.fwd(lon1, lat1, az, 0.5 * np.asarray(length))
         return np.asarray(lon), np.asarray(lat), np.asarray(length)
-    out = np.empty((3, len(lon1)))  # pragma: no cover - pyproj is an optional extra
-    for i in range(len(lon1)):  # pragma: no cover
+    out = np.empty((3, len(lon1)))  # without pyproj
+    for i in range(len(lon1)):
         line = ell.geodesic.InverseLine(lat1[i], lon1[i], lat2[i], lon2[i])
         pos = line.Position(0.5 * line.s13)
         out[:, i] = pos["lon2"], pos["lat2"], line.s13
-    return out[0], out[1], out[2]  # pragma: no cover
+    return out[0], out[1], out[2]
+
+
+#: whether the one warning that pyproj is missing has been given in this process
+_warned_no_pyproj = False
 
 
 def _proj_geod(ell):
     """``pyproj.Geod`` of the ellipsoid (made once per ellipsoid), or None without
-    pyproj."""
+    pyproj (a dependency of gloffset, but an install may lack it): then one warning per
+    process says what the fallback costs and what to install."""
+    global _warned_no_pyproj
     try:
         from pyproj import Geod
-    except ImportError:  # pragma: no cover - pyproj is an optional extra
+    except ImportError:
+        if not _warned_no_pyproj:
+            _warned_no_pyproj = True
+            warnings.warn(
+                "pyproj is not installed: geodesics on the ellipsoid run one at a time on "
+                "geographiclib, 10-25x slower (an ellipsoid offset that takes 2 s with "
+                "pyproj can take a minute); pip install 'pyproj>=3.4'",
+                UserWarning,
+                stacklevel=2,
+            )
         return None
     cache = ell.__dict__.get("_proj_geod")
     if cache is None:

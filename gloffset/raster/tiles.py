@@ -162,6 +162,12 @@ class PyramidStats:
         """Tiles written by this run (rendered non-empty, inside, painted)."""
         return self.rendered - self.empty + self.inside + self.painted
 
+    @property
+    def handled(self) -> int:
+        """Tiles the run's progress counts (:class:`TileProgress`): those written, the
+        rendered ones found empty (not written) and those already present."""
+        return self.written + self.empty + self.present
+
     def as_dict(self) -> dict:
         return {
             "rendered": self.rendered,
@@ -171,6 +177,7 @@ class PyramidStats:
             "outside": self.outside,
             "present": self.present,
             "written": self.written,
+            "handled": self.handled,
             "render_calls": self.render_calls,
             "seconds": self.seconds,
             "zooms": self.zooms,

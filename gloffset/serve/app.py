@@ -49,7 +49,7 @@ from ..raster.tilepaint import TileStyle
 from ..reference import distance as distance_to
 from ..shape import read
 from ..sphere import lonlat_to_xyz
-from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
+from ..units import EARTH_RADIUS, RASTER_LIMIT, VECTOR_LIMIT, offset_angle
 from ..vector.offset import offset
 from .service import UNKNOWN, QueueFull, TileKey, TileService, etag
 
@@ -90,12 +90,17 @@ class _Server:
             _bad(f"no layer {name!r}; the layers are {', '.join(sorted(self.layers))}", 404)
         return self.layers[name]
 
-    def angle(self, shape, text: str | None) -> float:
+    def angle(self, shape, text: str | None, *, vector: bool = False) -> float:
+        """The distance ``text`` as an angle, checked against the limit of tiles
+        (``|d| < 1.5 rad``), or of vector offsets (``vector``: ``|d| < pi/2``)."""
         if text is None:
             _bad("give the distance, e.g. ?distance=127km")
+        if vector:
+            limit, what = VECTOR_LIMIT, "an offset"
+        else:
+            limit, what = RASTER_LIMIT, "a tile"
         try:
-            value = parse_distance(text, EARTH_RADIUS)  # an angle
-            return offset_angle(shape, value, 1.0, limit=RASTER_LIMIT, what="a tile")
+            return offset_angle(shape, text, EARTH_RADIUS, limit=limit, what=what)
         except GloffsetError as exc:
             _bad(str(exc))
 
@@ -182,9 +187,11 @@ class _Server:
 
     async def offset_geojson(self, request: Request) -> Response:
         shape = self.layer(request.path_params["layer"])
-        d = self.angle(shape, request.query_params.get("distance"))
+        text = request.query_params.get("distance")
+        self.angle(shape, text, vector=True)
         try:
-            feat = await asyncio.to_thread(lambda: offset(shape, d, radius=1.0).to_geojson())
+            off = await asyncio.to_thread(offset, shape, text, radius=EARTH_RADIUS)
+            feat = await asyncio.to_thread(off.to_geojson)
         except GloffsetError as exc:
             _bad(str(exc))
         return JSONResponse({"type": "FeatureCollection", "features": [feat]})
@@ -202,9 +209,9 @@ class _Server:
             lat = float(request.query_params["lat"])
         except (KeyError, ValueError):
             _bad("give lon and lat in degrees, e.g. ?lon=-100&lat=20")
-        if not (math.isfinite(lon) and math.isfinite(lat) and -180 <= lon <= 180):
+        if not (math.isfinite(lon) and -180 <= lon <= 180):
             _bad(f"lon must be in -180..180, got {lon}")
-        if not -90 <= lat <= 90:
+        if not (math.isfinite(lat) and -90 <= lat <= 90):
             _bad(f"lat must be in -90..90, got {lat}")
         metres, inside = await asyncio.to_thread(_distance_inside, shape, lon, lat)
         body = {"layer": name, "lon": lon, "lat": lat, "distance_m": metres, "inside": inside}

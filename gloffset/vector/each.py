@@ -16,6 +16,7 @@ import numpy as np
 from ..errors import InputFormatError, InvalidDistanceError, InvalidGeometryError
 from ..io.geojson import parse
 from ..shape import Shape
+from ..units import parse_distance
 from . import discs
 from .arcrings import DEFAULT_TOLERANCE
 from .offset import offset
@@ -52,21 +53,27 @@ def _position(p) -> bool:
 
 def offset_each(
     features: list[dict],
-    d: float,
+    d: float | str,
     *,
+    radius: float = 1.0,
     tolerance: float = DEFAULT_TOLERANCE,
     resolution: int | None = None,
     digits: int | None = None,
     raw: bool = False,
     method: str = "general",
+    progress=None,
 ) -> list[dict]:
     """The offset of each GeoJSON feature alone, as GeoJSON features with its properties.
 
-    ``d`` and ``tolerance`` are angles (radians); ``resolution`` (segments per quarter
+    ``d`` is a distance in the units of ``radius`` (an angle in radians by default) or a
+    string with a unit such as ``"127km"``; messages quote it as given. ``tolerance`` is an
+    angle (radians); ``resolution`` (segments per quarter
     circle), if given, sets the density of the circles of points and segments, else they
     are densified to ``tolerance`` as every other arc is. The output's properties are the
-    input's; the caller adds the distance.
+    input's; the caller adds the distance. ``progress``, if given, is called with no
+    argument once per feature offset (the points and segments after their batch).
     """
+    given, d = d, parse_distance(d, radius)
     if not 0.0 < d < np.pi / 2:
         simple = []  # inward offsets or d = 0: every feature goes the general way
     else:
@@ -85,9 +92,13 @@ def offset_each(
             rings = discs.stadiums(ends[:, 0], ends[:, 1], d, res, digits=digits, labels=labels)
         for j, i in enumerate(rows):
             out[i] = _feature(features[i], rings.geometry(j))
+            if progress is not None:
+                progress()
     for i, f in enumerate(features):
         if out[i] is None:
-            out[i] = _general(f, i, d, tolerance, digits, raw, method)
+            out[i] = _general(f, i, given, radius, tolerance, digits, raw, method)
+            if progress is not None:
+                progress()
     return out
 
 
@@ -107,12 +118,12 @@ def _feature(f, geometry) -> dict:
     return {"type": "Feature", "properties": dict(props or {}), "geometry": geometry}
 
 
-def _general(f, i: int, d, tolerance, digits, raw, method) -> dict:
+def _general(f, i: int, distance, radius, tolerance, digits, raw, method) -> dict:
     if not isinstance(f, dict) or f.get("geometry") is None:
         return _feature(f, None)
     try:
         shape = Shape.from_geojson({"type": "FeatureCollection", "features": [f]})
-        feat = offset(shape, d, radius=1.0).to_geojson(
+        feat = offset(shape, distance, radius=radius).to_geojson(
             tolerance=tolerance, digits=digits, raw=raw, method=method
         )
     except (InvalidGeometryError, InputFormatError) as exc:  # named as feature 0 alone

@@ -367,6 +367,7 @@ class Decomposition:
         base = offset(shape, distance, radius=radius)
         out = MultiresOffset(self, level, base.distance, base.rings)
         out._shape = shape
+        out.given, out.radius = base.given, base.radius  # what to_geojson names
         return out
 
     def __repr__(self) -> str:

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..shape import Shape, read
-from ..units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, offset_angle
+from ..units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, distance_properties, offset_angle
 from .arcrings import DEFAULT_TOLERANCE, ArcRings, OffsetRing, line_arcs, ring_arcs, sample_rings
 
 __all__ = ["Offset", "offset"]
@@ -35,14 +35,24 @@ class Offset(ArcRings):
     ----------
     distance : float
         Signed angular distance in radians.
+    given : float, str or None
+        The distance as given to :func:`offset` (``"127km"``, or a number in the units
+        of ``radius``); None when the class is made directly (then the angle is named).
+    radius : float
+        The sphere radius that ``given`` is measured with (1.0: an angle).
     rings : list of OffsetRing
         One closed cycle of arcs per ring of the shape (``d != 0``), one per line
         (both sides with round caps, ``d > 0``) and a circle per isolated point.
     """
 
-    def __init__(self, shape: Shape, d: float):
+    given = None  # subclasses made without them (multiresolution levels): the angle
+    radius = 1.0
+
+    def __init__(self, shape: Shape, d: float, *, given=None, radius: float = 1.0):
         self.shape = shape
         self.distance = d
+        self.given = given
+        self.radius = radius
         self.rings: list[OffsetRing] = []
         for ring in shape.rings:
             self.rings.append(ring_arcs(ring, d))
@@ -101,25 +111,29 @@ class Offset(ArcRings):
         Rings are densified to ``tolerance`` (radians), cut at the antimeridian,
         exterior rings counter-clockwise. By default the resolved boundary
         (:meth:`resolve` with ``method``) is written: valid polygons with holes.
-        ``raw=True`` writes the raw rings of Sec. 4.1 instead, self-intersections
-        and overlaps included.
-        """
-        from ..io.geojson import rings_to_geometry
-        from ..reference import contains_xyz
+        ``raw=True`` writes the raw offset curves of Sec. 4.1 instead, as what they
+        are: a MultiLineString of closed rings that may cross themselves and each
+        other (property ``raw``: true).
 
-        props = {"distance_rad": self.distance}
+        The properties are ``distance_m``, the distance in metres (in the units of
+        :attr:`radius`), and ``distance``, the distance as given (:attr:`given`).
+        """
+        from ..io.geojson import lines_to_geometry
+
+        props = distance_properties(
+            self.distance if self.given is None else self.given, self.radius
+        )
         if self.distance == 0.0:
             feat = self.shape.to_geojson(digits=digits)
             feat["properties"] = props
             return feat
         if not raw:
-            return self.resolve(method).to_geojson(tolerance=tolerance, digits=digits)
-        rings = self.sample(tolerance)
-        north = bool(contains_xyz(self.shape, np.array([[0.0, 0.0, 1.0]]), self.distance)[0])
-        if not rings:
-            geom = {"type": "MultiPolygon", "coordinates": []}
-        else:
-            geom = rings_to_geometry(rings, north, digits)
+            return self.resolve(method).to_geojson(
+                tolerance=tolerance, digits=digits, properties=props
+            )
+        props["raw"] = True
+        closed = [np.vstack([r, r[:1]]) for r in self.sample(tolerance) if len(r)]
+        geom = lines_to_geometry(closed, digits)
         return {"type": "Feature", "properties": props, "geometry": geom}
 
 
@@ -129,10 +143,12 @@ def offset(shape, distance: float, *, radius: float = EARTH_RADIUS) -> Offset:
     Parameters
     ----------
     shape : Shape or anything :func:`gloffset.read` accepts
-    distance : float
-        Positive: outward from polygons and around lines and points. Negative:
-        inward into polygons (lines and points then give nothing). Must be less
-        than half the circumference in absolute value.
+    distance : float or str
+        In the units of ``radius``, or a string with a unit (``"127km"``,
+        ``"0.02rad"``). Positive: outward from polygons and around lines and points.
+        Negative: inward into polygons (lines and points then give nothing). Must be
+        less than a quarter of a great circle in absolute value. Messages and the
+        output's ``distance`` property quote it as given.
     radius : float
         Sphere radius (default :data:`gloffset.EARTH_RADIUS`, metres).
 
@@ -154,4 +170,4 @@ def offset(shape, distance: float, *, radius: float = EARTH_RADIUS) -> Offset:
     shape = read(shape)
     r = check_radius(radius)
     d = offset_angle(shape, distance, r, limit=VECTOR_LIMIT)
-    return Offset(shape, d)
+    return Offset(shape, d, given=distance, radius=r)

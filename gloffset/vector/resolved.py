@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..units import distance_properties
 from .arcrings import DEFAULT_TOLERANCE, ArcRings, sample_rings
 from .rings import RingParity, classify, left_areas, ring_table
 
@@ -103,17 +104,23 @@ class ResolvedOffset(ArcRings):
         return float(total)
 
     def to_geojson(
-        self, *, tolerance: float = DEFAULT_TOLERANCE, digits: int | None = None
+        self,
+        *,
+        tolerance: float = DEFAULT_TOLERANCE,
+        digits: int | None = None,
+        properties: dict | None = None,
     ) -> dict:
         """The region as an RFC 7946 Feature.
 
         Arcs are densified so that no written edge strays more than ``tolerance``
         (radians) from its arc; rings are cut at the antimeridian, exterior rings
-        run counter-clockwise and holes clockwise.
+        run counter-clockwise and holes clockwise. ``properties`` default to
+        ``distance_m`` and ``distance``, both the angle (a resolved offset lies on the
+        unit sphere; :meth:`gloffset.Offset.to_geojson` gives its own radius's).
         """
         from ..io.geojson import rings_to_geometry
 
-        props = {"distance_rad": self.distance}
+        props = dict(properties) if properties else distance_properties(self.distance)
         rings = self.sample(tolerance)
         north = bool(self.contains_xyz(np.array([[0.0, 0.0, 1.0]]))[0])
         if not rings and not north:
