@@ -55,6 +55,18 @@ def test_pole_ring_with_a_vertex_on_the_antimeridian_encloses_the_pole():
     assert (mask[0] == 255).all() and (mask[3:] == 0).all()
 
 
+def test_pole_ring_with_a_step_along_the_antimeridian():
+    """A ring round a pole that steps along +-180 deg (an edge from 180 to -180 at another
+    latitude, towards the pole or away from it) still encloses its pole."""
+    for lat, step in ((70.0, 2.0), (70.0, -2.0), (-70.0, 2.0), (-70.0, -2.0)):
+        base = ring_along(lat, range(-170, 180, 10))
+        for extra in ([[180, lat], [-180, lat + step]], [[180, lat + step], [-180, lat]]):
+            for r in variants(base + extra)[::9]:
+                s = gloffset.read(polygon(r))
+                got = gloffset.contains(s, [0.0, 0.0, 180.0], [90.0, -90.0, 0.0])
+                assert got.tolist() == [lat > 0, lat < 0, False], (lat, extra, r[:2])
+
+
 def test_pole_ring_through_the_seam_vertex_twice():
     """A ring round the north pole that repeats its seam vertex as 180 and -180 (the same
     point) encloses the pole from any start."""
@@ -142,8 +154,9 @@ def test_real_borders_keep_their_reading(world):
 @st.composite
 def pole_rings(draw):
     """A ring round a pole: integer longitudes (so that rotations are exact), +-180
-    among them often, steps under 150 deg; latitudes 15-80 deg on the pole's side (so
-    that no edge comes within 0.04 rad of the pole); a random start and direction."""
+    among them often (sometimes a step along the antimeridian), steps under 150 deg;
+    latitudes 15-80 deg on the pole's side (so that no edge comes within 0.04 rad of
+    the pole); a random start and direction."""
     pole = draw(st.sampled_from([1.0, -1.0]))
     lons = draw(st.lists(st.integers(-179, 179), min_size=2, max_size=14, unique=True))
     if draw(st.booleans()):
@@ -156,6 +169,11 @@ def pole_rings(draw):
             lons.remove(180)
     lats = [pole * draw(st.floats(15.0, 80.0)) for _ in lons]
     ring = [[float(x), y] for x, y in zip(lons, lats)]
+    seam = [k for k, x in enumerate(lons) if abs(x) == 180]
+    if seam and draw(st.booleans()):
+        # a step along the antimeridian: 180 then -180 eastward, at two latitudes
+        k = seam[0]
+        ring[k : k + 1] = [[180.0, lats[k]], [-180.0, pole * draw(st.floats(15.0, 80.0))]]
     k = draw(st.integers(0, len(ring) - 1))
     ring = ring[k:] + ring[:k]
     if draw(st.booleans()):
@@ -202,13 +220,14 @@ def test_random_pole_rings_enclose_their_pole(case, by):
 
 
 def test_pole_ring_examples_are_drawn():
-    """The strategy does produce rings with vertices exactly on +-180."""
+    """The strategy does produce rings with vertices exactly on +-180, and steps along it."""
     seen = []
 
-    @settings(max_examples=40, deadline=None, database=None)
+    @settings(max_examples=60, deadline=None, database=None)
     @given(pole_rings())
     def collect(case):
-        seen.append(any(abs(x) == 180.0 for x, _ in case[1]))
+        lons = {x for x, _ in case[1]}
+        seen.append((bool(lons & {-180.0, 180.0}), {-180.0, 180.0} <= lons))
 
     collect()
-    assert any(seen) and not all(seen)
+    assert any(v for v, _ in seen) and any(step for _, step in seen)
