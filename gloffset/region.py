@@ -24,7 +24,10 @@ exact: crossing points are intersections of great circles in float64, and an
 edge piece is kept or dropped by an exact crossing-parity test at its midpoint
 (for a polygon whose edges cross each other, whose inside is taken by parity as
 everywhere in gloffset, by the tests of two points just off the piece on its two
-sides).
+sides). Crossing parity splits the sphere into two classes; the inside of such a
+polygon is the class without the point opposite the mean of its vertices (a
+bowtie is its two lobes, never the sphere less them). One polygon alone goes
+through the union only when its edges cross.
 
 The result is a set of closed rings, interior on the left, that do not cross one
 another; rings are grouped into *components* (polygons that touch or overlap end
@@ -102,6 +105,37 @@ def left_area(ring: np.ndarray) -> float:
     return float(2.0 * np.pi - turn.sum()) % (4.0 * np.pi)
 
 
+def _proper_crossings(a, b, n, i, j) -> np.ndarray:
+    """Whether edges ``i[k]`` and ``j[k]`` cross properly: the ends of each lie farther
+    than :data:`TOL` from the other's great circle (``n``: the edges' unit normals), on
+    both sides of it, and the crossing is not the antipodal one."""
+    o1 = np.einsum("ij,ij->i", a[j], n[i])
+    o2 = np.einsum("ij,ij->i", b[j], n[i])
+    o3 = np.einsum("ij,ij->i", a[i], n[j])
+    o4 = np.einsum("ij,ij->i", b[i], n[j])
+    clear = np.minimum.reduce([np.abs(o1), np.abs(o2), np.abs(o3), np.abs(o4)]) > TOL
+    return clear & crossing_rule(o1 >= 0, o2 >= 0, o3 >= 0, o4 >= 0)
+
+
+def _crosses_itself(rings) -> bool:
+    """Whether two edges of one polygon's rings (an exterior and its holes) cross properly.
+
+    Such a polygon (a bowtie) has no consistent "interior on the left" and goes through
+    the union, which reads it by crossing parity.
+    """
+    from .captree import CapTree
+
+    sizes = np.array([len(r) for r in rings])
+    starts = np.repeat(np.concatenate([[0], np.cumsum(sizes)[:-1]]), sizes)
+    pos = np.arange(sizes.sum()) - starts
+    a = np.concatenate(rings).astype(np.float64)
+    b = a[starts + (pos + 1) % np.repeat(sizes, sizes)]
+    i, j = CapTree(*arc_cap(a, b)).self_pairs(slack=2 * TOL)
+    if len(i) == 0:
+        return False
+    return bool(_proper_crossings(a, b, normalize(robust_cross(a, b)), i, j).any())
+
+
 def _keys(v: np.ndarray) -> np.ndarray:
     """Exact row keys of unit vectors (``-0.0`` made ``0.0``), as a void view."""
     v = np.ascontiguousarray(v + 0.0)
@@ -126,7 +160,7 @@ def unite(rings, seams, comps, holes, labels) -> Boundary:
     if not rings:
         return Boundary([], [], np.zeros(0, np.int64), np.zeros(0, bool), [])
     any_seam = any(s.any() for s in seams)
-    if n_comp <= 1 and not any_seam:
+    if n_comp <= 1 and not any_seam and not _crosses_itself(rings):
         return Boundary(
             list(rings),
             list(seams),
@@ -241,12 +275,7 @@ class _Union:
                 meet_a.append(e[on])
                 meet_b.append(f[on])
         # proper crossings: each edge's ends clearly on both sides of the other
-        o1 = np.einsum("ij,ij->i", a[j], n[i])
-        o2 = np.einsum("ij,ij->i", b[j], n[i])
-        o3 = np.einsum("ij,ij->i", a[i], n[j])
-        o4 = np.einsum("ij,ij->i", b[i], n[j])
-        clear = np.minimum.reduce([np.abs(o1), np.abs(o2), np.abs(o3), np.abs(o4)]) > TOL
-        hit = clear & crossing_rule(o1 >= 0, o2 >= 0, o3 >= 0, o4 >= 0)
+        hit = _proper_crossings(a, b, n, i, j)
         ci, cj = i[hit], j[hit]
         x = normalize(cross(n[ci], n[cj]))
         flip = np.einsum("ij,ij->i", x, a[ci] + b[ci]) < 0
@@ -368,7 +397,9 @@ class _Union:
 
     # ------------------------------------------------------------------ inside tests
     def _inner_points(self):
-        """A point inside each input polygon: just left of its longest non-seam edge."""
+        """A point inside each input polygon (kept as ``self.inner``): just left of its
+        longest non-seam edge, or just right of it for a polygon whose edges cross when
+        the left side is in the parity class of the point opposite its vertices' mean."""
         v, nx = self.v, self.nxt
         m = len(nx)
         a, b = v[:m], v[nx]
@@ -386,7 +417,20 @@ class _Union:
         dmin = np.ones(self.n_comp)
         np.minimum.at(dmin, qi, arc_distance(mid[qi], a[di], b[di], self.n[di]))
         eps = np.minimum.reduce([np.full(self.n_comp, 1e-3), 0.25 * dmin, 0.25 * length[k]])
-        return normalize(np.cos(eps)[:, None] * mid + np.sin(eps)[:, None] * left)
+        self.inner = normalize(np.cos(eps)[:, None] * mid + np.sin(eps)[:, None] * left)
+        # a polygon whose edges cross has no consistent left side: by crossing parity, the
+        # point opposite the mean of its vertices is outside it, and the inner point is
+        # the one of the edge's two sides that parity puts in the other class
+        tw = np.flatnonzero(self.twisted)
+        if len(tw):
+            s = np.add.reduceat(a, lo, axis=0)[tw]
+            ok = np.linalg.norm(s, axis=1) > 1e-9
+            tw, far = tw[ok], -normalize(s[ok])
+            wrong = tw[self._inside(far, tw)]
+            self.inner[wrong] = normalize(
+                np.cos(eps[wrong])[:, None] * mid[wrong] - np.sin(eps[wrong])[:, None] * left[wrong]
+            )
+        return self.inner
 
     def _inside_other(self, p, own, excl):
         """For points ``p``: inside any input polygon other than ``own``/``excl``?"""
@@ -475,7 +519,7 @@ class _Union:
         drop = np.zeros(len(edge), bool)
         flip = np.zeros(len(edge), bool)
         if len(todo):
-            self.inner = self._inner_points()
+            self._inner_points()
             self.caps = self._comp_caps()
             tw = self.twisted[self.comp[edge[todo]]] | self.side_test[todo]
             plain, twisted = todo[~tw], todo[tw]

@@ -25,9 +25,12 @@ Orientation. Every ring is stored with its interior on the left of its direction
 of travel on the sphere: exterior rings are made counter-clockwise and holes
 clockwise in lon/lat (as RFC 7946 asks; input winding is not trusted), which is
 the same as "interior on the left" on the sphere. A ring that goes once round a
-pole without a seam (ambiguous in lon/lat) encloses the pole on its side of the
-equator (the mean latitude of its vertices decides), the smaller of its two sides
-for rings near a parallel.
+pole without passing through it (ambiguous in lon/lat; vertices on +-180 deg and
+steps along it do not cut it) encloses the pole on its side of the equator (the mean
+latitude of its vertices decides, summed exactly; a mean of exactly 0, a ring along
+the equator, takes the north), the smaller of its two sides for rings near a
+parallel, whatever its start vertex and direction. A polygon whose edges cross each
+other (a bowtie) is read by crossing parity (:mod:`gloffset.region`): its lobes.
 
 Limits. Longitudes must lie in [-180, 180] and latitudes in [-90, 90] (no
 wrapping: 400 is an error, not 40). A ring that covers the whole sphere (it runs
@@ -37,6 +40,7 @@ holes give it one.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -404,16 +408,23 @@ def _ccw(ll: np.ndarray) -> bool:
 
     The shoelace area decides, after unwrapping an uncut antimeridian crossing. A
     ring that goes once round a pole without being cut (ambiguous in GeoJSON) is
-    taken to enclose the pole on its side of the equator, the smaller region.
+    taken to enclose the pole on its side of the equator, the smaller region: the
+    side of the mean latitude of its vertices (summed exactly, so neither the start
+    vertex nor the direction changes it), the north when that mean is exactly 0 (a
+    ring along the equator). Going round is measured on the sphere: every edge turns
+    by less than 180 deg of longitude, so vertices on +-180 deg do not cut the ring,
+    nor does an edge along the antimeridian (it turns by 0); a vertex at a pole
+    leaves the shoelace to decide (the ring passes through the pole, not round it).
     """
     lon = ll[:, 0].copy()
     jump = np.diff(np.append(lon, lon[0]))
+    pole = np.abs(np.abs(ll[:, 1]) - 90.0) <= SEAM_EPS_DEG
+    turn = float(np.sum(jump - 360.0 * np.round(jump / 360.0)))
+    if abs(abs(turn) - 360.0) < 1e-6 and not pole.any():
+        # eastward travel keeps the north on the left
+        return (turn > 0) == (math.fsum(ll[:, 1].tolist()) >= 0.0)
     seam = _on_seam(ll)
     big = (np.abs(jump) > 180.0) & ~(seam & np.roll(seam, -1))
-    net = float(np.sum(jump - 360.0 * np.round(jump / 360.0) * big))
-    if abs(abs(net) - 360.0) < 1e-6 and not seam.any():
-        # eastward travel keeps the north on the left
-        return (net > 0) == (float(np.mean(ll[:, 1])) > 0)
     if big.any():
         lon[1:] -= 360.0 * np.cumsum(np.round(jump[:-1] / 360.0) * big[:-1])
     x, y = lon, ll[:, 1]

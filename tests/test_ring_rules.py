@@ -1,0 +1,233 @@
+"""How rings are read: rings round a pole (vertices on +-180 deg, any start and
+direction), rings along the equator, rings whose edges cross each other (README, Input)."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import gloffset
+from gloffset.grids import Equirect
+from gloffset.region import left_area
+
+
+def polygon(*rings):
+    return {"type": "Polygon", "coordinates": [np.asarray(r, float).tolist() for r in rings]}
+
+
+def closed(ring):
+    ring = [list(map(float, p)) for p in ring]
+    return ring + [ring[0]]
+
+
+def variants(ring):
+    """The ring (open, first vertex not repeated) from every start vertex, both ways."""
+    out = []
+    for r in (list(ring), list(ring)[::-1]):
+        out += [closed(r[k:] + r[:k]) for k in range(len(r))]
+    return out
+
+
+def ring_along(lat, lons):
+    return [[x, lat] for x in lons]
+
+
+def test_pole_ring_with_a_vertex_on_the_antimeridian_encloses_the_pole():
+    """A ring along 70 N or 60 S, from every start vertex (-180 and 180 included) and
+    both ways, encloses its pole: points, the offset's area and the raster agree."""
+    north = ring_along(70, range(-180, 180, 10))
+    south = ring_along(-60, range(180, -180, -10))  # from 180, westward
+    for ring, pole in ((north, 90.0), (south, -90.0)):
+        areas = []
+        for k, r in enumerate(variants(ring)):
+            s = gloffset.read(polygon(r))
+            got = gloffset.contains(s, [0.0, 0.0, 45.0, 180.0], [pole, -pole, 0.0, pole * 0.9])
+            assert got.tolist() == [True, False, False, True], r[:2]
+            if abs(r[0][0]) == 180.0 or k % 12 == 0:  # the seam vertex first, and others
+                areas.append(gloffset.offset(s, -0.05, radius=1.0).resolve().area())
+        # the region is the cap inside the ring, less than a hemisphere, whatever the start
+        cap = left_area(gloffset.read(polygon(closed(ring))).rings[0])
+        assert cap < 2.0 * np.pi
+        assert np.ptp(areas) < 1e-12 and 0.0 < areas[0] < cap
+    s = gloffset.read(polygon(closed(north)))
+    mask = gloffset.render(s, -0.05, Equirect(36, 18), radius=1.0, backend="cpu")
+    assert (mask[0] == 255).all() and (mask[3:] == 0).all()
+
+
+def test_pole_ring_with_a_step_along_the_antimeridian():
+    """A ring round a pole that steps along +-180 deg (an edge from 180 to -180 at another
+    latitude, towards the pole or away from it) still encloses its pole."""
+    for lat, step in ((70.0, 2.0), (70.0, -2.0), (-70.0, 2.0), (-70.0, -2.0)):
+        base = ring_along(lat, range(-170, 180, 10))
+        for extra in ([[180, lat], [-180, lat + step]], [[180, lat + step], [-180, lat]]):
+            for r in variants(base + extra)[::9]:
+                s = gloffset.read(polygon(r))
+                got = gloffset.contains(s, [0.0, 0.0, 180.0], [90.0, -90.0, 0.0])
+                assert got.tolist() == [lat > 0, lat < 0, False], (lat, extra, r[:2])
+
+
+def test_pole_ring_through_the_seam_vertex_twice():
+    """A ring round the north pole that repeats its seam vertex as 180 and -180 (the same
+    point) encloses the pole from any start."""
+    ring = ring_along(75, list(range(-180, 180, 20)) + [180])
+    for r in variants(ring):
+        s = gloffset.read(polygon(r))
+        assert gloffset.contains(s, [0.0, 0.0], [90.0, 0.0]).tolist() == [True, False], r[:2]
+
+
+def test_ring_along_the_equator_encloses_the_north_pole():
+    """A ring exactly along the equator takes the northern hemisphere, either way round
+    and from any start vertex (its vertices' mean latitude, exactly 0, ties north)."""
+    for lons in (range(-180, 180, 30), range(-175, 180, 30)):
+        for r in variants(ring_along(0, lons)):
+            s = gloffset.read(polygon(r))
+            got = gloffset.contains(s, [0.0, 0.0, 100.0, 100.0], [90.0, -90.0, 1.0, -1.0])
+            assert got.tolist() == [True, False, True, False], r[:2]
+
+
+def test_pole_rule_does_not_depend_on_the_order_of_the_latitudes():
+    """Latitudes whose float sum changes sign with the order they are added in: the mean
+    is taken exactly, so every start vertex and direction reads the same side."""
+    lat = [-0.3, -0.2, -0.1, 0.3, 0.3, 0.1, 0.1, 0.1, 0.2, -0.3, -0.2, 0.0]
+    signs = {np.mean(lat[k:] + lat[:k]) >= 0 for k in range(12)}
+    assert len(signs) == 2  # in floating point, the mean's sign depends on the start
+    ring = [[x, y] for x, y in zip(range(-180, 180, 30), lat)]
+    got = {bool(gloffset.contains(gloffset.read(polygon(r)), 0.0, 90.0)) for r in variants(ring)}
+    assert len(got) == 1
+
+
+BOWTIE = [[0, 0], [10, 10], [10, 0], [0, 10]]
+
+
+def test_bowtie_is_its_two_lobes():
+    """A ring that crosses itself is read by crossing parity: its two lobes, never the
+    sphere less them, from any start vertex and either way round."""
+    lon = [2.0, 8.0, 5.0, 5.0, -5.0, 15.0, 180.0, 0.0, 0.0]
+    lat = [5.0, 5.0, 2.0, 8.0, 5.0, 5.0, 0.0, 90.0, -90.0]
+    want = [True, True, False, False, False, False, False, False, False]
+    for r in variants(BOWTIE):
+        s = gloffset.read(polygon(r))
+        assert gloffset.contains(s, lon, lat).tolist() == want, r
+        assert gloffset.reference.contains(s, lon, lat).tolist() == want, r
+        # two lobes of 25 square degrees each (spherical triangles, a little more)
+        lobe = 25.0 * np.radians(1.0) ** 2
+        areas = sorted(left_area(x) for x in s.rings)
+        assert len(areas) == 2 and np.allclose(areas, lobe, rtol=0.02)
+        assert gloffset.offset(s, 0.01, radius=1.0).resolve().area() < 0.1
+
+
+def test_bowtie_with_a_square_is_the_union_of_lobes_and_square():
+    """United with a polygon it overlaps, a bowtie still counts as its two lobes."""
+    square = [[8, 2], [14, 2], [14, 8], [8, 8]]
+    s = gloffset.read(
+        {
+            "type": "MultiPolygon",
+            "coordinates": [
+                polygon(closed(BOWTIE))["coordinates"],
+                polygon(closed(square))["coordinates"],
+            ],
+        }
+    )
+    got = gloffset.contains(s, [2.0, 8.0, 12.0, 5.0, -5.0, 180.0], [5.0, 5.0, 5.0, 2.0, 5.0, 0.0])
+    assert got.tolist() == [True, True, True, False, False, False]
+
+
+def test_real_borders_keep_their_reading(world):
+    """Fiji and Russia across the antimeridian, Antarctica round the south pole."""
+    ant = gloffset.read(world["Antarctica"])
+    assert gloffset.contains(ant, [0.0, 0.0, 0.0], [-90.0, 90.0, 0.0]).tolist() == [
+        True,
+        False,
+        False,
+    ]
+    rus = gloffset.read(world["Russia"])
+    got = gloffset.contains(rus, [100.0, 179.5, -179.5, 0.0], [60.0, 67.5, 67.0, 90.0])
+    assert got.tolist() == [True, True, True, False]
+    fiji = gloffset.read(world["Fiji"])
+    assert gloffset.contains(fiji, [179.0, 0.0], [-90.0, -17.0]).tolist() == [False, False]
+
+
+# ---------------------------------------------------------------------- properties
+
+
+@st.composite
+def pole_rings(draw):
+    """A ring round a pole: integer longitudes (so that rotations are exact), +-180
+    among them often (sometimes a step along the antimeridian), steps under 150 deg;
+    latitudes 15-80 deg on the pole's side (so that no edge comes within 0.04 rad of
+    the pole); a random start and direction."""
+    pole = draw(st.sampled_from([1.0, -1.0]))
+    lons = draw(st.lists(st.integers(-179, 179), min_size=2, max_size=14, unique=True))
+    if draw(st.booleans()):
+        lons.append(draw(st.sampled_from([-180, 180])))
+    lons = sorted(lons, key=lambda x: x % 360)
+    steps = np.diff(np.array([x % 360 for x in lons] + [lons[0] % 360 + 360]))
+    if len(lons) < 3 or steps.max() >= 150:
+        lons = sorted(set(lons) | {-180, -60, 60}, key=lambda x: x % 360)
+        if 180 in lons and -180 in lons:
+            lons.remove(180)
+    lats = [pole * draw(st.floats(15.0, 80.0)) for _ in lons]
+    ring = [[float(x), y] for x, y in zip(lons, lats)]
+    seam = [k for k, x in enumerate(lons) if abs(x) == 180]
+    if seam and draw(st.booleans()):
+        # a step along the antimeridian: 180 then -180 eastward, at two latitudes
+        k = seam[0]
+        ring[k : k + 1] = [[180.0, lats[k]], [-180.0, pole * draw(st.floats(15.0, 80.0))]]
+    k = draw(st.integers(0, len(ring) - 1))
+    ring = ring[k:] + ring[:k]
+    if draw(st.booleans()):
+        ring = ring[::-1]
+    return pole, ring
+
+
+def _rotate(lon, by):
+    out = (np.asarray(lon, float) + by + 180.0) % 360.0 - 180.0
+    return out
+
+
+@settings(max_examples=30, deadline=None)
+@given(pole_rings(), st.integers(-179, 180))
+def test_random_pole_rings_enclose_their_pole(case, by):
+    pole, ring = case
+    s = gloffset.read(polygon(closed(ring)))
+    got = gloffset.contains(s, [0.0, 0.0], [90.0 * pole, -90.0 * pole])
+    assert got.tolist() == [True, False]
+    # the far hemisphere is outside, whatever the longitude
+    far = np.linspace(-180, 180, 13)
+    assert not gloffset.contains(s, far, np.full(13, -10.0 * pole)).any()
+    # the offset inward keeps the pole, the raster holds the pole's row
+    res = gloffset.offset(s, -0.01, radius=1.0).resolve()
+    pol = np.array([[0.0, 0.0, pole], [0.0, 0.0, -pole]])
+    assert res.contains_xyz(pol).tolist() == [True, False]
+    grid = Equirect(16, 8)
+    mask = gloffset.render(s, -0.01, grid, radius=1.0, backend="cpu")
+    lon, lat = np.meshgrid(-180 + 22.5 * (np.arange(16) + 0.5), 90 - 22.5 * (np.arange(8) + 0.5))
+    want = gloffset.contains(s, lon.ravel(), lat.ravel(), distance=-0.01, radius=1.0)
+    sure = np.abs(gloffset.distance(s, lon.ravel(), lat.ravel(), radius=1.0) - 0.01) > 1e-9
+    assert np.array_equal((mask.ravel() == 255)[sure], want[sure])
+    assert want[(lat.ravel() == 78.75 * pole) & sure].any()
+    # rotated about the polar axis: the rotated region
+    rot = [[float(_rotate(x, by)), y] for x, y in ring]
+    r = gloffset.read(polygon(closed(rot)))
+    rng = np.random.default_rng(abs(by))
+    lon = rng.uniform(-180, 180, 200)
+    lat = np.degrees(np.arcsin(rng.uniform(-1, 1, 200)))
+    away = gloffset.distance(s, lon, lat, radius=1.0) > 1e-9
+    assert np.array_equal(
+        gloffset.contains(s, lon, lat)[away], gloffset.contains(r, _rotate(lon, by), lat)[away]
+    )
+
+
+def test_pole_ring_examples_are_drawn():
+    """The strategy does produce rings with vertices exactly on +-180, and steps along it."""
+    seen = []
+
+    @settings(max_examples=60, deadline=None, database=None)
+    @given(pole_rings())
+    def collect(case):
+        lons = {x for x, _ in case[1]}
+        seen.append((bool(lons & {-180.0, 180.0}), {-180.0, 180.0} <= lons))
+
+    collect()
+    assert any(v for v, _ in seen) and any(step for _, step in seen)
