@@ -186,3 +186,18 @@ def test_geojson_with_a_legacy_crs_member_is_transformed(tmp_path):
     named = json.loads(MEXICO.read_text())
     named["crs"] = {"type": "name", "properties": {"name": "urn:ogc:def:crs:OGC:1.3:CRS84"}}
     assert_same_shape(gloffset.read(named), gloffset.read(MEXICO))
+
+
+@pytest.mark.parametrize("fmt", ["geojson", "gpkg", "parquet"])
+def test_where_errors_name_the_layer_and_the_clause(tmp_path, world, fmt):
+    path = WORLD if fmt == "geojson" else write(world, tmp_path / f"world_110m.{fmt}")
+    with pytest.raises(gloffset.InputFormatError, match="bad --where clause") as bad:
+        gloffset.read(path, where="nome = 'Fiji'")
+    assert "b'" not in str(bad.value)
+    clause = "name = 'Atlantis'"
+    words = f"no feature of layer 'world_110m' matched the --where clause {clause!r}"
+    with pytest.raises(gloffset.InputFormatError) as none:
+        gloffset.read(path, where=clause)
+    assert words in str(none.value) and "empty geometry" not in str(none.value)
+    r = run("offset", path, "-d", "50km", "--where", clause)
+    assert r.exit_code == 2 and words in r.output

@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import tempfile
 import warnings
 from pathlib import Path
@@ -137,11 +138,21 @@ def _gdal_layer(pyogrio, path: str, layer, where, shown: str | None = None):
                 "\"name = 'Fiji'\""
             ) from None
         raise InputFormatError(f"cannot read {shown!r}: {_first_line(exc)}") from None
+    if where is not None and len(wkb) == 0:
+        name = names[layer] if isinstance(layer, int) else (layer or names[0])
+        raise InputFormatError(
+            f"{shown!r}: no feature of layer {name!r} matched the --where clause {where!r}"
+        )
     return meta["crs"], list(wkb), dict(zip(meta["fields"], data))
 
 
 def _first_line(exc: Exception) -> str:
-    return str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    """The first line of a GDAL error, with the bytes reprs (``b'name'``) that some of
+    its messages carry shown as the text they are."""
+    text = str(exc).strip()
+    if not text:
+        return type(exc).__name__
+    return re.sub(r"\bb'([^']*)'", r"\1", text.splitlines()[0])
 
 
 def _field_names(pyogrio, path: str, layer) -> str:
