@@ -8,11 +8,39 @@ complete, ``close``), so the pyramid does not care which it writes.
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
+
+import numpy as np
 
 from ..errors import OutputExistsError
 
-__all__ = ["OutputExistsError", "open_store"]
+__all__ = ["INPUT_KEY", "OutputExistsError", "input_digest", "open_store"]
+
+#: The metadata entry that holds :func:`input_digest` of the pyramid's input.
+INPUT_KEY = "gloffset_input"
+
+
+def input_digest(shape) -> str:
+    """``"sha256:HEX"`` of a :class:`~gloffset.Shape`'s geometry: its rings and lines (the
+    float64 unit vectors, little-endian), each ring's seams, components and holes, and the
+    number and length of each part. Two inputs with the same digest are the same region
+    and curves; a resumed pyramid checks that it continues the same input with it."""
+    h = hashlib.sha256(b"gloffset shape 1")
+    parts = (
+        ("rings", shape.rings, "<f8"),
+        ("seams", shape.ring_seams, "|b1"),
+        ("lines", shape.lines, "<f8"),
+    )
+    for name, arrays, dtype in parts:
+        h.update(f"{name}:{len(arrays)}".encode())
+        for a in arrays:
+            a = np.ascontiguousarray(a, dtype=dtype)
+            h.update(f"{a.shape}".encode())
+            h.update(a.tobytes())
+    h.update(np.ascontiguousarray(shape.ring_groups, dtype="<i8").tobytes())
+    h.update(np.ascontiguousarray(shape.ring_holes, dtype="|b1").tobytes())
+    return "sha256:" + h.hexdigest()
 
 
 def open_store(path, metadata: dict, *, resume: bool = False, overwrite: bool = False):
