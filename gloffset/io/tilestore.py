@@ -9,13 +9,17 @@ complete, ``close``), so the pyramid does not care which it writes.
 from __future__ import annotations
 
 import hashlib
+import os
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import OutputExistsError
+from ..errors import OutputError, OutputExistsError
 
-__all__ = ["INPUT_KEY", "OutputExistsError", "input_digest", "open_store"]
+__all__ = ["INPUT_KEY", "OutputExistsError", "check_tile_output", "input_digest", "open_store"]
+
+#: The file formats of a tile pyramid, by ending; any other output is an XYZ folder.
+TILE_FILES = (".mbtiles", ".pmtiles")
 
 #: The metadata entry that holds :func:`input_digest` of the pyramid's input.
 INPUT_KEY = "gloffset_input"
@@ -43,13 +47,32 @@ def input_digest(shape) -> str:
     return "sha256:" + h.hexdigest()
 
 
+def check_tile_output(path) -> None:
+    """Refuse (:class:`~gloffset.errors.OutputError`) an output name that is neither a tile
+    file (``.mbtiles``, ``.pmtiles``) nor a folder: a folder is a name without an
+    extension, one ending in ``/``, or an existing folder. ``tiles.txt`` or ``t.png``
+    would otherwise become a folder of that name."""
+    text = os.fspath(path)
+    p = Path(text)
+    suffix = p.suffix.lower()
+    if suffix in TILE_FILES or not suffix or text.endswith(("/", os.sep)) or p.is_dir():
+        return
+    raise OutputError(
+        f"{text!r}: {p.suffix!r} is no tile format; name the output NAME.mbtiles, "
+        f"NAME.pmtiles or a folder for z/x/y.png tiles (a name without an extension, or "
+        f"one ending in '/': {p.stem + '/'!r})"
+    )
+
+
 def open_store(path, metadata: dict, *, resume: bool = False, overwrite: bool = False):
     """An MBTiles writer for a path ending in ``.mbtiles``, a PMTiles writer for
     ``.pmtiles``, else an XYZ directory writer.
 
     Raises :class:`OutputExistsError` when the output exists and neither ``resume``
-    nor ``overwrite`` is set.
+    nor ``overwrite`` is set, :class:`~gloffset.errors.OutputError` for a name that is
+    no tile output (:func:`check_tile_output`).
     """
+    check_tile_output(path)
     path = Path(path)
     if path.suffix.lower() == ".mbtiles":
         from .mbtiles import MBTilesWriter

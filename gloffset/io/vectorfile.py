@@ -28,6 +28,7 @@ import numpy as np
 from ..errors import InputFormatError, OutputError
 from . import geoparquet
 from .crs import to_lonlat
+from .output import keep_mode
 
 __all__ = ["READ_SUFFIXES", "WRITE_FORMATS", "check_writable", "is_vector_file", "read", "write"]
 
@@ -303,5 +304,9 @@ def _multi(shapely, g):
 
 
 def _move_all(src: str, dst: str) -> None:
+    """Move the files of ``src`` into ``dst``, each with the permission bits of the file it
+    replaces or of a new file (GDAL's SQLite makes a GeoPackage 0644 whatever the umask)."""
     for name in sorted(os.listdir(src)):
-        os.replace(os.path.join(src, name), os.path.join(dst, name))
+        tmp, path = os.path.join(src, name), os.path.join(dst, name)
+        keep_mode(tmp, path)
+        os.replace(tmp, path)
