@@ -133,7 +133,7 @@ def _chunks(reader, size: int):
     "with the feature's index and properties.",
 )
 def contains_cmd(
-    input, points, distance, radius, ellipsoid, output, level, chunk, layer, where, each
+    input, points, distance, radius, ellipsoid, output, level, chunk, layer, where, densify, each
 ):
     """Mark the points of POINTS (CSV with lon and lat columns in degrees, - for stdin) that
     lie in the region within DIST of the curves and polygons of INPUT (GeoJSON or another
@@ -152,10 +152,10 @@ def contains_cmd(
     d = angle(distance, radius) if ell is None else (ell, metres(distance))
     check_output(output)  # fail before the work
     if each:
-        feats = features(load(input, layer=layer, where=where))
+        feats = features(load(input, layer=layer, where=where, densify=densify))
         tester = PerFeature(feats, d, level)
     else:
-        tester = Union(read(input, layer=layer, where=where), d, level)
+        tester = Union(read(input, layer=layer, where=where, densify=densify), d, level)
     where = "<stdin>" if points == "-" else points  # from here on, the name of POINTS
     if points == "-":
         src = io.TextIOWrapper(sys.stdin.buffer, encoding="utf-8-sig", newline="")

@@ -79,7 +79,19 @@ from .options import (
     help="Offset each feature on its own, keeping its properties (default: the union).",
 )
 def offset_cmd(
-    input, distance, radius, ellipsoid, layer, where, output, tolerance, digits, raw, method, each
+    input,
+    distance,
+    radius,
+    ellipsoid,
+    layer,
+    where,
+    densify,
+    output,
+    tolerance,
+    digits,
+    raw,
+    method,
+    each,
 ):
     """Offset the curves and polygons of INPUT (GeoJSON or another vector file, - for
     GeoJSON on stdin).
@@ -102,7 +114,7 @@ def offset_cmd(
         check_writable(output)
     if each:
         feats = offset_each(
-            _features(load(input, layer=layer, where=where)),
+            _features(load(input, layer=layer, where=where, densify=densify)),
             d,
             tolerance=tol,
             digits=digits,
@@ -110,11 +122,11 @@ def offset_cmd(
             method=method,
         )
     elif ell is not None:
-        shape = read(input, layer=layer, where=where)
+        shape = read(input, layer=layer, where=where, densify=densify)
         off = geodesic_offset(shape, m, ellipsoid=ell, tolerance=tol)
         feats = [off.to_geojson(digits=digits)]
     else:
-        shape = read(input, layer=layer, where=where)
+        shape = read(input, layer=layer, where=where, densify=densify)
         off = _offset(shape, d, radius=1.0)
         feats = [off.to_geojson(tolerance=tol, digits=digits, raw=raw, method=method)]
     for feat in feats:

@@ -155,6 +155,7 @@ def render_cmd(
     no_worldfile,
     layer=None,
     where=None,
+    densify=None,
 ):
     """Render the region within DIST of the curves of INPUT as a PNG or TIFF (row 0 north),
     or as six cube-map faces px nx py ny pz nz that load straight into a GL or three.js
@@ -190,7 +191,7 @@ def render_cmd(
         if colour is not None:
             parse_color(colour)  # fail before the work
     grid, levels = _grid(grid_kind, size, bounds)
-    shape = read(input, layer=layer, where=where)
+    shape = read(input, layer=layer, where=where, densify=densify)
     show = sys.stderr.isatty()
     t0 = time.perf_counter()
 

@@ -82,6 +82,7 @@ def tiles_cmd(
     scheduler,
     layer=None,
     where=None,
+    densify=None,
 ):
     """Write the tile pyramid of the region within DIST of the curves of INPUT: tiles
     outside the region are skipped, tiles fully inside share one image and are not
@@ -97,7 +98,7 @@ def tiles_cmd(
     TileStyle(fill, opacity, outline, outline_width)
     if resume and force:
         raise click.UsageError("--resume and --force exclude each other")
-    shape = read(input, layer=layer, where=where)
+    shape = read(input, layer=layer, where=where, densify=densify)
     bar = None
     if sys.stderr.isatty():
         from tqdm import tqdm
