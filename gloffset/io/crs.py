@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputFormatError
-from ..sphere import angle, arc_distance, lonlat_to_xyz
+from ..sphere import arc_distance, lonlat_to_xyz
 from ..units import EARTH_RADIUS, parse_distance
 
 __all__ = ["DENSIFY_TOLERANCE", "densify", "densify_tolerance", "is_lonlat", "to_lonlat"]
@@ -154,13 +154,16 @@ def densify(transform, parts: list[np.ndarray], tolerance: float | None = None) 
     quarter, half and three quarters of each piece are within the tolerance of the
     piece's arc (:func:`gloffset.sphere.arc_distance`). ``tolerance`` is an angle on the
     unit sphere (:func:`densify_tolerance`); None: :data:`DENSIFY_TOLERANCE` metres or a
-    hundredth of the edge's arc, whichever is smaller. The added points are the
-    transforms of points of the line: the original vertices are kept, in order.
+    hundredth of the edge's chord (its arc to 1e-6 below 100 m), whichever is smaller.
+    The added points are the transforms of points of the line: the original vertices are
+    kept, in order.
 
-    Accuracy: between the tested points the line is smooth (a projection's image of a
-    segment), and a piece whose three samples are within the tolerance is within it
-    up to the line's curvature over a quarter of the piece, which the halving has
-    made small; the samples themselves are exact to the transform's rounding.
+    Accuracy: a sampled test. A projection's image of a segment is smooth, so its
+    distance from the piece's arc is a smooth function of ``t`` that is 0 at both ends;
+    with it within the tolerance at three interior points it can exceed the tolerance
+    only by its variation between samples a quarter piece apart, which halving makes
+    small (tested: points along every edge of EPSG:3857 and UTM boxes and of Mexico in
+    UTM within 1 m). Each point is exact to the transform's rounding.
 
     Raises :class:`~gloffset.errors.InputFormatError` for an edge that cannot be
     followed (a projection's singularity: still off after 2^40 halvings).
@@ -176,7 +179,7 @@ def densify(transform, parts: list[np.ndarray], tolerance: float | None = None) 
     has_next[starts[1:] - 1] = False  # the last point of each part
     e = np.flatnonzero(has_next)  # edge e -> e + 1
     if tolerance is None:
-        length = angle(v[e], v[e + 1])
+        length = np.sqrt(np.square(v[e + 1] - v[e]).sum(axis=1))  # the chord: <= the arc
         tol = np.maximum(np.minimum(DENSIFY_TOLERANCE / EARTH_RADIUS, length / 100.0), 0.0)
         tol = np.maximum(tol, _FLOOR / EARTH_RADIUS)
     else:
