@@ -184,27 +184,9 @@ def render_cmd(
     if from_raster is not None:
         if input is not None or size is not None:
             raise OptionError("--from-raster takes no INPUT or --size (the PNGs' size)")
-        if style != (None, 1.0, None) and not mask_only:
-            raise OptionError(
-                "--fill, --background and --opacity style a mask: with --from-raster add "
-                "--mask (the classes picture has its own colours)"
-            )
-        if grid_kind == "cube":
-            if ell is not None:
-                raise OptionError("--ellipsoid with --from-raster takes an equirect mask")
-            if bounds is not None:
-                raise OptionError("--bounds does not apply to --grid cube")
-            return _from_raster_cube(
-                from_raster, d, output, classes_level, backend, mask_only, style
-            )
-        if Path(from_raster).is_dir():
-            raise OptionError(
-                f"--from-raster {from_raster!r} is a folder: add --grid cube to read the six "
-                "cube faces px.png nx.png py.png ny.png pz.png nz.png from it"
-            )
-        place = (cog, not no_worldfile)
-        return _from_raster(
-            from_raster, d, bounds, output, classes_level, backend, mask_only, place, ell, style
+        raster_opts = (classes_level, backend, mask_only, style)
+        return _from_raster_cmd(
+            from_raster, d, ell, grid_kind, bounds, output, raster_opts, (cog, not no_worldfile)
         )
     if input is None:
         raise OptionError("give an INPUT file (or - for stdin), or --from-raster MASK.png")
@@ -255,6 +237,30 @@ def render_cmd(
             write_mask(img, path, fill=fill, opacity=opacity, background=background, place=place)
     if show:
         click.echo("", err=True)
+
+
+def _from_raster_cmd(path, d, ell, grid_kind, bounds, output, opts, place):
+    """``render --from-raster``: the options checked, the cube or the equirect offset of
+    the mask; ``opts`` is ``(level, backend, mask_only, style)``, ``place`` ``(cog,
+    worldfile)``."""
+    level, backend, mask_only, style = opts
+    if style != (None, 1.0, None) and not mask_only:
+        raise OptionError(
+            "--fill, --background and --opacity style a mask: with --from-raster add "
+            "--mask (the classes picture has its own colours)"
+        )
+    if grid_kind == "cube":
+        if ell is not None:
+            raise OptionError("--ellipsoid with --from-raster takes an equirect mask")
+        if bounds is not None:
+            raise OptionError("--bounds does not apply to --grid cube")
+        return _from_raster_cube(path, d, output, level, backend, mask_only, style)
+    if Path(path).is_dir():
+        raise OptionError(
+            f"--from-raster {path!r} is a folder: add --grid cube to read the six "
+            "cube faces px.png nx.png py.png ny.png pz.png nz.png from it"
+        )
+    return _from_raster(path, d, bounds, output, level, backend, mask_only, place, ell, style)
 
 
 def _distance(distance, radius, ell, classes_level, from_raster) -> float:
