@@ -180,7 +180,7 @@ def conformal(shape, ell) -> Conformal:
 
 
 # ---------------------------------------------------------------------- distance
-def distance(shape, lon, lat, *, radius: float = EARTH_RADIUS, ellipsoid=None) -> np.ndarray:
+def distance(shape, lon, lat, *, radius: float = EARTH_RADIUS, ellipsoid=None):
     """Distance from points to the nearest point of the shape's curves.
 
     Parameters
@@ -195,6 +195,12 @@ def distance(shape, lon, lat, *, radius: float = EARTH_RADIUS, ellipsoid=None) -
         (:func:`gloffset.reference.distance`, exactly). Otherwise geodesic distances in
         metres on the ellipsoid, to geodesic edges.
 
+    Returns
+    -------
+    float or numpy.ndarray
+        A Python float for scalar ``lon`` and ``lat`` (as numpy's ufuncs give a scalar),
+        else an array of their broadcast shape.
+
     Notes
     -----
     On the ellipsoid the result is within 1 um of the geodesic distance (see
@@ -205,15 +211,17 @@ def distance(shape, lon, lat, *, radius: float = EARTH_RADIUS, ellipsoid=None) -
     --------
     >>> import gloffset
     >>> s = gloffset.read({"type": "LineString", "coordinates": [[0, 0], [10, 0]]})
-    >>> round(float(gloffset.distance(s, 5.0, 1.0, ellipsoid="WGS84")), 3)
+    >>> round(gloffset.distance(s, 5.0, 1.0, ellipsoid="WGS84"), 3)
     110574.389
     """
     ell = as_ellipsoid(ellipsoid)
     if ell is None:
-        return _sphere_distance(shape, lon, lat, radius=radius)
-    shape = read(shape)
-    lon, lat, shp = check_lonlat(lon, lat)
-    return nearest_geodesic(conformal(shape, ell), lon, lat).reshape(shp)
+        out = _sphere_distance(shape, lon, lat, radius=radius)
+    else:
+        shape = read(shape)
+        lon, lat, shp = check_lonlat(lon, lat)
+        out = nearest_geodesic(conformal(shape, ell), lon, lat).reshape(shp)
+    return float(out) if out.ndim == 0 else out
 
 
 def nearest_geodesic(conf: Conformal, lon, lat) -> np.ndarray:

@@ -188,8 +188,8 @@ def distance(shape, lon, lat, *, radius: float = EARTH_RADIUS, ellipsoid=None) -
     --------
     >>> import gloffset
     >>> s = gloffset.read({"type": "LineString", "coordinates": [[0, 0], [10, 0]]})
-    >>> float(gloffset.distance(s, 5.0, 1.0, radius=1.0).round(12))
-    0.017453292520
+    >>> round(gloffset.distance(s, 5.0, 1.0, radius=1.0), 12)
+    0.01745329252
     """
     from .shape import read
 

@@ -160,9 +160,10 @@ class Shape:
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def from_geojson(cls, obj, *, layer=None, where: str | None = None) -> Shape:
+    def from_geojson(cls, obj, *, layer=None, where: str | None = None, densify=None) -> Shape:
         """Build a shape from a GeoJSON object (dict) or anything :func:`read` accepts."""
-        return _from_parts(_gj.parse(_features.load(obj, layer=layer, where=where)))
+        obj = _features.load(obj, layer=layer, where=where, densify=densify)
+        return _from_parts(_gj.parse(obj))
 
     @classmethod
     def from_lonlat(cls, lon, lat, *, closed: bool = False) -> Shape:
@@ -312,7 +313,7 @@ class Shape:
         )
 
 
-def read(source, *, layer=None, where: str | None = None) -> Shape:
+def read(source, *, layer=None, where: str | None = None, densify=None) -> Shape:
     """Read geometry into a :class:`Shape`.
 
     Parameters
@@ -329,6 +330,12 @@ def read(source, *, layer=None, where: str | None = None) -> Shape:
     where : str, optional
         An attribute filter (OGR SQL) selecting features of a vector file, e.g.
         ``"continent = 'Africa'"``.
+    densify : float or str, optional
+        The tolerance to which the edges of a file in a projected CRS are followed:
+        their straight lines in the projection get points until the great circles
+        between them are within it (metres, or a distance with its unit such as
+        ``"10cm"``). Default: 1 m or a hundredth of the edge, whichever is smaller.
+        Lon/lat edges are great circles already and get no points.
 
     Examples
     --------
@@ -343,7 +350,7 @@ def read(source, *, layer=None, where: str | None = None) -> Shape:
             raise InputFormatError(f"a lon/lat array must have shape (n, 2), got {source.shape}")
         closed = len(source) >= 4 and np.array_equal(source[0], source[-1])
         return Shape.from_lonlat(source[:, 0], source[:, 1], closed=closed)
-    return Shape.from_geojson(source, layer=layer, where=where)
+    return Shape.from_geojson(source, layer=layer, where=where, densify=densify)
 
 
 # ---------------------------------------------------------------------- building

@@ -45,7 +45,8 @@ def _column(header: list[str], names: tuple[str, ...], where: str) -> int:
 
 def _coordinates(rows, lines, width: int, ilon: int, ilat: int, where: str):
     """Lon/lat arrays of a chunk of rows of ``width`` fields; an error names the first bad
-    line."""
+    line (a field that is no number, not finite, a latitude outside [-90, 90] or a
+    longitude outside [-180, 180], as GeoJSON's are refused: never wrapped)."""
     for r, line in zip(rows, lines):
         if len(r) != width:
             raise InputFormatError(
@@ -72,12 +73,14 @@ def _coordinates(rows, lines, width: int, ilon: int, ilat: int, where: str):
             f"{where}, line {lines[k]}: coordinates must be finite, got "
             f"{float(lon[k])!r}, {float(lat[k])!r}"
         )
-    bad = np.abs(lat) > 90.0
-    if bad.any():
-        k = int(np.flatnonzero(bad)[0])
-        raise InputFormatError(
-            f"{where}, line {lines[k]}: latitude {float(lat[k])!r} out of range [-90, 90]"
-        )
+    for values, name, limit in ((lat, "latitude", 90.0), (lon, "longitude", 180.0)):
+        bad = np.abs(values) > limit
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise InputFormatError(
+                f"{where}, line {lines[k]}: {name} {float(values[k])!r} out of range "
+                f"[-{limit:g}, {limit:g}]"
+            )
     return lon, lat
 
 
@@ -130,7 +133,7 @@ def _chunks(reader, size: int):
     "with the feature's index and properties.",
 )
 def contains_cmd(
-    input, points, distance, radius, ellipsoid, output, level, chunk, layer, where, each
+    input, points, distance, radius, ellipsoid, output, level, chunk, layer, where, densify, each
 ):
     """Mark the points of POINTS (CSV with lon and lat columns in degrees, - for stdin) that
     lie in the region within DIST of the curves and polygons of INPUT (GeoJSON or another
@@ -149,10 +152,10 @@ def contains_cmd(
     d = angle(distance, radius) if ell is None else (ell, metres(distance))
     check_output(output)  # fail before the work
     if each:
-        feats = features(load(input, layer=layer, where=where))
+        feats = features(load(input, layer=layer, where=where, densify=densify))
         tester = PerFeature(feats, d, level)
     else:
-        tester = Union(read(input, layer=layer, where=where), d, level)
+        tester = Union(read(input, layer=layer, where=where, densify=densify), d, level)
     where = "<stdin>" if points == "-" else points  # from here on, the name of POINTS
     if points == "-":
         src = io.TextIOWrapper(sys.stdin.buffer, encoding="utf-8-sig", newline="")

@@ -85,7 +85,19 @@ from .options import (
     help="Offset each feature on its own, keeping its properties (default: the union).",
 )
 def offset_cmd(
-    input, distance, radius, ellipsoid, layer, where, output, tolerance, digits, raw, method, each
+    input,
+    distance,
+    radius,
+    ellipsoid,
+    layer,
+    where,
+    densify,
+    output,
+    tolerance,
+    digits,
+    raw,
+    method,
+    each,
 ):
     """Offset the curves and polygons of INPUT (GeoJSON or another vector file, - for
     GeoJSON on stdin).
@@ -114,7 +126,17 @@ def offset_cmd(
         check_writable(output)
     with Stages(3 if each or ell is not None or raw else 4) as stages:
         feats = _offsets(
-            stages, input, layer, where, distance, radius, ell, each, tol, digits, raw, method
+            stages,
+            input,
+            {"layer": layer, "where": where, "densify": densify},
+            distance,
+            radius,
+            ell,
+            each,
+            tol,
+            digits,
+            raw,
+            method,
         )
         props = distance_properties(distance, 1.0 if ell is not None else radius)
         for feat in feats:
@@ -127,11 +149,11 @@ def offset_cmd(
         write_bytes(output, (text + "\n").encode("utf-8"))
 
 
-def _offsets(stages, input, layer, where, distance, radius, ell, each, tol, digits, raw, method):
+def _offsets(stages, input, source, distance, radius, ell, each, tol, digits, raw, method):
     """The output features, the stages reported to ``stages`` (all but the writing)."""
     if each:
         stages.stage("reading the input")
-        feats = _features(load(input, layer=layer, where=where))
+        feats = _features(load(input, **source))
         stages.stage("offsetting each feature", len(feats))
         return offset_each(
             feats,
@@ -144,7 +166,7 @@ def _offsets(stages, input, layer, where, distance, radius, ell, each, tol, digi
             progress=stages.tick,
         )
     stages.stage("reading the input")
-    shape = read(input, layer=layer, where=where)
+    shape = read(input, **source)
     if ell is not None:
         stages.stage(f"offsetting on {ell}")
         off = geodesic_offset(shape, metres(distance), ellipsoid=ell, tolerance=tol)

@@ -87,7 +87,17 @@ def metres(text: str) -> float:
 
 
 def input_options(f):
-    """``--layer`` and ``--where``: which layer and features of a vector file to read."""
+    """``--layer`` and ``--where``: which layer and features of a vector file to read;
+    ``--densify``: the tolerance of the edges of a file in a projected CRS."""
+    f = click.option(
+        "--densify",
+        default=None,
+        metavar="DIST",
+        help="For a vector file in a projected CRS (EPSG:3857, UTM...): follow its edges, "
+        "straight in the projection, to within DIST (e.g. 10cm; a bare number is metres). "
+        "Default: 1 m or a hundredth of the edge, whichever is smaller. Lon/lat edges are "
+        "great circles and are kept as they are.",
+    )(f)
     f = click.option(
         "--where",
         default=None,

@@ -48,7 +48,7 @@ def _center(text: str | None):
     help="Write N frames of the globe turning once round: an animated PNG, or a GIF (.gif).",
 )
 def preview_cmd(
-    input, distance, radius, layer, where, output, center, size, fill, ocean, input_color,
+    input, distance, radius, layer, where, densify, output, center, size, fill, ocean, input_color,
     background, graticule, graticule_color, shading, spin,
 ):  # fmt: skip
     """Draw the region within DIST of INPUT on an orthographic globe (a PNG), sampled from
@@ -58,7 +58,7 @@ def preview_cmd(
     style = GlobeStyle(fill, ocean, input_color, background, graticule_color, graticule, shading)
     style.uniforms()
     check_output(output)
-    shape = read(input, layer=layer, where=where)
+    shape = read(input, layer=layer, where=where, densify=densify)
     img = globe(
         shape, angle(distance, radius), size=size, center=_center(center), style=style,
         radius=1.0, spin=spin,

@@ -101,13 +101,21 @@ def _bounds(text: str | None) -> tuple:
     default=None,
     metavar="MASK.png|DIR",
     help="Offset a rasterized curve on the equirect grid of --bounds instead of INPUT (paper "
-    "Sec. 5); writes the classes picture. The mask is a grey image (curve: pixels at least "
-    "half white, >= 128) or an image with transparency (curve: pixels at least half opaque, "
-    "alpha >= 128); colour images are refused. With --grid cube: a folder of six face PNGs "
-    "px nx py ny pz nz, and OUTPUT a folder of six PNGs.",
+    "Sec. 5); writes the classes picture (or with --mask a mask). The mask is a grey image "
+    "(curve: pixels at least half white, >= 128) or an image with transparency (curve: pixels "
+    "at least half opaque, alpha >= 128); colour images are refused. A PNG covers --bounds; "
+    "without --bounds only a 2:1 image is taken as the whole globe (any other needs "
+    "--bounds). A GeoTIFF has its own lon/lat transform. With --grid cube: a folder of six "
+    "face PNGs px nx py ny pz nz, and OUTPUT a folder of six PNGs.",
 )
 @click.option(
-    "--mask-only", is_flag=True, help="With --from-raster: write contained cells as 255, else 0."
+    "--mask",
+    "--mask-only",
+    "mask_only",
+    is_flag=True,
+    help="With --from-raster: a plain mask as render writes for INPUT, 255 for the cells "
+    "the offset contains and 0 elsewhere (--fill, --background and --opacity style it), "
+    "instead of the classes picture.",
 )
 @fill_options(
     None,
@@ -120,7 +128,9 @@ def _bounds(text: str | None) -> tuple:
     "classes_level",
     type=int,
     default=None,
-    help="Write the classes of this level (contained black, frontier red, outside white).",
+    help="Write the classes of this level (contained black, frontier red, outside white): "
+    "a coarser level than the output's is written at its own size (each cell one pixel; "
+    "stderr says which), without georeference.",
 )
 @click.option("--backend", type=click.Choice(["gpu", "cpu"]), default="gpu", show_default=True)
 @click.option(
@@ -155,6 +165,7 @@ def render_cmd(
     no_worldfile,
     layer=None,
     where=None,
+    densify=None,
 ):
     """Render the region within DIST of the curves of INPUT as a PNG or TIFF (row 0 north),
     or as six cube-map faces px nx py ny pz nz that load straight into a GL or three.js
@@ -166,31 +177,24 @@ def render_cmd(
     ell = parse_ellipsoid(ellipsoid)
     d = _distance(distance, radius, ell, classes_level, from_raster)
     cog = _check_output(output, grid_kind, cog)
-    if from_raster is not None:
-        if input is not None or size is not None:
-            raise OptionError("--from-raster takes no INPUT or --size (the PNGs' size)")
-        if grid_kind == "cube":
-            if ell is not None:
-                raise OptionError("--ellipsoid with --from-raster takes an equirect mask")
-            if bounds is not None:
-                raise OptionError("--bounds does not apply to --grid cube")
-            return _from_raster_cube(from_raster, d, output, classes_level, backend, mask_only)
-        if Path(from_raster).is_dir():
-            raise OptionError(
-                f"--from-raster {from_raster!r} is a folder: add --grid cube to read the six "
-                "cube faces px.png nx.png py.png ny.png pz.png nz.png from it"
-            )
-        place = (cog, not no_worldfile)
-        return _from_raster(
-            from_raster, d, bounds, output, classes_level, backend, mask_only, place, ell
-        )
-    if input is None:
-        raise OptionError("give an INPUT file (or - for stdin), or --from-raster MASK.png")
     for colour in (fill, background):
         if colour is not None:
             parse_color(colour)  # fail before the work
+    style = (fill, opacity, background)
+    if from_raster is not None:
+        if input is not None or size is not None:
+            raise OptionError("--from-raster takes no INPUT or --size (the PNGs' size)")
+        raster_opts = (classes_level, backend, mask_only, style)
+        return _from_raster_cmd(
+            from_raster, d, ell, grid_kind, bounds, output, raster_opts, (cog, not no_worldfile)
+        )
+    if input is None:
+        raise OptionError("give an INPUT file (or - for stdin), or --from-raster MASK.png")
+    if mask_only:
+        raise OptionError("--mask is for --from-raster: render writes a mask of INPUT already")
     grid, levels = _grid(grid_kind, size, bounds)
-    shape = read(input, layer=layer, where=where)
+    _say_level_size(grid, classes_level)
+    shape = read(input, layer=layer, where=where, densify=densify)
     show = sys.stderr.isatty()
     t0 = time.perf_counter()
 
@@ -233,6 +237,30 @@ def render_cmd(
             write_mask(img, path, fill=fill, opacity=opacity, background=background, place=place)
     if show:
         click.echo("", err=True)
+
+
+def _from_raster_cmd(path, d, ell, grid_kind, bounds, output, opts, place):
+    """``render --from-raster``: the options checked, the cube or the equirect offset of
+    the mask; ``opts`` is ``(level, backend, mask_only, style)``, ``place`` ``(cog,
+    worldfile)``."""
+    level, backend, mask_only, style = opts
+    if style != (None, 1.0, None) and not mask_only:
+        raise OptionError(
+            "--fill, --background and --opacity style a mask: with --from-raster add "
+            "--mask (the classes picture has its own colours)"
+        )
+    if grid_kind == "cube":
+        if ell is not None:
+            raise OptionError("--ellipsoid with --from-raster takes an equirect mask")
+        if bounds is not None:
+            raise OptionError("--bounds does not apply to --grid cube")
+        return _from_raster_cube(path, d, output, level, backend, mask_only, style)
+    if Path(path).is_dir():
+        raise OptionError(
+            f"--from-raster {path!r} is a folder: add --grid cube to read the six "
+            "cube faces px.png nx.png py.png ny.png pz.png nz.png from it"
+        )
+    return _from_raster(path, d, bounds, output, level, backend, mask_only, place, ell, style)
 
 
 def _distance(distance, radius, ell, classes_level, from_raster) -> float:
@@ -297,24 +325,56 @@ def _grid_of_geotiff(path, bounds) -> tuple[np.ndarray, Equirect]:
     return band >= 128, grid
 
 
-def _from_raster(path, d, bounds, output, level, backend, mask_only, place, ell=None):
+def _say_level_size(grid, level) -> None:
+    """Say on stderr that ``--classes LEVEL`` below the output level is written at that
+    level's size, not the grid's."""
+    cube = isinstance(grid, Cube)
+    ref = CubeFace(0, int(grid.size)) if cube else grid
+    if level is None or not 0 <= level < ref.n_levels - 1:
+        return  # the output level, or a bad level (refused by the render)
+    (h, w), b = ref.level_shape(level), ref.block(level)
+    whole = f"{grid.size}x{grid.size} faces" if cube else f"{grid.width}x{grid.height}"
+    click.echo(
+        f"--classes {level}: written at that level's size, {w}x{h} cells of {b}x{b} pixels of "
+        f"the {whole} grid, without georeference",
+        err=True,
+    )
+
+
+def _from_raster_grid(path, bounds) -> tuple[np.ndarray, Equirect]:
+    """The curve mask of ``--from-raster`` and its equirect grid: a GeoTIFF's own, or a
+    PNG on ``--bounds`` (without them the whole globe, for a 2:1 image only)."""
+    if str(path).lower().endswith((".tif", ".tiff")):
+        return _grid_of_geotiff(path, bounds)
+    mask = read_mask(path)
+    h, w = mask.shape
+    if bounds is None and w != 2 * h:
+        raise OptionError(
+            f"--from-raster {str(path)!r} is {w}x{h} pixels, not 2:1: give the lon/lat it "
+            "covers with --bounds W,S,E,N (only a 2:1 image is taken as the whole globe)"
+        )
+    return mask, Equirect(w, h, _bounds(bounds))
+
+
+def _from_raster(path, d, bounds, output, level, backend, mask_only, place, ell=None, style=None):
     from ..raster.rasterized import raster_offset
 
-    if str(path).lower().endswith((".tif", ".tiff")):
-        mask, grid = _grid_of_geotiff(path, bounds)
-    else:
-        mask = read_mask(path)
-        grid = Equirect(mask.shape[1], mask.shape[0], _bounds(bounds))
+    mask, grid = _from_raster_grid(path, bounds)
+    _say_level_size(grid, level)
     classes = raster_offset(mask, d, grid, radius=1.0, backend=backend, level=level, ellipsoid=ell)
     at = None
     if level is None or level == grid.n_levels - 1:
-        at = _placement(grid, place[0], place[1], "mask" if mask_only else "classes")
-    _write_raster_classes(classes, output, mask_only, at)
+        styled = mask_only and style is not None and style != (None, 1.0, None)
+        what = ("styled" if styled else "mask") if mask_only else "classes"
+        at = _placement(grid, place[0], place[1], what)
+    _write_raster_classes(classes, output, mask_only, at, style)
 
 
-def _write_raster_classes(classes, path, mask_only, place=None):
+def _write_raster_classes(classes, path, mask_only, place=None, style=None):
     if mask_only:
-        write_mask(np.where(classes == CONTAINED, 255, 0).astype(np.uint8), path, place=place)
+        fill, opacity, background = style or (None, 1.0, None)
+        mask = np.where(classes == CONTAINED, 255, 0).astype(np.uint8)
+        write_mask(mask, path, fill=fill, opacity=opacity, background=background, place=place)
     else:
         write_classes(classes, path, place=place)
 
@@ -358,14 +418,16 @@ def read_cube_masks(folder) -> np.ndarray:
     return np.stack(faces)
 
 
-def _from_raster_cube(path, d, output, level, backend, mask_only):
+def _from_raster_cube(path, d, output, level, backend, mask_only, style=None):
     from ..raster.rasterized import raster_offset
 
     mask = read_cube_masks(path)
-    classes = raster_offset(mask, d, Cube(mask.shape[1]), radius=1.0, backend=backend, level=level)
+    grid = Cube(mask.shape[1])
+    _say_level_size(grid, level)
+    classes = raster_offset(mask, d, grid, radius=1.0, backend=backend, level=level)
     folder = _out_folder(output)
     for k, name in enumerate(FACE_NAMES):
-        _write_raster_classes(classes[k], folder / f"{name}.png", mask_only)
+        _write_raster_classes(classes[k], folder / f"{name}.png", mask_only, style=style)
 
 
 @main.command("info")

@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 
 from ..io.output import refuse_stdout
+from ..io.tilestore import check_tile_output
 from ..raster.tilepaint import TileStyle
 from ..raster.tiles import parse_zooms, pyramid
 from ..shape import read
@@ -37,7 +38,7 @@ from .options import (
     "--output",
     required=True,
     help="OUT.mbtiles (MBTiles 1.3), OUT.pmtiles (PMTiles v3, needs the pmtiles package) "
-    "or a directory for z/x/y.png tiles.",
+    "or a directory for z/x/y.png tiles (a name without an extension, or ending in /).",
 )
 @fill_options("#3070c0")
 @click.option("--outline", default=None, help="Draw the input curves in this colour.")
@@ -82,6 +83,7 @@ def tiles_cmd(
     scheduler,
     layer=None,
     where=None,
+    densify=None,
 ):
     """Write the tile pyramid of the region within DIST of the curves of INPUT: tiles
     outside the region are skipped, tiles fully inside share one image and are not
@@ -92,11 +94,12 @@ def tiles_cmd(
     refuse_stdout(
         output, "a tile pyramid is an .mbtiles or .pmtiles file or a folder of z/x/y.png tiles"
     )
+    check_tile_output(output)
     parse_zooms(zooms)
     TileStyle(fill, opacity, outline, outline_width)
     if resume and force:
         raise click.UsageError("--resume and --force exclude each other")
-    shape = read(input, layer=layer, where=where)
+    shape = read(input, layer=layer, where=where, densify=densify)
     bar = None
     if show_progress():
         from tqdm import tqdm

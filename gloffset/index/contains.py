@@ -736,6 +736,8 @@ class Index:
 
     def _query(self, lon, lat, p=None) -> np.ndarray:
         out = np.empty(len(lon), dtype=bool)
+        if len(lon) == 0:
+            return out
         where, leaves = [], []
         for s in range(0, len(lon), CHUNK):
             code = self._lookup(lon[s : s + CHUNK], lat[s : s + CHUNK])

@@ -15,12 +15,13 @@ from .crs import is_lonlat
 __all__ = ["load", "features"]
 
 
-def load(source, *, layer=None, where: str | None = None) -> dict:
+def load(source, *, layer=None, where: str | None = None, densify=None) -> dict:
     """The GeoJSON object of ``source``: a path to a GeoJSON or other vector file, ``-``
     (GeoJSON on stdin), a GeoJSON string or dict, or an object with ``__geo_interface__``.
 
     ``layer`` and ``where`` select a layer and features of a vector file (a GeoJSON file
-    with either is read through GDAL too).
+    with either is read through GDAL too). ``densify`` is the tolerance to which the
+    edges of a file in a projected CRS are followed (:func:`gloffset.io.vectorfile.read`).
     """
     if vectorfile.is_vector_file(source) or (
         (layer is not None or where is not None)
@@ -28,7 +29,7 @@ def load(source, *, layer=None, where: str | None = None) -> dict:
         and os.fspath(source) != "-"
         and not os.fspath(source).lstrip().startswith("{")
     ):
-        return vectorfile.read(source, layer=layer, where=where)
+        return vectorfile.read(source, layer=layer, where=where, densify=densify)
     if layer is not None or where is not None:
         raise InputFormatError(
             "--layer and --where select from a file; they do not apply to stdin, GeoJSON text "
@@ -39,7 +40,8 @@ def load(source, *, layer=None, where: str | None = None) -> dict:
     if legacy is None or is_lonlat(legacy, "the GeoJSON's 'crs'"):
         return obj
     if isinstance(source, (str, os.PathLike)) and os.path.isfile(os.fspath(source)):
-        return vectorfile.read(source)  # GDAL reads the legacy member; then to lon/lat
+        # GDAL reads the legacy member; then to lon/lat
+        return vectorfile.read(source, densify=densify)
     raise InputFormatError(
         f"GeoJSON in CRS {legacy!r} (a pre-RFC 7946 'crs' member): give it as a file, which "
         "is transformed to lon/lat, or write it in lon/lat (EPSG:4326)"

@@ -20,14 +20,13 @@ east 190), so each pixel centre is the grid's, modulo 360.
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputFormatError, OutputError
-from .output import write_bytes
+from .output import replacing, write_bytes
 
 __all__ = ["Georef", "WGS84_WKT", "world_file", "write_geotiff", "read_geotiff"]
 
@@ -78,7 +77,8 @@ def _rasterio():
 def write_geotiff(target, image: np.ndarray, ref: Georef, *, cog: bool = False) -> None:
     """Write ``image`` ((h, w) or (h, w, bands) uint8) as a GeoTIFF placed by ``ref``:
     tiled (256 x 256) and deflate-compressed, or a Cloud Optimized GeoTIFF with ``cog``.
-    Written under a temporary name and moved into place (never a half-written file)."""
+    Written under a temporary name and moved into place (never a half-written file),
+    with the permission bits of a new file (the umask's) or of the file it replaces."""
     rasterio = _rasterio()
     from rasterio.transform import Affine
 
@@ -98,16 +98,14 @@ def write_geotiff(target, image: np.ndarray, ref: Georef, *, cog: bool = False) 
     if n == 4:
         profile["photometric"] = "RGB"
     path = Path(target)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent or ".")
-    os.close(fd)
+    if cog:
+        profile.update(driver="COG", blocksize=256, overview_resampling="nearest")
+    else:
+        profile.update(driver="GTiff", tiled=True, blockxsize=256, blockysize=256)
+        if n == 4:
+            profile["alpha"] = "NON-PREMULTIPLIED"  # the 4th band is alpha (ExtraSamples)
     try:
-        if cog:
-            profile.update(driver="COG", blocksize=256, overview_resampling="nearest")
-        else:
-            profile.update(driver="GTiff", tiled=True, blockxsize=256, blockysize=256)
-            if n == 4:
-                profile["alpha"] = "NON-PREMULTIPLIED"  # the 4th band is alpha (ExtraSamples)
-        with rasterio.open(tmp, "w", **profile) as dst:
+        with replacing(path) as tmp, rasterio.open(tmp, "w", **profile) as dst:
             dst.write(np.moveaxis(arr, -1, 0))
             if n == 4:
                 from rasterio.enums import ColorInterp
@@ -120,12 +118,8 @@ def write_geotiff(target, image: np.ndarray, ref: Georef, *, cog: bool = False) 
                 ]
             if ref.description:
                 dst.update_tags(DESCRIPTION=ref.description)
-        os.replace(tmp, path)
     except rasterio.errors.RasterioError as exc:
         raise OutputError(f"cannot write GeoTIFF {str(path)!r}: {exc}") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 def read_geotiff(path) -> tuple[np.ndarray, Georef]:

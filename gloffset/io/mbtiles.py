@@ -14,11 +14,11 @@ run leaves a valid MBTiles file that holds every tile committed so far.
 from __future__ import annotations
 
 import hashlib
-import os
 import sqlite3
 from pathlib import Path
 
 from ..errors import OutputError, OutputExistsError
+from .output import replacing
 
 __all__ = ["MBTilesWriter", "tms_row", "SCHEMA"]
 
@@ -64,11 +64,9 @@ class MBTilesWriter:
         self.path = Path(path)
         self.batch = int(batch)
         self._pending = 0
-        if self.path.exists() and not resume:
-            if not overwrite:
-                raise OutputExistsError(self.path)
-            self.path.unlink()
-        if not self.path.exists():
+        if self.path.exists() and not resume and not overwrite:
+            raise OutputExistsError(self.path)
+        if not self.path.exists() or not resume:  # a new file replaces (its mode kept)
             self._create(metadata)
         try:
             self.db = sqlite3.connect(self.path, isolation_level=None)
@@ -86,20 +84,21 @@ class MBTilesWriter:
         self.db.execute("BEGIN")
 
     def _create(self, metadata: dict) -> None:
-        tmp = self.path.with_name(self.path.name + ".tmp")
-        tmp.unlink(missing_ok=True)
         try:
-            db = sqlite3.connect(tmp)
-            db.executescript(SCHEMA)
-            db.executemany(
-                "INSERT INTO metadata (name, value) VALUES (?, ?)",
-                [(k, str(v)) for k, v in metadata.items()],
-            )
-            db.commit()
-            db.close()
-            os.replace(tmp, self.path)
+            with replacing(self.path) as tmp:
+                db = sqlite3.connect(tmp)
+                try:
+                    db.executescript(SCHEMA)
+                    db.executemany(
+                        "INSERT INTO metadata (name, value) VALUES (?, ?)",
+                        [(k, str(v)) for k, v in metadata.items()],
+                    )
+                    db.commit()
+                finally:
+                    db.close()
         except (OSError, sqlite3.Error) as exc:
-            tmp.unlink(missing_ok=True)
+            if isinstance(exc, OutputError):
+                raise
             raise OutputError(f"cannot create {str(self.path)!r}: {exc}") from None
 
     # ------------------------------------------------------------------ reading

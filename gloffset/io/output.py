@@ -4,7 +4,9 @@
 - A regular file, or a name that does not exist yet, is replaced atomically: the data go to a
   temporary file in the same folder, flushed to disk, which then replaces the target with
   :func:`os.replace`. On any error the temporary file is removed and the target is left as it
-  was. An existing file keeps its permission bits (and owner, where allowed).
+  was. An existing file keeps its permission bits (and owner, where allowed); a new file gets
+  those the umask gives (0644 under umask 022), whatever the writer made the temporary file
+  with (:func:`replacing`: for GDAL and SQLite, which write to a name).
 - A symbolic link is followed: the file it points to is replaced as above and the link stays.
 - A FIFO, a character or block device (``/dev/null``, ``/dev/full``) or a socket is written
   through, as the shell's ``>`` does; it is never replaced by a file.
@@ -28,7 +30,17 @@ from dataclasses import dataclass
 
 from ..errors import OutputError
 
-__all__ = ["STDOUT", "Target", "check_output", "open_output", "refuse_stdout", "write_bytes"]
+__all__ = [
+    "STDOUT",
+    "Target",
+    "check_output",
+    "keep_mode",
+    "new_file_mode",
+    "open_output",
+    "refuse_stdout",
+    "replacing",
+    "write_bytes",
+]
 
 #: The name that means standard output.
 STDOUT = "-"
@@ -191,11 +203,29 @@ def _temporary(path: str, name: str) -> tuple[int, str]:
     raise _fail(name, f"cannot make a temporary file in {folder!r}")  # pragma: no cover
 
 
-def _keep_mode(tmp: str, path: str) -> None:
-    """Give the temporary file the permission bits (and owner) of the file it replaces."""
+def new_file_mode() -> int:
+    """The permission bits a new file gets here: ``0o666`` less the process's umask (0644
+    under umask 022), as :func:`open` gives."""
+    try:  # Linux 4.7+: read without changing it
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return 0o666 & ~int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+def keep_mode(tmp: str, path: str) -> None:
+    """Give the temporary file the permission bits (and owner) of the file it replaces, or,
+    replacing nothing, those of a new file (:func:`new_file_mode`: a writer that made it
+    with other bits, SQLite's 0644 or a private temporary file's 0600, does not decide)."""
     try:
         st = os.stat(path)
     except OSError:
+        os.chmod(tmp, new_file_mode())
         return
     os.chmod(tmp, stat.S_IMODE(st.st_mode))
     if hasattr(os, "chown"):
@@ -246,7 +276,7 @@ def open_output(target, *, text: bool = False):
         out.close()
         if tmp is not None:
             try:
-                _keep_mode(tmp, t.path)
+                keep_mode(tmp, t.path)
                 os.replace(tmp, t.path)
             except OSError as exc:
                 raise _fail(t.name, exc) from None
@@ -263,6 +293,30 @@ def open_output(target, *, text: bool = False):
             except OSError:
                 pass
         raise
+
+
+@contextmanager
+def replacing(target):
+    """A temporary file name beside the file ``target``, for a writer that needs a name
+    (GDAL, SQLite): when the ``with`` block ends without an error, the temporary file
+    takes the permission bits of the file it replaces (of a new file where there is none)
+    and replaces ``target`` atomically; on an error it is removed and ``target`` is left
+    as it was. The temporary file exists, empty, when the block starts. Raises
+    :class:`~gloffset.errors.OutputError` naming ``target``."""
+    name = os.fspath(target)
+    path = os.path.abspath(name)
+    fd, tmp = _temporary(path, name)
+    os.close(fd)
+    try:
+        yield tmp
+        try:
+            keep_mode(tmp, path)
+            os.replace(tmp, path)
+        except OSError as exc:
+            raise _fail(name, exc) from None
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
 
 
 def write_bytes(target, data: bytes) -> None:

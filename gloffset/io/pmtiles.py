@@ -21,12 +21,12 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import tempfile
 from pathlib import Path
 
 from ..errors import OutputError, OutputExistsError
 from .mbtiles import MBTilesWriter, tms_row
+from .output import replacing
 
 __all__ = ["PMTilesWriter", "read_pmtiles"]
 
@@ -99,13 +99,12 @@ class PMTilesWriter:
         rows = self.stage.db.execute(
             "SELECT map.zoom_level, map.tile_column, map.tile_row, map.tile_id FROM map"
         ).fetchall()
-        tmp = self.path.with_name(self.path.name + ".tmp")
         try:
-            with open(tmp, "wb") as f:
+            with replacing(self.path) as tmp, open(tmp, "wb") as f:
                 _write_archive(f, meta, rows, self._image)
-            os.replace(tmp, self.path)
         except OSError as exc:
-            tmp.unlink(missing_ok=True)
+            if isinstance(exc, OutputError):
+                raise
             raise OutputError(f"cannot write {str(self.path)!r}: {exc}") from None
         self.stage.close()
         self.staging.unlink(missing_ok=True)

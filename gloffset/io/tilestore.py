@@ -8,11 +8,60 @@ complete, ``close``), so the pyramid does not care which it writes.
 
 from __future__ import annotations
 
+import hashlib
+import os
 from pathlib import Path
 
-from ..errors import OutputExistsError
+import numpy as np
 
-__all__ = ["OutputExistsError", "open_store"]
+from ..errors import OutputError, OutputExistsError
+
+__all__ = ["INPUT_KEY", "OutputExistsError", "check_tile_output", "input_digest", "open_store"]
+
+#: The file formats of a tile pyramid, by ending; any other output is an XYZ folder.
+TILE_FILES = (".mbtiles", ".pmtiles")
+
+#: The metadata entry that holds :func:`input_digest` of the pyramid's input.
+INPUT_KEY = "gloffset_input"
+
+
+def input_digest(shape) -> str:
+    """``"sha256:HEX"`` of a :class:`~gloffset.Shape`'s geometry: its rings and lines (the
+    float64 unit vectors, little-endian), each ring's seams, components and holes, and the
+    number and length of each part. Two inputs with the same digest are the same region
+    and curves; a resumed pyramid checks that it continues the same input with it."""
+    h = hashlib.sha256(b"gloffset shape 1")
+    parts = (
+        ("rings", shape.rings, "<f8"),
+        ("seams", shape.ring_seams, "|b1"),
+        ("lines", shape.lines, "<f8"),
+    )
+    for name, arrays, dtype in parts:
+        h.update(f"{name}:{len(arrays)}".encode())
+        for a in arrays:
+            a = np.ascontiguousarray(a, dtype=dtype)
+            h.update(f"{a.shape}".encode())
+            h.update(a.tobytes())
+    h.update(np.ascontiguousarray(shape.ring_groups, dtype="<i8").tobytes())
+    h.update(np.ascontiguousarray(shape.ring_holes, dtype="|b1").tobytes())
+    return "sha256:" + h.hexdigest()
+
+
+def check_tile_output(path) -> None:
+    """Refuse (:class:`~gloffset.errors.OutputError`) an output name that is neither a tile
+    file (``.mbtiles``, ``.pmtiles``) nor a folder: a folder is a name without an
+    extension, one ending in ``/``, or an existing folder. ``tiles.txt`` or ``t.png``
+    would otherwise become a folder of that name."""
+    text = os.fspath(path)
+    p = Path(text)
+    suffix = p.suffix.lower()
+    if suffix in TILE_FILES or not suffix or text.endswith(("/", os.sep)) or p.is_dir():
+        return
+    raise OutputError(
+        f"{text!r}: {p.suffix!r} is no tile format; name the output NAME.mbtiles, "
+        f"NAME.pmtiles or a folder for z/x/y.png tiles (a name without an extension, or "
+        f"one ending in '/': {p.stem + '/'!r})"
+    )
 
 
 def open_store(path, metadata: dict, *, resume: bool = False, overwrite: bool = False):
@@ -20,8 +69,10 @@ def open_store(path, metadata: dict, *, resume: bool = False, overwrite: bool = 
     ``.pmtiles``, else an XYZ directory writer.
 
     Raises :class:`OutputExistsError` when the output exists and neither ``resume``
-    nor ``overwrite`` is set.
+    nor ``overwrite`` is set, :class:`~gloffset.errors.OutputError` for a name that is
+    no tile output (:func:`check_tile_output`).
     """
+    check_tile_output(path)
     path = Path(path)
     if path.suffix.lower() == ".mbtiles":
         from .mbtiles import MBTilesWriter

@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import tempfile
 import warnings
 from pathlib import Path
@@ -26,7 +27,8 @@ import numpy as np
 
 from ..errors import InputFormatError, OutputError
 from . import geoparquet
-from .crs import to_lonlat
+from .crs import densify, densify_tolerance, to_lonlat
+from .output import keep_mode
 
 __all__ = ["READ_SUFFIXES", "WRITE_FORMATS", "check_writable", "is_vector_file", "read", "write"]
 
@@ -85,8 +87,13 @@ def _has_driver(pyogrio, name: str) -> bool:
 # ---------------------------------------------------------------------------- reading
 
 
-def read(path, *, layer=None, where: str | None = None) -> dict:
+def read(path, *, layer=None, where: str | None = None, densify=None) -> dict:
     """A GeoJSON FeatureCollection (lon/lat) of the features of a vector file.
+
+    A file in a projected CRS has its edges densified (:func:`gloffset.io.crs.densify`:
+    points along each straight edge of the projection until the great circles between
+    them follow it to ``densify``, metres or a distance with its unit; default 1 m or a
+    hundredth of the edge, whichever is smaller); lon/lat edges are kept as they are.
 
     Raises :class:`~gloffset.errors.InputFormatError` naming the problem: the extra is not
     installed, the file is missing or not a vector file, the layer is unknown (the message
@@ -94,6 +101,7 @@ def read(path, *, layer=None, where: str | None = None) -> dict:
     transformed to lon/lat.
     """
     path = os.fspath(path)
+    tolerance = densify_tolerance(densify)
     pyogrio, shapely = _needs(f"reading {path!r}")
     if not os.path.exists(path):
         raise InputFormatError(f"no such file: {path!r}")
@@ -101,7 +109,7 @@ def read(path, *, layer=None, where: str | None = None) -> dict:
         crs, wkb, columns = _parquet_layer(pyogrio, path, layer, where)
     else:
         crs, wkb, columns = _gdal_layer(pyogrio, path, layer, where)
-    return _features(shapely, path, crs, wkb, columns)
+    return _features(shapely, path, crs, wkb, columns, tolerance)
 
 
 def _gdal_layer(pyogrio, path: str, layer, where, shown: str | None = None):
@@ -137,11 +145,21 @@ def _gdal_layer(pyogrio, path: str, layer, where, shown: str | None = None):
                 "\"name = 'Fiji'\""
             ) from None
         raise InputFormatError(f"cannot read {shown!r}: {_first_line(exc)}") from None
+    if where is not None and len(wkb) == 0:
+        name = names[layer] if isinstance(layer, int) else (layer or names[0])
+        raise InputFormatError(
+            f"{shown!r}: no feature of layer {name!r} matched the --where clause {where!r}"
+        )
     return meta["crs"], list(wkb), dict(zip(meta["fields"], data))
 
 
 def _first_line(exc: Exception) -> str:
-    return str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    """The first line of a GDAL error, with the bytes reprs (``b'name'``) that some of
+    its messages carry shown as the text they are."""
+    text = str(exc).strip()
+    if not text:
+        return type(exc).__name__
+    return re.sub(r"\bb'([^']*)'", r"\1", text.splitlines()[0])
 
 
 def _field_names(pyogrio, path: str, layer) -> str:
@@ -186,11 +204,14 @@ def _column(values: np.ndarray) -> np.ndarray:
     return np.array([None if v is None else str(v) for v in values.tolist()], dtype=object)
 
 
-def _features(shapely, path: str, crs, wkb: list, columns: dict) -> dict:
-    """GeoJSON features from WKB geometries (transformed to lon/lat) and their columns."""
+def _features(shapely, path: str, crs, wkb: list, columns: dict, tolerance=None) -> dict:
+    """GeoJSON features from WKB geometries (transformed to lon/lat; the edges of a
+    projected CRS densified to ``tolerance``, :func:`gloffset.io.crs.densify`) and their
+    columns."""
     transform = to_lonlat(crs, repr(path))
     geoms = shapely.from_wkb(np.array(wkb, dtype=object))
-    if transform is not None:
+    projected = transform is not None and transform.projected
+    if transform is not None and not projected:
         geoms = shapely.transform(geoms, lambda xy: np.column_stack(transform(xy[:, 0], xy[:, 1])))
     texts = shapely.to_geojson(geoms)
     names = list(columns)
@@ -200,7 +221,46 @@ def _features(shapely, path: str, crs, wkb: list, columns: dict) -> dict:
         geometry = None if text is None else json.loads(text)
         props = {n: v[i] for n, v in zip(names, values)}
         features.append({"type": "Feature", "properties": props, "geometry": geometry})
+    if projected:
+        _densify_features(transform, features, tolerance)
     return {"type": "FeatureCollection", "name": Path(path).name, "features": features}
+
+
+def _densify_features(transform, features: list[dict], tolerance) -> None:
+    """Replace the projected coordinates of the features' geometries by lon/lat, each
+    edge densified (all of them in one :func:`~gloffset.io.crs.densify` call)."""
+    slots = []  # (list, index, is a path): where coordinates are
+    for f in features:
+        if f["geometry"] is not None:
+            _coordinate_slots(f["geometry"], slots)
+    parts = []
+    for holder, i, path in slots:
+        xy = np.asarray(holder[i] if path else [holder[i]], dtype=np.float64)
+        parts.append(xy.reshape(len(xy), -1)[:, :2])
+    for (holder, i, path), lonlat in zip(slots, densify(transform, parts, tolerance)):
+        holder[i] = lonlat.tolist() if path else lonlat[0].tolist()
+
+
+def _coordinate_slots(geometry: dict, slots: list) -> None:
+    """Where the coordinates of a GeoJSON geometry (shapely's, well formed) are: each
+    path (a line or a ring: its edges are the projection's straight lines) and each
+    point, as ``(list, index, is a path)``."""
+    kind, coords = geometry["type"], geometry.get("coordinates")
+    if kind == "GeometryCollection":
+        for g in geometry["geometries"]:
+            _coordinate_slots(g, slots)
+    elif kind == "Point":
+        if coords:
+            slots.append((geometry, "coordinates", False))
+    elif kind == "MultiPoint":
+        slots.extend((coords, i, False) for i in range(len(coords)))
+    elif kind == "LineString":
+        if coords:
+            slots.append((geometry, "coordinates", True))
+    elif kind in ("MultiLineString", "Polygon"):
+        slots.extend((coords, i, True) for i in range(len(coords)) if coords[i])
+    elif kind == "MultiPolygon":
+        slots.extend((p, i, True) for p in coords for i in range(len(p)) if p[i])
 
 
 def _plain(column) -> list:
@@ -292,5 +352,9 @@ def _multi(shapely, g):
 
 
 def _move_all(src: str, dst: str) -> None:
+    """Move the files of ``src`` into ``dst``, each with the permission bits of the file it
+    replaces or of a new file (GDAL's SQLite makes a GeoPackage 0644 whatever the umask)."""
     for name in sorted(os.listdir(src)):
-        os.replace(os.path.join(src, name), os.path.join(dst, name))
+        tmp, path = os.path.join(src, name), os.path.join(dst, name)
+        keep_mode(tmp, path)
+        os.replace(tmp, path)

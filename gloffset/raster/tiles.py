@@ -66,7 +66,7 @@ from ..ellipsoid import as_ellipsoid
 from ..errors import TilesError
 from ..grids.conformal import ConformalRows
 from ..grids.mercator import MAX_ZOOM, Tile, TilePyramid, check_tile_size, lat_at
-from ..io.tilestore import open_store
+from ..io.tilestore import INPUT_KEY, input_digest, open_store
 from ..malloc import keep_freed_memory
 from ..shape import read
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
@@ -639,9 +639,8 @@ def pyramid(
         desc = _describe(distance, d, radius, source)
         if ell is not None:
             desc += f"; geodesic distance on {ell}"
-        store = open_store(
-            out, _metadata(label, desc, (zlo, zhi), params), resume=resume, overwrite=overwrite
-        )
+        meta = {**_metadata(label, desc, (zlo, zhi), params), INPUT_KEY: input_digest(shape)}
+        store = open_store(out, meta, resume=resume, overwrite=overwrite)
     else:
         store = out
     stats = PyramidStats()
@@ -653,6 +652,7 @@ def pyramid(
                     f"cannot resume {str(getattr(store, 'path', out))!r}: it was written with "
                     f"other options ({have}); use --force to start again"
                 )
+            _check_input(store, shape, out)
         have = store.existing() if resume else set()
         if ell is not None:
             full = style.encode(np.ones((size, size), dtype=bool))
@@ -687,6 +687,23 @@ def pyramid(
         store.close()
     stats.seconds = time.perf_counter() - t0
     return stats
+
+
+def _check_input(store, shape, out) -> None:
+    """Refuse to resume a pyramid of another input (or of one not recorded: an output of
+    gloffset before 2026-11-26 has no digest, and its input cannot be checked)."""
+    where = str(getattr(store, "path", out))
+    have, want = store.metadata().get(INPUT_KEY), input_digest(shape)
+    if have is None:
+        raise TilesError(
+            f"cannot resume {where!r}: it records no digest of its input ({INPUT_KEY}), so "
+            "whether it holds this input's tiles cannot be checked; use --force to start again"
+        )
+    if have != want:
+        raise TilesError(
+            f"cannot resume {where!r}: it holds the tiles of another input (its geometry's "
+            f"{have[:19]}..., this input's {want[:19]}...); use --force to start again"
+        )
 
 
 def _subtree(x, y, z, zfrom, zto, chunk=65536):
