@@ -51,7 +51,7 @@ def fill_floor(w: int, h: int) -> float:
 def per_level(shape, grid) -> list:
     """Seconds spent on each level (CPU levels, then GPU levels, each finished; the
     GPU level after the bins includes the arc records), the least of REPEAT runs."""
-    from gloffset.raster.gpu import engine
+    from gloffset.raster.gpu import bin_passes as engine
 
     eng = engine()
     bins = grid.bin_level_for(D)

@@ -88,7 +88,7 @@ def _client(workers, scheduler):
 async def _warm() -> None:
     """Import what a task needs (on each worker, while the split is made; a coroutine
     so that the call does not wait for it)."""
-    from ..gl import engine  # noqa: F401
+    from ..gl import vector_pass  # noqa: F401
     from . import render  # noqa: F401  (the task module itself is imported by Dask)
 
 

@@ -24,7 +24,7 @@ Accuracy: distances are exact float64 point-to-arc distances (error < 1e-15 rad)
 decisions at ``R > 0`` use a slack of 1e-15 rad toward *frontier*, so a cell is
 only called contained or outside when all its descendant pixels are.
 
-The GPU engine (:mod:`gloffset.gl.engine`) takes over below the bin level with the
+The GPU engine (:mod:`gloffset.gl.vector_pass`) takes over below the bin level with the
 same rules. The classifier :class:`~gloffset.raster.curves.CurveCells`, driven by
 :mod:`gloffset.raster.driver`, strings these operations into levels;
 :func:`gloffset.raster.curves.classify` run to the output level is the float64

@@ -2,7 +2,7 @@
 
 Coarse to fine over the grid's levels: the coarse levels in float64 on the CPU
 (:mod:`gloffset.raster.levels`), the levels below the bins in fragment shaders on the
-GPU (:mod:`gloffset.gl.engine`), each level evaluating only children of frontier
+GPU (:mod:`gloffset.gl.vector_pass`), each level evaluating only children of frontier
 cells. Outputs larger than the GL texture limit are rendered in tiles.
 """
 
@@ -208,7 +208,7 @@ def _render_one(shape, d, grid, *, backend, level, callback, mask, simplify=True
     """Classes of ``level`` (default: the output level) or, with ``mask``, the mask.
 
     The float64 levels (:class:`~gloffset.raster.levels.CurveCells`) run down to the
-    bins, the GL levels (:mod:`gloffset.gl.engine`) below them; ``backend="cpu"``
+    bins, the GL levels (:mod:`gloffset.gl.vector_pass`) below them; ``backend="cpu"``
     runs every level in float64. A GPU mask of a shape far finer than the pixels is
     rendered from the shape simplified to a fraction of a pixel
     (:mod:`gloffset.raster.simplified`), with the same pixels.
@@ -222,12 +222,12 @@ def _render_one(shape, d, grid, *, backend, level, callback, mask, simplify=True
     if backend == "cpu" or stop <= bins:
         classes = driver.run(CurveCells(shape, d, grid), stop, callback=callback)
         return _MASK[classes] if mask else classes
-    from .gpu import engine
+    from .gpu import bin_passes
 
     cells = CurveCells(shape, d, grid, start="auto")
 
     def on_gpu(classes, lev):
-        return engine().run(
+        return bin_passes().run(
             grid,
             d,
             classes,

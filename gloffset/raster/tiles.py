@@ -30,7 +30,7 @@ so a tile's pixels, and its bins of 16 pixels, are deeper levels of the same
 quadtree. The hierarchy runs to zoom ``max + P``: the frontier tiles of zoom ``z``
 are refined in float64 down to their bins (zoom ``z + P - 4``; these levels are
 kept from zoom to zoom, so each zoom adds one, :class:`_BinChain`), and the GPU levels
-(:class:`gloffset.gl.engine.GpuLevels`) classify the frontier bins of up to
+(:class:`gloffset.gl.vector_pass.VectorPasses`) classify the frontier bins of up to
 ``(max_block / size)^2`` tiles at once, packed into one small canvas
 (:class:`~gloffset.raster.layout.BinLayout`); every other pixel of a tile is its bin's
 class. So the cost per tile is that of its frontier bins, not a render call. The
@@ -947,7 +947,7 @@ class _Zoom:
         stats.present += len(front) - len(todo)
         self.track.tick(heavy=len(front) - len(todo), skipped=len(front) - len(todo))
         if todo:
-            self.track.setup(_engine)  # the GL context, once: not a tile's cost
+            self.track.setup(_gl_passes)  # the GL context, once: not a tile's cost
         if self.alone(z):
             # few tiles, each far coarser than the input: one render per tile, from the
             # curves simplified to its pixels where that pays (as render_tiles does)
@@ -975,10 +975,10 @@ class _Zoom:
             self.track.tick(heavy=1)
 
 
-def _engine():
-    from ..gl.engine import engine
+def _gl_passes():
+    from ..gl.vector_pass import vector_passes
 
-    return engine()
+    return vector_passes()
 
 
 def _keys(cells: np.ndarray, k: int = 0) -> np.ndarray:
@@ -1254,7 +1254,7 @@ def _render_tiles(chain, which, size, max_block, stats):
     ``(index, mask)``: the GPU levels classify the frontier bins of up to
     ``(max_block / size)^2`` tiles per run, packed into one small canvas; every other
     pixel of a tile is its bin's class."""
-    from .gpu import engine
+    from .gpu import bin_passes
 
     plog = size.bit_length() - 1
     ns = plog - chain.nb  # GPU levels: a bin is 2^ns pixels on a side
@@ -1263,7 +1263,7 @@ def _render_tiles(chain, which, size, max_block, stats):
     for s0 in range(0, len(which), per_run):
         batch = which[s0 : s0 + per_run]
         tiles, layout, fb, (t, jr, jc) = chain.layout(batch, ns)
-        packed = engine().run_layout(layout, chain.d, fb, chain.arcs)
+        packed = bin_passes().run_layout(layout, chain.d, fb, chain.arcs)
         stats.render_calls += 1
         n, nbin = len(batch), tiles.shape[1]
         out = np.repeat(np.repeat(tiles, b, 1), b, 2)
