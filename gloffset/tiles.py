@@ -1,5 +1,5 @@
 """Web-mercator tile pyramids of the offset region: the public face of
-:mod:`gloffset.raster.tiles`.
+:mod:`gloffset.raster.pyramid`.
 
 :func:`pyramid` writes an XYZ folder, MBTiles or PMTiles pyramid of the region within a
 distance of the input; :func:`parse_zooms` reads a zoom range, :class:`PyramidStats`
@@ -9,7 +9,7 @@ and :class:`TileProgress` are what a run reports. The tile server's helpers
 
 from __future__ import annotations
 
-from .raster.tiles import (
+from .raster.pyramid import (
     ALONE_ZOOM,
     MAX_ZOOM,
     PyramidStats,

@@ -15,9 +15,9 @@ import gloffset
 from gloffset.edges import CurveArcs, component_status
 from gloffset.grids.mercator import TilePyramid
 from gloffset.raster import driver, node_levels
-from gloffset.raster import tiles as tl
 from gloffset.raster.curves import CurveCells
 from gloffset.raster.driver import FRONTIER
+from gloffset.raster.pyramid import driver as tl
 
 NEIGHBOURS = {"France", "Spain", "Portugal", "Andorra", "Germany", "Belgium", "Luxembourg"}
 NEIGHBOURS |= {"Netherlands", "Austria", "Czechia", "Poland", "Croatia", "Denmark"}

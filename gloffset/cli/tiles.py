@@ -9,8 +9,8 @@ from pathlib import Path
 import click
 
 from ..io.output import refuse_stdout
-from ..raster.tilepaint import TileStyle
-from ..raster.tiles import parse_zooms, pyramid
+from ..raster.pyramid import parse_zooms, pyramid
+from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
 from . import main
 from .options import (

@@ -60,23 +60,23 @@ from pathlib import Path
 
 import numpy as np
 
-from .._version import __version__
-from ..edges import CurveArcs, inside_any
-from ..ellipsoid import as_ellipsoid
-from ..errors import TilesError
-from ..grids.conformal import ConformalRows
-from ..grids.mercator import MAX_ZOOM, Tile, TilePyramid, check_tile_size, lat_at
-from ..io.tilestore import open_store
-from ..malloc import keep_freed_memory
-from ..shape import read
-from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
-from . import driver
-from .curves import CurveCells
-from .driver import CONTAINED, FRONTIER, NOT_FORCED, OUTSIDE, Level
-from .ellipsoid_tiles import run_ellipsoid_pyramid
-from .layout import BinLayout
-from .levels import at_cells, cell_distances, decide, subset
-from .render import render, render_grid
+from ..._version import __version__
+from ...edges import CurveArcs, inside_any
+from ...ellipsoid import as_ellipsoid
+from ...errors import TilesError
+from ...grids.conformal import ConformalRows
+from ...grids.mercator import MAX_ZOOM, Tile, TilePyramid, check_tile_size, lat_at
+from ...io.tilestore import open_store
+from ...malloc import keep_freed_memory
+from ...shape import read
+from ...units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
+from .. import driver
+from ..curves import CurveCells
+from ..driver import CONTAINED, FRONTIER, NOT_FORCED, OUTSIDE, Level
+from ..layout import BinLayout
+from ..levels import at_cells, cell_distances, decide, subset
+from ..render import render, render_grid
+from .ellipsoid import run_ellipsoid_pyramid
 from .tilepaint import OutlineArcs, TileStyle
 
 __all__ = [
@@ -545,7 +545,7 @@ def pyramid(
     size : int
         Tile side in pixels, a power of two from 16 to 4096.
     fill, opacity, outline, outline_width
-        The style (:class:`gloffset.raster.tilepaint.TileStyle`): region colour and its
+        The style (:class:`gloffset.raster.pyramid.tilepaint.TileStyle`): region colour and its
         opacity on a transparent background, and the colour and width of an
         outline of the original curves (None: no outline).
     resume : bool
@@ -569,7 +569,7 @@ def pyramid(
         this process classifies the zooms down to a coarse one, writes their decided
         tiles and hands every other tile to the workers (the frontier tiles above that
         zoom one by one, the kept tiles of that zoom with their sub-pyramids:
-        :mod:`gloffset.raster.distributed`); each worker makes its own GL context; the
+        :mod:`gloffset.raster.pyramid.distributed`); each worker makes its own GL context; the
         tiles stream back to this process, which writes them. The output is
         byte-identical to a run in one process.
     scheduler : str, optional
@@ -578,7 +578,7 @@ def pyramid(
         ``None``: the sphere of ``radius``. Otherwise ``distance`` is a geodesic length
         in metres on the ellipsoid (a string takes length units only), and every tile
         equals ``render(shape, distance, Tile(z, x, y, size), ellipsoid=...)``
-        (:mod:`gloffset.raster.ellipsoid_tiles`; no outline, no workers).
+        (:mod:`gloffset.raster.pyramid.ellipsoid`; no outline, no workers).
 
     Returns
     -------
@@ -976,7 +976,7 @@ class _Zoom:
 
 
 def _gl_passes():
-    from ..gl.vector_pass import vector_passes
+    from ...gl.vector_pass import vector_passes
 
     return vector_passes()
 
@@ -1254,7 +1254,7 @@ def _render_tiles(chain, which, size, max_block, stats):
     ``(index, mask)``: the GPU levels classify the frontier bins of up to
     ``(max_block / size)^2`` tiles per run, packed into one small canvas; every other
     pixel of a tile is its bin's class."""
-    from .gpu import bin_passes
+    from ..gpu import bin_passes
 
     plog = size.bit_length() - 1
     ns = plog - chain.nb  # GPU levels: a bin is 2^ns pixels on a side

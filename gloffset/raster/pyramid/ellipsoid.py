@@ -20,10 +20,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ellipsoidal import conformal, decide, signed_distance, thresholds
-from ..grids.mercator import Tile, lat_at
-from ..sphere import angle, lonlat_to_xyz
-from .render import GPU_EPS, SCREEN_MARGIN, screened
+from ...ellipsoidal import conformal, decide, signed_distance, thresholds
+from ...grids.mercator import Tile, lat_at
+from ...sphere import angle, lonlat_to_xyz
+from ..render import GPU_EPS, SCREEN_MARGIN, screened
 
 __all__ = ["run_ellipsoid_pyramid", "tile_caps"]
 
@@ -81,7 +81,7 @@ def classify(conf, m: float, z: int, xs, ys):
 def run_ellipsoid_pyramid(shape, m, ell, zooms, size, style, store, have, stats, full, masks):
     """Write the tiles of zooms ``zooms`` (inclusive) into ``store`` (skipping ``have``):
     contained tiles and their descendants as ``full``, frontier tiles rendered
-    (:func:`frontier_masks`, with ``masks``, :func:`gloffset.raster.tiles.tile_masks`)."""
+    (:func:`frontier_masks`, with ``masks``, :func:`gloffset.raster.pyramid.tile_masks`)."""
     zlo, zhi = zooms
     conf = conformal(shape, ell)
     xs, ys = np.zeros(1, np.int64), np.zeros(1, np.int64)
