@@ -2,24 +2,18 @@
 :mod:`gloffset.tiles`).
 
 :mod:`.driver` is :func:`pyramid`: the run over the zooms, resumed outputs, the job of a
-run; the other modules are its parts: :mod:`.tilepaint` (PNG encoding and outlines),
-:mod:`.distributed` (the Dask split) and :mod:`.ellipsoid` (pyramids on the ellipsoid).
+run. Its parts: :mod:`.walk` (what each zoom writes, the bin levels below its frontier
+tiles), :mod:`.progress` (counts, progress and the time left), :mod:`.metadata` (the
+output's metadata), :mod:`.tilepaint` (PNG encoding and outlines), :mod:`.distributed`
+(the Dask split), :mod:`.ellipsoid` (pyramids on the ellipsoid) and :mod:`.ondemand`
+(a few tiles of one zoom, for the tile server).
 """
 
 from __future__ import annotations
 
-from .driver import (
-    ALONE_ZOOM,
-    MAX_ZOOM,
-    PyramidStats,
-    TileCentre,
-    TileProgress,
-    TilesError,
-    measure_tiles,
-    parse_zooms,
-    pyramid,
-    render_tiles,
-)
+from .driver import MAX_ZOOM, TilesError, parse_zooms, pyramid
+from .ondemand import ALONE_ZOOM, TileCentre, measure_tiles, render_tiles
+from .progress import PyramidStats, TileProgress
 
 __all__ = [
     "pyramid",

@@ -102,7 +102,7 @@ def run_distributed(job, store, have, progress, stats, *, run, task, workers=Non
     task's tiles from ``start``, the tile's level as the split classified it (so no
     worker walks the coarse zooms again).
     """
-    zlo, zhi = job[2], job[3]
+    zlo, zhi = job.zlo, job.zhi
     if workers is not None and not (isinstance(workers, (int, np.integer)) and workers >= 1):
         raise OptionError(f"workers must be a positive integer, got {workers!r}")
     # the workers start (and import) while this process classifies the coarse zooms
