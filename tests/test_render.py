@@ -6,8 +6,8 @@ from conftest import LINES, SQUARE_WITH_HOLE
 
 import gloffset
 from gloffset.grids import Equirect
-from gloffset.raster.levels import CONTAINED, FRONTIER, OUTSIDE
 from gloffset.raster.render import RenderError
+from gloffset.raster.vector.levels import CONTAINED, FRONTIER, OUTSIDE
 from gloffset.reference import contains_xyz, distance_xyz
 
 EPS = 1e-3  # of a pixel: the band around the boundary where float32 may differ

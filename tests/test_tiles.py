@@ -770,7 +770,7 @@ def test_each_level_is_refined_once(tmp_path, mexico_path, monkeypatch):
     """The bin levels run ahead of the zoom walk and the walk reaches the same frontier
     later: each level is classified once (CurveCells.remember), with the tiles of a run
     that classifies it twice."""
-    from gloffset.raster import curves, node_levels
+    from gloffset.raster.vector import curves, node_levels
 
     calls = []
 

@@ -6,7 +6,7 @@ level by level: a level's cells are *contained*, *outside* or *frontier*, and on
 children of frontier cells are classified at the next level (the paper's Sec. 5.2). What
 differs is how a cell is classified; that is a :class:`Classifier`:
 
-* :class:`gloffset.raster.levels.CurveCells`: against the offset region of vector curves
+* :class:`gloffset.raster.vector.levels.CurveCells`: against the offset region of vector curves
   (exact float64 distances to candidate arcs);
 * :class:`gloffset.raster.rasterized.RasterCells`: against the cells of a rasterized curve.
 

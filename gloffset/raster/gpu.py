@@ -16,8 +16,8 @@ import numpy as np
 from ..edges import CurveArcs
 from ..gl.vector_pass import BinPlan, vector_passes
 from .layout import BinLayout
-from .levels import Frontier
 from .records import margins, records
+from .vector.levels import Frontier
 
 __all__ = ["BinPasses", "bin_plan", "bin_passes"]
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..classes import FRONTIER
-from .levels import Frontier
+from .vector.levels import Frontier
 
 __all__ = ["BinLayout"]
 

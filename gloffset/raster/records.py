@@ -28,7 +28,7 @@ from ..caps import CAP_SLACK, cap_range, chord2
 from ..edges import CurveArcs
 from ..errors import GLContextError
 from ..sphere import dot, einsum_dot
-from .levels import Frontier
+from .vector.levels import Frontier
 
 __all__ = [
     "ARC_HAS_DISTANCE",

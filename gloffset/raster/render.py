@@ -1,7 +1,7 @@
 """Rasters of the offset region: ``render(shape, distance, grid)``.
 
 Coarse to fine over the grid's levels: the coarse levels in float64 on the CPU
-(:mod:`gloffset.raster.levels`), the levels below the bins in fragment shaders on the
+(:mod:`gloffset.raster.vector.levels`), the levels below the bins in fragment shaders on the
 GPU (:mod:`gloffset.gl.vector_pass`), each level evaluating only children of frontier
 cells. Outputs larger than the GL texture limit are rendered in tiles.
 """
@@ -19,8 +19,8 @@ from ..shape import read
 from ..sphere import xyz_to_lonlat
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
 from . import driver
-from .curves import CurveCells
 from .simplified import PIXEL_FRACTION, band_members, simplified, z_order
+from .vector.curves import CurveCells
 
 __all__ = ["render", "RenderError", "MAX_PIXELS"]
 
@@ -207,7 +207,7 @@ def render_grid(shape, d: float, grid) -> np.ndarray:
 def _render_one(shape, d, grid, *, backend, level, callback, mask, simplify=True):
     """Classes of ``level`` (default: the output level) or, with ``mask``, the mask.
 
-    The float64 levels (:class:`~gloffset.raster.levels.CurveCells`) run down to the
+    The float64 levels (:class:`~gloffset.raster.vector.levels.CurveCells`) run down to the
     bins, the GL levels (:mod:`gloffset.gl.vector_pass`) below them; ``backend="cpu"``
     runs every level in float64. A GPU mask of a shape far finer than the pixels is
     rendered from the shape simplified to a fraction of a pixel

@@ -138,7 +138,7 @@ class TileService:
 
     def triage(self, key: TileKey, *, measure: bool = True):
         """CONTAINED or OUTSIDE when the whole tile is decided at its own zoom (the
-        classification of the raster levels, :func:`gloffset.raster.levels.decide`, with
+        classification of the raster levels, :func:`gloffset.raster.vector.levels.decide`, with
         the tile's rigorous bound), else None (:data:`UNKNOWN` when the tile is not
         measured yet and ``measure`` is False). What the decision needs (the exact
         distances from the tile's centre to the nearest boundary arc and ring edge, and
@@ -160,7 +160,7 @@ class TileService:
         return geo.decide(key.d)
 
     def _measure(self, key: TileKey):
-        """The tile entered directly at its zoom (:func:`gloffset.raster.levels.at_cells`)
+        """The tile entered directly at its zoom (:func:`gloffset.raster.vector.levels.at_cells`)
         with every arc that can be its centre's nearest as candidates (no distance
         limit): the exact distances to the nearest boundary arc and ring edge, the
         centre's inside status and the tile's decision bound (1-element arrays)."""
@@ -168,7 +168,7 @@ class TileService:
 
     def measure(self, keys) -> None:
         """Measure the centres of the tiles ``keys`` not known yet, those of one layer and
-        zoom together (one :func:`~gloffset.raster.levels.at_cells` for the tiles of a
+        zoom together (one :func:`~gloffset.raster.vector.levels.at_cells` for the tiles of a
         view: the same values as :meth:`triage` measuring each)."""
         groups: dict = {}
         with self.lock:

@@ -1,8 +1,8 @@
 """Web-mercator tile pyramids of the offset region, driven by the tile quadtree.
 
 The XYZ quadtree is used as a level hierarchy (level = zoom): every visited tile is
-classified in float64 with the decision rules of :mod:`gloffset.raster.levels`
-(:func:`~gloffset.raster.levels.decide`), with the tile centre and the bound
+classified in float64 with the decision rules of :mod:`gloffset.raster.vector.levels`
+(:func:`~gloffset.raster.vector.levels.decide`), with the tile centre and the bound
 
     r(z, y) = the largest angle from the centre to any point of the tile's lon/lat
               rectangle (the same for every tile of a row),
@@ -64,9 +64,9 @@ from ...malloc import keep_freed_memory
 from ...shape import read
 from ...units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
 from .. import driver
-from ..curves import CurveCells
 from ..driver import Level
-from ..levels import subset
+from ..vector.curves import CurveCells
+from ..vector.levels import subset
 from .ellipsoid import run_ellipsoid_pyramid
 from .job import MAX_BLOCK, PyramidJob
 from .metadata import describe, final_bounds, options_json, source_name, store_metadata

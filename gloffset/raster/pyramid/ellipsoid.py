@@ -68,7 +68,7 @@ def tile_caps(ell, z: int, xs, ys):
     return c, r
 
 
-def classify(conf, m: float, z: int, xs, ys):
+def classify_tiles(conf, m: float, z: int, xs, ys):
     """``(inside, outside)`` flags of tiles ``z/xs/ys`` for signed distance ``m``."""
     t_in, t_out = thresholds(conf, m)
     c, r = tile_caps(conf.ell, z, xs, ys)
@@ -92,7 +92,7 @@ def run_ellipsoid_pyramid(job, ell, store, have, stats):
     for z in range(zhi + 1):
         if len(xs) == 0:
             break
-        inside, outside = classify(conf, m, z, xs, ys)
+        inside, outside = classify_tiles(conf, m, z, xs, ys)
         front = ~inside & ~outside
         stats.zooms[z] = {
             "contained": int(inside.sum()),

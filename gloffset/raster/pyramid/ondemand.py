@@ -14,10 +14,10 @@ import numpy as np
 from ...edges import CurveArcs, inside_any
 from ...grids.conformal import ConformalRows
 from ...grids.mercator import TilePyramid
-from ..curves import CurveCells
 from ..driver import CONTAINED, FRONTIER, OUTSIDE
-from ..levels import at_cells, cell_distances, decide, subset
 from ..render import render, render_grid
+from ..vector.curves import CurveCells
+from ..vector.levels import at_cells, cell_distances, decide, subset
 from .job import MAX_BLOCK
 from .progress import PyramidStats, Tracker
 from .tilepaint import TileStyle
@@ -52,7 +52,7 @@ class TileCentre:
     """What decides a tile wholly inside or outside at any distance: the exact distances
     from its centre to the nearest boundary arc (``dist``) and ring edge (``dring``),
     whether the centre is inside, and the tile's rigorous bound ``rho`` (1-element arrays,
-    as :func:`gloffset.raster.levels.decide` takes them). None of it depends on the
+    as :func:`gloffset.raster.vector.levels.decide` takes them). None of it depends on the
     offset distance, so a tile server measures it once per tile."""
 
     dist: np.ndarray
@@ -69,7 +69,7 @@ class TileCentre:
 
 def measure_tiles(shape, z: int, tiles) -> dict:
     """The :class:`TileCentre` of each tile ``(x, y)`` of zoom ``z``, measured together:
-    the tiles entered directly at their zoom (:func:`gloffset.raster.levels.at_cells`)
+    the tiles entered directly at their zoom (:func:`gloffset.raster.vector.levels.at_cells`)
     with every arc that can be a centre's nearest as candidates (no distance limit)."""
     grid = _pyramid(z)
     arcs = CurveArcs.from_shape(shape)
@@ -101,7 +101,7 @@ def render_tiles(
 
     The work follows the tiles, not the input: the tiles are classified directly at
     zoom ``z`` (their candidate arcs from the cap tree, within their reach:
-    :meth:`~gloffset.raster.curves.CurveCells.enter_cells`), a tile decided contained or
+    :meth:`~gloffset.raster.vector.curves.CurveCells.enter_cells`), a tile decided contained or
     outside is answered at once, and the frontier tiles are rendered together in
     batched GPU runs. Up to zoom ``alone_zoom`` (:data:`ALONE_ZOOM`), where that is
     slower, each tile is rendered on its own :class:`~gloffset.grids.Tile` (no outline).

@@ -10,11 +10,11 @@ import functools
 import numpy as np
 
 from ...grids.mercator import Tile
-from ..curves import CurveCells
 from ..driver import CONTAINED, FRONTIER, NOT_FORCED, OUTSIDE, Level
 from ..layout import BinLayout
-from ..levels import subset
 from ..render import render_grid
+from ..vector.curves import CurveCells
+from ..vector.levels import subset
 from .tilepaint import OutlineArcs
 
 __all__ = [
@@ -255,8 +255,8 @@ class BinChain:
 
     For the frontier tiles of zoom ``z`` (``size = 2^P`` pixels, bins of 16) the
     levels ``z + 1 .. z + nb`` (``nb = P - 4``) hold, per level, the decided cells
-    with their classes and the :class:`~gloffset.raster.levels.Frontier` of the others,
-    all in float64 with the decision rules of :mod:`gloffset.raster.levels` and the
+    with their classes and the :class:`~gloffset.raster.vector.levels.Frontier` of the others,
+    all in float64 with the decision rules of :mod:`gloffset.raster.vector.levels` and the
     bound :meth:`~gloffset.grids.mercator.TilePyramid.decision_rho`. The frontier tiles
     of zoom ``z + 1`` are frontier
     cells of level ``z + 1`` here, so their levels ``z + 2 .. z + nb`` are already
@@ -303,7 +303,7 @@ class BinChain:
 
         Returns the bin-level classes of each tile ((n, 2^nb, 2^nb), every decided cell
         painted), the :class:`~gloffset.raster.layout.BinLayout` of the frontier bins
-        (``ns`` GPU levels below them), their :class:`~gloffset.raster.levels.Frontier`,
+        (``ns`` GPU levels below them), their :class:`~gloffset.raster.vector.levels.Frontier`,
         and each frontier bin's tile (position in ``which``) and place in it."""
         nb = self.nb
         nbin = 1 << nb
