@@ -29,6 +29,7 @@ from typing import Protocol
 import numpy as np
 
 from ..classes import CONTAINED, FRONTIER, OUTSIDE
+from ..grids.protocol import Grid
 
 __all__ = [
     "OUTSIDE",
@@ -84,7 +85,7 @@ NOT_FORCED = 255
 class Classifier(Protocol):
     """How the cells of a grid are classified (see the module notes)."""
 
-    grid: object
+    grid: Grid
 
     def enter(self, stop: int) -> Level:
         """The first level classified (level 0, or a finer level ``<= stop`` entered

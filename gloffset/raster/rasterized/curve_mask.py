@@ -9,8 +9,8 @@ import math
 import numpy as np
 
 from ...errors import OptionError
-from ...grids import Cube, Equirect
 from ...grids.cube import locate, project
+from ...grids.protocol import Image, RegularLonLat
 from ...shape import read
 from ...sphere import angle, normalize, robust_cross
 
@@ -278,9 +278,9 @@ def rasterize(shape, grid, *, ordered: bool = False):
     >>> int(m.sum())
     4
     """
-    if isinstance(grid, Cube):
-        mask, parts = _rasterize_cube(read(shape), int(grid.size))
-    elif isinstance(grid, Equirect):
+    if isinstance(grid, Image) and grid.curve_masks and grid.n_faces > 1:
+        mask, parts = _rasterize_cube(read(shape), int(grid.faces[0].width))
+    elif isinstance(grid, RegularLonLat) and grid.curve_masks:
         mask, parts = _rasterize(read(shape), grid)
     else:
         raise OptionError(

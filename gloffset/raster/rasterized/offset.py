@@ -58,16 +58,14 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from functools import lru_cache
 
 import numpy as np
 
 from ...classes import CONTAINED, FRONTIER, OUTSIDE
 from ...ellipsoid import as_ellipsoid
 from ...errors import InvalidDistanceError, InvalidMaskError, OptionError
-from ...grids import Cube, Equirect
 from ...grids.conformal import ConformalRows
-from ...grids.cube import CubeCells
+from ...grids.protocol import CurveMaskImage, RegularLonLat
 from ...units import EARTH_RADIUS, to_angle
 from .. import driver
 from .curve_levels import (
@@ -322,17 +320,11 @@ class RasterOffsetInfo:
     seconds: float = 0.0
 
 
-@lru_cache(maxsize=8)
-def cube_cells(size: int) -> CubeCells:
-    """The cell grid of ``Cube(size)`` that the CPU reference and the GPU levels work on."""
-    return CubeCells(size)
-
-
 def _on_ellipsoid(mask, distance, grid, ellipsoid, return_info, callback, **options):
     """:func:`raster_offset` on an ellipsoid (see its ``ellipsoid``): two spherical
     offsets on the conformal rows, contained from the nearer, outside from the farther."""
     ell = as_ellipsoid(ellipsoid)
-    if not isinstance(grid, Equirect):
+    if not (isinstance(grid, RegularLonLat) and grid.curve_masks):
         raise OptionError(
             f"raster offsets on an ellipsoid take an Equirect grid, got {type(grid).__name__}"
         )
@@ -360,7 +352,7 @@ def _on_ellipsoid(mask, distance, grid, ellipsoid, return_info, callback, **opti
 
 
 def _check_mask(mask, grid) -> np.ndarray:
-    if not isinstance(grid, (Equirect, Cube, ConformalRows)):
+    if not (isinstance(grid, CurveMaskImage) and grid.curve_masks):
         raise OptionError(
             f"grid must be a gloffset.grids.Equirect or Cube grid, got {type(grid).__name__}"
         )
@@ -368,7 +360,7 @@ def _check_mask(mask, grid) -> np.ndarray:
     if m.dtype != bool and not np.issubdtype(m.dtype, np.integer):
         raise InvalidMaskError(f"mask must be a boolean (or integer) array, got dtype {m.dtype}")
     if m.shape != grid.shape:
-        want = "(face, row, column)" if isinstance(grid, Cube) else "(height, width)"
+        want = "(face, row, column)" if grid.n_faces > 1 else "(height, width)"
         raise InvalidMaskError(f"mask has shape {m.shape}, the grid needs {want} = {grid.shape}")
     m = m != 0
     if not m.any():
@@ -466,7 +458,7 @@ def raster_offset(
         )
     t0 = time.perf_counter()
     m = _check_mask(mask, grid)
-    cube = cube_cells(int(grid.size)) if isinstance(grid, Cube) else None
+    cube = grid.cell_set() if grid.n_faces > 1 else None
     if cube is not None:  # the six faces as one grid of cells (stacked rows)
         grid, m = cube, cube.stack(m)
         if order is not None:
