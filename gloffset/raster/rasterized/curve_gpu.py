@@ -5,7 +5,7 @@ grid's bin level; below it the GL passes of :mod:`gloffset.gl.rasterized_pass` c
 children of frontier cells, one level at a time (:func:`gpu_levels`). This module makes
 each level's data and finishes each level after read-back.
 
-Exactness. For every frontier bin and level, :func:`records` lists the intersected cells
+Exactness. For every frontier bin and level, :func:`cell_records` lists the intersected cells
 ``g`` of that level within ``d_max + rho_bin`` of the bin centre ``c`` (every cell that
 can change a class in the bin), as records ``(g - c, |g - c|)`` made in float64 and
 rounded to float32. The shader computes the cell centre relative to ``c``
@@ -32,7 +32,7 @@ from ...classes import AMBIGUOUS, FRONTIER
 from ...gl.rasterized_pass import RECORD_ROW, CurveLevel, rasterized_passes
 from .curve_levels import RasterizedCurve, classify_cells, level_centers, near_pairs
 
-__all__ = ["decide_ambiguous", "gpu_levels", "level_data", "records", "thresholds"]
+__all__ = ["decide_ambiguous", "gpu_levels", "level_data", "cell_records", "thresholds"]
 
 _T_REL = 1e-6  # relative outward rounding of the float32 thresholds
 
@@ -59,7 +59,7 @@ def thresholds(lv: RasterizedCurve, level: int) -> np.ndarray:
     return out[:, None, :]
 
 
-def records(lv: RasterizedCurve, level: int, bins: np.ndarray):
+def cell_records(lv: RasterizedCurve, level: int, bins: np.ndarray):
     """Records (float32 (n, 4)) of the intersected cells of ``level`` near each frontier
     bin (flat indices of the bin level), sorted by bin; and per-bin first/count."""
     grid = lv.grid
@@ -88,7 +88,7 @@ def records(lv: RasterizedCurve, level: int, bins: np.ndarray):
 def _record_tables(lv: RasterizedCurve, level: int, bins: np.ndarray, hb: int, wb: int):
     """The record texture data (rows, RECORD_ROW, 4) and the per-bin (first, count)
     table (hb, wb, 4) of ``level``."""
-    rec, first, count = records(lv, level, bins)
+    rec, first, count = cell_records(lv, level, bins)
     rows = max(1, -(-len(rec) // RECORD_ROW))
     buf = np.zeros((rows * RECORD_ROW, 4), dtype=np.float32)
     buf[: len(rec)] = rec
