@@ -29,7 +29,7 @@ tile ``z/x/y`` (``size = 2^P``) is the centre of tile ``z+P / x 2^P + i / y 2^P 
 so a tile's pixels, and its bins of 16 pixels, are deeper levels of the same
 quadtree. The hierarchy runs to zoom ``max + P``: the frontier tiles of zoom ``z``
 are refined in float64 down to their bins (zoom ``z + P - 4``; these levels are
-kept from zoom to zoom, so each zoom adds one, :class:`BinChain`), and the GPU levels
+kept from zoom to zoom, so each zoom adds one, :class:`~.walk.BinChain`), and the GPU levels
 (:class:`gloffset.gl.vector_pass.VectorPasses`) classify the frontier bins of up to
 ``(max_block / size)^2`` tiles at once, packed into one small canvas
 (:class:`~gloffset.raster.layout.BinLayout`); every other pixel of a tile is its bin's
@@ -41,7 +41,7 @@ With an outline, decided tiles that a boundary arc may cross (distance to the
 boundary at most ``r``) are drawn (fill or nothing, plus the outline) and
 their children visited with the same class; the rest are as above.
 
-Progress (:class:`TileProgress`): each zoom is classified before any of its tiles is
+Progress (:class:`~.progress.TileProgress`): each zoom is classified before any of its tiles is
 written, and the bin levels hold the frontier and inside tiles of the next zooms, so
 the run knows its tiles ahead and estimates the rest from the growth of the frontier;
 the time left follows a per-zoom cost plus a per-tile cost, both measured as it goes.
@@ -176,7 +176,7 @@ def pyramid(
         ``shape`` is a path, else "the input"), next to the distance as given and its
         value in metres and radians.
     progress : callable, optional
-        Called with a :class:`TileProgress` before the first tile, after each tile or
+        Called with a :class:`~.progress.TileProgress` before the first tile, after each tile or
         batch of tiles handled, and at the end (``done == total``, ``eta == 0``).
     max_block : int
         Frontier tiles per GPU run: at most ``(max_block / size)^2``.

@@ -58,7 +58,7 @@ class PyramidStats:
 # ---------------------------------------------------------------------- progress
 @dataclass(frozen=True)
 class TileProgress:
-    """Where a pyramid run stands; :func:`pyramid` hands one to ``progress`` before the
+    """Where a pyramid run stands; :func:`~.driver.pyramid` hands one to ``progress`` before the
     first tile, after each tile or batch of tiles handled, and at the end.
 
     Tiles count at zooms min..max: frontier tiles (rendered, written or empty),

@@ -344,9 +344,10 @@ class BinChain:
 
 
 #: zooms up to which a pyramid renders each frontier tile on its own grid (as
-#: :func:`render_tiles` does up to :data:`ALONE_ZOOM`): there the pyramid's bins hold
-#: thousands of arcs each and a tile's own render, from the simplified curves, is 1.5-2.6
-#: times faster (countries_10m, zooms 0-2); from zoom 3 on the batched levels are faster
+#: :func:`~.ondemand.render_tiles` does up to :data:`~.ondemand.ALONE_ZOOM`): there the
+#: pyramid's bins hold thousands of arcs each and a tile's own render, from the simplified
+#: curves, is 1.5-2.6 times faster (countries_10m, zooms 0-2); from zoom 3 on the batched
+#: levels are faster
 PYRAMID_ALONE_ZOOM = 2
 
 
