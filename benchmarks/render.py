@@ -18,8 +18,8 @@ from common import DATA, best_of, write
 import gloffset
 from gloffset.gl import context_info, get_context, program
 from gloffset.grids import Equirect
-from gloffset.raster.curves import classify
 from gloffset.raster.render import render
+from gloffset.raster.vector.curves import classify_curves
 
 D = 0.02  # radians, as in the paper's Table 1
 REPEAT = 7  # best of, for the render and its fill floor alike (a 2-core machine is noisy)
@@ -51,7 +51,7 @@ def fill_floor(w: int, h: int) -> float:
 def per_level(shape, grid) -> list:
     """Seconds spent on each level (CPU levels, then GPU levels, each finished; the
     GPU level after the bins includes the arc records), the least of REPEAT runs."""
-    from gloffset.raster.gpu import engine
+    from gloffset.raster.gpu import bin_passes as engine
 
     eng = engine()
     bins = grid.bin_level_for(D)
@@ -59,7 +59,9 @@ def per_level(shape, grid) -> list:
     for _ in range(REPEAT):
         marks = []
         t0 = time.perf_counter()
-        classes, f, arcs = classify(shape, D, grid, stop_level=bins, timings=marks, start="auto")
+        classes, f, arcs = classify_curves(
+            shape, D, grid, stop_level=bins, timings=marks, start="auto"
+        )
         eng.run(grid, D, classes, f, arcs, stop_level=grid.n_levels - 1, timings=marks)
         prev = t0
         for lev, t in marks:

@@ -14,9 +14,7 @@ The layers are described in ``ARCHITECTURE.md``; everything public is re-exporte
 
 from __future__ import annotations
 
-import sys as _sys
-
-from . import errors, grids
+from . import errors, grids, tiles
 from ._version import __version__
 from .ellipsoid import Ellipsoid
 from .ellipsoidal import contains, distance
@@ -24,7 +22,6 @@ from .errors import *  # noqa: F403  (every exception class, listed in errors.__
 from .geodesic_offset import GeodesicOffset, offset
 from .geoseries import buffer
 from .index.contains import Index
-from .raster import tiles
 from .raster.rasterized import raster_offset, rasterize
 from .raster.render import render
 from .shape import Shape, read
@@ -32,9 +29,6 @@ from .units import EARTH_RADIUS, parse_distance
 from .vector.multires import Decomposition, decompose
 from .vector.offset import Offset
 from .vector.resolved import ResolvedOffset
-
-# ``gloffset.tiles`` (tile pyramids) is public: importable under that name too
-_sys.modules[__name__ + ".tiles"] = tiles
 
 __all__ = [
     "EARTH_RADIUS",

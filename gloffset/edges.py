@@ -64,7 +64,7 @@ class CurveArcs:
     @cached_property
     def end_samples(self) -> list[np.ndarray]:
         """At most 4096 arc ends of each kind present (boundary arcs, then ring edges),
-        spread along the curves: what :func:`gloffset.raster.levels.coarse` bounds the
+        spread along the curves: what :func:`gloffset.raster.vector.levels.coarse` bounds the
         nearest arc with (made once)."""
         out = []
         kinds = [self.boundary, self.group >= 0]

@@ -26,7 +26,7 @@ is exported from :mod:`gloffset`; the command line prints any of them as one lin
 Modules that used to define a class still import it under its name
 (``gloffset.tiles.TilesError``, ``gloffset.grids.InvalidGridError``...). Former names of
 merged classes stay there as aliases: ``gloffset.raster.render.RenderError``,
-``gloffset.raster.rasterized.RasterOffsetError``, ``gloffset.raster.tilepaint.StyleError``
+``gloffset.raster.rasterized.RasterOffsetError``, ``gloffset.raster.pyramid.tilepaint.StyleError``
 and ``gloffset.io.png.ColorError`` are :class:`OptionError`;
 ``gloffset.cli.render.CubeFacesError`` is :class:`InputFormatError`.
 """

@@ -1,7 +1,7 @@
 #version 430
 // One level of the offset of a rasterized curve (paper Sec. 5.2; the float64
-// reference is gloffset/raster/rasterized.py, the planner gloffset/raster/curve_gpu.py,
-// the passes gloffset/gl/raster_engine.py).
+// reference is gloffset/raster/rasterized/offset.py, the planner
+// gloffset/raster/rasterized/curve_gpu.py, the passes gloffset/gl/rasterized_pass.py).
 // Drawn over the frontier bins only (bins.vert). Each fragment is a cell (column x,
 // row y; row 0 north) of level l: if its parent is contained or outside it takes
 // that class, else it compares the smallest squared chord to the intersected cells

@@ -121,7 +121,7 @@ def test_the_readme_is_short_and_its_links_exist():
     assert not missing, missing
 
 
-#: a Sphinx-style reference to a full name, e.g. :class:`~gloffset.raster.curves.CurveCells`
+#: a Sphinx-style reference to a full name, e.g. :class:`~gloffset.raster.vector.curves.CurveCells`
 _REFERENCE = re.compile(r":(?:class|func|mod|meth|attr|data|exc):`~?(gloffset(?:\.\w+)+)`")
 
 
@@ -299,3 +299,92 @@ def test_pooled_levels():
 def test_cube_is_not_a_level_grid_but_its_faces_are():
     assert not isinstance(Cube(8), Grid)
     assert all(isinstance(f, Grid) for f in Cube(8).faces)
+
+
+# ------------------------------------------------------------------- raster/ by concept
+#: at most this many modules in a package of raster/ or gl/, and lines in a module
+MAX_MODULES, MAX_LINES = 14, 700
+#: the grid classes (raster/ and gl/ ask a grid what the protocol declares instead)
+GRID_CLASSES = {"Equirect", "Tile", "Cube", "CubeFace", "CubeCells", "TilePyramid"}
+GRID_CLASSES |= {"ConformalRows", "LevelHierarchy", "LonLatGrid"}
+
+
+def _engine_modules():
+    for top in ("raster", "gl"):
+        yield from sorted((PACKAGE / top).rglob("*.py"))
+
+
+def test_gloffset_tiles_is_a_module_of_its_own():
+    import gloffset.tiles
+
+    assert gloffset.tiles.__name__ == "gloffset.tiles"
+    assert Path(gloffset.tiles.__file__).resolve() == PACKAGE / "tiles.py"
+    assert gloffset.tiles.pyramid.__module__.startswith("gloffset.raster.pyramid")
+
+
+def test_engine_packages_are_small():
+    big = [
+        f"{p.relative_to(ROOT)} ({n} lines)"
+        for p in _engine_modules()
+        if (n := len(p.read_text().splitlines())) > MAX_LINES
+    ]
+    packages = {p.parent for p in _engine_modules()}
+    crowded = [
+        f"{d.relative_to(ROOT)} ({n} modules)"
+        for d in sorted(packages)
+        if (n := len(list(d.glob("*.py")))) > MAX_MODULES
+    ]
+    assert not big and not crowded, big + crowded
+
+
+def test_engine_functions_take_few_parameters():
+    """At most 10 parameters; only public functions of the flat API keep their keywords."""
+    public = {"pyramid", "raster_offset"}
+    many = []
+    for path in _engine_modules():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                a = node.args
+                names = [x.arg for x in a.posonlyargs + a.args + a.kwonlyargs]
+                n = len(names) + (a.vararg is not None) + (a.kwarg is not None)
+                n -= bool(names) and names[0] in ("self", "cls")
+                if n > 10 and node.name not in public:
+                    many.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} ({n})")
+    assert not many, many
+
+
+def test_engine_names_are_defined_once():
+    """Public functions and classes of raster/ and gl/ say which they are: no name twice
+    (the level operations' ``refine`` of cells and of nodes aside)."""
+    seen: dict = {}
+    for path in _engine_modules():
+        for node in ast.parse(path.read_text()).body:
+            if isinstance(node, (ast.FunctionDef, ast.ClassDef)) and node.name[0] != "_":
+                seen.setdefault(node.name, []).append(str(path.relative_to(ROOT)))
+    twice = {k: v for k, v in seen.items() if len(v) > 1 and k != "refine"}
+    assert not twice, twice
+
+
+def test_engine_dispatches_on_no_grid_class():
+    """raster/ and gl/ ask a grid its declared capabilities (grids/protocol.py), never
+    its class."""
+    found = []
+    for path in _engine_modules():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "isinstance":
+                arg = node.args[1]
+                names = {getattr(e, "id", getattr(e, "attr", None)) for e in ast.walk(arg)}
+                if names & GRID_CLASSES:
+                    found.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert not found, found
+
+
+@pytest.mark.parametrize("grid", [*GRIDS, Cube(8)], ids=lambda g: type(g).__name__)
+def test_images_declare_their_faces(grid):
+    from gloffset.grids.protocol import Image, ImageGrid
+
+    if not isinstance(grid, Image):
+        return
+    assert len(grid.faces) == grid.n_faces
+    assert all(isinstance(f, ImageGrid) and f.n_faces == 1 for f in grid.faces)
+    assert grid.n_faces == 1 and grid.faces[0] is grid or grid.shape[0] == grid.n_faces

@@ -14,7 +14,7 @@ from gloffset.caps import (
     cos_sum_lower,
     pad,
 )
-from gloffset.raster import levels as hierarchy
+from gloffset.raster.vector import levels as hierarchy
 from gloffset.sphere import angle, arc_distance, dot, normalize, rotate, slerp
 
 rng = np.random.default_rng(11)

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from gloffset import classes
-from gloffset.gl import engine as gl_engine
+from gloffset.gl import vector_pass as gl_engine
 from gloffset.gl.context import shared
 from gloffset.gl.shaders import SHADER_DIR
 from gloffset.raster import records

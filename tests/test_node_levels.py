@@ -1,5 +1,5 @@
 """Coarse levels whose candidate lists hold arcs of the multiresolution curve
-(gloffset.raster.node_levels): exact statuses, classes never decided otherwise than by
+(gloffset.raster.vector.node_levels): exact statuses, classes never decided otherwise than by
 the original arcs, the same pixels below the hand-over, on real borders."""
 
 from __future__ import annotations
@@ -14,10 +14,11 @@ from conftest import DATA
 import gloffset
 from gloffset.edges import CurveArcs, component_status
 from gloffset.grids.mercator import TilePyramid
-from gloffset.raster import driver, node_levels
-from gloffset.raster import tiles as tl
-from gloffset.raster.curves import CurveCells
+from gloffset.raster import driver
 from gloffset.raster.driver import FRONTIER
+from gloffset.raster.pyramid import driver as tl
+from gloffset.raster.vector import node_levels
+from gloffset.raster.vector.curves import CurveCells
 
 NEIGHBOURS = {"France", "Spain", "Portugal", "Andorra", "Germany", "Belgium", "Luxembourg"}
 NEIGHBOURS |= {"Netherlands", "Austria", "Czechia", "Poland", "Croatia", "Denmark"}
@@ -162,7 +163,7 @@ def test_pyramid_tiles_with_and_without_node_levels(tmp_path, shapes, monkeypatc
 def test_refine_in_parts_of_rows_is_refine_at_once(shapes, monkeypatch, name, d):
     """levels.refine refines a large frontier in parts of whole rows of parents: the
     children, their lists and statuses are those of one refine of all of them."""
-    from gloffset.raster import levels
+    from gloffset.raster.vector import levels
 
     shape = shapes[name]
     grid = TilePyramid(9)

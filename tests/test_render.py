@@ -6,8 +6,8 @@ from conftest import LINES, SQUARE_WITH_HOLE
 
 import gloffset
 from gloffset.grids import Equirect
-from gloffset.raster.levels import CONTAINED, FRONTIER, OUTSIDE
 from gloffset.raster.render import RenderError
+from gloffset.raster.vector.levels import CONTAINED, FRONTIER, OUTSIDE
 from gloffset.reference import contains_xyz, distance_xyz
 
 EPS = 1e-3  # of a pixel: the band around the boundary where float32 may differ
@@ -161,7 +161,7 @@ def test_records_split_over_storage_buffers(world, monkeypatch):
     """When the candidate arcs exceed one GL storage buffer they go in groups of whole
     bins, one draw each, with the same image; a single bin over the limit is an error."""
     from gloffset.errors import GLContextError
-    from gloffset.gl.engine import engine
+    from gloffset.gl.vector_pass import vector_passes as engine
 
     shape = gloffset.read(world["Japan"])
     grid = Equirect(600, 400, (125, 25, 150, 46))

@@ -1,4 +1,5 @@
-"""Entering a level directly (gloffset.raster.scatter) gives what the hierarchy reaches there."""
+"""Entering a level directly (gloffset.raster.vector.scatter) gives what the hierarchy
+reaches there."""
 
 import numpy as np
 import pytest
@@ -6,10 +7,10 @@ import pytest
 import gloffset
 from gloffset.edges import CurveArcs
 from gloffset.grids import Equirect, Tile
-from gloffset.raster.curves import classify
 from gloffset.raster.driver import pooled
-from gloffset.raster.levels import CONTAINED, FRONTIER, OUTSIDE
-from gloffset.raster.scatter import PAIRS_PER_ARC, scatter, start_level
+from gloffset.raster.vector.curves import classify_curves as classify
+from gloffset.raster.vector.levels import CONTAINED, FRONTIER, OUTSIDE
+from gloffset.raster.vector.scatter import PAIRS_PER_ARC, scatter, start_level
 
 LINE_OVER_POLE = {
     "type": "LineString",

@@ -30,7 +30,7 @@ pytest.importorskip("starlette")
 pytest.importorskip("httpx")
 from starlette.testclient import TestClient  # noqa: E402
 
-from gloffset.raster.tilepaint import TileStyle  # noqa: E402
+from gloffset.raster.pyramid.tilepaint import TileStyle  # noqa: E402
 from gloffset.serve.app import STATIC, create_app  # noqa: E402
 from gloffset.serve.service import (  # noqa: E402
     EMPTY_PNG,
@@ -87,7 +87,7 @@ def test_tiles_equal_render(client, layer, dist, z, x, y):
 def test_coarse_tiles_rendered_alone_are_the_bytes_of_render_tiles(client):
     """Zooms up to ALONE_ZOOM go through gloffset.render on their own Tile: the same
     bytes as the pyramid's levels give (the same pixels, the same encoding)."""
-    from gloffset.raster.tiles import ALONE_ZOOM, render_tiles
+    from gloffset.raster.pyramid import ALONE_ZOOM, render_tiles
 
     shape = client.app.state.server.layers["tri"]
     style = TileStyle("#3070c0", 0.5)
@@ -108,7 +108,7 @@ def test_batched_tiles_equal_render_on_a_real_border(client):
     """Views of 3 x 3 tiles of Mexico's border at random zooms and distances (inward
     too), rendered as one batch each (render_tiles, as the server batches them): every
     tile has the pixels of gloffset.render on its Tile."""
-    from gloffset.raster.tiles import render_tiles
+    from gloffset.raster.pyramid import render_tiles
 
     shape = gloffset.read(ROOT / "data" / "mexico_10m.geojson")
     rng = np.random.default_rng(16)

@@ -24,8 +24,8 @@ from gloffset.edges import CurveArcs
 from gloffset.grids import Tile
 from gloffset.grids.mercator import TilePyramid
 from gloffset.io.png import palette_png
-from gloffset.raster.tilepaint import TileStyle
-from gloffset.raster.tiles import TilesError, parse_zooms, pyramid
+from gloffset.raster.pyramid import TilesError, parse_zooms, pyramid
+from gloffset.raster.pyramid.tilepaint import TileStyle
 from gloffset.reference import contains_xyz, distance_xyz
 from gloffset.sphere import angle, arc_distance, lonlat_to_xyz
 
@@ -155,7 +155,7 @@ def test_pyramid_holds_exactly_the_tiles_of_the_region(tmp_path, world, name, d,
     shape = {"line": LINE_AM, "square": SQUARE}.get(name) or world[name]
     st = pyramid(shape, d, (0, zmax), tmp_path / "t.mbtiles", size=SIZE)
     tiles, meta = read_mbtiles(tmp_path / "t.mbtiles")
-    full = gloffset.raster.tilepaint.TileStyle().encode(np.ones((SIZE, SIZE), bool))
+    full = gloffset.raster.pyramid.tilepaint.TileStyle().encode(np.ones((SIZE, SIZE), bool))
     n_full = check_against_reference(shape, d / gloffset.EARTH_RADIUS, tiles, zmax, full)
     assert st.written == len(tiles) and n_full >= st.inside
     assert st.rendered > 0 and st.outside > 0
@@ -284,7 +284,7 @@ def test_outline_points_are_those_of_the_arc_by_arc_maths(world, name, tiles):
     loops may round the last bit differently from the scalar maths, by CPU), so the
     drawn pixels are the same; on tiles where the disc's edge cuts arcs, at zoom 0 (disc
     wider than a hemisphere) and across the antimeridian."""
-    from gloffset.raster.tilepaint import OutlineArcs
+    from gloffset.raster.pyramid.tilepaint import OutlineArcs
 
     arcs = CurveArcs.from_shape(gloffset.read(LINE_AM if name == "line" else world[name]))
     prepared = OutlineArcs(arcs)
@@ -376,7 +376,7 @@ def test_progress_events(tmp_path, world, mexico_path, name, d, zooms, kw):
     events = []
     st = pyramid(shape, d, zooms, tmp_path / "t.mbtiles", progress=events.append, **kw)
     first, last = events[0], events[-1]
-    assert isinstance(first, gloffset.raster.tiles.TileProgress)
+    assert isinstance(first, gloffset.raster.pyramid.TileProgress)
     assert first.done == 0 and first.total > 0 and first.eta is None
     assert last.done == last.total and last.eta == 0.0 and last.fraction == 1.0
     # every tile handled is counted: written, rendered empty (or outlined with nothing)
@@ -673,8 +673,8 @@ def test_split_pyramid_tasks_make_the_same_tiles(
     pytest.importorskip("distributed")
     import distributed
 
-    from gloffset.raster import distributed as dist
-    from gloffset.raster import tiles as tl
+    from gloffset.raster.pyramid import distributed as dist
+    from gloffset.raster.pyramid import driver as tl
 
     def source():
         if name == "neighbours":  # nine countries of countries_10m that share borders
@@ -741,7 +741,7 @@ def test_split_pyramid_tasks_make_the_same_tiles(
 def test_a_resumed_split_hands_each_task_the_tiles_it_has():
     """A task skips the tiles of a resumed output that are its tile or below it, down to
     its last zoom: a sub-pyramid's, or its one tile's."""
-    from gloffset.raster.distributed import _have_of
+    from gloffset.raster.pyramid.distributed import _have_of
 
     have = {(2, 1, 1), (3, 2, 2), (3, 3, 3), (4, 4, 4), (3, 0, 0), (2, 0, 0), (5, 9, 9)}
     tasks = [((2, 1, 1), 255, None, 4), ((2, 0, 0), 255, None, 2), ((1, 0, 0), 255, None, 1)]
@@ -773,7 +773,7 @@ def test_each_level_is_refined_once(tmp_path, mexico_path, monkeypatch):
     """The bin levels run ahead of the zoom walk and the walk reaches the same frontier
     later: each level is classified once (CurveCells.remember), with the tiles of a run
     that classifies it twice."""
-    from gloffset.raster import curves, node_levels
+    from gloffset.raster.vector import curves, node_levels
 
     calls = []
 

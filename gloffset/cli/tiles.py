@@ -10,8 +10,8 @@ import click
 
 from ..io.output import refuse_stdout
 from ..io.tilestore import check_tile_output
-from ..raster.tilepaint import TileStyle
-from ..raster.tiles import parse_zooms, pyramid
+from ..raster.pyramid import parse_zooms, pyramid
+from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
 from . import main
 from .options import (

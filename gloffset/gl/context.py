@@ -5,9 +5,9 @@ The device is chosen by the environment variable ``GLOFFSET_DEVICE`` (an EGL
 device index); without it gloffset prefers the first hardware device and falls
 back to Mesa's llvmpipe (CPU rendering). GL contexts do not survive ``fork``: use
 the ``spawn`` start method for worker processes. Objects that hold programs compiled on
-the context (the engines of :mod:`gloffset.gl.engine` and :mod:`gloffset.gl.raster_engine`)
-are made once per process too (:func:`shared`); like the context, they work only on the
-thread that made it.
+the context (the passes of :mod:`gloffset.gl.vector_pass` and
+:mod:`gloffset.gl.rasterized_pass`) are made once per process too (:func:`shared`); like
+the context, they work only on the thread that made it.
 """
 
 from __future__ import annotations

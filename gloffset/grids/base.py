@@ -46,16 +46,29 @@ WIDE_BINS_FROM = 6
 class LevelHierarchy:
     """The level hierarchy of a ``width x height`` grid (subclasses set both).
 
-    Subclasses declare their capabilities (:class:`gloffset.grids.protocol.Grid`):
-    ``lonlat`` when rows are parallels and columns meridians (they then offer
-    ``cell_lat``, ``cell_lon``, ``pixel_lat``, ``pixel_lon``), ``per_cell_rho`` when the
-    bound rho differs along a row (``rho(level)`` is then each row's largest).
+    Subclasses declare their capabilities (:mod:`gloffset.grids.protocol`): ``lonlat``
+    when rows are parallels and columns meridians (they then offer ``cell_lat``,
+    ``cell_lon``, ``pixel_lat``, ``pixel_lon``), ``subgrids`` when they can be cut into
+    parts (:meth:`subgrid`), ``curve_masks`` when rasterized curves live on them
+    (:meth:`cell_set`). Each is an image of one face (``n_faces``, :attr:`faces`): itself.
     """
 
     width: int
     height: int
     lonlat = False
-    per_cell_rho = False
+    n_faces = 1
+    subgrids = False
+    curve_masks = False
+
+    @property
+    def faces(self) -> tuple:
+        """The faces of the image: the grid itself."""
+        return (self,)
+
+    def subgrid(self, x0: int, y0: int, w: int, h: int):
+        """The pixels ``[x0, x0+w) x [y0, y0+h)`` as a grid of their own (grids with
+        ``subgrids``; the others raise :class:`InvalidGridError`)."""
+        raise InvalidGridError(f"a {type(self).__name__} cannot be cut into parts")
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -160,6 +173,15 @@ class LonLatGrid(LevelHierarchy):
     def wraps(self, level: int) -> bool:
         """Whether the columns of ``level`` go round the globe (column 0 is east of the last)."""
         return False
+
+    def pixel_size(self) -> float:
+        """The largest angular diameter (rad) of a pixel of the grid (twice the farthest
+        point of a pixel from its centre)."""
+        return 2.0 * float(np.max(self._area(self.n_levels - 1)))
+
+    def cell_set(self):
+        """The output pixels as one set of cells: the grid itself."""
+        return self
 
     def cell_lat(self, level: int, j) -> np.ndarray:
         """Latitude (radians) of the centres of row ``j`` of ``level``."""

@@ -22,7 +22,8 @@ __all__ = ["ConformalRows"]
 
 
 class ConformalRows(LonLatGrid):
-    """The lon/lat grid ``grid`` (geodetic latitudes of ``ell``) on the conformal sphere.
+    """The lon/lat grid ``grid`` (geodetic latitudes of ``ell``) on the conformal sphere
+    (its :meth:`pixel_size` is that of the pixels' images).
 
     Examples
     --------
@@ -32,6 +33,8 @@ class ConformalRows(LonLatGrid):
     >>> round(float(np.degrees(g.cell_lat(g.n_levels - 1, 0))), 4)  # 45 deg geodetic
     44.8076
     """
+
+    curve_masks = True
 
     def __init__(self, grid, ell):
         if not grid.lonlat:
@@ -47,11 +50,6 @@ class ConformalRows(LonLatGrid):
 
     def wraps(self, level: int) -> bool:
         return self.grid.wraps(level)
-
-    def pixel_size(self) -> float:
-        """The largest angular diameter (rad) of a pixel of the grid on the conformal
-        sphere (twice the farthest point of a pixel from its centre)."""
-        return 2.0 * float(np.max(self._area(self.n_levels - 1)))
 
     def __repr__(self) -> str:
         return f"ConformalRows({self.grid!r}, {self.ell})"

@@ -24,6 +24,7 @@ farthest point is a corner), angle to each child centre + the child's rho).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -112,7 +113,6 @@ class CubeFace(Square, LevelHierarchy):
 
     face: int
     size: int
-    per_cell_rho = True
 
     def __post_init__(self):
         if self.face not in range(6):
@@ -196,6 +196,8 @@ class Cube:
     """Six ``size x size`` faces covering the sphere (see the module notes)."""
 
     size: int
+    n_faces = 6
+    curve_masks = True
 
     def __post_init__(self):
         check_size(self.size, self.size)
@@ -204,9 +206,19 @@ class Cube:
     def faces(self) -> list[CubeFace]:
         return [CubeFace(k, int(self.size)) for k in range(6)]
 
+    def cell_set(self) -> CubeCells:
+        """The six faces as one set of cells (:class:`CubeCells`, made once per size)."""
+        return _cube_cells(int(self.size))
+
     @property
     def shape(self) -> tuple[int, int, int]:
         return (6, int(self.size), int(self.size))
+
+
+@lru_cache(maxsize=8)
+def _cube_cells(size: int) -> CubeCells:
+    """The cell grid of ``Cube(size)`` that the CPU reference and the GPU levels work on."""
+    return CubeCells(size)
 
 
 _EDGE_EPS = 1e-3  # output pixels: how far past a cell's side the neighbour samples lie
@@ -230,7 +242,6 @@ class CubeCells:
     """
 
     lonlat = False
-    per_cell_rho = True
 
     def __init__(self, size: int):
         self.face = CubeFace(0, size)

@@ -35,6 +35,8 @@ class Equirect(LonLatGrid):
     width: int
     height: int
     bounds: tuple = (-180.0, -90.0, 180.0, 90.0)
+    subgrids = True
+    curve_masks = True
 
     def __post_init__(self):
         w, h = check_size(self.width, self.height)

@@ -174,7 +174,6 @@ class TilePyramid:
     """
 
     lonlat = False
-    per_cell_rho = False
 
     def __init__(self, maxzoom: int, ell=None):
         self.maxzoom = int(maxzoom)

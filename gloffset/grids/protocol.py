@@ -1,26 +1,51 @@
-"""What the raster engine needs of a grid: the :class:`Grid` protocol.
+"""What the raster engine needs of a grid: the :class:`Grid` protocol and its capabilities.
 
 A grid is a hierarchy of levels ``0`` (coarse) .. ``n_levels - 1`` (the output); a cell
 of level ``l`` covers ``block(l) x block(l)`` output pixels. The level driver
-(:mod:`gloffset.raster.driver`) and the classifiers ask a grid only what is written
-here. Optional capabilities are declared, not probed: a grid says whether its rows are
-parallels (``lonlat``; then it is a :class:`LonLatCells`) and whether its bound differs
-along a row (``per_cell_rho``). Algorithms on sets of cells (the offsets of rasterized
+(:mod:`gloffset.raster.driver`), the classifiers, the renders and the pyramids ask a grid
+only what is written here. Optional capabilities are declared, not probed: a grid says
+whether its rows are parallels (``lonlat``; then it is a :class:`LonLatCells`), an image
+how many faces it has (``n_faces``: a :class:`~gloffset.grids.Cube` is an image of six
+faces, every other image one, itself), whether it can be cut into parts (``subgrids``)
+and whether curve masks live on it (``curve_masks``: :func:`gloffset.rasterize` and
+:func:`gloffset.raster_offset`). Algorithms on sets of cells (the offsets of rasterized
 curves) need a :class:`CellSet` as well.
 
-Implementations: :class:`~gloffset.grids.Equirect`, :class:`~gloffset.grids.Tile`
-(lon/lat rows), :class:`~gloffset.grids.CubeFace`, the six faces as one cell set
-(:class:`~gloffset.grids.cube.CubeCells`) and the XYZ tile quadtree
-(:class:`~gloffset.grids.mercator.TilePyramid`, level = zoom).
+The protocols, and the grids that answer them:
+
+* :class:`Grid`: every level hierarchy below;
+* :class:`LonLatCells`: :class:`~gloffset.grids.Equirect`, :class:`~gloffset.grids.Tile`,
+  :class:`~gloffset.grids.conformal.ConformalRows`; :class:`RegularLonLat` (rows and
+  columns evenly spaced, what a curve mask is rasterized on): Equirect;
+* :class:`Image` (what :func:`gloffset.render` takes): those three, CubeFace and Cube;
+  :class:`ImageGrid` (one face of an image, the grid a render draws): every image but
+  Cube; :class:`FaceGrid` (a face of a cube): :class:`~gloffset.grids.CubeFace`;
+  :class:`CurveMaskImage` (``curve_masks``): Equirect, Cube and ConformalRows;
+* :class:`CellSet`: the lon/lat grids and the six faces of a cube as one set of cells
+  (:class:`~gloffset.grids.cube.CubeCells`, a :class:`FaceCells`);
+* :class:`TileLevels`: the XYZ tile quadtree (:class:`~gloffset.grids.mercator.TilePyramid`,
+  level = zoom).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["Grid", "LonLatCells", "CellSet"]
+__all__ = [
+    "Grid",
+    "LonLatCells",
+    "RegularLonLat",
+    "Image",
+    "ImageGrid",
+    "FaceGrid",
+    "CurveMaskImage",
+    "CellSet",
+    "FaceCells",
+    "TileLevels",
+]
 
 
 @runtime_checkable
@@ -29,8 +54,6 @@ class Grid(Protocol):
 
     #: rows are parallels and columns meridians (the grid is a :class:`LonLatCells`)
     lonlat: bool
-    #: the bound rho differs along a row (``rho(level)`` is then the row's largest)
-    per_cell_rho: bool
 
     @property
     def n_levels(self) -> int: ...
@@ -46,14 +69,19 @@ class Grid(Protocol):
     def rho(self, level: int) -> np.ndarray:
         """Per-row bound (radians): the largest distance from a cell's centre to any point
         of the cell and to any point within the bound of a descendant's centre; 0 at the
-        output level."""
+        output level. Where the bound differs along a row, the row's largest."""
         ...
 
     def rho_at(self, level: int, j, i) -> np.ndarray:
         """The bound of cells (``j``, ``i``) of ``level``."""
         ...
 
+    def decision_rho(self, level: int, j, i) -> np.ndarray:
+        """The bound a cell is decided with (at most :meth:`rho_at`)."""
+        ...
 
+
+@runtime_checkable
 class LonLatCells(Grid, Protocol):
     """A grid whose rows are parallels and columns meridians (``lonlat`` is True)."""
 
@@ -65,12 +93,121 @@ class LonLatCells(Grid, Protocol):
         """Longitude (radians) of the centres of columns ``i`` of ``level``."""
         ...
 
+    def wraps(self, level: int) -> bool:
+        """Whether the columns of ``level`` go round the sphere (column 0 follows the
+        last)."""
+        ...
 
+    def pixel_size(self) -> float:
+        """The largest angular diameter (rad) of a pixel (twice the farthest point of a
+        pixel from its centre)."""
+        ...
+
+
+@runtime_checkable
+class RegularLonLat(LonLatCells, Protocol):
+    """A lon/lat grid whose rows and columns are evenly spaced in latitude and longitude
+    (equirectangular), from the west and north edges of ``bounds``."""
+
+    @property
+    def bounds(self) -> tuple: ...
+
+    @property
+    def dlon(self) -> float: ...
+
+    @property
+    def dlat(self) -> float: ...
+
+    @property
+    def width(self) -> int: ...
+
+    @property
+    def height(self) -> int: ...
+
+
+@runtime_checkable
+class Image(Protocol):
+    """What a render covers: one or more faces (:class:`ImageGrid`), rendered each on its
+    own and stacked (``(n_faces, rows, columns)``) when there are several."""
+
+    #: faces of the image: 6 for a cube, 1 (the grid itself) for every other image
+    n_faces: int
+    #: rasterized curves live on it (:class:`CurveMaskImage`)
+    curve_masks: bool
+
+    @property
+    def faces(self) -> Sequence[ImageGrid]:
+        """The faces, in order (the grid itself when there is one)."""
+        ...
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """The shape of the image's arrays: ``(rows, columns)``, or ``(n_faces, rows,
+        columns)`` when there are several faces."""
+        ...
+
+
+@runtime_checkable
+class ImageGrid(Grid, Image, Protocol):
+    """One face of an image: the output pixels a render draws, its levels and bins."""
+
+    #: the grid can be cut into parts (:meth:`subgrid`)
+    subgrids: bool
+
+    @property
+    def width(self) -> int: ...
+
+    @property
+    def height(self) -> int: ...
+
+    @property
+    def bin_level(self) -> int:
+        """The level whose cells are bins (16 output pixels on a side)."""
+        ...
+
+    def bin_level_for(self, e: float) -> int:
+        """The bin level for an offset distance ``e`` (radians)."""
+        ...
+
+    def block(self, level: int) -> int:
+        """Output pixels per side of a cell of ``level``."""
+        ...
+
+    def subgrid(self, x0: int, y0: int, w: int, h: int) -> ImageGrid:
+        """The ``w x h`` pixels from column ``x0``, row ``y0`` as a grid of their own
+        (where ``subgrids``)."""
+        ...
+
+
+@runtime_checkable
+class FaceGrid(ImageGrid, Protocol):
+    """A face of a cube (``lonlat`` is False): square, its pixels' bound differs along a
+    row."""
+
+    @property
+    def size(self) -> int: ...
+
+    @property
+    def basis(self) -> np.ndarray:
+        """(3, 3): the face's axis and its s and t directions (the cube-map table)."""
+        ...
+
+    def area_rho_at(self, level: int, j, i) -> np.ndarray:
+        """The area bound (farthest point of the cell from its centre) of cells (``j``,
+        ``i``)."""
+        ...
+
+
+@runtime_checkable
 class CellSet(Grid, Protocol):
     """A grid that algorithms on cell sets walk (flat indices ``row * columns + column``)."""
 
     @property
     def bin_level(self) -> int: ...
+
+    def block(self, level: int) -> int:
+        """Output pixels per side of a cell of ``level``."""
+        ...
 
     def neighbour_table(self, level: int, flat) -> np.ndarray:
         """Per cell, the flat indices of the cells that touch it (-1 where none), in a
@@ -95,4 +232,57 @@ class CellSet(Grid, Protocol):
 
     def area_rho_cells(self, level: int, flat) -> np.ndarray:
         """The area bound (farthest point of the cell from its centre) of cells ``flat``."""
+        ...
+
+
+@runtime_checkable
+class FaceCells(CellSet, Protocol):
+    """The faces of a multi-face image as one set of cells (``lonlat`` is False): faces
+    stacked as rows, each ``size x size`` at the output level."""
+
+    @property
+    def size(self) -> int: ...
+
+    def split(self, level: int, flat) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(face, row, column)`` of cells ``flat`` of ``level``."""
+        ...
+
+    def face_axes(self, face: int) -> tuple[tuple, tuple, tuple]:
+        """The axis and the s and t directions of ``face``."""
+        ...
+
+    def stack(self, faces: np.ndarray) -> np.ndarray:
+        """An image's ``(n_faces, size, size)`` array as this grid's output level."""
+        ...
+
+    def unstack(self, level: int, cells: np.ndarray) -> np.ndarray:
+        """The classes of ``level`` as ``(n_faces, rows, columns)``."""
+        ...
+
+    def from_faces_flat(self, flat) -> np.ndarray:
+        """Flat indices of the image's ``(n_faces, size, size)`` array as this grid's."""
+        ...
+
+
+@runtime_checkable
+class CurveMaskImage(Image, Protocol):
+    """An image that curve masks live on (``curve_masks`` is True)."""
+
+    def cell_set(self) -> CellSet:
+        """The output pixels as one set of cells: the grid itself, or for several faces
+        their :class:`FaceCells` (made once)."""
+        ...
+
+
+@runtime_checkable
+class TileLevels(Grid, Protocol):
+    """The XYZ tile quadtree as levels (level = zoom): rows of tiles are parallels bounded
+    by the web-mercator latitudes."""
+
+    def tile_lat(self, z: int, yy) -> np.ndarray:
+        """Latitude (radians) at tile-row position ``yy`` (fractional) of zoom ``z``."""
+        ...
+
+    def tile_lon(self, z: int, xx) -> np.ndarray:
+        """Longitude (radians) at tile-column position ``xx`` (fractional) of zoom ``z``."""
         ...

@@ -6,9 +6,9 @@ level by level: a level's cells are *contained*, *outside* or *frontier*, and on
 children of frontier cells are classified at the next level (the paper's Sec. 5.2). What
 differs is how a cell is classified; that is a :class:`Classifier`:
 
-* :class:`gloffset.raster.curves.CurveCells`: against the offset region of vector curves
+* :class:`gloffset.raster.vector.curves.CurveCells`: against the offset region of vector curves
   (exact float64 distances to candidate arcs);
-* :class:`gloffset.raster.rasterized.RasterCells`: against the cells of a rasterized curve.
+* :class:`gloffset.raster.rasterized.offset.RasterCells`: against the cells of a rasterized curve.
 
 The driver walks the levels (:func:`walk`, sparse: a :class:`Level` per level) and paints
 them into one class array per level (:func:`classify`, dense, with the ``callback`` and
@@ -29,6 +29,7 @@ from typing import Protocol
 import numpy as np
 
 from ..classes import CONTAINED, FRONTIER, OUTSIDE
+from ..grids.protocol import Grid
 
 __all__ = [
     "OUTSIDE",
@@ -84,7 +85,7 @@ NOT_FORCED = 255
 class Classifier(Protocol):
     """How the cells of a grid are classified (see the module notes)."""
 
-    grid: object
+    grid: Grid
 
     def enter(self, stop: int) -> Level:
         """The first level classified (level 0, or a finer level ``<= stop`` entered

@@ -1,11 +1,11 @@
 """The GPU levels of a render, planner side: pack the frontier bins, then run the GL passes.
 
 Below the bin level the classes of the frontier bins come from the GL passes of
-:mod:`gloffset.gl.engine`. This module makes what they draw, in float64 on the CPU: the
+:mod:`gloffset.gl.vector_pass`. This module makes what they draw, in float64 on the CPU: the
 canvas of the bins (:class:`~gloffset.raster.layout.BinLayout`), their arc records
 (:func:`gloffset.raster.records.records`), the margins and the geometry of every level,
-handed over as one :class:`~gloffset.gl.engine.BinPlan` (:func:`bin_plan`); and it spreads
-the canvas read back over the whole level (:meth:`BinLevels.run`): every cell outside the
+handed over as one :class:`~gloffset.gl.vector_pass.BinPlan` (:func:`bin_plan`); and it spreads
+the canvas read back over the whole level (:meth:`BinPasses.run`): every cell outside the
 frontier bins is its bin's class.
 """
 
@@ -14,13 +14,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..edges import CurveArcs
-from ..gl.engine import BinPlan
-from ..gl.engine import engine as gl_engine
+from ..gl.vector_pass import BinPlan, vector_passes
 from .layout import BinLayout
-from .levels import Frontier
 from .records import margins, records
+from .vector.levels import Frontier
 
-__all__ = ["BinLevels", "bin_plan", "engine"]
+__all__ = ["BinPasses", "bin_plan", "bin_passes"]
 
 
 def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs) -> BinPlan:
@@ -60,13 +59,13 @@ def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs) -> BinPl
     return plan
 
 
-class BinLevels:
+class BinPasses:
     """Runs the levels below the bin level on the GPU (lon/lat grids, cube faces, tiles):
     plans each run (:func:`bin_plan`) and hands it to the GL passes ``passes`` (default:
-    the process's :class:`~gloffset.gl.engine.GpuLevels`)."""
+    the process's :class:`~gloffset.gl.vector_pass.VectorPasses`)."""
 
     def __init__(self, passes=None):
-        self.passes = gl_engine() if passes is None else passes
+        self.passes = vector_passes() if passes is None else passes
 
     def run(
         self,
@@ -138,7 +137,7 @@ class BinLevels:
         return self.passes.run(plan, callback=callback, timings=timings)
 
 
-def engine() -> BinLevels:
+def bin_passes() -> BinPasses:
     """The GPU levels of renders, on the process's GL passes (made on first use, with the
     GL context: call it before the CPU levels so that a missing context fails first)."""
-    return BinLevels()
+    return BinPasses()

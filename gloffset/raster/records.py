@@ -1,6 +1,6 @@
 """The arc records of the frontier bins, packed in float64 for the GPU levels (pure numpy).
 
-Below the bin level the GL passes (:mod:`gloffset.gl.engine`, ``shaders/classify.frag``)
+Below the bin level the GL passes (:mod:`gloffset.gl.vector_pass`, ``shaders/classify.frag``)
 classify the cells of the frontier bins. For every bin they read its candidate arcs as
 records computed in float64 *relative to the bin centre* and then cast to float32
 (:func:`records`; ``shaders/lib/arcs.glsl`` lists the six texels), the inside status of
@@ -28,7 +28,7 @@ from ..caps import CAP_SLACK, cap_range, chord2
 from ..edges import CurveArcs
 from ..errors import GLContextError
 from ..sphere import dot, einsum_dot
-from .levels import Frontier
+from .vector.levels import Frontier
 
 __all__ = [
     "ARC_HAS_DISTANCE",

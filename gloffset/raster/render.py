@@ -1,8 +1,8 @@
 """Rasters of the offset region: ``render(shape, distance, grid)``.
 
 Coarse to fine over the grid's levels: the coarse levels in float64 on the CPU
-(:mod:`gloffset.raster.levels`), the levels below the bins in fragment shaders on the
-GPU (:mod:`gloffset.gl.engine`), each level evaluating only children of frontier
+(:mod:`gloffset.raster.vector.levels`), the levels below the bins in fragment shaders on the
+GPU (:mod:`gloffset.gl.vector_pass`), each level evaluating only children of frontier
 cells. Outputs larger than the GL texture limit are rendered in tiles.
 """
 
@@ -13,14 +13,14 @@ import numpy as np
 from ..ellipsoid import as_ellipsoid
 from ..ellipsoidal import conformal, decide, members, thresholds
 from ..errors import OptionError
-from ..grids import Cube, CubeFace, Equirect, Tile
 from ..grids.conformal import ConformalRows
+from ..grids.protocol import Image
 from ..shape import read
 from ..sphere import xyz_to_lonlat
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
 from . import driver
-from .curves import CurveCells
 from .simplified import PIXEL_FRACTION, band_members, simplified, z_order
+from .vector.curves import CurveCells
 
 __all__ = ["render", "RenderError", "MAX_PIXELS"]
 
@@ -40,11 +40,11 @@ def _check(out, backend, grid):
         raise OptionError(f"out must be one of {', '.join(_OUTS)}, got {out!r}")
     if backend not in _BACKENDS:
         raise OptionError(f"backend must be one of {', '.join(_BACKENDS)}, got {backend!r}")
-    if not isinstance(grid, (Equirect, Tile, Cube, CubeFace)):
+    if not isinstance(grid, Image):
         raise OptionError(
             f"grid must be a gloffset.grids grid (Equirect, Tile, Cube), got {type(grid).__name__}"
         )
-    n = 6 * grid.size**2 if isinstance(grid, Cube) else grid.width * grid.height
+    n = sum(f.width * f.height for f in grid.faces)
     if n > MAX_PIXELS:
         raise OptionError(
             f"the image has {n} pixels, more than {MAX_PIXELS}; render it in parts "
@@ -73,7 +73,7 @@ def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoi
     if out != "mask" or callback is not None:
         raise OptionError("with an ellipsoid, render() gives masks only (out='mask', no callback)")
     offset_angle(shape, distance, ell.a, limit=RASTER_LIMIT, what="render")
-    if isinstance(grid, Cube):
+    if grid.n_faces > 1:
         return np.stack(
             [
                 _render_on_ellipsoid(shape, distance, f, out, backend, None, ell, tile)
@@ -168,7 +168,7 @@ def _parts(grid, tile: int):
     if grid.width <= tile and grid.height <= tile:
         yield 0, 0, grid
         return
-    if not isinstance(grid, Equirect):
+    if not grid.subgrids:
         raise OptionError(
             f"a {grid.width}x{grid.height} {type(grid).__name__} is larger than the GL limit "
             f"{tile}; use a smaller size"
@@ -207,8 +207,8 @@ def render_grid(shape, d: float, grid) -> np.ndarray:
 def _render_one(shape, d, grid, *, backend, level, callback, mask, simplify=True):
     """Classes of ``level`` (default: the output level) or, with ``mask``, the mask.
 
-    The float64 levels (:class:`~gloffset.raster.curves.CurveCells`) run down to the
-    bins, the GL levels (:mod:`gloffset.gl.engine`) below them; ``backend="cpu"``
+    The float64 levels (:class:`~gloffset.raster.vector.curves.CurveCells`) run down to the
+    bins, the GL levels (:mod:`gloffset.gl.vector_pass`) below them; ``backend="cpu"``
     runs every level in float64. A GPU mask of a shape far finer than the pixels is
     rendered from the shape simplified to a fraction of a pixel
     (:mod:`gloffset.raster.simplified`), with the same pixels.
@@ -222,12 +222,12 @@ def _render_one(shape, d, grid, *, backend, level, callback, mask, simplify=True
     if backend == "cpu" or stop <= bins:
         classes = driver.run(CurveCells(shape, d, grid), stop, callback=callback)
         return _MASK[classes] if mask else classes
-    from .gpu import engine
+    from .gpu import bin_passes
 
     cells = CurveCells(shape, d, grid, start="auto")
 
     def on_gpu(classes, lev):
-        return engine().run(
+        return bin_passes().run(
             grid,
             d,
             classes,
@@ -361,7 +361,7 @@ def render(
     if out == "mask":
         level = None
     tile = _tile_limit(tile, backend)
-    if isinstance(grid, Cube):
+    if grid.n_faces > 1:
         faces = [
             render(
                 shape,

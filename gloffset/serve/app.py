@@ -45,7 +45,7 @@ from starlette.staticfiles import StaticFiles
 from ..edges import points_inside
 from ..errors import GloffsetError
 from ..grids.mercator import MAX_ZOOM
-from ..raster.tilepaint import TileStyle
+from ..raster.pyramid.tilepaint import TileStyle
 from ..reference import distance as distance_to
 from ..shape import read
 from ..sphere import lonlat_to_xyz

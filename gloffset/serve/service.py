@@ -5,8 +5,8 @@ bytes.
 A tile wholly inside or wholly outside the offset region is decided without the render
 thread or the GPU (:meth:`TileService.answer`): the exact distances from the tile's
 centre to the curves and whether the centre is inside, against the tile's rigorous
-bound, with the decision rule of the raster levels (:func:`gloffset.raster.tiles.measure_tiles`,
-:class:`~gloffset.raster.tiles.TileCentre`); those distances do not depend on the offset
+bound, with the decision rule of the raster levels (:func:`gloffset.raster.pyramid.measure_tiles`,
+:class:`~gloffset.raster.pyramid.TileCentre`); those distances do not depend on the offset
 distance, so they are measured once per tile.
 The answer is one shared PNG per size and style (empty: fully transparent).
 
@@ -15,7 +15,7 @@ render thread. Requests wait on a :class:`concurrent.futures.Future`; the queue 
 most ``queue_size`` pending tiles (a full queue raises :class:`QueueFull`, which the
 server answers with 503 and ``Retry-After``). The render thread takes every pending
 request at once and renders those of one layer, distance, zoom, size and style together
-(:func:`gloffset.raster.tiles.render_tiles`: one walk down the zooms and batched GPU
+(:func:`gloffset.raster.pyramid.render_tiles`: one walk down the zooms and batched GPU
 runs), so throughput grows with load. Rendered tiles are kept in an LRU bounded in
 bytes. A request whose client went away is still rendered when its batch had started
 (the tile is cached, the answer dropped); one cancelled before is skipped.
@@ -38,8 +38,8 @@ from PIL import Image
 
 from ..classes import CONTAINED, OUTSIDE
 from ..errors import QueueFullError as QueueFull
-from ..raster.tilepaint import TileStyle
-from ..raster.tiles import measure_tiles, render_tiles
+from ..raster.pyramid import measure_tiles, render_tiles
+from ..raster.pyramid.tilepaint import TileStyle
 
 __all__ = [
     "TileKey",
@@ -138,7 +138,7 @@ class TileService:
 
     def triage(self, key: TileKey, *, measure: bool = True):
         """CONTAINED or OUTSIDE when the whole tile is decided at its own zoom (the
-        classification of the raster levels, :func:`gloffset.raster.levels.decide`, with
+        classification of the raster levels, :func:`gloffset.raster.vector.levels.decide`, with
         the tile's rigorous bound), else None (:data:`UNKNOWN` when the tile is not
         measured yet and ``measure`` is False). What the decision needs (the exact
         distances from the tile's centre to the nearest boundary arc and ring edge, and
@@ -160,7 +160,7 @@ class TileService:
         return geo.decide(key.d)
 
     def _measure(self, key: TileKey):
-        """The tile entered directly at its zoom (:func:`gloffset.raster.levels.at_cells`)
+        """The tile entered directly at its zoom (:func:`gloffset.raster.vector.levels.at_cells`)
         with every arc that can be its centre's nearest as candidates (no distance
         limit): the exact distances to the nearest boundary arc and ring edge, the
         centre's inside status and the tile's decision bound (1-element arrays)."""
@@ -168,7 +168,7 @@ class TileService:
 
     def measure(self, keys) -> None:
         """Measure the centres of the tiles ``keys`` not known yet, those of one layer and
-        zoom together (one :func:`~gloffset.raster.levels.at_cells` for the tiles of a
+        zoom together (one :func:`~gloffset.raster.vector.levels.at_cells` for the tiles of a
         view: the same values as :meth:`triage` measuring each)."""
         groups: dict = {}
         with self.lock:

@@ -3,7 +3,7 @@
 //         lonlat_offset or cube_offset), relative error below 2e-6 of |dp|
 //         (tests/test_shaders.py; cube_offset: tests/test_raster_input.py);
 //   rec = (g - c, |g - c|): an intersected cell's centre g relative to c, made in
-//         float64 on the CPU (gloffset/raster/curve_gpu.py) and rounded to float32.
+//         float64 on the CPU (gloffset/raster/rasterized/curve_gpu.py) and rounded to float32.
 // Returns (lower, upper) with lower <= |p - g|^2 <= upper for the float64 value the
 // CPU reference computes: the error of v = dp - (g - c) is at most
 // e = CHORD_REL (|dp| + |g - c|), so that of |v|^2 is at most e (2|v| + e), plus

@@ -4,15 +4,15 @@ Below the grid's bin level, one fragment-shader pass per level
 (``shaders/raster_classify.frag``) classifies the children of frontier cells, drawing
 instanced quads over the frontier bins only (``shaders/bins.vert``); the other cells take
 their bin's class (``shaders/upsample.frag``). The planner
-(:mod:`gloffset.raster.curve_gpu`) makes each level's data in float64 (a
+(:mod:`gloffset.raster.rasterized.curve_gpu`) makes each level's data in float64 (a
 :class:`CurveLevel`: the records of the intersected cells near each bin, the per-row
 thresholds rounded outward, the cells' offsets from their bins), hands it to a run of
-:class:`RasterLevels` level by level, and decides in float64 the cells a pass wrote as
+:class:`RasterizedPasses` level by level, and decides in float64 the cells a pass wrote as
 ambiguous (:data:`gloffset.classes.AMBIGUOUS`) before the next level. This module only
 uploads, draws and reads back; it knows no grid or curve.
 
-A run on a grid whose rows are parallels (:meth:`RasterLevels.lonlat`) draws each level
-into one target. A run on a cube (:meth:`RasterLevels.cube`: the six faces stacked as the
+A run on a grid whose rows are parallels (:meth:`RasterizedPasses.lonlat`) draws each level
+into one target. A run on a cube (:meth:`RasterizedPasses.cube`: the six faces stacked as the
 rows of one grid of cells, so that the records of a bin may come from any face) draws
 each level face by face (the ``GRID_CUBE`` variant of the shader, with the face's axes as
 uniforms) into a face-sized target; the records are shared by the six passes.
@@ -29,14 +29,14 @@ from .shaders import program
 from .textures import class_target, pot, pot_texture
 from .textures import set_uniform as _set
 
-__all__ = ["CurveLevel", "RasterLevels", "engine", "RECORD_ROW"]
+__all__ = ["CurveLevel", "RasterizedPasses", "rasterized_passes", "RECORD_ROW"]
 
 RECORD_ROW = 4096  # records (one RGBA32F texel each) per texture row
 
 
 @dataclass
 class CurveLevel:
-    """One level's data for the passes of a run of :class:`RasterLevels`.
+    """One level's data for the passes of a run of :class:`RasterizedPasses`.
 
     ``shift``: the level minus the bin level; ``shape`` (h, w): the level's cells (a cube:
     its six faces stacked as rows). ``records`` (rows, :data:`RECORD_ROW`, 4) float32:
@@ -59,7 +59,7 @@ class CurveLevel:
     block: float | None = None
 
 
-class RasterLevels:
+class RasterizedPasses:
     """The programs of the curve-offset passes, compiled once; :meth:`lonlat` and
     :meth:`cube` start a run."""
 
@@ -97,11 +97,11 @@ class RasterLevels:
 
 
 class LonLatRun:
-    """A run of :class:`RasterLevels` on a grid whose rows are parallels: what every level
+    """A run of :class:`RasterizedPasses` on a grid whose rows are parallels: what every level
     shares is made once; :meth:`level` draws one level. A context manager: leaving it
     releases what the run made."""
 
-    def __init__(self, eng: RasterLevels, classes, bins, bin_lat, bin_lon):
+    def __init__(self, eng: RasterizedPasses, classes, bins, bin_lat, bin_lon):
         ctx = self.ctx = eng.ctx
         self.eng = eng
         self.owned = [eng._tex(bin_lat, 2, "f4"), eng._tex(bin_lon, 2, "f4")]
@@ -175,11 +175,11 @@ class LonLatRun:
 
 
 class CubeRun:
-    """A run of :class:`RasterLevels` on a cube's six faces stacked as rows: per face its
+    """A run of :class:`RasterizedPasses` on a cube's six faces stacked as rows: per face its
     instanced bins and bin-level classes, made once; :meth:`level` draws one level face
     by face. A context manager: leaving it releases what the run made."""
 
-    def __init__(self, eng: RasterLevels, classes, bins, axes, px: float, bin_block: float):
+    def __init__(self, eng: RasterizedPasses, classes, bins, axes, px: float, bin_block: float):
         ctx = self.ctx = eng.ctx
         self.eng, self.axes = eng, axes
         pb = self.pb = classes.shape[0] // 6  # stacked rows per face at the bin level
@@ -269,6 +269,6 @@ class CubeRun:
         self.close()
 
 
-def engine() -> RasterLevels:
-    """The process's :class:`RasterLevels` (made on first use, with the GL context)."""
-    return shared(RasterLevels)
+def rasterized_passes() -> RasterizedPasses:
+    """The process's :class:`RasterizedPasses` (made on first use, with the GL context)."""
+    return shared(RasterizedPasses)

@@ -1,9 +1,9 @@
 """The cells of a rasterized curve, level by level, and the distances between cells
 (paper Sec. 5): what the classification of a raster offset works on, on the CPU
 (:mod:`gloffset.raster.rasterized`) and for the GPU levels
-(:mod:`gloffset.raster.curve_gpu`).
+(:mod:`gloffset.raster.rasterized.curve_gpu`).
 
-:class:`CurveLevels` holds the curve's intersected cells on every level (a cell is
+:class:`RasterizedCurve` holds the curve's intersected cells on every level (a cell is
 intersected when a descendant is) with the per-row thresholds of each level (see
 :mod:`gloffset.raster.rasterized` for the bounds); :func:`near_pairs` finds the pairs of
 cells within a reach with buckets of a coarser level; :func:`classify_cells` classifies
@@ -20,11 +20,18 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..caps import cap_within, pad
-from ..caps import chord2 as chord2_of_angle
-from ..classes import CONTAINED, FRONTIER, OUTSIDE
+from ...caps import cap_within, pad
+from ...caps import chord2 as chord2_of_angle
+from ...classes import CONTAINED, FRONTIER, OUTSIDE
 
-__all__ = ["CurveLevels", "level_centers", "chord2", "neighbours", "near_pairs", "classify_cells"]
+__all__ = [
+    "RasterizedCurve",
+    "level_centers",
+    "chord2",
+    "neighbours",
+    "near_pairs",
+    "classify_cells",
+]
 
 _PAIRS = 1 << 22  # cell pairs per chunk
 _REACH_SLACK = 1e-9  # rad added to every search radius (so no float64 rounding hides a cell)
@@ -141,7 +148,7 @@ def _runs(grid, level: int, parts: list[np.ndarray]) -> tuple[np.ndarray, np.nda
 
 # ---------------------------------------------------------------------------- the problem
 @dataclass
-class CurveLevels:
+class RasterizedCurve:
     """A curve mask with what every level's classification needs (all float64): the
     levels of a rasterized curve (not to be confused with a grid's levels).
 
@@ -164,7 +171,7 @@ class CurveLevels:
     parts: list | None = None
 
     @classmethod
-    def build(cls, mask: np.ndarray, d: float, grid, parts=None) -> CurveLevels:
+    def build(cls, mask: np.ndarray, d: float, grid, parts=None) -> RasterizedCurve:
         last = grid.n_levels - 1
         masks = [None] * (last + 1)
         masks[last] = mask
@@ -299,7 +306,7 @@ def _bucket_level(grid, level_q, q, level_p, p, reach) -> int:
     return m_best
 
 
-def classify_cells(lv: CurveLevels, level: int, flat: np.ndarray) -> np.ndarray:
+def classify_cells(lv: RasterizedCurve, level: int, flat: np.ndarray) -> np.ndarray:
     """Direct classification of cells ``flat`` of ``level`` against every intersected
     cell within reach (the fallback, and the hierarchical levels)."""
     flat = np.asarray(flat, dtype=np.int64)

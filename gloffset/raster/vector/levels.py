@@ -24,10 +24,10 @@ Accuracy: distances are exact float64 point-to-arc distances (error < 1e-15 rad)
 decisions at ``R > 0`` use a slack of 1e-15 rad toward *frontier*, so a cell is
 only called contained or outside when all its descendant pixels are.
 
-The GPU engine (:mod:`gloffset.gl.engine`) takes over below the bin level with the
-same rules. The classifier :class:`~gloffset.raster.curves.CurveCells`, driven by
+The GPU engine (:mod:`gloffset.gl.vector_pass`) takes over below the bin level with the
+same rules. The classifier :class:`~gloffset.raster.vector.curves.CurveCells`, driven by
 :mod:`gloffset.raster.driver`, strings these operations into levels;
-:func:`gloffset.raster.curves.classify` run to the output level is the float64
+:func:`gloffset.raster.vector.curves.classify_curves` run to the output level is the float64
 reference renderer.
 """
 
@@ -37,10 +37,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..caps import CAP_SLACK, arc_cap, cap_range, cap_within, cap_within_pairs, pad
-from ..classes import CONTAINED, FRONTIER, OUTSIDE
-from ..edges import CurveArcs, component_status, status_bits
-from ..sphere import angle, arc_distance, arcs_cross, pair_dots
+from ...caps import CAP_SLACK, arc_cap, cap_range, cap_within, cap_within_pairs, pad
+from ...classes import CONTAINED, FRONTIER, OUTSIDE
+from ...edges import CurveArcs, component_status, status_bits
+from ...sphere import angle, arc_distance, arcs_cross, pair_dots
 
 __all__ = [
     "CurveArcs",

@@ -1,11 +1,11 @@
 """The GPU levels of a rasterized curve's offset (paper Sec. 5.2), planner side.
 
 The CPU (:mod:`gloffset.raster.rasterized`, float64) classifies the levels down to the
-grid's bin level; below it the GL passes of :mod:`gloffset.gl.raster_engine` classify the
+grid's bin level; below it the GL passes of :mod:`gloffset.gl.rasterized_pass` classify the
 children of frontier cells, one level at a time (:func:`gpu_levels`). This module makes
 each level's data and finishes each level after read-back.
 
-Exactness. For every frontier bin and level, :func:`records` lists the intersected cells
+Exactness. For every frontier bin and level, :func:`cell_records` lists the intersected cells
 ``g`` of that level within ``d_max + rho_bin`` of the bin centre ``c`` (every cell that
 can change a class in the bin), as records ``(g - c, |g - c|)`` made in float64 and
 rounded to float32. The shader computes the cell centre relative to ``c``
@@ -15,7 +15,7 @@ on the float64 squared chord (``lib/chord.glsl``); thresholds come per row as fl
 values rounded outward (:func:`thresholds`). A cell whose bounds straddle a threshold is
 written as *ambiguous* (:data:`~gloffset.classes.AMBIGUOUS`); after each level
 :func:`decide_ambiguous` decides those cells with the float64 reference
-(:func:`gloffset.raster.rasterized.classify_cells`), so the result equals the CPU
+(:func:`gloffset.raster.rasterized.curve_levels.classify_cells`), so the result equals the CPU
 reference bit for bit. Ambiguous cells are rare (a band of about 1e-5 of the threshold's
 squared chord) and counted in the result's info.
 
@@ -28,12 +28,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..classes import AMBIGUOUS, FRONTIER
-from ..gl.raster_engine import RECORD_ROW, CurveLevel
-from ..gl.raster_engine import engine as gl_engine
-from .curve_levels import CurveLevels, classify_cells, level_centers, near_pairs
+from ...classes import AMBIGUOUS, FRONTIER
+from ...gl.rasterized_pass import RECORD_ROW, CurveLevel, rasterized_passes
+from .curve_levels import RasterizedCurve, classify_cells, level_centers, near_pairs
 
-__all__ = ["decide_ambiguous", "gpu_levels", "level_data", "records", "thresholds"]
+__all__ = ["decide_ambiguous", "gpu_levels", "level_data", "cell_records", "thresholds"]
 
 _T_REL = 1e-6  # relative outward rounding of the float32 thresholds
 
@@ -50,7 +49,7 @@ def _outward(t: np.ndarray, up: bool) -> np.ndarray:
     return f.astype(np.float32)
 
 
-def thresholds(lv: CurveLevels, level: int) -> np.ndarray:
+def thresholds(lv: RasterizedCurve, level: int) -> np.ndarray:
     """(rows, 1, 4) float32: lo-, lo+, hi-, hi+ per row of ``level``."""
     lo, hi = lv.t_lo[level], lv.t_hi[level]
     out = np.stack(
@@ -60,7 +59,7 @@ def thresholds(lv: CurveLevels, level: int) -> np.ndarray:
     return out[:, None, :]
 
 
-def records(lv: CurveLevels, level: int, bins: np.ndarray):
+def cell_records(lv: RasterizedCurve, level: int, bins: np.ndarray):
     """Records (float32 (n, 4)) of the intersected cells of ``level`` near each frontier
     bin (flat indices of the bin level), sorted by bin; and per-bin first/count."""
     grid = lv.grid
@@ -86,10 +85,10 @@ def records(lv: CurveLevels, level: int, bins: np.ndarray):
     return rec.astype(np.float32), first.astype(np.uint32), count.astype(np.uint32)
 
 
-def _record_tables(lv: CurveLevels, level: int, bins: np.ndarray, hb: int, wb: int):
+def _record_tables(lv: RasterizedCurve, level: int, bins: np.ndarray, hb: int, wb: int):
     """The record texture data (rows, RECORD_ROW, 4) and the per-bin (first, count)
     table (hb, wb, 4) of ``level``."""
-    rec, first, count = records(lv, level, bins)
+    rec, first, count = cell_records(lv, level, bins)
     rows = max(1, -(-len(rec) // RECORD_ROW))
     buf = np.zeros((rows * RECORD_ROW, 4), dtype=np.float32)
     buf[: len(rec)] = rec
@@ -99,7 +98,7 @@ def _record_tables(lv: CurveLevels, level: int, bins: np.ndarray, hb: int, wb: i
     return buf.reshape(rows, RECORD_ROW, 4), info
 
 
-def level_data(lv: CurveLevels, level: int, bins: np.ndarray, bin_shape) -> CurveLevel:
+def level_data(lv: RasterizedCurve, level: int, bins: np.ndarray, bin_shape) -> CurveLevel:
     """What the passes need for ``level`` below the frontier bins ``bins`` (flat indices
     of the bin level, of shape ``bin_shape``)."""
     grid = lv.grid
@@ -122,7 +121,7 @@ def level_data(lv: CurveLevels, level: int, bins: np.ndarray, bin_shape) -> Curv
     )
 
 
-def decide_ambiguous(lv: CurveLevels, level: int, out: np.ndarray) -> int:
+def decide_ambiguous(lv: RasterizedCurve, level: int, out: np.ndarray) -> int:
     """Cells the shader wrote as ambiguous, decided in float64 (in place); their count."""
     amb = np.flatnonzero(out.ravel() == AMBIGUOUS)
     if len(amb):
@@ -130,7 +129,7 @@ def decide_ambiguous(lv: CurveLevels, level: int, out: np.ndarray) -> int:
     return len(amb)
 
 
-def _start(lv: CurveLevels, classes: np.ndarray, bins: np.ndarray):
+def _start(lv: RasterizedCurve, classes: np.ndarray, bins: np.ndarray):
     """A run of the GL passes from the bin level's ``classes`` (frontier bins ``bins``)."""
     grid = lv.grid
     bl = grid.bin_level
@@ -139,16 +138,18 @@ def _start(lv: CurveLevels, classes: np.ndarray, bins: np.ndarray):
         bf, bj, bi = grid.split(bl, bins)
         per_face = [np.column_stack([bi[bf == f], bj[bf == f]]) for f in range(6)]
         axes = [grid.face_axes(f) for f in range(6)]
-        return gl_engine().cube(classes, per_face, axes, 2.0 / grid.size, float(grid.block(bl)))
+        return rasterized_passes().cube(
+            classes, per_face, axes, 2.0 / grid.size, float(grid.block(bl))
+        )
     lam = grid.cell_lon(bl, np.arange(wb))
     phi = grid.cell_lat(bl, np.arange(hb))
     lon_cs = np.stack([np.cos(lam), np.sin(lam)], axis=-1).astype(np.float32)
     lat_cs = np.stack([np.cos(phi), np.sin(phi)], axis=-1).astype(np.float32)
     fb = np.column_stack([bins % wb, bins // wb])
-    return gl_engine().lonlat(classes, fb, lat_cs[None], lon_cs[None])
+    return rasterized_passes().lonlat(classes, fb, lat_cs[None], lon_cs[None])
 
 
-def gpu_levels(lv: CurveLevels, classes: np.ndarray, *, stop_level: int, callback=None):
+def gpu_levels(lv: RasterizedCurve, classes: np.ndarray, *, stop_level: int, callback=None):
     """Classes of ``stop_level`` from the bin level's ``classes``, the levels below the
     bins run on the GPU; and the number of ambiguous cells decided on the CPU.
     ``callback(level, classes)`` after each level."""

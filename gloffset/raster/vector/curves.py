@@ -1,11 +1,11 @@
 """The classifier of grid cells against the offset region of vector curves.
 
 :class:`CurveCells` is the :class:`~gloffset.raster.driver.Classifier` that renders and
-tile pyramids drive: level 0 from the arcs' cap tree (:func:`gloffset.raster.levels.coarse`)
-or a finer level entered directly (:func:`gloffset.raster.scatter.scatter`), then the
-children of the kept cells (:func:`gloffset.raster.levels.refine`), every cell decided by
-the rules of :mod:`gloffset.raster.levels` with exact float64 distances.
-:func:`classify` runs it to a level (the float64 reference renderer when run to the
+tile pyramids drive: level 0 from the arcs' cap tree (:func:`gloffset.raster.vector.levels.coarse`)
+or a finer level entered directly (:func:`gloffset.raster.vector.scatter.scatter`), then the
+children of the kept cells (:func:`gloffset.raster.vector.levels.refine`), every cell decided by
+the rules of :mod:`gloffset.raster.vector.levels` with exact float64 distances.
+:func:`classify_curves` runs it to a level (the float64 reference renderer when run to the
 output level).
 """
 
@@ -13,13 +13,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..edges import CurveArcs, inside_any
-from . import driver, node_levels
-from .driver import FRONTIER, NOT_FORCED, Level
+from ...edges import CurveArcs, inside_any
+from .. import driver
+from ..driver import FRONTIER, NOT_FORCED, Level
+from . import node_levels
 from .levels import Frontier, at_cells, cell_distances, coarse, decide, prune, refine, subset
 from .scatter import scatter, start_level
 
-__all__ = ["CurveCells", "classify"]
+__all__ = ["CurveCells", "classify_curves"]
 
 
 class CurveCells:
@@ -28,9 +29,9 @@ class CurveCells:
     module notes).
 
     ``start="coarse"`` enters at level 0 (the reference renderer); ``start="auto"``
-    enters the finest level that :func:`gloffset.raster.scatter.start_level` allows
+    enters the finest level that :func:`gloffset.raster.vector.scatter.start_level` allows
     directly (lon/lat grids, small distances), and an int enters that level
-    (:func:`gloffset.raster.scatter.scatter`). All give the same classes from that level
+    (:func:`gloffset.raster.vector.scatter.scatter`). All give the same classes from that level
     on. A :class:`~gloffset.raster.driver.Level`'s ``state`` is the :class:`Frontier` of
     its classified cells (of its frontier cells when the level was entered directly).
     """
@@ -46,7 +47,7 @@ class CurveCells:
         if nodes_until is not None and not 0 <= nodes_until < self.last:
             nodes_until = None
         #: the last level whose lists hold arcs of the multiresolution curve
-        #: (:mod:`gloffset.raster.node_levels`), or None
+        #: (:mod:`gloffset.raster.vector.node_levels`), or None
         self.nodes_until = nodes_until
         #: refined levels kept for a second caller (:meth:`remember`), by parent cells
         self._memo: dict | None = None
@@ -54,7 +55,7 @@ class CurveCells:
     def remember(self, ahead: int | None) -> None:
         """Keep each refined level until it is asked for again (once), by the level and
         the cells of its parents. A tile pyramid refines the same frontier twice: its
-        bin levels run ahead of the zoom walk (:class:`gloffset.raster.tiles._BinChain`)
+        bin levels run ahead of the zoom walk (:class:`gloffset.raster.pyramid.walk.BinChain`)
         and the walk reaches the same cells later. The classes, candidates and
         measures are those of computing the level again: only the work is saved.
         ``ahead``: how many levels the first caller runs ahead of the second (levels
@@ -90,7 +91,7 @@ class CurveCells:
 
     def enter_cells(self, level: int, cells) -> Level:
         """The cells ``(row, column)`` of ``level`` alone, classified without the levels
-        above (:func:`gloffset.raster.levels.at_cells`): the work of a few cells of a
+        above (:func:`gloffset.raster.vector.levels.at_cells`): the work of a few cells of a
         fine level follows their neighbourhood, not the whole input."""
         return self._level(at_cells(self.shape, self.arcs, self.grid, self.e, level, cells))
 
@@ -107,9 +108,9 @@ class CurveCells:
         return node_levels.NodeArcs.from_shape(self.shape)
 
     def _node_level(self, f: Frontier) -> Level:
-        """The cells of ``f`` (lists of nodes) classified (:func:`node_levels.classify`)."""
+        """The cells of ``f`` (lists of nodes) classified (:func:`node_levels.classify_nodes`)."""
         rho = self.grid.decision_rho(f.level, f.cells[:, 0], f.cells[:, 1])
-        cls, dist = node_levels.classify(f, self._nodes(), rho, self.d)
+        cls, dist = node_levels.classify_nodes(f, self._nodes(), rho, self.d)
         return Level(f.level, f.cells, cls, f, measure=dist)
 
     def _children(self, parent: Frontier) -> Level:
@@ -160,7 +161,7 @@ class CurveCells:
         return Level(lev.level, lev.cells, lev.cls, lev.state, measure=lev.measure)
 
 
-def classify(
+def classify_curves(
     shape,
     d: float,
     grid,

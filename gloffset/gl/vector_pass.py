@@ -30,7 +30,7 @@ from .shaders import program
 from .textures import class_target, pot_texture
 from .textures import set_uniform as _set
 
-__all__ = ["BinPlan", "GpuLevels", "engine"]
+__all__ = ["BinPlan", "VectorPasses", "vector_passes"]
 
 RECORD_TEXELS = 6  # vec4 texels per arc record (shaders/classify.frag)
 _CLUSTER_BYTES = 32  # two uvec4 per cluster header (CLUSTER_TEXELS in classify.frag)
@@ -39,7 +39,7 @@ _MASK_FROM = 2  # the first shift with a prepass and depth mask
 
 @dataclass
 class BinPlan:
-    """What the passes of :class:`GpuLevels` draw: the frontier bins on their canvas, their
+    """What the passes of :class:`VectorPasses` draw: the frontier bins on their canvas, their
     records and the geometry of every level, as plain arrays (made in float64 and cast by
     the planner, :func:`gloffset.raster.gpu.bin_plan`).
 
@@ -110,7 +110,7 @@ def _groups(first: np.ndarray, counts: np.ndarray, limit: int) -> list[tuple[int
     return out
 
 
-class GpuLevels:
+class VectorPasses:
     """Runs the levels below the bin level on the GPU (lon/lat grids, cube faces, tiles):
     the programs, compiled once, and :meth:`run`."""
 
@@ -313,6 +313,6 @@ class GpuLevels:
         return target, out, done
 
 
-def engine() -> GpuLevels:
-    """The process's :class:`GpuLevels` (made on first use, with the GL context)."""
-    return shared(GpuLevels)
+def vector_passes() -> VectorPasses:
+    """The process's :class:`VectorPasses` (made on first use, with the GL context)."""
+    return shared(VectorPasses)

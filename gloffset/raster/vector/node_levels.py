@@ -10,7 +10,7 @@ within ``err`` of the coarse arc, :mod:`gloffset.raster.simplified`). Here a cel
 candidate list holds *nodes* of the decomposition's tree (:class:`NodeArcs`; the
 original edges are its leaves, with the indices of :class:`~gloffset.edges.CurveArcs`),
 each with ``err <= KAPPA * rho`` of the cell. The rules of
-:mod:`gloffset.raster.levels` then hold with these bounds:
+:mod:`gloffset.raster.vector.levels` then hold with these bounds:
 
 * **Candidates.** A node is a candidate when its bounding cap grown by ``err`` (which
   holds its whole run) comes within ``e + rho`` of the centre; a child's list is its
@@ -19,7 +19,7 @@ each with ``err <= KAPPA * rho`` of the cell. The rules of
 * **Classes.** With ``D`` the distance to the nearest candidate node and ``E`` the
   largest ``err`` of the cell's nodes, the distance to the original arcs lies in
   ``[D - E, D + E]``; the cell is decided by the rules of
-  :func:`~gloffset.raster.levels.decide` with the bound ``rho + E``: only ever called
+  :func:`~gloffset.raster.vector.levels.decide` with the bound ``rho + E``: only ever called
   contained or outside when every descendant pixel is (more cells stay frontier than
   with the original arcs, none is decided otherwise).
 * **Statuses** are those of the original polygons, exactly. A child's is its parent's
@@ -29,12 +29,12 @@ each with ``err <= KAPPA * rho`` of the cell. The rules of
   does, modulo 2 (the closed loop of the run and the node's arc lies within ``err`` of
   the node's arc, a disc-like set that neither end is in); otherwise the node is split
   and its halves tested the same way, down to original edges where needed (whose test is
-  the one of :func:`~gloffset.raster.levels.refine`, with its guard for a parent centre
+  the one of :func:`~gloffset.raster.vector.levels.refine`, with its guard for a parent centre
   on an edge).
 
 The last coarse level hands over with every node split into original edges
 (:func:`refine` with ``leaves=True``): from there on the levels are those of
-:mod:`gloffset.raster.levels`, their lists complete (every original arc within reach
+:mod:`gloffset.raster.vector.levels`, their lists complete (every original arc within reach
 of a cell; at most a few more arcs than the levels of original arcs keep, which no
 decision reads). A pyramid's pixels are therefore unchanged; tiles that the coarse
 bound leaves undecided are rendered and come out whole, as their decided class would
@@ -48,13 +48,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..caps import cap_within, pad
-from ..edges import CurveArcs, component_status, inside_any, status_bits
-from ..sphere import angle, arc_distance, arcs_cross, pair_dots
-from ..vector.multires import full_decomposition
+from ...caps import cap_within, pad
+from ...edges import CurveArcs, component_status, inside_any, status_bits
+from ...sphere import angle, arc_distance, arcs_cross, pair_dots
+from ...vector.multires import full_decomposition
 from .levels import Frontier, cell_distances, children, decide, on_edge
 
-__all__ = ["KAPPA", "NodeArcs", "enter", "refine", "classify"]
+__all__ = ["KAPPA", "NodeArcs", "enter", "refine", "classify_nodes"]
 
 #: A coarse cell's candidate nodes have an error bound of at most this fraction of its rho.
 KAPPA = 1.0 / 16.0
@@ -205,7 +205,9 @@ def _crossings(nodes: NodeArcs, c, pc, seg, cell, node):
     return (np.concatenate(hit_cell), np.concatenate(hit_node)), on
 
 
-def classify(f: Frontier, nodes: NodeArcs, rho_decide, d: float) -> tuple[np.ndarray, np.ndarray]:
+def classify_nodes(
+    f: Frontier, nodes: NodeArcs, rho_decide, d: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Classes and distances (to the nearest candidate node) of the cells of ``f`` (lists
     of nodes), decided with the bound ``rho_decide`` widened by the largest error bound
     of each cell's nodes."""

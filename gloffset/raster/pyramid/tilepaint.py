@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 from PIL import Image, ImageDraw
 
-from ..errors import OptionError
-from ..io.png import palette_png, parse_color
-from ..sphere import dot, xyz_to_lonlat
+from ...errors import OptionError
+from ...io.png import palette_png, parse_color
+from ...sphere import dot, xyz_to_lonlat
 
 __all__ = ["TileStyle", "StyleError", "OutlineArcs"]
 

@@ -20,10 +20,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ellipsoidal import conformal, decide, signed_distance, thresholds
-from ..grids.mercator import Tile, lat_at
-from ..sphere import angle, lonlat_to_xyz
-from .render import GPU_EPS, SCREEN_MARGIN, screened
+from ...ellipsoidal import conformal, decide, signed_distance, thresholds
+from ...grids.mercator import Tile, lat_at
+from ...sphere import angle, lonlat_to_xyz
+from ..render import GPU_EPS, SCREEN_MARGIN, screened
+from .ondemand import tile_masks
 
 __all__ = ["run_ellipsoid_pyramid", "tile_caps"]
 
@@ -67,7 +68,7 @@ def tile_caps(ell, z: int, xs, ys):
     return c, r
 
 
-def classify(conf, m: float, z: int, xs, ys):
+def classify_tiles(conf, m: float, z: int, xs, ys):
     """``(inside, outside)`` flags of tiles ``z/xs/ys`` for signed distance ``m``."""
     t_in, t_out = thresholds(conf, m)
     c, r = tile_caps(conf.ell, z, xs, ys)
@@ -78,17 +79,20 @@ def classify(conf, m: float, z: int, xs, ys):
     return inside, outside
 
 
-def run_ellipsoid_pyramid(shape, m, ell, zooms, size, style, store, have, stats, full, masks):
-    """Write the tiles of zooms ``zooms`` (inclusive) into ``store`` (skipping ``have``):
-    contained tiles and their descendants as ``full``, frontier tiles rendered
-    (:func:`frontier_masks`, with ``masks``, :func:`gloffset.raster.tiles.tile_masks`)."""
-    zlo, zhi = zooms
+def run_ellipsoid_pyramid(job, ell, store, have, stats):
+    """Write the tiles of ``job`` (a :class:`~gloffset.raster.pyramid.job.PyramidJob`,
+    ``job.d`` on the sphere of radius ``ell.a``) into ``store`` (skipping ``have``):
+    contained tiles and their descendants as one full image, frontier tiles rendered
+    (:func:`frontier_masks`, with :func:`gloffset.raster.pyramid.ondemand.tile_masks`)."""
+    shape, m, size, style = job.shape, job.d * ell.a, job.size, job.style
+    zlo, zhi = zooms = job.zlo, job.zhi
+    full = style.encode(np.ones((size, size), dtype=bool))
     conf = conformal(shape, ell)
     xs, ys = np.zeros(1, np.int64), np.zeros(1, np.int64)
     for z in range(zhi + 1):
         if len(xs) == 0:
             break
-        inside, outside = classify(conf, m, z, xs, ys)
+        inside, outside = classify_tiles(conf, m, z, xs, ys)
         front = ~inside & ~outside
         stats.zooms[z] = {
             "contained": int(inside.sum()),
@@ -106,7 +110,7 @@ def run_ellipsoid_pyramid(shape, m, ell, zooms, size, style, store, have, stats,
                     stats.present += 1
                 else:
                     todo.append(key[1:])
-            for key, mask in frontier_masks(conf, m, z, todo, size, masks).items():
+            for key, mask in frontier_masks(conf, m, z, todo, size, tile_masks).items():
                 data = style.encode(mask)
                 stats.rendered += 1
                 if data is None:

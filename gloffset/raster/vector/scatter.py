@@ -1,6 +1,6 @@
 """A fine starting level for the raster hierarchy: each arc scattered to the cells near it.
 
-The hierarchy (:mod:`gloffset.raster.levels`) starts from the coarsest level and finds
+The hierarchy (:mod:`gloffset.raster.vector.levels`) starts from the coarsest level and finds
 each level's candidate arcs from the parent's. When the offset distance is small
 compared with the grid, most of that work is spent on coarse cells whose lists hold
 hundreds of arcs. On grids whose rows are parallels and columns meridians
@@ -21,9 +21,9 @@ hundreds of arcs. On grids whose rows are parallels and columns meridians
    spacing of centres) of the cell centre, so it is among the cell's pairs.
 3. **Classes.** Exact distances to the pairs within ``e + rho_j`` (the cell's
    candidate list, complete as in the hierarchy), then
-   :func:`gloffset.raster.levels.decide`. Cells with no pair are decided by their status.
+   :func:`gloffset.raster.vector.levels.decide`. Cells with no pair are decided by their status.
 
-The result is the level's classes and its :class:`~gloffset.raster.levels.Frontier`,
+The result is the level's classes and its :class:`~gloffset.raster.vector.levels.Frontier`,
 identical in meaning to what the hierarchy would have reached (a cell called
 contained or outside has only descendant pixels of that class; candidate lists are
 complete), from which the hierarchy goes on. The coarser levels, which were never
@@ -43,9 +43,9 @@ import math
 
 import numpy as np
 
-from ..caps import cap_within, pad
-from ..edges import CurveArcs, status_bits
-from ..sphere import angle, arcs_cross
+from ...caps import cap_within, pad
+from ...edges import CurveArcs, status_bits
+from ...sphere import angle, arcs_cross
 from .levels import FRONTIER, Frontier, decide, nearest, prune, row_statuses
 
 __all__ = ["start_level", "scatter", "PAIRS_PER_ARC"]

@@ -1,0 +1,399 @@
+"""Web-mercator tile pyramids of the offset region, driven by the tile quadtree.
+
+The XYZ quadtree is used as a level hierarchy (level = zoom): every visited tile is
+classified in float64 with the decision rules of :mod:`gloffset.raster.vector.levels`
+(:func:`~gloffset.raster.vector.levels.decide`), with the tile centre and the bound
+
+    r(z, y) = the largest angle from the centre to any point of the tile's lon/lat
+              rectangle (the same for every tile of a row),
+
+so a tile found *outside* has no point, and a tile found *contained* only points,
+in the region, and so have all its descendants. Then
+
+* outside: nothing is written and the descendants are never visited;
+* contained: the tile and all its descendants down to the maximum zoom are written
+  with one shared image (one blob in MBTiles, hard links in a directory), without
+  rendering;
+* frontier: the tile is rendered with :func:`gloffset.render` on its
+  :class:`~gloffset.grids.Tile` grid (tiles with no pixel inside are not written)
+  and its children are visited.
+
+Candidate arcs are refined from parent to child as in the raster engine, with the
+list bound ``L(z, y) = r(z, y) + sum_{k=1..Z-z} r_eq(z + k)`` (``Z`` the maximum zoom,
+``r_eq(z)`` the bound of a tile touching the equator, the largest of its zoom): a
+chain parent -> child -> ... moves at most ``r`` of each tile it passes, so
+``L(parent) >= angle(parent, child) + L(child)`` as the refinement requires.
+
+Frontier tiles are rendered without starting again from the top: pixel ``(i, j)`` of
+tile ``z/x/y`` (``size = 2^P``) is the centre of tile ``z+P / x 2^P + i / y 2^P + j``,
+so a tile's pixels, and its bins of 16 pixels, are deeper levels of the same
+quadtree. The hierarchy runs to zoom ``max + P``: the frontier tiles of zoom ``z``
+are refined in float64 down to their bins (zoom ``z + P - 4``; these levels are
+kept from zoom to zoom, so each zoom adds one, :class:`~.walk.BinChain`), and the GPU levels
+(:class:`gloffset.gl.vector_pass.VectorPasses`) classify the frontier bins of up to
+``(max_block / size)^2`` tiles at once, packed into one small canvas
+(:class:`~gloffset.raster.layout.BinLayout`); every other pixel of a tile is its bin's
+class. So the cost per tile is that of its frontier bins, not a render call. The
+answer is that of :func:`gloffset.render` on the tile's :class:`~gloffset.grids.Tile`
+grid: same pixel centres, same decision rules and precision.
+
+With an outline, decided tiles that a boundary arc may cross (distance to the
+boundary at most ``r``) are drawn (fill or nothing, plus the outline) and
+their children visited with the same class; the rest are as above.
+
+Progress (:class:`~.progress.TileProgress`): each zoom is classified before any of its tiles is
+written, and the bin levels hold the frontier and inside tiles of the next zooms, so
+the run knows its tiles ahead and estimates the rest from the growth of the frontier;
+the time left follows a per-zoom cost plus a per-tile cost, both measured as it goes.
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ...ellipsoid import as_ellipsoid
+from ...errors import TilesError
+from ...grids.mercator import MAX_ZOOM, TilePyramid, check_tile_size
+from ...io.tilestore import INPUT_KEY, input_digest, open_store
+from ...malloc import keep_freed_memory
+from ...shape import read
+from ...units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
+from .. import driver
+from ..driver import Level
+from ..vector.curves import CurveCells
+from ..vector.levels import subset
+from .ellipsoid import run_ellipsoid_pyramid
+from .job import MAX_BLOCK, PyramidJob
+from .metadata import (
+    check_input,
+    describe,
+    final_bounds,
+    options_json,
+    source_name,
+    store_metadata,
+)
+from .progress import PyramidStats, Tracker
+from .tilepaint import TileStyle
+from .walk import BIN_LOG2, PYRAMID_ALONE_ZOOM, BinChain, MemoryStore, ZoomWriter
+
+__all__ = [
+    "pyramid",
+    "parse_zooms",
+    "run_pyramid",
+    "subpyramid",
+    "Part",
+    "PyramidJob",
+    "TilesError",
+    "MAX_ZOOM",
+]
+
+
+def parse_zooms(zooms) -> tuple[int, int]:
+    """``(min, max)`` from ``"0-14"``, ``"5"``, an int or a pair, checked against 0..MAX_ZOOM
+    (:data:`gloffset.grids.mercator.MAX_ZOOM`, 22).
+
+    Examples
+    --------
+    >>> parse_zooms("0-14")
+    (0, 14)
+    >>> parse_zooms(5)
+    (5, 5)
+    """
+    if isinstance(zooms, str):
+        m = re.fullmatch(r"\s*(\d+)\s*(?:-\s*(\d+)\s*)?", zooms)
+        if not m:
+            raise TilesError(
+                f"bad zoom range {zooms!r}: use MIN-MAX or one ZOOM, e.g. 0-14 "
+                f"(zooms 0..{MAX_ZOOM})"
+            )
+        lo = int(m.group(1))
+        hi = int(m.group(2)) if m.group(2) is not None else lo
+    elif isinstance(zooms, (int, np.integer)):
+        lo = hi = int(zooms)
+    else:
+        try:
+            lo, hi = (int(v) for v in zooms)
+        except (TypeError, ValueError):
+            raise TilesError(f"zooms must be 'MIN-MAX', an int or a pair, got {zooms!r}") from None
+    if not 0 <= lo <= hi <= MAX_ZOOM:
+        raise TilesError(
+            f"bad zoom range {lo}-{hi}: need 0 <= MIN <= MAX <= {MAX_ZOOM} "
+            f"(gloffset renders tiles up to zoom {MAX_ZOOM})"
+        )
+    return lo, hi
+
+
+def pyramid(
+    shape,
+    distance: float,
+    zooms,
+    out,
+    *,
+    radius: float = EARTH_RADIUS,
+    size: int = 256,
+    fill: str = "#3070c0",
+    opacity: float = 1.0,
+    outline: str | None = None,
+    outline_width: int = 1,
+    resume: bool = False,
+    overwrite: bool = False,
+    name: str | None = None,
+    source: str | None = None,
+    progress=None,
+    max_block: int = MAX_BLOCK,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    ellipsoid=None,
+) -> PyramidStats:
+    """Write the web-mercator tile pyramid of the offset region of ``shape``.
+
+    Parameters
+    ----------
+    shape : Shape or anything :func:`gloffset.read` accepts
+    distance : float or str
+        A number in the units of ``radius`` (metres by default) or a distance with its
+        unit (``"127km"``, ``"0.02rad"``: :func:`gloffset.parse_distance`); negative
+        shrinks polygons.
+    zooms : str, int or (int, int)
+        Zoom range, e.g. ``"0-14"`` (at most 0..22).
+    out : str, Path or a tile store
+        A path ending in ``.mbtiles`` (MBTiles 1.3, TMS rows), ``.pmtiles`` (PMTiles v3;
+        needs the ``pmtiles`` package) or a directory (``z/x/y.png``); or a writer from
+        :func:`gloffset.io.tilestore.open_store`.
+    size : int
+        Tile side in pixels, a power of two from 16 to 4096.
+    fill, opacity, outline, outline_width
+        The style (:class:`gloffset.raster.pyramid.tilepaint.TileStyle`): region colour and its
+        opacity on a transparent background, and the colour and width of an
+        outline of the original curves (None: no outline).
+    resume : bool
+        Complete an existing output written with the same options, skipping the
+        tiles it has; the result is the same as one uninterrupted run.
+    overwrite : bool
+        Replace an existing output.
+    name : str, optional
+        The ``name`` metadata (default: the file or directory name).
+    source : str, optional
+        The input's name in the ``description`` metadata (default: the file stem when
+        ``shape`` is a path, else "the input"), next to the distance as given and its
+        value in metres and radians.
+    progress : callable, optional
+        Called with a :class:`~.progress.TileProgress` before the first tile, after each tile or
+        batch of tiles handled, and at the end (``done == total``, ``eta == 0``).
+    max_block : int
+        Frontier tiles per GPU run: at most ``(max_block / size)^2``.
+    workers : int, optional
+        Render on a Dask ``LocalCluster`` of this many worker processes (extra ``dask``):
+        this process classifies the zooms down to a coarse one, writes their decided
+        tiles and hands every other tile to the workers (the frontier tiles above that
+        zoom one by one, the kept tiles of that zoom with their sub-pyramids:
+        :mod:`gloffset.raster.pyramid.distributed`); each worker makes its own GL context; the
+        tiles stream back to this process, which writes them. The output is
+        byte-identical to a run in one process.
+    scheduler : str, optional
+        The address of a running Dask scheduler to use instead of a local cluster.
+    ellipsoid : None, "WGS84", "GRS80", (a, f) or Ellipsoid
+        ``None``: the sphere of ``radius``. Otherwise ``distance`` is a geodesic length
+        in metres on the ellipsoid (a string takes length units only), and every tile
+        equals ``render(shape, distance, Tile(z, x, y, size), ellipsoid=...)``
+        (:mod:`gloffset.raster.pyramid.ellipsoid`; no outline, no workers).
+
+    Returns
+    -------
+    PyramidStats
+
+    Notes
+    -----
+    The process keeps the memory it frees for reuse from then on
+    (:func:`gloffset.malloc.keep_freed_memory`, glibc only): a pyramid makes and frees
+    large arrays at every zoom, and giving them back to the system cost a fifth of
+    its time.
+
+    Contract: a tile is in the output iff some pixel centre of it is in the region
+    (as decided by :func:`gloffset.render`, exact up to its stated epsilon), or,
+    with an outline, the outline crosses it. Tiles written as fully inside
+    without rendering have every point in the region. The tiles of a zoom are
+    classified in float64 before any is rendered; only frontier tiles are rendered.
+
+    Examples
+    --------
+    >>> import gloffset, tempfile, os
+    >>> tri = {"type": "Polygon", "coordinates": [[[0, 0], [10, 0], [5, 8], [0, 0]]]}
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     st = gloffset.tiles.pyramid(tri, 100e3, "0-2", os.path.join(tmp, "t.mbtiles"),
+    ...                                 size=64)
+    >>> st.written, st.rendered, st.inside
+    (12, 9, 6)
+    """
+    t0 = time.perf_counter()
+    keep_freed_memory()  # a pyramid makes and frees large arrays at every zoom
+    source = source if source is not None else source_name(shape)
+    shape = read(shape)
+    ell = as_ellipsoid(ellipsoid)
+    if ell is not None:
+        radius = ell.a  # the distance in metres, its angle on the sphere of radius a
+    if isinstance(distance, str):  # "127km": its angle (the limits apply to it)
+        if ell is not None and distance.strip().lower().endswith(("rad", "deg")):
+            raise TilesError(f"distance {distance!r}: on an ellipsoid give a length (m, km)")
+        value, unit = parse_distance(distance, radius), 1.0
+    else:
+        value, unit = distance, radius
+    d = offset_angle(shape, value, unit, limit=RASTER_LIMIT, what="a tile pyramid")
+    zlo, zhi = parse_zooms(zooms)
+    size = check_tile_size(size, TilesError)
+    style = TileStyle(fill, opacity, outline, outline_width)
+    params = options_json(d, (zlo, zhi), size, style, ell)
+    job = PyramidJob(
+        shape=shape, d=d, zlo=zlo, zhi=zhi, size=size, style=style, max_block=max_block
+    )
+    if ell is not None and (outline is not None or workers is not None or scheduler):
+        raise TilesError("on an ellipsoid, pyramids take no outline, workers or scheduler")
+    if isinstance(out, (str, Path)):
+        label = name or Path(out).stem or "gloffset"
+        desc = describe(distance, d, radius, source)
+        if ell is not None:
+            desc += f"; geodesic distance on {ell}"
+        meta = {**store_metadata(label, desc, (zlo, zhi), params), INPUT_KEY: input_digest(shape)}
+        store = open_store(out, meta, resume=resume, overwrite=overwrite)
+    else:
+        store = out
+    stats = PyramidStats()
+    try:
+        if resume:
+            have = store.metadata().get("gloffset")
+            if have != params:
+                raise TilesError(
+                    f"cannot resume {str(getattr(store, 'path', out))!r}: it was written with "
+                    f"other options ({have}); use --force to start again"
+                )
+            check_input(store, shape, out)
+        have = store.existing() if resume else set()
+        if ell is not None:
+            run_ellipsoid_pyramid(job, ell, store, have, stats)
+        elif workers is None and scheduler is None:
+            run_pyramid(job, store, have, progress, stats)
+        else:
+            from .distributed import run_distributed
+
+            def split(first, count, last):
+                part = Part(split=(first, count, last))
+                return run_pyramid(job, store, have, progress, stats, part=part)
+
+            run_distributed(
+                job,
+                store,
+                have,
+                progress,
+                stats,
+                run=split,
+                task=subpyramid,
+                workers=workers,
+                scheduler=scheduler,
+            )
+        store.set_metadata(final_bounds(store, (zlo, zhi)))
+        store.finish()
+    finally:
+        store.close()
+    stats.seconds = time.perf_counter() - t0
+    return stats
+
+
+def run_pyramid(job: PyramidJob, store, have, progress, stats, *, part=None):
+    """Write the tiles of ``job`` into ``store`` (skipping ``have``); see :class:`Part`
+    for a run that classifies down to a split and returns the tasks of the tiles left, or
+    writes one tile's subtree only."""
+    shape, d, zlo, zhi, size, style = job.shape, job.d, job.zlo, job.zhi, job.size, job.style
+    max_block = job.max_block
+    plog = size.bit_length() - 1
+    levels = TilePyramid(zhi + plog)  # down to the pixels of the deepest tiles
+    nb = max(0, plog - BIN_LOG2)
+    # the levels no tile is rendered from (bins of zooms drawn alone or not written)
+    # classify with the multiresolution curve: their lists follow the cells' size
+    until = None if style.outline is not None else max(PYRAMID_ALONE_ZOOM, zlo - 1) + nb
+    cells = CurveCells(shape, d, levels, nodes_until=until)
+    chain = BinChain(cells, nb)
+    cells.remember(chain.nb)  # the walk reaches the chain's levels later: computed once
+    track = Tracker(zlo, zhi, progress)
+    job = ZoomWriter(cells, style, store, have, size, stats, track)
+    start = None if part is None else part.start
+    if part is not None and part.root is not None and start is None:
+        raise ValueError("a run of one tile's subtree starts from the tile's level")
+    stop = zhi if part is None or part.last is None else min(zhi, part.last)
+    split = part is not None and part.split is not None
+    tasks = []  # a split run's: (tile, forced class, its one-cell level, last zoom)
+    for lev in driver.walk(cells, stop, start=start):
+        if len(lev.cells) == 0:
+            break
+        root = part is not None and part.root is not None and lev.level == part.root[0]
+        if not split:
+            job.run(lev, chain, (zlo, zhi), max_block, root=root, final=lev.level >= stop)
+            continue
+        # a split run writes the decided tiles; the others become tasks: the frontier
+        # tiles above the split zoom one by one, the kept tiles of the split zoom with
+        # their subtrees
+        chosen = job.choose(lev)
+        at = part.split_at(lev)
+        front = job.run(lev, chain, (zlo, zhi), max_block, chosen=chosen, kept_too=at)
+        z = lev.level
+        mine = lev.keep if at else front
+        for i in mine:
+            y, x = (int(v) for v in lev.cells[i])
+            forced = int(lev.forced[np.searchsorted(lev.keep, i)])
+            tasks.append(((z, x, y), forced, _one(lev, i), zhi if at else z))
+        if at:
+            break
+    if not split:
+        track.finish()
+    return tasks, track
+
+
+def _one(lev: Level, i: int) -> Level:
+    """Cell ``i`` of ``lev`` as a level of its own (what a task below it starts from)."""
+    sel = np.array([i])
+    m = None if lev.measure is None else lev.measure[sel]
+    return Level(lev.level, lev.cells[sel], lev.cls[sel], subset(lev.state, sel), measure=m)
+
+
+@dataclass
+class Part:
+    """A part of a pyramid run: ``split`` (the run classifies the zooms down to the
+    first zoom ``z`` from ``split[0]`` on where at least ``split[1]`` tiles are kept,
+    or to ``split[2]``, and writes only their decided tiles: it returns the others as
+    tasks, the frontier tiles of the zooms above ``z`` one by one and the kept tiles of
+    ``z`` with their subtrees, each with its one-cell
+    :class:`~gloffset.raster.driver.Level`) or ``root`` (``(z, x, y)``: only that tile
+    and its descendants down to ``last`` are written; the walk starts from ``start``,
+    the root's one-cell level as the split made it).
+    Every tile's pixels are those of the whole run: a tile's candidate arcs and classes
+    depend on its ancestors only."""
+
+    split: tuple[int, int, int] | None = None
+    root: tuple[int, int, int] | None = None
+    start: Level | None = None  # the root's level as the split made it
+    last: int | None = None  # the deepest zoom written (default: the pyramid's)
+
+    def split_at(self, lev: Level) -> bool:
+        if self.split is None:
+            return False
+        first, count, last = self.split
+        kept = 0 if lev.keep is None else len(lev.keep)
+        return lev.level >= last or (lev.level >= first and kept >= count)
+
+
+def subpyramid(
+    job: PyramidJob, root, have, start: Level | None = None, last: int | None = None
+) -> tuple[list, PyramidStats]:
+    """The tile ``root`` (``(z, x, y)``) of the pyramid ``job`` and its descendants down
+    to zoom ``last`` (default: the pyramid's deepest), as ``[(tiles, image)]``, and the
+    task's counts; ``have``: tiles to skip (a resumed output's)."""
+    keep_freed_memory()
+    store = MemoryStore()
+    stats = PyramidStats()
+    part = Part(root=root, start=start, last=last)
+    run_pyramid(job, store, have, None, stats, part=part)
+    return [(tiles, data) for data, tiles in store.groups.items()], stats
