@@ -124,17 +124,6 @@ def points_inside(shape, p: np.ndarray) -> np.ndarray:
     return inside_any(component_status(shape, arcs, np.asarray(p, dtype=np.float64)))
 
 
-def _arc_tree(arcs: CurveArcs):
-    """The bounding-cap tree over the arcs (built once per :class:`CurveArcs`)."""
-    tree = getattr(arcs, "_tree", None)
-    if tree is None:
-        from ..captree import CapTree
-
-        tree = CapTree(arcs.mid, arcs.half)
-        arcs._tree = tree
-    return tree
-
-
 def component_status(shape, arcs: CurveArcs, p: np.ndarray) -> np.ndarray:
     """Packed component statuses of a few points by crossings to a reference point.
 
