@@ -104,8 +104,8 @@ class Offset(ArcRings):
         ``raw=True`` writes the raw rings of Sec. 4.1 instead, self-intersections
         and overlaps included.
         """
+        from ..edges import contains_xyz
         from ..io.geojson import rings_to_geometry
-        from ..reference import contains_xyz
 
         props = {"distance_rad": self.distance}
         if self.distance == 0.0:
