@@ -1,10 +1,10 @@
 """``distance`` and ``contains`` on the ellipsoid (``ellipsoid="WGS84"``...).
 
-With ``ellipsoid=None`` both are exactly the spherical functions
-(:func:`gloffset.reference.distance`, :func:`gloffset.index.contains.contains`). With
-an ellipsoid, distances are geodesic lengths in metres, latitudes are geodetic, and
-the edges of curves and polygons are geodesics (the shortest ones between their
-vertices).
+With ``ellipsoid=None`` both are exactly the spherical functions (the great-circle
+distance of :func:`gloffset.edges.distance_xyz`, and
+:func:`gloffset.index.contains.contains`). With an ellipsoid, distances are geodesic
+lengths in metres, latitudes are geodetic, and the edges of curves and polygons are
+geodesics (the shortest ones between their vertices).
 
 How. The shape is mapped to the conformal sphere of the ellipsoid
 (:mod:`gloffset.ellipsoid.model`), where gloffset's spherical machinery runs as it is;
@@ -41,6 +41,7 @@ from .caps import arc_cap, pad
 from .captree import CapTree
 from .crossings import inside as crossings_inside
 from .crossings import inside_indexed
+from .edges import distance_xyz
 from .ellipsoid import (
     as_ellipsoid,
     edge_deviation,
@@ -53,11 +54,9 @@ from .ellipsoid import (
 from .errors import OptionError
 from .index.contains import Index
 from .index.contains import contains as _sphere_contains
-from .reference import check_lonlat, distance_xyz
-from .reference import distance as _sphere_distance
 from .shape import read
-from .sphere import angle, arc_distance, dot, normalize, robust_cross, xyz_to_lonlat
-from .units import EARTH_RADIUS, offset_angle
+from .sphere import angle, arc_distance, dot, lonlat_to_xyz, normalize, robust_cross, xyz_to_lonlat
+from .units import EARTH_RADIUS, check_lonlat, check_radius, offset_angle
 
 __all__ = [
     "distance",
@@ -192,8 +191,8 @@ def distance(shape, lon, lat, *, radius: float = EARTH_RADIUS, ellipsoid=None):
         Sphere radius (without ``ellipsoid``); the result is in its units.
     ellipsoid : None, "WGS84", "GRS80", (a, f) or Ellipsoid
         ``None``: great-circle distances on the sphere of ``radius``
-        (:func:`gloffset.reference.distance`, exactly). Otherwise geodesic distances in
-        metres on the ellipsoid, to geodesic edges.
+        (:func:`gloffset.edges.distance_xyz`). Otherwise geodesic distances in metres on
+        the ellipsoid, to geodesic edges.
 
     Returns
     -------
@@ -203,6 +202,9 @@ def distance(shape, lon, lat, *, radius: float = EARTH_RADIUS, ellipsoid=None):
 
     Notes
     -----
+    On the sphere the result is the exact distance to the nearest boundary arc,
+    vertex or isolated point, with absolute error below ``1e-15 * radius``; the
+    distance is to the boundary, also for points inside a polygon.
     On the ellipsoid the result is within 1 um of the geodesic distance (see
     :mod:`gloffset.ellipsoidal`); it costs about 1 ms per point (the geodesic
     intercept, in pure Python, on the point's one to three candidate edges).
@@ -215,11 +217,12 @@ def distance(shape, lon, lat, *, radius: float = EARTH_RADIUS, ellipsoid=None):
     110574.389
     """
     ell = as_ellipsoid(ellipsoid)
+    shape = read(shape)
+    lon, lat, shp = check_lonlat(lon, lat)
     if ell is None:
-        out = _sphere_distance(shape, lon, lat, radius=radius)
+        r = check_radius(radius)
+        out = (distance_xyz(shape, lonlat_to_xyz(lon, lat)) * r).reshape(shp)
     else:
-        shape = read(shape)
-        lon, lat, shp = check_lonlat(lon, lat)
         out = nearest_geodesic(conformal(shape, ell), lon, lat).reshape(shp)
     return float(out) if out.ndim == 0 else out
 

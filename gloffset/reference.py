@@ -10,6 +10,14 @@ tens of millions of points by two safe shortcuts and bounded memory:
   than ``u + h`` from the point cannot be nearest, so only the remaining candidates
   get the exact point-to-arc distance of :func:`gloffset.sphere.arc_distance`.
 
+Inside/outside is the judge's own crossing parity (:func:`inside_xyz`): the short arc
+from each point to one of the shape's two reference points
+(:meth:`gloffset.shape.Shape.reference_points`, with each region component's status
+there) against every ring edge, seams included (they close the rings), with the
+half-open rule (a point on a great circle counts as on its left, so an arc through a
+shared vertex is counted once). It is written apart from :mod:`gloffset.crossings`,
+which the production paths use, so that the two check each other.
+
 Points are processed in chunks so memory stays bounded whatever their number.
 
 **On the ellipsoid** (``ellipsoid=`` on :func:`distance` and :func:`contains`) the judge
@@ -24,26 +32,26 @@ geodesics every :data:`GEODESIC_PIECE` metres, pieces whose deviation from their
 chords on the sphere of the same lon/lat is below 0.1 mm (:func:`geodesic_inside`).
 
 The bounds here (an edge's bounding cap, the cap test ``c.p >= cos(u + h) - 1e-12``)
-are deliberate copies of those in :mod:`gloffset.caps`, not imports: the judge shares
-no code with what it judges, so a wrong bound there cannot hide itself here.
+are deliberate copies of those in :mod:`gloffset.caps`, not imports, and the crossing
+test is not that of :mod:`gloffset.crossings`: the judge shares no code with what it
+judges (it imports only the maths and the shape), so a wrong bound or rule there cannot
+hide itself here. Nothing in gloffset outside the tests calls the judge.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from . import crossings
-from .errors import InvalidGeometryError
-from .sphere import angle, arc_distance, lonlat_to_xyz, normalize, robust_cross
-from .units import EARTH_RADIUS, check_radius, to_angle
+from .sphere import angle, arc_distance, cross, dot, lonlat_to_xyz, normalize, robust_cross
+from .units import EARTH_RADIUS, check_lonlat, check_radius, to_angle
 
 __all__ = [
     "distance",
     "contains",
     "distance_xyz",
     "contains_xyz",
+    "inside_xyz",
     "points_xyz",
-    "check_lonlat",
     "geodesic_distance",
     "geodesic_edge_distance",
     "geodesic_inside",
@@ -63,34 +71,73 @@ def points_xyz(lon, lat) -> tuple[np.ndarray, tuple]:
     return lonlat_to_xyz(lon, lat), shape
 
 
-def check_lonlat(lon, lat) -> tuple[np.ndarray, np.ndarray, tuple]:
-    """Validate query lon/lat (degrees): flat float64 arrays and their broadcast shape.
+def _ring_edges(shape) -> tuple:
+    """The ring edges (seams included) grouped by region component: ends ``a``, ``b``,
+    normals ``2 a x b`` (from :func:`gloffset.sphere.robust_cross`, accurate for short
+    edges), the components present and where each one's run of edges starts."""
+    e = shape.edges()
+    order = np.flatnonzero(e.group >= 0)
+    order = order[np.argsort(e.group[order], kind="stable")]
+    a, b, grp = e.a[order], e.b[order], e.group[order]
+    present, starts = np.unique(grp, return_index=True)
+    return a, b, robust_cross(a, b), present, starts
 
-    Raises :class:`InvalidGeometryError` for shapes that do not broadcast, NaN or
-    infinite coordinates and latitudes outside [-90, 90], naming the first bad point.
+
+def _arcs_meet(q, r, r_side, a, b, n) -> np.ndarray:
+    """(len(q), len(a)) bool: whether the short arc ``q[i] -> r[i]`` crosses the edge
+    ``a[j] -> b[j]`` (normal ``n[j]``); ``r_side[i, j] = r[i] . n[j]``.
+
+    Both pairs of ends must lie on either side of the other's great circle (a point on
+    it counts as on its left: the half-open rule); the two circles then meet at two
+    antipodal points, and the arcs cross where the point of ``q -> r`` on the edge's
+    circle, ``q |r.n| + r |q.n|`` (a positive combination, so on the short arc), lies
+    on the edge's side of the sphere: a positive dot product with ``a + b``. That last
+    test is far from rounding (the point is within half the edge's length of the
+    edge's middle, or as far from it as the antipode), so only the side tests decide
+    close calls.
     """
-    lon = np.asarray(lon, dtype=np.float64)
-    lat = np.asarray(lat, dtype=np.float64)
-    try:
-        lon, lat = np.broadcast_arrays(lon, lat)
-    except ValueError:
-        raise InvalidGeometryError(
-            f"lon and lat cannot be broadcast together: shapes {lon.shape} and {lat.shape}"
-        ) from None
-    shape = lon.shape
-    lon, lat = lon.ravel(), lat.ravel()
-    bad = ~(np.isfinite(lon) & np.isfinite(lat))
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise InvalidGeometryError(
-            f"query point {i}: coordinate is not finite ({lon[i]}, {lat[i]})"
-        )
-    if (np.abs(lat) > 90.0).any():
-        i = int(np.flatnonzero(np.abs(lat) > 90.0)[0])
-        raise InvalidGeometryError(
-            f"query point {i}: latitude {float(lat[i])!r} out of range [-90, 90]"
-        )
-    return lon, lat, shape
+    qr = cross(q, r)
+    a_left = (qr @ a.T) >= 0.0
+    b_left = (qr @ b.T) >= 0.0
+    q_side = q @ n.T
+    both = (a_left != b_left) & ((q_side >= 0.0) != (r_side >= 0.0))
+    i, j = np.nonzero(both)
+    meet = q[i] * np.abs(r_side[i, j])[:, None] + r[i] * np.abs(q_side[i, j])[:, None]
+    near_side = dot(meet, a[j] + b[j]) > 0.0
+    out = np.zeros(both.shape, dtype=bool)
+    out[i[near_side], j[near_side]] = True
+    return out
+
+
+def inside_xyz(shape, p: np.ndarray) -> np.ndarray:
+    """Whether unit vectors ``p`` (n, 3) lie inside the shape's polygons (united; False
+    for lines and points), by crossing parity against every ring edge.
+
+    Each point walks to the first of the shape's reference points, or to the second
+    where the first is more than 120 degrees away (so the arc is short and never near
+    antipodal); a component contains the point when its status at that reference point,
+    flipped by each crossing with the component's own edges, says so.
+
+    Accuracy: exact for points farther than about 1e-15 rad from the boundary (the
+    side tests are float64 triple products of unit vectors, with the edges' normals
+    from the robust cross product); on the boundary the half-open rule and rounding
+    decide.
+    """
+    p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
+    out = np.zeros(len(p), dtype=bool)
+    if shape.n_groups == 0 or len(p) == 0:
+        return out
+    a, b, n, present, starts = shape.cached("reference.rings", lambda: _ring_edges(shape))
+    refs, status = shape.reference_points()
+    ref_side = refs @ n.T  # (2, edges)
+    which = (p @ refs[0] < -0.5).astype(np.int64)
+    chunk = max(1, _PAIRS // max(len(a), 1))
+    for s in range(0, len(p), chunk):
+        q, k = p[s : s + chunk], which[s : s + chunk]
+        hit = _arcs_meet(q, refs[k], ref_side[k], a, b, n)
+        odd = np.add.reduceat(hit, starts, axis=1, dtype=np.int64) % 2 == 1
+        out[s : s + chunk] = (odd != status[k][:, present]).any(axis=1)
+    return out
 
 
 class _EdgeIndex:
@@ -150,7 +197,7 @@ def contains_xyz(shape, p: np.ndarray, d: float) -> np.ndarray:
     that lie farther than 1e-15 rad from the boundary.
     """
     p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
-    ins = crossings.inside(shape, p)
+    ins = inside_xyz(shape, p)
     if d == 0.0:
         return ins
     if d > 0.0:
@@ -409,7 +456,7 @@ def geodesic_inside(shape, lon, lat, ellipsoid) -> np.ndarray:
     dense = shape.cached(
         f"reference.geodesic_dense.{geod.a!r}.{geod.f!r}", lambda: _densified(shape, geod)
     )
-    return crossings.inside_indexed(dense, lonlat_to_xyz(lon, lat))
+    return inside_xyz(dense, lonlat_to_xyz(lon, lat))
 
 
 def geodesic_contains(shape, lon, lat, d: float, ellipsoid) -> np.ndarray:

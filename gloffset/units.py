@@ -1,8 +1,10 @@
-"""Distances with units: ``500m``, ``127km``, ``0.02rad``, ``1.5deg``.
+"""Distances with units (``500m``, ``127km``, ``0.02rad``, ``1.5deg``) and query points in
+degrees: what comes in at the edges, checked once.
 
 Inside gloffset every distance is an angle on the unit sphere (radians). Metres
 appear only at the edges, through the ``radius`` keyword (default
-:data:`EARTH_RADIUS`, the IUGG mean Earth radius).
+:data:`EARTH_RADIUS`, the IUGG mean Earth radius). Query points come in as lon/lat
+arrays in degrees (:func:`check_lonlat`).
 """
 
 from __future__ import annotations
@@ -10,7 +12,9 @@ from __future__ import annotations
 import math
 import re
 
-from .errors import InvalidDistanceError
+import numpy as np
+
+from .errors import InvalidDistanceError, InvalidGeometryError
 
 #: IUGG mean Earth radius R1 in metres (Moritz 2000).
 EARTH_RADIUS = 6371008.8
@@ -21,6 +25,37 @@ UNITS = tuple(_UNITS_TO_METRES) + tuple(_ANGLE_UNITS)
 
 _NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _PATTERN = re.compile(rf"^\s*({_NUMBER})\s*([A-Za-z]*)\s*$")
+
+
+def check_lonlat(lon, lat) -> tuple[np.ndarray, np.ndarray, tuple]:
+    """Validate query lon/lat (degrees): flat float64 arrays and their broadcast shape.
+
+    Raises :class:`InvalidGeometryError` for shapes that do not broadcast, NaN or
+    infinite coordinates and latitudes outside [-90, 90], naming the first bad point.
+    Longitudes are not limited (they wrap).
+    """
+    lon = np.asarray(lon, dtype=np.float64)
+    lat = np.asarray(lat, dtype=np.float64)
+    try:
+        lon, lat = np.broadcast_arrays(lon, lat)
+    except ValueError:
+        raise InvalidGeometryError(
+            f"lon and lat cannot be broadcast together: shapes {lon.shape} and {lat.shape}"
+        ) from None
+    shape = lon.shape
+    lon, lat = lon.ravel(), lat.ravel()
+    bad = ~(np.isfinite(lon) & np.isfinite(lat))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InvalidGeometryError(
+            f"query point {i}: coordinate is not finite ({lon[i]}, {lat[i]})"
+        )
+    if (np.abs(lat) > 90.0).any():
+        i = int(np.flatnonzero(np.abs(lat) > 90.0)[0])
+        raise InvalidGeometryError(
+            f"query point {i}: latitude {float(lat[i])!r} out of range [-90, 90]"
+        )
+    return lon, lat, shape
 
 
 def check_radius(radius: float) -> float:

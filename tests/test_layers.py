@@ -31,6 +31,8 @@ def _imports(path: Path, package: str) -> set[str]:
             else:
                 mod = node.module
             out.add(mod)
+            if not node.module:  # from . import name: the name may be a module
+                out.update(f"{mod}.{a.name}" for a in node.names)
     return {m for m in out if m.split(".")[0] == "gloffset"}
 
 
@@ -91,3 +93,23 @@ def test_shared_makes_one_instance():
             Made.count += 1
 
     assert shared(Made) is shared(Made) and Made.count == 1
+
+
+def test_nothing_outside_the_tests_imports_the_judge():
+    """The reference judges the production code; no module of the package calls it (the
+    import-linter contract says the same; this also covers modules added later)."""
+    bad = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        rel = path.relative_to(PACKAGE.parent).with_suffix("")
+        mods = _imports(path, ".".join(rel.parts[:-1]))
+        if rel.parts != ("gloffset", "reference") and "gloffset.reference" in mods:
+            bad[str(rel)] = sorted(m for m in mods if m.startswith("gloffset.reference"))
+    assert not bad
+
+
+def test_the_judge_imports_only_the_maths_and_the_shape():
+    """The reference has its own crossing test and distance (no gloffset.crossings, no
+    gloffset.edges): the two implementations check each other."""
+    mods = _imports(PACKAGE / "reference.py", "gloffset")
+    allowed = ("gloffset.sphere", "gloffset.units", "gloffset.errors", "gloffset.shape")
+    assert mods and all(m in allowed for m in mods), sorted(mods)

@@ -289,10 +289,6 @@ class LonLatGrid(LevelHierarchy):
         return out
 
 
-def same_tuple(a, b) -> bool:
-    return tuple(a) == tuple(b)
-
-
 def check_size(width, height) -> tuple[int, int]:
     if not (isinstance(width, (int, np.integer)) and isinstance(height, (int, np.integer))):
         raise InvalidGridError(f"grid size must be integers, got {width!r} x {height!r}")

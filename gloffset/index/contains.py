@@ -46,8 +46,8 @@ import numpy as np
 
 from ..caps import arc_cap, cap_within, chord2, cos_sum_lower, pad
 from ..crossings import inside as _inside_reference
+from ..edges import contains_xyz
 from ..errors import InvalidLevelError, OptionError
-from ..reference import check_lonlat
 from ..shape import read
 from ..sphere import (
     angle,
@@ -60,7 +60,7 @@ from ..sphere import (
     robust_cross,
     xyz_to_lonlat,
 )
-from ..units import EARTH_RADIUS, offset_angle
+from ..units import EARTH_RADIUS, check_lonlat, offset_angle
 from ..vector.multires import full_decomposition
 from . import bins
 
@@ -963,8 +963,9 @@ def contains(
     1e-13 rad. Polygons are united; lines and points have no inside. Where region
     components overlap (:meth:`Shape.overlapping_components`, e.g. overlapping
     features), points within the bounding caps of two overlapping components are
-    answered by the reference, which unites them; elsewhere the index's crossing
-    count is the union already.
+    answered by the exact test against every ring edge
+    (:func:`gloffset.edges.contains_xyz`), which unites them; elsewhere the index's
+    crossing count is the union already.
 
     The index (:class:`Index`) is built on the first call for a shape, distance and
     level, and kept on the shape (the last :data:`CACHE_SIZE` of them); its bins are
@@ -989,11 +990,8 @@ def contains(
     if len(pairs):
         # the index counts crossings over all rings at once (even-odd), which is the
         # union except where components overlap: points that may lie in two
-        # overlapping components (within both their bounding caps) take the float64
-        # reference, which unites them
-        from ..reference import contains_xyz
-        from ..sphere import lonlat_to_xyz
-
+        # overlapping components (within both their bounding caps) take the exact test
+        # of every ring edge (gloffset.edges.contains_xyz), which unites them
         p = lonlat_to_xyz(lon, lat)
         centres, radii = shape.component_caps()
         near = cap_within(p @ centres.T, radii[None, :])

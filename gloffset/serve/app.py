@@ -43,10 +43,10 @@ from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
 from ..edges import points_inside
+from ..ellipsoidal import distance as distance_to
 from ..errors import GloffsetError
 from ..grids.mercator import MAX_ZOOM
 from ..raster.pyramid.tilepaint import TileStyle
-from ..reference import distance as distance_to
 from ..shape import read
 from ..sphere import lonlat_to_xyz
 from ..units import EARTH_RADIUS, RASTER_LIMIT, VECTOR_LIMIT, offset_angle

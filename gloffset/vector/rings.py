@@ -5,7 +5,7 @@ The last step of both methods of self-intersection removal (paper Sec. 4.4, see
 region on their left, and a ring bounds a hole when a point outside the region lies on
 its left too. Which side a point lies on is decided by crossing parity
 (:class:`RingParity`): the number of times the short great-circle arcs from a point
-known to lie outside the region (checked against :mod:`gloffset.reference`) cross each
+known to lie outside the region (checked with :func:`gloffset.edges.contains_xyz`) cross each
 ring. Each hole goes to the smallest exterior around it, by the areas that
 :func:`left_areas` finds with Gauss-Bonnet on the arcs.
 
@@ -165,7 +165,7 @@ class RingParity:
 
     def _outside_point(self, shape, d):
         """A point outside the region, farther than 1e-10 rad from its boundary."""
-        from ..reference import contains_xyz, distance_xyz
+        from ..edges import contains_xyz, distance_xyz
 
         def candidates():
             if self.n:
