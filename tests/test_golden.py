@@ -594,15 +594,16 @@ def _pyramid(shape_fn, d, zooms, suffix, **kw):
             out = Path(tmp) / f"pyramid{suffix}"
             gloffset.tiles.pyramid(shape_fn(), d, zooms, out, radius=1.0, name="golden", **kw)
             tiles, meta = read_tiles(out)
-        pixels = [("tile {}/{}/{}".format(*zxy), decode_png(data)) for zxy, data in tiles]
+        rgba: dict[bytes, str] = {}  # each distinct PNG decoded once: its pixels' sha256
+        for _, data in tiles:
+            if data not in rgba:
+                rgba[data] = digest([("rgba", decode_png(data))])
+        pixels = [("tile {}/{}/{}".format(*zxy), rgba[data]) for zxy, data in tiles]
         parts = [("metadata", meta), ("tiles", digest(pixels))]
         per_zoom: dict[str, int] = {}
         for (z, _, _), _ in tiles:
             per_zoom[str(z)] = per_zoom.get(str(z), 0) + 1
-        summary = {
-            "tiles_per_zoom": per_zoom,
-            "distinct_images": len({digest([("", rgba)]) for _, rgba in pixels}),
-        }
+        summary = {"tiles_per_zoom": per_zoom, "distinct_images": len(set(rgba.values()))}
         return parts, summary
 
     return run
