@@ -25,6 +25,7 @@ from .geodesic_offset import GeodesicOffset, offset
 from .geoseries import buffer
 from .index.contains import Index
 from .raster import tiles
+from .raster.field import DistanceField, distance_field
 from .raster.rasterized import raster_offset, rasterize
 from .raster.render import render
 from .shape import Shape, read
@@ -40,6 +41,7 @@ __all__ = [
     "EARTH_RADIUS",
     "Index",
     "Decomposition",
+    "DistanceField",
     "Ellipsoid",
     "GeodesicOffset",
     "Offset",
@@ -50,6 +52,7 @@ __all__ = [
     "contains",
     "decompose",
     "distance",
+    "distance_field",
     "offset",
     "parse_distance",
     "raster_offset",

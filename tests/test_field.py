@@ -1,0 +1,199 @@
+"""Signed distance fields (``gloffset.distance_field``): values against the float64
+reference, thresholds against the renders byte for byte, clamping and bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import gloffset
+from gloffset import reference
+from gloffset.grids import Cube, Equirect, Tile
+
+from .conftest import DATA
+
+R = gloffset.EARTH_RADIUS
+DISTANCES = (-50e3, 0.0, 127e3)
+
+
+def reference_field(shape, p):
+    """The float64 signed distance (metres) of points ``p`` from the judge."""
+    dist = reference.distance_xyz(shape, p) * R
+    inside = reference.contains_xyz(shape, p, 0.0)
+    return np.where(inside, -dist, dist)
+
+
+def sample(grid, n, seed=0):
+    """``n`` random pixels ``(j, i)`` of a grid and their centres."""
+    rng = np.random.default_rng(seed)
+    h, w = grid.level_shape(grid.n_levels - 1)
+    j, i = rng.integers(0, h, n), rng.integers(0, w, n)
+    return j, i, grid.centers(grid.n_levels - 1, j, i)
+
+
+def assert_within_ulps(values, want, ulps=2.0):
+    spacing = np.spacing(np.abs(want).astype(np.float32)).astype(np.float64)
+    err = np.abs(values.astype(np.float64) - want) / spacing
+    assert err.max() <= ulps, f"{err.max():.2f} float32 ulps from the reference"
+
+
+def assert_thresholds(shape, field, distances=DISTANCES):
+    for d in distances:
+        mask = field.threshold(d)
+        want = gloffset.render(shape, d, field.grid)
+        assert mask.dtype == np.uint8 and mask.shape == want.shape
+        bad = np.argwhere(mask != want)
+        assert len(bad) == 0, f"d={d}: {len(bad)} pixels differ from render, e.g. {bad[:3]}"
+
+
+@pytest.fixture(scope="module")
+def mexico(mexico_path):
+    return gloffset.read(mexico_path)
+
+
+@pytest.fixture(scope="module")
+def neighbours():
+    """Mexico and its southern neighbours at 1:10m (shared borders cancel)."""
+    fc = json.loads((DATA / "countries_10m.geojson").read_text())
+    keep = {"Mexico", "Guatemala", "Belize", "Honduras", "El Salvador"}
+    feats = [f for f in fc["features"] if set(f["properties"].values()) & keep]
+    assert len(feats) == len(keep)
+    return gloffset.read({"type": "FeatureCollection", "features": feats})
+
+
+def test_mexico_equirect_thresholds_and_values(mexico):
+    grid = Equirect(1024, 512)
+    field = gloffset.distance_field(mexico, grid, max_distance=400e3)
+    assert field.values.dtype == np.float32 and field.values.shape == (512, 1024)
+    assert_thresholds(mexico, field)
+    j, i, p = sample(grid, 3000)
+    want = np.clip(reference_field(mexico, p), -400e3, 400e3)
+    assert_within_ulps(field.values[j, i], want)
+
+
+def test_mexico_regional_unclamped(mexico):
+    grid = Equirect(160, 120, (-120, 10, -84, 37))
+    field = gloffset.distance_field(mexico, grid)
+    assert field.max_distance is None
+    assert_thresholds(mexico, field, (-100e3, -2e3, 0.0, 3e3, 300e3))
+    j, i, p = sample(grid, 2000, seed=1)
+    assert_within_ulps(field.values[j, i], reference_field(mexico, p))
+
+
+def test_neighbours_at_10m(neighbours):
+    grid = Equirect(300, 200, (-95, 12, -85, 20))
+    field = gloffset.distance_field(neighbours, grid, max_distance=300e3)
+    assert_thresholds(neighbours, field, (-20e3, 0.0, 10e3))
+    j, i, p = sample(grid, 1000, seed=2)
+    want = np.clip(reference_field(neighbours, p), -300e3, 300e3)
+    assert_within_ulps(field.values[j, i], want)
+    # a shared border is no boundary: inside, far from the sea, the values stay negative
+    assert (field.values < 0).sum() == (gloffset.render(neighbours, 0.0, grid) > 0).sum()
+
+
+@pytest.mark.parametrize(
+    "name, size, bounds",
+    [
+        ("Fiji", (256, 128), (-180, -90, 180, 90)),
+        ("Fiji", (200, 160), (170, -25, -170, -10)),  # across the antimeridian
+        ("Russia", (300, 200), (160, 55, -160, 75)),
+        ("Antarctica", (256, 96), (-180, -90, 180, -60)),  # round the pole
+    ],
+)
+def test_seams(world, name, size, bounds):
+    shape = gloffset.read(world[name])
+    grid = Equirect(*size, bounds)
+    field = gloffset.distance_field(shape, grid)
+    assert_thresholds(shape, field, (-30e3, 0.0, 60e3))
+    j, i, p = sample(grid, 1000, seed=3)
+    assert_within_ulps(field.values[j, i], reference_field(shape, p))
+
+
+def test_cube_and_tile(mexico):
+    cube = Cube(48)
+    field = gloffset.distance_field(mexico, cube, max_distance=300e3)
+    assert field.values.shape == (6, 48, 48)
+    assert_thresholds(mexico, field)
+    tile = Tile(4, 3, 6, size=128)  # the tile of Mexico City
+    field = gloffset.distance_field(mexico, tile, max_distance=300e3)
+    assert field.values.shape == (128, 128)
+    assert_thresholds(mexico, field)
+    j, i, p = sample(tile, 1000, seed=4)
+    want = np.clip(reference_field(mexico, p), -300e3, 300e3)
+    assert_within_ulps(field.values[j, i], want)
+
+
+def test_lines_and_points_are_unsigned():
+    lines = {
+        "type": "MultiLineString",
+        "coordinates": [[[-10, 40], [20, 45], [35, 30]], [[100, -20], [120, -25]]],
+    }
+    for geom in (lines, {"type": "Point", "coordinates": [30, 60]}):
+        shape = gloffset.read(geom)
+        grid = Equirect(128, 64)
+        field = gloffset.distance_field(shape, grid)
+        assert (field.values >= 0).all()
+        assert_thresholds(shape, field, (1e3, 500e3))
+        j, i, p = sample(grid, 500, seed=5)
+        assert_within_ulps(field.values[j, i], reference.distance_xyz(shape, p) * R)
+        with pytest.raises(gloffset.InvalidDistanceError, match="no polygon"):
+            field.threshold(-1e3)
+
+
+def test_max_distance_clamps(world):
+    shape = gloffset.read(world["Italy"])
+    grid = Equirect(200, 200, (0, 30, 25, 50))
+    full = gloffset.distance_field(shape, grid).values
+    m = 150e3
+    clamped = gloffset.distance_field(shape, grid, max_distance=m)
+    assert clamped.max_distance == m
+    assert np.array_equal(clamped.values, np.clip(full, np.float32(-m), np.float32(m)))
+    assert (clamped.values == np.float32(m)).any() and (clamped.values == -np.float32(m)).any()
+    assert np.array_equal(clamped.threshold(m), gloffset.render(shape, m, grid))
+    with pytest.raises(gloffset.OptionError, match="beyond the field's max_distance"):
+        clamped.threshold(-200e3)
+
+
+def test_radius_units(world):
+    shape = gloffset.read(world["Italy"])
+    grid = Equirect(64, 64, (5, 35, 20, 48))
+    metres = gloffset.distance_field(shape, grid).values
+    radians = gloffset.distance_field(shape, grid, radius=1.0)
+    assert np.allclose(radians.values * R, metres, rtol=1e-6)
+    assert np.array_equal(radians.threshold(0.01), gloffset.render(shape, 0.01, grid, radius=1.0))
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, match",
+    [
+        ({"max_distance": 0.0}, gloffset.OptionError, "max_distance must be a positive"),
+        ({"max_distance": -5.0}, gloffset.OptionError, "max_distance must be a positive"),
+        ({"max_distance": float("nan")}, gloffset.InvalidDistanceError, "finite"),
+        ({"radius": -1.0}, gloffset.InvalidDistanceError, "radius"),
+        ({"ellipsoid": "WGS84"}, gloffset.OptionError, "ellipsoid"),
+    ],
+)
+def test_bad_options(world, kwargs, error, match):
+    with pytest.raises(error, match=match):
+        gloffset.distance_field(world["Italy"], Equirect(32, 16), **kwargs)
+
+
+def test_bad_grid_and_input(world):
+    with pytest.raises(gloffset.OptionError, match="grid must be a gloffset.grids grid"):
+        gloffset.distance_field(world["Italy"], (256, 128))
+    with pytest.raises(gloffset.InvalidGeometryError):
+        gloffset.distance_field({"type": "Point", "coordinates": [float("nan"), 0]}, Equirect(8, 4))
+    field = gloffset.distance_field(world["Italy"], Equirect(32, 16))
+    with pytest.raises(gloffset.InvalidDistanceError, match="finite"):
+        field.threshold(float("nan"))
+
+
+@pytest.mark.slow
+def test_mexico_global_unclamped(mexico):
+    grid = Equirect(512, 256)
+    field = gloffset.distance_field(mexico, grid)
+    assert_thresholds(mexico, field, (-200e3, 0.0, 127e3, 2000e3))
+    j, i, p = sample(grid, 3000, seed=6)
+    assert_within_ulps(field.values[j, i], reference_field(mexico, p))
