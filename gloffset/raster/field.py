@@ -40,7 +40,7 @@ from ..edges import CurveArcs, inside_any
 from ..errors import OptionError
 from ..grids import Cube, CubeFace, Equirect, Tile
 from ..shape import read
-from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, to_angle
+from ..units import EARTH_RADIUS, RASTER_LIMIT, check_radius, offset_angle, to_angle
 from .levels import Frontier, cell_distances, coarse, prune, refine, subset
 from .simplified import band_members
 
@@ -213,10 +213,10 @@ def distance_field(
             f"distance_field does not support ellipsoid={ellipsoid!r} yet: only the sphere "
             "(ellipsoid=None, distances on the sphere of radius=)"
         )
+    radius = check_radius(radius)
     shape = read(shape)
     _check_grid(grid)
     m = _max_angle(max_distance, radius)
-    radius = float(radius)
     if isinstance(grid, Cube):
         values = np.stack([_field(shape, f, m, radius) for f in grid.faces])
     else:
