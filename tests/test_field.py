@@ -4,6 +4,8 @@ reference, thresholds against the renders byte for byte, clamping and bad input.
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -198,3 +200,60 @@ def test_mexico_global_unclamped(mexico):
     assert_thresholds(mexico, field, (-200e3, 0.0, 127e3, 2000e3))
     j, i, p = sample(grid, 3000, seed=6)
     assert_within_ulps(field.values[j, i], reference_field(mexico, p))
+
+
+def cli(*args, cwd=None):
+    """Run ``python -m gloffset ARGS``."""
+    return subprocess.run(
+        [sys.executable, "-m", "gloffset", *map(str, args)], capture_output=True, cwd=cwd
+    )
+
+
+def test_cli_geotiff_npy_and_cube(mexico_path, mexico, tmp_path):
+    rasterio = pytest.importorskip("rasterio")
+    tif, npy = tmp_path / "dist.tif", tmp_path / "dist.npy"
+    common = (mexico_path, "--size", "200x100", "--bounds", "-125,5,-75,40")
+    proc = cli("field", *common, "--max-distance", "300km", "-o", tif)
+    assert proc.returncode == 0, proc.stderr.decode()
+    grid = Equirect(200, 100, (-125, 5, -75, 40))
+    want = gloffset.distance_field(mexico, grid, max_distance=300e3).values
+    with rasterio.open(tif) as src:
+        band = src.read(1)
+        assert src.crs.to_epsg() == 4326 and src.dtypes == ("float32",)
+        assert tuple(src.transform)[:6] == pytest.approx((0.25, 0, -125, 0, -0.35, 40))
+        assert np.isnan(src.nodata) and "negative inside" in src.tags()["DESCRIPTION"]
+    beyond = np.abs(want) >= np.float32(300e3)
+    assert beyond.any() and np.isnan(band[beyond]).all()
+    assert np.array_equal(band[~beyond], want[~beyond])
+    assert cli("field", *common, "-o", npy).returncode == 0
+    full = gloffset.distance_field(mexico, grid).values
+    assert np.array_equal(np.load(npy), full)
+    folder = tmp_path / "faces"
+    proc = cli("field", mexico_path, "--grid", "cube", "--size", "16", "-o", folder)
+    assert proc.returncode == 0, proc.stderr.decode()
+    faces = gloffset.distance_field(mexico, Cube(16)).values
+    for k, name in enumerate(("px", "nx", "py", "ny", "pz", "nz")):
+        assert np.array_equal(np.load(folder / f"{name}.npy"), faces[k])
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (("--max-distance", "0km", "-o", "d.tif"), ("--max-distance", "'0km'")),
+        (("--max-distance", "-5km", "-o", "d.tif"), ("--max-distance",)),
+        (("--max-distance", "5parsec", "-o", "d.tif"), ("5parsec",)),
+        (("--size", "big", "-o", "d.tif"), ("--size", "'big'")),
+        (("-o", "d.png"), ("d.png", ".tif", ".npy")),
+        (("--grid", "hexagons", "-o", "d.tif"), ("hexagons",)),
+        (("--grid", "cube", "--bounds", "0,0,1,1", "-o", "faces"), ("--bounds",)),
+    ],
+)
+def test_cli_bad_input(mexico_path, tmp_path, args, words):
+    proc = cli("field", mexico_path, *args, cwd=tmp_path)
+    err = proc.stderr.decode()
+    assert proc.returncode == 2, err
+    lines = err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("gloffset: error: "), err
+    for w in words:
+        assert w in lines[0], err
+    assert not (tmp_path / "d.tif").exists()
