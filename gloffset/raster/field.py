@@ -6,20 +6,24 @@ inside the union of its polygons (lines and points bound no region: their ``s`` 
 never negative). ``s`` does not depend on ``d``, so one field answers every distance:
 :meth:`DistanceField.threshold` gives the mask of :func:`gloffset.render` at any ``d``.
 
-How it is computed. The levels of the grid are walked coarse to fine, as a render walks
-them (:mod:`gloffset.raster.levels`), with every cell frontier: each cell keeps the arcs
-that can be nearest to one of its points, those whose lower bound on their distance to
-the cell's centre is at most the least upper bound ``dist + 2 rho``
-(:func:`~gloffset.raster.levels.prune`: the usual pruning of a nearest-neighbour
-search), and its children filter that list again. At the output level every pixel has
-the exact float64 distance to its nearest candidate (:func:`~gloffset.raster.levels.
-cell_distances`, :func:`gloffset.sphere.arc_distance`) and its inside status from the
-crossings the levels carry down, so the lists, and the cost, follow the pixels: a cell
-far from the curves keeps the few arcs near its nearest one. With ``max_distance`` the
-lists hold the arcs within ``max_distance + rho`` only, and a cell whose centre is
-farther than ``max_distance + rho`` from the curves, with no ring edge within ``rho``,
-is decided whole (every pixel ``+-max_distance``, no pixel work). Large levels are
-walked in parts of contiguous cells, depth first, so memory stays bounded.
+How it is computed. The distances come from a walk over the grid's levels, coarse to
+fine and depth first (large levels in parts of contiguous cells, so memory stays
+bounded), with every cell's list of candidates made of nodes of the shape's
+multiresolution tree (paper Sec. 4.2; :class:`~gloffset.raster.node_levels.NodeArcs`:
+each node an arc with a rigorous two-sided bound ``err`` on how far its run of
+original edges strays from it, Sec. 4.3, Eq. 9). A cell keeps the nodes that can hold
+the nearest boundary arc of one of its points: those whose lower bound (the cap test,
+tightened by the exact distance to the node's arc less ``err``) is at most the cell's
+least upper bound (an exact distance plus ``err``) plus ``2 rho``, the usual pruning of
+a nearest-neighbour search (:func:`_bound`). Nodes are split as the cells shrink (to
+``err <= rho / 16``), and at the output level down to the original edges, pruning
+between the splits: a branch and bound whose lists follow the pixels, not the input.
+Each pixel ends with the exact float64 distance of its nearest original arc
+(:func:`gloffset.sphere.arc_distance`, the distance every render uses). With
+``max_distance`` a node farther than ``max_distance + rho`` is dropped too, and a cell
+left with none costs no pixel work. The sign is the inside status of the float64
+render at distance 0 (:func:`gloffset.raster.curves.classify`: crossing parity, carried
+down the levels along the boundary only).
 
 Accuracy: each value is the float64 distance (exact to 1e-15 rad) times ``radius``,
 clamped to ``[-max_distance, max_distance]`` and rounded to float32 once: within 1
@@ -36,12 +40,16 @@ import math
 
 import numpy as np
 
-from ..edges import CurveArcs, inside_any
+from ..caps import CAP_SLACK, cap_range, pad
+from ..classes import CONTAINED
 from ..errors import OptionError
 from ..grids import Cube, CubeFace, Equirect, Tile
 from ..shape import read
+from ..sphere import arc_distance, pair_dots
 from ..units import EARTH_RADIUS, RASTER_LIMIT, check_radius, offset_angle, to_angle
-from .levels import Frontier, cell_distances, coarse, prune, refine, subset
+from . import curves
+from .levels import Frontier, children
+from .node_levels import NodeArcs
 from .simplified import band_members
 
 __all__ = ["DistanceField", "distance_field"]
@@ -49,9 +57,6 @@ __all__ = ["DistanceField", "distance_field"]
 #: Cells and candidate pairs of one part of a level (a larger level is walked in parts
 #: of contiguous cells: the next level has about four times as many of each).
 _PART_CELLS, _PART_PAIRS = 1 << 16, 1 << 20
-
-#: Slack (rad) of the whole-cell decision beyond ``max_distance`` (as the levels' own).
-_SLACK = 1e-15
 
 #: Pixels decided again in float64 per batch of :meth:`DistanceField.threshold`.
 _BATCH = 1 << 16
@@ -227,43 +232,100 @@ def distance_field(
 
 
 def _field(shape, grid, m: float, radius: float) -> np.ndarray:
-    """The float32 field of one grid (clamped to ``+-m`` rad, ``m`` may be inf)."""
-    arcs = CurveArcs.from_shape(shape)
+    """The float32 field of one grid (clamped to ``+-m`` rad, ``m`` may be inf): the
+    unsigned distances of :func:`_distances`, negated where the levels' float64 render
+    at distance 0 (:func:`gloffset.raster.curves.classify`) has the pixel inside (a
+    pixel on the curves has the value 0 either way)."""
+    dist = _distances(shape, grid, m)
+    inside = np.zeros(dist.shape, dtype=bool)
+    if shape.rings:
+        inside = curves.classify(shape, 0.0, grid)[0] == CONTAINED
+    v = np.minimum(dist, m) * radius
+    return np.where(inside, -v, v).astype(np.float32)
+
+
+def _distances(shape, grid, m: float) -> np.ndarray:
+    """The distance (rad, float64) from each pixel centre to the nearest boundary arc,
+    exact where it is at most ``m`` (larger than ``m`` elsewhere): the levels walked
+    depth first with lists of nodes of the multiresolution tree (see the module notes)."""
+    nodes = NodeArcs.from_shape(shape)
     last = grid.n_levels - 1
     h0, w0 = grid.level_shape(0)
-    out = np.empty((h0 << last, w0 << last), dtype=np.float32)
-    clamp = None if math.isinf(m) else np.float32(m * radius)
-    stack = [(coarse(shape, arcs, grid, m), False)]
+    out = np.full((h0 << last, w0 << last), np.inf)
+    top = nodes.top[nodes.boundary[nodes.top]]
+    jj, ii = np.meshgrid(np.arange(h0), np.arange(w0), indexing="ij")
+    cells = np.column_stack([jj.ravel(), ii.ravel()])
+    k = len(cells)
+    c = grid.centers(0, cells[:, 0], cells[:, 1])
+    rho = grid.rho_at(0, cells[:, 0], cells[:, 1])
+    pc, pn = np.repeat(np.arange(k), len(top)), np.tile(top, k)
+    stack = [(Frontier(0, cells, c, rho, pc, pn, np.zeros((k, 0), np.uint8)), False)]
     while stack:  # depth first: one part of each level at a time
         f, parent = stack.pop()
         if parent:
-            f = refine(f, grid, arcs, m, shape)
-        if len(f.cells) == 0:
-            continue
-        dist, dring, low = cell_distances(f, arcs, lows=True)
-        inside = inside_any(f.status)
+            cells, _, c, rho, pc, pn = children(f, grid)
+            f = Frontier(f.level + 1, cells, c, rho, pc, pn, np.zeros((len(cells), 0), np.uint8))
+        f, dist = _bound(f, nodes, m, final=f.level == last)
         if f.level == last:
-            s = np.where(inside, -dist, dist) * radius
-            v = s.astype(np.float32) if clamp is None else np.clip(s, -m * radius, m * radius)
-            out[f.cells[:, 0], f.cells[:, 1]] = v
+            out[f.cells[:, 0], f.cells[:, 1]] = dist
             continue
-        f = prune(f, low, dist, m)
-        if clamp is not None:
-            r = f.rho + _SLACK
-            whole = (dring > r) & (dist > m + r)
-            if whole.any():
-                _paint(out, grid, f.level, f.cells[whole], np.where(inside[whole], -clamp, clamp))
-                f = subset(f, np.flatnonzero(~whole))
         stack.extend((part, True) for part in reversed(list(_parts(f))))
     h, w = grid.level_shape(last)
     return out[:h, :w]
 
 
-def _paint(out: np.ndarray, grid, level: int, cells: np.ndarray, vals: np.ndarray) -> None:
-    """Every output pixel of the cells ``(row, column)`` of ``level`` set to their value."""
-    b = grid.block(level)
-    view = out.reshape(out.shape[0] // b, b, out.shape[1] // b, b)
-    view[cells[:, 0], :, cells[:, 1], :] = vals[:, None, None]
+#: Above the output level a cell's nodes have error bounds of at most this fraction of
+#: its rho (finer nodes tighten the bounds, coarser ones shorten the lists).
+_KAPPA = 0.0625
+
+#: Absolute slack (rad) on the bounds of :func:`_bound` (exact float64 distances are good
+#: to 1e-15 rad; the error bounds of the nodes are padded already).
+_TINY = 1e-14
+
+
+def _bound(f: Frontier, nodes: NodeArcs, m: float, final: bool):
+    """The pairs of ``f`` (cells, nodes) that can hold the nearest boundary arc of some
+    point within ``rho`` of a cell's centre, every node split until its error bound is at
+    most :data:`~gloffset.raster.node_levels.KAPPA` ``rho`` (original arcs at the output
+    level, ``final``); and each cell's distance to its nearest pair (exact at the output
+    level, ``inf`` where it has none).
+
+    Branch and bound, rigorous both ways: a pair's run lies within ``t - reach`` of the
+    centre no nearer than its lower bound (``t`` the angle to its cap centre,
+    :func:`~gloffset.caps.cap_range`, widened by :data:`~gloffset.caps.CAP_SLACK`), and
+    no farther than the exact distance to its arc plus its error bound. A pair whose lower
+    bound exceeds the least upper bound of the cell by more than ``2 rho`` is nearer to no
+    point of the cell than that one (nor within ``m`` of any, beyond ``m + rho``)."""
+    cell, node, c, rho = f.pair_cell, f.pair_arc, f.centers, f.rho
+    k = len(f.cells)
+    bound = 0.0 if final else _KAPPA * rho
+    while True:
+        lo, hi = cap_range(pair_dots(c, cell, nodes.mid, node), nodes.reach[node])
+        lo = lo - CAP_SLACK
+        best = np.full(k, np.inf)
+        np.minimum.at(best, cell, hi + CAP_SLACK)
+        near = np.flatnonzero(lo <= best[cell])
+        exact = np.full(len(cell), np.inf)
+        ni = node[near]
+        exact[near] = arc_distance(c[cell[near]], nodes.a[ni], nodes.b[ni], nodes.n[ni])
+        err = pad(nodes.err[ni]) + _TINY
+        np.minimum.at(best, cell[near], exact[near] + err)
+        lo[near] = np.maximum(lo[near], exact[near] - err)
+        keep = lo <= np.minimum(best + 2.0 * rho, m + rho)[cell] + _TINY
+        cell, node, exact = cell[keep], node[keep], exact[keep]
+        split = ~nodes.leaf[node] & (nodes.err[node] > (bound if final else bound[cell]))
+        if not split.any():
+            break
+        s = np.flatnonzero(split)
+        rest = np.flatnonzero(~split)
+        cell = np.concatenate([cell[rest], np.repeat(cell[s], 2)])
+        node = np.concatenate([node[rest], nodes.child[node[s]].ravel()])
+    order = np.argsort(cell, kind="stable")
+    cell, node, exact = cell[order], node[order], exact[order]
+    dist = np.full(k, np.inf)
+    np.minimum.at(dist, cell, exact)
+    g = Frontier(f.level, f.cells, c, rho, cell, node, f.status)
+    return g, dist
 
 
 def _parts(f: Frontier):
