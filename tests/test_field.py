@@ -257,3 +257,21 @@ def test_cli_bad_input(mexico_path, tmp_path, args, words):
     for w in words:
         assert w in lines[0], err
     assert not (tmp_path / "d.tif").exists()
+
+
+@pytest.mark.parametrize("grid", [Equirect(512, 256, (-120, 10, -80, 30)), Cube(32)])
+def test_thresholds_at_a_pixels_own_value(mexico, grid):
+    """At ``d`` equal to a pixel's float32 value the float32 values cannot tell: those
+    pixels are decided in float64. The mask is then the float64 render's byte for byte;
+    the GPU render may differ from that only within its stated error (1e-3 of a pixel) of
+    ``d``, and does, at such pixels."""
+    field = gloffset.distance_field(mexico, grid, max_distance=500e3)
+    v = field.values.ravel()
+    pick = np.flatnonzero((np.abs(v) > 1e3) & (np.abs(v) < 400e3))
+    level = grid.faces[0] if isinstance(grid, Cube) else grid
+    pixel = 2.0 * float(np.max(level.rho(level.n_levels - 2))) * R  # a 2 x 2 cell's diameter
+    for d in (float(v[pick[0]]), float(v[pick[len(pick) // 2]]), float(v[pick[-1]])):
+        mask = field.threshold(d)
+        assert np.array_equal(mask, gloffset.render(mexico, d, grid, backend="cpu"))
+        off = mask != gloffset.render(mexico, d, grid)
+        assert (np.abs(field.values[off].astype(np.float64) - d) <= 1e-3 * pixel).all()

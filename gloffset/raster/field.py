@@ -96,10 +96,12 @@ class DistanceField:
         """The mask of the region at signed distance ``d`` (units of ``radius``): uint8,
         255 inside, 0 outside, in the shape of :attr:`values`.
 
-        Byte-identical to ``gloffset.render(shape, d, grid, radius=radius)`` wherever that
-        render equals the float64 reference (its accuracy contract): a pixel is in when
-        its exact signed distance is ``<= d`` (``< d`` for ``d < 0``); pixels whose
-        float32 value cannot tell are decided in float64.
+        A pixel is in when its exact signed distance is ``<= d`` (``< d`` for ``d < 0``);
+        pixels whose float32 value cannot tell are decided in float64. So the mask is
+        ``gloffset.render(shape, d, grid, radius=radius, backend="cpu")`` (the float64
+        reference renderer) byte for byte, and the GPU render's wherever that render
+        equals the reference: everywhere but at pixels whose exact distance is within
+        its stated error (1e-3 of a pixel) of ``|d|`` or of a polygon boundary.
 
         Raises :class:`~gloffset.errors.InvalidDistanceError` for a ``d`` that
         ``render`` refuses, and :class:`~gloffset.errors.OptionError` when ``|d|``
