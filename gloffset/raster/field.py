@@ -45,7 +45,7 @@ from ..classes import CONTAINED
 from ..errors import OptionError
 from ..grids import Cube, CubeFace, Equirect, Tile
 from ..shape import read
-from ..sphere import arc_distance, pair_dots
+from ..sphere import angle, arc_distance, pair_dots
 from ..units import EARTH_RADIUS, RASTER_LIMIT, check_radius, offset_angle, to_angle
 from . import curves
 from .levels import Frontier, children
@@ -267,7 +267,8 @@ def _distances(shape, grid, m: float) -> np.ndarray:
         if parent:
             cells, _, c, rho, pc, pn = children(f, grid)
             f = Frontier(f.level + 1, cells, c, rho, pc, pn, np.zeros((len(cells), 0), np.uint8))
-        f, dist = _bound(f, nodes, m, final=f.level == last)
+        reach = _kids_reach(f, grid) if f.level == last - 1 else f.rho
+        f, dist = _bound(f, nodes, m, reach, final=f.level == last)
         if f.level == last:
             out[f.cells[:, 0], f.cells[:, 1]] = dist
             continue
@@ -285,19 +286,36 @@ _KAPPA = 0.0625
 _TINY = 1e-14
 
 
-def _bound(f: Frontier, nodes: NodeArcs, m: float, final: bool):
-    """The pairs of ``f`` (cells, nodes) that can hold the nearest boundary arc of some
-    point within ``rho`` of a cell's centre, every node split until its error bound is at
-    most :data:`~gloffset.raster.node_levels.KAPPA` ``rho`` (original arcs at the output
-    level, ``final``); and each cell's distance to its nearest pair (exact at the output
-    level, ``inf`` where it has none).
+def _kids_reach(f: Frontier, grid) -> np.ndarray:
+    """The farthest child centre (at the output level) from each cell's centre, rounded
+    up: the only points of the next level whose distances are asked for, so the lists of
+    the level above the output need hold their nearest arcs only (at about half the
+    cell's ``rho``)."""
+    h, w = grid.level_shape(f.level + 1)
+    out = np.zeros(len(f.cells))
+    for dj in (0, 1):
+        for di in (0, 1):
+            j = np.minimum(2 * f.cells[:, 0] + dj, h - 1)
+            i = np.minimum(2 * f.cells[:, 1] + di, w - 1)
+            out = np.maximum(out, angle(grid.centers(f.level + 1, j, i), f.centers))
+    return pad(out)
 
-    Branch and bound, rigorous both ways: a pair's run lies within ``t - reach`` of the
-    centre no nearer than its lower bound (``t`` the angle to its cap centre,
-    :func:`~gloffset.caps.cap_range`, widened by :data:`~gloffset.caps.CAP_SLACK`), and
-    no farther than the exact distance to its arc plus its error bound. A pair whose lower
-    bound exceeds the least upper bound of the cell by more than ``2 rho`` is nearer to no
-    point of the cell than that one (nor within ``m`` of any, beyond ``m + rho``)."""
+
+def _bound(f: Frontier, nodes: NodeArcs, m: float, reach: np.ndarray, final: bool):
+    """The pairs of ``f`` (cells, nodes) that can hold the nearest boundary arc of some
+    point within ``reach`` (``rho``, or less: :func:`_kids_reach`) of a cell's centre,
+    every node split until its error bound is at most :data:`_KAPPA` ``rho`` (original
+    arcs at the output level, ``final``); and each cell's distance to its nearest pair
+    (exact at the output level, ``inf`` where it has none).
+
+    Branch and bound, rigorous both ways: a pair's run lies no nearer to the centre than
+    its lower bound (the angle to the node's cap centre less the cap's radius,
+    :func:`~gloffset.caps.cap_range`, widened by :data:`~gloffset.caps.CAP_SLACK`; or the
+    exact distance to its arc less its error bound), and no farther than the exact
+    distance to its arc plus its error bound. A pair whose lower
+    bound exceeds the least upper bound of the cell by more than ``2 reach`` is nearer to
+    no point within ``reach`` than that one (nor within ``m`` of any, beyond ``m +
+    reach``)."""
     cell, node, c, rho = f.pair_cell, f.pair_arc, f.centers, f.rho
     k = len(f.cells)
     bound = 0.0 if final else _KAPPA * rho
@@ -313,7 +331,7 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, final: bool):
         err = pad(nodes.err[ni]) + _TINY
         np.minimum.at(best, cell[near], exact[near] + err)
         lo[near] = np.maximum(lo[near], exact[near] - err)
-        keep = lo <= np.minimum(best + 2.0 * rho, m + rho)[cell] + _TINY
+        keep = lo <= np.minimum(best + 2.0 * reach, m + reach)[cell] + _TINY
         cell, node, exact = cell[keep], node[keep], exact[keep]
         split = ~nodes.leaf[node] & (nodes.err[node] > (bound if final else bound[cell]))
         if not split.any():
