@@ -119,6 +119,8 @@ def test_cube_and_tile(mexico):
     field = gloffset.distance_field(mexico, cube, max_distance=300e3)
     assert field.values.shape == (6, 48, 48)
     assert_thresholds(mexico, field)
+    face = gloffset.distance_field(mexico, cube.faces[4], max_distance=300e3)
+    assert np.array_equal(face.values, field.values[4])
     tile = Tile(4, 3, 6, size=128)  # the tile of Mexico City
     field = gloffset.distance_field(mexico, tile, max_distance=300e3)
     assert field.values.shape == (128, 128)
