@@ -22,6 +22,7 @@ from .errors import *  # noqa: F403  (every exception class, listed in errors.__
 from .geodesic_offset import GeodesicOffset, offset
 from .geoseries import buffer
 from .index.contains import Index
+from .raster.field import DistanceField, distance_field
 from .raster.rasterized import raster_offset, rasterize
 from .raster.render import render
 from .shape import Shape, read
@@ -34,6 +35,7 @@ __all__ = [
     "EARTH_RADIUS",
     "Index",
     "Decomposition",
+    "DistanceField",
     "Ellipsoid",
     "GeodesicOffset",
     "Offset",
@@ -44,6 +46,7 @@ __all__ = [
     "contains",
     "decompose",
     "distance",
+    "distance_field",
     "offset",
     "parse_distance",
     "raster_offset",

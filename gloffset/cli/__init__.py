@@ -58,6 +58,7 @@ def main():
 
 
 from . import contains as _contains  # noqa: E402,F401  (registers the subcommands)
+from . import field as _field  # noqa: E402,F401
 from . import offset as _offset  # noqa: E402,F401
 from . import preview as _preview  # noqa: E402,F401
 from . import render as _render  # noqa: E402,F401

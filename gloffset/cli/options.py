@@ -9,7 +9,7 @@ import time
 import click
 
 from ..ellipsoid import ELLIPSOIDS, as_ellipsoid
-from ..errors import InvalidDistanceError, InvalidEllipsoidError
+from ..errors import InvalidDistanceError, InvalidEllipsoidError, OptionError
 from ..units import EARTH_RADIUS, parse_distance
 
 
@@ -203,3 +203,37 @@ class Stages:
                 self.bar.update(self.bar.total - self.bar.n)
                 self.bar.set_description_str("done", refresh=False)
             self.bar.close()
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """``--size WIDTHxHEIGHT`` as ``(width, height)``."""
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise OptionError(f"--size must be WIDTHxHEIGHT, e.g. 4096x2048, got {text!r}") from None
+    return w, h
+
+
+def parse_face(text: str) -> int:
+    """``--size N`` (or ``NxN``) of a cube: the face side."""
+    parts = text.lower().split("x")
+    try:
+        vals = {int(v) for v in parts}
+    except ValueError:
+        vals = set()
+    if len(vals) != 1 or len(parts) > 2:
+        raise OptionError(f"--size for a cube is the face side N (or NxN), got {text!r}")
+    return vals.pop()
+
+
+def parse_bounds(text: str | None) -> tuple:
+    """``--bounds W,S,E,N`` in degrees (the globe without it)."""
+    if text is None:
+        return (-180.0, -90.0, 180.0, 90.0)
+    try:
+        vals = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        vals = ()
+    if len(vals) != 4:
+        raise OptionError(f"--bounds must be W,S,E,N in degrees, got {text!r}")
+    return vals

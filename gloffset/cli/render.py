@@ -29,42 +29,20 @@ from .options import (
     parse_ellipsoid,
     radius_option,
 )
+from .options import (
+    parse_bounds as _bounds,
+)
+from .options import (
+    parse_face as _face,
+)
+from .options import (
+    parse_size as _size,
+)
 
 #: The former name of :class:`~gloffset.errors.InputFormatError` (cube-face mask PNGs that
 #: are missing, not square, or of different sizes), kept so that ``except CubeFacesError``
 #: works.
 CubeFacesError = InputFormatError
-
-
-def _size(text: str) -> tuple[int, int]:
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise OptionError(f"--size must be WIDTHxHEIGHT, e.g. 4096x2048, got {text!r}") from None
-    return w, h
-
-
-def _face(text: str) -> int:
-    parts = text.lower().split("x")
-    try:
-        vals = {int(v) for v in parts}
-    except ValueError:
-        vals = set()
-    if len(vals) != 1 or len(parts) > 2:
-        raise OptionError(f"--size for a cube is the face side N (or NxN), got {text!r}")
-    return vals.pop()
-
-
-def _bounds(text: str | None) -> tuple:
-    if text is None:
-        return (-180.0, -90.0, 180.0, 90.0)
-    try:
-        vals = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        vals = ()
-    if len(vals) != 4:
-        raise OptionError(f"--bounds must be W,S,E,N in degrees, got {text!r}")
-    return vals
 
 
 @main.command("render")

@@ -74,9 +74,12 @@ def _rasterio():
     return rasterio
 
 
-def write_geotiff(target, image: np.ndarray, ref: Georef, *, cog: bool = False) -> None:
-    """Write ``image`` ((h, w) or (h, w, bands) uint8) as a GeoTIFF placed by ``ref``:
-    tiled (256 x 256) and deflate-compressed, or a Cloud Optimized GeoTIFF with ``cog``.
+def write_geotiff(
+    target, image: np.ndarray, ref: Georef, *, cog: bool = False, nodata: float | None = None
+) -> None:
+    """Write ``image`` ((h, w) or (h, w, bands), uint8 or float32: the bands keep its
+    dtype) as a GeoTIFF placed by ``ref``: tiled (256 x 256) and deflate-compressed, or a
+    Cloud Optimized GeoTIFF with ``cog``; ``nodata``, if given, is the bands' nodata value.
     Written under a temporary name and moved into place (never a half-written file),
     with the permission bits of a new file (the umask's) or of the file it replaces."""
     rasterio = _rasterio()
@@ -90,11 +93,13 @@ def write_geotiff(target, image: np.ndarray, ref: Georef, *, cog: bool = False) 
         "width": w,
         "height": h,
         "count": n,
-        "dtype": "uint8",
+        "dtype": arr.dtype.name,
         "crs": ref.crs,
         "transform": Affine(*ref.transform),
         "compress": "deflate",
     }
+    if nodata is not None:
+        profile["nodata"] = nodata
     if n == 4:
         profile["photometric"] = "RGB"
     path = Path(target)

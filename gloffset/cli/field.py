@@ -1,0 +1,133 @@
+"""``gloffset field``: a raster of the signed distance to the curves of INPUT (a distance
+field, :func:`gloffset.distance_field`): a float32 GeoTIFF or ``.npy`` in metres, or six
+cube-map faces."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import click
+import numpy as np
+
+from ..errors import OptionError, OutputError
+from ..grids import FACE_NAMES, Cube, Equirect
+from ..io.georef import Georef, write_geotiff
+from ..io.output import check_output, refuse_stdout, write_bytes
+from ..raster.field import distance_field
+from ..shape import read
+from . import main
+from .options import angle, input_options, parse_bounds, parse_face, parse_size, radius_option
+
+#: What a field GeoTIFF says of its values (its DESCRIPTION tag).
+DESCRIPTION = (
+    "gloffset signed distance field: great-circle distance in metres from each pixel centre "
+    "to the curves of the input, negative inside its polygons (their union), positive "
+    "outside; lines and points unsigned; nodata (NaN) at and beyond max_distance"
+)
+
+_FORMATS = (".tif", ".tiff", ".npy")
+
+
+def _format(output: str, grid_kind: str) -> str:
+    """The output kind: ``"tif"``, ``"npy"`` or, for a cube, ``"folder"``."""
+    if grid_kind == "cube":
+        refuse_stdout(output, "--grid cube writes six .npy faces into a folder")
+        return "folder"
+    name = str(output).lower()
+    if not name.endswith(_FORMATS):
+        raise OptionError(f"-o {output!r}: a field is written as NAME.tif or NAME.npy")
+    check_output(output)  # fail before the work
+    return "npy" if name.endswith(".npy") else "tif"
+
+
+@main.command("field")
+@click.argument("input", metavar="INPUT")
+@radius_option
+@click.option(
+    "--grid",
+    "grid_kind",
+    type=click.Choice(["equirect", "cube"]),
+    default="equirect",
+    show_default=True,
+    help="equirect: one raster; cube: OUTPUT is a folder of px nx py ny pz nz .npy faces.",
+)
+@click.option(
+    "--size",
+    default=None,
+    help="WIDTHxHEIGHT in pixels (default 4096x2048); for cube the face side N.",
+)
+@click.option(
+    "--bounds", default=None, help="W,S,E,N in degrees (W > E crosses 180 deg). Default: the globe."
+)
+@click.option(
+    "--max-distance",
+    "max_distance",
+    default=None,
+    metavar="DIST",
+    help="Clamp the field to +-DIST (e.g. 500km): faster, and nodata beyond it in a GeoTIFF.",
+)
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    help="NAME.tif (float32 GeoTIFF, EPSG:4326; NAME.cog.tif a Cloud Optimized one) or "
+    "NAME.npy (float32); with --grid cube a folder.",
+)
+@input_options
+def field_cmd(
+    input,
+    radius,
+    grid_kind,
+    size,
+    bounds,
+    max_distance,
+    output,
+    layer=None,
+    where=None,
+    densify=None,
+):
+    """Write the signed distance field of INPUT: the great-circle distance in metres from
+    each pixel centre to its curves, negative inside its polygons (row 0 north).
+
+    One field answers every distance: the region at distance d is where the field is at
+    most d. Values are exact float64 distances rounded to float32."""
+    kind = _format(output, grid_kind)
+    if grid_kind == "cube":
+        if bounds is not None:
+            raise OptionError("--bounds does not apply to --grid cube")
+        grid = Cube(parse_face(size or "1024"))
+    else:
+        w, h = parse_size(size or "4096x2048")
+        grid = Equirect(w, h, parse_bounds(bounds))
+    m = None
+    if max_distance is not None:
+        m = angle(max_distance, radius) * radius
+        if not m > 0.0:
+            raise OptionError(f"--max-distance must be a positive distance, got {max_distance!r}")
+    shape = read(input, layer=layer, where=where, densify=densify)
+    field = distance_field(shape, grid, max_distance=m, radius=radius)
+    if kind == "folder":
+        folder = Path(output)
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OutputError(f"cannot create folder {output!r}: {exc.strerror}") from None
+        for k, name in enumerate(FACE_NAMES):
+            _write_npy(folder / f"{name}.npy", field.values[k])
+    elif kind == "npy":
+        _write_npy(output, field.values)
+    else:
+        values = field.values
+        if m is not None:
+            values = np.where(np.abs(values) >= np.float32(m), np.float32(np.nan), values)
+        cog = str(output).lower().endswith((".cog.tif", ".cog.tiff"))
+        ref = Georef(grid.transform(), description=DESCRIPTION)
+        nodata = None if m is None else float("nan")
+        write_geotiff(output, values, ref, cog=cog, nodata=nodata)
+
+
+def _write_npy(target, values: np.ndarray) -> None:
+    buf = io.BytesIO()
+    np.save(buf, values)
+    write_bytes(target, buf.getvalue())

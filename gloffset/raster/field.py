@@ -1,0 +1,372 @@
+"""Signed distance fields: every distance at once (``distance_field(shape, grid)``).
+
+The region of a shape at signed distance ``d`` is ``{s <= d}`` (``{s < d}`` for ``d < 0``),
+where ``s(p)`` is the great-circle distance from ``p`` to the shape's curves, negated
+inside the union of its polygons (lines and points bound no region: their ``s`` is
+never negative). ``s`` does not depend on ``d``, so one field answers every distance:
+:meth:`DistanceField.threshold` gives the mask of :func:`gloffset.render` at any ``d``.
+
+How it is computed. The distances come from a walk over the grid's levels, coarse to
+fine and depth first (large levels in parts of contiguous cells, so memory stays
+bounded), with every cell's list of candidates made of nodes of the shape's
+multiresolution tree (paper Sec. 4.2; :class:`~gloffset.raster.vector.node_levels.NodeArcs`:
+each node an arc with a rigorous two-sided bound ``err`` on how far its run of
+original edges strays from it, Sec. 4.3, Eq. 9). A cell keeps the nodes that can hold
+the nearest boundary arc of one of its points: those whose lower bound (the cap test,
+tightened by the exact distance to the node's arc less ``err``) is at most the cell's
+least upper bound (an exact distance plus ``err``) plus ``2 rho``, the usual pruning of
+a nearest-neighbour search (:func:`_bound`). Nodes are split as the cells shrink (to
+``err <= rho / 16``), and at the output level down to the original edges, pruning
+between the splits: a branch and bound whose lists follow the pixels, not the input.
+Each pixel ends with the exact float64 distance of its nearest original arc
+(:func:`gloffset.sphere.arc_distance`, the distance every render uses). With
+``max_distance`` a node farther than ``max_distance + rho`` is dropped too, and a cell
+left with none costs no pixel work. The sign is the inside status of the float64
+render at distance 0 (:func:`gloffset.raster.vector.curves.classify_curves`: crossing
+parity, carried down the levels along the boundary only).
+
+Accuracy: each value is the float64 distance (exact to 1e-15 rad) times ``radius``,
+clamped to ``[-max_distance, max_distance]`` and rounded to float32 once: within 1
+float32 ulp of the exact signed distance. A threshold compares the float32 values
+with ``d``; pixels whose value lies within two float32 spacings of ``d`` are decided
+again in float64 (their distance against the arcs whose caps reach, the predicate
+the renders settle their band with, :func:`gloffset.raster.simplified.band_members`;
+their inside status is the sign bit of the value, kept exactly: ``-0.0`` inside).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..caps import CAP_SLACK, cap_range, pad
+from ..classes import CONTAINED
+from ..errors import OptionError
+from ..grids.protocol import Image
+from ..shape import read
+from ..sphere import angle, arc_distance, pair_dots
+from ..units import EARTH_RADIUS, RASTER_LIMIT, check_radius, offset_angle, to_angle
+from .simplified import band_members
+from .vector import curves
+from .vector.levels import Frontier, children
+from .vector.node_levels import NodeArcs
+
+__all__ = ["DistanceField", "distance_field"]
+
+#: Cells and candidate pairs of one part of a level (a larger level is walked in parts
+#: of contiguous cells: the next level has about four times as many of each).
+_PART_CELLS, _PART_PAIRS = 1 << 16, 1 << 20
+
+#: Pixels decided again in float64 per batch of :meth:`DistanceField.threshold`.
+_BATCH = 1 << 16
+
+
+class DistanceField:
+    """The signed distance field of a shape on a grid (:func:`distance_field`).
+
+    Attributes
+    ----------
+    values : numpy.ndarray
+        float32, the grid's shape (``Equirect``: (height, width); ``Tile``: (size,
+        size); ``Cube``: (6, size, size), faces as :func:`gloffset.render` stacks them):
+        the signed great-circle distance of each pixel centre to the curves, in the
+        units of ``radius``, negative inside the union of the polygons, clamped to
+        ``[-max_distance, max_distance]``. Each is the exact float64 value rounded
+        once to float32 (within 1 float32 ulp).
+    grid : the grid
+    radius : float
+    max_distance : float or None
+    """
+
+    def __init__(self, shape, grid, values: np.ndarray, radius: float, max_distance):
+        self.shape = shape
+        self.grid = grid
+        self.values = values
+        self.radius = radius
+        self.max_distance = max_distance
+
+    def __repr__(self) -> str:
+        return (
+            f"DistanceField({type(self.grid).__name__}, values {self.values.shape} float32, "
+            f"radius={self.radius!r}, max_distance={self.max_distance!r})"
+        )
+
+    def threshold(self, d: float) -> np.ndarray:
+        """The mask of the region at signed distance ``d`` (units of ``radius``): uint8,
+        255 inside, 0 outside, in the shape of :attr:`values`.
+
+        A pixel is in when its exact signed distance is ``<= d`` (``< d`` for ``d < 0``);
+        pixels whose float32 value cannot tell are decided in float64. So the mask is
+        ``gloffset.render(shape, d, grid, radius=radius, backend="cpu")`` (the float64
+        reference renderer) byte for byte, and the GPU render's wherever that render
+        equals the reference: everywhere but at pixels whose exact distance is within
+        its stated error (1e-3 of a pixel) of ``|d|`` or of a polygon boundary.
+
+        Raises :class:`~gloffset.errors.InvalidDistanceError` for a ``d`` that
+        ``render`` refuses, and :class:`~gloffset.errors.OptionError` when ``|d|``
+        exceeds ``max_distance`` (the field does not know the pixels beyond it).
+        """
+        e = offset_angle(self.shape, d, self.radius, limit=RASTER_LIMIT, what="render")
+        d = float(d)
+        if self.max_distance is not None and abs(d) > self.max_distance:
+            raise OptionError(
+                f"threshold distance {d!r} is beyond the field's max_distance "
+                f"{self.max_distance!r}; compute the field with a larger max_distance"
+            )
+        v = self.values
+        member = np.empty(v.shape, dtype=bool)
+        amb = []
+        rows = max(1, _BATCH // max(1, v.shape[-1]))
+        flat = v.reshape(-1, v.shape[-1])  # rows of every face
+        mflat = member.reshape(flat.shape)
+        for r0 in range(0, len(flat), rows):
+            x = flat[r0 : r0 + rows].astype(np.float64)
+            mflat[r0 : r0 + rows] = (x <= d) if d >= 0 else (x < d)
+            # float32 spacing at the larger of |x|, |d|: the values that round to x
+            sp = np.spacing(np.maximum(np.abs(x), abs(d)).astype(np.float32)).astype(np.float64)
+            j, i = np.nonzero(np.abs(x - d) <= 2.0 * sp)
+            if len(j):
+                amb.append((j + r0, i))
+        if amb:
+            j = np.concatenate([a[0] for a in amb])
+            i = np.concatenate([a[1] for a in amb])
+            mflat[j, i] = self._settle(j, i, e)
+        return np.where(member, np.uint8(255), np.uint8(0))
+
+    def _settle(self, rows: np.ndarray, cols: np.ndarray, e: float) -> np.ndarray:
+        """Membership at signed angle ``e`` of the pixels (flat rows of every face,
+        columns), decided in float64."""
+        size = self.values.shape[-2]
+        out = np.empty(len(rows), dtype=bool)
+        inside = np.signbit(self.values.reshape(-1, self.values.shape[-1])[rows, cols])
+        grids = self.grid.faces
+        face, j = np.divmod(rows, size)
+        for k, g in enumerate(grids):
+            sel = np.flatnonzero(face == k)
+            if not len(sel):
+                continue
+            p = g.centers(g.n_levels - 1, j[sel], cols[sel])
+            out[sel] = _members(self.shape, p, inside[sel], e)
+        return out
+
+
+def _members(shape, p: np.ndarray, inside: np.ndarray, e: float) -> np.ndarray:
+    """Members at signed angle ``e`` among points ``p`` whose inside status is known:
+    inside, or within ``e`` (``e >= 0``); inside and farther than ``|e|`` (``e < 0``),
+    with the exact float64 distances of :func:`band_members`."""
+    out = inside.copy()
+    todo = np.flatnonzero(inside if e < 0 else ~inside)
+    for s in range(0, len(todo), _BATCH):
+        part = todo[s : s + _BATCH]
+        # band_members(d) is "within |d|" for d > 0 and "farther than |d|" for d <= 0
+        got = band_members(shape, p[part], e)
+        out[part] = got if e != 0 else ~got
+    return out
+
+
+def _check_grid(grid) -> None:
+    if not isinstance(grid, Image):
+        raise OptionError(
+            f"grid must be a gloffset.grids grid (Equirect, Tile, Cube), got {type(grid).__name__}"
+        )
+
+
+def _max_angle(max_distance, radius: float) -> float:
+    """``max_distance`` as an angle (``inf`` for None); a clear error unless positive."""
+    if max_distance is None:
+        return math.inf
+    m = to_angle(max_distance, radius)
+    if not m > 0.0:
+        raise OptionError(f"max_distance must be a positive distance, got {max_distance!r}")
+    return m
+
+
+def distance_field(
+    shape, grid, *, max_distance: float | None = None, radius: float = EARTH_RADIUS, ellipsoid=None
+) -> DistanceField:
+    """The signed distance field of ``shape`` on ``grid``.
+
+    Parameters
+    ----------
+    shape : Shape or anything :func:`gloffset.read` accepts
+    grid : gloffset.grids.Equirect, Tile, Cube or CubeFace
+    max_distance : float, optional
+        Clamp the field to ``[-max_distance, max_distance]`` (units of ``radius``); the
+        work then follows the band within it (cells wholly beyond it cost no pixel work).
+    radius : float
+        Sphere radius; the values are in its units (metres by default).
+    ellipsoid : None
+        Only the sphere for now: any other value raises
+        :class:`~gloffset.errors.OptionError`.
+
+    Returns
+    -------
+    DistanceField
+        ``.values`` float32 in the grid's shape (as :func:`gloffset.render`'s mask):
+        negative inside the union of the polygons, unsigned for lines and points.
+
+    Notes
+    -----
+    Accuracy: every value is the exact float64 signed distance (error below 1e-15 rad
+    times ``radius``) rounded once to float32, so within 1 float32 ulp of the exact
+    value; its sign is the inside status of the levels' crossing parity, as in the
+    float64 reference renderer. ``threshold(d)`` equals ``render(shape, d, grid)`` (see
+    :meth:`DistanceField.threshold`). Cost: the output pixels, each against the few
+    arcs that can be its nearest (see the module notes), on the CPU in float64.
+    """
+    if ellipsoid is not None:
+        raise OptionError(
+            f"distance_field does not support ellipsoid={ellipsoid!r} yet: only the sphere "
+            "(ellipsoid=None, distances on the sphere of radius=)"
+        )
+    radius = check_radius(radius)
+    shape = read(shape)
+    _check_grid(grid)
+    m = _max_angle(max_distance, radius)
+    if grid.n_faces > 1:
+        values = np.stack([_field(shape, f, m, radius) for f in grid.faces])
+    else:
+        values = _field(shape, grid, m, radius)
+    return DistanceField(
+        shape, grid, values, radius, None if max_distance is None else float(max_distance)
+    )
+
+
+def _field(shape, grid, m: float, radius: float) -> np.ndarray:
+    """The float32 field of one grid (clamped to ``+-m`` rad, ``m`` may be inf): the
+    unsigned distances of :func:`_distances`, negated where the levels' float64 render
+    at distance 0 (:func:`gloffset.raster.vector.curves.classify_curves`) has the pixel inside (a
+    pixel on the curves has the value 0 either way)."""
+    dist = _distances(shape, grid, m)
+    inside = np.zeros(dist.shape, dtype=bool)
+    if shape.rings:
+        inside = curves.classify_curves(shape, 0.0, grid)[0] == CONTAINED
+    v = np.minimum(dist, m) * radius
+    return np.where(inside, -v, v).astype(np.float32)
+
+
+def _distances(shape, grid, m: float) -> np.ndarray:
+    """The distance (rad, float64) from each pixel centre to the nearest boundary arc,
+    exact where it is at most ``m`` (larger than ``m`` elsewhere): the levels walked
+    depth first with lists of nodes of the multiresolution tree (see the module notes)."""
+    nodes = NodeArcs.from_shape(shape)
+    last = grid.n_levels - 1
+    h0, w0 = grid.level_shape(0)
+    out = np.full((h0 << last, w0 << last), np.inf)
+    top = nodes.top[nodes.boundary[nodes.top]]
+    jj, ii = np.meshgrid(np.arange(h0), np.arange(w0), indexing="ij")
+    cells = np.column_stack([jj.ravel(), ii.ravel()])
+    k = len(cells)
+    c = grid.centers(0, cells[:, 0], cells[:, 1])
+    rho = grid.rho_at(0, cells[:, 0], cells[:, 1])
+    pc, pn = np.repeat(np.arange(k), len(top)), np.tile(top, k)
+    stack = [(Frontier(0, cells, c, rho, pc, pn, np.zeros((k, 0), np.uint8)), False)]
+    while stack:  # depth first: one part of each level at a time
+        f, parent = stack.pop()
+        if parent:
+            cells, _, c, rho, pc, pn = children(f, grid)
+            f = Frontier(f.level + 1, cells, c, rho, pc, pn, np.zeros((len(cells), 0), np.uint8))
+        reach = _kids_reach(f, grid) if f.level == last - 1 else f.rho
+        f, dist = _bound(f, nodes, m, reach, final=f.level == last)
+        if f.level == last:
+            out[f.cells[:, 0], f.cells[:, 1]] = dist
+            continue
+        stack.extend((part, True) for part in reversed(list(_parts(f))))
+    h, w = grid.level_shape(last)
+    return out[:h, :w]
+
+
+#: Above the output level a cell's nodes have error bounds of at most this fraction of
+#: its rho (finer nodes tighten the bounds, coarser ones shorten the lists).
+_KAPPA = 0.0625
+
+#: Absolute slack (rad) on the bounds of :func:`_bound` (exact float64 distances are good
+#: to 1e-15 rad; the error bounds of the nodes are padded already).
+_TINY = 1e-14
+
+
+def _kids_reach(f: Frontier, grid) -> np.ndarray:
+    """The farthest child centre (at the output level) from each cell's centre, rounded
+    up: the only points of the next level whose distances are asked for, so the lists of
+    the level above the output need hold their nearest arcs only (at about half the
+    cell's ``rho``)."""
+    h, w = grid.level_shape(f.level + 1)
+    out = np.zeros(len(f.cells))
+    for dj in (0, 1):
+        for di in (0, 1):
+            j = np.minimum(2 * f.cells[:, 0] + dj, h - 1)
+            i = np.minimum(2 * f.cells[:, 1] + di, w - 1)
+            out = np.maximum(out, angle(grid.centers(f.level + 1, j, i), f.centers))
+    return pad(out)
+
+
+def _bound(f: Frontier, nodes: NodeArcs, m: float, reach: np.ndarray, final: bool):
+    """The pairs of ``f`` (cells, nodes) that can hold the nearest boundary arc of some
+    point within ``reach`` (``rho``, or less: :func:`_kids_reach`) of a cell's centre,
+    every node split until its error bound is at most :data:`_KAPPA` ``rho`` (original
+    arcs at the output level, ``final``); and each cell's distance to its nearest pair
+    (exact at the output level, ``inf`` where it has none).
+
+    Branch and bound, rigorous both ways: a pair's run lies no nearer to the centre than
+    its lower bound (the angle to the node's cap centre less the cap's radius,
+    :func:`~gloffset.caps.cap_range`, widened by :data:`~gloffset.caps.CAP_SLACK`; or the
+    exact distance to its arc less its error bound), and no farther than the exact
+    distance to its arc plus its error bound. A pair whose lower
+    bound exceeds the least upper bound of the cell by more than ``2 reach`` is nearer to
+    no point within ``reach`` than that one (nor within ``m`` of any, beyond ``m +
+    reach``)."""
+    cell, node, c, rho = f.pair_cell, f.pair_arc, f.centers, f.rho
+    k = len(f.cells)
+    bound = 0.0 if final else _KAPPA * rho
+    while True:
+        lo, hi = cap_range(pair_dots(c, cell, nodes.mid, node), nodes.reach[node])
+        lo = lo - CAP_SLACK
+        best = np.full(k, np.inf)
+        np.minimum.at(best, cell, hi + CAP_SLACK)
+        near = np.flatnonzero(lo <= best[cell])
+        exact = np.full(len(cell), np.inf)
+        ni = node[near]
+        exact[near] = arc_distance(c[cell[near]], nodes.a[ni], nodes.b[ni], nodes.n[ni])
+        err = pad(nodes.err[ni]) + _TINY
+        np.minimum.at(best, cell[near], exact[near] + err)
+        lo[near] = np.maximum(lo[near], exact[near] - err)
+        keep = lo <= np.minimum(best + 2.0 * reach, m + reach)[cell] + _TINY
+        cell, node, exact = cell[keep], node[keep], exact[keep]
+        split = ~nodes.leaf[node] & (nodes.err[node] > (bound if final else bound[cell]))
+        if not split.any():
+            break
+        s = np.flatnonzero(split)
+        rest = np.flatnonzero(~split)
+        cell = np.concatenate([cell[rest], np.repeat(cell[s], 2)])
+        node = np.concatenate([node[rest], nodes.child[node[s]].ravel()])
+    order = np.argsort(cell, kind="stable")
+    cell, node, exact = cell[order], node[order], exact[order]
+    dist = np.full(k, np.inf)
+    np.minimum.at(dist, cell, exact)
+    g = Frontier(f.level, f.cells, c, rho, cell, node, f.status)
+    return g, dist
+
+
+def _parts(f: Frontier):
+    """``f`` cut into parts of contiguous cells of at most :data:`_PART_CELLS` cells and
+    about :data:`_PART_PAIRS` pairs (the pairs are sorted by cell)."""
+    k = len(f.cells)
+    if k <= _PART_CELLS and len(f.pair_cell) <= _PART_PAIRS:
+        yield f
+        return
+    before = np.searchsorted(f.pair_cell, np.arange(k))  # pairs before each cell
+    part = np.maximum(before // _PART_PAIRS, np.arange(k) // _PART_CELLS)
+    cuts = np.flatnonzero(np.r_[True, part[1:] != part[:-1]])
+    at = np.r_[before[cuts], len(f.pair_cell)]
+    for n, (a, b) in enumerate(zip(cuts, np.r_[cuts[1:], k])):
+        pa, pb = at[n], at[n + 1]
+        yield Frontier(
+            f.level,
+            f.cells[a:b],
+            f.centers[a:b],
+            f.rho[a:b],
+            f.pair_cell[pa:pb] - a,
+            f.pair_arc[pa:pb],
+            f.status[a:b],
+        )

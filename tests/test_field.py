@@ -1,0 +1,279 @@
+"""Signed distance fields (``gloffset.distance_field``): values against the float64
+reference, thresholds against the renders byte for byte, clamping and bad input."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from conftest import DATA
+
+import gloffset
+from gloffset import reference
+from gloffset.grids import Cube, Equirect, Tile
+
+R = gloffset.EARTH_RADIUS
+DISTANCES = (-50e3, 0.0, 127e3)
+
+
+def reference_field(shape, p):
+    """The float64 signed distance (metres) of points ``p`` from the judge."""
+    dist = reference.distance_xyz(shape, p) * R
+    inside = reference.contains_xyz(shape, p, 0.0)
+    return np.where(inside, -dist, dist)
+
+
+def sample(grid, n, seed=0):
+    """``n`` random pixels ``(j, i)`` of a grid and their centres."""
+    rng = np.random.default_rng(seed)
+    h, w = grid.level_shape(grid.n_levels - 1)
+    j, i = rng.integers(0, h, n), rng.integers(0, w, n)
+    return j, i, grid.centers(grid.n_levels - 1, j, i)
+
+
+def assert_within_ulps(values, want, ulps=2.0):
+    spacing = np.spacing(np.abs(want).astype(np.float32)).astype(np.float64)
+    err = np.abs(values.astype(np.float64) - want) / spacing
+    assert err.max() <= ulps, f"{err.max():.2f} float32 ulps from the reference"
+
+
+def assert_thresholds(shape, field, distances=DISTANCES):
+    for d in distances:
+        mask = field.threshold(d)
+        want = gloffset.render(shape, d, field.grid)
+        assert mask.dtype == np.uint8 and mask.shape == want.shape
+        bad = np.argwhere(mask != want)
+        assert len(bad) == 0, f"d={d}: {len(bad)} pixels differ from render, e.g. {bad[:3]}"
+
+
+@pytest.fixture(scope="module")
+def mexico(mexico_path):
+    return gloffset.read(mexico_path)
+
+
+@pytest.fixture(scope="module")
+def neighbours():
+    """Mexico and its southern neighbours at 1:10m (shared borders cancel)."""
+    fc = json.loads((DATA / "countries_10m.geojson").read_text())
+    keep = {"Guatemala", "Belize", "Honduras", "El Salvador"}
+    feats = [f for f in fc["features"] if f["properties"]["name"] in keep]
+    assert len(feats) == len(keep)
+    mexico = json.loads((DATA / "mexico_10m.geojson").read_text())
+    feats += mexico["features"] if "features" in mexico else [mexico]
+    return gloffset.read({"type": "FeatureCollection", "features": feats})
+
+
+def test_mexico_equirect_thresholds_and_values(mexico):
+    grid = Equirect(1024, 512)
+    field = gloffset.distance_field(mexico, grid, max_distance=400e3)
+    assert field.values.dtype == np.float32 and field.values.shape == (512, 1024)
+    assert_thresholds(mexico, field)
+    j, i, p = sample(grid, 3000)
+    want = np.clip(reference_field(mexico, p), -400e3, 400e3)
+    assert_within_ulps(field.values[j, i], want)
+
+
+def test_mexico_regional_unclamped(mexico):
+    grid = Equirect(160, 120, (-120, 10, -84, 37))
+    field = gloffset.distance_field(mexico, grid)
+    assert field.max_distance is None
+    assert_thresholds(mexico, field, (-100e3, -2e3, 0.0, 3e3, 300e3))
+    j, i, p = sample(grid, 2000, seed=1)
+    assert_within_ulps(field.values[j, i], reference_field(mexico, p))
+
+
+def test_neighbours_at_10m(neighbours):
+    grid = Equirect(300, 200, (-95, 12, -85, 20))
+    field = gloffset.distance_field(neighbours, grid, max_distance=300e3)
+    assert_thresholds(neighbours, field, (-20e3, 0.0, 10e3))
+    j, i, p = sample(grid, 1000, seed=2)
+    want = np.clip(reference_field(neighbours, p), -300e3, 300e3)
+    assert_within_ulps(field.values[j, i], want)
+    # a shared border is no boundary: inside, far from the sea, the values stay negative
+    assert (field.values < 0).sum() == (gloffset.render(neighbours, 0.0, grid) > 0).sum()
+
+
+@pytest.mark.parametrize(
+    "name, size, bounds",
+    [
+        ("Fiji", (256, 128), (-180, -90, 180, 90)),
+        ("Fiji", (200, 160), (170, -25, -170, -10)),  # across the antimeridian
+        ("Russia", (300, 200), (160, 55, -160, 75)),
+        ("Antarctica", (256, 96), (-180, -90, 180, -60)),  # round the pole
+    ],
+)
+def test_seams(world, name, size, bounds):
+    shape = gloffset.read(world[name])
+    grid = Equirect(*size, bounds)
+    field = gloffset.distance_field(shape, grid)
+    assert_thresholds(shape, field, (-30e3, 0.0, 60e3))
+    j, i, p = sample(grid, 1000, seed=3)
+    assert_within_ulps(field.values[j, i], reference_field(shape, p))
+
+
+def test_cube_and_tile(mexico):
+    cube = Cube(48)
+    field = gloffset.distance_field(mexico, cube, max_distance=300e3)
+    assert field.values.shape == (6, 48, 48)
+    assert_thresholds(mexico, field)
+    face = gloffset.distance_field(mexico, cube.faces[4], max_distance=300e3)
+    assert np.array_equal(face.values, field.values[4])
+    tile = Tile(4, 3, 6, size=128)  # the tile of Mexico City
+    field = gloffset.distance_field(mexico, tile, max_distance=300e3)
+    assert field.values.shape == (128, 128)
+    assert_thresholds(mexico, field)
+    j, i, p = sample(tile, 1000, seed=4)
+    want = np.clip(reference_field(mexico, p), -300e3, 300e3)
+    assert_within_ulps(field.values[j, i], want)
+
+
+def test_lines_and_points_are_unsigned():
+    lines = {
+        "type": "MultiLineString",
+        "coordinates": [[[-10, 40], [20, 45], [35, 30]], [[100, -20], [120, -25]]],
+    }
+    for geom in (lines, {"type": "Point", "coordinates": [30, 60]}):
+        shape = gloffset.read(geom)
+        grid = Equirect(128, 64)
+        field = gloffset.distance_field(shape, grid)
+        assert (field.values >= 0).all()
+        assert_thresholds(shape, field, (1e3, 500e3))
+        j, i, p = sample(grid, 500, seed=5)
+        assert_within_ulps(field.values[j, i], reference.distance_xyz(shape, p) * R)
+        with pytest.raises(gloffset.InvalidDistanceError, match="no polygon"):
+            field.threshold(-1e3)
+
+
+def test_max_distance_clamps(world):
+    shape = gloffset.read(world["Italy"])
+    grid = Equirect(200, 200, (0, 30, 25, 50))
+    full = gloffset.distance_field(shape, grid).values
+    m = 60e3
+    clamped = gloffset.distance_field(shape, grid, max_distance=m)
+    assert clamped.max_distance == m
+    assert np.array_equal(clamped.values, np.clip(full, np.float32(-m), np.float32(m)))
+    assert (clamped.values == np.float32(m)).any() and (clamped.values == -np.float32(m)).any()
+    assert np.array_equal(clamped.threshold(m), gloffset.render(shape, m, grid))
+    with pytest.raises(gloffset.OptionError, match="beyond the field's max_distance"):
+        clamped.threshold(-70e3)
+
+
+def test_radius_units(world):
+    shape = gloffset.read(world["Italy"])
+    grid = Equirect(64, 64, (5, 35, 20, 48))
+    metres = gloffset.distance_field(shape, grid).values
+    radians = gloffset.distance_field(shape, grid, radius=1.0)
+    assert np.allclose(radians.values * R, metres, rtol=1e-6)
+    assert np.array_equal(radians.threshold(0.01), gloffset.render(shape, 0.01, grid, radius=1.0))
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, match",
+    [
+        ({"max_distance": 0.0}, gloffset.OptionError, "max_distance must be a positive"),
+        ({"max_distance": -5.0}, gloffset.OptionError, "max_distance must be a positive"),
+        ({"max_distance": float("nan")}, gloffset.InvalidDistanceError, "finite"),
+        ({"radius": -1.0}, gloffset.InvalidDistanceError, "radius"),
+        ({"ellipsoid": "WGS84"}, gloffset.OptionError, "ellipsoid"),
+    ],
+)
+def test_bad_options(world, kwargs, error, match):
+    with pytest.raises(error, match=match):
+        gloffset.distance_field(world["Italy"], Equirect(32, 16), **kwargs)
+
+
+def test_bad_grid_and_input(world):
+    with pytest.raises(gloffset.OptionError, match="grid must be a gloffset.grids grid"):
+        gloffset.distance_field(world["Italy"], (256, 128))
+    with pytest.raises(gloffset.InvalidGeometryError):
+        gloffset.distance_field({"type": "Point", "coordinates": [float("nan"), 0]}, Equirect(8, 4))
+    field = gloffset.distance_field(world["Italy"], Equirect(32, 16))
+    with pytest.raises(gloffset.InvalidDistanceError, match="finite"):
+        field.threshold(float("nan"))
+
+
+@pytest.mark.slow
+def test_mexico_global_unclamped(mexico):
+    grid = Equirect(512, 256)
+    field = gloffset.distance_field(mexico, grid)
+    assert_thresholds(mexico, field, (-200e3, 0.0, 127e3, 2000e3))
+    j, i, p = sample(grid, 3000, seed=6)
+    assert_within_ulps(field.values[j, i], reference_field(mexico, p))
+
+
+def cli(*args, cwd=None):
+    """Run ``python -m gloffset ARGS``."""
+    return subprocess.run(
+        [sys.executable, "-m", "gloffset", *map(str, args)], capture_output=True, cwd=cwd
+    )
+
+
+def test_cli_geotiff_npy_and_cube(mexico_path, mexico, tmp_path):
+    rasterio = pytest.importorskip("rasterio")
+    tif, npy = tmp_path / "dist.tif", tmp_path / "dist.npy"
+    common = (mexico_path, "--size", "200x100", "--bounds", "-125,5,-75,40")
+    proc = cli("field", *common, "--max-distance", "300km", "-o", tif)
+    assert proc.returncode == 0, proc.stderr.decode()
+    grid = Equirect(200, 100, (-125, 5, -75, 40))
+    want = gloffset.distance_field(mexico, grid, max_distance=300e3).values
+    with rasterio.open(tif) as src:
+        band = src.read(1)
+        assert src.crs.to_epsg() == 4326 and src.dtypes == ("float32",)
+        assert tuple(src.transform)[:6] == pytest.approx((0.25, 0, -125, 0, -0.35, 40))
+        assert np.isnan(src.nodata) and "negative inside" in src.tags()["DESCRIPTION"]
+    beyond = np.abs(want) >= np.float32(300e3)
+    assert beyond.any() and np.isnan(band[beyond]).all()
+    assert np.array_equal(band[~beyond], want[~beyond])
+    assert cli("field", *common, "-o", npy).returncode == 0
+    full = gloffset.distance_field(mexico, grid).values
+    assert np.array_equal(np.load(npy), full)
+    folder = tmp_path / "faces"
+    proc = cli("field", mexico_path, "--grid", "cube", "--size", "16", "-o", folder)
+    assert proc.returncode == 0, proc.stderr.decode()
+    faces = gloffset.distance_field(mexico, Cube(16)).values
+    for k, name in enumerate(("px", "nx", "py", "ny", "pz", "nz")):
+        assert np.array_equal(np.load(folder / f"{name}.npy"), faces[k])
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (("--max-distance", "0km", "-o", "d.tif"), ("--max-distance", "'0km'")),
+        (("--max-distance", "-5km", "-o", "d.tif"), ("--max-distance",)),
+        (("--max-distance", "5parsec", "-o", "d.tif"), ("5parsec",)),
+        (("--size", "big", "-o", "d.tif"), ("--size", "'big'")),
+        (("-o", "d.png"), ("d.png", ".tif", ".npy")),
+        (("--grid", "hexagons", "-o", "d.tif"), ("hexagons",)),
+        (("--grid", "cube", "--bounds", "0,0,1,1", "-o", "faces"), ("--bounds",)),
+    ],
+)
+def test_cli_bad_input(mexico_path, tmp_path, args, words):
+    proc = cli("field", mexico_path, *args, cwd=tmp_path)
+    err = proc.stderr.decode()
+    assert proc.returncode == 2, err
+    lines = err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("gloffset: error: "), err
+    for w in words:
+        assert w in lines[0], err
+    assert not (tmp_path / "d.tif").exists()
+
+
+@pytest.mark.parametrize("grid", [Equirect(512, 256, (-120, 10, -80, 30)), Cube(32)])
+def test_thresholds_at_a_pixels_own_value(mexico, grid):
+    """At ``d`` equal to a pixel's float32 value the float32 values cannot tell: those
+    pixels are decided in float64. The mask is then the float64 render's byte for byte;
+    the GPU render may differ from that only within its stated error (1e-3 of a pixel) of
+    ``d``, and does, at such pixels."""
+    field = gloffset.distance_field(mexico, grid, max_distance=500e3)
+    v = field.values.ravel()
+    pick = np.flatnonzero((np.abs(v) > 1e3) & (np.abs(v) < 400e3))
+    level = grid.faces[0] if isinstance(grid, Cube) else grid
+    pixel = 2.0 * float(np.max(level.rho(level.n_levels - 2))) * R  # a 2 x 2 cell's diameter
+    for d in (float(v[pick[0]]), float(v[pick[len(pick) // 2]]), float(v[pick[-1]])):
+        mask = field.threshold(d)
+        assert np.array_equal(mask, gloffset.render(mexico, d, grid, backend="cpu"))
+        off = mask != gloffset.render(mexico, d, grid)
+        assert (np.abs(field.values[off].astype(np.float64) - d) <= 1e-3 * pixel).all()
