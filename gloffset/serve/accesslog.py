@@ -51,7 +51,8 @@ class AccessLog:
         async def counted(message):
             if message["type"] == "http.response.start":
                 got["status"] = message["status"]
-            elif message["type"] == "http.response.body":
+            elif message["type"] == "http.response.body" and scope["method"] != "HEAD":
+                # the server sends no body in answer to HEAD, whatever the app gives it
                 got["bytes"] += len(message.get("body", b""))
             await send(message)
 
