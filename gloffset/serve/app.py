@@ -175,7 +175,7 @@ class _Server:
         d = self.angle(shape, text)
         _style(request.query_params)
         base = str(request.base_url).rstrip("/")
-        w, s, e, n = region_bounds(shape, d)
+        w, s, e, n = await asyncio.to_thread(region_bounds, shape, d)  # kept once made
         rest = [(k, v) for k, v in request.query_params.multi_items() if k != "distance"]
         query = urlencode(rest)
         tiles = f"{base}/tiles/{name}/{text}/{{z}}/{{x}}/{{y}}.png" + (f"?{query}" if query else "")
@@ -224,7 +224,8 @@ class _Server:
         return JSONResponse(body)
 
     async def layer_list(self, request: Request) -> Response:
-        return JSONResponse([_describe(n, s) for n, s in sorted(self.layers.items())])
+        items = sorted(self.layers.items())
+        return JSONResponse(await asyncio.to_thread(lambda: [_describe(n, s) for n, s in items]))
 
     async def index(self, request: Request) -> Response:
         return HTMLResponse((STATIC / "index.html").read_text())

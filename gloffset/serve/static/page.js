@@ -47,7 +47,7 @@ function parseHash() {
   const d = DISTANCE.exec(h.get("d") || "");
   if (d) {
     out.unit = d[2];
-    out.value = clampValue(Number(d[1]), d[2]);
+    out.value = Number(d[1]); // beyond the slider's reach, the slider stops at its end
   }
   return out;
 }
