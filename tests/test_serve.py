@@ -414,6 +414,22 @@ def test_access_log_a_line_per_request(tmp_path):
     assert rows[4][1:5] == ["HEAD", "/layers", "200", "0"]
     # off by default
     assert create_app({"tri": gloffset.read(TRI)}).user_middleware == []
+    with pytest.raises(gloffset.errors.OutputError, match="cannot open the access log '/nowhere"):
+        create_app({"tri": gloffset.read(TRI)}, access_log="/nowhere/at/all.log")
+
+
+def test_cli_access_log_option():
+    """``--access-log FILE``, ``--access-log -`` and the option alone (standard output)."""
+    from gloffset.cli.serve import serve_cmd
+
+    for args, want in [
+        ([], None),
+        (["--access-log"], "-"),
+        (["--access-log", "-"], "-"),
+        (["--access-log", "x.log"], "x.log"),
+    ]:
+        ctx = serve_cmd.make_context("serve", ["tri.geojson", *args])
+        assert ctx.params["access_log"] == want, args
 
 
 def test_offset_endpoint_takes_what_offsets_take_and_names_the_distance_as_given(client):

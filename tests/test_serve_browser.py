@@ -2,7 +2,9 @@
 playwright against a real server. It loads the page, moves the distance slider, checks
 that the tiles of the new distance were requested and drawn, and compares screenshot
 pixels at points known to be inside and outside the region (gloffset.contains), on the
-map and on the globe; the globe screenshot is the README's (docs/serve_globe.png).
+map and on the globe; the globe screenshot is the README's (docs/serve_globe.png). It
+sets an inward distance through the URL hash after the page has loaded and checks the
+tiles, the slider, its unit, the legend and the pixels at that distance.
 
 Skipped, with the reason, only where chromium or playwright cannot be found (.ci/run
 installs chromium with apt-get)."""
