@@ -241,7 +241,7 @@ def _zxy(z: str, x: str, y: str) -> tuple[int, int, int, int]:
     if y.endswith("@2x"):
         y, size = y[:-3], 512
     if not all(_NUMBER.fullmatch(v) for v in (z, x, y)):
-        _bad(f"z/x/y must be integers in ASCII digits, got {z!r}/{x!r}/{y!r}")
+        _bad(f"z/x/y must be integers of at most 8 ASCII digits, got {z!r}/{x!r}/{y!r}")
     zi, xi, yi = int(z), int(x), int(y)
     if not 0 <= zi <= MAX_ZOOM:
         _bad(f"zoom must be 0..{MAX_ZOOM}, got {zi}")
