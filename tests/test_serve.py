@@ -14,6 +14,7 @@ import sys
 import threading
 import time
 import urllib.request
+from datetime import datetime
 from pathlib import Path
 
 import mercantile
@@ -156,6 +157,13 @@ def test_etag_304_head_and_cache_control(client):
     assert client.get(url, headers={"If-None-Match": tag}).status_code == 304
     assert client.get(url, headers={"If-None-Match": f'"x", {tag}'}).status_code == 304
     assert client.get(url, headers={"If-None-Match": "*"}).status_code == 304
+    # If-None-Match compares weakly (RFC 9110, 13.1.2): a weak tag of the same bytes matches
+    weak = "W/" + tag
+    assert client.get(url, headers={"If-None-Match": weak}).status_code == 304
+    assert client.get(url, headers={"If-None-Match": f'W/"x",{weak}'}).status_code == 304
+    assert client.get(url, headers={"If-None-Match": f'"x" , {weak} '}).status_code == 304
+    assert client.get(url, headers={"If-None-Match": 'W/"x", "y"'}).status_code == 200
+    assert client.get(url, headers={"If-None-Match": "W/" + tag[:-2] + '"'}).status_code == 200
     other = client.get(url, headers={"If-None-Match": '"something else"'})
     assert other.status_code == 200 and other.content == r.content
     h = client.head(url)
@@ -242,6 +250,14 @@ def test_centres_measured_together_as_alone():
         ("/tiles/tri/100km/23/0/0.png", 400, "zoom must be 0..22"),
         ("/tiles/tri/100km/2/4/0.png", 400, "does not exist"),
         ("/tiles/tri/100km/a/0/0.png", 400, "integers"),
+        ("/tiles/tri/100km/1_0/0/0.png", 400, "ASCII digits, got '1_0'/'0'"),
+        ("/tiles/tri/100km/4/1_0/0.png", 400, "ASCII digits"),
+        ("/tiles/tri/100km/%D9%A3/0/0.png", 400, "ASCII digits"),  # Arabic-Indic 3
+        ("/tiles/tri/100km/3/%D9%A1/%DB%B2.png", 400, "ASCII digits"),  # Arabic-Indic 1, 2
+        ("/tiles/tri/100km/3/%EF%BC%91/1.png", 400, "ASCII digits"),  # fullwidth 1
+        ("/tiles/tri/100km/3/+1/1.png", 400, "ASCII digits"),
+        ("/tiles/tri/100km/3/1/%201.png", 400, "ASCII digits"),
+        ("/tiles/tri/100km/3/1/1_0@2x.png", 400, "ASCII digits"),
         ("/tiles/tri/100km/1/0/0.png?opacity=2", 400, "opacity"),
         ("/tiles/tri/100km/1/0/0.png?fill=notacolour", 400, "colour"),
         ("/tilejson/tri.json", 400, "distance"),
@@ -254,8 +270,9 @@ def test_centres_measured_together_as_alone():
         ("/tiles/tri/1e999km/1/0/0.png", 400, "1e999km"),
         ("/tiles/tri/20000km/1/0/0.png", 400, "a tile"),
         ("/tiles/am/-5km/1/0/0.png", 400, "no polygon"),
-        ("/tiles/tri/100km/99999999999999999999/0/0.png", 400, "zoom must be 0..22"),
-        ("/tiles/tri/100km/1/-1/0.png", 400, "does not exist"),
+        ("/tiles/tri/100km/99999999/0/0.png", 400, "zoom must be 0..22"),
+        ("/tiles/tri/100km/99999999999999999999/0/0.png", 400, "ASCII digits"),
+        ("/tiles/tri/100km/1/-1/0.png", 400, "ASCII digits"),
         ("/tiles/tri/100km/1/0/0.png?outline_width=x", 400, "style"),
         ("/tiles/tri/100km/1/0/0.png?outline_width=99&outline=%23000000", 400, "outline width"),
         ("/tilejson/nope.json?distance=1km", 404, "no layer"),
@@ -281,8 +298,8 @@ def test_tilejson_shape_offset_distance_layers(client):
     assert tj["tilejson"] == "3.0.0" and tj["maxzoom"] == 22
     assert tj["tiles"][0].startswith("http://testserver/tiles/tri/127km/{z}/{x}/{y}.png")
     assert "outline" in tj["tiles"][0]
-    w, s, e, n = tj["bounds"]
-    assert (w, s, e, n) == (-110, 15, -90, 30)
+    w, s, e, n = tj["bounds"]  # the triangle grown by 127 km (1.142 deg of latitude)
+    assert (w, s, e, n) == (-111.318856, 13.857863, -88.681144, 31.142137)
     assert client.get("/shape/tri.geojson").json()["geometry"]["type"] in (
         "Polygon",
         "MultiPolygon",
@@ -300,6 +317,119 @@ def test_tilejson_shape_offset_distance_layers(client):
     js = client.get("/static/page.js")
     assert js.status_code == 200 and "setProjection" in js.text and "/distance/" in js.text
     assert client.head("/").status_code == 200
+
+
+def _country(name: str):
+    fc = json.loads((ROOT / "data" / "countries_10m.geojson").read_text())
+    feats = [f for f in fc["features"] if f["properties"]["name"] == name]
+    return gloffset.read({"type": "FeatureCollection", "features": feats})
+
+
+def _lonlat_box(geojson) -> tuple[float, float, float, float]:
+    pts = []
+
+    def walk(c):
+        if c and isinstance(c[0], (int, float)):
+            pts.append(c[:2])
+        else:
+            for v in c:
+                walk(v)
+
+    walk(geojson["coordinates"])
+    lon, lat = np.asarray(pts).T
+    return lon.min(), lat.min(), lon.max(), lat.max()
+
+
+def test_tilejson_bounds_hold_the_region_at_the_distance(tmp_path):
+    """A client that honours the TileJSON's bounds (MapLibre does) asks for no tile
+    outside them: they hold the region at the requested distance, whose box for a 500 km
+    offset of Luxembourg is 17 times the input's; an inward offset lies in the input's
+    box; a line across the antimeridian takes every longitude. A pyramid written at the
+    same distance (MBTiles: the box of its tiles) has no tile outside them."""
+    lux = _country("Luxembourg")
+    layers = {"lux": lux, "am": gloffset.read(LINE_AM), "tri": gloffset.read(TRI)}
+    with TestClient(create_app(layers, render_timeout=60)) as c:
+        w, s, e, n = c.get("/tilejson/lux.json?distance=500km").json()["bounds"]
+        ow, os_, oe, on = _lonlat_box(gloffset.offset(lux, "500km").to_geojson()["geometry"])
+        assert w <= ow and s <= os_ and e >= oe and n >= on, ((w, s, e, n), (ow, os_, oe, on))
+        # and not much more: within 0.01 deg of the region's own box
+        assert max(ow - w, os_ - s, e - oe, n - on) < 0.01
+        # d < 0: inside the input, so within the input's box (the layer's own bounds)
+        inward = c.get("/tilejson/lux.json?distance=-5km").json()["bounds"]
+        layer = next(x for x in c.get("/layers").json() if x["name"] == "lux")
+        assert inward == layer["bounds"]
+        iw, is_, ie, in_ = _lonlat_box(c.get("/shape/lux.geojson").json()["geometry"])
+        assert inward[0] <= iw and inward[1] <= is_ and inward[2] >= ie and inward[3] >= in_
+        assert max(iw - inward[0], is_ - inward[1], inward[2] - ie, inward[3] - in_) < 1e-3
+        # across the antimeridian: every longitude
+        am = c.get("/tilejson/am.json?distance=100km").json()["bounds"]
+        assert am[0] == -180 and am[2] == 180 and am[1] < -10.8 and am[3] > 20.8
+        # far enough from the triangle to reach the pole: the whole world
+        tri = c.get("/tilejson/tri.json?distance=7000km").json()["bounds"]
+        assert tri[0] == -180 and tri[2] == 180 and tri[3] == 85.051129
+    # a pyramid at the same distance has no tile beyond the bounds (zoom 6: its tiles'
+    # box, the archive's bounds, within the bounds rounded out to zoom 6's tiles)
+    out = tmp_path / "lux.mbtiles"
+    gloffset.tiles.pyramid(lux, "500km", "6-6", out)
+    import sqlite3
+
+    with sqlite3.connect(out) as db:
+        meta = dict(db.execute("SELECT name, value FROM metadata").fetchall())
+    aw, as_, ae, an = (float(v) for v in meta["bounds"].split(","))
+    ul, lr = mercantile.tile(w, n, 6), mercantile.tile(e, s, 6)
+    tw, tn = mercantile.bounds(ul).west, mercantile.bounds(ul).north
+    te, ts = mercantile.bounds(lr).east, mercantile.bounds(lr).south
+    assert tw - 1e-6 <= aw and ts - 1e-6 <= as_ and ae <= te + 1e-6 and an <= tn + 1e-6
+    assert (aw, as_, ae, an) != (-180.0, -85.051129, 180.0, 85.051129)
+
+
+def test_access_log_a_line_per_request(tmp_path):
+    log = tmp_path / "access.log"
+    app = create_app({"tri": gloffset.read(TRI)}, access_log=str(log))
+    with TestClient(app) as c:
+        tile = c.get("/tiles/tri/300km/3/1/3.png")
+        c.get("/tiles/tri/300km/3/1/3.png", headers={"If-None-Match": tile.headers["etag"]})
+        c.get("/tiles/tri/1_0km/3/1/3.png")
+        c.get("/tilejson/tri.json?distance=127km")
+        c.head("/layers")
+    lines = log.read_text().splitlines()
+    assert len(lines) == 5, lines
+    rows = [line.split(" ") for line in lines]
+    assert all(len(r) == 6 for r in rows), lines
+    when, method, path, status, size, ms = rows[0]
+    assert (
+        when.endswith("Z")
+        and abs(datetime.fromisoformat(when.replace("Z", "+00:00")).timestamp() - time.time()) < 600
+    )
+    assert (method, path, status, int(size)) == (
+        "GET",
+        "/tiles/tri/300km/3/1/3.png",
+        "200",
+        len(tile.content),
+    )
+    assert 0 <= float(ms) < 600_000
+    assert rows[1][3:5] == ["304", "0"]
+    assert rows[2][3] == "400" and int(rows[2][4]) > 0
+    assert rows[3][2] == "/tilejson/tri.json?distance=127km" and rows[3][3] == "200"
+    assert rows[4][1:5] == ["HEAD", "/layers", "200", "0"]
+    # off by default
+    assert create_app({"tri": gloffset.read(TRI)}).user_middleware == []
+    with pytest.raises(gloffset.errors.OutputError, match="cannot open the access log '/nowhere"):
+        create_app({"tri": gloffset.read(TRI)}, access_log="/nowhere/at/all.log")
+
+
+def test_cli_access_log_option():
+    """``--access-log FILE``, ``--access-log -`` and the option alone (standard output)."""
+    from gloffset.cli.serve import serve_cmd
+
+    for args, want in [
+        ([], None),
+        (["--access-log"], "-"),
+        (["--access-log", "-"], "-"),
+        (["--access-log", "x.log"], "x.log"),
+    ]:
+        ctx = serve_cmd.make_context("serve", ["tri.geojson", *args])
+        assert ctx.params["access_log"] == want, args
 
 
 def test_offset_endpoint_takes_what_offsets_take_and_names_the_distance_as_given(client):
@@ -486,7 +616,9 @@ def test_cli_serves_and_stops_on_ctrl_c(tmp_path, workers):
     src.write_text(json.dumps(TRI))
     port = _free_port()
     cmd = [sys.executable, "-m", "gloffset", "serve", str(src), "--port", str(port)]
-    proc = subprocess.Popen(cmd + ["--workers", str(workers)], stderr=subprocess.PIPE)
+    log = tmp_path / "access.log"  # the workers append to one file
+    cmd += ["--access-log", str(log.relative_to(tmp_path))]
+    proc = subprocess.Popen(cmd + ["--workers", str(workers)], stderr=subprocess.PIPE, cwd=tmp_path)
     try:
         for _ in range(200):
             try:
@@ -510,3 +642,6 @@ def test_cli_serves_and_stops_on_ctrl_c(tmp_path, workers):
         err = proc.communicate(timeout=30)[1].decode()
     assert proc.returncode == 0, err
     assert f"http://127.0.0.1:{port}/" in err
+    rows = [line.split(" ") for line in log.read_text().splitlines()]
+    tiles = [r for r in rows if r[2].startswith("/tiles/tri/300km/")]
+    assert len(tiles) == 4 and all(r[3] == "200" and int(r[4]) > 0 for r in tiles), rows

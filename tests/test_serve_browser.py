@@ -2,7 +2,9 @@
 playwright against a real server. It loads the page, moves the distance slider, checks
 that the tiles of the new distance were requested and drawn, and compares screenshot
 pixels at points known to be inside and outside the region (gloffset.contains), on the
-map and on the globe; the globe screenshot is the README's (docs/serve_globe.png).
+map and on the globe; the globe screenshot is the README's (docs/serve_globe.png). It
+sets an inward distance through the URL hash after the page has loaded and checks the
+tiles, the slider, its unit, the legend and the pixels at that distance.
 
 Skipped, with the reason, only where chromium or playwright cannot be found (.ci/run
 installs chromium with apt-get)."""
@@ -42,7 +44,6 @@ ARGS = [
     "--disable-sync",
 ]
 VIEW = (960, 640)
-PANEL = (330, 150)  # the control panel's corner: no pixel is compared under it
 
 
 @pytest.fixture(scope="module")
@@ -131,13 +132,17 @@ def _probes(pg, shape, d_m: float, margin_m: float):
         np.c_[lon, lat].tolist(),
     )
     xy = np.asarray(pts)
-    seen = (
-        (xy[:, 0] > 4)
-        & (xy[:, 0] < VIEW[0] - 4)
-        & (xy[:, 1] > 4)
-        & (xy[:, 1] < VIEW[1] - 4)
-        & ~((xy[:, 0] < PANEL[0]) & (xy[:, 1] < PANEL[1]))
+    seen = (xy[:, 0] > 4) & (xy[:, 0] < VIEW[0] - 4) & (xy[:, 1] > 4) & (xy[:, 1] < VIEW[1] - 4)
+    # no pixel is compared under the control panel or the legend
+    boxes = pg.evaluate(
+        """() => ['panel', 'legend'].map((id) => {
+            const r = document.getElementById(id).getBoundingClientRect();
+            return [r.left, r.top, r.right, r.bottom]; })"""
     )
+    for x0, y0, x1, y1 in boxes:
+        seen &= ~(
+            (xy[:, 0] > x0 - 4) & (xy[:, 0] < x1 + 4) & (xy[:, 1] > y0 - 4) & (xy[:, 1] < y1 + 4)
+        )
     keep = clear & seen
     return xy[keep].round().astype(int), inside[keep], lon[keep], lat[keep]
 
@@ -161,7 +166,11 @@ def _check_pixels(pg, img, xy, inside) -> None:
     got = d_in < d_out
     bad = np.flatnonzero(got != inside)
     assert len(bad) == 0, [(tuple(xy[i]), bool(inside[i]), tuple(px[i])) for i in bad[:10]]
-    assert (np.minimum(d_in, d_out) <= 12).all(), "pixels match neither the fill nor the background"
+    far = np.flatnonzero(np.minimum(d_in, d_out) > 12)
+    assert len(far) == 0, (
+        "pixels match neither the fill nor the background",
+        [(tuple(xy[i]), tuple(px[i])) for i in far[:10]],
+    )
 
 
 def _move_slider(pg, value: int) -> None:
@@ -222,3 +231,52 @@ def test_page_map_slider_and_globe(server, page):
     _settle(pg, "400km")
     assert pg.evaluate("() => gloffsetPage.map.getProjection().type") == "mercator"
     assert _screenshot(pg)[VIEW[1] - 3, VIEW[0] - 3].tolist() == mercator_corner
+
+
+def test_page_follows_the_hash_to_an_inward_offset(server, page):
+    """A distance set in the URL hash after the page has loaded (a link, a script) is
+    followed: a negative one (inside the polygons and farther than |d| from their
+    boundary) in another unit, its tiles requested and drawn, the slider, its unit and
+    the legend showing it; the map is window.gloffsetMap."""
+    base, shape = server
+    pg = page
+    pg.goto(f"{base}/#map=4.2/22/-100&layer=mexico&d=127km")
+    _settle(pg, "127km")
+    assert pg.evaluate("() => window.gloffsetMap === window.gloffsetPage.map")
+    assert pg.evaluate("() => window.gloffsetMap.getStyle().sources.offset.type") == "raster"
+    seen = len(pg.tiles)
+    pg.evaluate("() => { location.hash = 'map=4.2/22/-100&layer=mexico&d=-100nmi'; }")
+    _settle(pg, "-100nmi")
+    new = [(u, s) for u, s in pg.tiles[seen:] if "/tiles/mexico/-100nmi/" in u]
+    assert new and all(s == 200 for _, s in new), pg.tiles[seen:]
+    slider = pg.evaluate(
+        """() => { const s = document.getElementById('distance');
+            return [s.value, s.min, s.max, document.getElementById('unit').value,
+                    document.getElementById('distance-text').textContent,
+                    document.getElementById('legend').textContent]; }"""
+    )
+    value, lo, hi, unit, text, legend = slider
+    assert (float(value), unit, text) == (-100, "nmi", "-100 nmi")
+    assert float(lo) == -float(hi) and float(hi) >= 1000
+    assert "d = -100 nmi" in legend and "farther than 100 nmi" in legend
+    img = _screenshot(pg)
+    d_m = -100 * 1852.0
+    xy, inside, _, _ = _probes(pg, shape, d_m, margin_m=60e3)
+    # inside Mexico, some probes are farther than 185 km from the coast, some nearer
+    near = gloffset.contains(shape, *_lonlat(pg, xy), distance=0.0) & ~inside
+    assert inside.sum() > 10 and near.sum() > 10 and (~inside).sum() > 20
+    _check_pixels(pg, img, xy, inside)
+
+    # the unit selector keeps the distance: -100 nmi is -185 km
+    pg.locator("#unit").select_option("km")
+    _settle(pg, "-185km")
+    assert pg.evaluate("() => document.getElementById('distance').value") == "-185"
+    assert "d=-185km" in pg.evaluate("() => location.hash")
+
+
+def _lonlat(pg, xy) -> tuple[np.ndarray, np.ndarray]:
+    ll = pg.evaluate(
+        "(pts) => pts.map((p) => window.gloffsetMap.unproject(p).toArray())", xy.tolist()
+    )
+    lon, lat = np.asarray(ll).T
+    return lon, lat

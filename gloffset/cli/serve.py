@@ -52,7 +52,18 @@ from . import main
     show_default=True,
     help="Server processes sharing the port, each with its own GL context and caches.",
 )
-def serve_cmd(inputs, host, port, cache_mb, cache_control, queue_size, render_timeout, workers):
+@click.option(
+    "--access-log",
+    metavar="FILE|-",
+    is_flag=False,
+    flag_value="-",
+    default=None,
+    help="Log a line per request (time, method, path, status, bytes, ms) to FILE, "
+    "appended, or to standard output ('-', or the option alone). Default: no log.",
+)
+def serve_cmd(
+    inputs, host, port, cache_mb, cache_control, queue_size, render_timeout, workers, access_log
+):
     """Serve the offset regions of INPUT... as map tiles for any distance:
     /tiles/LAYER/127km/z/x/y.png, /tilejson/LAYER.json?distance=127km, /offset, /shape,
     /distance, /layers, and at / a map and globe page with a distance slider (each INPUT
@@ -80,6 +91,7 @@ def serve_cmd(inputs, host, port, cache_mb, cache_control, queue_size, render_ti
         queue_size=queue_size,
         cache_mb=cache_mb,
         render_timeout=render_timeout,
+        access_log=access_log,
     )
     click.echo(
         f"gloffset serve: http://{host}:{port}/ ({', '.join(layers)}"
@@ -89,6 +101,8 @@ def serve_cmd(inputs, host, port, cache_mb, cache_control, queue_size, render_ti
     )
     if workers > 1:  # each worker (spawned) reads the inputs and makes its own context
         paths = [str(Path(p).resolve()) for p in inputs]
+        if access_log not in (None, "-"):  # each worker appends its lines to the file
+            opts["access_log"] = str(Path(access_log).resolve())
         os.environ[ENVIRONMENT] = json.dumps({"inputs": paths, **opts})
         target, kw = "gloffset.serve.app:app_from_environment", {"factory": True}
         kw["workers"] = workers

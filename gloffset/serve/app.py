@@ -8,7 +8,9 @@ Endpoints (each input is a layer named after its file stem):
   metres) as a web-mercator tile, the pixels of ``gloffset.render(shape, d, Tile(z, x,
   y))``, styled by the query (``fill``, ``opacity``, ``outline``, ``outline_width``) as
   ``gloffset tiles`` styles them;
-- ``GET /tilejson/{layer}.json?distance=127km``: TileJSON 3.0.0 with absolute URLs;
+- ``GET /tilejson/{layer}.json?distance=127km``: TileJSON 3.0.0 with absolute URLs, its
+  ``bounds`` a box that holds the region at that distance
+  (:func:`~gloffset.serve.bounds.region_bounds`);
 - ``GET /offset/{layer}.geojson?distance=127km``: the resolved vector offset;
 - ``GET /shape/{layer}.geojson``: the input;
 - ``GET /distance/{layer}?lon=..&lat=..``: the distance to the layer in metres;
@@ -19,11 +21,12 @@ Endpoints (each input is a layer named after its file stem):
   click showing the distance to the curves; ``/static/...`` serves its files.
 
 HEAD works wherever GET does. Bad input is 400 with ``{"detail": ...}`` naming the
-problem, an unknown layer 404, a full render queue (or a tile not rendered within
-``render_timeout``) 503 with ``Retry-After``. Tiles carry a strong ETag (a hash of their
-bytes; ``If-None-Match`` gives 304), the configured ``Cache-Control``, and
-``X-Gloffset-Tile``: how the tile was found (``cached``, ``inside``, ``outside``: decided
-without rendering, or ``rendered``).
+problem (tile numbers are ASCII digits only), an unknown layer 404, a full render queue
+(or a tile not rendered within ``render_timeout``) 503 with ``Retry-After``. Tiles carry
+a strong ETag (a hash of their bytes; ``If-None-Match`` with it, weak or strong, in a
+list, or ``*`` gives 304), the configured ``Cache-Control``, and ``X-Gloffset-Tile``: how
+the tile was found (``cached``, ``inside``, ``outside``: decided without rendering, or
+``rendered``). With ``access_log``, a line per request (:mod:`gloffset.serve.accesslog`).
 """
 
 from __future__ import annotations
@@ -32,11 +35,13 @@ import asyncio
 import json
 import math
 import os
+import re
 from pathlib import Path
 from urllib.parse import urlencode
 
 from starlette.applications import Starlette
 from starlette.exceptions import HTTPException
+from starlette.middleware import Middleware
 from starlette.requests import Request
 from starlette.responses import HTMLResponse, JSONResponse, Response
 from starlette.routing import Mount, Route
@@ -51,6 +56,8 @@ from ..shape import read
 from ..sphere import lonlat_to_xyz
 from ..units import EARTH_RADIUS, RASTER_LIMIT, VECTOR_LIMIT, offset_angle
 from ..vector.offset import offset
+from .accesslog import AccessLog, open_log
+from .bounds import region_bounds
 from .service import UNKNOWN, QueueFull, TileKey, TileService, etag
 
 __all__ = ["create_app", "app_from_environment", "ENVIRONMENT", "STATIC"]
@@ -125,8 +132,7 @@ class _Server:
                 return data
         tag = etag(data)
         headers = {"ETag": tag, "Cache-Control": self.cache_control, "X-Gloffset-Tile": how}
-        match = {t.strip() for t in request.headers.get("if-none-match", "").split(",")}
-        if tag in match or "*" in match:
+        if not_modified(request.headers.get("if-none-match"), tag):
             return Response(status_code=304, headers=headers)
         return Response(data, media_type="image/png", headers=headers)
 
@@ -166,10 +172,10 @@ class _Server:
         name = request.path_params["layer"]
         shape = self.layer(name)
         text = request.query_params.get("distance")
-        self.angle(shape, text)
+        d = self.angle(shape, text)
         _style(request.query_params)
         base = str(request.base_url).rstrip("/")
-        w, s, e, n = _bounds(shape)
+        w, s, e, n = await asyncio.to_thread(region_bounds, shape, d)  # kept once made
         rest = [(k, v) for k, v in request.query_params.multi_items() if k != "distance"]
         query = urlencode(rest)
         tiles = f"{base}/tiles/{name}/{text}/{{z}}/{{x}}/{{y}}.png" + (f"?{query}" if query else "")
@@ -218,26 +224,45 @@ class _Server:
         return JSONResponse(body)
 
     async def layer_list(self, request: Request) -> Response:
-        return JSONResponse([_describe(n, s) for n, s in sorted(self.layers.items())])
+        items = sorted(self.layers.items())
+        return JSONResponse(await asyncio.to_thread(lambda: [_describe(n, s) for n, s in items]))
 
     async def index(self, request: Request) -> Response:
         return HTMLResponse((STATIC / "index.html").read_text())
+
+
+#: a tile number: ASCII digits only (``int()`` also takes ``1_0``, ``+1``, `` 1`` and the
+#: digits of other scripts), at most 8 of them (zooms stop at 22)
+_NUMBER = re.compile(r"[0-9]{1,8}")
 
 
 def _zxy(z: str, x: str, y: str) -> tuple[int, int, int, int]:
     size = 256
     if y.endswith("@2x"):
         y, size = y[:-3], 512
-    try:
-        zi, xi, yi = int(z), int(x), int(y)
-    except ValueError:
-        _bad(f"z/x/y must be integers, got {z}/{x}/{y}")
+    if not all(_NUMBER.fullmatch(v) for v in (z, x, y)):
+        _bad(f"z/x/y must be integers of at most 8 ASCII digits, got {z!r}/{x!r}/{y!r}")
+    zi, xi, yi = int(z), int(x), int(y)
     if not 0 <= zi <= MAX_ZOOM:
         _bad(f"zoom must be 0..{MAX_ZOOM}, got {zi}")
     n = 1 << zi
     if not (0 <= xi < n and 0 <= yi < n):
         _bad(f"tile {zi}/{xi}/{yi} does not exist: x and y must be in 0..{n - 1}")
     return zi, xi, yi, size
+
+
+def not_modified(header: str | None, tag: str) -> bool:
+    """Whether an ``If-None-Match`` header matches the entity tag ``tag``: ``*``, or a
+    tag of its comma-separated list equal to ``tag`` by the weak comparison (RFC 9110,
+    13.1.2: ``W/"x"`` matches ``"x"``)."""
+    if not header:
+        return False
+    opaque = tag.removeprefix("W/")
+    for t in header.split(","):
+        t = t.strip()
+        if t == "*" or t.removeprefix("W/") == opaque:
+            return True
+    return False
 
 
 def _style(q) -> TileStyle:
@@ -250,30 +275,6 @@ def _style(q) -> TileStyle:
         )
     except (GloffsetError, ValueError) as exc:
         _bad(f"bad style: {exc}")
-
-
-def _bounds(shape) -> tuple[float, float, float, float]:
-    """West, south, east, north of the layer's vertices (latitudes clipped to web
-    mercator's), kept on the shape."""
-    return shape.cached("serve.bounds", lambda: _vertex_bounds(shape))
-
-
-def _vertex_bounds(shape) -> tuple[float, float, float, float]:
-    pts = []
-
-    def walk(c):
-        if c and isinstance(c[0], (int, float)):
-            pts.append(c[:2])
-        else:
-            for v in c:
-                walk(v)
-
-    feats = shape.to_geojson()
-    for f in feats.get("features", [feats]):
-        g = f.get("geometry", f)
-        walk(g.get("coordinates", []))
-    lon, lat = zip(*pts)
-    return (min(lon), max(min(lat), -85.0511), max(lon), min(max(lat), 85.0511))
 
 
 def _geojson_bytes(shape) -> bytes:
@@ -290,7 +291,7 @@ def _distance_inside(shape, lon: float, lat: float) -> tuple[float, bool]:
 
 
 def _describe(name: str, shape) -> dict:
-    w, s, e, n = _bounds(shape)
+    w, s, e, n = region_bounds(shape, 0.0)
     bounds = [w, s, e, n]
     return {"name": name, "bounds": bounds, "center": [(w + e) / 2, (s + n) / 2]} | {
         "vertices": int(shape.n_vertices)
@@ -308,12 +309,15 @@ def create_app(
     queue_size: int = 256,
     cache_mb: float = 256.0,
     render_timeout: float = 60.0,
+    access_log: str | None = None,
 ) -> Starlette:
     """The application serving ``layers`` (name -> :class:`~gloffset.Shape`).
 
     ``cache_control``: the tiles' Cache-Control header; ``queue_size``: tiles waiting to
     render at most (more are answered 503); ``cache_mb``: the LRU of rendered tiles;
-    ``render_timeout``: seconds a request waits for its tile before a 503.
+    ``render_timeout``: seconds a request waits for its tile before a 503;
+    ``access_log``: a file to append a line per request to, ``"-"`` for standard output
+    (:mod:`gloffset.serve.accesslog`), None for none.
     """
     srv = _Server(
         layers,
@@ -333,7 +337,12 @@ def create_app(
         Route("/distance/{layer}", srv.distance, methods=get),
         Mount("/static", StaticFiles(directory=STATIC), name="static"),
     ]
-    app = Starlette(routes=routes, exception_handlers={HTTPException: _error})
+    middleware = []
+    if access_log is not None:
+        middleware.append(Middleware(AccessLog, stream=open_log(access_log)))
+    app = Starlette(
+        routes=routes, exception_handlers={HTTPException: _error}, middleware=middleware
+    )
     app.state.server = srv
     return app
 

@@ -1,31 +1,55 @@
-// The page of `gloffset serve`: the offset tiles of a layer at the slider's distance, the
-// input drawn over them from /shape, a globe toggle, a click showing the distance to the
-// curves (/distance), and the view, layer and distance kept in the URL hash
-// (#map=zoom/lat/lon&layer=NAME&d=127km&globe=1).
+// The page of `gloffset serve`: the offset region of a layer at the slider's distance
+// (inward, d < 0, included) in km, m, mi or nmi, the input drawn over it from /shape, a globe
+// toggle, a legend, a click showing the distance to the curves (/distance), and the view,
+// layer, distance and projection kept in the URL hash
+// (#map=zoom/lat/lon&layer=NAME&d=-127km&globe=1), followed when it changes.
+//
+// How the region is drawn is a mode: MODES.exact shows the server's exact tiles
+// (/tiles/LAYER/DIST/z/x/y.png, one request a tile and distance). A mode gives the sources
+// and layers it adds to the style and what a new distance does to them, so another (a
+// raster-dem source of distance-field tiles drawn by a color-relief layer whose ramp
+// changes at d, with no request) is one more entry and a toggle between them.
+// window.gloffsetMap is the MapLibre map, window.gloffsetPage the page's state.
 "use strict";
 
 const BACKGROUND = "#f2efe9";
 const FILL = "#3070c0";
 const FILL_OPACITY = 0.6;
+const INPUT_COLOUR = "#202020";
+
+// each unit: metres in one, the slider's reach (-max..+max) and step
+const UNITS = {
+  km: { metres: 1000, max: 5000, step: 1 },
+  m: { metres: 1, max: 20000, step: 10 },
+  mi: { metres: 1609.344, max: 3000, step: 1 },
+  nmi: { metres: 1852, max: 2700, step: 1 },
+};
+const DISTANCE = /^(-?[0-9]+(?:\.[0-9]+)?)(km|m|mi|nmi)$/;
 
 const $ = (id) => document.getElementById(id);
-const state = { layer: null, value: 127, unit: "km", globe: false, view: null };
+const state = {
+  layer: null,
+  names: [],
+  value: 127,
+  unit: "km",
+  globe: false,
+  view: null,
+  mode: "exact",
+};
 
-function readHash() {
+// ------------------------------------------------------------------ the URL hash
+function parseHash() {
   const h = new URLSearchParams(location.hash.replace(/^#/, ""));
+  const out = { globe: h.get("globe") === "1" };
   const view = (h.get("map") || "").split("/").map(Number);
-  if (view.length === 3 && view.every(Number.isFinite)) state.view = view;
-  if (h.get("layer")) state.layer = h.get("layer");
-  const d = /^([0-9]+(?:\.[0-9]+)?)(km|m)$/.exec(h.get("d") || "");
+  if (view.length === 3 && view.every(Number.isFinite)) out.view = view;
+  if (h.get("layer")) out.layer = h.get("layer");
+  const d = DISTANCE.exec(h.get("d") || "");
   if (d) {
-    state.value = Number(d[1]);
-    state.unit = d[2];
+    out.unit = d[2];
+    out.value = Number(d[1]); // beyond the slider's reach, the slider stops at its end
   }
-  state.globe = h.get("globe") === "1";
-}
-
-function distanceText() {
-  return `${state.value}${state.unit}`;
+  return out;
 }
 
 function writeHash(map) {
@@ -36,34 +60,96 @@ function writeHash(map) {
   history.replaceState(null, "", "#" + h.toString().replace(/%2F/g, "/"));
 }
 
+// ------------------------------------------------------------------ distances
+function clampValue(value, unit) {
+  const u = UNITS[unit];
+  return Math.max(-u.max, Math.min(u.max, value));
+}
+
+function distanceText() {
+  return `${state.value}${state.unit}`;
+}
+
+function distanceMetres() {
+  return state.value * UNITS[state.unit].metres;
+}
+
+function describeDistance() {
+  return `${state.value} ${state.unit}`;
+}
+
+// ------------------------------------------------------------------ modes
 function tileUrl() {
   const layer = encodeURIComponent(state.layer);
   return `${location.origin}/tiles/${layer}/${distanceText()}/{z}/{x}/{y}.png`;
 }
 
-function style() {
-  return {
-    version: 8,
-    sources: {
+const MODES = {
+  // the server's exact tiles: gloffset.render(shape, d, Tile(z, x, y)) for each tile
+  exact: {
+    sources: () => ({
       offset: { type: "raster", tiles: [tileUrl()], tileSize: 256, maxzoom: 22 },
-      input: { type: "geojson", data: `/shape/${encodeURIComponent(state.layer)}.geojson` },
-    },
-    layers: [
-      { id: "background", type: "background", paint: { "background-color": BACKGROUND } },
+    }),
+    layers: () => [
       {
         id: "offset",
         type: "raster",
         source: "offset",
         paint: { "raster-opacity": FILL_OPACITY, "raster-fade-duration": 0 },
       },
+    ],
+    setDistance: (map) => map.getSource("offset").setTiles([tileUrl()]),
+  },
+};
+
+function style() {
+  const mode = MODES[state.mode];
+  const input = { type: "geojson", data: `/shape/${encodeURIComponent(state.layer)}.geojson` };
+  return {
+    version: 8,
+    sources: { ...mode.sources(), input },
+    layers: [
+      { id: "background", type: "background", paint: { "background-color": BACKGROUND } },
+      ...mode.layers(),
       {
         id: "input",
         type: "line",
         source: "input",
-        paint: { "line-color": "#202020", "line-width": 1.2 },
+        paint: { "line-color": INPUT_COLOUR, "line-width": 1.2 },
       },
     ],
   };
+}
+
+// ------------------------------------------------------------------ the panel
+function showControls() {
+  const u = UNITS[state.unit];
+  const slider = $("distance");
+  slider.min = -u.max;
+  slider.max = u.max;
+  slider.step = u.step;
+  slider.value = state.value;
+  $("unit").value = state.unit;
+  $("distance-text").textContent = describeDistance();
+  $("globe").checked = state.globe;
+  $("layer").value = state.layer;
+  showLegend();
+}
+
+function showLegend() {
+  const d = describeDistance();
+  $("legend-region").textContent =
+    state.value < 0
+      ? `inside the polygons, farther than ${d.replace(/^-/, "")} from their boundary`
+      : `within ${d} of the curves (polygons included)`;
+  $("legend-distance").textContent = `d = ${d}`;
+}
+
+// the colour of `top` drawn at opacity `a` over `bottom` (#rrggbb), as the map shows it
+function mix(top, bottom, a) {
+  const rgb = (h) => [1, 3, 5].map((i) => parseInt(h.slice(i, i + 2), 16));
+  const [t, b] = [rgb(top), rgb(bottom)];
+  return `rgb(${t.map((v, i) => Math.round(a * v + (1 - a) * b[i])).join(", ")})`;
 }
 
 function showDistance(map, lngLat) {
@@ -82,26 +168,67 @@ function showDistance(map, lngLat) {
     });
 }
 
+// ------------------------------------------------------------------ changes
 function setDistance(map) {
-  $("distance-text").textContent = state.value;
-  map.getSource("offset").setTiles([tileUrl()]);
+  showControls();
+  if (map.getSource("offset")) MODES[state.mode].setDistance(map);
   writeHash(map);
+}
+
+function setUnit(map, unit) {
+  // the same distance in the new unit, on the slider's steps and within its reach
+  const u = UNITS[unit];
+  const value = Math.round(distanceMetres() / u.metres / u.step) * u.step;
+  state.unit = unit;
+  state.value = clampValue(value, unit);
+  setDistance(map);
+}
+
+function setProjection(map) {
+  map.setProjection({ type: state.globe ? "globe" : "mercator" });
+}
+
+function followHash(map) {
+  const h = parseHash();
+  if (h.view) {
+    const c = map.getCenter();
+    const [zoom, lat, lon] = h.view;
+    const moved =
+      Math.abs(map.getZoom() - zoom) > 0.005 ||
+      Math.abs(c.lat - lat) > 1e-5 ||
+      Math.abs(c.lng - lon) > 1e-5;
+    if (moved) map.jumpTo({ zoom, center: [lon, lat] });
+  }
+  if (h.unit !== undefined) {
+    state.unit = h.unit;
+    state.value = h.value;
+  }
+  if (h.globe !== state.globe) {
+    state.globe = h.globe;
+    setProjection(map);
+  }
+  if (h.layer && h.layer !== state.layer && state.names.includes(h.layer)) {
+    state.layer = h.layer;
+    map.setStyle(style()); // its sources at the new distance
+    showControls();
+    writeHash(map);
+  } else {
+    setDistance(map);
+  }
 }
 
 function wire(map) {
   let pending = null;
   $("distance").addEventListener("input", () => {
     state.value = Number($("distance").value);
+    showControls();
     clearTimeout(pending);
     pending = setTimeout(() => setDistance(map), 60);
   });
-  $("unit").addEventListener("change", () => {
-    state.unit = $("unit").value;
-    setDistance(map);
-  });
+  $("unit").addEventListener("change", () => setUnit(map, $("unit").value));
   $("globe").addEventListener("change", () => {
     state.globe = $("globe").checked;
-    map.setProjection({ type: state.globe ? "globe" : "mercator" });
+    setProjection(map);
     writeHash(map);
   });
   $("layer").addEventListener("change", () => {
@@ -109,20 +236,23 @@ function wire(map) {
     map.setStyle(style());
     writeHash(map);
   });
+  window.addEventListener("hashchange", () => followHash(map));
   map.on("moveend", () => writeHash(map));
   map.on("click", (e) => showDistance(map, e.lngLat));
 }
 
+// ------------------------------------------------------------------ start
 async function start() {
-  readHash();
+  Object.assign(state, parseHash());
   const layers = await (await fetch("/layers")).json();
-  const names = layers.map((l) => l.name);
+  const names = (state.names = layers.map((l) => l.name));
   if (!names.includes(state.layer)) state.layer = names[0];
   for (const n of names) $("layer").add(new Option(n, n, false, n === state.layer));
-  $("distance").value = state.value;
-  $("distance-text").textContent = state.value;
-  $("unit").value = state.unit;
-  $("globe").checked = state.globe;
+  for (const u of Object.keys(UNITS)) $("unit").add(new Option(u, u));
+  $("legend-fill").style.background = mix(FILL, BACKGROUND, FILL_OPACITY);
+  $("legend-outside").style.background = BACKGROUND;
+  $("legend-input").style.borderTopColor = INPUT_COLOUR;
+  showControls();
   const info = layers.find((l) => l.name === state.layer);
   const opts = { container: "map", style: style(), attributionControl: false };
   if (state.view) {
@@ -133,12 +263,11 @@ async function start() {
     opts.fitBoundsOptions = { padding: 40 };
   }
   const map = new maplibregl.Map(opts);
-  map.on("style.load", () => {
-    map.setProjection({ type: state.globe ? "globe" : "mercator" });
-  });
+  map.on("style.load", () => setProjection(map));
   wire(map);
   map.once("load", () => writeHash(map));
-  window.gloffsetPage = { map, state, distanceText, FILL, BACKGROUND, FILL_OPACITY };
+  window.gloffsetMap = map;
+  window.gloffsetPage = { map, state, MODES, UNITS, distanceText, FILL, BACKGROUND, FILL_OPACITY };
 }
 
 start();
