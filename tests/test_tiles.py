@@ -596,6 +596,22 @@ def test_pmtiles_archive_holds_the_mbtiles_tiles_and_resumes(tmp_path):
     assert read_pmtiles(out)[1] == read_mbtiles(tmp_path / "c.mbtiles")[0]
 
 
+def test_an_empty_pyramid_is_a_valid_archive_in_every_format(tmp_path):
+    """An inward offset that empties the shape covers no tile: MBTiles and PMTiles both
+    hold no tile and the same metadata (PMTiles crashed in pmtiles' finalize_header)."""
+    from gloffset.io.pmtiles import read_pmtiles
+
+    small = {"type": "Polygon", "coordinates": [[[6, 49.5], [6.4, 49.5], [6.4, 49.9], [6, 49.5]]]}
+    stats = pyramid(small, -50e3, "0-4", tmp_path / "e.pmtiles", size=SIZE)
+    assert stats.written == 0
+    meta, tiles = read_pmtiles(tmp_path / "e.pmtiles")
+    assert tiles == {}
+    pyramid(small, -50e3, "0-4", tmp_path / "e.mbtiles", size=SIZE)
+    mb_tiles, mb_meta = read_mbtiles(tmp_path / "e.mbtiles")
+    assert mb_tiles == {}
+    assert meta["bounds"] == mb_meta["bounds"] and meta["minzoom"] == mb_meta["minzoom"]
+
+
 @pytest.mark.slow  # starts a Dask cluster of two worker processes (about 20 s)
 def test_pyramid_on_two_dask_workers_is_byte_identical(tmp_path):
     """A pyramid made by two worker processes (a LocalCluster) equals, byte for byte, the

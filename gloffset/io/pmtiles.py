@@ -19,6 +19,7 @@ metadata.
 
 from __future__ import annotations
 
+import gzip
 import json
 import math
 import tempfile
@@ -169,12 +170,42 @@ def _write_archive(f, meta: dict, rows, image) -> None:
             else:
                 entries.append(tile.Entry(tileid, off, size, 1))
         header = _header(meta, tile)
-        parts = writer.finalize_header(header, len(ids), entries, len(offsets), meta, True, length)
+        if entries:
+            parts = writer.finalize_header(
+                header, len(ids), entries, len(offsets), meta, True, length
+            )
+        else:
+            parts = _empty_parts(header, meta, tile, writer)
         for part in parts:
             f.write(part)
         data.seek(0)
         while chunk := data.read(1 << 20):
             f.write(chunk)
+
+
+def _empty_parts(header: dict, meta: dict, tile, writer) -> tuple[bytes, ...]:
+    """Header, root directory, metadata and leaves of an archive with no tile (the region
+    at the distance covers no tile: an inward offset that empties the shape). pmtiles'
+    ``finalize_header`` needs a first tile; this lays the same sections out without one,
+    the zooms being those asked for."""
+    root, leaves, _ = writer.optimize_directories([], 16384 - 127)
+    packed = gzip.compress(json.dumps(meta).encode(), mtime=0)
+    header.update(
+        addressed_tiles_count=0,
+        tile_entries_count=0,
+        tile_contents_count=0,
+        clustered=True,
+        internal_compression=tile.Compression.GZIP,
+        root_offset=127,
+        root_length=len(root),
+        metadata_offset=127 + len(root),
+        metadata_length=len(packed),
+        leaf_directory_offset=127 + len(root) + len(packed),
+        leaf_directory_length=len(leaves),
+        tile_data_offset=127 + len(root) + len(packed) + len(leaves),
+        tile_data_length=0,
+    )
+    return tile.serialize_header(header), root, packed, leaves
 
 
 def read_pmtiles(path) -> tuple[dict, dict]:
