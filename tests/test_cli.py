@@ -9,6 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 import gloffset
+import gloffset.reference
 from gloffset.cli import main
 
 

@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import gloffset
+import gloffset.reference
 from gloffset.grids import Equirect
 from gloffset.region import left_area
 
