@@ -20,7 +20,7 @@ which the production paths use, so that the two check each other.
 
 Points are processed in chunks so memory stays bounded whatever their number.
 
-**On the ellipsoid** (``ellipsoid=`` on :func:`distance` and :func:`contains`) the judge
+**On the ellipsoid** (``ellipsoid=`` on :func:`distance` and :func:`contains_lonlat`) the judge
 is brute force on pyproj's geodesics (Karney's C library, vectorised), with no bound
 of its own beyond two obvious ones: a geodesic is at least as long as the straight
 chord between its ends in space, and a point of an edge of length ``L`` lies within
@@ -47,7 +47,7 @@ from .units import EARTH_RADIUS, check_lonlat, check_radius, to_angle
 
 __all__ = [
     "distance",
-    "contains",
+    "contains_lonlat",
     "distance_xyz",
     "contains_xyz",
     "inside_xyz",
@@ -249,7 +249,7 @@ def distance(shape, lon, lat, *, radius: float = EARTH_RADIUS, ellipsoid=None) -
     return (distance_xyz(shape, p) * r).reshape(shp)
 
 
-def contains(
+def contains_lonlat(
     shape, lon, lat, *, distance: float = 0.0, radius: float = EARTH_RADIUS, ellipsoid=None
 ) -> np.ndarray:
     """Whether points lie in the offset region of the shape (brute force float64 reference).

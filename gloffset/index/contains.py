@@ -64,7 +64,7 @@ from ..units import EARTH_RADIUS, check_lonlat, offset_angle
 from ..vector.multires import full_decomposition
 from . import bins
 
-__all__ = ["Index", "contains", "depth_for"]
+__all__ = ["Index", "contains_on_sphere", "depth_for"]
 
 #: Slack (rad) on every error-region and relevance test, far above their rounding.
 MARGIN = 1e-13
@@ -280,7 +280,7 @@ class Index:
     1:10m at 0.02 rad build at depth 9 with leaves of level 5 in about 2 s instead of
     17 s at depth 13, at the price of more points in frontier cells (1e6 uniform
     points on the globe: about 0.6 s instead of 0.02 s); pass ``depth=13`` for the
-    deep bins, or let :func:`contains` choose by the number of
+    deep bins, or let :func:`contains_on_sphere` choose by the number of
     points (:func:`depth_for`). A query costs a table look-up from the
     lon/lat of each point (a few tens of nanoseconds), plus, for the few points in
     frontier cells, a lon/lat to vector conversion and the tests against their
@@ -929,7 +929,7 @@ def _index(shape, d: float, level, n_points: int) -> Index:
     return ix
 
 
-def contains(
+def contains_on_sphere(
     shape, lon, lat, *, distance: float = 0.0, radius: float = EARTH_RADIUS, level=None
 ) -> np.ndarray:
     """Whether points lie in the offset region of the shape (fast and exact).
@@ -958,7 +958,7 @@ def contains(
     Notes
     -----
     Accuracy: the same answer as the brute-force reference
-    (:func:`gloffset.reference.contains`) for every point farther than 1e-13 rad
+    (:func:`gloffset.reference.contains_lonlat`) for every point farther than 1e-13 rad
     from the boundary and whose distance differs from ``|distance|`` by more than
     1e-13 rad. Polygons are united; lines and points have no inside. Where region
     components overlap (:meth:`Shape.overlapping_components`, e.g. overlapping

@@ -66,11 +66,11 @@ from ...ellipsoid import as_ellipsoid
 from ...errors import InvalidDistanceError, InvalidMaskError, OptionError
 from ...grids.conformal import ConformalRows
 from ...grids.protocol import CurveMaskImage, RegularLonLat
+from ...sphere import chord2_between
 from ...units import EARTH_RADIUS, to_angle
 from .. import driver
 from .curve_levels import (
     RasterizedCurve,
-    chord2,
     classify_cells,
     level_centers,
     near_pairs,
@@ -169,7 +169,7 @@ def _grow(lv: RasterizedCurve, level: int, seq: np.ndarray, start: np.ndarray):
         g, gk = seq[k], gc[k]
         through = bool(start[k])
         if not through:
-            c2 = chord2(level_centers(grid, level, active), gk)
+            c2 = chord2_between(level_centers(grid, level, active), gk)
             near = c2 < t_hi[active // w]
             state[active[~near]] = _INACTIVE
             if near.any():
@@ -189,7 +189,7 @@ def _grow(lv: RasterizedCurve, level: int, seq: np.ndarray, start: np.ndarray):
             nb = nb[stamp[nb] != k]
             if not through:
                 nb = nb[state[nb] != CONTAINED]
-            c2 = chord2(level_centers(grid, level, nb), gk)
+            c2 = chord2_between(level_centers(grid, level, nb), gk)
             ok = c2 < t_hi[nb // w]
             wave = nb[ok]
             stamp[wave] = k
@@ -278,7 +278,7 @@ def hierarchical(
     """
     stop = lv.grid.n_levels - 1 if stop_level is None else stop_level
     cells = RasterCells(lv)
-    classes, _ = driver.classify(cells, stop, callback=callback, timings=timings)
+    classes, _ = driver.classes_of_level(cells, stop, callback=callback, timings=timings)
     return classes, cells.method, cells.reason
 
 
