@@ -23,12 +23,10 @@ there).
 Accuracy: distances within 1 um of the geodesic distance to the curves (the
 intercept's bound, plus geographiclib's 15 nm). Membership is exact for points whose
 distance differs from ``|d|`` by more than 1 um (and, for ``d = 0``, farther than that
-from the boundary). A point in a lune has its foot inside the edge (the lune lies
-within the small angle of the two curves at each end), so a foot at an end rules the
-lune out; lunes flip the inside test of their own region component, and the
-components are united after.
-Cost: two index queries for all points, and about 1 ms of geodesic work (pure
-Python) per point of the band.
+from the boundary). Cost: two index queries for all points, and about 1 ms of
+geodesic work (pure Python) per point of the band.
+
+The derivation in full: the design page (``docs/design.md``, *Module notes*).
 """
 
 from __future__ import annotations

@@ -9,33 +9,18 @@ A point ``p`` lies in the offset region of a shape at signed distance ``d`` when
 An :class:`Index` answers this for millions of points. It is built once per shape
 and distance from three pieces:
 
-1. **Bins** (:mod:`gloffset.index.bins`): a quadtree of lon/lat cells, refined only where
-   the answer is not the same for the whole cell. Each cell is classified from its
-   anchor ``x`` and radius ``rho`` (every point of the cell lies within ``rho`` of
-   ``x``): *in* or *out* when no boundary comes within ``rho`` and the distance part
-   is settled, *frontier* otherwise. Decided cells are painted into lookup tables
-   (one for 0.7 deg cells, then blocks every 5 levels below frontier cells), so a
-   point in a decided cell costs a few integer operations on its lon/lat and one to
-   three table look-ups: no trigonometry, no geometry.
-2. **The multiresolution arc tree** (:mod:`gloffset.vector.multires`): the build walks the
-   bins and the tree of simplified arcs together (a cell keeps the arcs whose error
-   region comes within reach, splitting those larger than itself), and a frontier
-   cell at the bottom keeps candidate arcs of a decomposition level ``K``.
-3. **Exact tests in frontier cells**: a point is inside when the anchor's known
-   status, flipped by each crossing of the short arc ``p -> x``, says so. A
-   simplified arc is reconstructed (replaced by its two halves) only where ``p``
-   lies in its error region (Eq. 9; ``x`` never does, by construction); otherwise
-   it is counted instead of the arcs it stands for, which changes no parity: the
-   loop they make together lies inside the error region, which holds neither end.
-   The distance part reconstructs an arc only where ``p`` is within ``|d| + e`` of
-   it, and decides on original edges with Eq. 9 at radius ``|d|``.
+1. **Bins** (:mod:`gloffset.index.bins`): a lon/lat quadtree refined only where the
+   answer varies; a point in a decided cell costs a few table look-ups;
+2. **the multiresolution arc tree** (:mod:`gloffset.vector.multires`): the candidate
+   arcs of the frontier cells, at a decomposition level ``K``;
+3. **exact tests in frontier cells**: the crossing parity of the short arc from the
+   point to its cell's anchor, with simplified arcs reconstructed only where the point
+   lies in their error region (Eq. 9).
 
-Anchor statuses come from the crossing-parity reference for the eight cells of
-level 1 and then from parent to child by the same parity rule, with the same
-arithmetic as the queries (:func:`gloffset.sphere.dot` for every side test that two
-computations share), so that a point and the anchor of its cell are always judged
-consistently. Anchors sit at an irrational position in their cells, off the round
-coordinates that data vertices often have.
+A point and the anchor of its cell are always judged with the same arithmetic; the
+accuracy contract is that of :func:`contains_on_sphere`.
+
+The derivation in full: the design page (``docs/design.md``, *Module notes*).
 """
 
 from __future__ import annotations

@@ -10,38 +10,12 @@ such a mask and :mod:`.curve_levels` orders the intersected cells. The GPU level
 planned in :mod:`.curve_gpu` and drawn by :mod:`gloffset.gl.rasterized_pass`; they
 return exactly these classes.
 
-Grids: :class:`~gloffset.grids.Equirect`, and :class:`~gloffset.grids.Cube` whose six
-faces are one set of cells (:class:`~gloffset.grids.cube.CubeCells`: faces stacked as
-rows, neighbours across face edges and corners from the geometry), so the ordering
-of the intersected cells, the region growing and the offset run across faces.
+Grids: :class:`~gloffset.grids.Equirect`, and :class:`~gloffset.grids.Cube` with its six
+faces one set of cells (the offset runs across faces).
 
-The classification (all of it in squared chords between float64 cell centres)
--------------------------------------------------------------------------------
-Let ``s`` be the largest area bound (the paper's ``d_g / 2``) of the output cells
-in the rows that hold intersected cells: the curve passes within ``s`` of the
-centre of every intersected output cell, and every point of the curve lies within
-``s`` of one (cube: the largest per-pixel bound, its farthest corner, of the
-intersected pixels). For a cell ``q`` of level ``l`` with bound ``rho_q``
-(:meth:`Equirect.rho`, per row; 0 at the output level) let ``D(q)`` be the angle
-from its centre to the nearest centre of an intersected cell of the same level, and
-``R_l`` the largest ``rho`` of the rows of level ``l`` that hold intersected cells
-(cube: of the intersected cells themselves; 0 at the output level). Then, with
-``d`` the offset distance,
-
-* contained when ``D(q) < d_min = d - s - rho_q - R_l``,
-* outside when ``D(q) >= d_max = d + 2 s + rho_q + R_l``,
-* frontier otherwise.
-
-At the output level these are the paper's ``d_min = d - d_g/2`` and
-``d_max = d + d_g``. At coarser levels the paper's ``d_g`` of a cell and its
-descendants becomes ``rho_q`` for the cell itself and ``R_l`` for the intersected
-cells, on both sides: a descendant pixel ``p`` of ``q`` and a descendant ``g`` of an
-intersected cell ``g'`` satisfy ``|D_L(p) - D_l(q)| <= rho_q + R_l``, so a coarse
-decision is the decision of every descendant pixel, and the hierarchical answer
-at the output level equals the single-resolution one (``d - rho`` alone, as the
-paper writes, would not guarantee that). Comparisons are made as ``chord^2 <
-4 sin^2(x / 2)`` in float64 with centres from one table per level, so every method
-below gives bit-identical classes.
+The classification compares squared chords between float64 cell centres, with bounds
+that make a coarse decision that of every descendant pixel, so the hierarchical answer
+equals the single-resolution one and every method gives bit-identical classes.
 
 Meaning of the output classes (the accuracy contract): when the mask is exactly
 the set of output cells that the curve ``C`` passes through, a *contained* cell's
@@ -51,6 +25,8 @@ is at most ``s`` (pixels no larger than the curve's largest); *frontier* cells a
 undecided. So ``contained ⊆ offset ⊆ contained ∪ frontier`` at cell centres.
 :func:`rasterize` marks the cells an arc passes within 1e-7 pixel of, so for a
 rasterized :class:`Shape` these hold up to 1e-7 of a pixel.
+
+The derivation in full: the design page (``docs/design.md``, *Module notes*).
 """
 
 from __future__ import annotations
