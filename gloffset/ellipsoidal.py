@@ -24,9 +24,8 @@ Accuracy: distances within 1 um of the geodesic distance to the curves (the
 intercept's bound, plus geographiclib's 15 nm). Membership is exact for points whose
 distance differs from ``|d|`` by more than 1 um (and, for ``d = 0``, farther than that
 from the boundary). Cost: two index queries for all points, and about 1 ms of
-geodesic work (pure Python) per point of the band.
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+geodesic work (pure Python) per point of the band. The derivation in full:
+``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

@@ -19,9 +19,8 @@ Limits. Parts or gaps of the region narrower than the ratio band (0.34 % of ``d`
 plus the edges' deviation bounds) may be joined or split as on the sphere at
 ``|d| / K`` rather than as on the ellipsoid. Cost: one or two geodesic distances per
 output point (about 0.1 ms each: pyproj's C geodesics, vectorised, on the candidate
-edges that spherical bounds leave).
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+edges that spherical bounds leave). The derivation in full: ``docs/design.md``, *Module
+notes*.
 """
 
 from __future__ import annotations

@@ -22,9 +22,8 @@ The bounds here (an edge's bounding cap, the cap test ``c.p >= cos(u + h) - 1e-1
 are deliberate copies of those in :mod:`gloffset.caps`, not imports, and the crossing
 test is not that of :mod:`gloffset.crossings`: the judge shares no code with what it
 judges (it imports only the maths and the shape), so a wrong bound or rule there cannot
-hide itself here. Nothing in gloffset outside the tests calls the judge.
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+hide itself here. Nothing in gloffset outside the tests calls the judge. The derivation in
+full: ``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

@@ -23,9 +23,8 @@ kept by an exact crossing-parity test).
 The result is a set of closed rings, interior on the left, that do not cross one
 another; rings are grouped into *components* (polygons that touch or overlap end
 up in one component), so crossing parity within a component decides its inside
-and a point is in the region when it is inside any component.
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+and a point is in the region when it is inside any component. The derivation in full:
+``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

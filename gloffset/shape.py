@@ -23,9 +23,7 @@ parity.
 Limits. Longitudes must lie in [-180, 180] and latitudes in [-90, 90] (no
 wrapping: 400 is an error, not 40). A ring that covers the whole sphere (it runs
 only along +-180 deg and the poles) leaves no boundary and is refused, unless
-holes give it one.
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+holes give it one. The derivation in full: ``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

@@ -14,9 +14,7 @@ dlambda^2`` is not isotropic); for a window of +-0.001 rad (6 km) it is below 1 
 conformal sphere are not great circles, but every point of one lies within
 :func:`edge_deviation` of the great-circle arc between its ends, and every point of
 the arc that close to the image: 1.3 cm for a 10 km WGS84 edge, 1.3 m for 100 km,
-133 m for 1000 km.
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+133 m for 1000 km. The derivation in full: ``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

@@ -22,9 +22,8 @@ that is at most the last step, below :data:`TOL` (1e-7 m). So the result is with
 sub-millimetre spacing, near the poles, across the antimeridian and for points on
 the edges). If the iteration has not converged in :data:`MAX_STEPS` steps (never
 seen; possible for points nearly antipodal to the edge) a golden-section search over
-``[0, L]`` on the same inverse problems finishes it.
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+``[0, L]`` on the same inverse problems finishes it. The derivation in full:
+``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

@@ -18,9 +18,8 @@ and distance from three pieces:
    lies in their error region (Eq. 9).
 
 A point and the anchor of its cell are always judged with the same arithmetic; the
-accuracy contract is that of :func:`contains_on_sphere`.
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+accuracy contract is that of :func:`contains_on_sphere`. The derivation in full:
+``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

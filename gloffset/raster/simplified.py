@@ -20,9 +20,8 @@ decomposition of the shape once (kept on it), and the band (``2 t`` wide: about 
 of the pixels along the offset boundary).
 
 :func:`gloffset.render` uses it for GPU masks where it pays: inputs of at least
-:data:`MIN_ARCS` arcs whose simplified curve keeps at most :data:`MAX_FRACTION` of them.
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+:data:`MIN_ARCS` arcs whose simplified curve keeps at most :data:`MAX_FRACTION` of them. The
+derivation in full: ``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

@@ -20,9 +20,8 @@ both are detected (:func:`defects`), and then every piece is also checked with t
 inside test and (for crossing edges) both sides of every ring are offset, so that the
 result is the reference region (inside by crossing parity) in every case. A seam
 without a partner across the antimeridian is offset and counted as boundary, as the
-raw offset does (the reference ignores it).
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+raw offset does (the reference ignores it). The derivation in full: ``docs/design.md``,
+*Module notes*.
 """
 
 from __future__ import annotations

@@ -23,8 +23,7 @@ Offsets (Sec. 4.2, six steps). The centres ``q_2i = cos(d) p_i`` of a coarse off
 on a sphere of radius ``cos(d)``; the same reconstruction with details scaled by
 ``cos(d)`` gives the vertex centres of the finer offset without restoring the curve,
 and the edge centres and junctions follow from Eq. 3 and 4 (:func:`gloffset.vector.offset`).
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+The derivation in full: ``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

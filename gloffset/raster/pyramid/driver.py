@@ -23,9 +23,8 @@ are rendered from their bins (deeper levels of the same quadtree), many tiles to
 GPU pass, with the answer of :func:`gloffset.render` on the tile's
 :class:`~gloffset.grids.Tile` grid: same pixel centres, same decision rules and
 precision. Each zoom is classified before its tiles are written, so progress
-(:class:`~.progress.TileProgress`) knows the tiles ahead.
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+(:class:`~.progress.TileProgress`) knows the tiles ahead. The derivation in full:
+``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

@@ -24,9 +24,8 @@ centre lies within ``d`` of ``C``; an *outside* cell's centre is farther than
 is at most ``s`` (pixels no larger than the curve's largest); *frontier* cells are
 undecided. So ``contained ⊆ offset ⊆ contained ∪ frontier`` at cell centres.
 :func:`rasterize` marks the cells an arc passes within 1e-7 pixel of, so for a
-rasterized :class:`Shape` these hold up to 1e-7 of a pixel.
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+rasterized :class:`Shape` these hold up to 1e-7 of a pixel. The derivation in full:
+``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

@@ -23,9 +23,7 @@ The GPU engine (:mod:`gloffset.gl.vector_pass`) takes over below the bin level w
 same rules. The classifier :class:`~gloffset.raster.vector.curves.CurveCells`, driven by
 :mod:`gloffset.raster.driver`, strings these operations into levels;
 :func:`gloffset.raster.vector.curves.classify_curves` run to the output level is the float64
-reference renderer.
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+reference renderer. The derivation in full: ``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

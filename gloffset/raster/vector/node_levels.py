@@ -18,9 +18,8 @@ the original polygons, exactly. The last coarse level hands over with every node
 into original edges, so a pyramid's pixels are unchanged.
 
 Cost: the coarse levels' lists follow the cells' size, not the input: a few hundred
-nodes for a zoom-3 tile of every country instead of hundreds of thousands of arcs.
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+nodes for a zoom-3 tile of every country instead of hundreds of thousands of arcs. The
+derivation in full: ``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

@@ -22,9 +22,8 @@ Cost: ``O(pairs)`` numpy work with a fixed number of calls. :func:`start_level`
 picks the finest level whose box enumeration stays within :data:`PAIRS_PER_ARC`
 pairs per arc (small offset distances; level 0 too, instead of the cap-tree queries
 of the hierarchy's first level); large distances, for which whole coarse cells are
-decided by distance, keep the hierarchy from level 0.
-
-The derivation in full: the design page (``docs/design.md``, *Module notes*).
+decided by distance, keep the hierarchy from level 0. The derivation in full:
+``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations
