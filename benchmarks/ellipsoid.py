@@ -131,7 +131,7 @@ def _errors(got, truth, truth_d, d):
 def accuracy(shape, rings, d, sample, seed):
     lon, lat = near_offset(shape, d, sample, seed)
     truth_d = reference.distance(shape, lon, lat, ellipsoid="WGS84")
-    truth = reference.contains(shape, lon, lat, distance=d, ellipsoid="WGS84")
+    truth = reference.contains_lonlat(shape, lon, lat, distance=d, ellipsoid="WGS84")
     out = {
         "ellipsoid": _errors(
             gloffset.contains(shape, lon, lat, distance=d, ellipsoid="WGS84"), truth, truth_d, d

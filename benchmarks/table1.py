@@ -91,7 +91,7 @@ def main():
     truth = {}
     for name, d in (("curve", 0.0), ("offset", D)):
         t, truth[name] = best_of(
-            lambda d=d: reference.contains(shape, lon, lat, distance=d, radius=1.0), repeat=1
+            lambda d=d: reference.contains_lonlat(shape, lon, lat, distance=d, radius=1.0), repeat=1
         )
         rec[f"reference_{name}_us_per_point"] = us(t)
         rec[f"{name}_inside_fraction"] = float(truth[name].mean())

@@ -2,7 +2,7 @@
 
 With ``ellipsoid=None`` both are exactly the spherical functions (the great-circle
 distance of :func:`gloffset.edges.distance_xyz`, and
-:func:`gloffset.index.contains.contains`). With an ellipsoid, distances are geodesic
+:func:`gloffset.index.contains.contains_on_sphere`). With an ellipsoid, distances are geodesic
 lengths in metres, latitudes are geodetic, and the edges of curves and polygons are
 geodesics (the shortest ones between their vertices).
 
@@ -23,12 +23,9 @@ there).
 Accuracy: distances within 1 um of the geodesic distance to the curves (the
 intercept's bound, plus geographiclib's 15 nm). Membership is exact for points whose
 distance differs from ``|d|`` by more than 1 um (and, for ``d = 0``, farther than that
-from the boundary). A point in a lune has its foot inside the edge (the lune lies
-within the small angle of the two curves at each end), so a foot at an end rules the
-lune out; lunes flip the inside test of their own region component, and the
-components are united after.
-Cost: two index queries for all points, and about 1 ms of geodesic work (pure
-Python) per point of the band.
+from the boundary). Cost: two index queries for all points, and about 1 ms of
+geodesic work (pure Python) per point of the band. The derivation in full:
+``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations
@@ -52,8 +49,7 @@ from .ellipsoid import (
     window_scale,
 )
 from .errors import OptionError
-from .index.contains import Index
-from .index.contains import contains as _sphere_contains
+from .index.contains import Index, contains_on_sphere
 from .shape import read
 from .sphere import angle, arc_distance, dot, lonlat_to_xyz, normalize, robust_cross, xyz_to_lonlat
 from .units import EARTH_RADIUS, check_lonlat, check_radius, offset_angle
@@ -273,7 +269,7 @@ def contains(
     Parameters
     ----------
     shape, lon, lat, distance, radius, level
-        As for :func:`gloffset.index.contains.contains` (``radius`` is not used with an
+        As for :func:`gloffset.index.contains.contains_on_sphere` (``radius`` is not used with an
         ellipsoid).
     ellipsoid : None, "WGS84", "GRS80", (a, f) or Ellipsoid
         ``None``: the sphere of ``radius``, exactly as without this keyword. Otherwise
@@ -297,7 +293,7 @@ def contains(
     """
     ell = as_ellipsoid(ellipsoid)
     if ell is None:
-        return _sphere_contains(shape, lon, lat, distance=distance, radius=radius, level=level)
+        return contains_on_sphere(shape, lon, lat, distance=distance, radius=radius, level=level)
     shape = read(shape)
     d = offset_angle(shape, distance, 1.0)  # metres; checks d <= 0 without polygons
     lon, lat, shp = check_lonlat(lon, lat)
@@ -407,9 +403,9 @@ def screen(
     sure_in = np.zeros(len(lon), dtype=bool)
     maybe = np.ones(len(lon), dtype=bool)
     if t_in is not None:
-        sure_in = _sphere_contains(conf.shape, lon, chi, distance=t_in, radius=1.0, level=level)
+        sure_in = contains_on_sphere(conf.shape, lon, chi, distance=t_in, radius=1.0, level=level)
     if t_out is not None:
-        maybe = _sphere_contains(conf.shape, lon, chi, distance=t_out, radius=1.0, level=level)
+        maybe = contains_on_sphere(conf.shape, lon, chi, distance=t_out, radius=1.0, level=level)
     return sure_in, maybe & ~sure_in
 
 

@@ -23,12 +23,8 @@ is exported from :mod:`gloffset`; the command line prints any of them as one lin
     |-- GLContextError         (RuntimeError)
     '-- ShaderError            (RuntimeError)
 
-Modules that used to define a class still import it under its name
-(``gloffset.tiles.TilesError``, ``gloffset.grids.InvalidGridError``...). Former names of
-merged classes stay there as aliases: ``gloffset.raster.render.RenderError``,
-``gloffset.raster.rasterized.RasterOffsetError``, ``gloffset.raster.pyramid.tilepaint.StyleError``
-and ``gloffset.io.png.ColorError`` are :class:`OptionError`;
-``gloffset.cli.render.CubeFacesError`` is :class:`InputFormatError`.
+Former names stay importable where they were defined, as aliases of these classes: the
+list is on the design page (``docs/design.md``, *Module notes*).
 """
 
 from __future__ import annotations

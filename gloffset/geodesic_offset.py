@@ -6,67 +6,21 @@ every point of which lies within ``tolerance`` (default 1 m) of geodesic distanc
 ``|d|`` from the curves. Without ``ellipsoid`` it is :func:`gloffset.vector.offset.offset`,
 exactly.
 
-How. On the conformal sphere of the ellipsoid (:mod:`gloffset.ellipsoid.model`) the
-geodesic distance is the spherical one times a scale within 0.34 % of the local one
-(:mod:`gloffset.ellipsoid.bounds`), so the *resolved* spherical offset (union,
-self-intersections removed, Sec. 4.4) of the shape's image at ``|d| / K`` (``K`` the
-scale at the shape's median latitude) has the topology of the ellipsoidal boundary
-and lies within the ratio band of it. Its rings are densified (sagitta :data:`SAMPLE`
-times the tolerance), and every point is
-moved along the great circle leaving its generator (the arc's vertex, or the foot on
-the arc's edge: the direction in which the distance grows; at a junction of two arcs
-the mean of both directions, along which the distance grows only as the cosine of
-half their angle, so that a sharp junction may move the farther) until its geodesic
-distance (:func:`gloffset.ellipsoidal.nearest_geodesic`, within 1 um) is ``|d|`` to
-within :data:`VERTEX_TOL` times the tolerance (1 mm for 1 m): secant steps, started
-at ``|d| / K`` from the generator with ``K`` the scale at the middle of the path
-(right to a relative ``O(f (d/a)^2)``, so one or two distances per point), and once
-the distance minus ``|d|`` has taken both signs kept in that bracket (bisecting when
-a step leaves it or does not halve the excess). A point whose direction does not
-reach ``|d|`` takes Newton steps along the distance's gradient (finite differences)
-instead. The parallel curves of the geodesic edges and the geodesic circles about
-the vertices, with their junctions, are what this traces; no formula of theirs is
-needed.
+How. The resolved spherical offset of the shape's image on the conformal sphere, at
+``|d| / K``, has the topology of the ellipsoidal boundary; its densified points are
+moved along great circles until their geodesic distance is ``|d|`` to within
+:data:`VERTEX_TOL` times the tolerance, and ring edges get midpoints until bounds on
+the curvature of the distance keep every point of them within ``tolerance`` of ``|d|``
+(an argument, not a proof, of its premises; the tests check it against the brute
+force of :mod:`gloffset.reference` at every vertex and edge midpoint).
 
-Tolerance. Between consecutive points a ring's edge is the geodesic. Along a
-geodesic, the distance ``g`` to one edge of the shape (less ``|d|``) has a second
-derivative within ``[-c, C]`` (:func:`_curvatures`: ``C = 1 / |d|`` beside the
-edge's ends, where it is the distance to a point; ``c = tan(|d| / b) / b`` bounds the
-bending of the parallel curve beside its middle, where it is also at most 0): it is
-convex up to ``c``. Each ring edge's geodesic midpoint is measured (``g_m``, its
-length ``L``, its ends within ``eps`` = :data:`VERTEX_TOL` times the tolerance of
-``|d|``), and the midpoint, moved to ``|d|`` along the edge's normal on the conformal
-sphere (its perpendicular bisector, which crosses the boundary between the ends also
-beside a corner), is inserted until, with ``h = (tolerance - eps) / 2``:
-
-* ``|g_m| <= h`` and ``-g_m + c L^2 / 8 <= h``: an edge nearer than ``|d|`` to one
-  generator is, that generator's distance being convex up to ``c``, at most twice as
-  deep as at its midpoint;
-* where both ends lie on one generator's curve (the same arc of the spherical
-  offset, or a vertex's circle and the parallel curve of an edge through it, which
-  meet tangentially): ``eps + c L^2 / 8 <= tolerance``, which bounds how far beyond
-  ``|d|`` a function convex up to ``c`` gets between ends at ``|d|``;
-* where the ends lie on two generators (a junction between them: a corner, whose
-  peak beyond ``|d|`` the midpoint sees at least half of when both distances are
-  linear): ``g_m + (C' + c / 2) L^2 / 8 <= h`` and ``-g_m + (c + C' / 4) L^2 / 8 <=
-  h``, ``C' = C`` where one of them is a vertex and 0 between two edges' parallel
-  curves: the first bounds the corner's peak by the tent of the two distances, the
-  second a dip of one of them between the samples.
-
-An edge whose ends' errors plus half its length (the distance is 1-Lipschitz) stay
-within the tolerance needs no midpoint. So every point of an edge is within
-``tolerance`` of ``|d|`` provided that at most one corner lies between its ends and
-the ends' generators are those of the ring's arcs (the spherical offset's junctions
-are all sampled, and only generators whose curves lie within the ratio band of the
-boundary could add one); this is an argument, not a proof of those premises, and the
-tests check it against the brute force of :mod:`gloffset.reference` at every vertex
-and every edge's geodesic midpoint.
 
 Limits. Parts or gaps of the region narrower than the ratio band (0.34 % of ``d``
 plus the edges' deviation bounds) may be joined or split as on the sphere at
 ``|d| / K`` rather than as on the ellipsoid. Cost: one or two geodesic distances per
 output point (about 0.1 ms each: pyproj's C geodesics, vectorised, on the candidate
-edges that spherical bounds leave).
+edges that spherical bounds leave). The derivation in full: ``docs/design.md``, *Module
+notes*.
 """
 
 from __future__ import annotations

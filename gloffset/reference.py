@@ -10,32 +10,20 @@ tens of millions of points by two safe shortcuts and bounded memory:
   than ``u + h`` from the point cannot be nearest, so only the remaining candidates
   get the exact point-to-arc distance of :func:`gloffset.sphere.arc_distance`.
 
-Inside/outside is the judge's own crossing parity (:func:`inside_xyz`): the short arc
-from each point to one of the shape's two reference points
-(:meth:`gloffset.shape.Shape.reference_points`, with each region component's status
-there) against every ring edge, seams included (they close the rings), with the
-half-open rule (a point on a great circle counts as on its left, so an arc through a
-shared vertex is counted once). It is written apart from :mod:`gloffset.crossings`,
-which the production paths use, so that the two check each other.
+Inside/outside is the judge's own crossing parity (:func:`inside_xyz`), written apart
+from :mod:`gloffset.crossings`, which the production paths use. Points are processed
+in chunks so memory stays bounded whatever their number.
 
-Points are processed in chunks so memory stays bounded whatever their number.
-
-**On the ellipsoid** (``ellipsoid=`` on :func:`distance` and :func:`contains`) the judge
-is brute force on pyproj's geodesics (Karney's C library, vectorised), with no bound
-of its own beyond two obvious ones: a geodesic is at least as long as the straight
-chord between its ends in space, and a point of an edge of length ``L`` lies within
-``L / 2`` of one of its ends. Edges whose chord bound exceeds the distance to the
-nearest vertex are dropped; each remaining edge is sampled along its geodesic, the
-nearest sample's neighbourhood sampled again, down to :data:`GEODESIC_SPACING`
-(:func:`geodesic_edge_distance`). Inside/outside uses the edges densified along their
-geodesics every :data:`GEODESIC_PIECE` metres, pieces whose deviation from their
-chords on the sphere of the same lon/lat is below 0.1 mm (:func:`geodesic_inside`).
+**On the ellipsoid** (``ellipsoid=`` on :func:`distance` and :func:`contains_lonlat`) the
+judge is brute force on pyproj's geodesics, edges sampled down to
+:data:`GEODESIC_SPACING` (:func:`geodesic_edge_distance`, :func:`geodesic_inside`).
 
 The bounds here (an edge's bounding cap, the cap test ``c.p >= cos(u + h) - 1e-12``)
 are deliberate copies of those in :mod:`gloffset.caps`, not imports, and the crossing
 test is not that of :mod:`gloffset.crossings`: the judge shares no code with what it
 judges (it imports only the maths and the shape), so a wrong bound or rule there cannot
-hide itself here. Nothing in gloffset outside the tests calls the judge.
+hide itself here. Nothing in gloffset outside the tests calls the judge. The derivation in
+full: ``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations
@@ -47,7 +35,7 @@ from .units import EARTH_RADIUS, check_lonlat, check_radius, to_angle
 
 __all__ = [
     "distance",
-    "contains",
+    "contains_lonlat",
     "distance_xyz",
     "contains_xyz",
     "inside_xyz",
@@ -249,7 +237,7 @@ def distance(shape, lon, lat, *, radius: float = EARTH_RADIUS, ellipsoid=None) -
     return (distance_xyz(shape, p) * r).reshape(shp)
 
 
-def contains(
+def contains_lonlat(
     shape, lon, lat, *, distance: float = 0.0, radius: float = EARTH_RADIUS, ellipsoid=None
 ) -> np.ndarray:
     """Whether points lie in the offset region of the shape (brute force float64 reference).

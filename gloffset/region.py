@@ -16,23 +16,15 @@ user gave them:
   seam stays in its ring as a seam (it closes the ring, but has no distance, no
   offset and no outline).
 
-Tolerance (:data:`TOL`, 1e-12 rad, 6 micrometres on the Earth): vertices of two
-edges closer than that are merged, a vertex closer than that to another edge is
-put on it (the edge is split there), and two edges cross only when each one's
-ends lie farther than that from the other's great circle. Everything else is
-exact: crossing points are intersections of great circles in float64, and an
-edge piece is kept or dropped by an exact crossing-parity test at its midpoint
-(for a polygon whose edges cross each other, whose inside is taken by parity as
-everywhere in gloffset, by the tests of two points just off the piece on its two
-sides). Crossing parity splits the sphere into two classes; the inside of such a
-polygon is the class without the point opposite the mean of its vertices (a
-bowtie is its two lobes, never the sphere less them). One polygon alone goes
-through the union only when its edges cross.
+Tolerance: :data:`TOL` (1e-12 rad, 6 micrometres on the Earth) for merging vertices
+and crossing edges; everything else is exact (float64 great-circle crossings, pieces
+kept by an exact crossing-parity test).
 
 The result is a set of closed rings, interior on the left, that do not cross one
 another; rings are grouped into *components* (polygons that touch or overlap end
 up in one component), so crossing parity within a component decides its inside
-and a point is in the region when it is inside any component.
+and a point is in the region when it is inside any component. The derivation in full:
+``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

@@ -7,35 +7,23 @@ distinct points and consecutive antipodal points (whose great circle is undefine
 raise :class:`~gloffset.errors.InvalidGeometryError` naming the feature, part and
 vertex. Repeated consecutive points are dropped.
 
-The region. Polygons of one input are united: the region is the union of the
-input's polygons, and its boundary (derived once, by :mod:`gloffset.region`) is
-what every operation measures from. Edges shared by two polygons (traversed both
-ways) cancel, overlapping parts merge, and seam edges drop out: real GeoJSON is
-cut at the antimeridian (RFC 7946) and polar polygons are drawn down to the pole
-along the +-90 deg latitude edge (Antarctica in Natural Earth). Every vertex
-within 1e-9 deg of +-180 deg or +-90 deg is snapped to the exact antimeridian or
-pole; an edge whose two ends lie on the antimeridian half-circle (a pole included)
-is a seam. Seams take part in the union like other edges, so the pieces of a
-polygon on both sides of +-180 deg join even where their seam vertices differ;
-what is left of a seam closes its ring but has no distance, offset or outline.
-Vertices of two polygons within :data:`gloffset.region.TOL` (1e-12 rad) merge.
-Lines and points stay curves.
+The region. Polygons of one input are united: the region is the union of the input's
+polygons, and its boundary (derived once, by :mod:`gloffset.region`) is what every
+operation measures from. Seams (edges along +-180 deg or at a pole; vertices within
+1e-9 deg of them snapped) take part in the union and close their rings, but have no
+distance, offset or outline. Lines and points stay curves.
 
 Orientation. Every ring is stored with its interior on the left of its direction
 of travel on the sphere: exterior rings are made counter-clockwise and holes
-clockwise in lon/lat (as RFC 7946 asks; input winding is not trusted), which is
-the same as "interior on the left" on the sphere. A ring that goes once round a
-pole without passing through it (ambiguous in lon/lat; vertices on +-180 deg and
-steps along it do not cut it) encloses the pole on its side of the equator (the mean
-latitude of its vertices decides, summed exactly; a mean of exactly 0, a ring along
-the equator, takes the north), the smaller of its two sides for rings near a
-parallel, whatever its start vertex and direction. A polygon whose edges cross each
-other (a bowtie) is read by crossing parity (:mod:`gloffset.region`): its lobes.
+clockwise in lon/lat (as RFC 7946 asks; input winding is not trusted), which is the
+same as "interior on the left" on the sphere. A ring round a pole encloses the pole
+on its side of the equator; a polygon whose edges cross (a bowtie) is read by crossing
+parity.
 
 Limits. Longitudes must lie in [-180, 180] and latitudes in [-90, 90] (no
 wrapping: 400 is an error, not 40). A ring that covers the whole sphere (it runs
 only along +-180 deg and the poles) leaves no boundary and is refused, unless
-holes give it one.
+holes give it one. The derivation in full: ``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

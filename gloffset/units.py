@@ -27,6 +27,13 @@ _NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _PATTERN = re.compile(rf"^\s*({_NUMBER})\s*([A-Za-z]*)\s*$")
 
 
+def first_not_finite(lon: np.ndarray, lat: np.ndarray) -> int | None:
+    """The index of the first point whose ``lon`` or ``lat`` is NaN or infinite (flat
+    float arrays of one length); None when every coordinate is finite."""
+    bad = ~(np.isfinite(lon) & np.isfinite(lat))
+    return int(np.flatnonzero(bad)[0]) if bad.any() else None
+
+
 def check_lonlat(lon, lat) -> tuple[np.ndarray, np.ndarray, tuple]:
     """Validate query lon/lat (degrees): flat float64 arrays and their broadcast shape.
 
@@ -44,9 +51,8 @@ def check_lonlat(lon, lat) -> tuple[np.ndarray, np.ndarray, tuple]:
         ) from None
     shape = lon.shape
     lon, lat = lon.ravel(), lat.ravel()
-    bad = ~(np.isfinite(lon) & np.isfinite(lat))
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
+    i = first_not_finite(lon, lat)
+    if i is not None:
         raise InvalidGeometryError(
             f"query point {i}: coordinate is not finite ({lon[i]}, {lat[i]})"
         )

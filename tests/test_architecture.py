@@ -24,6 +24,8 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "gloffset"
 #: longest function body allowed (lines of code after the docstring)
 MAX_BODY = 80
+#: longest module docstring allowed (lines, its quotes included)
+MAX_MODULE_DOCSTRING = 30
 
 
 def _functions():
@@ -49,6 +51,20 @@ def test_no_function_longer_than_the_limit():
         if _body_lines(n) > MAX_BODY
     ]
     assert not long, "split these into named steps:\n" + "\n".join(long)
+
+
+def test_no_module_docstring_is_longer_than_the_limit():
+    # a module docstring states the design and the accuracy contract; derivations and
+    # measurements are on the design page (docs/design.md, Module notes)
+    long = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        tree = ast.parse(path.read_text())
+        if ast.get_docstring(tree) is not None:
+            first = tree.body[0]
+            lines = first.end_lineno - first.lineno + 1
+            if lines > MAX_MODULE_DOCSTRING:
+                long.append(f"{path.relative_to(ROOT)} ({lines} lines)")
+    assert not long, "shorten these module docstrings:\n" + "\n".join(long)
 
 
 def test_no_private_name_is_imported_across_modules():

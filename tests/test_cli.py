@@ -9,6 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 import gloffset
+import gloffset.reference
 from gloffset.cli import main
 
 
@@ -31,7 +32,7 @@ def test_offset_file_to_file(tmp_path, mexico_path):
     assert feat["properties"] == {"distance_m": 127000.0, "distance": "127km"}
     shape = gloffset.read(fc)
     # the written region contains Mexico City and a point 100 km off the coast
-    assert gloffset.reference.contains(shape, [-99.13, -115.5], [19.43, 28.0]).all()
+    assert gloffset.reference.contains_lonlat(shape, [-99.13, -115.5], [19.43, 28.0]).all()
 
 
 @pytest.mark.parametrize(

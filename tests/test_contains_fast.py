@@ -52,7 +52,7 @@ def box(shape, n, seed, margin=3.0):
 
 def assert_matches_reference(shape, lon, lat, d, **kw):
     got = gloffset.contains(shape, lon, lat, distance=d, radius=1.0, **kw)
-    want = reference.contains(shape, lon, lat, distance=d, radius=1.0)
+    want = reference.contains_lonlat(shape, lon, lat, distance=d, radius=1.0)
     assert np.array_equal(got, want), int((got != want).sum())
     return got
 
@@ -94,7 +94,7 @@ def test_mexico_table1_points_at_every_level(mexico_path):
     rng = np.random.default_rng(0)
     lon, lat = rng.uniform(-120.0, -84.0, 10_000), rng.uniform(12.0, 35.0, 10_000)
     for d in (0.0, 0.02):
-        want = reference.contains(s, lon, lat, distance=d, radius=1.0)
+        want = reference.contains_lonlat(s, lon, lat, distance=d, radius=1.0)
         for level in range(6):
             ix = gloffset.Index(s, d, radius=1.0, level=level, depth=10)
             assert ix.level == level
@@ -105,7 +105,7 @@ def test_levels_and_depths_change_no_answer(world):
     s = gloffset.read(world["Chile"])
     lon, lat = box(s, 20_000, seed=6)
     for d in (0.0, 0.004, -0.002):
-        want = reference.contains(s, lon, lat, distance=d, radius=1.0)
+        want = reference.contains_lonlat(s, lon, lat, distance=d, radius=1.0)
         for level, depth in [(0, 3), (0, 12), (2, 8), (4, 11), (9, 9), (None, 6)]:
             ix = gloffset.Index(s, d, radius=1.0, level=level, depth=depth)
             assert np.array_equal(ix.contains(lon, lat), want), (d, level, depth)
@@ -228,7 +228,7 @@ def test_short_edges_keep_their_side(world):
     s = gloffset.read(world["Chile"])
     lon, lat = np.array([-73.70275681550596]), np.array([-52.83506970141735])
     assert reference.distance(s, lon, lat, radius=1.0)[0] < 1.01e-9
-    assert reference.contains(s, lon, lat).tolist() == [True]
+    assert reference.contains_lonlat(s, lon, lat).tolist() == [True]
     assert gloffset.contains(s, lon, lat).tolist() == [True]
 
 
@@ -269,7 +269,7 @@ def test_overlapping_features_are_united():
     lon, lat = rng.uniform(-5, 20, 20000), rng.uniform(-5, 20, 20000)
     for d in (0.0, 50e3, -50e3):
         fast = gloffset.contains(shape, lon, lat, distance=d)
-        ref = gloffset.reference.contains(shape, lon, lat, distance=d)
+        ref = gloffset.reference.contains_lonlat(shape, lon, lat, distance=d)
         assert np.array_equal(fast, ref), d
     assert gloffset.contains(shape, [7.0, 3.0], [7.0, 3.0]).all()  # overlap and nest
 
@@ -305,7 +305,7 @@ def test_cell_budget_keeps_simplified_arcs_and_every_answer(world, monkeypatch, 
             ix = gloffset.Index(shape, d, radius=1.0)
             assert ix.depth < fast.DEFAULT_DEPTH, ix.depth
             floors.append(ix.floor)
-            want = reference.contains(shape, lon, lat, distance=d, radius=1.0)
+            want = reference.contains_lonlat(shape, lon, lat, distance=d, radius=1.0)
             assert np.array_equal(ix.contains(lon, lat), want), (budget, d)
     assert max(floors) > 0, floors
 
@@ -350,5 +350,5 @@ def test_simplified_leaves_keep_a_detail_the_coarse_levels_miss(monkeypatch, d):
     rng = np.random.default_rng(3)
     lon = np.r_[rng.uniform(9.5, 13.5, 20_000), rng.uniform(0.0, 10.0, 2000)]
     lat = np.r_[rng.uniform(4.9, 5.1, 20_000), rng.uniform(0.0, 10.0, 2000)]
-    want = reference.contains(s, lon, lat, distance=d, radius=1.0)
+    want = reference.contains_lonlat(s, lon, lat, distance=d, radius=1.0)
     assert np.array_equal(ix.contains(lon, lat), want)

@@ -58,7 +58,7 @@ def _check(shape, lon, lat, d):
     ours_d = ellipsoidal.distance(shape, lon, lat, ellipsoid="WGS84")
     np.testing.assert_allclose(ours_d, truth_d, atol=1e-3, rtol=0)
     ours = gloffset.contains(shape, lon, lat, distance=d, ellipsoid="WGS84")
-    truth = reference.contains(shape, lon, lat, distance=d, ellipsoid="WGS84")
+    truth = reference.contains_lonlat(shape, lon, lat, distance=d, ellipsoid="WGS84")
     clear = np.abs(truth_d - abs(d)) > 1e-3
     if d == 0.0:
         clear &= truth_d > 1e-3
@@ -75,7 +75,7 @@ def test_ellipsoid_none_is_the_sphere(mexico):
     for d in (0.0, 50e3, -20e3):
         np.testing.assert_array_equal(
             gloffset.contains(mexico, lon, lat, distance=d),
-            gloffset.index.contains.contains(mexico, lon, lat, distance=d),
+            gloffset.index.contains.contains_on_sphere(mexico, lon, lat, distance=d),
         )
 
 
@@ -206,7 +206,7 @@ def _check_render(shape, grid, d, pixel_m):
     h, w = grid.level_shape(grid.n_levels - 1)
     j, i = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
     lon, lat = gloffset.sphere.xyz_to_lonlat(grid.centers(grid.n_levels - 1, j.ravel(), i.ravel()))
-    truth = reference.contains(shape, lon, lat, distance=d, ellipsoid="WGS84")
+    truth = reference.contains_lonlat(shape, lon, lat, distance=d, ellipsoid="WGS84")
     got = mask.ravel() == 255
     wrong = np.flatnonzero(got != truth)
     if len(wrong):

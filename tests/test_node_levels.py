@@ -59,7 +59,7 @@ def _levels(cells, stop):
     levs = []
     for lev in driver.walk(cells, stop):
         levs.append(lev)
-    driver.classify(cells, stop, callback=lambda k, c: dense.__setitem__(k, c.copy()))
+    driver.classes_of_level(cells, stop, callback=lambda k, c: dense.__setitem__(k, c.copy()))
     return levs, dense
 
 

@@ -128,7 +128,7 @@ def test_world_land_mask_has_no_gaps_along_borders(world):
     assert deep.sum() > 100
     lon, lat = shared[deep, 0], shared[deep, 1]
     assert gloffset.contains(land, lon, lat, distance=-100e3).all()
-    assert gloffset.reference.contains(land, lon, lat, distance=-100e3).all()
+    assert gloffset.reference.contains_lonlat(land, lon, lat, distance=-100e3).all()
     grid = Equirect(1440, 720)
     mask = gloffset.render(land, -100e3, grid)
     i = np.floor((lon + 180) / 0.25).astype(int)
@@ -147,7 +147,7 @@ def test_seam_pieces_whose_seam_vertices_differ():
     assert len(s.rings) == 1
     lon, lat = [180.0, -180.0, 179.9999, -179.9999], [0.0, 0.0, 0.0, 0.0]
     assert gloffset.contains(s, lon, lat).all()
-    assert gloffset.reference.contains(s, lon, lat).all()
+    assert gloffset.reference.contains_lonlat(s, lon, lat).all()
     # the seam is no boundary: 1 deg to the meridians 179 and -179 (the parallels are
     # 1 deg away too); at -50 km the seam's neighbourhood stays in
     assert gloffset.distance(s, 180, 0, radius=1) == pytest.approx(np.radians(1), abs=1e-12)
@@ -159,7 +159,7 @@ def test_seam_pieces_whose_seam_vertices_differ():
     for d in (0.0, -50e3):
         mask = gloffset.render(s, d, grid)
         _, lats = grid.pixel_lonlat(np.full(40, col), np.arange(40))
-        want = gloffset.reference.contains(s, np.full(40, 180.0), lats, distance=d)
+        want = gloffset.reference.contains_lonlat(s, np.full(40, 180.0), lats, distance=d)
         assert want[15:25].all()
         assert np.array_equal(mask[:, col] == 255, want)
 
@@ -169,7 +169,7 @@ def test_russia_and_fiji_at_the_seam(world):
     lat = np.linspace(65.5, 68.5, 31)
     for lon in (180.0, -180.0):
         assert gloffset.contains(russia, np.full_like(lat, lon), lat).all()
-        assert gloffset.reference.contains(russia, np.full_like(lat, lon), lat).all()
+        assert gloffset.reference.contains_lonlat(russia, np.full_like(lat, lon), lat).all()
     assert not any(s.any() for s in russia.ring_seams)  # every seam joined and gone
     fiji = gloffset.read(world["Fiji"])
     assert not any(s.any() for s in fiji.ring_seams)
@@ -193,14 +193,14 @@ def test_antarctica_at_the_antimeridian(world):
     lat = np.linspace(-89.99, -84.8, 50)
     for lon in (180.0, -180.0, 179.99, -179.99):
         assert gloffset.contains(ant, np.full_like(lat, lon), lat).all(), lon
-        assert gloffset.reference.contains(ant, np.full_like(lat, lon), lat).all(), lon
+        assert gloffset.reference.contains_lonlat(ant, np.full_like(lat, lon), lat).all(), lon
     assert gloffset.contains(ant, [0.0], [-90.0]).all()
     grid = Equirect(16, 200, (177.875, -90.0, -178.125, -80.0))
     mask = gloffset.render(ant, 0.0, grid)
     lons, lats = grid.pixel_lonlat(np.arange(16), np.full(16, 0))
     col = int(np.flatnonzero(np.isclose(np.abs(lons), 180.0, atol=1e-12))[0])
     _, lats = grid.pixel_lonlat(np.full(200, col), np.arange(200))
-    want = gloffset.reference.contains(ant, np.full(200, 180.0), lats)
+    want = gloffset.reference.contains_lonlat(ant, np.full(200, 180.0), lats)
     assert want[lats < -85.0].all()
     assert np.array_equal(mask[:, col] == 255, want)
 
@@ -595,7 +595,7 @@ def test_polygons_that_cross_themselves_unite_by_parity():
     assert np.array_equal(gloffset.contains(both, lon, lat)[far], want[far])
     for d in (-50e3, 50e3):
         got = gloffset.contains(both, lon, lat, distance=d)
-        assert np.array_equal(got, gloffset.reference.contains(both, lon, lat, distance=d))
+        assert np.array_equal(got, gloffset.reference.contains_lonlat(both, lon, lat, distance=d))
 
 
 def test_random_polygons_against_the_union_of_their_parts():
@@ -642,7 +642,7 @@ def test_random_polygons_against_the_union_of_their_parts():
         far = distance_xyz(edges, lonlat_to_xyz(lon, lat)) > 1e-9
         want = np.zeros(len(lon), bool)
         for part in parts:
-            want |= gloffset.reference.contains(part, lon, lat)
+            want |= gloffset.reference.contains_lonlat(part, lon, lat)
         got = gloffset.contains(united, lon, lat)
         assert np.array_equal(got[far], want[far])
         done += 1

@@ -16,16 +16,9 @@ from ..index.contains import Index, depth_for
 from ..io.features import features, load
 from ..io.output import check_output, open_output
 from ..shape import read
+from ..units import first_not_finite
 from . import main
-from .options import (
-    angle,
-    distance_option,
-    ellipsoid_option,
-    input_options,
-    metres,
-    parse_ellipsoid,
-    radius_option,
-)
+from .options import input_options, measure, measure_options, number_option
 
 #: Accepted names of the coordinate columns (case-insensitive).
 LON_NAMES = ("lon", "lng", "long", "longitude")
@@ -66,9 +59,8 @@ def _coordinates(rows, lines, width: int, ilon: int, ilat: int, where: str):
                         f"{where}, line {line}: {name} {r[k]!r} is not a number"
                     ) from None
         raise  # pragma: no cover  (some row failed above)
-    bad = ~(np.isfinite(lon) & np.isfinite(lat))
-    if bad.any():
-        k = int(np.flatnonzero(bad)[0])
+    k = first_not_finite(lon, lat)
+    if k is not None:
         raise InputFormatError(
             f"{where}, line {lines[k]}: coordinates must be finite, got "
             f"{float(lon[k])!r}, {float(lat[k])!r}"
@@ -110,9 +102,7 @@ def _chunks(reader, size: int):
 @main.command("contains")
 @click.argument("input", metavar="INPUT")
 @click.argument("points", metavar="POINTS")
-@distance_option(default="0")
-@radius_option
-@ellipsoid_option
+@measure_options(default="0")
 @click.option(
     "-o", "--output", default="-", show_default=True, help="Output CSV file, - for stdout."
 )
@@ -122,9 +112,7 @@ def _chunks(reader, size: int):
     default=None,
     help="Decomposition level of the candidate arcs (default: chosen).",
 )
-@click.option(
-    "--chunk", type=click.IntRange(1), default=100_000, show_default=True, help="Rows per batch."
-)
+@number_option("--chunk", low=1, default=100_000, help="Rows per batch.")
 @input_options
 @click.option(
     "--each",
@@ -148,8 +136,8 @@ def contains_cmd(
     """
     if input == "-" and points == "-":
         raise InputFormatError("INPUT and POINTS cannot both be read from stdin (-)")
-    ell = parse_ellipsoid(ellipsoid)
-    d = angle(distance, radius) if ell is None else (ell, metres(distance))
+    ell, d = measure(distance, radius, ellipsoid)
+    d = d if ell is None else (ell, d)
     check_output(output)  # fail before the work
     if each:
         feats = features(load(input, layer=layer, where=where, densify=densify))

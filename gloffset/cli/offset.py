@@ -31,6 +31,7 @@ from . import main
 from .options import (
     Stages,
     angle,
+    choice_option,
     distance_option,
     ellipsoid_option,
     input_options,
@@ -72,11 +73,9 @@ from .options import (
     "overlaps are removed: closed rings as LineStrings (a MultiLineString per feature, "
     "property raw: true), as they may cross themselves and each other.",
 )
-@click.option(
+@choice_option(
     "--method",
-    type=click.Choice(["general", "paper"]),
-    default="general",
-    show_default=True,
+    choices=("general", "paper"),
     help="Self-intersection removal: exact and general, or the paper's Algorithm 1.",
 )
 @click.option(

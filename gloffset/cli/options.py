@@ -49,6 +49,26 @@ def angle(text: str, radius: float) -> float:
     return parse_distance(text, radius)
 
 
+def measure_options(f=None, *, default: str | None = None):
+    """``-d/--distance``, ``--radius`` and ``--ellipsoid``, in this order: the distance and
+    the sphere or ellipsoid it is measured on (``@measure_options`` or
+    ``@measure_options(default="0")``, the default of ``-d``); :func:`measure` reads them."""
+
+    def decorate(f):
+        return distance_option(default=default)(radius_option(ellipsoid_option(f)))
+
+    return decorate(f) if f is not None else decorate
+
+
+def measure(distance: str, radius: float, ellipsoid: str | None) -> tuple:
+    """The options of :func:`measure_options` checked, before the work: ``(None, angle)``
+    on the sphere of ``radius`` (the angle in radians, as :func:`angle`), or ``(ell,
+    metres)`` with ``--ellipsoid`` (an Ellipsoid and a geodesic length, as :func:`metres`).
+    Raises InvalidEllipsoidError or InvalidDistanceError naming the bad value."""
+    ell = parse_ellipsoid(ellipsoid)
+    return ell, (angle(distance, radius) if ell is None else metres(distance))
+
+
 def ellipsoid_option(f):
     """``--ellipsoid NAME`` (WGS84, GRS80) or ``--ellipsoid A,F``."""
     return click.option(
@@ -84,6 +104,20 @@ def metres(text: str) -> float:
             "lengths: give it in m, km, mi, nmi or ft"
         )
     return parse_distance(text, 1.0)
+
+
+def number_option(*names: str, low: float, default: float, help: str):
+    """An option taking a number of at least ``low`` (an integer when ``default`` is an
+    int, else a float), its default shown in ``--help``."""
+    kind = click.IntRange if isinstance(default, int) else click.FloatRange
+    return click.option(*names, type=kind(min=low), default=default, show_default=True, help=help)
+
+
+def choice_option(*names: str, choices: tuple[str, ...], help: str | None = None):
+    """An option taking one of ``choices``, the first by default (shown in ``--help``)."""
+    return click.option(
+        *names, type=click.Choice(choices), default=choices[0], show_default=True, help=help
+    )
 
 
 def input_options(f):

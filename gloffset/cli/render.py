@@ -19,25 +19,10 @@ from ..raster.rasterized import CONTAINED
 from ..raster.render import render as _render
 from ..shape import read
 from . import main
-from .options import (
-    angle,
-    distance_option,
-    ellipsoid_option,
-    fill_options,
-    input_options,
-    metres,
-    parse_ellipsoid,
-    radius_option,
-)
-from .options import (
-    parse_bounds as _bounds,
-)
-from .options import (
-    parse_face as _face,
-)
-from .options import (
-    parse_size as _size,
-)
+from .options import choice_option, fill_options, input_options, measure, measure_options
+from .options import parse_bounds as _bounds
+from .options import parse_face as _face
+from .options import parse_size as _size
 
 #: The former name of :class:`~gloffset.errors.InputFormatError` (cube-face mask PNGs that
 #: are missing, not square, or of different sizes), kept so that ``except CubeFacesError``
@@ -47,15 +32,11 @@ CubeFacesError = InputFormatError
 
 @main.command("render")
 @click.argument("input", metavar="INPUT", required=False)
-@distance_option
-@radius_option
-@ellipsoid_option
-@click.option(
+@measure_options
+@choice_option(
     "--grid",
     "grid_kind",
-    type=click.Choice(["equirect", "cube"]),
-    default="equirect",
-    show_default=True,
+    choices=("equirect", "cube"),
     help="equirect: one image; cube: OUTPUT is a folder of px nx py ny pz nz PNGs.",
 )
 @click.option(
@@ -110,7 +91,7 @@ CubeFacesError = InputFormatError
     "a coarser level than the output's is written at its own size (each cell one pixel; "
     "stderr says which), without georeference.",
 )
-@click.option("--backend", type=click.Choice(["gpu", "cpu"]), default="gpu", show_default=True)
+@choice_option("--backend", choices=("gpu", "cpu"))
 @click.option(
     "--cog",
     is_flag=True,
@@ -152,8 +133,9 @@ def render_cmd(
     Equirect images are georeferenced (EPSG:4326): a .tif is a tiled, compressed GeoTIFF
     (rasterio: pip install 'gloffset[geo]'), a .png gets a world file (.pgw, pixel centres)
     and a .prj beside it."""
-    ell = parse_ellipsoid(ellipsoid)
-    d = _distance(distance, radius, ell, classes_level, from_raster)
+    ell, d = measure(distance, radius, ellipsoid)
+    if ell is not None and from_raster is None and classes_level is not None:
+        raise OptionError("--ellipsoid renders masks of vector INPUT: no --classes")
     cog = _check_output(output, grid_kind, cog)
     for colour in (fill, background):
         if colour is not None:
@@ -239,16 +221,6 @@ def _from_raster_cmd(path, d, ell, grid_kind, bounds, output, opts, place):
             "cube faces px.png nx.png py.png ny.png pz.png nz.png from it"
         )
     return _from_raster(path, d, bounds, output, level, backend, mask_only, place, ell, style)
-
-
-def _distance(distance, radius, ell, classes_level, from_raster) -> float:
-    """The offset distance: an angle on the sphere, metres with ``--ellipsoid`` (masks of
-    vector input only)."""
-    if ell is None:
-        return angle(distance, radius)
-    if from_raster is None and classes_level is not None:
-        raise OptionError("--ellipsoid renders masks of vector INPUT: no --classes")
-    return metres(distance)
 
 
 def _check_output(output, grid_kind, cog) -> bool:

@@ -11,45 +11,37 @@ import click
 from ..errors import InputFormatError, OptionError
 from ..shape import read
 from . import main
+from .options import number_option
 
 
 @main.command("serve")
 @click.argument("inputs", metavar="INPUT...", nargs=-1, required=True)
 @click.option("--host", default="127.0.0.1", show_default=True, help="Address to listen on.")
 @click.option("--port", type=click.IntRange(0, 65535), default=8080, show_default=True)
-@click.option(
-    "--cache-mb",
-    type=click.FloatRange(min=0),
-    default=256.0,
-    show_default=True,
-    help="Rendered tiles kept in memory, MB.",
-)
+@number_option("--cache-mb", low=0, default=256.0, help="Rendered tiles kept in memory, MB.")
 @click.option(
     "--cache-control",
     default="public, max-age=3600",
     show_default=True,
     help="The Cache-Control header of tiles.",
 )
-@click.option(
+@number_option(
     "--queue",
     "queue_size",
-    type=click.IntRange(min=1),
+    low=1,
     default=256,
-    show_default=True,
     help="Tiles waiting to render at most; more are answered 503 with Retry-After.",
 )
-@click.option(
+@number_option(
     "--render-timeout",
-    type=click.FloatRange(min=0.1),
+    low=0.1,
     default=60.0,
-    show_default=True,
     help="Seconds a request waits for its tile; then 503 with Retry-After.",
 )
-@click.option(
+@number_option(
     "--workers",
-    type=click.IntRange(min=1),
+    low=1,
     default=1,
-    show_default=True,
     help="Server processes sharing the port, each with its own GL context and caches.",
 )
 @click.option(

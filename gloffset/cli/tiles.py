@@ -14,24 +14,12 @@ from ..raster.pyramid import parse_zooms, pyramid
 from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
 from . import main
-from .options import (
-    angle,
-    distance_option,
-    ellipsoid_option,
-    fill_options,
-    input_options,
-    metres,
-    parse_ellipsoid,
-    radius_option,
-    show_progress,
-)
+from .options import fill_options, input_options, measure, measure_options, show_progress
 
 
 @main.command("tiles")
 @click.argument("input", metavar="INPUT")
-@distance_option
-@radius_option
-@ellipsoid_option
+@measure_options
 @click.option("-z", "--zoom", "zooms", required=True, help="Zoom range MIN-MAX (0..22), e.g. 0-14.")
 @click.option(
     "-o",
@@ -89,8 +77,7 @@ def tiles_cmd(
     outside the region are skipped, tiles fully inside share one image and are not
     rendered, only tiles on the region's edge are rendered. With --ellipsoid, DIST is a
     geodesic length on that ellipsoid (no --outline, --workers)."""
-    ell = parse_ellipsoid(ellipsoid)
-    metres(distance) if ell is not None else angle(distance, radius)  # fail before the work
+    ell = measure(distance, radius, ellipsoid)[0]  # fail before the work
     refuse_stdout(
         output, "a tile pyramid is an .mbtiles or .pmtiles file or a folder of z/x/y.png tiles"
     )

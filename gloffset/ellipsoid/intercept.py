@@ -13,13 +13,6 @@ manner of Baselga and Martinez-Llario (2018):
    to ``[0, L]``;
 3. stop when the step is below :data:`TOL`.
 
-The derivative of ``D(s)`` is ``-cos(alpha)``, so the fixed point is the foot of the
-perpendicular (or an end, when clamped). The sphere stands in for the ellipsoid only
-in the step's length, which it gets right to a relative ``O(f)``: the iteration
-contracts by a factor about ``f`` (1/298) per step, 4 to 6 steps from a good start.
-Both ends are also measured, so the minimum of ``D`` over the three is the distance
-also where ``D(s)`` has a second local minimum (an end, for points far from the edge).
-
 **Error bound.** The value returned is the geodesic distance from ``P`` to a point of
 the edge (geographiclib's inverse problem, accurate to 15 nm), so it is never below
 the true distance by more than 15 nm. It exceeds it by at most ``|s - s*|`` (``D`` is
@@ -29,7 +22,8 @@ that is at most the last step, below :data:`TOL` (1e-7 m). So the result is with
 sub-millimetre spacing, near the poles, across the antimeridian and for points on
 the edges). If the iteration has not converged in :data:`MAX_STEPS` steps (never
 seen; possible for points nearly antipodal to the edge) a golden-section search over
-``[0, L]`` on the same inverse problems finishes it.
+``[0, L]`` on the same inverse problems finishes it. The derivation in full:
+``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

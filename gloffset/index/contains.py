@@ -9,33 +9,17 @@ A point ``p`` lies in the offset region of a shape at signed distance ``d`` when
 An :class:`Index` answers this for millions of points. It is built once per shape
 and distance from three pieces:
 
-1. **Bins** (:mod:`gloffset.index.bins`): a quadtree of lon/lat cells, refined only where
-   the answer is not the same for the whole cell. Each cell is classified from its
-   anchor ``x`` and radius ``rho`` (every point of the cell lies within ``rho`` of
-   ``x``): *in* or *out* when no boundary comes within ``rho`` and the distance part
-   is settled, *frontier* otherwise. Decided cells are painted into lookup tables
-   (one for 0.7 deg cells, then blocks every 5 levels below frontier cells), so a
-   point in a decided cell costs a few integer operations on its lon/lat and one to
-   three table look-ups: no trigonometry, no geometry.
-2. **The multiresolution arc tree** (:mod:`gloffset.vector.multires`): the build walks the
-   bins and the tree of simplified arcs together (a cell keeps the arcs whose error
-   region comes within reach, splitting those larger than itself), and a frontier
-   cell at the bottom keeps candidate arcs of a decomposition level ``K``.
-3. **Exact tests in frontier cells**: a point is inside when the anchor's known
-   status, flipped by each crossing of the short arc ``p -> x``, says so. A
-   simplified arc is reconstructed (replaced by its two halves) only where ``p``
-   lies in its error region (Eq. 9; ``x`` never does, by construction); otherwise
-   it is counted instead of the arcs it stands for, which changes no parity: the
-   loop they make together lies inside the error region, which holds neither end.
-   The distance part reconstructs an arc only where ``p`` is within ``|d| + e`` of
-   it, and decides on original edges with Eq. 9 at radius ``|d|``.
+1. **Bins** (:mod:`gloffset.index.bins`): a lon/lat quadtree refined only where the
+   answer varies; a point in a decided cell costs a few table look-ups;
+2. **the multiresolution arc tree** (:mod:`gloffset.vector.multires`): the candidate
+   arcs of the frontier cells, at a decomposition level ``K``;
+3. **exact tests in frontier cells**: the crossing parity of the short arc from the
+   point to its cell's anchor, with simplified arcs reconstructed only where the point
+   lies in their error region (Eq. 9).
 
-Anchor statuses come from the crossing-parity reference for the eight cells of
-level 1 and then from parent to child by the same parity rule, with the same
-arithmetic as the queries (:func:`gloffset.sphere.dot` for every side test that two
-computations share), so that a point and the anchor of its cell are always judged
-consistently. Anchors sit at an irrational position in their cells, off the round
-coordinates that data vertices often have.
+A point and the anchor of its cell are always judged with the same arithmetic; the
+accuracy contract is that of :func:`contains_on_sphere`. The derivation in full:
+``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations
@@ -64,7 +48,7 @@ from ..units import EARTH_RADIUS, check_lonlat, offset_angle
 from ..vector.multires import full_decomposition
 from . import bins
 
-__all__ = ["Index", "contains", "depth_for"]
+__all__ = ["Index", "contains_on_sphere", "depth_for"]
 
 #: Slack (rad) on every error-region and relevance test, far above their rounding.
 MARGIN = 1e-13
@@ -280,7 +264,7 @@ class Index:
     1:10m at 0.02 rad build at depth 9 with leaves of level 5 in about 2 s instead of
     17 s at depth 13, at the price of more points in frontier cells (1e6 uniform
     points on the globe: about 0.6 s instead of 0.02 s); pass ``depth=13`` for the
-    deep bins, or let :func:`contains` choose by the number of
+    deep bins, or let :func:`contains_on_sphere` choose by the number of
     points (:func:`depth_for`). A query costs a table look-up from the
     lon/lat of each point (a few tens of nanoseconds), plus, for the few points in
     frontier cells, a lon/lat to vector conversion and the tests against their
@@ -929,7 +913,7 @@ def _index(shape, d: float, level, n_points: int) -> Index:
     return ix
 
 
-def contains(
+def contains_on_sphere(
     shape, lon, lat, *, distance: float = 0.0, radius: float = EARTH_RADIUS, level=None
 ) -> np.ndarray:
     """Whether points lie in the offset region of the shape (fast and exact).
@@ -958,7 +942,7 @@ def contains(
     Notes
     -----
     Accuracy: the same answer as the brute-force reference
-    (:func:`gloffset.reference.contains`) for every point farther than 1e-13 rad
+    (:func:`gloffset.reference.contains_lonlat`) for every point farther than 1e-13 rad
     from the boundary and whose distance differs from ``|distance|`` by more than
     1e-13 rad. Polygons are united; lines and points have no inside. Where region
     components overlap (:meth:`Shape.overlapping_components`, e.g. overlapping

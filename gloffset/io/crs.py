@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import InputFormatError
 from ..sphere import arc_distance, lonlat_to_xyz
-from ..units import EARTH_RADIUS, parse_distance
+from ..units import EARTH_RADIUS, first_not_finite, parse_distance
 
 __all__ = ["DENSIFY_TOLERANCE", "densify", "densify_tolerance", "is_lonlat", "to_lonlat"]
 
@@ -105,9 +105,8 @@ def to_lonlat(crs, where: str = "input"):
     def transform(x: np.ndarray, y: np.ndarray):
         lon, lat = tr.transform(np.asarray(x, np.float64), np.asarray(y, np.float64))
         lon, lat = np.asarray(lon, np.float64), np.asarray(lat, np.float64)
-        bad = ~(np.isfinite(lon) & np.isfinite(lat))
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
+        i = first_not_finite(lon, lat)
+        if i is not None:
             raise InputFormatError(
                 f"{where}: the point ({float(np.ravel(x)[i])!r}, {float(np.ravel(y)[i])!r}) "
                 f"of CRS {src.name!r} has no lon/lat (outside the projection's domain)"

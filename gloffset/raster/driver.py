@@ -11,7 +11,7 @@ differs is how a cell is classified; that is a :class:`Classifier`:
 * :class:`gloffset.raster.rasterized.offset.RasterCells`: against the cells of a rasterized curve.
 
 The driver walks the levels (:func:`walk`, sparse: a :class:`Level` per level) and paints
-them into one class array per level (:func:`classify`, dense, with the ``callback`` and
+them into one class array per level (:func:`classes_of_level`, dense, with the ``callback`` and
 ``timings`` every raster offers). The backend is pluggable: the classifier on the CPU
 (float64 numpy, every level), or the classifier down to a hand-off level and a GL
 backend (:mod:`gloffset.gl`) below it (:func:`run`).
@@ -39,7 +39,7 @@ __all__ = [
     "Level",
     "Classifier",
     "walk",
-    "classify",
+    "classes_of_level",
     "run",
     "pooled",
     "upsample",
@@ -126,7 +126,7 @@ def pooled(classes: np.ndarray) -> np.ndarray:
     return np.where(lo == hi, lo, FRONTIER).astype(np.uint8)
 
 
-def classify(
+def classes_of_level(
     classifier: Classifier,
     stop: int,
     *,
@@ -180,6 +180,6 @@ def run(
     levels below the bins, given the hand-off level's classes and :class:`Level`) for the
     levels below it."""
     if backend is None or stop <= handoff:
-        return classify(classifier, stop, callback=callback, timings=timings)[0]
-    classes, lev = classify(classifier, handoff, callback=callback, timings=timings)
+        return classes_of_level(classifier, stop, callback=callback, timings=timings)[0]
+    classes, lev = classes_of_level(classifier, handoff, callback=callback, timings=timings)
     return backend(classes, lev)

@@ -6,24 +6,16 @@ inside the union of its polygons (lines and points bound no region: their ``s`` 
 never negative). ``s`` does not depend on ``d``, so one field answers every distance:
 :meth:`DistanceField.threshold` gives the mask of :func:`gloffset.render` at any ``d``.
 
-How it is computed. The distances come from a walk over the grid's levels, coarse to
-fine and depth first (large levels in parts of contiguous cells, so memory stays
-bounded), with every cell's list of candidates made of nodes of the shape's
-multiresolution tree (paper Sec. 4.2; :class:`~gloffset.raster.vector.node_levels.NodeArcs`:
-each node an arc with a rigorous two-sided bound ``err`` on how far its run of
-original edges strays from it, Sec. 4.3, Eq. 9). A cell keeps the nodes that can hold
-the nearest boundary arc of one of its points: those whose lower bound (the cap test,
-tightened by the exact distance to the node's arc less ``err``) is at most the cell's
-least upper bound (an exact distance plus ``err``) plus ``2 rho``, the usual pruning of
-a nearest-neighbour search (:func:`_bound`). Nodes are split as the cells shrink (to
-``err <= rho / 16``), and at the output level down to the original edges, pruning
-between the splits: a branch and bound whose lists follow the pixels, not the input.
-Each pixel ends with the exact float64 distance of its nearest original arc
-(:func:`gloffset.sphere.arc_distance`, the distance every render uses). With
-``max_distance`` a node farther than ``max_distance + rho`` is dropped too, and a cell
-left with none costs no pixel work. The sign is the inside status of the float64
-render at distance 0 (:func:`gloffset.raster.vector.curves.classify_curves`: crossing
-parity, carried down the levels along the boundary only).
+How it is computed: a walk over the grid's levels, coarse to fine, every cell with a
+list of candidate nodes of the multiresolution tree (paper Sec. 4.2;
+:class:`~gloffset.raster.vector.node_levels.NodeArcs`, each with a rigorous bound
+``err``, Eq. 9). A cell keeps the nodes whose lower bound is at most its least upper
+bound plus ``2 rho`` (a nearest-neighbour search's pruning, :func:`_bound`); nodes are
+split as the cells shrink, down to the original edges at the pixels, and each pixel
+ends with the exact float64 distance of its nearest arc
+(:func:`gloffset.sphere.arc_distance`). With ``max_distance`` a cell left with no node
+costs no pixel work. The sign is the inside status of the float64 render at distance 0
+(:func:`gloffset.raster.vector.curves.classify_curves`).
 
 Accuracy: each value is the float64 distance (exact to 1e-15 rad) times ``radius``,
 clamped to ``[-max_distance, max_distance]`` and rounded to float32 once: within 1

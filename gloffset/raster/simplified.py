@@ -7,32 +7,10 @@ image cannot show. The multiresolution decomposition (paper Sec. 4.2,
 is from the original (Sec. 4.3, Eq. 9), and this module renders that curve instead,
 then decides exactly the few pixels the bound leaves open.
 
-The simplified curve. Every arc of the decomposition's tree stands for a run of
-original edges, with a bound ``err`` (:attr:`~gloffset.vector.multires.ArcTree.e`). The
-bound is two-sided: the merge ``A -> B -> C`` to ``A -> C`` pairs each point of the
-coarse arc with the point at the same fraction of the two fine arcs, no farther than
-``dist(B, SLERP(A, C, 1/2))``, and by induction every point of the coarse arc and every
-point of the original run are matched within ``err`` (a Frechet bound). :func:`cut`
-takes, from the coarsest level down, the tree arcs whose ``err <= eps`` (seams are
-never simplified: they keep their original edges). For the shape ``S`` so made and
-every point ``p``:
-
-* ``|D(p) - D_S(p)| <= eps``, with ``D`` and ``D_S`` the distances to the boundary arcs;
-* the insides of the polygons differ only between matched points, so only at points
-  with ``D <= eps`` and ``D_S <= eps``.
-
-The render. With ``t = eps + m`` (``m`` four times the GPU's error bound of 1e-3
-pixel, as for the ellipsoid: :data:`~gloffset.raster.render.SCREEN_MARGIN`) and ``|d| >
-2 t``, the regions at signed distances satisfy ``R_S(d - t) <= R(d) <= R_S(d + t)``: a
-point inside ``S`` but outside the original polygons is within ``eps < |d|`` of the
-curve, a point within ``d - t`` of ``S`` is within ``d`` of the curve, and so on for
-``d < 0``. So ``S`` is rendered on the GPU at ``d - t`` and at ``d + t``; a pixel the
-first puts in the region is in it, a pixel the second leaves out is out (a GPU render
-errs only within 1e-3 pixel of its distance). The pixels in between, the *band*, lie
-outside the original polygons for ``d > 0`` and inside them for ``d < 0`` (by the same
-bounds), so the distance alone decides them: each is in the region when an original
-boundary arc lies within ``|d|`` of its centre (for ``d > 0``; not in it, for ``d < 0``),
-found in float64 through the arcs' cap tree (exact float64 point-to-arc distances).
+The decomposition's arcs with ``err <= eps`` make a shape ``S`` whose distances are
+within ``eps`` of the original's (:func:`cut`); ``S`` is rendered on the GPU at ``d - t``
+and at ``d + t`` (``t = eps`` plus a margin), and the pixels in between, the *band*,
+are decided by exact float64 distances to the original arcs.
 
 Accuracy: every pixel outside the band is decided as by the exact distance (the GPU's
 own error is inside the margin ``m``), and every band pixel by the exact float64
@@ -42,7 +20,8 @@ decomposition of the shape once (kept on it), and the band (``2 t`` wide: about 
 of the pixels along the offset boundary).
 
 :func:`gloffset.render` uses it for GPU masks where it pays: inputs of at least
-:data:`MIN_ARCS` arcs whose simplified curve keeps at most :data:`MAX_FRACTION` of them.
+:data:`MIN_ARCS` arcs whose simplified curve keeps at most :data:`MAX_FRACTION` of them. The
+derivation in full: ``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

@@ -5,49 +5,23 @@ boundary of the offset region is made of pieces of raw arcs (Sec. 4.1), and alon
 arc the question "is this point on the boundary" changes answer only where another raw
 arc crosses it. :func:`resolve_general` goes in named steps:
 
-1. :func:`_prune`: arcs that lie wholly within ``|d| - margin`` of the curves are
-   dropped (a range query per arc on a :class:`~gloffset.captree.CapTree` of the
-   edges), and so are the joins of concave corners, which always lie within ``|d|`` of
-   the two edges there;
-2. :func:`_candidate_pairs`: the pairs of remaining arcs whose caps meet (a cap tree of
-   the arcs, so the cost follows the number of nearby pairs, not n^2), less ring
-   neighbours;
-3. :func:`_corner_events`, :func:`_crossing_events`: the arcs are intersected pairwise
-   and each crossing becomes a node and a split point on both arcs (:class:`_Events`);
-4. :meth:`_Events.merged`: nodes closer than :data:`~gloffset.vector.smallcircle.MERGE_TOL`
-   are one;
-5. :func:`_split`: the arcs are cut into pieces between consecutive split points;
-6. :func:`_boundary_pieces`: a piece is kept when its middle point lies at ``|d|`` from
-   the curves (nothing closer, exact float64 point-to-arc distances as in
-   :mod:`gloffset.reference`);
-7. :func:`_close_rings`: kept pieces are linked at their end points into closed rings
-   (where several meet, in and out pieces are paired in clockwise order so that rings
-   touch without crossing), and the rings are sorted into exteriors and holes by crossing
-   parity from a point outside the region (:mod:`gloffset.vector.rings`).
+prune the arcs within ``|d|`` of the curves, pair the arcs whose caps meet, intersect
+them, split them at the crossings, keep the pieces whose middle lies at ``|d|`` from the
+curves (exact float64 point-to-arc distances) and link those into closed rings, sorted
+into exteriors and holes by crossing parity (:mod:`gloffset.vector.rings`).
 
-Robustness. Intersections are computed from angular radii
-(:func:`gloffset.vector.smallcircle.intersect`), which keeps circles of radius ``|d|``
-accurate however small ``|d|`` is, and come with an error bound; an intersection
-within its bound of an arc's end point is that end point, so a crossing near a
-junction is never lost between the two arcs that meet there, and points closer
-than :data:`~gloffset.vector.smallcircle.MERGE_TOL` are one node. Where two edge arcs
-meet at a concave corner their circles nearly coincide, so that crossing is found in
-closed form instead. A piece is dropped when a curve comes closer than
-``|d| - DOUBT_EPS`` to its middle and is certain when none comes closer than
-``|d| - KEEP_EPS``; pieces in between lie within 1e-11 rad of the boundary and are kept
-only where they close up into rings with certain pieces (open chains and rings made
-only of such pieces are dropped). Two pieces between the same nodes that lie within
-1e-9 rad of each other are one boundary, or, run in opposite directions, a zero-width
-sliver that goes. Certain pieces that still fail to close into rings are counted in
-:attr:`~gloffset.vector.resolved.ResolvedOffset.unlinked` (0 in every test and
-benchmark).
+Robustness: intersections from angular radii with error bounds, nodes closer than
+:data:`~gloffset.vector.smallcircle.MERGE_TOL` merged, doubtful pieces kept only where
+they close into rings with certain pieces; certain pieces that fail to close are
+counted in :attr:`~gloffset.vector.resolved.ResolvedOffset.unlinked`.
 
 Input. Polygons are expected not to overlap and rings not to cross themselves;
 both are detected (:func:`defects`), and then every piece is also checked with the
 inside test and (for crossing edges) both sides of every ring are offset, so that the
 result is the reference region (inside by crossing parity) in every case. A seam
 without a partner across the antimeridian is offset and counted as boundary, as the
-raw offset does (the reference ignores it).
+raw offset does (the reference ignores it). The derivation in full: ``docs/design.md``,
+*Module notes*.
 """
 
 from __future__ import annotations

@@ -7,23 +7,9 @@ Reconstruction inserts ``SLERP(A, C, 1/2) + D`` again. Levels are numbered from 
 original curve, ``P[0]``, to the coarsest, ``P[levels]``; ``D[k]`` turns ``P[k]`` back
 into ``P[k-1]``, and ``|P[k]| + |D[k]| = |P[k-1]|``.
 
-Which points are discarded. Arcs of ``P[k-1]`` are paired in order, ``(0, 1), (2, 3),
-...``; each pair ``A -> B -> C`` becomes the single arc ``A -> C`` of ``P[k]``, so ``B``
-(an odd point) goes. An arc without a partner (the last one when the count of arcs
-is odd) is carried over unchanged:
-
-* a closed ring of ``n`` points has ``n`` arcs: for even ``n`` every odd point goes
-  (``n/2`` points remain); for odd ``n`` the closing arc ``p[n-1] -> p[0]`` is carried,
-  so ``(n+1)/2`` points remain. A ring keeps at least 3 points;
-* an open line of ``n`` points has ``n - 1`` arcs: both end points always stay, and
-  for even ``n`` the last arc is carried (``n/2 + 1`` points remain);
-* an isolated point stays as it is.
-
-A pair is also left alone (both arcs carried, ``B`` kept, no detail) where merging
-would break an assumption below: an arc longer than pi/2 among ``A -> B``, ``B -> C``,
-``A -> C``, a coarse arc shorter than :data:`gloffset.shape.MIN_EDGE`, or a seam
-next to a boundary edge (so seams, :attr:`Shape.ring_seams`, survive at every level:
-a coarse arc is a seam exactly when the arcs it replaces are).
+Pairs of arcs ``A -> B -> C`` become ``A -> C`` (an arc without a partner is carried
+over; seams survive at every level; a pair is left alone where merging would break the
+bounds below).
 
 Error bounds (paper Sec. 4.3). ``e[k][i]`` bounds the distance from every point of
 the original curve between the ends of arc ``i`` of ``P[k]`` to that arc:
@@ -37,6 +23,7 @@ Offsets (Sec. 4.2, six steps). The centres ``q_2i = cos(d) p_i`` of a coarse off
 on a sphere of radius ``cos(d)``; the same reconstruction with details scaled by
 ``cos(d)`` gives the vertex centres of the finer offset without restoring the curve,
 and the edge centres and junctions follow from Eq. 3 and 4 (:func:`gloffset.vector.offset`).
+The derivation in full: ``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

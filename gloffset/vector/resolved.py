@@ -18,7 +18,7 @@ import numpy as np
 
 from ..units import distance_properties
 from .arcrings import DEFAULT_TOLERANCE, ArcRings, sample_rings
-from .rings import RingParity, classify, left_areas, ring_table
+from .rings import RingParity, holes_and_polygons, left_areas, ring_table
 
 __all__ = ["ResolvedOffset"]
 
@@ -73,8 +73,8 @@ class ResolvedOffset(ArcRings):
     @classmethod
     def from_rings(cls, distance, method, rings, shape, unlinked: int = 0) -> ResolvedOffset:
         """The region bounded by ``rings`` (region on their left): its holes and polygons
-        found by :func:`gloffset.vector.rings.classify`, whose parity it keeps."""
-        holes, polygons, parity = classify(rings, shape, distance)
+        found by :func:`gloffset.vector.rings.holes_and_polygons`, whose parity it keeps."""
+        holes, polygons, parity = holes_and_polygons(rings, shape, distance)
         res = cls(distance, method, rings, holes, polygons, unlinked, shape)
         res._parity = parity
         return res

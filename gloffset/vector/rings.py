@@ -22,7 +22,7 @@ from ..captree import CapTree
 from ..sphere import angle, normalize, robust_cross, rotate
 from .smallcircle import CircleArcs, circle_of, intersect, point_at, position
 
-__all__ = ["RingParity", "classify", "left_areas", "ring_table"]
+__all__ = ["RingParity", "holes_and_polygons", "left_areas", "ring_table"]
 
 
 def ring_table(rings) -> tuple[CircleArcs, np.ndarray, np.ndarray]:
@@ -70,7 +70,7 @@ def _probes(arcs: CircleArcs, ring_id: np.ndarray, n: int) -> tuple[np.ndarray, 
     return rotate(m, side, -arcs.sign[k] * eps), k
 
 
-def classify(rings, shape, d):
+def holes_and_polygons(rings, shape, d):
     """Holes and polygons: a ring bounds a hole when a point outside the region lies on its left.
 
     Returns ``(holes, polygons, parity)``: a bool per ring, ``(exterior, [holes])``

@@ -18,33 +18,13 @@ in the region, and so have all its descendants. Then
   :class:`~gloffset.grids.Tile` grid (tiles with no pixel inside are not written)
   and its children are visited.
 
-Candidate arcs are refined from parent to child as in the raster engine, with the
-list bound ``L(z, y) = r(z, y) + sum_{k=1..Z-z} r_eq(z + k)`` (``Z`` the maximum zoom,
-``r_eq(z)`` the bound of a tile touching the equator, the largest of its zoom): a
-chain parent -> child -> ... moves at most ``r`` of each tile it passes, so
-``L(parent) >= angle(parent, child) + L(child)`` as the refinement requires.
-
-Frontier tiles are rendered without starting again from the top: pixel ``(i, j)`` of
-tile ``z/x/y`` (``size = 2^P``) is the centre of tile ``z+P / x 2^P + i / y 2^P + j``,
-so a tile's pixels, and its bins of 16 pixels, are deeper levels of the same
-quadtree. The hierarchy runs to zoom ``max + P``: the frontier tiles of zoom ``z``
-are refined in float64 down to their bins (zoom ``z + P - 4``; these levels are
-kept from zoom to zoom, so each zoom adds one, :class:`~.walk.BinChain`), and the GPU levels
-(:class:`gloffset.gl.vector_pass.VectorPasses`) classify the frontier bins of up to
-``(max_block / size)^2`` tiles at once, packed into one small canvas
-(:class:`~gloffset.raster.layout.BinLayout`); every other pixel of a tile is its bin's
-class. So the cost per tile is that of its frontier bins, not a render call. The
-answer is that of :func:`gloffset.render` on the tile's :class:`~gloffset.grids.Tile`
-grid: same pixel centres, same decision rules and precision.
-
-With an outline, decided tiles that a boundary arc may cross (distance to the
-boundary at most ``r``) are drawn (fill or nothing, plus the outline) and
-their children visited with the same class; the rest are as above.
-
-Progress (:class:`~.progress.TileProgress`): each zoom is classified before any of its tiles is
-written, and the bin levels hold the frontier and inside tiles of the next zooms, so
-the run knows its tiles ahead and estimates the rest from the growth of the frontier;
-the time left follows a per-zoom cost plus a per-tile cost, both measured as it goes.
+Candidate arcs are refined from parent to child as in the raster engine. Frontier tiles
+are rendered from their bins (deeper levels of the same quadtree), many tiles to one
+GPU pass, with the answer of :func:`gloffset.render` on the tile's
+:class:`~gloffset.grids.Tile` grid: same pixel centres, same decision rules and
+precision. Each zoom is classified before its tiles are written, so progress
+(:class:`~.progress.TileProgress`) knows the tiles ahead. The derivation in full:
+``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

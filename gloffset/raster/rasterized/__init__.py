@@ -9,23 +9,7 @@ their near pairs in :mod:`.curve_levels`, the GPU levels planned in :mod:`.curve
 from __future__ import annotations
 
 from .curve_mask import rasterize
-from .offset import (
-    CONTAINED,
-    FRONTIER,
-    OUTSIDE,
-    InvalidMaskError,
-    RasterOffsetError,
-    RasterOffsetInfo,
-    raster_offset,
-)
+from .offset import *  # noqa: F403  (the names listed in offset.__all__)
+from .offset import __all__ as _OFFSET_NAMES
 
-__all__ = [
-    "OUTSIDE",
-    "FRONTIER",
-    "CONTAINED",
-    "InvalidMaskError",
-    "RasterOffsetError",
-    "RasterOffsetInfo",
-    "rasterize",
-    "raster_offset",
-]
+__all__ = [*_OFFSET_NAMES, "rasterize"]

@@ -20,14 +20,13 @@ from functools import lru_cache
 
 import numpy as np
 
-from ...caps import cap_within, pad
-from ...caps import chord2 as chord2_of_angle
+from ...caps import cap_within, chord2, pad
 from ...classes import CONTAINED, FRONTIER, OUTSIDE
+from ...sphere import chord2_between
 
 __all__ = [
     "RasterizedCurve",
     "level_centers",
-    "chord2",
     "neighbours",
     "near_pairs",
     "classify_cells",
@@ -64,14 +63,6 @@ def level_centers(grid, level: int, flat: np.ndarray) -> np.ndarray:
         return grid.centers(level, j, i)
     cp, sp, cl, sl = _tables(grid, level)
     return np.stack([cp[j] * cl[i], cp[j] * sl[i], sp[j]], axis=-1)
-
-
-def chord2(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Squared chord ``|p - q|^2`` (the one formula every classification uses)."""
-    dx = p[..., 0] - q[..., 0]
-    dy = p[..., 1] - q[..., 1]
-    dz = p[..., 2] - q[..., 2]
-    return dx * dx + dy * dy + dz * dz
 
 
 def neighbours(grid, level: int, flat: np.ndarray) -> np.ndarray:
@@ -192,8 +183,8 @@ class RasterizedCurve:
             lo = d - s - rq - r_l
             hi = d + 2.0 * s + rq + r_l
             R.append(r_l)
-            lo2 = np.where(lo > 0.0, chord2_of_angle(np.maximum(lo, 0.0)), -1.0)
-            hi2 = np.where(hi < math.pi, chord2_of_angle(hi), 5.0)
+            lo2 = np.where(lo > 0.0, chord2(np.maximum(lo, 0.0)), -1.0)
+            hi2 = np.where(hi < math.pi, chord2(hi), 5.0)
             ok = grid.row_valid(lev)  # padding rows hold no cell: always outside
             lo2, hi2 = np.where(ok, lo2, -1.0), np.where(ok, hi2, -1.0)
             t_lo.append(lo2)
@@ -281,8 +272,8 @@ def near_pairs(
             npc = np.repeat(pc[b_p], c)
             iq = qo[np.repeat(qs[b_q], c) + k // npc]
             ip = po[np.repeat(ps[b_p], c) + k % npc]
-            c2 = chord2(cq_all[iq], cp_all[ip])
-            keep = c2 <= pad(chord2_of_angle(reach + extra_q[iq] + _REACH_SLACK), abs_=0.0)
+            c2 = chord2_between(cq_all[iq], cp_all[ip])
+            keep = c2 <= pad(chord2(reach + extra_q[iq] + _REACH_SLACK), abs_=0.0)
             yield iq[keep], ip[keep], c2[keep]
             lo = hi
 

@@ -10,38 +10,12 @@ such a mask and :mod:`.curve_levels` orders the intersected cells. The GPU level
 planned in :mod:`.curve_gpu` and drawn by :mod:`gloffset.gl.rasterized_pass`; they
 return exactly these classes.
 
-Grids: :class:`~gloffset.grids.Equirect`, and :class:`~gloffset.grids.Cube` whose six
-faces are one set of cells (:class:`~gloffset.grids.cube.CubeCells`: faces stacked as
-rows, neighbours across face edges and corners from the geometry), so the ordering
-of the intersected cells, the region growing and the offset run across faces.
+Grids: :class:`~gloffset.grids.Equirect`, and :class:`~gloffset.grids.Cube` with its six
+faces one set of cells (the offset runs across faces).
 
-The classification (all of it in squared chords between float64 cell centres)
--------------------------------------------------------------------------------
-Let ``s`` be the largest area bound (the paper's ``d_g / 2``) of the output cells
-in the rows that hold intersected cells: the curve passes within ``s`` of the
-centre of every intersected output cell, and every point of the curve lies within
-``s`` of one (cube: the largest per-pixel bound, its farthest corner, of the
-intersected pixels). For a cell ``q`` of level ``l`` with bound ``rho_q``
-(:meth:`Equirect.rho`, per row; 0 at the output level) let ``D(q)`` be the angle
-from its centre to the nearest centre of an intersected cell of the same level, and
-``R_l`` the largest ``rho`` of the rows of level ``l`` that hold intersected cells
-(cube: of the intersected cells themselves; 0 at the output level). Then, with
-``d`` the offset distance,
-
-* contained when ``D(q) < d_min = d - s - rho_q - R_l``,
-* outside when ``D(q) >= d_max = d + 2 s + rho_q + R_l``,
-* frontier otherwise.
-
-At the output level these are the paper's ``d_min = d - d_g/2`` and
-``d_max = d + d_g``. At coarser levels the paper's ``d_g`` of a cell and its
-descendants becomes ``rho_q`` for the cell itself and ``R_l`` for the intersected
-cells, on both sides: a descendant pixel ``p`` of ``q`` and a descendant ``g`` of an
-intersected cell ``g'`` satisfy ``|D_L(p) - D_l(q)| <= rho_q + R_l``, so a coarse
-decision is the decision of every descendant pixel, and the hierarchical answer
-at the output level equals the single-resolution one (``d - rho`` alone, as the
-paper writes, would not guarantee that). Comparisons are made as ``chord^2 <
-4 sin^2(x / 2)`` in float64 with centres from one table per level, so every method
-below gives bit-identical classes.
+The classification compares squared chords between float64 cell centres, with bounds
+that make a coarse decision that of every descendant pixel, so the hierarchical answer
+equals the single-resolution one and every method gives bit-identical classes.
 
 Meaning of the output classes (the accuracy contract): when the mask is exactly
 the set of output cells that the curve ``C`` passes through, a *contained* cell's
@@ -50,7 +24,8 @@ centre lies within ``d`` of ``C``; an *outside* cell's centre is farther than
 is at most ``s`` (pixels no larger than the curve's largest); *frontier* cells are
 undecided. So ``contained ⊆ offset ⊆ contained ∪ frontier`` at cell centres.
 :func:`rasterize` marks the cells an arc passes within 1e-7 pixel of, so for a
-rasterized :class:`Shape` these hold up to 1e-7 of a pixel.
+rasterized :class:`Shape` these hold up to 1e-7 of a pixel. The derivation in full:
+``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations
@@ -66,11 +41,11 @@ from ...ellipsoid import as_ellipsoid
 from ...errors import InvalidDistanceError, InvalidMaskError, OptionError
 from ...grids.conformal import ConformalRows
 from ...grids.protocol import CurveMaskImage, RegularLonLat
+from ...sphere import chord2_between
 from ...units import EARTH_RADIUS, to_angle
 from .. import driver
 from .curve_levels import (
     RasterizedCurve,
-    chord2,
     classify_cells,
     level_centers,
     near_pairs,
@@ -169,7 +144,7 @@ def _grow(lv: RasterizedCurve, level: int, seq: np.ndarray, start: np.ndarray):
         g, gk = seq[k], gc[k]
         through = bool(start[k])
         if not through:
-            c2 = chord2(level_centers(grid, level, active), gk)
+            c2 = chord2_between(level_centers(grid, level, active), gk)
             near = c2 < t_hi[active // w]
             state[active[~near]] = _INACTIVE
             if near.any():
@@ -189,7 +164,7 @@ def _grow(lv: RasterizedCurve, level: int, seq: np.ndarray, start: np.ndarray):
             nb = nb[stamp[nb] != k]
             if not through:
                 nb = nb[state[nb] != CONTAINED]
-            c2 = chord2(level_centers(grid, level, nb), gk)
+            c2 = chord2_between(level_centers(grid, level, nb), gk)
             ok = c2 < t_hi[nb // w]
             wave = nb[ok]
             stamp[wave] = k
@@ -278,7 +253,7 @@ def hierarchical(
     """
     stop = lv.grid.n_levels - 1 if stop_level is None else stop_level
     cells = RasterCells(lv)
-    classes, _ = driver.classify(cells, stop, callback=callback, timings=timings)
+    classes, _ = driver.classes_of_level(cells, stop, callback=callback, timings=timings)
     return classes, cells.method, cells.reason
 
 

@@ -182,5 +182,5 @@ def classify_curves(
     """
     cells = CurveCells(shape, d, grid, start=start)
     stop = grid.n_levels - 1 if stop_level is None else stop_level
-    classes, lev = driver.classify(cells, stop, callback=callback, timings=timings)
+    classes, lev = driver.classes_of_level(cells, stop, callback=callback, timings=timings)
     return classes, cells.kept(lev), cells.arcs

@@ -11,14 +11,9 @@ signed angular distance ``d`` (``e = |d|``), with the cell bound ``R`` (rho):
   the centre is outside with no ring edge within ``R``;
 * *frontier* otherwise. At the output level ``R = 0`` and every cell is decided.
 
-Only children of frontier cells are evaluated at the next level. Each frontier
-cell carries its candidate arcs: every arc whose bounding cap comes within
-``e + R`` of its centre (a superset of the arcs within ``e + R``). A child's list is
-its parent's list filtered again, which is complete because ``R_parent >=
-angle(child, parent) + R_child`` (see :mod:`gloffset.grids`). Inside/outside is
-carried per region component: a child's status is its parent's, toggled by the
-crossings of the short arc child -> parent with the parent's candidate ring edges
-(all crossing edges lie within ``R_parent``). Components are united.
+Only children of frontier cells are evaluated at the next level, each with its
+parent's candidate arcs filtered again (complete by the grids' bound ``R``), and the
+inside status carried from parent to child by crossings, per region component.
 
 Accuracy: distances are exact float64 point-to-arc distances (error < 1e-15 rad);
 decisions at ``R > 0`` use a slack of 1e-15 rad toward *frontier*, so a cell is
@@ -28,7 +23,7 @@ The GPU engine (:mod:`gloffset.gl.vector_pass`) takes over below the bin level w
 same rules. The classifier :class:`~gloffset.raster.vector.curves.CurveCells`, driven by
 :mod:`gloffset.raster.driver`, strings these operations into levels;
 :func:`gloffset.raster.vector.curves.classify_curves` run to the output level is the float64
-reference renderer.
+reference renderer. The derivation in full: ``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

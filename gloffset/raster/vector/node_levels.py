@@ -11,37 +11,15 @@ candidate list holds *nodes* of the decomposition's tree (:class:`NodeArcs`; the
 original edges are its leaves, with the indices of :class:`~gloffset.edges.CurveArcs`),
 each with ``err <= KAPPA * rho`` of the cell. The rules of
 :mod:`gloffset.raster.vector.levels` then hold with these bounds:
-
-* **Candidates.** A node is a candidate when its bounding cap grown by ``err`` (which
-  holds its whole run) comes within ``e + rho`` of the centre; a child's list is its
-  parent's, nodes with ``err > KAPPA * rho`` split into the two they replace. Every run
-  within ``e + rho`` of a cell is so represented.
-* **Classes.** With ``D`` the distance to the nearest candidate node and ``E`` the
-  largest ``err`` of the cell's nodes, the distance to the original arcs lies in
-  ``[D - E, D + E]``; the cell is decided by the rules of
-  :func:`~gloffset.raster.vector.levels.decide` with the bound ``rho + E``: only ever called
-  contained or outside when every descendant pixel is (more cells stay frontier than
-  with the original arcs, none is decided otherwise).
-* **Statuses** are those of the original polygons, exactly. A child's is its parent's
-  toggled by the crossings of the short arc child -> parent with the original ring
-  edges. For a node whose cap (grown by ``err``) comes near that arc: when both ends lie
-  farther than ``err`` from the node's arc, the run crosses it as often as the node's arc
-  does, modulo 2 (the closed loop of the run and the node's arc lies within ``err`` of
-  the node's arc, a disc-like set that neither end is in); otherwise the node is split
-  and its halves tested the same way, down to original edges where needed (whose test is
-  the one of :func:`~gloffset.raster.vector.levels.refine`, with its guard for a parent centre
-  on an edge).
-
-The last coarse level hands over with every node split into original edges
-(:func:`refine` with ``leaves=True``): from there on the levels are those of
-:mod:`gloffset.raster.vector.levels`, their lists complete (every original arc within reach
-of a cell; at most a few more arcs than the levels of original arcs keep, which no
-decision reads). A pyramid's pixels are therefore unchanged; tiles that the coarse
-bound leaves undecided are rendered and come out whole, as their decided class would
-have made them.
+candidate nodes whose caps, grown by ``err``, come within ``e + rho``; classes decided
+with the bound ``rho + E`` (``E`` the largest ``err`` of the cell's nodes), so a cell is
+only ever called contained or outside when every descendant pixel is; statuses those of
+the original polygons, exactly. The last coarse level hands over with every node split
+into original edges, so a pyramid's pixels are unchanged.
 
 Cost: the coarse levels' lists follow the cells' size, not the input: a few hundred
-nodes for a zoom-3 tile of every country instead of hundreds of thousands of arcs.
+nodes for a zoom-3 tile of every country instead of hundreds of thousands of arcs. The
+derivation in full: ``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations

@@ -7,21 +7,9 @@ hundreds of arcs. On grids whose rows are parallels and columns meridians
 (:class:`~gloffset.grids.base.LonLatGrid`: equirectangular, web mercator) a level
 ``L`` can instead be entered directly, in float64 and with the same rules:
 
-1. **Pairs.** Every arc's bounding cap (centre ``m``, radius ``h``) grown by the
-   row's reach ``R_j = max(e + rho_j, s_j)`` lies in a lon/lat box (the cap's
-   latitude band; its longitude half-width ``asin(sin r / cos lat)``, or every
-   column where the cap reaches a pole), so the cells whose centres can be within
-   reach are the rows and columns of that box, found by binary search on the row
-   latitudes and column longitudes (shifted by a turn for the antimeridian). The
-   pairs are then confirmed by the cap test ``c.m >= cos(R_j + h)``.
-2. **Inside status.** As for level 0 of the hierarchy: the first cell's by crossings
-   to the shape's reference point, every other cell's from its predecessor (the cell
-   to its left, or above for the first column) toggled by the crossings of the short
-   arc between their centres. An arc that crosses it comes within ``s_j`` (the
-   spacing of centres) of the cell centre, so it is among the cell's pairs.
-3. **Classes.** Exact distances to the pairs within ``e + rho_j`` (the cell's
-   candidate list, complete as in the hierarchy), then
-   :func:`gloffset.raster.vector.levels.decide`. Cells with no pair are decided by their status.
+each arc's cap scattered to the rows and columns of its lon/lat box (the pairs), the
+inside status carried from cell to cell by crossings, and the classes from exact
+distances to the pairs (:func:`gloffset.raster.vector.levels.decide`).
 
 The result is the level's classes and its :class:`~gloffset.raster.vector.levels.Frontier`,
 identical in meaning to what the hierarchy would have reached (a cell called
@@ -34,7 +22,8 @@ Cost: ``O(pairs)`` numpy work with a fixed number of calls. :func:`start_level`
 picks the finest level whose box enumeration stays within :data:`PAIRS_PER_ARC`
 pairs per arc (small offset distances; level 0 too, instead of the cap-tree queries
 of the hierarchy's first level); large distances, for which whole coarse cells are
-decided by distance, keep the hierarchy from level 0.
+decided by distance, keep the hierarchy from level 0. The derivation in full:
+``docs/design.md``, *Module notes*.
 """
 
 from __future__ import annotations
