@@ -57,6 +57,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import crossings
+from ..arrangement import candidate_pairs, components, cycles, split
 from ..caps import arc_cap
 from ..captree import CapTree
 from ..sphere import angle, arc_distance, arcs_cross, normalize, robust_cross
@@ -224,8 +225,7 @@ def _candidate_pairs(table: _RawArcs, live: _LiveArcs, ad: float):
     # their circles also meet near the antipode of the corner, out of reach of shorter edges
     short = np.minimum(edge_len[before], edge_len[after]) + 3.0 * ad < np.pi - 1e-2
     across[before[short]] = after[short]
-    tree = CapTree(live.cm[alive], live.cr[alive])
-    ia, ib = tree.self_pairs(MERGE_TOL)
+    _, ia, ib = candidate_pairs(live.cm[alive], live.cr[alive], MERGE_TOL)
     ga, gb = alive[ia], alive[ib]
     neighbours = (prev[ga] == gb) | (prev[gb] == ga) | (across[ga] == gb) | (across[gb] == ga)
     return ia[~neighbours], ib[~neighbours], (before, after, corner)
@@ -277,7 +277,7 @@ class _Events:
         ci, cj = _close_pairs(pts[used], MERGE_TOL)
         pi = [used[ci]] + self.same_i
         pj = [used[cj]] + self.same_j
-        lab = _components(
+        lab = components(
             len(pts), np.concatenate(pi).astype(np.int64), np.concatenate(pj).astype(np.int64)
         )
         return pts, ev_arc, ev_t, lab[ev_node]
@@ -353,12 +353,7 @@ def _crossing_events(events: _Events, table: _RawArcs, live: _LiveArcs, ia, ib) 
 def _split(ev_arc, ev_t, ev_node, cut_start, cut_end) -> _Pieces:
     """Step 5: the pieces of arcs between consecutive events, less those of zero length
     (both ends one node) and those past a concave corner's crossing."""
-    order = np.lexsort((ev_t, ev_arc))
-    ev_arc, ev_t, ev_node = ev_arc[order], ev_t[order], ev_node[order]
-    same = ev_arc[1:] == ev_arc[:-1]
-    p = _Pieces(
-        ev_arc[:-1][same], ev_t[:-1][same], ev_t[1:][same], ev_node[:-1][same], ev_node[1:][same]
-    )
+    p = _Pieces(*split(ev_arc, ev_t, ev_node))
     real = (p.n0 != p.n1) & (p.t0 < cut_end[p.arc]) & (p.t1 > cut_start[p.arc])
     return p.take(real)
 
@@ -396,10 +391,10 @@ def _close_rings(pieces: _Pieces, certain, table: _RawArcs, live: _LiveArcs, pts
     on open chains.
     """
     nxt = _link(live, pieces, pts)
-    cycles, open_pieces = _cycles(nxt)
+    closed, open_pieces = cycles(nxt)
     unlinked = int(np.count_nonzero(certain[open_pieces]))
     rings = []
-    for cyc in cycles:
+    for cyc in closed:
         if not certain[cyc].any():
             continue
         ring = _ring_from_pieces(table, live.alive, pts, pieces.take(cyc))
@@ -495,25 +490,6 @@ def _close_pairs(p: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
     if not out_i:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     return np.concatenate(out_i), np.concatenate(out_j)
-
-
-def _components(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
-    """Connected-component labels (the smallest member) of n items joined by pairs (i, j)."""
-    lab = np.arange(n, dtype=np.int64)
-    if len(i) == 0:
-        return lab
-    while True:
-        li, lj = lab[i], lab[j]
-        if np.array_equal(li, lj):
-            return lab
-        lo = np.minimum(li, lj)
-        np.minimum.at(lab, li, lo)
-        np.minimum.at(lab, lj, lo)
-        while True:  # pointer jumping to the roots
-            nxt = lab[lab]
-            if np.array_equal(nxt, lab):
-                break
-            lab = nxt
 
 
 def _corners(kind, src, prev, nxt):
@@ -687,38 +663,6 @@ def _prune_dangling(n0, n1):
             break
         idx = idx[ok]
     return idx
-
-
-def _cycles(nxt):
-    """Closed cycles of the successor map, and the indices of pieces left on open chains."""
-    m = len(nxt)
-    seen = np.zeros(m, dtype=bool)
-    cycles = []
-    # pieces that nothing leads to start open chains: mark them first
-    has_pred = np.zeros(m, dtype=bool)
-    has_pred[nxt[nxt >= 0]] = True
-    unlinked = []
-    nl = nxt.tolist()
-    for s in np.flatnonzero(~has_pred).tolist():
-        e = s
-        while e >= 0 and not seen[e]:
-            seen[e] = True
-            unlinked.append(e)
-            e = nl[e]
-    for s in range(m):
-        if seen[s]:
-            continue
-        path = []
-        e = s
-        while e >= 0 and not seen[e]:
-            seen[e] = True
-            path.append(e)
-            e = nl[e]
-        if e == s:
-            cycles.append(np.array(path, dtype=np.int64))
-        else:
-            unlinked.extend(path)
-    return cycles, np.array(unlinked, dtype=np.int64)
 
 
 def _ring_from_pieces(table: _RawArcs, alive, pts, pieces: _Pieces):
