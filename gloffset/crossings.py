@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sphere import angle, crossing_rule, dot, normalize, robust_cross
+from .caps import arc_cap
+from .sphere import crossing_rule, dot, robust_cross
 
 __all__ = ["crossings", "group_parity", "inside", "inside_indexed"]
 
@@ -201,4 +202,4 @@ def _ring_edges(shape):
     order = np.flatnonzero(e.group >= 0)
     order = order[np.argsort(e.group[order], kind="stable")]
     a, b = e.a[order], e.b[order]
-    return a, b, e.group[order], CapTree(normalize(a + b), 0.5 * angle(a, b))
+    return a, b, e.group[order], CapTree(*arc_cap(a, b))
