@@ -73,10 +73,25 @@ class CurveArcs:
 
     @cached_property
     def tree(self):
-        """The bounding-cap tree over the arcs (built once)."""
+        """The bounding-cap tree over the arcs (built once), each arc's start ``a`` its
+        point for early answers (:meth:`gloffset.captree.CapTree.near` with ``stop``)."""
         from .captree import CapTree
 
-        return CapTree(self.mid, self.half)
+        return CapTree(self.mid, self.half, reps=self.a)
+
+    @cached_property
+    def ring(self) -> np.ndarray:
+        """Indices of the ring edges (seams included; line segments and points left out)."""
+        return np.flatnonzero(self.group >= 0)
+
+    @cached_property
+    def ring_tree(self):
+        """The bounding-cap tree over the ring edges :attr:`ring` (built once): item ``k``
+        is arc ``ring[k]``. What the inside tests by crossing parity and the checks of
+        crossing or overlapping rings search."""
+        from .captree import CapTree
+
+        return CapTree(self.mid[self.ring], self.half[self.ring])
 
     @cached_property
     def end_samples(self) -> list[np.ndarray]:

@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -60,6 +61,9 @@ from .sphere import (
     normalize,
     robust_cross,
 )
+
+if TYPE_CHECKING:
+    from .edges import CurveArcs
 
 __all__ = ["Shape", "Edges", "read"]
 
@@ -221,6 +225,13 @@ class Shape:
                 np.concatenate(g).astype(np.int64),
             )
         return self._edges
+
+    def arcs(self) -> CurveArcs:
+        """The edges as arcs with their normals, bounding caps and cap trees: the one edge
+        index of the shape (:class:`gloffset.edges.CurveArcs`, made once)."""
+        from .edges import CurveArcs
+
+        return CurveArcs.from_shape(self)
 
     def reference_points(self) -> tuple[np.ndarray, np.ndarray]:
         """Two points and whether each lies inside each region component.
@@ -611,15 +622,13 @@ def _overlapping_components(shape: Shape) -> np.ndarray:
     pairs: set = set()
     if shape.n_groups < 2:
         return np.zeros((0, 2), dtype=np.int64)
-    from .captree import CapTree
-    from .edges import CurveArcs, component_status
+    from .edges import component_status
     from .sphere import orient
 
-    e = shape.edges()
-    ring = np.flatnonzero(e.group >= 0)
-    a, b, g = e.a[ring], e.b[ring], e.group[ring]
-    tree = CapTree(*arc_cap(a, b))
-    i, j = tree.self_pairs()
+    arcs = shape.arcs()
+    ring = arcs.ring
+    a, b, g = arcs.a[ring], arcs.b[ring], arcs.group[ring]
+    i, j = arcs.ring_tree.self_pairs()
     other = g[i] != g[j]
     i, j = i[other], j[other]
     if len(i):
@@ -637,9 +646,9 @@ def _overlapping_components(shape: Shape) -> np.ndarray:
     # nesting: a vertex of one component strictly inside another
     first = np.array([np.flatnonzero(g == k)[0] for k in range(shape.n_groups)])
     p = a[first]
-    status = np.unpackbits(
-        component_status(shape, CurveArcs.from_shape(shape), p), axis=1, bitorder="little"
-    )[:, : shape.n_groups].astype(bool)
+    status = np.unpackbits(component_status(shape, arcs, p), axis=1, bitorder="little")[
+        :, : shape.n_groups
+    ].astype(bool)
     status[np.arange(shape.n_groups), np.arange(shape.n_groups)] = False
     for k in np.flatnonzero(status.any(axis=1)):
         for m in np.flatnonzero(status[k]):

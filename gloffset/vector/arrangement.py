@@ -58,9 +58,7 @@ import numpy as np
 
 from .. import crossings
 from ..arrangement import candidate_pairs, components, cycles, split
-from ..caps import arc_cap
-from ..captree import CapTree
-from ..sphere import angle, arc_distance, arcs_cross, normalize, robust_cross
+from ..sphere import angle, arc_distance, arcs_cross, normalize
 from .arcrings import OffsetRing
 from .resolved import ResolvedOffset
 from .smallcircle import MERGE_TOL, CircleArcs, circle_of, intersect, point_at, position
@@ -410,10 +408,8 @@ class _Generators:
     """The shape's vertices and edges with a cap hierarchy, for "is a curve closer than t"."""
 
     def __init__(self, shape):
-        e = shape.edges()
-        self.a, self.b = e.a, e.b
-        self.n = normalize(robust_cross(self.a, self.b))
-        self.tree = CapTree(*arc_cap(self.a, self.b), reps=self.a)
+        arcs = shape.arcs()
+        self.a, self.b, self.n, self.tree = arcs.a, arcs.b, arcs.n, arcs.tree
 
     def closer_than(self, p: np.ndarray, thr: np.ndarray) -> np.ndarray:
         """Whether some point of the curves lies closer than ``thr`` to each ``p``.
@@ -548,10 +544,9 @@ def defects(shape) -> tuple[bool, bool]:
 
 def _find_defects(shape) -> tuple[bool, bool]:
     """:func:`defects`, computed."""
-    e = shape.edges()
-    ring = np.flatnonzero(e.group >= 0)
-    a, b = e.a[ring], e.b[ring]
-    ia, ib = CapTree(*arc_cap(a, b)).self_pairs()
+    arcs = shape.arcs()
+    a, b = arcs.a[arcs.ring], arcs.b[arcs.ring]
+    ia, ib = arcs.ring_tree.self_pairs()
     # edges that share an end point only touch there
     shared = (
         np.all(a[ia] == a[ib], axis=1)
