@@ -255,7 +255,9 @@ def _style(q) -> TileStyle:
 def _bounds(shape) -> tuple[float, float, float, float]:
     """West, south, east, north of the layer's vertices (latitudes clipped to web
     mercator's), kept on the shape."""
-    return shape.cached("serve.bounds", lambda: _vertex_bounds(shape))
+    if shape.derived.serve_bounds is None:
+        shape.derived.serve_bounds = _vertex_bounds(shape)
+    return shape.derived.serve_bounds
 
 
 def _vertex_bounds(shape) -> tuple[float, float, float, float]:
@@ -278,7 +280,9 @@ def _vertex_bounds(shape) -> tuple[float, float, float, float]:
 
 def _geojson_bytes(shape) -> bytes:
     """The layer's input as GeoJSON bytes, made once and kept on the shape."""
-    return shape.cached("serve.geojson", lambda: json.dumps(shape.to_geojson()).encode())
+    if shape.derived.serve_geojson is None:
+        shape.derived.serve_geojson = json.dumps(shape.to_geojson()).encode()
+    return shape.derived.serve_geojson
 
 
 def _distance_inside(shape, lon: float, lat: float) -> tuple[float, bool]:

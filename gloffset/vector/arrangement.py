@@ -85,7 +85,7 @@ def resolve_general(off, raw, from_line) -> ResolvedOffset:
     if not raw:
         return ResolvedOffset(d, "general", [], np.zeros(0, bool), [], 0, shape)
     table = _RawArcs.of(raw)
-    gens = shape.cached("arrangement.generators", lambda: _Generators(shape))
+    gens = _Generators(shape)
     live = _prune(table, gens, d)
     if live is None:
         return ResolvedOffset(d, "general", [], np.zeros(0, bool), [], 0, shape)
@@ -538,8 +538,10 @@ def _side_ok(shape, d, mid, from_line):
 
 def defects(shape) -> tuple[bool, bool]:
     """Whether edges of the shape's rings cross (self-intersecting input), and whether
-    a region component lies inside another (overlapping parts). Cached on the shape."""
-    return shape.cached("arrangement.defects", lambda: _find_defects(shape))
+    a region component lies inside another (overlapping parts). Kept on the shape."""
+    if shape.derived.defects is None:
+        shape.derived.defects = _find_defects(shape)
+    return shape.derived.defects
 
 
 def _find_defects(shape) -> tuple[bool, bool]:
