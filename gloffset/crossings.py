@@ -11,8 +11,9 @@ rule (a point on a great circle counts as on its left), so an arc through a shar
 vertex is counted once.
 
 :func:`inside` tests every point against every edge (the reference does that);
-:func:`inside_indexed` gives the same answers for points off the boundary through a cap
-tree of the edges, testing only the edges near each point's arc (for the many points of
+:func:`inside_indexed` gives the same answers for points off the boundary through the cap
+tree of the shape's ring edges (:attr:`gloffset.edges.CurveArcs.ring_tree`, reached
+through the shape), testing only the edges near each point's arc (for the many points of
 a large shape); on the boundary both are decided by rounding.
 """
 
@@ -20,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sphere import angle, crossing_rule, dot, normalize, robust_cross
+from .sphere import crossing_rule, dot, robust_cross
 
 __all__ = ["crossings", "group_parity", "inside", "inside_indexed"]
 
@@ -113,15 +114,17 @@ def inside_indexed(shape, p, *, groups=None, skip=None, anchors: int = 0) -> np.
     skip = np.full(len(p), -1, np.int64) if skip is None else np.asarray(skip, np.int64)
     n_groups = shape.n_groups
     present = np.zeros(n_groups, dtype=bool)
-    present[_ring_edges_of(shape)[2]] = True
+    arcs = shape.arcs()
+    present[arcs.group[arcs.ring]] = True
     if groups is not None:
         keep = np.zeros(n_groups, dtype=bool)
         keep[np.asarray(groups, dtype=np.int64)] = True
         present &= keep
     if anchors > 0:
-        starts, state = shape.cached(
-            f"crossings.anchors.{anchors}", lambda: _anchors(shape, anchors)
-        )
+        cache = shape.derived.anchors
+        if anchors not in cache:
+            cache[anchors] = _anchors(shape, anchors)
+        starts, state = cache[anchors]
     else:
         starts, state = shape.reference_points()
     # inside a component: its status at the start point, flipped by odd crossings
@@ -155,9 +158,11 @@ def _start_of(p, starts, nearest: bool) -> np.ndarray:
 def _odd_crossings(shape, p, r) -> tuple[np.ndarray, np.ndarray]:
     """``(point, component)`` pairs whose edges the arcs ``p[i] -> r[i]`` cross an odd
     number of times (the predicate of :func:`crossings`, on the edges near each arc)."""
-    a, b, grp, tree = _ring_edges_of(shape)
+    arcs = shape.arcs()
+    a, b, grp = arcs.a, arcs.b, arcs.group
     n_groups = shape.n_groups
-    si, ei = tree.along(p, r)
+    si, ei = arcs.ring_tree.along(p, r)
+    ei = arcs.ring[ei]
     if len(si) == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     pr = np.cross(p, r)[si]
@@ -187,18 +192,3 @@ def _anchors(shape, n: int) -> tuple[np.ndarray, np.ndarray]:
     qi, gi = _odd_crossings(shape, pts, refs[k])
     state[qi, gi] ^= True
     return pts, state
-
-
-def _ring_edges_of(shape):
-    return shape.cached("crossings.ring_edges", lambda: _ring_edges(shape))
-
-
-def _ring_edges(shape):
-    """The ring edges in component order and a cap tree over them (for :func:`inside_indexed`)."""
-    from .captree import CapTree
-
-    e = shape.edges()
-    order = np.flatnonzero(e.group >= 0)
-    order = order[np.argsort(e.group[order], kind="stable")]
-    a, b = e.a[order], e.b[order]
-    return a, b, e.group[order], CapTree(normalize(a + b), 0.5 * angle(a, b))

@@ -3,10 +3,14 @@
 :class:`CurveArcs` holds every edge of a :class:`~gloffset.shape.Shape` (ring edges,
 seams, line segments, points) as an arc ``a -> b`` with its unit normal, its bounding cap
 (padded: :func:`gloffset.caps.arc_cap`, :func:`gloffset.caps.pad`), whether it is
-boundary (has distance; seams do not) and its region component. It is made once per
-shape (kept in the shape's cache) and shared by the raster engine, the GPU records and
-the shape's own checks. :func:`component_status` tells, for a few points, which region
-components contain them, by exact crossing parity to the shape's reference points.
+boundary (has distance; seams do not) and its region component, and the cap trees over
+them (:attr:`CurveArcs.tree` over every arc, :attr:`CurveArcs.ring_tree` over the ring
+edges). It is the shape's one edge index: made once per shape (:meth:`Shape.arcs
+<gloffset.shape.Shape.arcs>`, kept in :class:`~gloffset.shape.Derived`) and shared by the
+raster engine, the GPU records, the inside tests by crossing parity, the offsets'
+self-intersection removal and the shape's own checks. :func:`component_status` tells,
+for a few points, which region components contain them, by exact crossing parity to the
+shape's reference points.
 :func:`distance_xyz` is the exact distance from points to the shape's curves (the
 nearest vertex bounds it, the cap tree of the arcs finds the only arcs that can be
 nearer), and :func:`contains_xyz` the offset region's membership from it: what
@@ -73,10 +77,25 @@ class CurveArcs:
 
     @cached_property
     def tree(self):
-        """The bounding-cap tree over the arcs (built once)."""
+        """The bounding-cap tree over the arcs (built once), each arc's start ``a`` its
+        point for early answers (:meth:`gloffset.captree.CapTree.near` with ``stop``)."""
         from .captree import CapTree
 
-        return CapTree(self.mid, self.half)
+        return CapTree(self.mid, self.half, reps=self.a)
+
+    @cached_property
+    def ring(self) -> np.ndarray:
+        """Indices of the ring edges (seams included; line segments and points left out)."""
+        return np.flatnonzero(self.group >= 0)
+
+    @cached_property
+    def ring_tree(self):
+        """The bounding-cap tree over the ring edges :attr:`ring` (built once): item ``k``
+        is arc ``ring[k]``. What the inside tests by crossing parity and the checks of
+        crossing or overlapping rings search."""
+        from .captree import CapTree
+
+        return CapTree(self.mid[self.ring], self.half[self.ring])
 
     @cached_property
     def end_samples(self) -> list[np.ndarray]:
@@ -106,7 +125,9 @@ class CurveArcs:
     @classmethod
     def from_shape(cls, shape) -> CurveArcs:
         """The arcs of ``shape`` (made once per shape and kept on it, like its edges)."""
-        return shape.cached("edges.arcs", lambda: cls._make(shape))
+        if shape.derived.arcs is None:
+            shape.derived.arcs = cls._make(shape)
+        return shape.derived.arcs
 
     @classmethod
     def _make(cls, shape) -> CurveArcs:
@@ -144,11 +165,12 @@ def points_inside(shape, p: np.ndarray) -> np.ndarray:
 def _boundary_vertices(shape, arcs: CurveArcs) -> np.ndarray:
     """The distinct ends of the boundary arcs (seams left out), made once per shape."""
 
-    def make():
+    if shape.derived.boundary_vertices is None:
         bd = arcs.boundary
-        return np.unique(np.concatenate([arcs.a[bd], arcs.b[bd]]), axis=0)
-
-    return shape.cached("edges.boundary_vertices", make)
+        shape.derived.boundary_vertices = np.unique(
+            np.concatenate([arcs.a[bd], arcs.b[bd]]), axis=0
+        )
+    return shape.derived.boundary_vertices
 
 
 def distance_xyz(shape, p: np.ndarray) -> np.ndarray:

@@ -171,7 +171,10 @@ class Conformal:
 
 def conformal(shape, ell) -> Conformal:
     """The shape's :class:`Conformal` image for ``ell``, made once per shape."""
-    return shape.cached(f"ellipsoidal.{ell.a!r}.{ell.f!r}", lambda: Conformal(shape, ell))
+    cache = shape.derived.conformal
+    if (ell.a, ell.f) not in cache:
+        cache[ell.a, ell.f] = Conformal(shape, ell)
+    return cache[ell.a, ell.f]
 
 
 # ---------------------------------------------------------------------- distance

@@ -115,7 +115,9 @@ def inside_xyz(shape, p: np.ndarray) -> np.ndarray:
     out = np.zeros(len(p), dtype=bool)
     if shape.n_groups == 0 or len(p) == 0:
         return out
-    a, b, n, present, starts = shape.cached("reference.rings", lambda: _ring_edges(shape))
+    if shape.derived.reference_rings is None:
+        shape.derived.reference_rings = _ring_edges(shape)
+    a, b, n, present, starts = shape.derived.reference_rings
     refs, status = shape.reference_points()
     ref_side = refs @ n.T  # (2, edges)
     which = (p @ refs[0] < -0.5).astype(np.int64)
@@ -144,7 +146,9 @@ class _EdgeIndex:
 
 
 def _index(shape) -> _EdgeIndex:
-    return shape.cached("reference.index", lambda: _EdgeIndex(shape))
+    if shape.derived.reference_index is None:
+        shape.derived.reference_index = _EdgeIndex(shape)
+    return shape.derived.reference_index
 
 
 def distance_xyz(shape, p: np.ndarray) -> np.ndarray:
@@ -441,9 +445,10 @@ def geodesic_inside(shape, lon, lat, ellipsoid) -> np.ndarray:
     geod = _geod(ellipsoid)
     if not shape.rings:
         return np.zeros(len(lon), dtype=bool)
-    dense = shape.cached(
-        f"reference.geodesic_dense.{geod.a!r}.{geod.f!r}", lambda: _densified(shape, geod)
-    )
+    cache = shape.derived.reference_geodesic
+    if (geod.a, geod.f) not in cache:
+        cache[geod.a, geod.f] = _densified(shape, geod)
+    dense = cache[geod.a, geod.f]
     return inside_xyz(dense, lonlat_to_xyz(lon, lat))
 
 

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .arrangement import candidate_pairs, components, cycles, split
 from .caps import arc_cap, cap_within, pad
 from .errors import InvalidGeometryError
 from .sphere import (
@@ -60,25 +61,6 @@ class Boundary:
     groups: np.ndarray
     holes: np.ndarray
     labels: list
-
-
-class _UnionFind:
-    def __init__(self, n: int):
-        self.parent = np.arange(n)
-
-    def find(self, x: int) -> int:
-        p = self.parent
-        root = x
-        while p[root] != root:
-            root = p[root]
-        while p[x] != root:
-            p[x], x = root, p[x]
-        return int(root)
-
-    def union(self, x: int, y: int) -> None:
-        rx, ry = self.find(x), self.find(y)
-        if rx != ry:
-            self.parent[max(rx, ry)] = min(rx, ry)
 
 
 def left_area(ring: np.ndarray) -> float:
@@ -115,14 +97,12 @@ def _crosses_itself(rings) -> bool:
     Such a polygon (a bowtie) has no consistent "interior on the left" and goes through
     the union, which reads it by crossing parity.
     """
-    from .captree import CapTree
-
     sizes = np.array([len(r) for r in rings])
     starts = np.repeat(np.concatenate([[0], np.cumsum(sizes)[:-1]]), sizes)
     pos = np.arange(sizes.sum()) - starts
     a = np.concatenate(rings).astype(np.float64)
     b = a[starts + (pos + 1) % np.repeat(sizes, sizes)]
-    i, j = CapTree(*arc_cap(a, b)).self_pairs(slack=2 * TOL)
+    _, i, j = candidate_pairs(*arc_cap(a, b), slack=2 * TOL)
     if len(i) == 0:
         return False
     return bool(_proper_crossings(a, b, normalize(robust_cross(a, b)), i, j).any())
@@ -205,19 +185,14 @@ class _Union:
         close = (d > 0.0) & (d <= TOL)
         if not close.any():
             return False
-        uf = _UnionFind(len(v))
-        for x, y in zip(pa[close].tolist(), pb[close].tolist()):
-            uf.union(x, y)
-        for x in np.unique(np.concatenate([pa[close], pb[close]])).tolist():
-            self.v[x] = self.v[uf.find(x)]
+        root = components(len(v), pa[close], pb[close])
+        moved = np.unique(np.concatenate([pa[close], pb[close]]))
+        self.v[moved] = self.v[root[moved]]
         return True
 
     def _pairs(self):
-        from .captree import CapTree
-
         a, b = self.v, self.v[self.nxt]
-        self.tree = CapTree(*arc_cap(a, b))
-        i, j = self.tree.self_pairs(slack=2 * TOL)
+        self.tree, i, j = candidate_pairs(*arc_cap(a, b), slack=2 * TOL)
         return i, j
 
     # ------------------------------------------------------------------ run
@@ -227,7 +202,7 @@ class _Union:
             i, j = self._pairs()
         other = self.comp[i] != self.comp[j]
         self._pairs_other = (i[other], j[other])
-        self.uf = _UnionFind(self.n_comp)
+        self.meets = []  # pairs of polygons that touch, joined into one component
         splits = self._intersections(i, j)
         pieces = self._split(splits)
         keep, excl = self._cancel(pieces)
@@ -291,8 +266,7 @@ class _Union:
         ca = self.comp[np.concatenate(meet_a)]
         cb = self.comp[np.concatenate(meet_b)]
         diff = ca != cb
-        for x_, y_ in set(zip(ca[diff].tolist(), cb[diff].tolist())):
-            self.uf.union(x_, y_)
+        self.meets.append((ca[diff], cb[diff]))
         return np.concatenate(out_e), np.concatenate(out_p)
 
     def _split(self, splits):
@@ -300,28 +274,20 @@ class _Union:
         e_all, p_all = splits
         m = len(self.nxt)
         v = self.v
-        if len(e_all):
-            t = angle(v[e_all], v[p_all])
-            order = np.lexsort((t, e_all))
-            e_all, p_all = e_all[order], p_all[order]
-            # the same point reached twice on one edge (two pairs agree) counts once
-            dup = np.zeros(len(e_all), bool)
-            dup[1:] = (e_all[1:] == e_all[:-1]) & (v[p_all[1:]] == v[p_all[:-1]]).all(axis=1)
-            e_all, p_all = e_all[~dup], p_all[~dup]
+        t = angle(v[e_all], v[p_all])
+        order = np.lexsort((t, e_all))
+        e_all, p_all, t = e_all[order], p_all[order], t[order]
+        # the same point reached twice on one edge (two pairs agree) counts once
+        dup = np.zeros(len(e_all), bool)
+        dup[1:] = (e_all[1:] == e_all[:-1]) & (v[p_all[1:]] == v[p_all[:-1]]).all(axis=1)
+        e_all, p_all, t = e_all[~dup], p_all[~dup], t[~dup]
         # a chain per edge: start, split points in order, end
-        cnt = np.bincount(e_all, minlength=m)
-        total = m + len(e_all)
-        seq = np.empty(total, np.int64)  # vertex indices, edge by edge
-        first = np.concatenate([[0], np.cumsum(cnt + 1)[:-1]])
-        seq[first] = np.arange(m)
-        rank = np.arange(len(e_all)) - np.repeat(np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt)
-        seq[first[e_all] + 1 + rank] = p_all
-        piece_edge = np.repeat(np.arange(m), cnt + 1)
-        nxt_seq = np.empty(total, np.int64)
-        nxt_seq[:-1] = seq[1:]
-        last = first + cnt  # the last piece of each edge ends at the edge's end vertex
-        nxt_seq[last] = self.nxt
-        start, end = seq, nxt_seq
+        edges = np.arange(m)
+        piece_edge, _, _, start, end = split(
+            np.concatenate([e_all, edges, edges]),
+            np.concatenate([t, np.full(m, -1.0), np.full(m, np.inf)]),
+            np.concatenate([p_all, edges, self.nxt]),
+        )
         ok = ~(v[start] == v[end]).all(axis=1)
         return {"start": start[ok], "end": end[ok], "edge": piece_edge[ok]}
 
@@ -597,24 +563,12 @@ class _Union:
                     "cannot unite the polygons: their borders touch in a way that leaves "
                     "the union's boundary ambiguous"
                 )
-        seen = np.zeros(k, bool)
         rings, seams, groups, holes, labels = [], [], [], [], []
-        for s0 in range(k):
-            if seen[s0]:
-                continue
-            cyc = [s0]
-            seen[s0] = True
-            p = nxt[s0]
-            while p != s0:
-                cyc.append(p)
-                seen[p] = True
-                p = nxt[p]
-            cyc = np.asarray(cyc)
+        for cyc in cycles(nxt)[0]:  # every piece is on one (nxt is a permutation)
             if len(cyc) < 3:
                 continue
             comps = np.unique(self.comp[edge[cyc]])
-            for c in comps[1:].tolist():
-                self.uf.union(int(comps[0]), c)
+            self.meets.append((np.full(len(comps) - 1, comps[0]), comps[1:]))
             ring = v[start[cyc]]
             rings.append(ring)
             seams.append(self.seam[edge[cyc]])
@@ -622,7 +576,8 @@ class _Union:
             holes.append(left_area(ring) > 2.0 * np.pi)
             names = dict.fromkeys(self.labels[r] for r in self.ring_of[edge[cyc]].tolist())
             labels.append(" + ".join(names))
-        groups = np.array([self.uf.find(g) for g in groups], dtype=np.int64)
+        root = components(self.n_comp, *(np.concatenate(x) for x in zip(*self.meets)))
+        groups = root[np.array(groups, dtype=np.int64)]
         _, groups = np.unique(groups, return_inverse=True)
         return Boundary(rings, seams, groups.astype(np.int64), np.array(holes, bool), labels)
 

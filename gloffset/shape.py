@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -49,7 +50,10 @@ from .sphere import (
     robust_cross,
 )
 
-__all__ = ["Shape", "Edges", "read"]
+if TYPE_CHECKING:
+    from .edges import CurveArcs
+
+__all__ = ["Shape", "Derived", "Edges", "read"]
 
 # Two reference points with a known inside/outside status per region component;
 # a query uses the first unless it is nearly antipodal to it.
@@ -83,6 +87,56 @@ class Edges:
 
     def __len__(self) -> int:
         return len(self.a)
+
+
+@dataclass(eq=False)
+class Derived:
+    """What is derived from a shape and kept for its life: one named slot per index, each
+    filled on first use by the one module that owns it (named per slot), never by another.
+
+    Shapes are not changed after construction, so nothing here goes stale. A pickled shape
+    leaves all of it out (:meth:`Shape.__getstate__`): it is rebuilt where needed, and a
+    shape sent to worker processes stays the size of its input. Slots of types from upper
+    layers are typed ``Any`` (this layer does not import them); their owners say the type.
+    """
+
+    #: :class:`gloffset.edges.CurveArcs` (``CurveArcs.from_shape``): the edge index.
+    arcs: Any = None
+    #: The distinct ends of the boundary arcs (:func:`gloffset.edges.distance_xyz`).
+    boundary_vertices: np.ndarray | None = None
+    #: Anchor points and their component statuses, by count
+    #: (:func:`gloffset.crossings.inside_indexed`).
+    anchors: dict = field(default_factory=dict)
+    #: The judge's ring edges, its edge index and its densified geodesic rings by
+    #: ``(a, f)`` (:mod:`gloffset.reference`, which shares nothing with the others).
+    reference_rings: tuple | None = None
+    reference_index: Any = None
+    reference_geodesic: dict = field(default_factory=dict)
+    #: Crossing and overlapping rings (:func:`gloffset.vector.arrangement.defects`).
+    defects: tuple[bool, bool] | None = None
+    #: The exhaustive multiresolution decomposition (:mod:`gloffset.vector.multires`).
+    exhaust: Any = None
+    #: The inside test's arcs (:mod:`gloffset.index.contains`).
+    contains_arcs: Any = None
+    #: The inside test's indexes, by ``(distance, level)`` (:mod:`gloffset.index.contains`).
+    contains_indexes: dict = field(default_factory=dict)
+    #: The shape on an ellipsoid's conformal sphere, by ``(a, f)``
+    #: (:mod:`gloffset.ellipsoidal`).
+    conformal: dict = field(default_factory=dict)
+    #: The multiresolution arcs of a pyramid's coarse levels
+    #: (:mod:`gloffset.raster.vector.node_levels`).
+    node_arcs: Any = None
+    #: The least distance from the reference points to the ring edges
+    #: (:mod:`gloffset.raster.simplified`).
+    ref_clearance: float | None = None
+    #: The curves simplified to a tolerance, by tolerance, None where that does not pay
+    #: (:mod:`gloffset.raster.simplified`).
+    simplified: dict = field(default_factory=dict)
+    #: The boxes of the region at each distance the tile server reported, by distance
+    #: (:mod:`gloffset.serve.bounds`).
+    serve_bounds: dict = field(default_factory=dict)
+    #: The shape as GeoJSON bytes, for the tile server's page (:mod:`gloffset.serve.app`).
+    serve_geojson: bytes | None = None
 
 
 @dataclass
@@ -126,25 +180,15 @@ class Shape:
         self._edges: Edges | None = None
         self._ref_status: np.ndarray | None = None
         self._overlap: bool | None = None
-        self._cache: dict = {}
+        #: what other modules derive from the shape (:class:`Derived`)
+        self.derived = Derived()
 
     def __getstate__(self):
-        # what was derived from the shape (``cached``) is left out of a pickle: it is
-        # rebuilt where needed, and a shape sent to worker processes stays the size
-        # of its input
+        # what was derived from the shape is left out of a pickle: it is rebuilt where
+        # needed, and a shape sent to worker processes stays the size of its input
         state = dict(self.__dict__)
-        state["_cache"] = {}
+        state["derived"] = Derived()
         return state
-
-    def cached(self, key: str, make):
-        """The one place where other modules keep what they derive from a shape.
-
-        ``make()`` is called the first time ``key`` is asked for; its result is kept
-        for the shape's life (shapes are not changed after construction).
-        """
-        if key not in self._cache:
-            self._cache[key] = make()
-        return self._cache[key]
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -209,6 +253,13 @@ class Shape:
                 np.concatenate(g).astype(np.int64),
             )
         return self._edges
+
+    def arcs(self) -> CurveArcs:
+        """The edges as arcs with their normals, bounding caps and cap trees: the one edge
+        index of the shape (:class:`gloffset.edges.CurveArcs`, made once)."""
+        from .edges import CurveArcs
+
+        return CurveArcs.from_shape(self)
 
     def reference_points(self) -> tuple[np.ndarray, np.ndarray]:
         """Two points and whether each lies inside each region component.
@@ -599,15 +650,13 @@ def _overlapping_components(shape: Shape) -> np.ndarray:
     pairs: set = set()
     if shape.n_groups < 2:
         return np.zeros((0, 2), dtype=np.int64)
-    from .captree import CapTree
-    from .edges import CurveArcs, component_status
+    from .edges import component_status
     from .sphere import orient
 
-    e = shape.edges()
-    ring = np.flatnonzero(e.group >= 0)
-    a, b, g = e.a[ring], e.b[ring], e.group[ring]
-    tree = CapTree(*arc_cap(a, b))
-    i, j = tree.self_pairs()
+    arcs = shape.arcs()
+    ring = arcs.ring
+    a, b, g = arcs.a[ring], arcs.b[ring], arcs.group[ring]
+    i, j = arcs.ring_tree.self_pairs()
     other = g[i] != g[j]
     i, j = i[other], j[other]
     if len(i):
@@ -625,9 +674,9 @@ def _overlapping_components(shape: Shape) -> np.ndarray:
     # nesting: a vertex of one component strictly inside another
     first = np.array([np.flatnonzero(g == k)[0] for k in range(shape.n_groups)])
     p = a[first]
-    status = np.unpackbits(
-        component_status(shape, CurveArcs.from_shape(shape), p), axis=1, bitorder="little"
-    )[:, : shape.n_groups].astype(bool)
+    status = np.unpackbits(component_status(shape, arcs, p), axis=1, bitorder="little")[
+        :, : shape.n_groups
+    ].astype(bool)
     status[np.arange(shape.n_groups), np.arange(shape.n_groups)] = False
     for k in np.flatnonzero(status.any(axis=1)):
         for m in np.flatnonzero(status[k]):

@@ -176,7 +176,7 @@ def test_index_api_and_cache(world):
     s = gloffset.read(world["Italy"])
     lon, lat = box(s, 3000, seed=10)
     a = gloffset.contains(s, lon, lat, distance=50e3)
-    cache = s.cached("contains.indexes", dict)
+    cache = s.derived.contains_indexes
     ix = cache[(50e3 / gloffset.EARTH_RADIUS, None)]
     b = gloffset.contains(s, lon[:10], lat[:10], distance=50e3)
     assert cache[(50e3 / gloffset.EARTH_RADIUS, None)] is ix  # reused

@@ -166,3 +166,31 @@ def test_to_geojson_round_trip(world, name):
     lon = np.random.default_rng(0).uniform(-180, 180, 20000)
     lat = np.degrees(np.arcsin(np.random.default_rng(1).uniform(-1, 1, 20000)))
     assert np.array_equal(gloffset.contains(s, lon, lat), gloffset.contains(again, lon, lat))
+
+
+def test_one_edge_index_kept_on_the_shape_and_left_out_of_a_pickle(world):
+    import pickle
+
+    from gloffset import crossings
+    from gloffset.edges import CurveArcs, distance_xyz
+    from gloffset.vector.arrangement import defects
+
+    s = gloffset.read(world["France"])
+    rng = np.random.default_rng(3)
+    p = rng.normal(size=(400, 3))
+    p /= np.linalg.norm(p, axis=1)[:, None]
+    # the inside tests, the distance, the overlap and defect checks share one edge index
+    arcs = s.arcs()
+    assert CurveArcs.from_shape(s) is arcs and s.derived.arcs is arcs
+    assert np.array_equal(arcs.ring, np.flatnonzero(s.edges().group >= 0))
+    assert np.array_equal(crossings.inside_indexed(s, p), crossings.inside(s, p))
+    assert np.array_equal(crossings.inside_indexed(s, p, anchors=64), crossings.inside(s, p))
+    assert len(s.overlapping_components()) == 0 and defects(s) == (False, False)
+    assert np.all(distance_xyz(s, p) >= 0.0)
+    assert s.arcs() is arcs and s.derived.defects == (False, False) and 64 in s.derived.anchors
+    # what is derived is left out of a pickle, and rebuilt the same
+    back = pickle.loads(pickle.dumps(s))
+    assert back.derived.arcs is None and not back.derived.anchors and back.derived.defects is None
+    assert len(pickle.dumps(s)) == len(pickle.dumps(back))
+    assert np.array_equal(crossings.inside_indexed(back, p, anchors=64), crossings.inside(s, p))
+    assert s.derived.arcs is arcs  # the original keeps its own

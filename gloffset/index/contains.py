@@ -192,7 +192,9 @@ class _Arcs:
 
 
 def _arcs(shape) -> _Arcs:
-    return shape.cached("contains.arcs", lambda: _Arcs(shape))
+    if shape.derived.contains_arcs is None:
+        shape.derived.contains_arcs = _Arcs(shape)
+    return shape.derived.contains_arcs
 
 
 _PAR, _DST = 1, 2  # candidate flags: counts for parity, for the distance test
@@ -900,7 +902,7 @@ def depth_for(n_points: int) -> int:
 def _index(shape, d: float, level, n_points: int) -> Index:
     """The cached index of ``shape`` for angle ``d`` and ``level``, deep enough for a query
     of ``n_points`` points (built, or rebuilt deeper, when needed)."""
-    cache = shape.cached("contains.indexes", dict)
+    cache = shape.derived.contains_indexes
     key = (d, level)
     want = depth_for(n_points)
     ix = cache.get(key)

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..caps import cap_within
 from ..edges import CurveArcs
-from ..shape import Edges
+from ..shape import Derived, Edges
 from ..sphere import arc_distance, dot
 from ..vector.multires import full_decomposition
 
@@ -86,18 +86,16 @@ class Simplified:
         self.original, self.eps = shape, eps
         self._edges = Edges(tree.a[nodes], tree.b[nodes], tree.boundary[nodes], tree.group[nodes])
         self.n_groups, self.rings = shape.n_groups, shape.rings
-        self._cache: dict = {}
+        self.derived = Derived()
 
     def edges(self) -> Edges:
         return self._edges
 
+    def arcs(self) -> CurveArcs:
+        return CurveArcs.from_shape(self)
+
     def reference_points(self):
         return self.original.reference_points()
-
-    def cached(self, key: str, make):
-        if key not in self._cache:
-            self._cache[key] = make()
-        return self._cache[key]
 
     def __len__(self) -> int:
         return len(self._edges.a)
@@ -106,17 +104,16 @@ class Simplified:
 def _clearance(shape) -> float:
     """The least distance (rad) from the shape's reference points to its ring edges,
     seams included (kept on the shape)."""
-
-    def make():
+    if shape.derived.ref_clearance is None:
         arcs = CurveArcs.from_shape(shape)
         ring = arcs.group >= 0
-        if not ring.any():
-            return np.inf
-        refs, _ = shape.reference_points()
-        a, b, n = arcs.a[ring], arcs.b[ring], arcs.n[ring]
-        return float(min(arc_distance(r, a, b, n).min() for r in refs))
-
-    return shape.cached("raster.ref_clearance", make)
+        clearance = np.inf
+        if ring.any():
+            refs, _ = shape.reference_points()
+            a, b, n = arcs.a[ring], arcs.b[ring], arcs.n[ring]
+            clearance = float(min(arc_distance(r, a, b, n).min() for r in refs))
+        shape.derived.ref_clearance = clearance
+    return shape.derived.ref_clearance
 
 
 def simplified(shape, eps: float) -> Simplified | None:
@@ -132,14 +129,14 @@ def simplified(shape, eps: float) -> Simplified | None:
     # a quarter power of two at most eps: a smaller eps is as valid, and a long-running
     # process (a tile server's many grids) keeps a few simplified shapes, not one per grid
     eps = float(2.0 ** (np.floor(4.0 * np.log2(eps)) / 4.0))
-
-    def make():
+    cache = shape.derived.simplified
+    if eps not in cache:
         nodes = cut(shape, eps)
         if len(nodes) > MAX_FRACTION * n or _clearance(shape) <= 2.0 * eps + 1e-12:
-            return None
-        return Simplified(shape, eps, nodes)
-
-    return shape.cached(f"raster.simplified.{float(eps)!r}", make)
+            cache[eps] = None
+        else:
+            cache[eps] = Simplified(shape, eps, nodes)
+    return cache[eps]
 
 
 def band_members(shape, p: np.ndarray, d: float) -> np.ndarray:

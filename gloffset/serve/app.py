@@ -279,7 +279,9 @@ def _style(q) -> TileStyle:
 
 def _geojson_bytes(shape) -> bytes:
     """The layer's input as GeoJSON bytes, made once and kept on the shape."""
-    return shape.cached("serve.geojson", lambda: json.dumps(shape.to_geojson()).encode())
+    if shape.derived.serve_geojson is None:
+        shape.derived.serve_geojson = json.dumps(shape.to_geojson()).encode()
+    return shape.derived.serve_geojson
 
 
 def _distance_inside(shape, lon: float, lat: float) -> tuple[float, bool]:

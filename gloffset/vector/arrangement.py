@@ -31,9 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import crossings
-from ..caps import arc_cap
-from ..captree import CapTree
-from ..sphere import angle, arc_distance, arcs_cross, normalize, robust_cross
+from ..arrangement import candidate_pairs, components, cycles, split
+from ..sphere import angle, arc_distance, arcs_cross, normalize
 from .arcrings import OffsetRing
 from .resolved import ResolvedOffset
 from .smallcircle import MERGE_TOL, CircleArcs, circle_of, intersect, point_at, position
@@ -60,7 +59,7 @@ def resolve_general(off, raw, from_line) -> ResolvedOffset:
     if not raw:
         return ResolvedOffset(d, "general", [], np.zeros(0, bool), [], 0, shape)
     table = _RawArcs.of(raw)
-    gens = shape.cached("arrangement.generators", lambda: _Generators(shape))
+    gens = _Generators(shape)
     live = _prune(table, gens, d)
     if live is None:
         return ResolvedOffset(d, "general", [], np.zeros(0, bool), [], 0, shape)
@@ -198,8 +197,7 @@ def _candidate_pairs(table: _RawArcs, live: _LiveArcs, ad: float):
     # their circles also meet near the antipode of the corner, out of reach of shorter edges
     short = np.minimum(edge_len[before], edge_len[after]) + 3.0 * ad < np.pi - 1e-2
     across[before[short]] = after[short]
-    tree = CapTree(live.cm[alive], live.cr[alive])
-    ia, ib = tree.self_pairs(MERGE_TOL)
+    _, ia, ib = candidate_pairs(live.cm[alive], live.cr[alive], MERGE_TOL)
     ga, gb = alive[ia], alive[ib]
     neighbours = (prev[ga] == gb) | (prev[gb] == ga) | (across[ga] == gb) | (across[gb] == ga)
     return ia[~neighbours], ib[~neighbours], (before, after, corner)
@@ -251,7 +249,7 @@ class _Events:
         ci, cj = _close_pairs(pts[used], MERGE_TOL)
         pi = [used[ci]] + self.same_i
         pj = [used[cj]] + self.same_j
-        lab = _components(
+        lab = components(
             len(pts), np.concatenate(pi).astype(np.int64), np.concatenate(pj).astype(np.int64)
         )
         return pts, ev_arc, ev_t, lab[ev_node]
@@ -327,12 +325,7 @@ def _crossing_events(events: _Events, table: _RawArcs, live: _LiveArcs, ia, ib) 
 def _split(ev_arc, ev_t, ev_node, cut_start, cut_end) -> _Pieces:
     """Step 5: the pieces of arcs between consecutive events, less those of zero length
     (both ends one node) and those past a concave corner's crossing."""
-    order = np.lexsort((ev_t, ev_arc))
-    ev_arc, ev_t, ev_node = ev_arc[order], ev_t[order], ev_node[order]
-    same = ev_arc[1:] == ev_arc[:-1]
-    p = _Pieces(
-        ev_arc[:-1][same], ev_t[:-1][same], ev_t[1:][same], ev_node[:-1][same], ev_node[1:][same]
-    )
+    p = _Pieces(*split(ev_arc, ev_t, ev_node))
     real = (p.n0 != p.n1) & (p.t0 < cut_end[p.arc]) & (p.t1 > cut_start[p.arc])
     return p.take(real)
 
@@ -370,10 +363,10 @@ def _close_rings(pieces: _Pieces, certain, table: _RawArcs, live: _LiveArcs, pts
     on open chains.
     """
     nxt = _link(live, pieces, pts)
-    cycles, open_pieces = _cycles(nxt)
+    closed, open_pieces = cycles(nxt)
     unlinked = int(np.count_nonzero(certain[open_pieces]))
     rings = []
-    for cyc in cycles:
+    for cyc in closed:
         if not certain[cyc].any():
             continue
         ring = _ring_from_pieces(table, live.alive, pts, pieces.take(cyc))
@@ -389,10 +382,8 @@ class _Generators:
     """The shape's vertices and edges with a cap hierarchy, for "is a curve closer than t"."""
 
     def __init__(self, shape):
-        e = shape.edges()
-        self.a, self.b = e.a, e.b
-        self.n = normalize(robust_cross(self.a, self.b))
-        self.tree = CapTree(*arc_cap(self.a, self.b), reps=self.a)
+        arcs = shape.arcs()
+        self.a, self.b, self.n, self.tree = arcs.a, arcs.b, arcs.n, arcs.tree
 
     def closer_than(self, p: np.ndarray, thr: np.ndarray) -> np.ndarray:
         """Whether some point of the curves lies closer than ``thr`` to each ``p``.
@@ -471,25 +462,6 @@ def _close_pairs(p: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate(out_i), np.concatenate(out_j)
 
 
-def _components(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
-    """Connected-component labels (the smallest member) of n items joined by pairs (i, j)."""
-    lab = np.arange(n, dtype=np.int64)
-    if len(i) == 0:
-        return lab
-    while True:
-        li, lj = lab[i], lab[j]
-        if np.array_equal(li, lj):
-            return lab
-        lo = np.minimum(li, lj)
-        np.minimum.at(lab, li, lo)
-        np.minimum.at(lab, lj, lo)
-        while True:  # pointer jumping to the roots
-            nxt = lab[lab]
-            if np.array_equal(nxt, lab):
-                break
-            lab = nxt
-
-
 def _corners(kind, src, prev, nxt):
     """For each join (the one or two vertex arcs of a corner): the edge arcs before and after.
 
@@ -540,16 +512,17 @@ def _side_ok(shape, d, mid, from_line):
 
 def defects(shape) -> tuple[bool, bool]:
     """Whether edges of the shape's rings cross (self-intersecting input), and whether
-    a region component lies inside another (overlapping parts). Cached on the shape."""
-    return shape.cached("arrangement.defects", lambda: _find_defects(shape))
+    a region component lies inside another (overlapping parts). Kept on the shape."""
+    if shape.derived.defects is None:
+        shape.derived.defects = _find_defects(shape)
+    return shape.derived.defects
 
 
 def _find_defects(shape) -> tuple[bool, bool]:
     """:func:`defects`, computed."""
-    e = shape.edges()
-    ring = np.flatnonzero(e.group >= 0)
-    a, b = e.a[ring], e.b[ring]
-    ia, ib = CapTree(*arc_cap(a, b)).self_pairs()
+    arcs = shape.arcs()
+    a, b = arcs.a[arcs.ring], arcs.b[arcs.ring]
+    ia, ib = arcs.ring_tree.self_pairs()
     # edges that share an end point only touch there
     shared = (
         np.all(a[ia] == a[ib], axis=1)
@@ -661,38 +634,6 @@ def _prune_dangling(n0, n1):
             break
         idx = idx[ok]
     return idx
-
-
-def _cycles(nxt):
-    """Closed cycles of the successor map, and the indices of pieces left on open chains."""
-    m = len(nxt)
-    seen = np.zeros(m, dtype=bool)
-    cycles = []
-    # pieces that nothing leads to start open chains: mark them first
-    has_pred = np.zeros(m, dtype=bool)
-    has_pred[nxt[nxt >= 0]] = True
-    unlinked = []
-    nl = nxt.tolist()
-    for s in np.flatnonzero(~has_pred).tolist():
-        e = s
-        while e >= 0 and not seen[e]:
-            seen[e] = True
-            unlinked.append(e)
-            e = nl[e]
-    for s in range(m):
-        if seen[s]:
-            continue
-        path = []
-        e = s
-        while e >= 0 and not seen[e]:
-            seen[e] = True
-            path.append(e)
-            e = nl[e]
-        if e == s:
-            cycles.append(np.array(path, dtype=np.int64))
-        else:
-            unlinked.extend(path)
-    return cycles, np.array(unlinked, dtype=np.int64)
 
 
 def _ring_from_pieces(table: _RawArcs, alive, pts, pieces: _Pieces):

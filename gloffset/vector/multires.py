@@ -447,7 +447,9 @@ def full_decomposition(shape: Shape) -> Decomposition:
     """The shape's decomposition as far as arcs merge (``exhaust``), made once per shape:
     what the inside-test index (:mod:`gloffset.index.contains`) and the renders from
     simplified curves (:mod:`gloffset.raster.simplified`) share."""
-    return shape.cached("multires.exhaust", lambda: Decomposition(shape, 64, exhaust=True))
+    if shape.derived.exhaust is None:
+        shape.derived.exhaust = Decomposition(shape, 64, exhaust=True)
+    return shape.derived.exhaust
 
 
 def decompose(shape, levels: int) -> Decomposition:

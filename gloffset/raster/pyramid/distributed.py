@@ -19,7 +19,7 @@ resumes like any other: a task skips the tiles the output has.
 
 Workers are processes started with spawn (Dask's default: a process must not fork once
 it has a GL context); each makes its one GL context lazily, on its first frontier tile.
-The shape travels without what was derived from it (:meth:`gloffset.shape.Shape.cached`):
+The shape travels without what was derived from it (:class:`gloffset.shape.Derived`):
 each worker derives what its tasks need once. ``scheduler=`` uses a running cluster;
 its workers need gloffset importable.
 """

@@ -74,7 +74,9 @@ class NodeArcs:
     @classmethod
     def from_shape(cls, shape) -> NodeArcs:
         """The shape's node table (made once per shape and kept on it)."""
-        return shape.cached("raster.node_arcs", lambda: cls(shape))
+        if shape.derived.node_arcs is None:
+            shape.derived.node_arcs = cls(shape)
+        return shape.derived.node_arcs
 
 
 def _split(nodes: NodeArcs, cell, node, c, reach, bound):

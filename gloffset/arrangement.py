@@ -1,0 +1,127 @@
+"""The skeleton of an arrangement of arcs: pairs, pieces, components and cycles.
+
+Two operations of gloffset build an arrangement of arcs on the sphere: the union of the
+input's polygons (:mod:`gloffset.region`, great-circle edges) and the removal of an
+offset's self-intersections (:mod:`gloffset.vector.arrangement`, small-circle arcs). Both
+go through the same steps, and those steps live here, once:
+
+1. :func:`candidate_pairs`: the pairs of arcs whose bounding caps come within a slack of
+   each other (a :class:`~gloffset.captree.CapTree`, so the cost follows the number of
+   nearby pairs, not n^2);
+2. the exact meeting points of each candidate pair, which are the callers' own (great
+   circles with the union's tolerance, small circles with their error bounds): they
+   become *events*, ``(arc, position along it, node)``;
+3. :func:`components`: nodes (or vertices, or polygons) that are one, labelled by the
+   smallest member of each connected set;
+4. :func:`split`: the arcs cut into pieces between consecutive events;
+5. :func:`cycles`: the pieces, once each is given its successor (the callers' rule at a
+   node where several meet), followed into closed rings.
+
+Everything here is combinatorial (sorting and labelling) or a conservative cap test, so
+it decides nothing by rounding: the answers are exactly those of the callers'
+predicates.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .captree import CapTree
+
+__all__ = ["candidate_pairs", "components", "split", "cycles"]
+
+
+def candidate_pairs(mid, half, slack: float = 0.0) -> tuple[CapTree, np.ndarray, np.ndarray]:
+    """The cap tree of arcs with bounding caps ``(mid, half)`` and the pairs ``i < j`` of
+    arcs whose caps come within ``slack`` (rad) of each other.
+
+    A superset of the pairs of arcs that meet or come within ``slack``: the tree pads
+    every radius (:meth:`gloffset.captree.CapTree.self_pairs`). Returns
+    ``(tree, i, j)``; the tree serves the callers' later range queries.
+    """
+    tree = CapTree(mid, half)
+    i, j = tree.self_pairs(slack)
+    return tree, i, j
+
+
+def components(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """Connected-component labels of ``n`` items joined by the pairs ``(i[k], j[k])``.
+
+    Each item is labelled by the smallest member of its component (so the labels do not
+    depend on the order of the pairs).
+    """
+    lab = np.arange(n, dtype=np.int64)
+    i = np.asarray(i, dtype=np.int64)
+    j = np.asarray(j, dtype=np.int64)
+    if len(i) == 0:
+        return lab
+    while True:
+        li, lj = lab[i], lab[j]
+        if np.array_equal(li, lj):
+            return lab
+        lo = np.minimum(li, lj)
+        np.minimum.at(lab, li, lo)
+        np.minimum.at(lab, lj, lo)
+        while True:  # pointer jumping to the roots
+            nxt = lab[lab]
+            if np.array_equal(nxt, lab):
+                break
+            lab = nxt
+
+
+def split(arc, t, node):
+    """The pieces of arcs between consecutive events.
+
+    Events are ``(arc[k], t[k], node[k])``: a point at position ``t`` along arc ``arc``
+    (any increasing measure from the arc's start), which is node ``node``. Events are
+    sorted by arc, then position; events at the same position keep their given order.
+    Each arc's events should include its start and its end.
+
+    Returns ``(arc, t0, t1, n0, n1)`` per piece, arc by arc and in order along each arc:
+    the piece of ``arc`` from ``t0`` (node ``n0``) to ``t1`` (node ``n1``). Pieces whose
+    two ends are one node are kept; callers drop them by their own rule.
+    """
+    arc = np.asarray(arc)
+    order = np.lexsort((t, arc))
+    arc, t, node = arc[order], np.asarray(t)[order], np.asarray(node)[order]
+    same = arc[1:] == arc[:-1]
+    return arc[:-1][same], t[:-1][same], t[1:][same], node[:-1][same], node[1:][same]
+
+
+def cycles(nxt) -> tuple[list[np.ndarray], np.ndarray]:
+    """Closed cycles of a successor map, and the items left on open chains.
+
+    ``nxt[k]`` is the item after ``k`` (``-1``: none). Each cycle starts at its smallest
+    item, and cycles come in the order of those; the
+    items of chains that do not close (and of those that lead into them) are returned
+    apart, as an int64 array.
+    """
+    nxt = np.asarray(nxt)
+    m = len(nxt)
+    seen = np.zeros(m, dtype=bool)
+    out = []
+    # items that nothing leads to start open chains: mark them first
+    has_pred = np.zeros(m, dtype=bool)
+    has_pred[nxt[nxt >= 0]] = True
+    unlinked = []
+    nl = nxt.tolist()
+    for s in np.flatnonzero(~has_pred).tolist():
+        e = s
+        while e >= 0 and not seen[e]:
+            seen[e] = True
+            unlinked.append(e)
+            e = nl[e]
+    for s in range(m):
+        if seen[s]:
+            continue
+        path = []
+        e = s
+        while e >= 0 and not seen[e]:
+            seen[e] = True
+            path.append(e)
+            e = nl[e]
+        if e == s:
+            out.append(np.array(path, dtype=np.int64))
+        else:
+            unlinked.extend(path)
+    return out, np.array(unlinked, dtype=np.int64)

@@ -1,0 +1,42 @@
+"""The arrangement skeleton shared by the union and the offsets' self-intersections."""
+
+import numpy as np
+
+from gloffset.arrangement import candidate_pairs, components, cycles, split
+from gloffset.caps import arc_cap
+from gloffset.shape import read
+
+
+def test_components_label_by_smallest_member():
+    lab = components(7, np.array([5, 3, 6]), np.array([3, 1, 4]))
+    assert lab.tolist() == [0, 1, 2, 1, 4, 1, 4]
+    assert components(3, np.zeros(0, np.int64), np.zeros(0, np.int64)).tolist() == [0, 1, 2]
+
+
+def test_split_pieces_between_consecutive_events():
+    # arc 1: start (node 10), a point (node 12), end (node 11); arc 0: start and end only
+    arc = np.array([1, 0, 1, 1, 0])
+    t = np.array([0.5, 1.0, 0.0, 1.0, 0.0])
+    node = np.array([12, 21, 10, 11, 20])
+    a, t0, t1, n0, n1 = split(arc, t, node)
+    assert a.tolist() == [0, 1, 1]
+    assert t0.tolist() == [0.0, 0.0, 0.5] and t1.tolist() == [1.0, 0.5, 1.0]
+    assert n0.tolist() == [20, 10, 12] and n1.tolist() == [21, 12, 11]
+
+
+def test_cycles_and_open_chains():
+    closed, open_ = cycles(np.array([2, -1, 0, 1, 5, 6, 4]))
+    assert [c.tolist() for c in closed] == [[0, 2], [4, 5, 6]]
+    assert sorted(open_.tolist()) == [1, 3]
+
+
+def test_candidate_pairs_hold_every_touching_border():
+    # Mexico's border at 1:10m: every pair of edges that share a vertex is a candidate
+    shape = read("data/mexico_10m.geojson")
+    e = shape.edges()
+    ring = np.flatnonzero(e.group >= 0)
+    a, b = e.a[ring], e.b[ring]
+    _, i, j = candidate_pairs(*arc_cap(a, b))
+    pairs = set(zip(i.tolist(), j.tolist()))
+    touch = np.flatnonzero((b[:-1] == a[1:]).all(axis=1))
+    assert all((k, k + 1) in pairs for k in touch.tolist())
