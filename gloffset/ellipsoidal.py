@@ -357,10 +357,10 @@ def members(conf: Conformal, lon, lat, d: float, *, chi=None, level=None) -> np.
     return out
 
 
-def thresholds(conf: Conformal, d: float, *, window=None) -> tuple[float | None, float | None]:
+def thresholds(conf: Conformal, d: float, *, window=None) -> tuple[float | None, float]:
     """Signed spherical distances of the two index tests: membership at ``t_in`` proves
     membership on the ellipsoid, non-membership at ``t_out`` proves non-membership
-    (``None``: no such test).
+    (``None``: no membership test; there is always a non-membership test).
 
     ``window``: ``(chi, r)`` (radians) when every point tested has its conformal
     latitude within ``chi +- r``: the scale's bounds are then those over that window
@@ -470,7 +470,7 @@ def _inside(conf: Conformal, lat, lon, p, inside_sphere: bool, edges) -> bool:
     """Inside the polygons with geodesic edges: each region component's spherical answer
     flipped once for each of its lunes (between a geodesic edge and its great-circle
     arc) that holds the point, the components united."""
-    flipped = set()
+    flipped: set[int] = set()
     for e in edges:
         _, _, side = conf.exact(lat, lon, p, e)
         if side == 0.0:  # the foot is an end: the point is not between the two curves

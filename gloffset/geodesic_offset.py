@@ -71,6 +71,8 @@ edges that spherical bounds leave).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .ellipsoid import as_ellipsoid, geodesic_midpoints
@@ -83,6 +85,9 @@ from .units import EARTH_RADIUS, VECTOR_LIMIT, distance_properties, offset_angle
 from .vector.arcrings import sample_ring
 from .vector.offset import Offset
 from .vector.offset import offset as sphere_offset
+
+if TYPE_CHECKING:
+    from .vector.resolved import ResolvedOffset
 
 __all__ = ["DEFAULT_TOLERANCE", "VERTEX_TOL", "GeodesicOffset", "offset"]
 
@@ -126,7 +131,7 @@ class GeodesicOffset:
     def __init__(self, shape, ell, d: float, tolerance: float):
         self.shape, self.ellipsoid, self.distance, self.tolerance = shape, ell, d, tolerance
         self.rings: list[np.ndarray] = []
-        self.sphere = None
+        self.sphere: ResolvedOffset | None = None
         self.vertex_error = 0.0
         self.unresolved = 0
         if d != 0.0:

@@ -177,7 +177,9 @@ def _buffer_each(shapely, geoms: np.ndarray, d: np.ndarray, res: int):
     ``{row: message}`` for the rows that cannot be buffered (None in the output)."""
     out = np.empty(len(geoms), dtype=object)
     missing = shapely.is_missing(geoms) | shapely.is_empty(geoms)
-    kind = np.where(missing, -1, shapely.get_type_id(np.where(missing, None, geoms)))
+    # None is shapely's missing geometry (numpy's stub takes no None as an array-like)
+    present = np.where(missing, None, geoms)  # type: ignore[call-overload]
+    kind = np.where(missing, -1, shapely.get_type_id(present))
     rings = np.flatnonzero(kind == 2)
     if len(rings):  # a LinearRing is buffered as its line, as GeoPandas does
         geoms = geoms.copy()
@@ -235,7 +237,7 @@ def _plain_segments(shapely, geoms: np.ndarray) -> np.ndarray:
     """Which two-point lines are plain segments (ends distinct, not antipodal, in range);
     the others go the general way, which names what is wrong with them."""
     xy = shapely.get_coordinates(geoms).reshape(len(geoms), 2, 2)
-    ok = _in_range(xy).all(axis=1)
+    ok = np.asarray(_in_range(xy).all(axis=1))
     a = lonlat_to_xyz(*np.where(ok[:, None], xy[:, 0], 0.0).T)
     b = lonlat_to_xyz(*np.where(ok[:, None], xy[:, 1], 0.0).T)
     ang = angle(a, b)

@@ -356,7 +356,7 @@ class _Union:
         key = _keys(np.concatenate([lo, hi], axis=1))
         _, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
         keep = counts[inv] == 1
-        excl = {}
+        excl: dict[int, set[int]] = {}
         self.side_test = np.zeros(len(keep), bool)
         members = np.flatnonzero(counts[inv] > 1)
         if len(members) == 0:
@@ -606,18 +606,19 @@ class _Union:
                     "the union's boundary ambiguous"
                 )
         seen = np.zeros(k, bool)
-        rings, seams, groups, holes, labels = [], [], [], [], []
+        rings, seams, holes, labels = [], [], [], []
+        comp_of: list[int] = []  # per ring, a component it joins
         for s0 in range(k):
             if seen[s0]:
                 continue
-            cyc = [s0]
+            walk = [s0]
             seen[s0] = True
             p = nxt[s0]
             while p != s0:
-                cyc.append(p)
+                walk.append(p)
                 seen[p] = True
                 p = nxt[p]
-            cyc = np.asarray(cyc)
+            cyc = np.asarray(walk)
             if len(cyc) < 3:
                 continue
             comps = np.unique(self.comp[edge[cyc]])
@@ -626,12 +627,12 @@ class _Union:
             ring = v[start[cyc]]
             rings.append(ring)
             seams.append(self.seam[edge[cyc]])
-            groups.append(int(comps[0]))
+            comp_of.append(int(comps[0]))
             holes.append(left_area(ring) > 2.0 * np.pi)
             names = dict.fromkeys(self.labels[r] for r in self.ring_of[edge[cyc]].tolist())
             labels.append(" + ".join(names))
-        groups = np.array([self.uf.find(g) for g in groups], dtype=np.int64)
-        _, groups = np.unique(groups, return_inverse=True)
+        roots = np.array([self.uf.find(g) for g in comp_of], dtype=np.int64)
+        _, groups = np.unique(roots, return_inverse=True)
         return Boundary(rings, seams, groups.astype(np.int64), np.array(holes, bool), labels)
 
 

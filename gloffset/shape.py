@@ -137,7 +137,7 @@ class Shape:
             raise InvalidGeometryError("empty geometry: no polygon, line or point to offset")
         self._edges: Edges | None = None
         self._ref_status: np.ndarray | None = None
-        self._overlap: bool | None = None
+        self._overlap: np.ndarray | None = None
         self._cache: dict = {}
 
     def __getstate__(self):
@@ -356,7 +356,7 @@ def read(source, *, layer=None, where: str | None = None, densify=None) -> Shape
 # ---------------------------------------------------------------------- building
 
 
-def _validate(ll: np.ndarray, label: str, *, min_points: int) -> np.ndarray:
+def _validate(ll: np.ndarray, label: str, *, min_points: int) -> tuple[np.ndarray, np.ndarray]:
     """Check lon/lat, convert to unit vectors and drop repeated consecutive points."""
     bad = ~np.isfinite(ll)
     if bad.any():

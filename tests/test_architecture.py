@@ -70,6 +70,22 @@ def test_the_layering_contract_holds():
     assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
 
 
+def test_the_package_says_it_is_typed():
+    """PEP 561: the marker ships in the wheel (every file under gloffset/ does)."""
+    assert (PACKAGE / "py.typed").is_file()
+
+
+@pytest.mark.slow
+def test_the_annotations_hold():
+    """``mypy gloffset`` (its settings in pyproject.toml; .ci/run runs it too), which also
+    checks that every grid answers its protocols (``gloffset/grids/__init__.py``)."""
+    exe = shutil.which("mypy")
+    if exe is None:
+        pytest.skip("mypy is not installed (pip install -e '.[test]')")
+    run = subprocess.run([exe, "gloffset"], cwd=ROOT, capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
+
+
 #: what a name in ARCHITECTURE.md looks like when it is a file or folder of the repository
 _FILE = re.compile(r"[\w./-]+(?:/|\.(?:py|frag|vert|glsl|md|toml|json|geojson))")
 

@@ -6,6 +6,7 @@ import csv
 import io
 import os
 import sys
+from collections.abc import Callable
 
 import click
 import numpy as np
@@ -151,6 +152,7 @@ def contains_cmd(
     ell = parse_ellipsoid(ellipsoid)
     d = angle(distance, radius) if ell is None else (ell, metres(distance))
     check_output(output)  # fail before the work
+    tester: PerFeature | Union
     if each:
         feats = features(load(input, layer=layer, where=where, densify=densify))
         tester = PerFeature(feats, d, level)
@@ -251,7 +253,8 @@ class Union:
     """Points tested against the region of the whole input (the default)."""
 
     def __init__(self, shape, d, level):
-        self.shape, self.d, self.level, self.index = shape, d, level, None
+        self.shape, self.d, self.level = shape, d, level
+        self.index: Callable | None = None
 
     def header(self, header, iout):
         return header if iout is not None else [*header, "inside"]
@@ -260,6 +263,7 @@ class Union:
         self.index = _tester(self.shape, self.d, self.level, expect)
 
     def rows(self, rows, lon, lat, iout):
+        assert self.index is not None  # after start
         return _flagged(rows, self.index(lon, lat), iout)
 
 

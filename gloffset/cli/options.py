@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import sys
 import time
+from typing import Any
 
 import click
 
@@ -20,7 +21,9 @@ def distance_option(f=None, *, default: str | None = None):
     def decorate(f):
         # no default=None for a required option: recent click (8.5) takes an explicit None
         # as a default value and no longer reports the option as missing
-        given = {"default": default, "show_default": True} if default is not None else {}
+        given: dict[str, Any] = (
+            {"default": default, "show_default": True} if default is not None else {}
+        )
         return click.option(
             "-d",
             "--distance",
@@ -185,6 +188,7 @@ class Stages:
         self._show(force=self.done == self.items)
 
     def _show(self, force: bool) -> None:
+        assert self.bar is not None  # the callers return without a bar
         now = time.monotonic()
         if not force and now - self.shown < 0.1:
             return

@@ -5,12 +5,16 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from ..errors import InputFormatError, OptionError
 from ..shape import read
 from . import main
+
+if TYPE_CHECKING:
+    from starlette.applications import Starlette
 
 
 @main.command("serve")
@@ -87,6 +91,8 @@ def serve_cmd(inputs, host, port, cache_mb, cache_control, queue_size, render_ti
         + "); Ctrl-C stops",
         err=True,
     )
+    target: str | Starlette  # the app, or its factory's import path
+    kw: dict[str, Any]
     if workers > 1:  # each worker (spawned) reads the inputs and makes its own context
         paths = [str(Path(p).resolve()) for p in inputs]
         os.environ[ENVIRONMENT] = json.dumps({"inputs": paths, **opts})

@@ -298,7 +298,7 @@ class Index:
 
     #: The class of the index on an ellipsoid (``Index(..., ellipsoid=...)`` makes one):
     #: :class:`gloffset.ellipsoidal.EllipsoidIndex`, which sets it on import.
-    on_ellipsoid = None
+    on_ellipsoid: type | None = None
 
     def __new__(cls, shape=None, distance: float = 0.0, *, ellipsoid=None, **options):
         if ellipsoid is None:
@@ -602,7 +602,7 @@ class Index:
             top = min(AUTO_MAX_LEVEL, arcs.levels) if n_leaves >= AUTO_MIN_LEAVES else 0
             top = max(top, self.floor)
             sample = _sample_points(leaves, AUTO_SAMPLE) if top > self.floor else None
-            self._choices = []
+            self._choices: list[tuple] | None = []
             for k in range(self.floor, top + 1):
                 lists = self._lift(k, leaves, pc, pn, par, dst)
                 pairs, passes = (
@@ -611,7 +611,7 @@ class Index:
                 per_point = pairs / max(1, 0 if sample is None else len(sample[1]))
                 self._choices.append((per_point, passes, k, lists))
             # reported as ``level``: the choice for a batch of AUTO_SAMPLE frontier points
-            self._lists = None
+            self._lists: tuple | None = None
             lists = self._lists_for(AUTO_SAMPLE)
             self.level = next(c[2] for c in self._choices if c[3] is lists)
         else:
@@ -738,15 +738,15 @@ class Index:
         out = np.empty(len(lon), dtype=bool)
         if len(lon) == 0:
             return out
-        where, leaves = [], []
+        wheres, leaves_of = [], []
         for s in range(0, len(lon), CHUNK):
             code = self._lookup(lon[s : s + CHUNK], lat[s : s + CHUNK])
             out[s : s + CHUNK] = code == _IN
             front = np.flatnonzero(code >= 2)
-            where.append(front + s)
-            leaves.append(code[front] - 2)
+            wheres.append(front + s)
+            leaves_of.append(code[front] - 2)
         # the few points in frontier cells, together (fewer, larger numpy calls)
-        where, leaves = np.concatenate(where), np.concatenate(leaves)
+        where, leaves = np.concatenate(wheres), np.concatenate(leaves_of)
         lists = self._lists_for(len(where))
         for s in range(0, len(where), CHUNK):
             w = where[s : s + CHUNK]
@@ -761,7 +761,9 @@ class Index:
         choose a level).
         """
         arcs = self._arcs
-        cand, cand_flags, start, count = self._lists if lists is None else lists
+        lists = self._lists if lists is None else lists
+        assert lists is not None  # set by _leaf_lists
+        cand, cand_flags, start, count = lists
         n = len(p)
         x = self._leaf_x[leaf]
         px = cross(p, x)

@@ -69,6 +69,7 @@ def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoi
     ellipsoidal ``contains`` (geodetic lon/lat of the centres), in batches of rows.
     """
     ell = as_ellipsoid(ellipsoid)
+    assert ell is not None  # called with an ellipsoid
     _check(out, backend, grid)
     if out != "mask" or callback is not None:
         raise OptionError("with an ellipsoid, render() gives masks only (out='mask', no callback)")

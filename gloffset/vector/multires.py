@@ -258,6 +258,7 @@ class Decomposition:
         rec = self._coarse
         for k in range(self.levels, 0, -1):
             lv = self._levels[k]
+            assert lv.kept is not None  # every level k >= 1 has them
             mid = self._midpoints(rec, k)
             lv.details = self._xyz[self._levels[k - 1].pts[~lv.kept]] - mid
             rec = self._refine_level(rec, k, mid=mid)
@@ -273,6 +274,7 @@ class Decomposition:
         arc plus its detail, inserted. With ``scale``, points and details lie on a sphere
         of that radius (the SLERP of two such vectors is the unit SLERP, scaled)."""
         lv = self._levels[k]
+        assert lv.kept is not None and lv.details is not None  # every level k >= 1 has them
         if mid is None:
             mid = scale * self._midpoints(rec, k)
         out = np.empty((len(lv.kept), rec.shape[1]))
@@ -306,6 +308,7 @@ class Decomposition:
         if k == 0:
             raise InvalidLevelError("level 0 is the original curve: details start at level 1")
         lv = self._levels[k]
+        assert lv.details is not None  # every level k >= 1 has them
         return self._split(lv.details, lv.arc_part[lv.merged])
 
     def errors(self, k: int) -> list[np.ndarray]:
@@ -398,6 +401,10 @@ class MultiresOffset(Offset):
         if self._shape is None:
             self._shape = self.decomposition.reconstruct(self.level)
         return self._shape
+
+    @shape.setter
+    def shape(self, value: Shape) -> None:
+        self._shape = value
 
     def vertex_centers(self) -> np.ndarray:
         """Step 1 of Sec. 4.2: the centres ``q_2i = cos(d) p_i`` of this offset, flat over parts.

@@ -137,7 +137,7 @@ class Offset(ArcRings):
         return {"type": "Feature", "properties": props, "geometry": geom}
 
 
-def offset(shape, distance: float, *, radius: float = EARTH_RADIUS) -> Offset:
+def offset(shape, distance: float | str, *, radius: float = EARTH_RADIUS) -> Offset:
     """Offset a shape by ``distance`` (in the units of ``radius``) with small-circle arcs.
 
     Parameters

@@ -23,6 +23,7 @@ import numpy as np
 from ...caps import cap_within, pad
 from ...caps import chord2 as chord2_of_angle
 from ...classes import CONTAINED, FRONTIER, OUTSIDE
+from ...grids.protocol import CellSet
 
 __all__ = [
     "RasterizedCurve",
@@ -159,7 +160,7 @@ class RasterizedCurve:
     matters for level ``l``.
     """
 
-    grid: object
+    grid: CellSet
     d: float
     masks: list
     curve: list
@@ -173,7 +174,7 @@ class RasterizedCurve:
     @classmethod
     def build(cls, mask: np.ndarray, d: float, grid, parts=None) -> RasterizedCurve:
         last = grid.n_levels - 1
-        masks = [None] * (last + 1)
+        masks: list = [None] * (last + 1)  # every level's set below
         masks[last] = mask
         for lev in range(last - 1, -1, -1):
             h, w = grid.level_shape(lev)

@@ -246,7 +246,8 @@ class RasterCells:
 
     def __init__(self, lv: RasterizedCurve):
         self.lv, self.grid = lv, lv.grid
-        self.method, self.reason = None, None
+        self.method: str | None = None
+        self.reason: str | None = None
 
     def enter(self, stop: int) -> driver.Level:
         classes, self.method, self.reason = region_grow(self.lv, 0)
@@ -257,13 +258,13 @@ class RasterCells:
         level = prev.level + 1
         h, w = self.grid.level_shape(level)
         front = prev.cells[prev.cls == FRONTIER]
-        kids = []
+        quarters = []
         for dj in (0, 1):
             for di in (0, 1):
                 j, i = 2 * front[:, 0] + dj, 2 * front[:, 1] + di
                 ok = (j < h) & (i < w)
-                kids.append(j[ok] * w + i[ok])
-        kids = np.sort(np.concatenate(kids))
+                quarters.append(j[ok] * w + i[ok])
+        kids = np.sort(np.concatenate(quarters))
         cells = np.column_stack(np.divmod(kids, w))
         return driver.Level(level, cells, classify_cells(self.lv, level, kids))
 
@@ -324,6 +325,7 @@ def _on_ellipsoid(mask, distance, grid, ellipsoid, return_info, callback, **opti
     """:func:`raster_offset` on an ellipsoid (see its ``ellipsoid``): two spherical
     offsets on the conformal rows, contained from the nearer, outside from the farther."""
     ell = as_ellipsoid(ellipsoid)
+    assert ell is not None  # called with an ellipsoid
     if not (isinstance(grid, RegularLonLat) and grid.curve_masks):
         raise OptionError(
             f"raster offsets on an ellipsoid take an Equirect grid, got {type(grid).__name__}"
@@ -500,6 +502,7 @@ def raster_offset(
                 return classes
 
         classes = driver.run(cells, stop, handoff=grid.bin_level, backend=gpu, callback=cb)
+        assert cells.method is not None  # set on entering level 0
         method, reason = cells.method, cells.reason
     if cube is not None:
         classes = cube.unstack(stop, classes)
