@@ -149,10 +149,11 @@ class Shape:
         return state
 
     def cached(self, key: str, make):
-        """The one place where other modules keep what they derive from a shape.
+        """Return what is kept under ``key``, made by ``make()`` the first time.
 
-        ``make()`` is called the first time ``key`` is asked for; its result is kept
-        for the shape's life (shapes are not changed after construction).
+        The one place where other modules keep what they derive from a shape. ``make()``
+        is called the first time ``key`` is asked for; its result is kept for the shape's
+        life (shapes are not changed after construction).
         """
         if key not in self._cache:
             self._cache[key] = make()
@@ -167,7 +168,7 @@ class Shape:
 
     @classmethod
     def from_lonlat(cls, lon, lat, *, closed: bool = False) -> Shape:
-        """A single line (``closed=False``) or polygon ring (``closed=True``) from arrays.
+        """Return a single line (``closed=False``) or polygon ring (``closed=True``) from arrays.
 
         ``lon`` and ``lat`` are in degrees. A closed ring may repeat its first vertex.
         """
@@ -190,14 +191,16 @@ class Shape:
     # ------------------------------------------------------------------ derived data
     @property
     def n_groups(self) -> int:
+        """Number of region components (:attr:`ring_groups`)."""
         return int(self.ring_groups.max()) + 1 if len(self.ring_groups) else 0
 
     @property
     def n_vertices(self) -> int:
+        """Number of vertices of the rings and lines."""
         return sum(len(r) for r in self.rings) + sum(len(ln) for ln in self.lines)
 
     def edges(self) -> Edges:
-        """The flat edge table (cached)."""
+        """Return the flat edge table (cached)."""
         if self._edges is None:
             a, b, bd, g = [], [], [], []
             for ring, seams, grp in zip(self.rings, self.ring_seams, self.ring_groups):
@@ -248,7 +251,7 @@ class Shape:
         return self._overlap
 
     def component_caps(self) -> tuple[np.ndarray, np.ndarray]:
-        """A bounding cap (centre, radius in radians) of each region component."""
+        """Return a bounding cap (centre, radius in radians) of each region component."""
         e = self.edges()
         centres = np.zeros((self.n_groups, 3))
         radii = np.zeros(self.n_groups)
@@ -265,7 +268,7 @@ class Shape:
 
     # ------------------------------------------------------------------ output
     def to_geojson(self, *, digits: int | None = None) -> dict:
-        """The shape as an RFC 7946 GeoJSON Feature.
+        """Return the shape as an RFC 7946 GeoJSON Feature.
 
         A shape read from GeoJSON (or arrays) writes back its polygons, lines and
         points as they were given (rings closed, exterior rings counter-clockwise

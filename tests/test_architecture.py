@@ -75,6 +75,32 @@ def test_the_package_says_it_is_typed():
     assert (PACKAGE / "py.typed").is_file()
 
 
+def test_the_docstring_rules_cover_the_public_api():
+    """Every module that defines a name of ``gloffset.__all__`` is in the scope of ruff's
+    docstring rules (the negated pattern of ``[tool.ruff.lint.per-file-ignores]``)."""
+    import inspect
+
+    import gloffset
+
+    tomllib = pytest.importorskip("tomllib")  # Python 3.11+
+
+    ignores = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["ruff"]["lint"][
+        "per-file-ignores"
+    ]
+    (pattern,) = [k for k, v in ignores.items() if k.startswith("!") and "D" in v]
+    inner = re.fullmatch(r"!gloffset/\{(.*)\}\.py", pattern)
+    assert inner, pattern
+    covered = {"gloffset." + m.replace("/", ".") for m in inner[1].split(",")}
+    covered = {m.removesuffix(".__init__") for m in covered}
+    defining = set()
+    for name in gloffset.__all__:
+        obj = getattr(gloffset, name)
+        module = obj.__name__ if inspect.ismodule(obj) else getattr(obj, "__module__", None)
+        if module and module.startswith("gloffset"):
+            defining.add(module)
+    assert defining - covered == set(), "add these to the docstring rules' scope"
+
+
 @pytest.mark.slow
 def test_the_annotations_hold():
     """``mypy gloffset`` (its settings in pyproject.toml; .ci/run runs it too), which also

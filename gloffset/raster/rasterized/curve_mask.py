@@ -1,6 +1,9 @@
-"""Curve masks from shapes: the output cells of a grid that the curves of a shape pass
-through (:func:`rasterize`), exact up to 1e-7 pixel, in curve order on request (what
-:func:`gloffset.raster_offset` takes as ``mask`` and ``order``)."""
+"""Curve masks from shapes.
+
+The output cells of a grid that the curves of a shape pass through (:func:`rasterize`),
+exact up to 1e-7 pixel, in curve order on request (what :func:`gloffset.raster_offset`
+takes as ``mask`` and ``order``).
+"""
 
 from __future__ import annotations
 
@@ -103,8 +106,11 @@ def _crossings(grid, a, b, n, u, theta):
 
 
 def _arcs(shape):
-    """The curve's arcs ``p(t) = cos t a + sin t u``, ``0 <= t <= theta`` (ring edges but
-    antimeridian/pole seams, and lines), with their part (ring or line) and normal."""
+    """Return the curve's arcs ``p(t) = cos t a + sin t u``, ``0 <= t <= theta``.
+
+    Ring edges but antimeridian/pole seams, and lines, with their part (ring or line) and
+    normal.
+    """
     e = shape.edges()
     # parts: each ring and each line, in edge order; seams are no curve
     part = np.concatenate(
@@ -162,8 +168,11 @@ _FACE_PLANES = np.array(
 
 
 def _segment_params(p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(segment, lambda) where straight segments ``p0 -> p1`` (pixel coordinates, (n, 2))
-    cross the integer lines ``x = k`` and ``y = k``."""
+    """Where straight segments cross the integer lines ``x = k`` and ``y = k``.
+
+    ``(segment, lambda)`` where straight segments ``p0 -> p1`` (pixel coordinates,
+    (n, 2)) cross them.
+    """
     seg, lam = [], []
     for ax in (0, 1):
         x0, x1 = p0[:, ax], p1[:, ax]
@@ -178,10 +187,13 @@ def _segment_params(p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def _rasterize_cube(shape, size: int) -> tuple[np.ndarray, list[np.ndarray]]:
-    """:func:`rasterize` on ``Cube(size)``: each arc is cut where it crosses the planes
-    of the face boundaries; on one face a piece is a straight segment of the face plane
-    (central projection), cut again at the pixel lines, so each sub-segment lies in
-    one pixel. Flat indices are those of a (6, size, size) array."""
+    """:func:`rasterize` on ``Cube(size)``.
+
+    Each arc is cut where it crosses the planes of the face boundaries; on one face a
+    piece is a straight segment of the face plane (central projection), cut again at the
+    pixel lines, so each sub-segment lies in one pixel. Flat indices are those of a (6,
+    size, size) array.
+    """
     a, _, part, _, _, u, theta = _arcs(shape)
     # split parameters: t in (0, theta) where p(t) . m = 0 for a face-boundary plane m
     am, um = a @ _FACE_PLANES.T, u @ _FACE_PLANES.T
@@ -233,7 +245,7 @@ def _rasterize_cube(shape, size: int) -> tuple[np.ndarray, list[np.ndarray]]:
 
 
 def rasterize(shape, grid, *, ordered: bool = False):
-    """The output cells of ``grid`` that the curves of ``shape`` pass through.
+    """Return the output cells of ``grid`` that the curves of ``shape`` pass through.
 
     Parameters
     ----------

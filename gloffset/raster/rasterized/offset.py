@@ -238,11 +238,13 @@ def _fallback(lv: RasterizedCurve, level: int) -> np.ndarray:
 
 # ---------------------------------------------------------------------------- Sec. 5.2
 class RasterCells:
-    """The classifier of the cells of a grid against a rasterized curve (Sec. 5.2;
-    :class:`gloffset.raster.driver.Classifier`): level 0 by region growing
+    """The classifier of the cells of a grid against a rasterized curve.
+
+    Sec. 5.2, a :class:`gloffset.raster.driver.Classifier`: level 0 by region growing
     (:func:`region_grow`, Sec. 5.1), then the children of each level's frontier cells
     (active and inactive) by :func:`classify_cells`. ``method`` and ``reason`` tell how
-    level 0 was classified."""
+    level 0 was classified.
+    """
 
     def __init__(self, lv: RasterizedCurve):
         self.lv, self.grid = lv, lv.grid
@@ -272,8 +274,10 @@ class RasterCells:
 def hierarchical(
     lv: RasterizedCurve, *, stop_level: int | None = None, callback=None, timings=None
 ):
-    """Sec. 5.2: level 0 by region growing (Sec. 5.1), then each level evaluates only
-    the children of the previous level's frontier cells (:class:`RasterCells`).
+    """Classify the cells of ``lv``'s grid down to ``stop_level`` (Sec. 5.2).
+
+    Level 0 by region growing (Sec. 5.1), then each level evaluates only the children of the
+    previous level's frontier cells (:class:`RasterCells`).
 
     Returns ``(classes of stop_level, method, reason)``.
     """
@@ -322,8 +326,11 @@ class RasterOffsetInfo:
 
 
 def _on_ellipsoid(mask, distance, grid, ellipsoid, return_info, callback, **options):
-    """:func:`raster_offset` on an ellipsoid (see its ``ellipsoid``): two spherical
-    offsets on the conformal rows, contained from the nearer, outside from the farther."""
+    """:func:`raster_offset` on an ellipsoid (see its ``ellipsoid``).
+
+    Two spherical offsets on the conformal rows, contained from the nearer, outside from the
+    farther.
+    """
     ell = as_ellipsoid(ellipsoid)
     assert ell is not None  # called with an ellipsoid
     if not (isinstance(grid, RegularLonLat) and grid.curve_masks):
