@@ -203,6 +203,7 @@ class CapTree:
                 # every query of the node lies closer than its stop to the item's point:
                 # |c - rep| + chord(r) < chord(stop) suffices (chords are subadditive)
                 left = q_left[lq][qi]
+                assert self.reps is not None  # use_stop
                 hit = (left > 0.0) & (_chord2(cq[keep], self.reps[ld][di]) < left * left)
                 if hit.any():
                     done[qi[hit]] = True

@@ -67,6 +67,12 @@ class CurveArcs:
         return cross(self.n, self.a), cross(self.b, self.n)
 
     @cached_property
+    def cap_lonlat(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(lon, lat)`` (radians) of the bounding caps' centres :attr:`mid` (made once)."""
+        m = self.mid
+        return np.arctan2(m[:, 1], m[:, 0]), np.arctan2(m[:, 2], np.hypot(m[:, 0], m[:, 1]))
+
+    @cached_property
     def columns(self) -> np.ndarray:
         """(19, n) float64, one row per coordinate: ``a``, ``b``, ``n``, the two
         :attr:`lunes` normals, ``mid`` (three rows each) and ``half``; what the GPU
@@ -148,7 +154,7 @@ def status_bits(n_groups: int, k: int) -> np.ndarray:
 
 
 def inside_any(status: np.ndarray) -> np.ndarray:
-    return status.any(axis=1)
+    return np.asarray(status.any(axis=1))
 
 
 def points_inside(shape, p: np.ndarray) -> np.ndarray:

@@ -120,20 +120,24 @@ class Conformal:
         return np.radians(self.ell.conformal(lat))
 
     def pairs(self, p, reach):
-        """Candidate (point, edge) pairs within ``reach`` (rad, per point) on the conformal
-        sphere, counting each edge's deviation, with their spherical distances."""
+        """Candidate (point, edge) pairs within ``reach`` with their spherical distances.
+
+        On the conformal sphere (``reach`` in radians, per point), counting each edge's
+        deviation.
+        """
         qi, ei, _ = self.tree.near(p, reach)
         theta = arc_distance(p[qi], self.a[ei], self.b[ei], self.n[ei])
         keep = theta - self.h[ei] <= np.asarray(reach, dtype=np.float64)[qi]
         return qi[keep], ei[keep], theta[keep]
 
     def nearest_pairs(self, p, chi):
-        """The candidate (point, edge) pairs of :func:`nearest_geodesic` with their
-        spherical distances, and each point's upper bound on its geodesic distance:
-        the edges within the reach of the exact spherical distance to the image. That
-        distance is the least over the edges within the reach of an upper bound of it
-        (the nearest of every ``n / 256``-th vertex), so no (point, edge) matrix is
-        made."""
+        """Candidate (point, edge) pairs of :func:`nearest_geodesic`, and upper bounds.
+
+        With their spherical distances, and each point's upper bound on its geodesic
+        distance: the edges within the reach of the exact spherical distance to the image.
+        That distance is the least over the edges within the reach of an upper bound of it
+        (the nearest of every ``n / 256``-th vertex), so no (point, edge) matrix is made.
+        """
         ell = self.ell
         sub = self.a[:: max(1, len(self.a) // 256)]
         near = sub[np.argmax(p @ sub.T, axis=1)]
@@ -147,22 +151,26 @@ class Conformal:
         return qi[keep], ei[keep], theta[keep], upper0
 
     def start(self, p, e) -> np.ndarray:
-        """Where along edges ``e`` (fractions) the feet of points ``p`` lie on the
-        conformal sphere: the intercept's starting points."""
+        """Where along edges ``e`` (fractions) the feet of points ``p`` lie on the conformal sphere.
+
+        The intercept's starting points.
+        """
         n = self.n[e]
         foot = p - dot(p, n)[:, None] * n
         t = np.arctan2(dot(foot, np.cross(n, self.a[e])), dot(foot, self.a[e]))
         return np.clip(t / np.maximum(self.theta[e], 1e-300), 0.0, 1.0)
 
     def exact_many(self, lat, lon, p, e) -> np.ndarray:
-        """The geodesic intercepts (distances, metres) of points to edges ``e``, pair by
-        pair, vectorised (:func:`gloffset.ellipsoid.intercept.edge_distances`)."""
+        """Geodesic intercepts (distances, metres) of points to edges ``e``, pair by pair.
+
+        Vectorised (:func:`gloffset.ellipsoid.intercept.edge_distances`).
+        """
         e = np.asarray(e, dtype=np.int64)
         s0 = self.start(p, e)
         return edge_distances(self.ell, lat, lon, self.a_ll[e], self.b_ll[e], s0)
 
     def exact(self, lat, lon, p, e) -> tuple[float, float, float]:
-        """The geodesic intercept from one point to edge ``e``."""
+        """Return the geodesic intercept from one point to edge ``e``."""
         s0 = float(self.start(p[None], np.array([e]))[0])
         return edge_distance(
             self.ell.geodesic, float(lat), float(lon), self.a_ll[e], self.b_ll[e], s0
@@ -170,7 +178,7 @@ class Conformal:
 
 
 def conformal(shape, ell) -> Conformal:
-    """The shape's :class:`Conformal` image for ``ell``, made once per shape."""
+    """Return the shape's :class:`Conformal` image for ``ell``, made once per shape."""
     cache = shape.derived.conformal
     if (ell.a, ell.f) not in cache:
         cache[ell.a, ell.f] = Conformal(shape, ell)
@@ -227,9 +235,11 @@ def distance(shape, lon, lat, *, radius: float = EARTH_RADIUS, ellipsoid=None):
 
 
 def nearest_geodesic(conf: Conformal, lon, lat) -> np.ndarray:
-    """Geodesic distance (metres) from flat geodetic lon/lat arrays to the shape of
-    ``conf``: spherical bounds choose each point's candidate edges, the intercept
-    measures them (nearest lower bound first, stopping when no other can be nearer)."""
+    """Geodesic distance (metres) from flat geodetic lon/lat arrays to the shape of ``conf``.
+
+    Spherical bounds choose each point's candidate edges, the intercept measures them
+    (nearest lower bound first, stopping when no other can be nearer).
+    """
     out = np.full(len(lon), np.inf)
     if len(conf.a) == 0 or len(lon) == 0:
         return out
@@ -304,10 +314,11 @@ def contains(
 
 
 class EllipsoidIndex:
-    """A shape prepared for membership queries on an ellipsoid at one geodesic distance
-    (``gloffset.Index(shape, d, ellipsoid=...)``): its conformal image with the
-    geodesic edges' bounds, and the two spherical indexes of :func:`screen` (made on
-    the first query, kept on the image).
+    """A shape prepared for membership queries on an ellipsoid at one geodesic distance.
+
+    Made by ``gloffset.Index(shape, d, ellipsoid=...)``: its conformal image with the
+    geodesic edges' bounds, and the two spherical indexes of :func:`screen` (made on the
+    first query, kept on the image).
 
     ``contains(lon, lat)`` equals :func:`contains` on the ellipsoid: exact for points
     whose geodesic distance differs from ``|distance|`` by more than 1 um.
@@ -344,10 +355,12 @@ Index.on_ellipsoid = EllipsoidIndex
 
 
 def members(conf: Conformal, lon, lat, d: float, *, chi=None, level=None) -> np.ndarray:
-    """Membership on the ellipsoid of checked flat geodetic ``lon``, ``lat`` (degrees) in
-    the region at geodesic distance ``d`` (metres): :func:`screen`, then :func:`decide`
-    on the band. ``chi``: the conformal latitudes of ``lat`` when the caller has them
-    (a grid's rows share theirs)."""
+    """Membership on the ellipsoid of checked flat geodetic ``lon``, ``lat`` (degrees).
+
+    In the region at geodesic distance ``d`` (metres): :func:`screen`, then :func:`decide`
+    on the band. ``chi``: the conformal latitudes of ``lat`` when the caller has them (a
+    grid's rows share theirs).
+    """
     out, band = screen(conf, lon, lat, d, level, chi=chi)
     idx = np.flatnonzero(band)
     t_in, t_out = thresholds(conf, d)
@@ -356,16 +369,19 @@ def members(conf: Conformal, lon, lat, d: float, *, chi=None, level=None) -> np.
     return out
 
 
-def thresholds(conf: Conformal, d: float, *, window=None) -> tuple[float | None, float | None]:
-    """Signed spherical distances of the two index tests: membership at ``t_in`` proves
-    membership on the ellipsoid, non-membership at ``t_out`` proves non-membership
-    (``None``: no such test).
+def thresholds(conf: Conformal, d: float, *, window=None) -> tuple[float | None, float]:
+    """Signed spherical distances of the two index tests.
+
+    Membership at ``t_in`` proves membership on the ellipsoid, non-membership at ``t_out``
+    proves non-membership (``None``: no membership test; there is always a non-membership
+    test).
 
     ``window``: ``(chi, r)`` (radians) when every point tested has its conformal
     latitude within ``chi +- r``: the scale's bounds are then those over that window
     widened by the reach ``m / k_min`` of any path that matters (:mod:`.ellipsoid.bounds`:
     the spherical path to the set within ``t_in`` and the geodesic within ``m`` both
-    stay that close), tighter than the whole ellipsoid's ``k_min``, ``k_max``."""
+    stay that close), tighter than the whole ellipsoid's ``k_min``, ``k_max``.
+    """
     ell, hm = conf.ell, conf.h_max
     rings = bool(conf.shape.rings)
     m = abs(d)
@@ -385,9 +401,10 @@ def thresholds(conf: Conformal, d: float, *, window=None) -> tuple[float | None,
 
 
 def signed_distance(conf: Conformal, p) -> np.ndarray:
-    """Signed distance (rad) on the conformal sphere from unit vectors ``p`` to the
-    shape's image: negative inside its polygons (1-Lipschitz, as the thresholds of
-    :func:`thresholds` are)."""
+    """Signed distance (rad) on the conformal sphere from unit vectors ``p`` to the shape's image.
+
+    Negative inside its polygons (1-Lipschitz, as the thresholds of :func:`thresholds` are).
+    """
     theta = distance_xyz(conf.shape, p)
     if conf.shape.rings:
         theta = np.where(inside_indexed(conf.shape, p), -theta, theta)
@@ -397,9 +414,11 @@ def signed_distance(conf: Conformal, p) -> np.ndarray:
 def screen(
     conf: Conformal, lon, lat, d: float, level, *, chi=None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Decide points with the spherical ``contains`` on the conformal sphere: ``(out,
-    band)``, ``out`` right wherever ``band`` is False (``chi``: the conformal latitudes
-    of ``lat``, made here when not given)."""
+    """Decide points with the spherical ``contains`` on the conformal sphere.
+
+    ``(out, band)``, ``out`` right wherever ``band`` is False (``chi``: the conformal
+    latitudes of ``lat``, made here when not given).
+    """
     t_in, t_out = thresholds(conf, d)
     if chi is None:
         chi = conf.ell.conformal(lat)
@@ -417,7 +436,8 @@ def decide(conf: Conformal, lon, lat, d: float, *, band=None) -> np.ndarray:
 
     ``band``: ``(lo, hi)``, bounds on the points' signed spherical distance on the
     conformal sphere (:func:`signed_distance`) when the caller knows them: a band that
-    excludes 0 tells the points' spherical inside without a crossing count."""
+    excludes 0 tells the points' spherical inside without a crossing count.
+    """
     ell = conf.ell
     m = abs(d)
     p = ell.to_sphere(lon, lat)
@@ -466,10 +486,12 @@ def decide(conf: Conformal, lon, lat, d: float, *, band=None) -> np.ndarray:
 
 
 def _inside(conf: Conformal, lat, lon, p, inside_sphere: bool, edges) -> bool:
-    """Inside the polygons with geodesic edges: each region component's spherical answer
-    flipped once for each of its lunes (between a geodesic edge and its great-circle
-    arc) that holds the point, the components united."""
-    flipped = set()
+    """Inside the polygons with geodesic edges.
+
+    Each region component's spherical answer flipped once for each of its lunes (between a
+    geodesic edge and its great-circle arc) that holds the point, the components united.
+    """
+    flipped: set[int] = set()
     for e in edges:
         _, _, side = conf.exact(lat, lon, p, e)
         if side == 0.0:  # the foot is an end: the point is not between the two curves

@@ -103,14 +103,18 @@ class OptionError(GloffsetError, ValueError):
 
 
 class InvalidMaskError(OptionError):
-    """A curve mask given to :func:`~gloffset.raster_offset` has the wrong shape or dtype,
-    or has no curve cell."""
+    """A curve mask given to :func:`~gloffset.raster_offset` is not one.
+
+    It has the wrong shape or dtype, or has no curve cell.
+    """
 
 
 class InvalidEllipsoidError(OptionError):
-    """An ``ellipsoid=`` option (``--ellipsoid`` on the command line) is not a known name
-    (``"WGS84"``, ``"GRS80"``), an ``(a, f)`` pair with a positive finite semi-major axis
-    ``a`` in metres and a flattening ``f`` in [0, 1/50], or an :class:`~gloffset.Ellipsoid`.
+    """An ``ellipsoid=`` option (``--ellipsoid`` on the command line) is not an ellipsoid.
+
+    It is not a known name (``"WGS84"``, ``"GRS80"``), an ``(a, f)`` pair with a positive
+    finite semi-major axis ``a`` in metres and a flattening ``f`` in [0, 1/50], or an
+    :class:`~gloffset.Ellipsoid`.
 
     Raised by :func:`~gloffset.distance`, :func:`~gloffset.contains` and
     :class:`~gloffset.Ellipsoid` itself.
@@ -127,8 +131,9 @@ class InvalidGridError(GloffsetError, ValueError):
 
 
 class TilesError(InvalidGridError):
-    """A tile pyramid request has a bad zoom range, tile size or option (the limits are
-    those of :mod:`gloffset.grids.mercator`).
+    """A tile pyramid request has a bad zoom range, tile size or option.
+
+    The limits are those of :mod:`gloffset.grids.mercator`.
 
     Raised by :func:`gloffset.tiles.pyramid` and ``gloffset tiles``.
     """
@@ -136,16 +141,20 @@ class TilesError(InvalidGridError):
 
 # ------------------------------------------------------------------------------- files
 class OutputError(GloffsetError, OSError):
-    """An output cannot be written (missing folder, no permission, disk full, unsupported
-    format, a tile store that gloffset did not write...).
+    """An output cannot be written.
+
+    A missing folder, no permission, a full disk, an unsupported format, a tile store that
+    gloffset did not write...
 
     The message names the target; a file that was there is left as it was.
     """
 
 
 class OutputExistsError(OutputError, FileExistsError):
-    """The output of a tile pyramid exists and neither resume nor overwrite was asked for
-    (``--resume`` / ``--force`` on the command line)."""
+    """The output of a tile pyramid exists and neither resume nor overwrite was asked for.
+
+    (``--resume`` / ``--force`` on the command line).
+    """
 
     def __init__(self, path):
         super().__init__(
@@ -155,17 +164,23 @@ class OutputExistsError(OutputError, FileExistsError):
 
 # ------------------------------------------------------------------------------- OpenGL
 class GLContextError(GloffsetError, RuntimeError):
-    """No OpenGL context could be created, or the context lacks a needed capability or
-    buffer size for a render (raised by the ``gpu`` backend; the ``cpu`` backend needs no
-    context)."""
+    """No OpenGL context, or one that lacks what a render needs.
+
+    No context could be created, or the context lacks a needed capability or buffer size
+    for a render (raised by the ``gpu`` backend; the ``cpu`` backend needs no context).
+    """
 
 
 class ShaderError(GloffsetError, RuntimeError):
-    """A shader source in ``shaders/`` is missing or malformed, or does not compile or link
-    (the message points at the file and line)."""
+    """A shader source in ``shaders/`` is missing or malformed, or does not compile or link.
+
+    (the message points at the file and line).
+    """
 
 
 # ------------------------------------------------------------------------------- serving
 class QueueFullError(GloffsetError, RuntimeError):
-    """The tile server's render queue holds as many tiles as it may (``gloffset serve``
-    answers 503 with ``Retry-After``): try again later."""
+    """The tile server's render queue holds as many tiles as it may: try again later.
+
+    ``gloffset serve`` answers 503 with ``Retry-After``.
+    """

@@ -25,6 +25,8 @@ notes*.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .ellipsoid import as_ellipsoid, geodesic_midpoints
@@ -37,6 +39,9 @@ from .units import EARTH_RADIUS, VECTOR_LIMIT, distance_properties, offset_angle
 from .vector.arcrings import sample_ring
 from .vector.offset import Offset
 from .vector.offset import offset as sphere_offset
+
+if TYPE_CHECKING:
+    from .vector.resolved import ResolvedOffset
 
 __all__ = ["DEFAULT_TOLERANCE", "VERTEX_TOL", "GeodesicOffset", "offset"]
 
@@ -80,7 +85,7 @@ class GeodesicOffset:
     def __init__(self, shape, ell, d: float, tolerance: float):
         self.shape, self.ellipsoid, self.distance, self.tolerance = shape, ell, d, tolerance
         self.rings: list[np.ndarray] = []
-        self.sphere = None
+        self.sphere: ResolvedOffset | None = None
         self.vertex_error = 0.0
         self.unresolved = 0
         if d != 0.0:
@@ -116,14 +121,16 @@ class GeodesicOffset:
         self.unresolved = tracer.unresolved
 
     def lonlat(self) -> list[np.ndarray]:
-        """The rings as (n, 2) arrays of geodetic lon/lat (degrees)."""
+        """Return the rings as (n, 2) arrays of geodetic lon/lat (degrees)."""
         return [np.column_stack(xyz_to_lonlat(r)) for r in self.rings]
 
     def to_geojson(self, *, digits: int | None = None) -> dict:
-        """The region as an RFC 7946 Feature: rings cut at the antimeridian, exterior
-        rings counter-clockwise, holes clockwise. Properties: ``distance_m`` and
-        ``distance`` (as everywhere: the geodesic length in metres, and as given),
-        ``ellipsoid`` and ``tolerance_m``."""
+        """Return the region as an RFC 7946 Feature.
+
+        Rings cut at the antimeridian, exterior rings counter-clockwise, holes clockwise.
+        Properties: ``distance_m`` and ``distance`` (as everywhere: the geodesic length in
+        metres, and as given), ``ellipsoid`` and ``tolerance_m``.
+        """
         from .io.geojson import rings_to_geometry
 
         props = distance_properties(self.distance) | {
@@ -154,22 +161,27 @@ class GeodesicOffset:
 
 
 def _generators(ring, arc) -> tuple[np.ndarray, np.ndarray]:
-    """Per point: whether its arc is about a vertex (else an edge), and the vertex or the
-    edge's pole (unit vectors), from which the distance grows along great circles."""
+    """Per point, what its distance grows from along great circles.
+
+    Whether its arc is about a vertex (else an edge), and the vertex or the edge's pole
+    (unit vectors), from which the distance grows along great circles.
+    """
     vertex = ring.kind[arc] == 0
     axis = np.where(vertex[:, None], ring.sources[arc, 0], normalize(ring.centers[arc]))
     return vertex, axis
 
 
 def _foot(p, gen) -> np.ndarray:
-    """The generators' points nearest to ``p``: the vertex, or the foot on the edge's
-    great circle."""
+    """Return the generators' points nearest to ``p``.
+
+    The vertex, or the foot on the edge's great circle.
+    """
     vertex, axis = gen
     return np.where(vertex[:, None], axis, normalize(p - dot(p, axis)[:, None] * axis))
 
 
 def _away(p, gen) -> np.ndarray:
-    """Unit tangents at ``p`` pointing away from the generators' feet."""
+    """Return unit tangents at ``p`` pointing away from the generators' feet."""
     foot = _foot(p, gen)
     return normalize(foot - dot(foot, p)[:, None] * p) * -1.0
 
@@ -196,9 +208,11 @@ class _Tracer:
         return nearest_geodesic(self.conf, lon, lat) - self.m
 
     def move(self, p, gen, u=None, reach=None, f0=None) -> np.ndarray:
-        """The points moved along their great circles away from the generators (or along
-        ``u``, a direction in which the distance grows) to distance ``m``, by at most
-        :attr:`reach` (or ``reach``, per point).
+        """Move the points along their great circles to distance ``m``.
+
+        Along their great circles away from the generators (or along ``u``, a direction in
+        which the distance grows) to distance ``m``, by at most :attr:`reach` (or
+        ``reach``, per point).
 
         Secant steps from ``m / K`` (``K`` the scale at the middle of the path to the
         generator), or, where the excess ``f0`` at the points themselves is given, from
@@ -206,7 +220,8 @@ class _Tracer:
         both signs the root is bracketed: a step leaving the bracket, or one that did
         not halve the excess, bisects it instead. No floor on the slope: beside a sharp
         junction the distance grows slowly along the direction (as the cosine of half
-        the angle between the two generators' directions)."""
+        the angle between the two generators' directions).
+        """
         p = np.array(p, dtype=np.float64)
         n = len(p)
         if n == 0:
@@ -262,8 +277,10 @@ class _Tracer:
         return out
 
     def climb(self, p, reach) -> tuple[np.ndarray, np.ndarray]:
-        """Newton steps along the distance's gradient (by finite differences east and
-        north): for the points whose own direction did not reach ``m``."""
+        """Newton steps along the distance's gradient (by finite differences east and north).
+
+        For the points whose own direction did not reach ``m``.
+        """
         k = self.conf.ell.k_max
         h = max(1e-3 * self.tol / k, 1e-10)
         f = self.excess(p)
@@ -286,17 +303,19 @@ class _Tracer:
         return p, f
 
     def densify(self, p, gen):
-        """Insert moved midpoints where an edge's geodesic midpoint breaks the rules of
-        the module's docstring (half the tolerance, less the curvature terms of
-        :func:`_curvatures` where the ends lie on different generators, see
+        """Insert moved midpoints where an edge's geodesic midpoint breaks the rules.
+
+        The rules of the module's docstring (half the tolerance, less the curvature terms
+        of :func:`_curvatures` where the ends lie on different generators, see
         :func:`_corner`); only the edges made by the last round are measured again. An
         edge so short that its ends' errors plus half its length (the distance is
         1-Lipschitz) stay within the tolerance needs no midpoint. A midpoint moves along
         the edge's normal (its perpendicular bisector on the conformal sphere), which
-        crosses the boundary between the ends also where a generator's own direction
-        runs along the edge (beside a corner), by at most a few times its own error
-        plus half the edge; it takes the generator of the end whose generator is
-        nearer on the conformal sphere."""
+        crosses the boundary between the ends also where a generator's own direction runs
+        along the edge (beside a corner), by at most a few times its own error plus half
+        the edge; it takes the generator of the end whose generator is nearer on the
+        conformal sphere.
+        """
         vertex, axis = gen
         ell = self.conf.ell
         half = 0.5 * (self.tol - self.eps)
@@ -344,9 +363,11 @@ class _Tracer:
 
 
 def _corner(ga, gb) -> np.ndarray:
-    """Whether the boundary may turn (a junction) between points of generators ``ga``
-    and ``gb``: they differ, and are not a vertex and an edge through it (whose circle
-    and parallel curve meet tangentially)."""
+    """Whether the boundary may turn (a junction) between points of generators ``ga`` and ``gb``.
+
+    They differ, and are not a vertex and an edge through it (whose circle and parallel
+    curve meet tangentially).
+    """
     (va, aa), (vb, ab) = ga, gb
     c = dot(aa, ab)
     same = (va == vb) & (c > 1.0 - 1e-12)
@@ -355,11 +376,13 @@ def _corner(ga, gb) -> np.ndarray:
 
 
 def _curvatures(ell, m: float) -> tuple[float, float]:
-    """Bounds on the second derivative, along a geodesic at distance about ``m``, of
-    the distance to a geodesic edge: at most ``C = 1 / m`` (beside its ends, the
-    distance to a point, on a surface of positive curvature) and at least ``-c``,
-    ``c = tan(m / b) / b`` (beside its middle; ``1 / b^2`` the largest curvature of the
-    ellipsoid). Beside its middle it is also at most 0."""
+    """Bounds on the second derivative of the distance to a geodesic edge, along a geodesic.
+
+    At most ``C = 1 / m`` (beside its ends, the distance to a point, on a surface of
+    positive curvature) and at least ``-c``, ``c = tan(m / b) / b`` (beside its middle;
+    ``1 / b^2`` the largest curvature of the ellipsoid). Beside its middle it is also at
+    most 0.
+    """
     b = ell.a * (1.0 - ell.f)
     return 1.0 / m, float(np.tan(min(m / b, 1.5)) / b)
 
@@ -372,8 +395,10 @@ def offset(
     ellipsoid=None,
     tolerance: float = DEFAULT_TOLERANCE,
 ):
-    """Offset a shape by ``distance``: small-circle arcs on the sphere, or densified rings at
-    geodesic distance on an ellipsoid.
+    """Offset a shape by ``distance``.
+
+    Small-circle arcs on the sphere, or densified rings at geodesic distance on an
+    ellipsoid.
 
     Parameters
     ----------

@@ -46,7 +46,7 @@ def _geopandas():
 
 
 def _lonlat_series(gpd, data):
-    """The GeoSeries of ``data`` in lon/lat, or an error for a projected CRS."""
+    """Return the GeoSeries of ``data`` in lon/lat, or an error for a projected CRS."""
     if isinstance(data, gpd.GeoDataFrame):
         series = data.geometry
     elif isinstance(data, gpd.GeoSeries):
@@ -69,8 +69,10 @@ def _lonlat_series(gpd, data):
 
 
 def _angles(distance, n: int, radius: float) -> np.ndarray:
-    """Per-feature distances as angles (radians) from a number, a string such as
-    '500m', or an array of numbers (units of ``radius``)."""
+    """Per-feature distances as angles (radians).
+
+    From a number, a string such as '500m', or an array of numbers (units of ``radius``).
+    """
     if isinstance(distance, str):
         return np.full(n, parse_distance(distance, radius))
     arr = np.asarray(distance, dtype=np.float64)
@@ -99,7 +101,7 @@ def _check_limit(d: np.ndarray, distance, index) -> None:
 
 
 def buffer(data, distance, *, each: bool = True, resolution: int = 16, radius=EARTH_RADIUS):
-    """The region within ``distance`` of each feature of a GeoSeries or GeoDataFrame.
+    """Return the region within ``distance`` of each feature of a GeoSeries or GeoDataFrame.
 
     Parameters
     ----------
@@ -162,8 +164,10 @@ def buffer(data, distance, *, each: bool = True, resolution: int = 16, radius=EA
 
 
 def _tolerance(d: float, res: int) -> float:
-    """The chord deviation of a circle of radius ``d`` drawn with ``res`` segments per
-    quarter: what every arc is densified to."""
+    """Return the chord deviation of a radius-``d`` circle drawn with ``res`` segments a quarter.
+
+    What every arc is densified to.
+    """
     return max(float(np.sin(abs(d)) * (1.0 - np.cos(np.pi / (4 * res)))), 1e-15)
 
 
@@ -173,11 +177,16 @@ def _general(shapely, shape, d: float, res: int):
 
 
 def _buffer_each(shapely, geoms: np.ndarray, d: np.ndarray, res: int):
-    """Buffers of an array of shapely geometries, the simple ones all at once, and
-    ``{row: message}`` for the rows that cannot be buffered (None in the output)."""
+    """Buffers of an array of shapely geometries, and the rows that cannot be buffered.
+
+    The simple ones all at once, and ``{row: message}`` for the rows that cannot be
+    buffered (None in the output).
+    """
     out = np.empty(len(geoms), dtype=object)
     missing = shapely.is_missing(geoms) | shapely.is_empty(geoms)
-    kind = np.where(missing, -1, shapely.get_type_id(np.where(missing, None, geoms)))
+    # None is shapely's missing geometry (numpy's stub takes no None as an array-like)
+    present = np.where(missing, None, geoms)  # type: ignore[call-overload]
+    kind = np.where(missing, -1, shapely.get_type_id(present))
     rings = np.flatnonzero(kind == 2)
     if len(rings):  # a LinearRing is buffered as its line, as GeoPandas does
         geoms = geoms.copy()
@@ -225,17 +234,21 @@ def _warn_bad_rows(bad: dict, index, n: int) -> None:
 
 
 def _in_range(xy: np.ndarray) -> np.ndarray:
-    """Which positions (n, 2) are finite lon/lat in range; the others go the general way,
-    which names what is wrong with them."""
+    """Which positions (n, 2) are finite lon/lat in range.
+
+    The others go the general way, which names what is wrong with them.
+    """
     ok = np.isfinite(xy).all(axis=-1) & (np.abs(xy[..., 1]) <= 90)
     return ok & (np.abs(xy[..., 0]) <= 180)
 
 
 def _plain_segments(shapely, geoms: np.ndarray) -> np.ndarray:
-    """Which two-point lines are plain segments (ends distinct, not antipodal, in range);
-    the others go the general way, which names what is wrong with them."""
+    """Which two-point lines are plain segments (ends distinct, not antipodal, in range).
+
+    The others go the general way, which names what is wrong with them.
+    """
     xy = shapely.get_coordinates(geoms).reshape(len(geoms), 2, 2)
-    ok = _in_range(xy).all(axis=1)
+    ok = np.asarray(_in_range(xy).all(axis=1))
     a = lonlat_to_xyz(*np.where(ok[:, None], xy[:, 0], 0.0).T)
     b = lonlat_to_xyz(*np.where(ok[:, None], xy[:, 1], 0.0).T)
     ang = angle(a, b)
@@ -243,8 +256,10 @@ def _plain_segments(shapely, geoms: np.ndarray) -> np.ndarray:
 
 
 def _simple(shapely, geoms, out, sel: np.ndarray, make, d: np.ndarray, res: int) -> None:
-    """Points (circles) or segments (stadiums) ``sel`` buffered with numpy (``d``: their
-    distances, radians)."""
+    """Buffer points (circles) or segments (stadiums) ``sel`` with numpy.
+
+    ``d``: their distances (radians).
+    """
     if not len(sel):
         return
     xy = shapely.get_coordinates(geoms[sel]).reshape(len(sel), -1, 2)

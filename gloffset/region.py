@@ -202,7 +202,8 @@ class _Union:
             i, j = self._pairs()
         other = self.comp[i] != self.comp[j]
         self._pairs_other = (i[other], j[other])
-        self.meets = []  # pairs of polygons that touch, joined into one component
+        # pairs of polygons that touch, joined into one component
+        self.meets: list[tuple[np.ndarray, np.ndarray]] = []
         splits = self._intersections(i, j)
         pieces = self._split(splits)
         keep, excl = self._cancel(pieces)
@@ -314,7 +315,7 @@ class _Union:
         key = _keys(np.concatenate([lo, hi], axis=1))
         _, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
         keep = counts[inv] == 1
-        excl = {}
+        excl: dict[int, set[int]] = {}
         self.side_test = np.zeros(len(keep), bool)
         members = np.flatnonzero(counts[inv] > 1)
         if len(members) == 0:
@@ -577,9 +578,9 @@ class _Union:
             names = dict.fromkeys(self.labels[r] for r in self.ring_of[edge[cyc]].tolist())
             labels.append(" + ".join(names))
         root = components(self.n_comp, *(np.concatenate(x) for x in zip(*self.meets)))
-        groups = root[np.array(groups, dtype=np.int64)]
-        _, groups = np.unique(groups, return_inverse=True)
-        return Boundary(rings, seams, groups.astype(np.int64), np.array(holes, bool), labels)
+        roots = root[np.array(groups, dtype=np.int64)]
+        _, group_of = np.unique(roots, return_inverse=True)
+        return Boundary(rings, seams, group_of.astype(np.int64), np.array(holes, bool), labels)
 
 
 def _perp(p, q):

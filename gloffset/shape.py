@@ -91,8 +91,10 @@ class Edges:
 
 @dataclass(eq=False)
 class Derived:
-    """What is derived from a shape and kept for its life: one named slot per index, each
-    filled on first use by the one module that owns it (named per slot), never by another.
+    """What is derived from a shape and kept for its life.
+
+    One named slot per index, each filled on first use by the one module that owns it
+    (named per slot), never by another.
 
     Shapes are not changed after construction, so nothing here goes stale. A pickled shape
     leaves all of it out (:meth:`Shape.__getstate__`): it is rebuilt where needed, and a
@@ -179,7 +181,7 @@ class Shape:
             raise InvalidGeometryError("empty geometry: no polygon, line or point to offset")
         self._edges: Edges | None = None
         self._ref_status: np.ndarray | None = None
-        self._overlap: bool | None = None
+        self._overlap: np.ndarray | None = None
         #: what other modules derive from the shape (:class:`Derived`)
         self.derived = Derived()
 
@@ -199,7 +201,7 @@ class Shape:
 
     @classmethod
     def from_lonlat(cls, lon, lat, *, closed: bool = False) -> Shape:
-        """A single line (``closed=False``) or polygon ring (``closed=True``) from arrays.
+        """Return a single line (``closed=False``) or polygon ring (``closed=True``) from arrays.
 
         ``lon`` and ``lat`` are in degrees. A closed ring may repeat its first vertex.
         """
@@ -222,14 +224,16 @@ class Shape:
     # ------------------------------------------------------------------ derived data
     @property
     def n_groups(self) -> int:
+        """Number of region components (:attr:`ring_groups`)."""
         return int(self.ring_groups.max()) + 1 if len(self.ring_groups) else 0
 
     @property
     def n_vertices(self) -> int:
+        """Number of vertices of the rings and lines."""
         return sum(len(r) for r in self.rings) + sum(len(ln) for ln in self.lines)
 
     def edges(self) -> Edges:
-        """The flat edge table (cached)."""
+        """Return the flat edge table (cached)."""
         if self._edges is None:
             a, b, bd, g = [], [], [], []
             for ring, seams, grp in zip(self.rings, self.ring_seams, self.ring_groups):
@@ -255,8 +259,10 @@ class Shape:
         return self._edges
 
     def arcs(self) -> CurveArcs:
-        """The edges as arcs with their normals, bounding caps and cap trees: the one edge
-        index of the shape (:class:`gloffset.edges.CurveArcs`, made once)."""
+        """Return the edges as arcs with their normals, bounding caps and cap trees.
+
+        The one edge index of the shape (:class:`gloffset.edges.CurveArcs`, made once).
+        """
         from .edges import CurveArcs
 
         return CurveArcs.from_shape(self)
@@ -287,7 +293,7 @@ class Shape:
         return self._overlap
 
     def component_caps(self) -> tuple[np.ndarray, np.ndarray]:
-        """A bounding cap (centre, radius in radians) of each region component."""
+        """Return a bounding cap (centre, radius in radians) of each region component."""
         e = self.edges()
         centres = np.zeros((self.n_groups, 3))
         radii = np.zeros(self.n_groups)
@@ -304,7 +310,7 @@ class Shape:
 
     # ------------------------------------------------------------------ output
     def to_geojson(self, *, digits: int | None = None) -> dict:
-        """The shape as an RFC 7946 GeoJSON Feature.
+        """Return the shape as an RFC 7946 GeoJSON Feature.
 
         A shape read from GeoJSON (or arrays) writes back its polygons, lines and
         points as they were given (rings closed, exterior rings counter-clockwise
@@ -395,7 +401,7 @@ def read(source, *, layer=None, where: str | None = None, densify=None) -> Shape
 # ---------------------------------------------------------------------- building
 
 
-def _validate(ll: np.ndarray, label: str, *, min_points: int) -> np.ndarray:
+def _validate(ll: np.ndarray, label: str, *, min_points: int) -> tuple[np.ndarray, np.ndarray]:
     """Check lon/lat, convert to unit vectors and drop repeated consecutive points."""
     bad = ~np.isfinite(ll)
     if bad.any():

@@ -1,5 +1,6 @@
-"""Web-mercator tile pyramids of the offset region: the public face of
-:mod:`gloffset.raster.pyramid`.
+"""Web-mercator tile pyramids of the offset region.
+
+The public face of :mod:`gloffset.raster.pyramid`.
 
 :func:`pyramid` writes an XYZ folder, MBTiles or PMTiles pyramid of the region within a
 distance of the input; :func:`parse_zooms` reads a zoom range, :class:`PyramidStats`

@@ -1,5 +1,6 @@
-"""Distances with units (``500m``, ``127km``, ``0.02rad``, ``1.5deg``) and query points in
-degrees: what comes in at the edges, checked once.
+"""Distances with units (``500m``, ``127km``, ``0.02rad``, ``1.5deg``) and query points in degrees.
+
+What comes in at the edges, checked once.
 
 Inside gloffset every distance is an angle on the unit sphere (radians). Metres
 appear only at the edges, through the ``radius`` keyword (default
@@ -28,8 +29,11 @@ _PATTERN = re.compile(rf"^\s*({_NUMBER})\s*([A-Za-z]*)\s*$")
 
 
 def first_not_finite(lon: np.ndarray, lat: np.ndarray) -> int | None:
-    """The index of the first point whose ``lon`` or ``lat`` is NaN or infinite (flat
-    float arrays of one length); None when every coordinate is finite."""
+    """Return the index of the first point whose ``lon`` or ``lat`` is not finite.
+
+    ``lon`` and ``lat`` are flat float arrays of one length; None when every coordinate
+    is finite.
+    """
     bad = ~(np.isfinite(lon) & np.isfinite(lat))
     return int(np.flatnonzero(bad)[0]) if bad.any() else None
 
@@ -99,7 +103,7 @@ RASTER_LIMIT = 1.5
 
 
 def offset_angle(shape, distance, radius, *, limit: float | None = None, what: str = "") -> float:
-    """The offset distance of an operation as an angle, with the limits that hold for it.
+    """Return the offset distance of an operation as an angle, with the limits that hold for it.
 
     ``distance`` is a number in the units of ``radius`` or a string with a unit
     (``"127km"``, ``"0.02rad"``, read by :func:`parse_distance` with ``radius``). The
@@ -140,7 +144,7 @@ def offset_angle(shape, distance, radius, *, limit: float | None = None, what: s
 
 
 def _read(text: str) -> tuple[float, str]:
-    """The number and the unit (lower case, ``"m"`` for none) of a distance string."""
+    """Return the number and the unit (lower case, ``"m"`` for none) of a distance string."""
     m = _PATTERN.match(str(text))
     if not m:
         raise InvalidDistanceError(
@@ -190,8 +194,9 @@ def parse_distance(text: str | float, radius: float = EARTH_RADIUS) -> float:
 
 
 def parse_length(text: str | float, radius: float = EARTH_RADIUS) -> float:
-    """A distance such as ``"127km"`` or ``"0.02rad"`` as a length in the units of
-    ``radius`` (metres for the default radius and for every metric unit).
+    """Convert a distance such as ``"127km"`` to a length in the units of ``radius``.
+
+    Metres for the default radius and for every metric unit.
 
     Exact for metric units (one product by the unit's length in metres) and for numbers
     (returned as they are); angles are multiplied by ``radius``.
@@ -213,7 +218,8 @@ def parse_length(text: str | float, radius: float = EARTH_RADIUS) -> float:
 
 
 def distance_properties(distance, radius: float = 1.0) -> dict:
-    """The properties that name the distance of an output feature, the same everywhere:
+    """Return the properties that name the distance of an output feature, the same everywhere.
+
     ``distance_m`` (the length in metres, or in the units of ``radius``) and ``distance``
     (the distance as given: ``"127km"``, or the number).
 

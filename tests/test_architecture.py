@@ -86,6 +86,48 @@ def test_the_layering_contract_holds():
     assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
 
 
+def test_the_package_says_it_is_typed():
+    """PEP 561: the marker ships in the wheel (every file under gloffset/ does)."""
+    assert (PACKAGE / "py.typed").is_file()
+
+
+def test_the_docstring_rules_cover_the_public_api():
+    """Every module that defines a name of ``gloffset.__all__`` is in the scope of ruff's
+    docstring rules (the negated pattern of ``[tool.ruff.lint.per-file-ignores]``)."""
+    import inspect
+
+    import gloffset
+
+    tomllib = pytest.importorskip("tomllib")  # Python 3.11+
+
+    ignores = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["ruff"]["lint"][
+        "per-file-ignores"
+    ]
+    (pattern,) = [k for k, v in ignores.items() if k.startswith("!") and "D" in v]
+    inner = re.fullmatch(r"!gloffset/\{(.*)\}\.py", pattern)
+    assert inner, pattern
+    covered = {"gloffset." + m.replace("/", ".") for m in inner[1].split(",")}
+    covered = {m.removesuffix(".__init__") for m in covered}
+    defining = set()
+    for name in gloffset.__all__:
+        obj = getattr(gloffset, name)
+        module = obj.__name__ if inspect.ismodule(obj) else getattr(obj, "__module__", None)
+        if module and module.startswith("gloffset"):
+            defining.add(module)
+    assert defining - covered == set(), "add these to the docstring rules' scope"
+
+
+@pytest.mark.slow
+def test_the_annotations_hold():
+    """``mypy gloffset`` (its settings in pyproject.toml; .ci/run runs it too), which also
+    checks that every grid answers its protocols (``gloffset/grids/__init__.py``)."""
+    exe = shutil.which("mypy")
+    if exe is None:
+        pytest.skip("mypy is not installed (pip install -e '.[test]')")
+    run = subprocess.run([exe, "gloffset"], cwd=ROOT, capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
+
+
 #: what a name in ARCHITECTURE.md looks like when it is a file or folder of the repository
 _FILE = re.compile(r"[\w./-]+(?:/|\.(?:py|frag|vert|glsl|md|toml|json|geojson))")
 

@@ -6,6 +6,7 @@ import csv
 import io
 import os
 import sys
+from collections.abc import Callable
 
 import click
 import numpy as np
@@ -59,11 +60,11 @@ def _coordinates(rows, lines, width: int, ilon: int, ilat: int, where: str):
                         f"{where}, line {line}: {name} {r[k]!r} is not a number"
                     ) from None
         raise  # pragma: no cover  (some row failed above)
-    k = first_not_finite(lon, lat)
-    if k is not None:
+    nonfinite = first_not_finite(lon, lat)
+    if nonfinite is not None:
         raise InputFormatError(
-            f"{where}, line {lines[k]}: coordinates must be finite, got "
-            f"{float(lon[k])!r}, {float(lat[k])!r}"
+            f"{where}, line {lines[nonfinite]}: coordinates must be finite, got "
+            f"{float(lon[nonfinite])!r}, {float(lat[nonfinite])!r}"
         )
     for values, name, limit in ((lat, "latitude", 90.0), (lon, "longitude", 180.0)):
         bad = np.abs(values) > limit
@@ -139,6 +140,7 @@ def contains_cmd(
     ell, d = measure(distance, radius, ellipsoid)
     d = d if ell is None else (ell, d)
     check_output(output)  # fail before the work
+    tester: PerFeature | Union
     if each:
         feats = features(load(input, layer=layer, where=where, densify=densify))
         tester = PerFeature(feats, d, level)
@@ -239,7 +241,8 @@ class Union:
     """Points tested against the region of the whole input (the default)."""
 
     def __init__(self, shape, d, level):
-        self.shape, self.d, self.level, self.index = shape, d, level, None
+        self.shape, self.d, self.level = shape, d, level
+        self.index: Callable | None = None
 
     def header(self, header, iout):
         return header if iout is not None else [*header, "inside"]
@@ -248,6 +251,7 @@ class Union:
         self.index = _tester(self.shape, self.d, self.level, expect)
 
     def rows(self, rows, lon, lat, iout):
+        assert self.index is not None  # after start
         return _flagged(rows, self.index(lon, lat), iout)
 
 

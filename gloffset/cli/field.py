@@ -93,6 +93,7 @@ def field_cmd(
     One field answers every distance: the region at distance d is where the field is at
     most d. Values are exact float64 distances rounded to float32."""
     kind = _format(output, grid_kind)
+    grid: Cube | Equirect
     if grid_kind == "cube":
         if bounds is not None:
             raise OptionError("--bounds does not apply to --grid cube")
@@ -122,6 +123,7 @@ def field_cmd(
         if m is not None:
             values = np.where(np.abs(values) >= np.float32(m), np.float32(np.nan), values)
         cog = str(output).lower().endswith((".cog.tif", ".cog.tiff"))
+        assert isinstance(grid, Equirect)  # a cube goes to a folder (_format)
         ref = Georef(grid.transform(), description=DESCRIPTION)
         nodata = None if m is None else float("nan")
         write_geotiff(output, values, ref, cog=cog, nodata=nodata)

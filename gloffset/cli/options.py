@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import sys
 import time
+from typing import Any
 
 import click
 
@@ -20,7 +21,9 @@ def distance_option(f=None, *, default: str | None = None):
     def decorate(f):
         # no default=None for a required option: recent click (8.5) takes an explicit None
         # as a default value and no longer reports the option as missing
-        given = {"default": default, "show_default": True} if default is not None else {}
+        given: dict[str, Any] = (
+            {"default": default, "show_default": True} if default is not None else {}
+        )
         return click.option(
             "-d",
             "--distance",
@@ -109,8 +112,8 @@ def metres(text: str) -> float:
 def number_option(*names: str, low: float, default: float, help: str):
     """An option taking a number of at least ``low`` (an integer when ``default`` is an
     int, else a float), its default shown in ``--help``."""
-    kind = click.IntRange if isinstance(default, int) else click.FloatRange
-    return click.option(*names, type=kind(min=low), default=default, show_default=True, help=help)
+    kind = click.IntRange(min=int(low)) if isinstance(default, int) else click.FloatRange(min=low)
+    return click.option(*names, type=kind, default=default, show_default=True, help=help)
 
 
 def choice_option(*names: str, choices: tuple[str, ...], help: str | None = None):
@@ -219,6 +222,7 @@ class Stages:
         self._show(force=self.done == self.items)
 
     def _show(self, force: bool) -> None:
+        assert self.bar is not None  # the callers return without a bar
         now = time.monotonic()
         if not force and now - self.shown < 0.1:
             return

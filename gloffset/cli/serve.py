@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -12,6 +13,9 @@ from ..errors import InputFormatError, OptionError
 from ..shape import read
 from . import main
 from .options import number_option
+
+if TYPE_CHECKING:
+    from starlette.applications import Starlette
 
 
 @main.command("serve")
@@ -91,6 +95,8 @@ def serve_cmd(
         + "); Ctrl-C stops",
         err=True,
     )
+    target: str | Starlette  # the app, or its factory's import path
+    kw: dict[str, Any]
     if workers > 1:  # each worker (spawned) reads the inputs and makes its own context
         paths = [str(Path(p).resolve()) for p in inputs]
         if access_log not in (None, "-"):  # each worker appends its lines to the file

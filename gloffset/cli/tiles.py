@@ -100,6 +100,7 @@ def tiles_cmd(
     shown = [0.0]
 
     def progress(p):
+        assert bar is not None  # passed on with a bar only
         # the bar is the share of the time (p.fraction), the ETA the library's estimate
         bar.n = round(100.0 * p.fraction, 1)
         left = "?" if p.eta is None else tqdm.format_interval(p.eta)

@@ -147,7 +147,7 @@ def edge_distances(ell, lat, lon, a, b, s0) -> np.ndarray:
         done = np.abs(nxt - s[act]) < TOL
         s[act[~done]] = nxt[~done]
         act = act[~done]
-    for k in act:  # not converged: one at a time, with the golden-section fallback
+    for k in act.tolist():  # not converged: one at a time, with the golden-section fallback
         s[k] = edge_distance(ell.geodesic, lat[k], lon[k], a[k], b[k], s0[k])[1]
     every = np.arange(n)
     out = probe(every, s)[0]

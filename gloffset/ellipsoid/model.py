@@ -120,7 +120,7 @@ class Ellipsoid:
 
     @property
     def geodesic(self):
-        """geographiclib's :class:`~geographiclib.geodesic.Geodesic` for this ellipsoid."""
+        """Geographiclib's :class:`~geographiclib.geodesic.Geodesic` for this ellipsoid."""
         from geographiclib.geodesic import Geodesic
 
         g = self.__dict__.get("_geodesic")
@@ -147,8 +147,10 @@ class Ellipsoid:
         return np.where(np.abs(lat) >= 90.0, lat, chi)
 
     def geodetic(self, chi):
-        """Geodetic latitude (degrees) of conformal latitudes ``chi`` (degrees): Newton's
-        method on ``tan phi`` (Karney 2011, Eq. 19-20), to a few ulp."""
+        """Geodetic latitude (degrees) of conformal latitudes ``chi`` (degrees).
+
+        Newton's method on ``tan phi`` (Karney 2011, Eq. 19-20), to a few ulp.
+        """
         chi = np.asarray(chi, dtype=np.float64)
         e2 = self.e2
         e = math.sqrt(e2)
@@ -169,12 +171,15 @@ class Ellipsoid:
         return np.where(np.abs(chi) >= 90.0, chi, lat)
 
     def to_sphere(self, lon, lat) -> np.ndarray:
-        """Unit vectors on the conformal sphere of geodetic ``lon, lat`` (degrees)."""
+        """Return unit vectors on the conformal sphere of geodetic ``lon, lat`` (degrees)."""
         return lonlat_to_xyz(lon, self.conformal(lat))
 
     def scale(self, phi):
-        """``K(phi)``: metres of the ellipsoid per radian of the conformal sphere at
-        geodetic latitudes ``phi`` (radians). Relative error a few ulp."""
+        """Return the scale ``K(phi)`` at geodetic latitudes ``phi`` (radians).
+
+        Metres of the ellipsoid per radian of the conformal sphere. Relative error a few
+        ulp.
+        """
         s = np.sin(np.asarray(phi, dtype=np.float64))
         e2 = self.e2
         e = math.sqrt(e2)
@@ -183,9 +188,11 @@ class Ellipsoid:
         return n * (np.cosh(t) - s * np.sinh(t))
 
     def _log_scale_slope(self, phi):
-        """``d ln K / d chi`` at geodetic latitudes ``phi`` (radians), in closed form:
+        """``d ln K / d chi`` at geodetic latitudes ``phi`` (radians), in closed form.
+
         ``(dlnN/dphi + g'/g) K / M`` with ``g = cosh t - sin(phi) sinh t`` and ``dchi/dphi
-        = M / K``."""
+        = M / K``.
+        """
         s, c = np.sin(phi), np.cos(phi)
         e2 = self.e2
         e = math.sqrt(e2)
@@ -203,14 +210,16 @@ class Ellipsoid:
 
 @functools.cache
 def _named(key: str) -> Ellipsoid:
-    """The named ellipsoids, made once."""
+    """Return the named ellipsoids, made once."""
     a, f = ELLIPSOIDS[key]
     return Ellipsoid(a, f, key)
 
 
 def as_ellipsoid(spec) -> Ellipsoid | None:
-    """Read an ``ellipsoid=`` option: ``None`` (the sphere of ``radius``), a name among
-    :data:`ELLIPSOIDS` (any case), an ``(a, f)`` pair or an :class:`Ellipsoid`.
+    """Read an ``ellipsoid=`` option.
+
+    ``None`` (the sphere of ``radius``), a name among :data:`ELLIPSOIDS` (any case), an
+    ``(a, f)`` pair or an :class:`Ellipsoid`.
 
     Raises :class:`~gloffset.InvalidEllipsoidError` for anything else.
     """

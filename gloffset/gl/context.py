@@ -30,7 +30,13 @@ _INSTALL = (
 def _create(index: int):
     import moderngl
 
-    return moderngl.create_context(standalone=True, backend="egl", require=430, device_index=index)
+    # moderngl's stub types the keyword settings as dicts (``**settings: Dict[str, Any]``)
+    return moderngl.create_context(
+        standalone=True,
+        backend="egl",  # type: ignore[arg-type]
+        require=430,
+        device_index=index,  # type: ignore[arg-type]
+    )
 
 
 def _is_software(ctx) -> bool:

@@ -133,6 +133,7 @@ class LonLatRun:
 
         ctx, eng, p = self.ctx, self.eng, self.eng.prog
         h, w = lev.shape
+        assert lev.dphi is not None and lev.dlam is not None  # a lon/lat level has them
         level_tex = [
             eng._tex(parent, 1, "u1"),
             eng._tex(lev.info, 4, "u4"),

@@ -202,12 +202,14 @@ class VectorPasses:
         geo_t = self._tex(geo, 2, "u4")
         textures = [bins, geo_t]
         if plan.cube:
+            assert plan.basis is not None and plan.face_size is not None  # a cube plan's
             e_, u_, v_ = plan.basis
             _set(p, "u_face_e", tuple(float(x) for x in e_))
             _set(p, "u_face_u", tuple(float(x) for x in u_))
             _set(p, "u_face_v", tuple(float(x) for x in v_))
             _set(p, "u_px", 2.0 / plan.face_size)
         else:
+            assert plan.bin_lat is not None and plan.bin_lon is not None  # a lon/lat plan's
             textures += [self._tex(plan.bin_lat, 2, "f4"), self._tex(plan.bin_lon, 2, "f4")]
             textures[-2].use(3)
             textures[-1].use(4)
@@ -269,6 +271,7 @@ class VectorPasses:
             parent.use(0)
             mt.use(5)
             if not plan.cube:
+                assert plan.dphi is not None and plan.dlam is not None  # a lon/lat plan's
                 level_tex = [self._tex(plan.dphi[s], 1, "f4"), self._tex(plan.dlam[s], 1, "f4")]
                 level_tex[0].use(7)
                 level_tex[1].use(8)

@@ -4,9 +4,39 @@
 ``CubeFace`` (GL cube maps).
 """
 
+from typing import TYPE_CHECKING
+
 from .base import InvalidGridError
 from .cube import FACE_NAMES, Cube, CubeFace, locate
 from .equirect import Equirect
 from .mercator import Tile
 
 __all__ = ["Cube", "CubeFace", "Equirect", "FACE_NAMES", "InvalidGridError", "Tile", "locate"]
+
+if TYPE_CHECKING:  # read by mypy (`mypy gloffset`): every grid answers its protocols
+    from .conformal import ConformalRows
+    from .cube import CubeCells
+    from .mercator import TilePyramid
+    from .protocol import (
+        CurveMaskImage,
+        FaceCells,
+        FaceGrid,
+        Image,
+        ImageGrid,
+        LonLatCells,
+        RegularLonLat,
+        TileLevels,
+    )
+
+    def _answers(
+        e: Equirect, t: Tile, r: ConformalRows, f: CubeFace, c: Cube, cc: CubeCells, p: TilePyramid
+    ) -> None:
+        regular: list[RegularLonLat] = [e]
+        lonlat: list[LonLatCells] = [e, t, r]
+        images: list[Image] = [e, t, r, f, c]
+        image_grids: list[ImageGrid] = [e, t, r, f]
+        faces: list[FaceGrid] = [f]
+        curve_masks: list[CurveMaskImage] = [e, c, r]
+        cell_sets: list[FaceCells] = [cc]
+        tiles: list[TileLevels] = [p]
+        del regular, lonlat, images, image_grids, faces, curve_masks, cell_sets, tiles

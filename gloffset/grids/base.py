@@ -19,6 +19,7 @@ float64, rounded up by a relative 1e-12.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -53,8 +54,18 @@ class LevelHierarchy:
     (:meth:`cell_set`). Each is an image of one face (``n_faces``, :attr:`faces`): itself.
     """
 
-    width: int
-    height: int
+    if TYPE_CHECKING:
+        # what subclasses provide: the size (dataclass fields, or :class:`Square`'s
+        # properties) and the bounds of their cells
+
+        @property
+        def width(self) -> int: ...
+
+        @property
+        def height(self) -> int: ...
+
+        def rho(self, level: int) -> np.ndarray: ...
+
     lonlat = False
     n_faces = 1
     subgrids = False

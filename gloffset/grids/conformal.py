@@ -34,6 +34,8 @@ class ConformalRows(LonLatGrid):
     44.8076
     """
 
+    width: int
+    height: int
     curve_masks = True
 
     def __init__(self, grid, ell):

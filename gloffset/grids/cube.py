@@ -312,7 +312,8 @@ class CubeCells:
     # ------------------------------------------------------------- geometry
     def face_axes(self, face: int) -> tuple[tuple, tuple, tuple]:
         """(e, u, v) of ``face`` as tuples of floats (:data:`FACES`)."""
-        return tuple(tuple(float(x) for x in a) for a in FACES[face])
+        e, u, v = (tuple(float(x) for x in a) for a in FACES[face])
+        return e, u, v
 
     def centers(self, level: int, j, i) -> np.ndarray:
         """Unit vectors of the centres of cells (stacked row ``j``, column ``i``)."""

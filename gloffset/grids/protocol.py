@@ -109,6 +109,9 @@ class RegularLonLat(LonLatCells, Protocol):
     """A lon/lat grid whose rows and columns are evenly spaced in latitude and longitude
     (equirectangular), from the west and north edges of ``bounds``."""
 
+    #: rasterized curves live on it (:class:`CurveMaskImage`)
+    curve_masks: bool
+
     @property
     def bounds(self) -> tuple: ...
 
@@ -239,6 +242,9 @@ class CellSet(Grid, Protocol):
 class FaceCells(CellSet, Protocol):
     """The faces of a multi-face image as one set of cells (``lonlat`` is False): faces
     stacked as rows, each ``size x size`` at the output level."""
+
+    #: per level, the rows of a face (its cells' rows, then padding rows that hold none)
+    P: list[int]
 
     @property
     def size(self) -> int: ...

@@ -87,8 +87,9 @@ _OUT, _IN = 0, 1
 
 # ---------------------------------------------------------------------- geometry kernels
 def _crosses(p, x, px, a, b, n, pn=None) -> np.ndarray:
-    """Does the short arc ``p -> x`` cross arc ``a -> b`` (normal ``n``)? ``px = p x x``;
-    ``pn = p . n`` if known.
+    """Whether the short arc ``p -> x`` crosses arc ``a -> b`` (normal ``n``).
+
+    ``px = p x x``; ``pn = p . n`` if known.
 
     The half-open rule of :func:`gloffset.sphere.crossing_rule`: a point on a great
     circle counts as on its left, so an arc through a shared vertex counts once. The
@@ -176,8 +177,10 @@ class _Arcs:
         self._ancestors: dict[int, np.ndarray] = {}
 
     def ancestors(self, k: int) -> np.ndarray:
-        """For every tree node of level ``<= k`` (original edges first), the arc of
-        level ``k`` that stands for it (-1 for the nodes above level ``k``)."""
+        """Return the arc of level ``k`` that stands for every tree node of level ``<= k``.
+
+        Nodes in order, original edges first; -1 for the nodes above level ``k``.
+        """
         if k not in self._ancestors:
             count = np.ones(len(self.a), dtype=np.int64)
             first = np.arange(len(self.a))  # each node's first original edge
@@ -284,9 +287,10 @@ class Index:
 
     #: The class of the index on an ellipsoid (``Index(..., ellipsoid=...)`` makes one):
     #: :class:`gloffset.ellipsoidal.EllipsoidIndex`, which sets it on import.
-    on_ellipsoid = None
+    on_ellipsoid: type | None = None
 
     def __new__(cls, shape=None, distance: float = 0.0, *, ellipsoid=None, **options):
+        """Make an index, or with ``ellipsoid`` one on that ellipsoid (:attr:`on_ellipsoid`)."""
         if ellipsoid is None:
             return super().__new__(cls)
         if Index.on_ellipsoid is None:  # pragma: no cover - gloffset imports it
@@ -322,7 +326,7 @@ class Index:
 
     # ------------------------------------------------------------------ level
     def _choose_level(self, level) -> int | None:
-        """The level asked for (None: chosen when the leaves are known)."""
+        """Return the level asked for (None: chosen when the leaves are known)."""
         if level is None:
             return None
         if isinstance(level, bool) or not isinstance(level, (int, np.integer)):
@@ -384,12 +388,14 @@ class Index:
         self._paint(tiles, fronts)
 
     def _settle_leaves(self, cells, pc, pn, parent=None):
-        """:meth:`_settle` at the leaves: the arcs expanded down to the highest level a
-        query may use, then one decomposition level at a time while the pairs stay within
-        :data:`LEAF_PAIRS` per cell, down to original edges for a short boundary; sets
-        :attr:`floor` to the level reached. An arc kept counts for parity as the edges it
-        stands for (its error region holds neither anchor), so only the first pass counts
-        crossings."""
+        """:meth:`_settle` at the leaves.
+
+        The arcs expanded down to the highest level a query may use, then one
+        decomposition level at a time while the pairs stay within :data:`LEAF_PAIRS` per
+        cell, down to original edges for a short boundary; sets :attr:`floor` to the level
+        reached. An arc kept counts for parity as the edges it stands for (its error
+        region holds neither anchor), so only the first pass counts crossings.
+        """
         arcs = self._arcs
         top = min(AUTO_MAX_LEVEL, arcs.levels) if self.level is None else self.level
         self.floor = top
@@ -480,16 +486,21 @@ class Index:
 
     @staticmethod
     def _anchor_crossings(xc, xp, f, ci, n_cells):
-        """Crossings per cell of its short arc anchor ``xc`` -> parent anchor ``xp`` with
-        the arcs whose packed data is ``f``."""
+        """Count the crossings of each cell's short arc to its parent's anchor.
+
+        Crossings per cell of its short arc anchor ``xc`` -> parent anchor ``xp`` with the
+        arcs whose packed data is ``f``.
+        """
         if len(ci) == 0:
             return 0
         cr = _crosses(xc, xp, cross(xc, xp), f[:, 7:10], f[:, 10:13], f[:, 13:16])
         return np.bincount(ci[cr], minlength=n_cells)
 
     def _classify(self, cells, kept):
-        """State (0 out, 1 in, 2 frontier) of each cell, what frontier cells need, and
-        the pairs their children inherit."""
+        """State (0 out, 1 in, 2 frontier) of each cell and what its children inherit.
+
+        What frontier cells need, and the pairs their children inherit.
+        """
         arcs = self._arcs
         pc, pn, dist, par, dst = kept
         n = len(cells.x)
@@ -588,7 +599,7 @@ class Index:
             top = min(AUTO_MAX_LEVEL, arcs.levels) if n_leaves >= AUTO_MIN_LEAVES else 0
             top = max(top, self.floor)
             sample = _sample_points(leaves, AUTO_SAMPLE) if top > self.floor else None
-            self._choices = []
+            self._choices: list[tuple] | None = []
             for k in range(self.floor, top + 1):
                 lists = self._lift(k, leaves, pc, pn, par, dst)
                 pairs, passes = (
@@ -597,7 +608,7 @@ class Index:
                 per_point = pairs / max(1, 0 if sample is None else len(sample[1]))
                 self._choices.append((per_point, passes, k, lists))
             # reported as ``level``: the choice for a batch of AUTO_SAMPLE frontier points
-            self._lists = None
+            self._lists: tuple | None = None
             lists = self._lists_for(AUTO_SAMPLE)
             self.level = next(c[2] for c in self._choices if c[3] is lists)
         else:
@@ -607,14 +618,15 @@ class Index:
         self.n_candidates = len(lists[0])
 
     def _lists_for(self, n_points: int):
-        """The candidate lists a batch of ``n_points`` frontier points is cheapest with."""
+        """Return the candidate lists a batch of ``n_points`` frontier points is cheapest with."""
         if self._choices is None:
             return self._lists
         return min(self._choices, key=lambda c: n_points * c[0] + PASS_COST * c[1])[3]
 
     def _lift(self, level, leaves, pc, pn, par, dst):
-        """Candidate lists with original edges lifted to ``level``: ``(arc, flags, start,
-        count)``.
+        """Candidate lists with original edges lifted to ``level``.
+
+        ``(arc, flags, start, count)``.
 
         Each edge is replaced by its highest ancestor of level <= K whose error region
         does not hold the leaf's anchor (for parity; any ancestor of level K for the
@@ -652,10 +664,12 @@ class Index:
         return key[first] % m, flags.astype(np.int8), np.cumsum(counts) - counts, counts
 
     def _paint(self, tiles, fronts):
-        """The lookup tables, row-major: one for the cells of level ``ROOT_LEVEL``, then,
-        every ``TABLE_STEP`` levels down to the depth, one block per frontier cell of the
-        level above, holding its descendants (a negative code ``-1 - b`` points to block
-        ``b`` of the next table)."""
+        """Return the lookup tables, row-major.
+
+        One for the cells of level ``ROOT_LEVEL``, then, every ``TABLE_STEP`` levels down
+        to the depth, one block per frontier cell of the level above, holding its
+        descendants (a negative code ``-1 - b`` points to block ``b`` of the next table).
+        """
         L = self.depth
         levels = [min(ROOT_LEVEL, L)]
         while levels[-1] < L:
@@ -724,15 +738,15 @@ class Index:
         out = np.empty(len(lon), dtype=bool)
         if len(lon) == 0:
             return out
-        where, leaves = [], []
+        wheres, leaves_of = [], []
         for s in range(0, len(lon), CHUNK):
             code = self._lookup(lon[s : s + CHUNK], lat[s : s + CHUNK])
             out[s : s + CHUNK] = code == _IN
             front = np.flatnonzero(code >= 2)
-            where.append(front + s)
-            leaves.append(code[front] - 2)
+            wheres.append(front + s)
+            leaves_of.append(code[front] - 2)
         # the few points in frontier cells, together (fewer, larger numpy calls)
-        where, leaves = np.concatenate(where), np.concatenate(leaves)
+        where, leaves = np.concatenate(wheres), np.concatenate(leaves_of)
         lists = self._lists_for(len(where))
         for s in range(0, len(where), CHUNK):
             w = where[s : s + CHUNK]
@@ -747,7 +761,9 @@ class Index:
         choose a level).
         """
         arcs = self._arcs
-        cand, cand_flags, start, count = self._lists if lists is None else lists
+        lists = self._lists if lists is None else lists
+        assert lists is not None  # set by _leaf_lists
+        cand, cand_flags, start, count = lists
         n = len(p)
         x = self._leaf_x[leaf]
         px = cross(p, x)
@@ -816,9 +832,11 @@ class Index:
 
 
 class _Cells:
-    """Cells of one level with what the build carries for them: anchors, radii, the
-    anchors' inside status, and whether parity (``par``) and distance (``dst``) tests
-    are still needed below them."""
+    """Cells of one level with what the build carries for them.
+
+    Anchors, radii, the anchors' inside status, and whether parity (``par``) and distance
+    (``dst``) tests are still needed below them.
+    """
 
     def __init__(self, level, j, i, x, rho, status):
         self.level, self.j, self.i, self.x, self.rho = level, j, i, x, rho
@@ -835,7 +853,7 @@ class _Cells:
 
 
 def _subset_pairs(kept, sel):
-    """The pairs of cells ``sel`` (sorted), with cells renumbered to positions in ``sel``."""
+    """Return the pairs of cells ``sel`` (sorted), with cells renumbered to positions in ``sel``."""
     pc = kept[0]
     pos = np.searchsorted(sel, pc)
     ok = (pos < len(sel)) & (sel[np.minimum(pos, len(sel) - 1)] == pc)
@@ -843,7 +861,7 @@ def _subset_pairs(kept, sel):
 
 
 def _paint(tiles, level: int, parents, step: int) -> np.ndarray:
-    """A row-major lookup table of cells of ``level`` from tiles ``(lev, j, i, code)``.
+    """Return a row-major lookup table of cells of ``level`` from tiles ``(lev, j, i, code)``.
 
     Without ``parents``: the whole sphere (``2^level x 2^(level+1)``). With them (sorted
     row-major keys of cells ``step`` levels up): one ``2^step x 2^step`` block per
@@ -876,7 +894,7 @@ def _paint(tiles, level: int, parents, step: int) -> np.ndarray:
 
 
 def _sample_points(leaves, n_max: int):
-    """A seeded random point in each of (at most ``n_max``) frontier leaves: (p, leaf)."""
+    """Return a seeded random point in each of (at most ``n_max``) frontier leaves: (p, leaf)."""
     rng = np.random.default_rng(0)
     leaf = np.arange(len(leaves.x))
     if len(leaf) > n_max:
@@ -900,8 +918,11 @@ def depth_for(n_points: int) -> int:
 
 
 def _index(shape, d: float, level, n_points: int) -> Index:
-    """The cached index of ``shape`` for angle ``d`` and ``level``, deep enough for a query
-    of ``n_points`` points (built, or rebuilt deeper, when needed)."""
+    """Return the cached index of ``shape`` for angle ``d`` and ``level``.
+
+    Deep enough for a query of ``n_points`` points (built, or rebuilt deeper, when
+    needed).
+    """
     cache = shape.derived.contains_indexes
     key = (d, level)
     want = depth_for(n_points)

@@ -114,8 +114,10 @@ def to_lonlat(crs, where: str = "input"):
         # a projection's round trip can step a hair over the antimeridian or a pole
         return np.clip(lon, -180.0, 180.0), np.clip(lat, -90.0, 90.0)
 
-    transform.crs_name = src.name
-    transform.projected = bool(src.is_projected)
+    # what the readers tell of the input (attributes of the function, which mypy does
+    # not model)
+    transform.crs_name = src.name  # type: ignore[attr-defined]
+    transform.projected = bool(src.is_projected)  # type: ignore[attr-defined]
     return transform
 
 

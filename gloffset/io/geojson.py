@@ -319,7 +319,7 @@ def _crossing(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return c if np.dot(c, a + b) >= 0.0 else -c
 
 
-def _split_ring(ring: np.ndarray) -> tuple[list[np.ndarray] | None, np.ndarray]:
+def _split_ring(ring: np.ndarray) -> tuple[list[np.ndarray] | None, np.ndarray | None]:
     """Split a closed ring of unit vectors at the antimeridian.
 
     Returns (chains, lonlat): ``chains`` is None when the ring does not cross the
@@ -464,6 +464,7 @@ def rings_to_geometry(rings, north_pole_inside: bool, digits: int | None = None)
             continue
         ch, ll = _split_ring(ring)
         if ch is None:
+            assert ll is not None  # a ring that does not cross
             closed.append(_expand_poles(ll))
         else:
             chains.extend(ch)

@@ -175,7 +175,8 @@ class MBTilesWriter:
             if self.db.in_transaction:
                 self.db.execute("COMMIT")
             self.db.close()
-            self.db = None
+            # closed: the other methods run on an open store only
+            self.db = None  # type: ignore[assignment]
 
     def __enter__(self):
         return self

@@ -117,6 +117,7 @@ def check_output(target) -> Target:
     :class:`~gloffset.errors.OutputError` otherwise; writes nothing."""
     t = _resolve(os.fspath(target))
     if t.kind == "replace":
+        assert t.path is not None  # a file's target
         folder = os.path.dirname(t.path)
         if not os.path.isdir(folder):
             why = "is not a folder" if os.path.exists(folder) else "does not exist"
@@ -251,13 +252,16 @@ def open_output(target, *, text: bool = False):
             sys.stdout.flush()
             sink = _Sink(sys.stdout.buffer, t, owned=False)
         elif t.kind == "fd":
+            assert t.fd is not None  # the case above
             if t.fd in (1, 2):  # what Python buffered for it goes first
                 (sys.stdout if t.fd == 1 else sys.stderr).flush()
             sink = _Sink(io.FileIO(os.dup(t.fd), "wb"), t)
         elif t.kind == "through":
+            assert t.path is not None  # a file's target
             fd = os.open(t.path, os.O_WRONLY | getattr(os, "O_CLOEXEC", 0))
             sink = _Sink(io.FileIO(fd, "wb"), t)
         else:
+            assert t.path is not None  # a file's target
             fd, tmp = _temporary(t.path, t.name)
             sink = _Sink(io.FileIO(fd, "wb"), t)
     except BrokenPipeError:
@@ -275,6 +279,7 @@ def open_output(target, *, text: bool = False):
             sink.sync()
         out.close()
         if tmp is not None:
+            assert t.path is not None  # a temporary file is made for a file's target
             try:
                 keep_mode(tmp, t.path)
                 os.replace(tmp, t.path)

@@ -190,9 +190,9 @@ def write_mask(
     """
     if fill is None and background is None and opacity == 1.0:
         return _save(Image.fromarray(mask.astype(np.uint8), mode="L"), target, place)
-    fg = list(parse_color(fill) if fill else (255, 255, 255, 255))
-    fg[3] = int(round(fg[3] * opacity))
-    fg = np.array(fg, dtype=np.uint8)
+    fill_rgba = list(parse_color(fill) if fill else (255, 255, 255, 255))
+    fill_rgba[3] = int(round(fill_rgba[3] * opacity))
+    fg = np.array(fill_rgba, dtype=np.uint8)
     bg = np.array(parse_color(background) if background else (0, 0, 0, 0), dtype=np.uint8)
     rgba = np.where(mask[..., None] > 0, fg, bg).astype(np.uint8)
     return _save(Image.fromarray(rgba, mode="RGBA"), target, place)

@@ -22,6 +22,7 @@ import re
 import tempfile
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -229,7 +230,7 @@ def _features(shapely, path: str, crs, wkb: list, columns: dict, tolerance=None)
 def _densify_features(transform, features: list[dict], tolerance) -> None:
     """Replace the projected coordinates of the features' geometries by lon/lat, each
     edge densified (all of them in one :func:`~gloffset.io.crs.densify` call)."""
-    slots = []  # (list, index, is a path): where coordinates are
+    slots: list[tuple[Any, Any, bool]] = []  # (list, index, is a path): where coordinates are
     for f in features:
         if f["geometry"] is not None:
             _coordinate_slots(f["geometry"], slots)
@@ -245,7 +246,8 @@ def _coordinate_slots(geometry: dict, slots: list) -> None:
     """Where the coordinates of a GeoJSON geometry (shapely's, well formed) are: each
     path (a line or a ring: its edges are the projection's straight lines) and each
     point, as ``(list, index, is a path)``."""
-    kind, coords = geometry["type"], geometry.get("coordinates")
+    kind = geometry["type"]
+    coords: Any = geometry.get("coordinates")  # None in a collection
     if kind == "GeometryCollection":
         for g in geometry["geometries"]:
             _coordinate_slots(g, slots)

@@ -117,6 +117,7 @@ class XYZDirWriter:
                 tmp.unlink(missing_ok=True)
                 os.link(link, tmp)
             else:
+                assert data is not None  # given without a link
                 tmp.write_bytes(data)
             os.replace(tmp, path)
         except OSError as exc:

@@ -24,7 +24,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -67,7 +67,7 @@ class Level:
     level: int
     cells: np.ndarray
     cls: np.ndarray
-    state: object = None
+    state: Any = None  # the classifier's own (e.g. a Frontier)
     dense: np.ndarray | None = None
     measure: np.ndarray | None = None
     keep: np.ndarray | None = None
@@ -85,7 +85,10 @@ NOT_FORCED = 255
 class Classifier(Protocol):
     """How the cells of a grid are classified (see the module notes)."""
 
-    grid: Grid
+    @property
+    def grid(self) -> Grid:
+        """The grid whose cells it classifies."""
+        ...
 
     def enter(self, stop: int) -> Level:
         """The first level classified (level 0, or a finer level ``<= stop`` entered
@@ -163,6 +166,7 @@ def classes_of_level(
             callback(lev.level, classes)
         if timings is not None:
             timings.append((lev.level, time.perf_counter()))
+    assert classes is not None and lev is not None  # the walk yields one level at least
     return classes, lev
 
 
@@ -179,7 +183,7 @@ def run(
     a ``backend``, down to ``handoff`` and then ``backend(classes, level)`` (the GL
     levels below the bins, given the hand-off level's classes and :class:`Level`) for the
     levels below it."""
-    if backend is None or stop <= handoff:
+    if backend is None or handoff is None or stop <= handoff:
         return classes_of_level(classifier, stop, callback=callback, timings=timings)[0]
     classes, lev = classes_of_level(classifier, handoff, callback=callback, timings=timings)
     return backend(classes, lev)

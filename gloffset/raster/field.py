@@ -85,8 +85,9 @@ class DistanceField:
         )
 
     def threshold(self, d: float) -> np.ndarray:
-        """The mask of the region at signed distance ``d`` (units of ``radius``): uint8,
-        255 inside, 0 outside, in the shape of :attr:`values`.
+        """Return the mask of the region at signed distance ``d`` (units of ``radius``).
+
+        uint8, 255 inside, 0 outside, in the shape of :attr:`values`.
 
         A pixel is in when its exact signed distance is ``<= d`` (``< d`` for ``d < 0``);
         pixels whose float32 value cannot tell are decided in float64. So the mask is
@@ -127,8 +128,10 @@ class DistanceField:
         return np.where(member, np.uint8(255), np.uint8(0))
 
     def _settle(self, rows: np.ndarray, cols: np.ndarray, e: float) -> np.ndarray:
-        """Membership at signed angle ``e`` of the pixels (flat rows of every face,
-        columns), decided in float64."""
+        """Return the membership at signed angle ``e`` of pixels, decided in float64.
+
+        The pixels are given as flat rows of every face and columns.
+        """
         size = self.values.shape[-2]
         out = np.empty(len(rows), dtype=bool)
         inside = np.signbit(self.values.reshape(-1, self.values.shape[-1])[rows, cols])
@@ -144,9 +147,11 @@ class DistanceField:
 
 
 def _members(shape, p: np.ndarray, inside: np.ndarray, e: float) -> np.ndarray:
-    """Members at signed angle ``e`` among points ``p`` whose inside status is known:
-    inside, or within ``e`` (``e >= 0``); inside and farther than ``|e|`` (``e < 0``),
-    with the exact float64 distances of :func:`band_members`."""
+    """Return the members at signed angle ``e`` among points ``p`` of known inside status.
+
+    Inside, or within ``e`` (``e >= 0``); inside and farther than ``|e|`` (``e < 0``),
+    with the exact float64 distances of :func:`band_members`.
+    """
     out = inside.copy()
     todo = np.flatnonzero(inside if e < 0 else ~inside)
     for s in range(0, len(todo), _BATCH):
@@ -177,7 +182,7 @@ def _max_angle(max_distance, radius: float) -> float:
 def distance_field(
     shape, grid, *, max_distance: float | None = None, radius: float = EARTH_RADIUS, ellipsoid=None
 ) -> DistanceField:
-    """The signed distance field of ``shape`` on ``grid``.
+    """Return the signed distance field of ``shape`` on ``grid``.
 
     Parameters
     ----------
@@ -226,10 +231,12 @@ def distance_field(
 
 
 def _field(shape, grid, m: float, radius: float) -> np.ndarray:
-    """The float32 field of one grid (clamped to ``+-m`` rad, ``m`` may be inf): the
-    unsigned distances of :func:`_distances`, negated where the levels' float64 render
-    at distance 0 (:func:`gloffset.raster.vector.curves.classify_curves`) has the pixel inside (a
-    pixel on the curves has the value 0 either way)."""
+    """Return the float32 field of one grid (clamped to ``+-m`` rad, ``m`` may be inf).
+
+    The unsigned distances of :func:`_distances`, negated where the levels' float64
+    render at distance 0 (:func:`gloffset.raster.vector.curves.classify_curves`) has the
+    pixel inside (a pixel on the curves has the value 0 either way).
+    """
     dist = _distances(shape, grid, m)
     inside = np.zeros(dist.shape, dtype=bool)
     if shape.rings:
@@ -239,9 +246,11 @@ def _field(shape, grid, m: float, radius: float) -> np.ndarray:
 
 
 def _distances(shape, grid, m: float) -> np.ndarray:
-    """The distance (rad, float64) from each pixel centre to the nearest boundary arc,
-    exact where it is at most ``m`` (larger than ``m`` elsewhere): the levels walked
-    depth first with lists of nodes of the multiresolution tree (see the module notes)."""
+    """Return the distance (rad, float64) from each pixel centre to the nearest arc.
+
+    Exact where it is at most ``m`` (larger than ``m`` elsewhere): the levels walked
+    depth first with lists of nodes of the multiresolution tree (see the module notes).
+    """
     nodes = NodeArcs.from_shape(shape)
     last = grid.n_levels - 1
     h0, w0 = grid.level_shape(0)
@@ -279,10 +288,12 @@ _TINY = 1e-14
 
 
 def _kids_reach(f: Frontier, grid) -> np.ndarray:
-    """The farthest child centre (at the output level) from each cell's centre, rounded
-    up: the only points of the next level whose distances are asked for, so the lists of
-    the level above the output need hold their nearest arcs only (at about half the
-    cell's ``rho``)."""
+    """Return the farthest child centre (output level) from each cell's centre, rounded up.
+
+    These are the only points of the next level whose distances are asked for, so the
+    lists of the level above the output need hold their nearest arcs only (at about half
+    the cell's ``rho``).
+    """
     h, w = grid.level_shape(f.level + 1)
     out = np.zeros(len(f.cells))
     for dj in (0, 1):
@@ -294,7 +305,9 @@ def _kids_reach(f: Frontier, grid) -> np.ndarray:
 
 
 def _bound(f: Frontier, nodes: NodeArcs, m: float, reach: np.ndarray, final: bool):
-    """The pairs of ``f`` (cells, nodes) that can hold the nearest boundary arc of some
+    """Return the pairs (cells, nodes) that can hold a nearest arc, and the distances.
+
+    The pairs of ``f`` that can hold the nearest boundary arc of some
     point within ``reach`` (``rho``, or less: :func:`_kids_reach`) of a cell's centre,
     every node split until its error bound is at most :data:`_KAPPA` ``rho`` (original
     arcs at the output level, ``final``); and each cell's distance to its nearest pair
@@ -307,10 +320,11 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, reach: np.ndarray, final: boo
     distance to its arc plus its error bound. A pair whose lower
     bound exceeds the least upper bound of the cell by more than ``2 reach`` is nearer to
     no point within ``reach`` than that one (nor within ``m`` of any, beyond ``m +
-    reach``)."""
+    reach``).
+    """
     cell, node, c, rho = f.pair_cell, f.pair_arc, f.centers, f.rho
     k = len(f.cells)
-    bound = 0.0 if final else _KAPPA * rho
+    bound = _KAPPA * rho  # the error allowed above the output level
     while True:
         lo, hi = cap_range(pair_dots(c, cell, nodes.mid, node), nodes.reach[node])
         lo = lo - CAP_SLACK
@@ -325,7 +339,7 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, reach: np.ndarray, final: boo
         lo[near] = np.maximum(lo[near], exact[near] - err)
         keep = lo <= np.minimum(best + 2.0 * reach, m + reach)[cell] + _TINY
         cell, node, exact = cell[keep], node[keep], exact[keep]
-        split = ~nodes.leaf[node] & (nodes.err[node] > (bound if final else bound[cell]))
+        split = ~nodes.leaf[node] & (nodes.err[node] > (0.0 if final else bound[cell]))
         if not split.any():
             break
         s = np.flatnonzero(split)
@@ -341,8 +355,11 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, reach: np.ndarray, final: boo
 
 
 def _parts(f: Frontier):
-    """``f`` cut into parts of contiguous cells of at most :data:`_PART_CELLS` cells and
-    about :data:`_PART_PAIRS` pairs (the pairs are sorted by cell)."""
+    """Return ``f`` cut into parts of contiguous cells.
+
+    Each part has at most :data:`_PART_CELLS` cells and about :data:`_PART_PAIRS` pairs
+    (the pairs are sorted by cell).
+    """
     k = len(f.cells)
     if k <= _PART_CELLS and len(f.pair_cell) <= _PART_PAIRS:
         yield f

@@ -38,7 +38,7 @@ class GlobeStyle:
     shading: float = 0.6
 
     def uniforms(self) -> dict:
-        out = {}
+        out: dict[str, tuple[float, ...] | float] = {}
         for name in ("fill", "ocean", "input_color", "background", "grid_color"):
             out[name] = tuple(v / 255.0 for v in parse_color(getattr(self, name)))
         if not 0.0 <= float(self.shading) <= 1.0:

@@ -52,6 +52,9 @@ def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs) -> BinPl
         plan.basis, plan.face_size = layout.basis, layout.face_size
     else:
         lat, lon = layout.lat, layout.lon
+        # a lon/lat layout (no basis) has them all
+        assert lat is not None and lon is not None
+        assert layout.dphi is not None and layout.dlam is not None
         plan.bin_lat = np.stack([np.cos(lat), np.sin(lat)], axis=-1).astype(np.float32)[None]
         plan.bin_lon = np.stack([np.cos(lon), np.sin(lon)], axis=-1).astype(np.float32)[None]
         plan.dphi = {s: layout.dphi[s].astype(np.float32) for s in shifts}
@@ -108,11 +111,12 @@ class BinPasses:
         def cb(s, packed):
             callback(bl + s, full(s, packed))
 
-        t = None if timings is None else []
+        t: list | None = None if timings is None else []
         packed = self.run_layout(
             layout, d, f, arcs, callback=cb if callback is not None else None, timings=t
         )
         if timings is not None:
+            assert t is not None  # a list with timings
             timings += [(bl + s, tt) for s, tt in t]
         return full(layout.stop, packed, values)
 

@@ -78,6 +78,7 @@ class BinLayout:
             rows = (g[:, None] << s) + q[None, :]
             rho[s] = np.zeros(rows.shape) if s == last else rho_at(s, rows)
             if gc is not None:
+                assert lat is not None and lon is not None  # set with gc
                 dphi[s] = lat_at(s, rows) - lat[:, None]
                 dlam[s] = lon_at(s, (gc[:, None] << s) + q[None, :]) - lon[:, None]
         return cls(geo, last, stop, rho, lat, lon, dphi, dlam, basis, face_size)

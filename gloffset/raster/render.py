@@ -61,7 +61,7 @@ _ELLIPSOID_BATCH = 1 << 18
 
 
 def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoid, tile):
-    """The mask of ``render(..., ellipsoid=...)``.
+    """Return the mask of ``render(..., ellipsoid=...)``.
 
     On lon/lat grids with the GPU backend (:func:`_screened_on_gpu`): two spherical GPU
     renders on the conformal sphere decide every pixel but a thin band, which is
@@ -69,6 +69,7 @@ def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoi
     ellipsoidal ``contains`` (geodetic lon/lat of the centres), in batches of rows.
     """
     ell = as_ellipsoid(ellipsoid)
+    assert ell is not None  # called with an ellipsoid
     _check(out, backend, grid)
     if out != "mask" or callback is not None:
         raise OptionError("with an ellipsoid, render() gives masks only (out='mask', no callback)")
@@ -105,8 +106,9 @@ GPU_EPS, SCREEN_MARGIN = 1e-3, 4.0
 
 
 def _screened_on_gpu(conf, grid, d: float) -> np.ndarray:
-    """The ellipsoidal mask of a lon/lat grid (within the GL size limit) at geodesic
-    distance ``d`` (metres) from the shape whose conformal image is ``conf``.
+    """Return the ellipsoidal mask of a lon/lat grid (within the GL size limit).
+
+    At geodesic distance ``d`` (metres) from the shape whose conformal image is ``conf``.
 
     :func:`gloffset.ellipsoidal.thresholds` gives signed spherical distances ``t_in``,
     ``t_out`` on the conformal sphere: a point within ``t_in`` of the image is in the
@@ -142,17 +144,19 @@ def _screened_on_gpu(conf, grid, d: float) -> np.ndarray:
 
 
 def screened(t_in, t_out, margin: float) -> tuple[float, float]:
-    """Bounds on the signed spherical distance of the pixels that two GPU renders at
-    ``t_in - margin`` and ``t_out + margin`` leave undecided (for
-    :func:`gloffset.ellipsoidal.decide`): a GPU render errs only within ``eps = margin /
-    SCREEN_MARGIN`` of its distance or of a polygon boundary, so such a pixel lies
-    within ``margin + 3 eps`` beyond the thresholds; ``2 margin`` covers that."""
+    """Bounds on the signed spherical distance of the pixels two GPU renders leave undecided.
+
+    The renders at ``t_in - margin`` and ``t_out + margin``; the pixels between go to
+    :func:`gloffset.ellipsoidal.decide`. A GPU render errs only within ``eps = margin /
+    SCREEN_MARGIN`` of its distance or of a polygon boundary, so such a pixel lies within
+    ``margin + 3 eps`` beyond the thresholds; ``2 margin`` covers that.
+    """
     lo = -np.inf if t_in is None else t_in - 2.0 * margin
     return lo, t_out + 2.0 * margin
 
 
 def _tile_limit(tile: int | None, backend: str) -> int:
-    """The largest side rendered at once: ``tile``, or 8192 and the GL texture limit."""
+    """Return the largest side rendered at once: ``tile``, or 8192 and the GL texture limit."""
     if tile is not None:
         return tile
     if backend != "gpu":
@@ -163,8 +167,10 @@ def _tile_limit(tile: int | None, backend: str) -> int:
 
 
 def _parts(grid, tile: int):
-    """``(y0, x0, sub)``: the grid cut into parts of at most ``tile`` pixels a side
-    (:meth:`Equirect.subgrid`; the grid itself when it fits)."""
+    """Return the grid cut into parts of at most ``tile`` pixels a side.
+
+    ``(y0, x0, sub)`` per part (:meth:`Equirect.subgrid`; the grid itself when it fits).
+    """
     if grid.width <= tile and grid.height <= tile:
         yield 0, 0, grid
         return
@@ -180,9 +186,11 @@ def _parts(grid, tile: int):
 
 
 def _centres_lonlat(grid, level, j0, j1, w, ell):
-    """Lon/lat and conformal latitude (degrees, flat) of the centres of rows ``j0:j1`` of
-    ``level``: straight from the rows and columns on lon/lat grids (one conformal
-    latitude per row), from the unit vectors otherwise."""
+    """Lon/lat and conformal latitude (degrees, flat) of the centres of rows ``j0:j1`` of ``level``.
+
+    Straight from the rows and columns on lon/lat grids (one conformal latitude per row),
+    from the unit vectors otherwise.
+    """
     if grid.lonlat:
         lon = np.degrees(grid.cell_lon(level, np.arange(w)))
         lat = np.degrees(grid.cell_lat(level, np.arange(j0, j1)))
@@ -198,9 +206,11 @@ def _centres_lonlat(grid, level, j0, j1, w, ell):
 
 
 def render_grid(shape, d: float, grid) -> np.ndarray:
-    """The GPU mask (uint8, 255 inside) of ``shape`` at ``d`` radians on any grid of the
-    levels (one within the GL size limit; a :class:`~gloffset.grids.conformal.ConformalRows`
-    too), without ``render``'s checks."""
+    """Return the GPU mask (uint8, 255 inside) of ``shape`` at ``d`` radians.
+
+    On any grid of the levels (one within the GL size limit; a
+    :class:`~gloffset.grids.conformal.ConformalRows` too), without ``render``'s checks.
+    """
     return _render_one(shape, float(d), grid, backend="gpu", level=None, callback=None, mask=True)
 
 
@@ -242,16 +252,19 @@ def _render_one(shape, d, grid, *, backend, level, callback, mask, simplify=True
 
 
 def simplify_eps(grid) -> tuple[float, float]:
-    """``(eps, margin)`` for a render of ``grid`` from simplified curves: ``eps``
-    :data:`~gloffset.raster.simplified.PIXEL_FRACTION` of the median row's pixel diameter,
-    ``margin`` :data:`SCREEN_MARGIN` times the GPU's error bound (of the largest pixel).
+    """``(eps, margin)`` for a render of ``grid`` from simplified curves.
+
+    ``eps`` :data:`~gloffset.raster.simplified.PIXEL_FRACTION` of the median row's pixel
+    diameter, ``margin`` :data:`SCREEN_MARGIN` times the GPU's error bound (of the largest
+    pixel).
 
     ``eps`` only sets the cost: every ``eps`` gives the same mask (the float64
     reference's, :mod:`gloffset.raster.simplified`). The median, not the
     smallest pixel, because a web-mercator tile's pixels shrink towards the poles (4.6
     times across a polar tile of zoom 2, 11 times across zoom 0): the smallest would
     keep most of the arcs there, for a band a few pixels narrower in the rows near the
-    pole (measured on ``countries_10m``: zooms 0-1 twice as fast, the same pixels)."""
+    pole (measured on ``countries_10m``: zooms 0-1 twice as fast, the same pixels).
+    """
     last = grid.n_levels - 1
     h, w = grid.level_shape(last)
     rows = np.arange(h)
@@ -264,12 +277,15 @@ def simplify_eps(grid) -> tuple[float, float]:
 
 
 def _simplified_mask(shape, d: float, grid) -> np.ndarray | None:
-    """The GPU mask from the shape simplified to ``eps`` (:data:`PIXEL_FRACTION` of the
-    median pixel, :func:`simplify_eps`, or ``|d| / 8`` less the margin where that is
-    smaller: a distance of less than a few pixels): rendered at ``d - t`` and ``d + t``
-    (``t = eps`` plus :data:`SCREEN_MARGIN` times the GPU's error bound), the pixels
-    between decided by their exact distance (:mod:`gloffset.raster.simplified`); None
-    where simplifying does not pay or ``|d| <= 4 t``."""
+    """Return the GPU mask from the shape simplified to ``eps``.
+
+    ``eps``: :data:`PIXEL_FRACTION` of the median pixel (:func:`simplify_eps`), or
+    ``|d| / 8`` less the margin where that is smaller (a distance of less than a few
+    pixels). Rendered at ``d - t`` and ``d + t`` (``t = eps`` plus :data:`SCREEN_MARGIN`
+    times the GPU's error bound), the pixels between decided by their exact distance
+    (:mod:`gloffset.raster.simplified`); None where simplifying does not pay or
+    ``|d| <= 4 t``.
+    """
     last = grid.n_levels - 1
     eps, margin = simplify_eps(grid)
     # a distance below a few pixels: simplify to a fraction of the distance instead

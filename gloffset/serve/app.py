@@ -37,6 +37,7 @@ import math
 import os
 import re
 from pathlib import Path
+from typing import NoReturn
 from urllib.parse import urlencode
 
 from starlette.applications import Starlette
@@ -70,7 +71,7 @@ ENVIRONMENT = "GLOFFSET_SERVE"
 STATIC = Path(__file__).resolve().parent / "static"
 
 
-def _bad(detail: str, status: int = 400):
+def _bad(detail: str, status: int = 400) -> NoReturn:
     raise HTTPException(status_code=status, detail=detail)
 
 
@@ -90,7 +91,8 @@ class _Server:
         self.cache_control = cache_control
         self.render_timeout = render_timeout
         self.tiles = TileService(layers, queue_size=queue_size, cache_mb=cache_mb)
-        self._batch = None  # the tiles whose centres are about to be measured, and the task
+        # the tiles whose centres are about to be measured, and the task
+        self._batch: tuple[list, asyncio.Future] | None = None
 
     def layer(self, name: str):
         if name not in self.layers:
@@ -195,6 +197,7 @@ class _Server:
         shape = self.layer(request.path_params["layer"])
         text = request.query_params.get("distance")
         self.angle(shape, text, vector=True)
+        assert text is not None  # angle() answers 400 without it
         try:
             off = await asyncio.to_thread(offset, shape, text, radius=EARTH_RADIUS)
             feat = await asyncio.to_thread(off.to_geojson)
@@ -342,8 +345,12 @@ def create_app(
     middleware = []
     if access_log is not None:
         middleware.append(Middleware(AccessLog, stream=open_log(access_log)))
+    # Starlette types every handler as taking an Exception; this one is for HTTPException
+    handlers = {HTTPException: _error}
     app = Starlette(
-        routes=routes, exception_handlers={HTTPException: _error}, middleware=middleware
+        routes=routes,
+        exception_handlers=handlers,  # type: ignore[arg-type]
+        middleware=middleware,
     )
     app.state.server = srv
     return app

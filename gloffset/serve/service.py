@@ -73,7 +73,9 @@ UNKNOWN = object()
 @functools.lru_cache(maxsize=64)
 def full_png(size: int, style: TileStyle) -> bytes:
     """The one PNG of a tile wholly inside the region, per size and style."""
-    return style.encode(np.ones((size, size), dtype=bool))
+    png = style.encode(np.ones((size, size), dtype=bool))
+    assert png is not None  # every pixel inside shows
+    return png
 
 
 @dataclass(frozen=True)

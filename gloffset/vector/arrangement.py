@@ -215,7 +215,8 @@ class _Events:
         self.arc = [np.arange(n_arc), np.arange(n_arc)]
         self.t = [np.zeros(n_arc), live.phi_abs]
         self.node = [table.prev[live.alive], live.alive]
-        self.same_i, self.same_j = [], []
+        self.same_i: list[np.ndarray] = []
+        self.same_j: list[np.ndarray] = []
         self.next_node = len(table)
 
     def add_nodes(self, x, arc1, t1, arc2, t2) -> np.ndarray:

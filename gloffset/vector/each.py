@@ -11,6 +11,8 @@ with a null geometry.
 
 from __future__ import annotations
 
+from typing import TypeGuard, cast
+
 import numpy as np
 
 from ..errors import InputFormatError, InvalidDistanceError, InvalidGeometryError
@@ -43,7 +45,7 @@ def simple_kind(geometry) -> tuple[int, list | None]:
     return GENERAL, None
 
 
-def _position(p) -> bool:
+def _position(p) -> TypeGuard[list | tuple]:
     return (
         isinstance(p, (list, tuple))
         and len(p) >= 2
@@ -99,7 +101,7 @@ def offset_each(
             out[i] = _general(f, i, given, radius, tolerance, digits, raw, method)
             if progress is not None:
                 progress()
-    return out
+    return cast("list[dict]", out)  # every feature has its offset now
 
 
 def _labeller(features, rows):

@@ -162,8 +162,11 @@ class Decomposition:
 
     # ------------------------------------------------------------------ building
     def _arc_ends(self, lv: _Level):
-        """Positions (into ``lv.pts``) of the start and end point of every arc of a level,
-        each arc's index within its part, and the counts of arcs and points per part."""
+        """Where the arcs of a level start and end, and the counts per part.
+
+        Positions (into ``lv.pts``) of the start and end point of every arc of a level,
+        each arc's index within its part, and the counts of arcs and points per part.
+        """
         n_pts = np.bincount(lv.pt_part, minlength=len(self._parts))
         first = np.concatenate([[0], np.cumsum(n_pts)[:-1]])
         n_arcs = np.bincount(lv.arc_part, minlength=len(self._parts))
@@ -245,6 +248,7 @@ class Decomposition:
         rec = self._coarse
         for k in range(self.levels, 0, -1):
             lv = self._levels[k]
+            assert lv.kept is not None  # every level k >= 1 has them
             mid = self._midpoints(rec, k)
             lv.details = self._xyz[self._levels[k - 1].pts[~lv.kept]] - mid
             rec = self._refine_level(rec, k, mid=mid)
@@ -256,10 +260,14 @@ class Decomposition:
         return slerp(rec[start[lv.merged]], rec[end[lv.merged]], 0.5)
 
     def _refine_level(self, rec: np.ndarray, k: int, scale: float = 1.0, mid=None):
-        """Points of level ``k-1`` from those of level ``k``: the midpoint of each merged
-        arc plus its detail, inserted. With ``scale``, points and details lie on a sphere
-        of that radius (the SLERP of two such vectors is the unit SLERP, scaled)."""
+        """Points of level ``k-1`` from those of level ``k``.
+
+        The midpoint of each merged arc plus its detail, inserted. With ``scale``, points
+        and details lie on a sphere of that radius (the SLERP of two such vectors is the
+        unit SLERP, scaled).
+        """
         lv = self._levels[k]
+        assert lv.kept is not None and lv.details is not None  # every level k >= 1 has them
         if mid is None:
             mid = scale * self._midpoints(rec, k)
         out = np.empty((len(lv.kept), rec.shape[1]))
@@ -293,6 +301,7 @@ class Decomposition:
         if k == 0:
             raise InvalidLevelError("level 0 is the original curve: details start at level 1")
         lv = self._levels[k]
+        assert lv.details is not None  # every level k >= 1 has them
         return self._split(lv.details, lv.arc_part[lv.merged])
 
     def errors(self, k: int) -> list[np.ndarray]:
@@ -323,7 +332,7 @@ class Decomposition:
         return rec
 
     def reconstruct(self, k: int = 0) -> Shape:
-        """The shape at level ``k``, rebuilt from ``P[levels]`` and the details.
+        """Return the shape at level ``k``, rebuilt from ``P[levels]`` and the details.
 
         Rings keep their seams, region components, holes and labels. ``k = 0``
         gives the original points to 1 ulp.
@@ -344,7 +353,7 @@ class Decomposition:
 
     # ------------------------------------------------------------------ offsets
     def offset(self, distance: float, level: int, *, radius: float = EARTH_RADIUS):
-        """The offset of the level-``level`` curve (a coarse offset, Sec. 4.1 on ``P[level]``).
+        """Return the coarse offset of the level-``level`` curve (Sec. 4.1 on ``P[level]``).
 
         Returns a :class:`MultiresOffset`, which :meth:`MultiresOffset.refine` takes to
         any finer level from its centres and the details alone.
@@ -386,6 +395,10 @@ class MultiresOffset(Offset):
             self._shape = self.decomposition.reconstruct(self.level)
         return self._shape
 
+    @shape.setter
+    def shape(self, value: Shape) -> None:
+        self._shape = value
+
     def vertex_centers(self) -> np.ndarray:
         """Step 1 of Sec. 4.2: the centres ``q_2i = cos(d) p_i`` of this offset, flat over parts.
 
@@ -410,7 +423,7 @@ class MultiresOffset(Offset):
         return np.concatenate(out)
 
     def refine(self, level: int) -> MultiresOffset:
-        """The offset at a finer ``level``, from this offset's centres and the details.
+        """Return the offset at a finer ``level``, from this offset's centres and the details.
 
         The six steps of Sec. 4.2: take the vertex centres ``q_2i`` (step 1), apply the
         reconstruction with details scaled by ``cos(d)`` level by level (steps 2-4),
@@ -444,9 +457,11 @@ class MultiresOffset(Offset):
 
 
 def full_decomposition(shape: Shape) -> Decomposition:
-    """The shape's decomposition as far as arcs merge (``exhaust``), made once per shape:
-    what the inside-test index (:mod:`gloffset.index.contains`) and the renders from
-    simplified curves (:mod:`gloffset.raster.simplified`) share."""
+    """Return the shape's decomposition as far as arcs merge (``exhaust``), made once per shape.
+
+    What the inside-test index (:mod:`gloffset.index.contains`) and the renders from
+    simplified curves (:mod:`gloffset.raster.simplified`) share.
+    """
     if shape.derived.exhaust is None:
         shape.derived.exhaust = Decomposition(shape, 64, exhaust=True)
     return shape.derived.exhaust

@@ -69,7 +69,7 @@ class Offset(ArcRings):
         return sample_rings(self.rings, tolerance)
 
     def resolve(self, method: str = "general"):
-        """The offset region's boundary without self-intersections (paper Sec. 4.4).
+        """Return the offset region's boundary without self-intersections (paper Sec. 4.4).
 
         Parameters
         ----------
@@ -106,7 +106,7 @@ class Offset(ArcRings):
         raw: bool = False,
         method: str = "general",
     ) -> dict:
-        """The offset region as an RFC 7946 Feature.
+        """Return the offset region as an RFC 7946 Feature.
 
         Rings are densified to ``tolerance`` (radians), cut at the antimeridian,
         exterior rings counter-clockwise. By default the resolved boundary
@@ -137,7 +137,7 @@ class Offset(ArcRings):
         return {"type": "Feature", "properties": props, "geometry": geom}
 
 
-def offset(shape, distance: float, *, radius: float = EARTH_RADIUS) -> Offset:
+def offset(shape, distance: float | str, *, radius: float = EARTH_RADIUS) -> Offset:
     """Offset a shape by ``distance`` (in the units of ``radius``) with small-circle arcs.
 
     Parameters

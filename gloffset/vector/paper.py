@@ -103,7 +103,7 @@ def _candidates(q, r) -> list[list[int]]:
     arcs = CircleArcs.from_rings(q, r)
     cm, cr = arcs.caps()
     ia, ib = CapTree(cm, cr).self_pairs(MERGE_TOL)
-    cand = [[] for _ in range(len(q))]
+    cand: list[list[int]] = [[] for _ in range(len(q))]
     for a, b in zip(ia.tolist(), ib.tolist()):
         cand[a].append(b)
         cand[b].append(a)

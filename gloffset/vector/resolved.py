@@ -72,8 +72,11 @@ class ResolvedOffset(ArcRings):
 
     @classmethod
     def from_rings(cls, distance, method, rings, shape, unlinked: int = 0) -> ResolvedOffset:
-        """The region bounded by ``rings`` (region on their left): its holes and polygons
-        found by :func:`gloffset.vector.rings.holes_and_polygons`, whose parity it keeps."""
+        """Return the region bounded by ``rings`` (region on their left).
+
+        Its holes and polygons found by :func:`gloffset.vector.rings.holes_and_polygons`,
+        whose parity it keeps.
+        """
         holes, polygons, parity = holes_and_polygons(rings, shape, distance)
         res = cls(distance, method, rings, holes, polygons, unlinked, shape)
         res._parity = parity
@@ -110,7 +113,7 @@ class ResolvedOffset(ArcRings):
         digits: int | None = None,
         properties: dict | None = None,
     ) -> dict:
-        """The region as an RFC 7946 Feature.
+        """Return the region as an RFC 7946 Feature.
 
         Arcs are densified so that no written edge strays more than ``tolerance``
         (radians) from its arc; rings are cut at the antimeridian, exterior rings

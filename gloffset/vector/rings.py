@@ -88,18 +88,18 @@ def holes_and_polygons(rings, shape, d):
     holes = ~par.ring_parity(probes, own)
     areas = left_areas(par.arcs, par.ring_id, par.first)
     ext = np.flatnonzero(~holes)
-    polygons = {int(i): [] for i in ext}
+    polygons: dict[int, list[int]] = {int(i): [] for i in ext}
     hole_idx = np.flatnonzero(holes)
     if len(hole_idx):
         # candidate owners: exteriors whose bounding cap holds the hole's probe
         caps_c, caps_r = par.ring_caps()
-        pj, pi = [], []
+        pjs, pis = [], []
         for j in hole_idx.tolist():
             near = ext[angle(caps_c[ext], probes[j]) <= caps_r[ext] + 1e-12]
-            pj.append(np.full(len(near), j))
-            pi.append(near)
-        pj = np.concatenate(pj).astype(np.int64)
-        pi = np.concatenate(pi).astype(np.int64)
+            pjs.append(np.full(len(near), j))
+            pis.append(near)
+        pj = np.concatenate(pjs).astype(np.int64)
+        pi = np.concatenate(pis).astype(np.int64)
         inside = par.ring_parity(probes[pj], pi) if len(pj) else np.zeros(0, bool)
         for j in hole_idx.tolist():
             owners = pi[(pj == j) & inside]

@@ -299,7 +299,7 @@ def run_pyramid(job: PyramidJob, store, have, progress, stats, *, part=None):
     chain = BinChain(cells, nb)
     cells.remember(chain.nb)  # the walk reaches the chain's levels later: computed once
     track = Tracker(zlo, zhi, progress)
-    job = ZoomWriter(cells, style, store, have, size, stats, track)
+    writer = ZoomWriter(cells, style, store, have, size, stats, track)
     start = None if part is None else part.start
     if part is not None and part.root is not None and start is None:
         raise ValueError("a run of one tile's subtree starts from the tile's level")
@@ -311,14 +311,15 @@ def run_pyramid(job: PyramidJob, store, have, progress, stats, *, part=None):
             break
         root = part is not None and part.root is not None and lev.level == part.root[0]
         if not split:
-            job.run(lev, chain, (zlo, zhi), max_block, root=root, final=lev.level >= stop)
+            writer.run(lev, chain, (zlo, zhi), max_block, root=root, final=lev.level >= stop)
             continue
         # a split run writes the decided tiles; the others become tasks: the frontier
         # tiles above the split zoom one by one, the kept tiles of the split zoom with
         # their subtrees
-        chosen = job.choose(lev)
+        chosen = writer.choose(lev)
         at = part.split_at(lev)
-        front = job.run(lev, chain, (zlo, zhi), max_block, chosen=chosen, kept_too=at)
+        front = writer.run(lev, chain, (zlo, zhi), max_block, chosen=chosen, kept_too=at)
+        assert lev.keep is not None and lev.forced is not None  # chosen
         z = lev.level
         mine = lev.keep if at else front
         for i in mine:

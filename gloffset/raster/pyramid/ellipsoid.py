@@ -181,8 +181,8 @@ def _group_masks(conf, m, z, tiles, size, masks, t_in, t_out, margin) -> dict:
             lats.append(np.degrees(grid.cell_lat(last, j)))
             where.append((image, band))
     if where:
-        band = screened(t_in, t_out, margin)
-        inside = decide(conf, np.concatenate(lons), np.concatenate(lats), m, band=band)
+        ratio_band = screened(t_in, t_out, margin)
+        inside = decide(conf, np.concatenate(lons), np.concatenate(lats), m, band=ratio_band)
         k = 0
         for image, band in where:
             image.ravel()[band] = inside[k : k + len(band)]

@@ -13,7 +13,7 @@ import numpy as np
 
 from ...edges import CurveArcs, inside_any
 from ...grids.conformal import ConformalRows
-from ...grids.mercator import TilePyramid
+from ...grids.mercator import Tile, TilePyramid
 from ..driver import CONTAINED, FRONTIER, OUTSIDE
 from ..render import render, render_grid
 from ..vector.curves import CurveCells
@@ -122,9 +122,11 @@ def render_tiles(
     rows, cols, cls = lev.cells[:, 0], lev.cells[:, 1], lev.cls
     r = cells.grid.decision_rho(z, rows)
     out = {}
+    measure = lev.measure
+    assert measure is not None  # entered cells carry their measures
 
     def keep(i, mask):
-        lines = job.lines_of(lev, i, r) if mask is not None or lev.measure[i] <= r[i] else ()
+        lines = job.lines_of(lev, i, r) if mask is not None or measure[i] <= r[i] else ()
         if mask is None:  # decided: the one image of its class unless an outline crosses
             if not len(lines):
                 out[(int(cols[i]), int(rows[i]))] = job.full if cls[i] == CONTAINED else None
@@ -157,7 +159,7 @@ def tile_masks(
     if z <= alone_zoom:
         out = {}
         for x, y in want:
-            grid = tile_grid(z, x, y, size)
+            grid: Tile | ConformalRows = tile_grid(z, x, y, size)
             if ell is not None:
                 grid = ConformalRows(grid, ell)
             out[(x, y)] = render_grid(shape, d, grid) > 0

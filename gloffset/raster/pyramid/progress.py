@@ -147,7 +147,8 @@ class Tracker:
         self.frontier: dict[int, int] = {}  # zoom -> frontier tiles (classified or ahead)
         self.contained: dict[int, int] = {}  # zoom -> newly contained tiles
         self.zooms: list[tuple[int, float]] = []  # per finished zoom: heavy tiles, seconds
-        self.mark = None  # at the current zoom's start: (heavy worked, heavy seconds)
+        # at the current zoom's start: (heavy worked, heavy seconds)
+        self.mark: tuple[int, float] | None = None
         self.last: TileProgress | None = None
         self.tasks: dict | None = None  # a split run's tasks (:meth:`start_tasks`)
 
@@ -185,6 +186,8 @@ class Tracker:
         heavy = light = 0.0
         zooms = 0
         f = float(self.frontier[deep])
+        fz: float
+        cz: float
         for zz in range(z + 1, self.zhi + 1):
             if zz <= deep:
                 fz, cz = self.frontier[zz], self.contained[zz]
@@ -262,6 +265,7 @@ class Tracker:
         """A task ended with ``heavy`` rendered or outlined tiles, ``light`` inside ones
         and ``skipped`` already present (counted as done, as in one process)."""
         t = self.tasks
+        assert t is not None  # after start_tasks
         t["done"] += 1
         t["heavy"] += heavy
         t["light"] += light + skipped
@@ -276,6 +280,7 @@ class Tracker:
         (the split's estimates, and no ETA, until a task has ended); at least one tile
         per task left, so that the total is reached at the end only."""
         t = self.tasks
+        assert t is not None  # after start_tasks
         n_left = t["n"] - t["done"]
         if t["done"] == 0:
             left = [max(0.0, self.known[i] + self.future[i] - self.done[i]) for i in (0, 1)]

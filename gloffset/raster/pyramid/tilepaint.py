@@ -145,8 +145,8 @@ class OutlineArcs:
         if len(which) == 0:
             return []
         world = float((1 << z) * size)
-        lon_c, _ = xyz_to_lonlat(center)
-        lon_c = float(lon_c)
+        lon0, _ = xyz_to_lonlat(center)
+        lon_c = float(lon0)
         lat_c = math.asin(max(-1.0, min(1.0, float(center[2]))))
         step = 0.5 * 2.0 * math.pi * max(math.cos(lat_c), 1e-3) / world  # half a pixel
         a, w, theta = self.a[which], self.w[which], self.theta[which]

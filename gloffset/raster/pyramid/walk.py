@@ -267,7 +267,7 @@ class BinChain:
         self.cells, self.levels, self.nb = cells, cells.grid, nb
         self.arcs, self.d = cells.arcs, cells.d
         self.z = None
-        self.lev = []  # per level z + 1 + i: (decided cells, their classes, Frontier)
+        self.lev: list[tuple] = []  # per level z + 1 + i: (decided cells, their classes, Frontier)
 
     def _next(self, f):
         """Level ``f.level + 1``: the children of ``f``'s cells, classified."""

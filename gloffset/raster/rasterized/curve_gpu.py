@@ -26,10 +26,13 @@ drawn face by face, share.
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 
 from ...classes import AMBIGUOUS, FRONTIER
 from ...gl.rasterized_pass import RECORD_ROW, CurveLevel, rasterized_passes
+from ...grids.protocol import FaceCells, LonLatCells
 from .curve_levels import RasterizedCurve, classify_cells, level_centers, near_pairs
 
 __all__ = ["decide_ambiguous", "gpu_levels", "level_data", "cell_records", "thresholds"]
@@ -66,12 +69,12 @@ def cell_records(lv: RasterizedCurve, level: int, bins: np.ndarray):
     bl = grid.bin_level
     wb = grid.level_shape(bl)[1]
     rho_b = np.asarray(grid.rho(bl))[bins // wb]
-    iq, ip = [], []
+    qs, ps = [], []
     for q, p, _ in near_pairs(grid, bl, bins, rho_b, level, lv.curve[level], lv.reach[level]):
-        iq.append(q)
-        ip.append(p)
-    iq = np.concatenate(iq) if iq else np.zeros(0, dtype=np.int64)
-    ip = np.concatenate(ip) if ip else np.zeros(0, dtype=np.int64)
+        qs.append(q)
+        ps.append(p)
+    iq = np.concatenate(qs) if qs else np.zeros(0, dtype=np.int64)
+    ip = np.concatenate(ps) if ps else np.zeros(0, dtype=np.int64)
     order = np.lexsort((ip, iq))
     iq, ip = iq[order], ip[order]
     c = level_centers(grid, bl, bins)
@@ -107,15 +110,16 @@ def level_data(lv: RasterizedCurve, level: int, bins: np.ndarray, bin_shape) -> 
     buf, info = _record_tables(lv, level, bins, *bin_shape)
     thr = thresholds(lv, level)
     if not grid.lonlat:  # a cube's stacked faces: one face's rows
-        pp = grid.P[level]
+        pp = cast(FaceCells, grid).P[level]
         if not np.array_equal(thr, np.tile(thr[:pp], (6, 1, 1))):
             raise RuntimeError("cube faces with different row thresholds")
         return CurveLevel(level - bl, (h, w), buf, info, thr[:pp], block=float(grid.block(level)))
     # each cell's latitude and longitude minus its bin's, float64-made
     j, i = np.arange(h), np.arange(w)
     sh = level - bl
-    dphi = grid.cell_lat(level, j) - grid.cell_lat(bl, j >> sh)
-    dlam = grid.cell_lon(level, i) - grid.cell_lon(bl, i >> sh)
+    ll = cast(LonLatCells, grid)  # lonlat declared
+    dphi = ll.cell_lat(level, j) - ll.cell_lat(bl, j >> sh)
+    dlam = ll.cell_lon(level, i) - ll.cell_lon(bl, i >> sh)
     return CurveLevel(
         sh, (h, w), buf, info, thr, dphi.astype(np.float32)[None], dlam.astype(np.float32)[None]
     )
@@ -135,14 +139,16 @@ def _start(lv: RasterizedCurve, classes: np.ndarray, bins: np.ndarray):
     bl = grid.bin_level
     hb, wb = classes.shape
     if not grid.lonlat:  # a cube's stacked faces
-        bf, bj, bi = grid.split(bl, bins)
+        faces = cast(FaceCells, grid)
+        bf, bj, bi = faces.split(bl, bins)
         per_face = [np.column_stack([bi[bf == f], bj[bf == f]]) for f in range(6)]
-        axes = [grid.face_axes(f) for f in range(6)]
+        axes = [faces.face_axes(f) for f in range(6)]
         return rasterized_passes().cube(
-            classes, per_face, axes, 2.0 / grid.size, float(grid.block(bl))
+            classes, per_face, axes, 2.0 / faces.size, float(faces.block(bl))
         )
-    lam = grid.cell_lon(bl, np.arange(wb))
-    phi = grid.cell_lat(bl, np.arange(hb))
+    ll = cast(LonLatCells, grid)  # lonlat declared
+    lam = ll.cell_lon(bl, np.arange(wb))
+    phi = ll.cell_lat(bl, np.arange(hb))
     lon_cs = np.stack([np.cos(lam), np.sin(lam)], axis=-1).astype(np.float32)
     lat_cs = np.stack([np.cos(phi), np.sin(phi)], axis=-1).astype(np.float32)
     fb = np.column_stack([bins % wb, bins // wb])

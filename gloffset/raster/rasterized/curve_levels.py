@@ -22,6 +22,7 @@ import numpy as np
 
 from ...caps import cap_within, chord2, pad
 from ...classes import CONTAINED, FRONTIER, OUTSIDE
+from ...grids.protocol import CellSet
 from ...sphere import chord2_between
 
 __all__ = [
@@ -150,7 +151,7 @@ class RasterizedCurve:
     matters for level ``l``.
     """
 
-    grid: object
+    grid: CellSet
     d: float
     masks: list
     curve: list
@@ -164,7 +165,7 @@ class RasterizedCurve:
     @classmethod
     def build(cls, mask: np.ndarray, d: float, grid, parts=None) -> RasterizedCurve:
         last = grid.n_levels - 1
-        masks = [None] * (last + 1)
+        masks: list = [None] * (last + 1)  # every level's set below
         masks[last] = mask
         for lev in range(last - 1, -1, -1):
             h, w = grid.level_shape(lev)

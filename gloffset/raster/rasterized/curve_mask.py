@@ -1,6 +1,9 @@
-"""Curve masks from shapes: the output cells of a grid that the curves of a shape pass
-through (:func:`rasterize`), exact up to 1e-7 pixel, in curve order on request (what
-:func:`gloffset.raster_offset` takes as ``mask`` and ``order``)."""
+"""Curve masks from shapes.
+
+The output cells of a grid that the curves of a shape pass through (:func:`rasterize`),
+exact up to 1e-7 pixel, in curve order on request (what :func:`gloffset.raster_offset`
+takes as ``mask`` and ``order``).
+"""
 
 from __future__ import annotations
 
@@ -30,7 +33,7 @@ def _point_cells(grid, p: np.ndarray, eps: float) -> tuple[np.ndarray, np.ndarra
     x = np.where(x > 0.5 * (grid.width + 2.0 * math.pi / grid.dlon), x - 2 * math.pi / grid.dlon, x)
     y = (math.radians(n_) - lat) / grid.dlat
     wrap = grid.wraps(grid.n_levels - 1)
-    pid, cells = [], []
+    pid_parts, cell_parts = [], []
     for dx in (-eps, eps):
         for dy in (-eps, eps):
             ii = np.floor(x + dx).astype(np.int64)
@@ -38,17 +41,17 @@ def _point_cells(grid, p: np.ndarray, eps: float) -> tuple[np.ndarray, np.ndarra
             if wrap:
                 ii = ii % grid.width
             ok = (ii >= 0) & (ii < grid.width) & (jj >= 0) & (jj < grid.height)
-            pid.append(np.flatnonzero(ok))
-            cells.append(jj[ok] * grid.width + ii[ok])
+            pid_parts.append(np.flatnonzero(ok))
+            cell_parts.append(jj[ok] * grid.width + ii[ok])
     # a point on a pole touches every cell of the pole row
     pole = np.flatnonzero(np.hypot(p[:, 0], p[:, 1]) < 1e-12)
     for k in pole:
         row = 0 if p[k, 2] > 0 else grid.height - 1
         if (row == 0 and n_ >= 90.0 - 1e-12) or (row == grid.height - 1 and s_ <= -90.0 + 1e-12):
-            pid.append(np.full(grid.width, k))
-            cells.append(row * grid.width + np.arange(grid.width))
-    pid = np.concatenate(pid)
-    cells = np.concatenate(cells)
+            pid_parts.append(np.full(grid.width, k))
+            cell_parts.append(row * grid.width + np.arange(grid.width))
+    pid = np.concatenate(pid_parts)
+    cells = np.concatenate(cell_parts)
     order = np.lexsort((cells, pid))  # by point, keeping each point's cells together
     return pid[order], cells[order]
 
@@ -77,11 +80,11 @@ def _crossings(grid, a, b, n, u, theta):
     az, uz = a[:, 2], u[:, 2]
     amp = np.hypot(az, uz)
     t0 = np.arctan2(uz, az)
-    zs = [a[:, 2], b[:, 2]]
+    z_at = [a[:, 2], b[:, 2]]
     for tc in (t0, t0 + math.pi, t0 - math.pi):
         inside = (tc > 0) & (tc < theta)
-        zs.append(np.where(inside, amp * np.cos(tc - t0), a[:, 2]))
-    zs = np.stack(zs)
+        z_at.append(np.where(inside, amp * np.cos(tc - t0), a[:, 2]))
+    zs = np.stack(z_at)
     lat_lo = np.arcsin(np.clip(zs.min(axis=0), -1, 1))
     lat_hi = np.arcsin(np.clip(zs.max(axis=0), -1, 1))
     y_lo = (math.radians(n_) - lat_hi) / grid.dlat
@@ -103,8 +106,11 @@ def _crossings(grid, a, b, n, u, theta):
 
 
 def _arcs(shape):
-    """The curve's arcs ``p(t) = cos t a + sin t u``, ``0 <= t <= theta`` (ring edges but
-    antimeridian/pole seams, and lines), with their part (ring or line) and normal."""
+    """Return the curve's arcs ``p(t) = cos t a + sin t u``, ``0 <= t <= theta``.
+
+    Ring edges but antimeridian/pole seams, and lines, with their part (ring or line) and
+    normal.
+    """
     e = shape.edges()
     # parts: each ring and each line, in edge order; seams are no curve
     part = np.concatenate(
@@ -162,8 +168,11 @@ _FACE_PLANES = np.array(
 
 
 def _segment_params(p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(segment, lambda) where straight segments ``p0 -> p1`` (pixel coordinates, (n, 2))
-    cross the integer lines ``x = k`` and ``y = k``."""
+    """Where straight segments cross the integer lines ``x = k`` and ``y = k``.
+
+    ``(segment, lambda)`` where straight segments ``p0 -> p1`` (pixel coordinates,
+    (n, 2)) cross them.
+    """
     seg, lam = [], []
     for ax in (0, 1):
         x0, x1 = p0[:, ax], p1[:, ax]
@@ -178,10 +187,13 @@ def _segment_params(p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def _rasterize_cube(shape, size: int) -> tuple[np.ndarray, list[np.ndarray]]:
-    """:func:`rasterize` on ``Cube(size)``: each arc is cut where it crosses the planes
-    of the face boundaries; on one face a piece is a straight segment of the face plane
-    (central projection), cut again at the pixel lines, so each sub-segment lies in
-    one pixel. Flat indices are those of a (6, size, size) array."""
+    """:func:`rasterize` on ``Cube(size)``.
+
+    Each arc is cut where it crosses the planes of the face boundaries; on one face a
+    piece is a straight segment of the face plane (central projection), cut again at the
+    pixel lines, so each sub-segment lies in one pixel. Flat indices are those of a (6,
+    size, size) array.
+    """
     a, _, part, _, _, u, theta = _arcs(shape)
     # split parameters: t in (0, theta) where p(t) . m = 0 for a face-boundary plane m
     am, um = a @ _FACE_PLANES.T, u @ _FACE_PLANES.T
@@ -216,15 +228,15 @@ def _rasterize_cube(shape, size: int) -> tuple[np.ndarray, list[np.ndarray]]:
     order = np.lexsort((lam, seg))  # pieces are in curve order, so this is the curve order
     seg, lam = seg[order], lam[order]
     xy = p0[seg] + lam[:, None] * (p1[seg] - p0[seg])
-    pid, cells = [], []
+    pid_parts, cell_parts = [], []
     for dx in (-_RASTER_EPS, _RASTER_EPS):
         for dy in (-_RASTER_EPS, _RASTER_EPS):
             ii = np.floor(xy[:, 0] + dx).astype(np.int64)
             jj = np.floor(xy[:, 1] + dy).astype(np.int64)
             ok = (ii >= 0) & (ii < size) & (jj >= 0) & (jj < size)
-            pid.append(np.flatnonzero(ok))
-            cells.append((face[seg[ok]] * size + jj[ok]) * size + ii[ok])
-    pid, cells = np.concatenate(pid), np.concatenate(cells)
+            pid_parts.append(np.flatnonzero(ok))
+            cell_parts.append((face[seg[ok]] * size + jj[ok]) * size + ii[ok])
+    pid, cells = np.concatenate(pid_parts), np.concatenate(cell_parts)
     order = np.lexsort((cells, pid))
     pid, cells = pid[order], cells[order]
     mask = np.zeros(6 * size * size, dtype=bool)
@@ -233,7 +245,7 @@ def _rasterize_cube(shape, size: int) -> tuple[np.ndarray, list[np.ndarray]]:
 
 
 def rasterize(shape, grid, *, ordered: bool = False):
-    """The output cells of ``grid`` that the curves of ``shape`` pass through.
+    """Return the output cells of ``grid`` that the curves of ``shape`` pass through.
 
     Parameters
     ----------

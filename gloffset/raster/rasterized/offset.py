@@ -213,15 +213,18 @@ def _fallback(lv: RasterizedCurve, level: int) -> np.ndarray:
 
 # ---------------------------------------------------------------------------- Sec. 5.2
 class RasterCells:
-    """The classifier of the cells of a grid against a rasterized curve (Sec. 5.2;
-    :class:`gloffset.raster.driver.Classifier`): level 0 by region growing
+    """The classifier of the cells of a grid against a rasterized curve.
+
+    Sec. 5.2, a :class:`gloffset.raster.driver.Classifier`: level 0 by region growing
     (:func:`region_grow`, Sec. 5.1), then the children of each level's frontier cells
     (active and inactive) by :func:`classify_cells`. ``method`` and ``reason`` tell how
-    level 0 was classified."""
+    level 0 was classified.
+    """
 
     def __init__(self, lv: RasterizedCurve):
         self.lv, self.grid = lv, lv.grid
-        self.method, self.reason = None, None
+        self.method: str | None = None
+        self.reason: str | None = None
 
     def enter(self, stop: int) -> driver.Level:
         classes, self.method, self.reason = region_grow(self.lv, 0)
@@ -232,13 +235,13 @@ class RasterCells:
         level = prev.level + 1
         h, w = self.grid.level_shape(level)
         front = prev.cells[prev.cls == FRONTIER]
-        kids = []
+        quarters = []
         for dj in (0, 1):
             for di in (0, 1):
                 j, i = 2 * front[:, 0] + dj, 2 * front[:, 1] + di
                 ok = (j < h) & (i < w)
-                kids.append(j[ok] * w + i[ok])
-        kids = np.sort(np.concatenate(kids))
+                quarters.append(j[ok] * w + i[ok])
+        kids = np.sort(np.concatenate(quarters))
         cells = np.column_stack(np.divmod(kids, w))
         return driver.Level(level, cells, classify_cells(self.lv, level, kids))
 
@@ -246,8 +249,10 @@ class RasterCells:
 def hierarchical(
     lv: RasterizedCurve, *, stop_level: int | None = None, callback=None, timings=None
 ):
-    """Sec. 5.2: level 0 by region growing (Sec. 5.1), then each level evaluates only
-    the children of the previous level's frontier cells (:class:`RasterCells`).
+    """Classify the cells of ``lv``'s grid down to ``stop_level`` (Sec. 5.2).
+
+    Level 0 by region growing (Sec. 5.1), then each level evaluates only the children of the
+    previous level's frontier cells (:class:`RasterCells`).
 
     Returns ``(classes of stop_level, method, reason)``.
     """
@@ -296,9 +301,13 @@ class RasterOffsetInfo:
 
 
 def _on_ellipsoid(mask, distance, grid, ellipsoid, return_info, callback, **options):
-    """:func:`raster_offset` on an ellipsoid (see its ``ellipsoid``): two spherical
-    offsets on the conformal rows, contained from the nearer, outside from the farther."""
+    """:func:`raster_offset` on an ellipsoid (see its ``ellipsoid``).
+
+    Two spherical offsets on the conformal rows, contained from the nearer, outside from the
+    farther.
+    """
     ell = as_ellipsoid(ellipsoid)
+    assert ell is not None  # called with an ellipsoid
     if not (isinstance(grid, RegularLonLat) and grid.curve_masks):
         raise OptionError(
             f"raster offsets on an ellipsoid take an Equirect grid, got {type(grid).__name__}"
@@ -475,6 +484,7 @@ def raster_offset(
                 return classes
 
         classes = driver.run(cells, stop, handoff=grid.bin_level, backend=gpu, callback=cb)
+        assert cells.method is not None  # set on entering level 0
         method, reason = cells.method, cells.reason
     if cube is not None:
         classes = cube.unstack(stop, classes)

@@ -154,6 +154,7 @@ class CurveCells:
         lev = memo.pop(key, None)
         if lev is None:
             lev = self._children(parent)
+            assert self._ahead is not None  # set with the memo
             for k in [k for k in memo if k[0] < parent.level - self._ahead]:  # not asked for
                 del memo[k]
             memo[key] = lev

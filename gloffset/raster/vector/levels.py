@@ -29,6 +29,7 @@ reference renderer. The derivation in full: ``docs/design.md``, *Module notes*.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -55,6 +56,20 @@ __all__ = [
 
 _SLACK = 1e-15
 _PAIRS = 1 << 22
+
+
+class ArcTable(Protocol):
+    """What the level operations read of a set of arcs: :class:`CurveArcs`, or every arc
+    of the decomposition tree (:class:`~gloffset.raster.vector.node_levels.NodeArcs`)."""
+
+    a: np.ndarray
+    b: np.ndarray
+    n: np.ndarray
+    mid: np.ndarray
+    half: np.ndarray
+    boundary: np.ndarray
+    group: np.ndarray
+    n_groups: int
 
 
 @dataclass
@@ -168,7 +183,7 @@ def _nearest_bound(arcs: CurveArcs, c) -> np.ndarray:
     return out
 
 
-def cell_distances(f: Frontier, arcs: CurveArcs, *, lows: bool = False):
+def cell_distances(f: Frontier, arcs: ArcTable, *, lows: bool = False):
     """Exact float64 distances from the cells of ``f`` to their candidate arcs.
 
     Returns ``(dist, dring)``: the distance to the nearest candidate boundary arc
@@ -185,7 +200,7 @@ def cell_distances(f: Frontier, arcs: CurveArcs, *, lows: bool = False):
         ci, ai = f.pair_cell[s : s + _PAIRS], f.pair_arc[s : s + _PAIRS]
         cm = pair_dots(f.centers, ci, arcs.mid, ai)
         lo = nearest(arcs, ci, ai, cm, lambda idx, ci=ci: f.centers[ci[idx]], dist, dring)
-        if lows:
+        if low is not None:  # with lows
             low[s : s + len(ci)] = lo
     return (dist, dring, low) if lows else (dist, dring)
 
@@ -220,7 +235,7 @@ def prune(f: Frontier, low: np.ndarray, dist: np.ndarray, e: float) -> Frontier:
     )
 
 
-def nearest(arcs: CurveArcs, cell, ai, cm, point, dist, dring) -> None:
+def nearest(arcs: ArcTable, cell, ai, cm, point, dist, dring) -> np.ndarray:
     """Lower ``dist`` and ``dring`` of each cell to the exact distance of its nearest
     boundary arc and ring edge among its pairs ``(cell, ai)`` (grouped by cell).
 
@@ -302,7 +317,7 @@ def refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
     cuts = row_start[np.flatnonzero(np.r_[True, part[1:] != part[:-1]])]
     if len(cuts) < 2:
         return _refine(f, grid, arcs, e, shape)
-    bounds = np.r_[cuts, k]
+    bounds = np.asarray(np.r_[cuts, k])
     pair_at = np.searchsorted(f.pair_cell, bounds)
     outs = []
     for (a, b), (pa, pb) in zip(zip(bounds[:-1], bounds[1:]), zip(pair_at[:-1], pair_at[1:])):

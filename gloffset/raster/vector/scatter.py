@@ -77,12 +77,7 @@ def _boxes(arcs: CurveArcs, lat, lon, reach: float):
 
     Returns ``(arc, j0, j1, i0, i1)`` arrays, one entry per (arc, column range).
     """
-    lonlat = getattr(arcs, "_cap_lonlat", None)
-    if lonlat is None:  # once per set of arcs
-        m = arcs.mid
-        lonlat = np.arctan2(m[:, 1], m[:, 0]), np.arctan2(m[:, 2], np.hypot(m[:, 0], m[:, 1]))
-        arcs._cap_lonlat = lonlat
-    lon0, lat0 = lonlat
+    lon0, lat0 = arcs.cap_lonlat  # once per set of arcs
     r = (reach + arcs.half) * (1.0 + _REL) + _ABS
     # rows: centre latitudes decrease with the row
     neg = -lat
