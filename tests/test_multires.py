@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
@@ -84,6 +84,9 @@ def test_reconstruction_is_lossless(ll, closed, levels):
     except gloffset.InvalidGeometryError:
         return
     dec = gloffset.decompose(s, levels)
+    # the property is about one curve: a ring whose edges cross or overlap is read by
+    # crossing parity as the union's rings (tests/test_ring_rules.py), not one curve
+    assume(not closed or len(s.rings) == 1)
     orig = s.rings[0] if closed else s.lines[0]
     assert (
         np.abs(all_points(dec.reconstruct(0).rings + dec.reconstruct(0).lines) - orig).max()
