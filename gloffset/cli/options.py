@@ -9,8 +9,8 @@ import time
 import click
 
 from ..ellipsoid import ELLIPSOIDS, as_ellipsoid
-from ..errors import InvalidDistanceError, InvalidEllipsoidError
-from ..units import EARTH_RADIUS, parse_distance
+from ..errors import InvalidEllipsoidError
+from ..units import EARTH_RADIUS, parse_distance, to_metres
 
 
 def distance_option(f=None, *, default: str | None = None):
@@ -78,12 +78,7 @@ def parse_ellipsoid(text: str | None):
 
 def metres(text: str) -> float:
     """A CLI distance as a length in metres (for --ellipsoid: no angle units)."""
-    if str(text).strip().lower().endswith(("rad", "deg")):
-        raise InvalidDistanceError(
-            f"distance {text!r} is an angle, but on an ellipsoid distances are geodesic "
-            "lengths: give it in m, km, mi, nmi or ft"
-        )
-    return parse_distance(text, 1.0)
+    return to_metres(text)
 
 
 def input_options(f):
