@@ -21,6 +21,7 @@ import numpy as np
 
 from .errors import InputFormatError, InvalidDistanceError, InvalidGeometryError
 from .io.crs import is_lonlat
+from .io.geojson import disc_geometry, offset_feature
 from .shape import Shape
 from .sphere import angle, lonlat_to_xyz
 from .units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, to_angle
@@ -171,7 +172,7 @@ def _tolerance(d: float, res: int) -> float:
 
 
 def _general(shapely, shape, d: float, res: int):
-    feat = offset(shape, d, radius=1.0).to_geojson(tolerance=_tolerance(d, res))
+    feat = offset_feature(offset(shape, d, radius=1.0), tolerance=_tolerance(d, res))
     return shapely.geometry.shape(feat["geometry"])
 
 
@@ -259,8 +260,8 @@ def _simple(shapely, geoms, out, sel: np.ndarray, make, d: np.ndarray, res: int)
     plain = np.ones(len(sel), dtype=bool)
     plain[list(rings.special)] = False
     out[sel[plain]] = shapely.polygons(rings.lonlat[plain])
-    for j, geometry in rings.special.items():
-        out[sel[j]] = shapely.geometry.shape(geometry)
+    for j in rings.special:
+        out[sel[j]] = shapely.geometry.shape(disc_geometry(rings, j))
 
 
 def _label(rows: np.ndarray):
