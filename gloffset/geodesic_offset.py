@@ -123,6 +123,9 @@ class GeodesicOffset:
         on every test case; kept rather than failing the whole offset).
     """
 
+    #: The distance as given when it was a string (``"127km"``), for the output's properties.
+    given: str | None = None
+
     def __init__(self, shape, ell, d: float, tolerance: float):
         self.shape, self.ellipsoid, self.distance, self.tolerance = shape, ell, d, tolerance
         self.rings: list[np.ndarray] = []
@@ -172,7 +175,8 @@ class GeodesicOffset:
         ``ellipsoid`` and ``tolerance_m``."""
         from .io.geojson import rings_to_geometry
 
-        props = distance_properties(self.distance) | {
+        given = self.distance if self.given is None else self.given
+        props = distance_properties(given) | {
             "ellipsoid": str(self.ellipsoid),
             "tolerance_m": self.tolerance,
         }
@@ -455,4 +459,7 @@ def offset(
     tol = float(tolerance)
     if not (np.isfinite(tol) and tol > 0.0):
         raise InvalidDistanceError(f"tolerance must be a positive number of metres, got {tol!r}")
-    return GeodesicOffset(shape, ell, metres, tol)
+    off = GeodesicOffset(shape, ell, metres, tol)
+    if isinstance(distance, str):
+        off.given = distance  # the output's properties quote it as given
+    return off

@@ -77,7 +77,9 @@ def test_offset_takes_strings(iceland):
     geodesic = gloffset.offset(iceland, "127km", ellipsoid="WGS84")
     want = gloffset.offset(iceland, 127e3, ellipsoid="WGS84")
     assert geodesic.distance == want.distance == 127e3
-    assert geodesic.to_geojson() == want.to_geojson()
+    assert geodesic.to_geojson()["geometry"] == want.to_geojson()["geometry"]
+    props = geodesic.to_geojson()["properties"]
+    assert (props["distance_m"], props["distance"]) == (127e3, "127km")
 
 
 def test_contains_and_index_take_strings(iceland):
