@@ -212,8 +212,8 @@ def parse_distance(text: str | float, radius: float = EARTH_RADIUS) -> float:
 
     Examples
     --------
-    >>> round(parse_distance("6371.0088km"), 12)
-    0.001
+    >>> round(parse_distance("6371.0088km"), 12)  # one Earth radius
+    1.0
     >>> parse_distance("0.02rad")
     0.02
     """
