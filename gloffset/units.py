@@ -77,8 +77,9 @@ def to_angle(distance: float | str, radius: float) -> float:
 
     ``distance`` is a number in the units of ``radius`` or a string with a unit
     (``"127km"``, ``"0.02rad"``: :func:`parse_distance`); both give the same angle
-    (``to_angle("127km", r) == to_angle(127e3, r)``). Exact for numbers, ``rad`` and the
-    units of ``radius``: one division (one product and one division for other length units).
+    (``to_angle("127km", r) == to_angle(127e3, r)``). A number takes one division by
+    ``radius`` (correctly rounded); a string one product by its unit's length and that
+    division (``rad``: exact; ``deg``: one product by ``pi/180``).
 
     Raises :class:`InvalidDistanceError` when ``distance`` is not a finite number or a
     readable distance string, or ``radius`` not a positive finite number.
