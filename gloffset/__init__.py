@@ -22,14 +22,20 @@ from .errors import *  # noqa: F403  (every exception class, listed in errors.__
 from .geodesic_offset import GeodesicOffset, offset
 from .geoseries import buffer
 from .index.contains import Index
+from .io import geojson as _geojson
 from .raster.field import DistanceField, distance_field
 from .raster.rasterized import raster_offset, rasterize
 from .raster.render import render
 from .shape import Shape, read
 from .units import EARTH_RADIUS, parse_distance
+from .vector import arcrings as _arcrings
 from .vector.multires import Decomposition, decompose
 from .vector.offset import Offset
 from .vector.resolved import ResolvedOffset
+
+# Offsets are written by io/, which vector/ does not import: the convenience methods
+# Offset.to_geojson and ResolvedOffset.to_geojson call the writers of gloffset.io.geojson.
+_arcrings.ArcRings.writer = _geojson
 
 __all__ = [
     "EARTH_RADIUS",

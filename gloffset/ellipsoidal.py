@@ -52,7 +52,7 @@ from .errors import OptionError
 from .index.contains import Index, contains_on_sphere
 from .shape import read
 from .sphere import angle, arc_distance, dot, lonlat_to_xyz, normalize, robust_cross, xyz_to_lonlat
-from .units import EARTH_RADIUS, check_lonlat, check_radius, offset_angle
+from .units import EARTH_RADIUS, check_lonlat, check_radius, offset_metres
 
 __all__ = [
     "distance",
@@ -286,8 +286,8 @@ def contains(
         ellipsoid).
     ellipsoid : None, "WGS84", "GRS80", (a, f) or Ellipsoid
         ``None``: the sphere of ``radius``, exactly as without this keyword. Otherwise
-        ``distance`` is a geodesic length in metres on the ellipsoid, latitudes are
-        geodetic and polygon edges are geodesics.
+        ``distance`` is a geodesic length on the ellipsoid (metres, or a string with a
+        length unit: ``"127km"``), latitudes are geodetic and polygon edges are geodesics.
 
     Notes
     -----
@@ -308,7 +308,7 @@ def contains(
     if ell is None:
         return contains_on_sphere(shape, lon, lat, distance=distance, radius=radius, level=level)
     shape = read(shape)
-    d = offset_angle(shape, distance, 1.0)  # metres; checks d <= 0 without polygons
+    d = offset_metres(shape, distance, 1.0)  # checks d <= 0 without polygons
     lon, lat, shp = check_lonlat(lon, lat)
     return members(conformal(shape, ell), lon, lat, d, level=level).reshape(shp)
 
@@ -338,7 +338,7 @@ class EllipsoidIndex:
         if self.ellipsoid is None:
             raise OptionError("EllipsoidIndex needs an ellipsoid")
         self.shape = read(shape)
-        self.distance = float(offset_angle(self.shape, distance, 1.0))  # metres; checks
+        self.distance = offset_metres(self.shape, distance, 1.0)  # checks d <= 0 too
         self.level = level
         self._conf = conformal(self.shape, self.ellipsoid)
 

@@ -35,7 +35,7 @@ from .ellipsoidal import contains as ellipsoidal_contains
 from .errors import InvalidDistanceError
 from .shape import read
 from .sphere import angle, dot, lonlat_to_xyz, normalize, xyz_to_lonlat
-from .units import EARTH_RADIUS, VECTOR_LIMIT, distance_properties, offset_angle
+from .units import EARTH_RADIUS, VECTOR_LIMIT, distance_properties, offset_metres
 from .vector.arcrings import sample_ring
 from .vector.offset import Offset
 from .vector.offset import offset as sphere_offset
@@ -81,6 +81,9 @@ class GeodesicOffset:
         Edges still off the tolerance after :data:`MAX_ROUNDS` rounds of midpoints (0
         on every test case; kept rather than failing the whole offset).
     """
+
+    #: The distance as given when it was a string (``"127km"``), for the output's properties.
+    given: str | None = None
 
     def __init__(self, shape, ell, d: float, tolerance: float):
         self.shape, self.ellipsoid, self.distance, self.tolerance = shape, ell, d, tolerance
@@ -133,7 +136,8 @@ class GeodesicOffset:
         """
         from .io.geojson import rings_to_geometry
 
-        props = distance_properties(self.distance) | {
+        given = self.distance if self.given is None else self.given
+        props = distance_properties(given) | {
             "ellipsoid": str(self.ellipsoid),
             "tolerance_m": self.tolerance,
         }
@@ -403,9 +407,10 @@ def offset(
     Parameters
     ----------
     shape : Shape or anything :func:`gloffset.read` accepts
-    distance : float
+    distance : float or str
         Positive: outward from polygons and around lines and points; negative: inward
-        into polygons. In the units of ``radius``, or geodesic metres with ``ellipsoid``.
+        into polygons. In the units of ``radius``, or geodesic metres with ``ellipsoid``;
+        or a string with a unit (``"127km"``; a length unit with ``ellipsoid``).
     radius : float
         Sphere radius (without ``ellipsoid``).
     ellipsoid : None, "WGS84", "GRS80", (a, f) or Ellipsoid
@@ -429,8 +434,11 @@ def offset(
     if ell is None:
         return sphere_offset(shape, distance, radius=radius)
     shape = read(shape)
-    offset_angle(shape, distance, ell.k_min, limit=VECTOR_LIMIT)  # checks sign and size
+    metres = offset_metres(shape, distance, ell.k_min, limit=VECTOR_LIMIT)
     tol = float(tolerance)
     if not (np.isfinite(tol) and tol > 0.0):
         raise InvalidDistanceError(f"tolerance must be a positive number of metres, got {tol!r}")
-    return GeodesicOffset(shape, ell, float(distance), tol)
+    off = GeodesicOffset(shape, ell, metres, tol)
+    if isinstance(distance, str):
+        off.given = distance  # the output's properties quote it as given
+    return off

@@ -21,9 +21,10 @@ import numpy as np
 
 from .errors import InputFormatError, InvalidDistanceError, InvalidGeometryError
 from .io.crs import is_lonlat
+from .io.geojson import disc_geometry, offset_feature
 from .shape import Shape
 from .sphere import angle, lonlat_to_xyz
-from .units import EARTH_RADIUS, VECTOR_LIMIT, parse_distance
+from .units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, to_angle
 from .vector import discs
 from .vector.offset import offset
 
@@ -69,22 +70,24 @@ def _lonlat_series(gpd, data):
 
 
 def _angles(distance, n: int, radius: float) -> np.ndarray:
-    """Per-feature distances as angles (radians).
+    """Return per-feature distances as angles (radians).
 
-    From a number, a string such as '500m', or an array of numbers (units of ``radius``).
+    One distance for all or one per feature, each a number in the units of ``radius`` or
+    a string with a unit (``"500m"``), read by :func:`gloffset.units.to_angle`.
     """
-    if isinstance(distance, str):
-        return np.full(n, parse_distance(distance, radius))
-    arr = np.asarray(distance, dtype=np.float64)
-    if arr.ndim == 0:
-        arr = np.full(n, float(arr))
+    if np.ndim(distance) == 0:
+        return np.full(n, to_angle(distance, radius))
+    arr = np.asarray(distance)
     if arr.shape != (n,):
         raise InvalidDistanceError(
             f"distance must be one value or one per feature ({n}), got shape {arr.shape}"
         )
+    if arr.dtype.kind in "OUS":  # strings with units, or strings and numbers
+        return np.array([to_angle(x, radius) for x in arr.tolist()], dtype=np.float64)
+    arr = arr.astype(np.float64)
     if not np.isfinite(arr).all():
         raise InvalidDistanceError("distance must be finite")
-    return arr / radius
+    return arr / check_radius(radius)
 
 
 def _check_limit(d: np.ndarray, distance, index) -> None:
@@ -92,7 +95,8 @@ def _check_limit(d: np.ndarray, distance, index) -> None:
     far = np.flatnonzero(np.abs(d) >= VECTOR_LIMIT)
     if len(far):
         i = int(far[0])
-        given = distance if np.ndim(distance) == 0 else float(np.ravel(distance)[i])
+        given = distance if np.ndim(distance) == 0 else np.ravel(distance)[i]
+        given = given if isinstance(given, str) else float(given)
         raise InvalidDistanceError(
             f"distance {given!r} of row {index[i]!r} is {abs(d[i]):.4g} rad on the sphere: "
             "buffers need less than a quarter of a great circle (pi/2 rad)"
@@ -108,7 +112,7 @@ def buffer(data, distance, *, each: bool = True, resolution: int = 16, radius=EA
     data : geopandas.GeoSeries or geopandas.GeoDataFrame
         Lon/lat geometry (EPSG:4326, OGC:CRS84, no CRS, or another geographic CRS,
         transformed to EPSG:4326). A projected CRS is refused with a message.
-    distance : float, str or array of floats
+    distance : float, str or array of floats or str
         In the units of ``radius`` (metres by default), or a string such as ``"500m"``;
         one per feature or one for all. Negative distances shrink polygons; points and
         lines then give empty polygons (so do geometry collections without polygons).
@@ -172,7 +176,7 @@ def _tolerance(d: float, res: int) -> float:
 
 
 def _general(shapely, shape, d: float, res: int):
-    feat = offset(shape, d, radius=1.0).to_geojson(tolerance=_tolerance(d, res))
+    feat = offset_feature(offset(shape, d, radius=1.0), tolerance=_tolerance(d, res))
     return shapely.geometry.shape(feat["geometry"])
 
 
@@ -271,8 +275,8 @@ def _simple(shapely, geoms, out, sel: np.ndarray, make, d: np.ndarray, res: int)
     plain = np.ones(len(sel), dtype=bool)
     plain[list(rings.special)] = False
     out[sel[plain]] = shapely.polygons(rings.lonlat[plain])
-    for j, geometry in rings.special.items():
-        out[sel[j]] = shapely.geometry.shape(geometry)
+    for j in rings.special:
+        out[sel[j]] = shapely.geometry.shape(disc_geometry(rings, j))
 
 
 def _label(rows: np.ndarray):

@@ -4,7 +4,10 @@ What comes in at the edges, checked once.
 
 Inside gloffset every distance is an angle on the unit sphere (radians). Metres
 appear only at the edges, through the ``radius`` keyword (default
-:data:`EARTH_RADIUS`, the IUGG mean Earth radius). Query points come in as lon/lat
+:data:`EARTH_RADIUS`, the IUGG mean Earth radius). The rule of every public function: a
+distance is a number in the units of ``radius`` or a string with a unit, converted once,
+where it comes in (:func:`to_angle`, :func:`offset_angle`; :func:`to_metres` for geodesic
+lengths on an ellipsoid), and passed on as an angle. Query points come in as lon/lat
 arrays in degrees (:func:`check_lonlat`).
 """
 
@@ -79,19 +82,49 @@ def check_radius(radius: float) -> float:
     return r
 
 
-def to_angle(distance: float, radius: float) -> float:
-    """Convert a distance in the units of ``radius`` to an angle in radians.
+def to_angle(distance: float | str, radius: float) -> float:
+    """Convert a distance to an angle in radians: the one conversion of every public function.
 
-    Raises :class:`InvalidDistanceError` when ``distance`` is not a finite number.
+    ``distance`` is a number in the units of ``radius`` or a string with a unit
+    (``"127km"``, ``"0.02rad"``: :func:`parse_distance`); both give the same angle
+    (``to_angle("127km", r) == to_angle(127e3, r)``). A number takes one division by
+    ``radius`` (correctly rounded); a string one product by its unit's length and that
+    division (``rad``: exact; ``deg``: one product by ``pi/180``).
+
+    Raises :class:`InvalidDistanceError` when ``distance`` is not a finite number or a
+    readable distance string, or ``radius`` not a positive finite number.
     """
+    if isinstance(distance, str):
+        return parse_distance(distance, radius)
     r = check_radius(radius)
     try:
         d = float(distance)
     except (TypeError, ValueError):
-        raise InvalidDistanceError(f"distance must be a number, got {distance!r}") from None
+        raise InvalidDistanceError(
+            f"distance must be a number or a string with a unit (500m, 127km, 0.02rad), "
+            f"got {distance!r}"
+        ) from None
     if not math.isfinite(d):
         raise InvalidDistanceError(f"distance must be finite, got {distance!r}")
     return d / r
+
+
+def to_metres(distance: float | str) -> float:
+    """Return a geodesic distance on an ellipsoid in metres.
+
+    ``distance`` is a number (metres) or a string with a length unit (``"127km"``);
+    exact for numbers and metres, one product otherwise.
+
+    Raises :class:`InvalidDistanceError` for an angle (``"0.02rad"``, ``"1.5deg"``: on an
+    ellipsoid distances are geodesic lengths), an unreadable string or a number that is not
+    finite.
+    """
+    if isinstance(distance, str) and _read(distance)[1] in _ANGLE_UNITS:
+        raise InvalidDistanceError(
+            f"distance {distance!r} is an angle, but on an ellipsoid distances are geodesic "
+            "lengths: give it in m, km, mi, nmi or ft"
+        )
+    return parse_length(distance, 1.0)
 
 
 #: Largest |d| (rad) of a vector offset: the offset of a curve by a quarter of a
@@ -106,18 +139,16 @@ def offset_angle(shape, distance, radius, *, limit: float | None = None, what: s
     """Return the offset distance of an operation as an angle, with the limits that hold for it.
 
     ``distance`` is a number in the units of ``radius`` or a string with a unit
-    (``"127km"``, ``"0.02rad"``, read by :func:`parse_distance` with ``radius``). The
-    messages quote it as given, never as the internal angle.
+    (``"127km"``, ``"0.02rad"``), converted by :func:`to_angle`. The messages quote it as
+    given, never as the internal angle.
 
     Raises :class:`InvalidDistanceError` when the distance is not a finite number,
     when ``|d| >= limit`` (``what`` names the operation), and when ``d <= 0`` on an
     input without polygons: lines and points bound no region, so a zero or negative
     distance would leave nothing.
     """
-    if isinstance(distance, str):
-        d, given = parse_distance(distance, radius), distance.strip()
-    else:
-        d, given = to_angle(distance, radius), repr(distance)
+    d = to_angle(distance, radius)
+    given = distance.strip() if isinstance(distance, str) else repr(distance)
     if d <= 0.0 and not shape.rings:
         raise InvalidDistanceError(
             f"distance {given} is {'zero' if d == 0 else 'negative'}, but the input has no "
@@ -141,6 +172,21 @@ def offset_angle(shape, distance, radius, *, limit: float | None = None, what: s
             f"distance {given} ({abs(d):.4g} rad{sphere}) is too large: {need}; {other}"
         )
     return d
+
+
+def offset_metres(
+    shape, distance, radius: float, *, limit: float | None = None, what: str = ""
+) -> float:
+    """Return a geodesic offset distance on an ellipsoid in metres (:func:`to_metres`).
+
+    With the checks of :func:`offset_angle` on the angle ``distance / radius``
+    (``radius`` in metres: the ellipsoid's radius that bounds the operation's angle).
+
+    Raises :class:`InvalidDistanceError` as :func:`to_metres` and :func:`offset_angle` do.
+    """
+    m = to_metres(distance)
+    offset_angle(shape, distance, radius, limit=limit, what=what)
+    return m
 
 
 def _read(text: str) -> tuple[float, str]:
@@ -180,12 +226,12 @@ def parse_distance(text: str | float, radius: float = EARTH_RADIUS) -> float:
 
     Examples
     --------
-    >>> round(parse_distance("6371.0088km"), 12)
-    0.001
+    >>> round(parse_distance("6371.0088km"), 12)  # one Earth radius
+    1.0
     >>> parse_distance("0.02rad")
     0.02
     """
-    if isinstance(text, (int, float)):
+    if not isinstance(text, str):
         return to_angle(text, radius)
     value, unit = _read(text)
     if unit in _ANGLE_UNITS:
@@ -208,7 +254,7 @@ def parse_length(text: str | float, radius: float = EARTH_RADIUS) -> float:
     >>> parse_length("0.5rad", radius=2.0)
     1.0
     """
-    if isinstance(text, (int, float)):
+    if not isinstance(text, str):
         to_angle(text, radius)  # checks both
         return float(text)
     value, unit = _read(text)

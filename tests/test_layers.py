@@ -113,3 +113,10 @@ def test_the_judge_imports_only_the_maths_and_the_shape():
     mods = _imports(PACKAGE / "reference.py", "gloffset")
     allowed = ("gloffset.sphere", "gloffset.units", "gloffset.errors", "gloffset.shape")
     assert mods and all(m in allowed for m in mods), sorted(mods)
+
+
+@pytest.mark.parametrize("path", sorted((PACKAGE / "vector").glob("*.py")), ids=lambda p: p.name)
+def test_vector_imports_no_file_format(path):
+    """vector/ makes rings; io/ writes them (the import-linter contract says the same)."""
+    mods = _imports(path, "gloffset.vector")
+    assert not [m for m in mods if m == "gloffset.io" or m.startswith("gloffset.io.")]

@@ -191,3 +191,17 @@ def test_raw_offset_is_written_as_the_closed_curves_it_is(mexico_path):
     for line in lines:
         assert line[0] == line[-1]
     assert not shapely.geometry.shape(geom).is_simple  # loops at concave corners
+
+
+def test_to_geojson_is_the_io_writer(world):
+    """Offset.to_geojson and ResolvedOffset.to_geojson are the writers of gloffset.io.geojson,
+    byte for byte, raw and resolved (Fiji: rings across the antimeridian)."""
+    from gloffset.io.geojson import offset_feature, region_feature
+
+    off = gloffset.offset(world["Fiji"], "50km")
+    for kw in ({}, {"raw": True}, {"digits": 5, "tolerance": 1e-5}):
+        want = offset_feature(off, **{"tolerance": 1e-6, **kw})
+        assert json.dumps(off.to_geojson(**kw)) == json.dumps(want)
+    res = off.resolve()
+    assert json.dumps(res.to_geojson()) == json.dumps(region_feature(res, tolerance=1e-6))
+    assert off.to_geojson()["geometry"]["type"] == "MultiPolygon"

@@ -3,7 +3,7 @@
 By default the boundary of the offset region is written as valid polygons (self-
 intersections removed, parts united, holes kept; see :mod:`gloffset.vector.selfintersect`);
 ``--raw`` writes the raw offset rings of the paper's Sec. 4.1 instead. ``--each`` offsets
-every feature on its own and keeps its properties (:mod:`gloffset.vector.each`). The output
+every feature on its own and keeps its properties (:mod:`gloffset.each`). The output
 is GeoJSON, or a GeoPackage, Shapefile, FlatGeobuf or GeoParquet file by its name
 (:mod:`gloffset.io.vectorfile`). Every output feature has the fields ``distance_m`` (the
 distance in metres: the geodesic length with ``--ellipsoid``, else on the sphere of
@@ -16,16 +16,17 @@ import json
 
 import click
 
+from ..each import offset_each
 from ..errors import OptionError
 from ..geodesic_offset import offset as geodesic_offset
 from ..io.features import features as _features
 from ..io.features import load
+from ..io.geojson import offset_feature
 from ..io.output import check_output, write_bytes
 from ..io.vectorfile import WRITE_FORMATS, check_writable
 from ..io.vectorfile import write as write_vector
 from ..shape import read
 from ..units import distance_properties
-from ..vector.each import offset_each
 from ..vector.offset import offset as _offset
 from . import main
 from .options import (
@@ -173,6 +174,6 @@ def _offsets(stages, input, source, distance, radius, ell, each, tol, digits, ra
     off = _offset(shape, distance, radius=radius)
     if not raw and off.distance != 0.0:
         stages.stage("removing self-intersections and overlaps")
-        off.resolve(method)  # kept on the offset for to_geojson
+        off.resolve(method)  # kept on the offset for its writing
     stages.stage("densifying the arcs and cutting at the antimeridian")
-    return [off.to_geojson(tolerance=tol, digits=digits, raw=raw, method=method)]
+    return [offset_feature(off, tolerance=tol, digits=digits, raw=raw, method=method)]

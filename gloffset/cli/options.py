@@ -10,8 +10,8 @@ from typing import Any
 import click
 
 from ..ellipsoid import ELLIPSOIDS, as_ellipsoid
-from ..errors import InvalidDistanceError, InvalidEllipsoidError, OptionError
-from ..units import EARTH_RADIUS, parse_distance
+from ..errors import InvalidEllipsoidError, OptionError
+from ..units import EARTH_RADIUS, parse_distance, to_metres
 
 
 def distance_option(f=None, *, default: str | None = None):
@@ -101,12 +101,7 @@ def parse_ellipsoid(text: str | None):
 
 def metres(text: str) -> float:
     """A CLI distance as a length in metres (for --ellipsoid: no angle units)."""
-    if str(text).strip().lower().endswith(("rad", "deg")):
-        raise InvalidDistanceError(
-            f"distance {text!r} is an angle, but on an ellipsoid distances are geodesic "
-            "lengths: give it in m, km, mi, nmi or ft"
-        )
-    return parse_distance(text, 1.0)
+    return to_metres(text)
 
 
 def number_option(*names: str, low: float, default: float, help: str):

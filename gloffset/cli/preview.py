@@ -60,8 +60,8 @@ def preview_cmd(
     check_output(output)
     shape = read(input, layer=layer, where=where, densify=densify)
     img = globe(
-        shape, angle(distance, radius), size=size, center=_center(center), style=style,
-        radius=1.0, spin=spin,
+        shape, distance, size=size, center=_center(center), style=style,
+        radius=radius, spin=spin,
     )  # fmt: skip
     if spin is None:
         write_image(img, output)

@@ -171,9 +171,9 @@ def render_cmd(
     out = "classes" if classes_level is not None else "mask"
     result = _render(
         shape,
-        d,
+        distance,  # as given: the library converts it once
         grid,
-        radius=1.0,
+        radius=radius,
         out=out,
         level=classes_level,
         callback=progress if ell is None else None,

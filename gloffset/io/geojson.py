@@ -8,7 +8,9 @@ unit vectors happen in :mod:`gloffset.shape`.
 Writing takes rings of unit vectors whose interior lies on their left (the
 orientation gloffset keeps everywhere) and produces RFC 7946 geometry: rings cut
 at the antimeridian, regions around a pole closed along the +-90 deg edges,
-exterior rings counter-clockwise and holes clockwise in lon/lat.
+exterior rings counter-clockwise and holes clockwise in lon/lat. The offsets
+(:func:`offset_feature`, :func:`region_feature`, :func:`disc_geometry`) are written
+here: :mod:`gloffset.vector` makes rings and knows no file format.
 """
 
 from __future__ import annotations
@@ -25,8 +27,18 @@ import numpy as np
 
 from ..errors import InputFormatError, OptionError
 from ..sphere import normalize, xyz_to_lonlat
+from ..units import distance_properties
 
-__all__ = ["Parts", "load", "parse", "rings_to_geometry", "lines_to_geometry"]
+__all__ = [
+    "Parts",
+    "load",
+    "parse",
+    "rings_to_geometry",
+    "lines_to_geometry",
+    "region_feature",
+    "offset_feature",
+    "disc_geometry",
+]
 
 
 @dataclass
@@ -534,3 +546,63 @@ def lines_to_geometry(lines, digits: int | None = None) -> dict:
         out.append(cur)
     coords = [_round(np.asarray(c), digits) for c in out if len(c) >= 2]
     return {"type": "MultiLineString", "coordinates": coords}
+
+
+def region_feature(region, *, tolerance: float, digits: int | None = None, properties=None):
+    """A resolved offset (:class:`gloffset.ResolvedOffset`) as an RFC 7946 Feature.
+
+    Its arcs are densified (``region.sample(tolerance)``) so that no written edge strays
+    more than ``tolerance`` (radians) from its arc; rings are cut at the antimeridian,
+    exterior rings run counter-clockwise and holes clockwise (:func:`rings_to_geometry`,
+    told by ``region.contains_xyz`` whether the north pole is inside). ``properties``
+    default to ``distance_m`` and ``distance``, both the angle (a resolved offset lies on
+    the unit sphere).
+    """
+    props = dict(properties) if properties else distance_properties(region.distance)
+    rings = region.sample(tolerance)
+    north = bool(region.contains_xyz(np.array([[0.0, 0.0, 1.0]]))[0])
+    if not rings and not north:
+        geom = {"type": "MultiPolygon", "coordinates": []}
+    else:
+        geom = rings_to_geometry(rings, north, digits)
+    return {"type": "Feature", "properties": props, "geometry": geom}
+
+
+def offset_feature(
+    off, *, tolerance: float, digits: int | None = None, raw: bool = False, method="general"
+) -> dict:
+    """An offset (:class:`gloffset.Offset`) as an RFC 7946 Feature.
+
+    By default its resolved boundary (``off.resolve(method)``, :func:`region_feature`):
+    valid polygons with holes, densified to ``tolerance`` (radians). ``raw=True`` writes
+    the raw offset curves of Sec. 4.1 as what they are: a MultiLineString of closed rings
+    that may cross themselves and each other (property ``raw``: true). At distance 0, the
+    input's polygons (``off.shape.to_geojson``). The properties are ``distance_m``, the
+    distance in the units of ``off.radius`` (metres for the default radius), and
+    ``distance``, the distance as given (``off.given``, else the angle).
+    """
+    given = off.distance if off.given is None else off.given
+    props = distance_properties(given, off.radius)
+    if off.distance == 0.0:
+        feat = off.shape.to_geojson(digits=digits)
+        feat["properties"] = props
+        return feat
+    if not raw:
+        return region_feature(
+            off.resolve(method), tolerance=tolerance, digits=digits, properties=props
+        )
+    props["raw"] = True
+    closed = [np.vstack([r, r[:1]]) for r in off.sample(tolerance) if len(r)]
+    geom = lines_to_geometry(closed, digits)
+    return {"type": "Feature", "properties": props, "geometry": geom}
+
+
+def disc_geometry(rings, i: int, digits: int | None = None) -> dict:
+    """Row ``i`` of the offsets of many points or segments
+    (:class:`gloffset.vector.discs.Rings`) as an RFC 7946 geometry: its lon/lat ring as a
+    Polygon, or, for a ring across the antimeridian or round a pole, the geometry of
+    :func:`rings_to_geometry`."""
+    if i in rings.special:
+        ring, north = rings.special[i]
+        return rings_to_geometry([ring], north, digits)
+    return {"type": "Polygon", "coordinates": [_round(rings.lonlat[i], digits)]}

@@ -18,8 +18,8 @@ from ..grids import Cube
 from ..io.png import parse_color
 from ..shape import read
 from ..sphere import lonlat_to_xyz, normalize
-from ..units import EARTH_RADIUS
-from .render import render
+from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
+from .render import render_angle
 
 __all__ = ["GlobeStyle", "globe", "view_frame"]
 
@@ -74,7 +74,7 @@ def _default_center(shape) -> tuple[float, float]:
 
 def globe(
     shape,
-    distance: float,
+    distance: float | str,
     *,
     size: int = 1024,
     center=None,
@@ -86,6 +86,8 @@ def globe(
     """An RGBA image (size, size, 4) of the region within ``distance`` of ``shape`` on an
     orthographic globe centred on ``center`` (lon, lat; default: the input's centre).
 
+    ``distance``: in the units of ``radius`` (metres by default) or a string with a unit
+    (``"127km"``), as in :func:`gloffset.render`.
     ``cube``: the side of the cube-map faces (default: ``size``, about two texels per
     pixel at the centre of the disc). ``spin``: a list of that many images instead, the
     globe turning eastwards once round (the cube maps are rendered once).
@@ -100,10 +102,11 @@ def globe(
     style = style or GlobeStyle()
     uniforms = style.uniforms()  # fail before the work
     n = int(cube) if cube is not None else max(64, int(size))
-    region = render(shape, distance, Cube(n), radius=radius)
+    d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="render")
+    region = render_angle(shape, d, Cube(n))
     texel = 2.0 / n  # a texel's angular size at the face centre
     curves = 0.0 if shape.rings and not shape.lines else 0.75 * texel
-    own = render(shape, curves, Cube(n), radius=1.0)
+    own = render_angle(shape, curves, Cube(n))
     lon, lat = center if center is not None else _default_center(shape)
     if spin is None:
         return draw_globe(region, own, view_frame((lon, lat)), int(size), uniforms)

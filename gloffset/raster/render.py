@@ -15,14 +15,14 @@ from ..ellipsoidal import conformal, decide, members, thresholds
 from ..errors import OptionError
 from ..grids.conformal import ConformalRows
 from ..grids.protocol import Image
-from ..shape import read
+from ..shape import Shape, read
 from ..sphere import xyz_to_lonlat
-from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
+from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, offset_metres
 from . import driver
 from .simplified import PIXEL_FRACTION, band_members, simplified, z_order
 from .vector.curves import CurveCells
 
-__all__ = ["render", "RenderError", "MAX_PIXELS"]
+__all__ = ["render", "render_angle", "RenderError", "MAX_PIXELS"]
 
 #: Largest output accepted (pixels); above it the result would not fit in memory.
 MAX_PIXELS = 1 << 31
@@ -63,6 +63,8 @@ _ELLIPSOID_BATCH = 1 << 18
 def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoid, tile):
     """Return the mask of ``render(..., ellipsoid=...)``.
 
+    ``distance`` as given (metres or a length with a unit).
+
     On lon/lat grids with the GPU backend (:func:`_screened_on_gpu`): two spherical GPU
     renders on the conformal sphere decide every pixel but a thin band, which is
     decided exactly on the CPU. Otherwise every pixel centre goes through the
@@ -73,7 +75,7 @@ def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoi
     _check(out, backend, grid)
     if out != "mask" or callback is not None:
         raise OptionError("with an ellipsoid, render() gives masks only (out='mask', no callback)")
-    offset_angle(shape, distance, ell.a, limit=RASTER_LIMIT, what="render")
+    distance = offset_metres(shape, distance, ell.a, limit=RASTER_LIMIT, what="render")
     if grid.n_faces > 1:
         return np.stack(
             [
@@ -329,8 +331,9 @@ def render(
     Parameters
     ----------
     shape : Shape or anything :func:`gloffset.read` accepts
-    distance : float
-        In the units of ``radius`` (metres by default); negative shrinks polygons.
+    distance : float or str
+        In the units of ``radius`` (metres by default), or a string with a unit
+        (``"127km"``, ``"0.02rad"``); negative shrinks polygons.
     grid : gloffset.grids.Equirect, Tile, Cube or CubeFace
         A :class:`~gloffset.grids.Cube` gives (6, N, N) indexed [face, row, column],
         faces +X -X +Y -Y +Z -Z, rows and columns as in the GL cube-map table.
@@ -350,9 +353,9 @@ def render(
         Largest tile side (default: the GL texture limit, at most 8192).
     ellipsoid : None, "WGS84", "GRS80", (a, f) or Ellipsoid
         ``None``: the sphere of ``radius``. Otherwise ``distance`` is a geodesic length
-        in metres on the ellipsoid, the grid's latitudes are geodetic and polygon edges
-        are geodesics; only ``out="mask"``. Each pixel centre is decided by
-        :func:`gloffset.contains` on the ellipsoid (the spherical index on the
+        on the ellipsoid (metres, or a string with a length unit), the grid's latitudes
+        are geodetic and polygon edges are geodesics; only ``out="mask"``. Each pixel
+        centre is decided by :func:`gloffset.contains` on the ellipsoid (the spherical index on the
         conformal sphere decides all but the thin band of the ratio bound, the band is
         decided with geodesic distances), on the CPU whatever the ``backend``.
 
@@ -371,6 +374,28 @@ def render(
     if ellipsoid is not None:
         return _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoid, tile)
     d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="render")
+    return render_angle(
+        shape, d, grid, out=out, level=level, callback=callback, backend=backend, tile=tile
+    )
+
+
+def render_angle(
+    shape: Shape,
+    d: float,
+    grid,
+    *,
+    out: str = "mask",
+    level: int | None = None,
+    callback=None,
+    backend: str = "gpu",
+    tile: int | None = None,
+) -> np.ndarray:
+    """Return :func:`render` of a read ``shape`` at the angle ``d`` (radians).
+
+    The angle is checked by the caller (:func:`gloffset.units.offset_angle`): the one
+    entry of the package's own renders, whose distances are angles already. The options
+    are checked here, the accuracy is :func:`render`'s.
+    """
     _check(out, backend, grid)
     if out == "classes" and level is not None and not 0 <= level < grid.n_levels:
         raise OptionError(f"level must be in 0..{grid.n_levels - 1}, got {level!r}")
@@ -379,16 +404,8 @@ def render(
     tile = _tile_limit(tile, backend)
     if grid.n_faces > 1:
         faces = [
-            render(
-                shape,
-                d,
-                f,
-                radius=1.0,
-                out=out,
-                level=level,
-                callback=callback,
-                backend=backend,
-                tile=tile,
+            render_angle(
+                shape, d, f, out=out, level=level, callback=callback, backend=backend, tile=tile
             )
             for f in grid.faces
         ]

@@ -52,10 +52,12 @@ from ..edges import points_inside
 from ..ellipsoidal import distance as distance_to
 from ..errors import GloffsetError
 from ..grids.mercator import MAX_ZOOM
+from ..io.geojson import offset_feature
 from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
 from ..sphere import lonlat_to_xyz
 from ..units import EARTH_RADIUS, RASTER_LIMIT, VECTOR_LIMIT, offset_angle
+from ..vector.arcrings import DEFAULT_TOLERANCE
 from ..vector.offset import offset
 from .accesslog import AccessLog, open_log
 from .bounds import region_bounds
@@ -200,7 +202,7 @@ class _Server:
         assert text is not None  # angle() answers 400 without it
         try:
             off = await asyncio.to_thread(offset, shape, text, radius=EARTH_RADIUS)
-            feat = await asyncio.to_thread(off.to_geojson)
+            feat = await asyncio.to_thread(offset_feature, off, tolerance=DEFAULT_TOLERANCE)
         except GloffsetError as exc:
             _bad(str(exc))
         return JSONResponse({"type": "FeatureCollection", "features": [feat]})

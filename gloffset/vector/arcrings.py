@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -179,6 +180,10 @@ class ArcRings:
     """What every set of rings of small-circle arcs offers (``self.rings``: OffsetRing)."""
 
     rings: list
+    #: What writes rings of arcs as GeoJSON: the module :mod:`gloffset.io.geojson`, set
+    #: when :mod:`gloffset` is imported. ``vector/`` makes rings and imports no file format
+    #: (an import-linter contract); ``to_geojson`` is a convenience that calls the writer.
+    writer: ClassVar[Any] = None
 
     @property
     def centers(self) -> list[np.ndarray]:

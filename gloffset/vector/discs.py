@@ -9,8 +9,8 @@ at distance d from the feature, to rounding) and need no self-intersection remov
 one :func:`~gloffset.offset` each. Rings run counter-clockwise (interior on the left).
 
 :func:`rings_lonlat` gives the rings in lon/lat, with a flag for those that cross the
-antimeridian or enclose a pole: those must go through
-:func:`gloffset.io.geojson.rings_to_geometry` (cut at +-180 deg, closed along the pole).
+antimeridian or enclose a pole: those are kept as unit vectors, for the writers
+(:func:`gloffset.io.geojson.disc_geometry`) to cut at +-180 deg and close along the pole.
 """
 
 from __future__ import annotations
@@ -18,7 +18,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidGeometryError
-from ..io.geojson import rings_to_geometry
 from ..sphere import angle, arc_distance, lonlat_to_xyz, normalize, xyz_to_lonlat
 
 __all__ = [
@@ -131,18 +130,14 @@ def resolution_for(d: float, tolerance: float) -> int:
 
 class Rings:
     """Offsets of many points or segments: ``lonlat`` (n, m + 1, 2) closed lon/lat rings,
-    and ``special``: {row: GeoJSON geometry} for the rows whose ring crosses the
-    antimeridian or encloses a pole (their ``lonlat`` row is not to be used)."""
+    and ``special``: {row: (ring, north)} for the rows whose ring crosses the antimeridian
+    or encloses a pole (their ``lonlat`` row is not to be used): the ring as (m, 3) unit
+    vectors, interior on the left, and whether it encloses the north pole. Written as
+    GeoJSON by :func:`gloffset.io.geojson.disc_geometry`."""
 
     def __init__(self, lonlat: np.ndarray, special: dict):
         self.lonlat = lonlat
         self.special = special
-
-    def geometry(self, i: int) -> dict:
-        """Row ``i`` as a GeoJSON geometry."""
-        if i in self.special:
-            return self.special[i]
-        return {"type": "Polygon", "coordinates": [self.lonlat[i].tolist()]}
 
 
 def _unit(ll: np.ndarray, labels) -> np.ndarray:
@@ -158,19 +153,15 @@ def _unit(ll: np.ndarray, labels) -> np.ndarray:
     return lonlat_to_xyz(ll[:, 0], ll[:, 1])
 
 
-def _finish(rings: np.ndarray, reach, north, digits) -> Rings:
-    """Lon/lat rings; those across the antimeridian or round a pole cut as RFC 7946 says
-    (``north``: whether each ring encloses the north pole)."""
+def _finish(rings: np.ndarray, reach, north) -> Rings:
+    """Lon/lat rings; those across the antimeridian or round a pole kept as unit vectors
+    with ``north`` (whether each ring encloses the north pole)."""
     lonlat, flag = rings_lonlat(rings, reach)
-    special = {}
-    for i in np.flatnonzero(flag).tolist():
-        special[i] = rings_to_geometry([rings[i]], bool(north[i]), digits)
-    if digits is not None:
-        lonlat = np.round(lonlat, digits)
+    special = {i: (rings[i], bool(north[i])) for i in np.flatnonzero(flag).tolist()}
     return Rings(lonlat, special)
 
 
-def discs(ll: np.ndarray, d, resolution: int, *, digits=None, labels=str) -> Rings:
+def discs(ll: np.ndarray, d, resolution: int, *, labels=str) -> Rings:
     """The offsets by ``d`` (radians, 0 < d < pi/2; one, or one per point) of the points
     ``ll`` (n, 2) lon/lat.
 
@@ -178,13 +169,13 @@ def discs(ll: np.ndarray, d, resolution: int, *, digits=None, labels=str) -> Rin
     c = _unit(ll, labels)
     rings = disc_rings(c, d, resolution)
     north = c[:, 2] > np.cos(d)
-    return _finish(rings, d, north, digits)
+    return _finish(rings, d, north)
 
 
-def stadiums(a_ll, b_ll, d, resolution: int, *, digits=None, labels=str) -> Rings:
+def stadiums(a_ll, b_ll, d, resolution: int, *, labels=str) -> Rings:
     """The offsets by ``d`` (radians, 0 < d < pi/2; one, or one per segment) of the
     segments ``a_ll[i] -> b_ll[i]`` (lon/lat, distinct and not antipodal)."""
     a, b = _unit(a_ll, labels), _unit(b_ll, labels)
     rings = stadium_rings(a, b, d, resolution)
     north = arc_distance(np.array([0.0, 0.0, 1.0]), a, b) < d
-    return _finish(rings, d + angle(a, b), north, digits)
+    return _finish(rings, d + angle(a, b), north)

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..shape import Shape, read
-from ..units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, distance_properties, offset_angle
+from ..units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, offset_angle
 from .arcrings import DEFAULT_TOLERANCE, ArcRings, OffsetRing, line_arcs, ring_arcs, sample_rings
 
 __all__ = ["Offset", "offset"]
@@ -108,6 +108,9 @@ class Offset(ArcRings):
     ) -> dict:
         """Return the offset region as an RFC 7946 Feature.
 
+        ``offset_feature(self, ...)`` of :func:`gloffset.io.geojson.offset_feature`,
+        where offsets are written.
+
         Rings are densified to ``tolerance`` (radians), cut at the antimeridian,
         exterior rings counter-clockwise. By default the resolved boundary
         (:meth:`resolve` with ``method``) is written: valid polygons with holes.
@@ -118,23 +121,9 @@ class Offset(ArcRings):
         The properties are ``distance_m``, the distance in metres (in the units of
         :attr:`radius`), and ``distance``, the distance as given (:attr:`given`).
         """
-        from ..io.geojson import lines_to_geometry
-
-        props = distance_properties(
-            self.distance if self.given is None else self.given, self.radius
+        return self.writer.offset_feature(
+            self, tolerance=tolerance, digits=digits, raw=raw, method=method
         )
-        if self.distance == 0.0:
-            feat = self.shape.to_geojson(digits=digits)
-            feat["properties"] = props
-            return feat
-        if not raw:
-            return self.resolve(method).to_geojson(
-                tolerance=tolerance, digits=digits, properties=props
-            )
-        props["raw"] = True
-        closed = [np.vstack([r, r[:1]]) for r in self.sample(tolerance) if len(r)]
-        geom = lines_to_geometry(closed, digits)
-        return {"type": "Feature", "properties": props, "geometry": geom}
 
 
 def offset(shape, distance: float | str, *, radius: float = EARTH_RADIUS) -> Offset:

@@ -4,7 +4,8 @@ The boundary of the offset region as closed rings of small-circle arcs (the Q/R 
 Eq. 1-4, pieces of the raw offset of Sec. 4.1), sorted into exteriors and holes and
 grouped into polygons (:mod:`gloffset.vector.rings`). What the region offers besides its
 rings lives here too: membership of points (crossing parity against the rings), its
-area (Gauss-Bonnet on the arcs), densified rings and GeoJSON. Both methods of
+area (Gauss-Bonnet on the arcs) and densified rings, which
+:func:`gloffset.io.geojson.region_feature` writes as GeoJSON. Both methods of
 :mod:`gloffset.vector.selfintersect` (:mod:`~gloffset.vector.paper`,
 :mod:`~gloffset.vector.arrangement`) return one, built with
 :meth:`ResolvedOffset.from_rings`.
@@ -16,7 +17,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..units import distance_properties
 from .arcrings import DEFAULT_TOLERANCE, ArcRings, sample_rings
 from .rings import RingParity, holes_and_polygons, left_areas, ring_table
 
@@ -115,22 +115,18 @@ class ResolvedOffset(ArcRings):
     ) -> dict:
         """Return the region as an RFC 7946 Feature.
 
+        ``region_feature(self, ...)`` of :func:`gloffset.io.geojson.region_feature`,
+        where offsets are written.
+
         Arcs are densified so that no written edge strays more than ``tolerance``
         (radians) from its arc; rings are cut at the antimeridian, exterior rings
         run counter-clockwise and holes clockwise. ``properties`` default to
         ``distance_m`` and ``distance``, both the angle (a resolved offset lies on the
         unit sphere; :meth:`gloffset.Offset.to_geojson` gives its own radius's).
         """
-        from ..io.geojson import rings_to_geometry
-
-        props = dict(properties) if properties else distance_properties(self.distance)
-        rings = self.sample(tolerance)
-        north = bool(self.contains_xyz(np.array([[0.0, 0.0, 1.0]]))[0])
-        if not rings and not north:
-            geom = {"type": "MultiPolygon", "coordinates": []}
-        else:
-            geom = rings_to_geometry(rings, north, digits)
-        return {"type": "Feature", "properties": props, "geometry": geom}
+        return self.writer.region_feature(
+            self, tolerance=tolerance, digits=digits, properties=properties
+        )
 
     def _parity_index(self) -> RingParity:
         """Crossing parity against the rings (built on first use)."""

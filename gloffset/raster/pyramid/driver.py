@@ -42,7 +42,7 @@ from ...grids.mercator import MAX_ZOOM, TilePyramid, check_tile_size
 from ...io.tilestore import INPUT_KEY, input_digest, open_store
 from ...malloc import keep_freed_memory
 from ...shape import read
-from ...units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, parse_distance
+from ...units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, to_metres
 from .. import driver
 from ..driver import Level
 from ..vector.curves import CurveCells
@@ -110,7 +110,7 @@ def parse_zooms(zooms) -> tuple[int, int]:
 
 def pyramid(
     shape,
-    distance: float,
+    distance: float | str,
     zooms,
     out,
     *,
@@ -138,7 +138,8 @@ def pyramid(
     distance : float or str
         A number in the units of ``radius`` (metres by default) or a distance with its
         unit (``"127km"``, ``"0.02rad"``: :func:`gloffset.parse_distance`); negative
-        shrinks polygons.
+        shrinks polygons. With ``ellipsoid``, a geodesic length (metres, or a string with
+        a length unit).
     zooms : str, int or (int, int)
         Zoom range, e.g. ``"0-14"`` (at most 0..22).
     out : str, Path or a tile store
@@ -216,14 +217,9 @@ def pyramid(
     shape = read(shape)
     ell = as_ellipsoid(ellipsoid)
     if ell is not None:
+        to_metres(distance)  # a geodesic length: no angle units
         radius = ell.a  # the distance in metres, its angle on the sphere of radius a
-    if isinstance(distance, str):  # "127km": its angle (the limits apply to it)
-        if ell is not None and distance.strip().lower().endswith(("rad", "deg")):
-            raise TilesError(f"distance {distance!r}: on an ellipsoid give a length (m, km)")
-        value, unit = parse_distance(distance, radius), 1.0
-    else:
-        value, unit = distance, radius
-    d = offset_angle(shape, value, unit, limit=RASTER_LIMIT, what="a tile pyramid")
+    d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="a tile pyramid")
     zlo, zhi = parse_zooms(zooms)
     size = check_tile_size(size, TilesError)
     style = TileStyle(fill, opacity, outline, outline_width)

@@ -15,7 +15,7 @@ from ...edges import CurveArcs, inside_any
 from ...grids.conformal import ConformalRows
 from ...grids.mercator import Tile, TilePyramid
 from ..driver import CONTAINED, FRONTIER, OUTSIDE
-from ..render import render, render_grid
+from ..render import render_angle, render_grid
 from ..vector.curves import CurveCells
 from ..vector.levels import at_cells, cell_distances, decide, subset
 from .job import MAX_BLOCK
@@ -110,7 +110,7 @@ def render_tiles(
     want = sorted({(int(x), int(y)) for x, y in tiles})
     if z <= alone_zoom and style.outline is None:
         return {
-            (x, y): style.encode(render(shape, d, tile_grid(z, x, y, size), radius=1.0) > 0)
+            (x, y): style.encode(render_angle(shape, d, tile_grid(z, x, y, size)) > 0)
             for x, y in want
         }
     plog = size.bit_length() - 1

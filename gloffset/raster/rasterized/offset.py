@@ -30,7 +30,6 @@ rasterized :class:`Shape` these hold up to 1e-7 of a pixel. The derivation in fu
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -42,7 +41,7 @@ from ...errors import InvalidDistanceError, InvalidMaskError, OptionError
 from ...grids.conformal import ConformalRows
 from ...grids.protocol import CurveMaskImage, RegularLonLat
 from ...sphere import chord2_between
-from ...units import EARTH_RADIUS, to_angle
+from ...units import EARTH_RADIUS, to_angle, to_metres
 from .. import driver
 from .curve_levels import (
     RasterizedCurve,
@@ -316,8 +315,8 @@ def _on_ellipsoid(mask, distance, grid, ellipsoid, return_info, callback, **opti
         raise OptionError(
             "raster offsets on an ellipsoid give classes only (no return_info, callback)"
         )
-    m = float(distance) if isinstance(distance, (int, float, np.floating, np.integer)) else None
-    if m is None or not math.isfinite(m) or m <= 0.0:
+    m = to_metres(distance)
+    if m <= 0.0:
         raise InvalidDistanceError(
             f"distance must be a positive number of metres on the ellipsoid, got {distance!r}"
         )
@@ -354,7 +353,7 @@ def _check_mask(mask, grid) -> np.ndarray:
 
 def raster_offset(
     mask,
-    distance: float,
+    distance: float | str,
     grid,
     *,
     radius: float = EARTH_RADIUS,
@@ -374,8 +373,9 @@ def raster_offset(
         The output cells of ``grid`` that the curve passes through (row 0 north;
         cube: [face, row, column], faces +X -X +Y -Y +Z -Z as :func:`gloffset.render`
         returns them); integer arrays count non-zero as True.
-    distance : float
-        Offset distance in the units of ``radius`` (metres by default), > 0.
+    distance : float or str
+        Offset distance in the units of ``radius`` (metres by default), or a string with
+        a unit (``"127km"``), > 0; with ``ellipsoid``, a geodesic length.
     grid : gloffset.grids.Equirect or gloffset.grids.Cube
         On a cube the six faces are one set of cells: the curve, the region growing
         and the offset run across face edges and corners.

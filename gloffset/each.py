@@ -6,7 +6,8 @@ output feature, its offset region, with the feature's properties and a ``distanc
 property. Points and single segments, the features that come by the hundred thousand,
 are offset all at once (:mod:`gloffset.vector.discs`); every other feature goes through
 :func:`gloffset.offset` and the resolve step alone. A feature without geometry is kept
-with a null geometry.
+with a null geometry. GeoJSON features in, GeoJSON features out: this sits above both
+:mod:`gloffset.vector` (the offsets) and :mod:`gloffset.io.geojson` (their writing).
 """
 
 from __future__ import annotations
@@ -15,13 +16,13 @@ from typing import TypeGuard, cast
 
 import numpy as np
 
-from ..errors import InputFormatError, InvalidDistanceError, InvalidGeometryError
-from ..io.geojson import parse
-from ..shape import Shape
-from ..units import parse_distance
-from . import discs
-from .arcrings import DEFAULT_TOLERANCE
-from .offset import offset
+from .errors import InputFormatError, InvalidDistanceError, InvalidGeometryError
+from .io.geojson import disc_geometry, offset_feature, parse
+from .shape import Shape
+from .units import to_angle
+from .vector import discs
+from .vector.arcrings import DEFAULT_TOLERANCE
+from .vector.offset import offset
 
 __all__ = ["offset_each", "simple_kind", "POINT", "SEGMENT", "GENERAL", "NONE"]
 
@@ -75,7 +76,7 @@ def offset_each(
     input's; the caller adds the distance. ``progress``, if given, is called with no
     argument once per feature offset (the points and segments after their batch).
     """
-    given, d = d, parse_distance(d, radius)
+    given, d = d, to_angle(d, radius)
     if not 0.0 < d < np.pi / 2:
         simple = []  # inward offsets or d = 0: every feature goes the general way
     else:
@@ -89,11 +90,11 @@ def offset_each(
         ends = np.array([simple[i][1] for i in rows], dtype=np.float64)
         labels = _labeller(features, rows)
         if kind == POINT:
-            rings = discs.discs(ends[:, 0], d, res, digits=digits, labels=labels)
+            rings = discs.discs(ends[:, 0], d, res, labels=labels)
         else:
-            rings = discs.stadiums(ends[:, 0], ends[:, 1], d, res, digits=digits, labels=labels)
+            rings = discs.stadiums(ends[:, 0], ends[:, 1], d, res, labels=labels)
         for j, i in enumerate(rows):
-            out[i] = _feature(features[i], rings.geometry(j))
+            out[i] = _feature(features[i], disc_geometry(rings, j, digits))
             if progress is not None:
                 progress()
     for i, f in enumerate(features):
@@ -125,8 +126,12 @@ def _general(f, i: int, distance, radius, tolerance, digits, raw, method) -> dic
         return _feature(f, None)
     try:
         shape = Shape.from_geojson({"type": "FeatureCollection", "features": [f]})
-        feat = offset(shape, distance, radius=radius).to_geojson(
-            tolerance=tolerance, digits=digits, raw=raw, method=method
+        feat = offset_feature(
+            offset(shape, distance, radius=radius),
+            tolerance=tolerance,
+            digits=digits,
+            raw=raw,
+            method=method,
         )
     except (InvalidGeometryError, InputFormatError) as exc:  # named as feature 0 alone
         raise type(exc)(str(exc).replace("feature 0", f"feature {i}", 1)) from None
