@@ -1,10 +1,13 @@
 """The page of ``gloffset serve`` in a real browser: Debian's chromium driven by
-playwright against a real server. It loads the page, moves the distance slider, checks
-that the tiles of the new distance were requested and drawn, and compares screenshot
-pixels at points known to be inside and outside the region (gloffset.contains), on the
-map and on the globe; the globe screenshot is the README's (docs/serve_globe.png). It
-sets an inward distance through the URL hash after the page has loaded and checks the
-tiles, the slider, its unit, the legend and the pixels at that distance.
+playwright against a real server. In the default mode (distance-field tiles drawn by a
+color-relief layer), it loads the page, changes the distance with the slider and the URL
+hash (inward too), checks that no tile or field was requested for it, and compares
+screenshot pixels at points known to be inside and outside the region (gloffset.contains),
+on the map and on the globe; the globe screenshot at an inward distance is the README's
+(docs/serve_globe.png). With the server's exact tiles (the toggle, ``mode=exact``), it
+checks that the tiles of a new distance are requested and drawn, and follows an inward
+distance set through the URL hash after the page has loaded: the tiles, the slider, its
+unit, the legend and the pixels at that distance.
 
 Skipped, with the reason, only where chromium or playwright cannot be found (.ci/run
 installs chromium with apt-get)."""
@@ -49,7 +52,9 @@ VIEW = (960, 640)
 @pytest.fixture(scope="module")
 def server():
     shape = gloffset.read(ROOT / "data" / "mexico_10m.geojson")
-    app = create_app({"mexico": shape}, render_timeout=120)
+    # Mexico at 1:110m for the field tiles: a field costs 1-3 s a tile at 1:10m on the CPU
+    coarse = gloffset.read(ROOT / "data" / "world_110m.geojson", where="NAME = 'Mexico'")
+    app = create_app({"mexico": shape, "mexico110": coarse}, render_timeout=120)
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
@@ -60,7 +65,7 @@ def server():
     while not srv.started:
         assert time.monotonic() < end, "the server did not start"
         time.sleep(0.05)
-    yield f"http://127.0.0.1:{port}", shape
+    yield f"http://127.0.0.1:{port}", {"mexico": shape, "mexico110": coarse}
     srv.should_exit = True
     thread.join(timeout=30)
 
@@ -84,6 +89,11 @@ def page(server):
         pg.on("pageerror", lambda e: errors.append(str(e)))
         pg.tiles = []  # (url, status) of every tile response
         pg.on("response", lambda r: "/tiles/" in r.url and pg.tiles.append((r.url, r.status)))
+        pg.asked = []  # the url of every tile or field request
+        pg.on(
+            "request",
+            lambda r: ("/tiles/" in r.url or "/field/" in r.url) and pg.asked.append(r.url),
+        )
         try:
             yield pg
         finally:
@@ -110,6 +120,25 @@ def _settle(pg, distance: str) -> None:
     )
 
 
+def _settle_field(pg, metres: float) -> None:
+    """Wait until the map draws the field at ``metres`` and has stopped rendering."""
+    pg.wait_for_function(
+        """(d) => {
+            const p = window.gloffsetPage;
+            if (!p || !p.map.getLayer('offset')) return false;
+            const ramp = p.map.getPaintProperty('offset', 'color-relief-color');
+            return p.map.getLayer('offset').type === 'color-relief' && ramp[3] === d - 1
+                && ramp[5] === d && p.map.loaded() && p.map.areTilesLoaded()
+                && !p.map.isMoving();
+        }""",
+        arg=metres,
+    )
+    pg.evaluate(
+        "() => new Promise((ok) => { const m = gloffsetPage.map;"
+        " m.once('idle', ok); m.triggerRepaint(); })"
+    )
+
+
 def _screenshot(pg, path: Path | None = None) -> np.ndarray:
     png = pg.screenshot()
     if path is not None:
@@ -125,7 +154,7 @@ def _probes(pg, shape, d_m: float, margin_m: float):
     lon, lat = lon.ravel(), lat.ravel()
     dist = gloffset.distance(shape, lon, lat)
     inside = gloffset.contains(shape, lon, lat, distance=d_m)
-    clear = (np.abs(dist - d_m) > margin_m) & (dist > margin_m)
+    clear = (np.abs(dist - abs(d_m)) > margin_m) & (dist > margin_m)
     pts = pg.evaluate(
         """(ll) => ll.map(([x, y]) => { const p = gloffsetPage.map.project([x, y]);
                 return [p.x, p.y]; })""",
@@ -177,12 +206,18 @@ def _move_slider(pg, value: int) -> None:
     pg.locator("#distance").fill(str(value))
 
 
-def test_page_map_slider_and_globe(server, page):
-    base, shape = server
+def test_page_field_mode_slider_hash_and_globe(server, page):
+    """The default mode draws the field tiles: the slider and the hash (to an inward
+    distance too) change the drawing with no request, on the map and on the globe; a click
+    shows the distance at a point; the toggle switches to the exact tiles."""
+    base, shapes = server
+    shape = shapes["mexico110"]
     pg = page
-    pg.goto(f"{base}/#map=3.6/23/-102&layer=mexico&d=127km")
-    _settle(pg, "127km")
-    assert any("/tiles/mexico/127km/" in u and s == 200 for u, s in pg.tiles)
+    pg.goto(f"{base}/#map=3.6/23/-102&layer=mexico110&d=127km")
+    _settle_field(pg, 127e3)
+    assert pg.evaluate("() => gloffsetMap.getStyle().sources.offset.type") == "raster-dem"
+    assert any("/field/mexico110/" in u for u in pg.asked)
+    assert not any("/tiles/" in u for u in pg.asked)
     # the view comes from the URL hash
     zoom, lon, lat = pg.evaluate(
         "() => { const m = gloffsetPage.map; const c = m.getCenter();"
@@ -190,18 +225,33 @@ def test_page_map_slider_and_globe(server, page):
     )
     assert abs(zoom - 3.6) < 1e-6 and abs(lon + 102) < 1e-6 and abs(lat - 23) < 1e-6
 
-    # the slider: tiles of the new distance are requested and drawn
+    # the slider: the region at the new distance, with no request
+    seen = len(pg.asked)
     _move_slider(pg, 400)
-    _settle(pg, "400km")
-    new = [(u, s) for u, s in pg.tiles if "/tiles/mexico/400km/" in u]
-    assert new and all(s == 200 for _, s in new)
+    _settle_field(pg, 400e3)
+    assert pg.asked[seen:] == []
     assert "d=400km" in pg.evaluate("() => location.hash")
     img = _screenshot(pg)
-    xy, inside, lon, lat = _probes(pg, shape, 400e3, margin_m=90e3)
-    # some probes changed with the slider: the pixels follow the new distance
+    xy, inside, lon, lat = _probes(pg, shape, 400e3, margin_m=60e3)
     before = gloffset.contains(shape, lon, lat, distance=127e3)
     assert inside.sum() > 20 and (~inside).sum() > 20 and (inside & ~before).sum() > 10
     _check_pixels(pg, img, xy, inside)
+    # inward, by the slider
+    _move_slider(pg, -150)
+    _settle_field(pg, -150e3)
+    assert pg.asked[seen:] == []
+    xy, inside, lon, lat = _probes(pg, shape, -150e3, margin_m=60e3)
+    near = gloffset.contains(shape, lon, lat, distance=0.0) & ~inside
+    assert inside.sum() > 5 and near.sum() > 5
+    _check_pixels(pg, _screenshot(pg), xy, inside)
+    # inward, by the hash, in another unit
+    pg.evaluate("() => { location.hash = 'map=3.6/23/-102&layer=mexico110&d=-60nmi'; }")
+    _settle_field(pg, -60 * 1852.0)
+    assert pg.asked[seen:] == []
+    assert "d = -60 nmi" in pg.locator("#legend").text_content()
+    xy, inside, _, _ = _probes(pg, shape, -60 * 1852.0, margin_m=60e3)
+    assert inside.sum() > 10 and (~inside).sum() > 20
+    _check_pixels(pg, _screenshot(pg), xy, inside)
 
     # a click shows the distance to the curves
     x, y = xy[np.flatnonzero(~inside)[0]]
@@ -214,38 +264,65 @@ def test_page_map_slider_and_globe(server, page):
     pg.keyboard.press("Escape")
     pg.evaluate("() => document.querySelectorAll('.maplibregl-popup').forEach((e) => e.remove())")
 
-    # the globe
+    # the globe, at an inward distance (the README's picture), then outward by the hash
     pg.locator("#globe").check()
     pg.evaluate("() => gloffsetPage.map.jumpTo({zoom: 2.3, center: [-100, 22]})")
-    _settle(pg, "400km")
+    pg.locator("#unit").select_option("km")
+    _move_slider(pg, -100)
+    _settle_field(pg, -100e3)
     assert pg.evaluate("() => gloffsetPage.map.getProjection().type") == "globe"
     assert "globe=1" in pg.evaluate("() => location.hash")
     img = _screenshot(pg, ROOT / "docs" / "serve_globe.png")
-    xy, inside, _, _ = _probes(pg, shape, 400e3, margin_m=150e3)
-    assert inside.sum() > 10 and (~inside).sum() > 10
+    xy, inside, _, _ = _probes(pg, shape, -100e3, margin_m=100e3)
+    assert inside.sum() > 3 and (~inside).sum() > 10
     _check_pixels(pg, img, xy, inside)
     # off the globe's disc the page's own background shows: the map is a sphere
     assert img[VIEW[1] - 3, VIEW[0] - 3].tolist() == [0x10, 0x20, 0x2E]
+    seen = len(pg.asked)
+    pg.evaluate("() => { location.hash = 'map=2.3/22/-100&layer=mexico110&d=700km&globe=1'; }")
+    _settle_field(pg, 700e3)
+    assert pg.asked[seen:] == []
+    xy, inside, _, _ = _probes(pg, shape, 700e3, margin_m=150e3)
+    assert inside.sum() > 10 and (~inside).sum() > 10
+    _check_pixels(pg, _screenshot(pg), xy, inside)
     mercator_corner = _colours(pg)[1].tolist()
     pg.locator("#globe").uncheck()
-    _settle(pg, "400km")
+    _settle_field(pg, 700e3)
     assert pg.evaluate("() => gloffsetPage.map.getProjection().type") == "mercator"
     assert _screenshot(pg)[VIEW[1] - 3, VIEW[0] - 3].tolist() == mercator_corner
 
+    # the toggle: the server's exact tiles at the same distance
+    pg.locator("#exact").check()
+    _settle(pg, "700km")
+    assert pg.evaluate("() => gloffsetMap.getStyle().sources.offset.type") == "raster"
+    assert "mode=exact" in pg.evaluate("() => location.hash")
+    new = [(u, s) for u, s in pg.tiles if "/tiles/mexico110/700km/" in u]
+    assert new and all(s == 200 for _, s in new)
+    xy, inside, _, _ = _probes(pg, shape, 700e3, margin_m=60e3)
+    _check_pixels(pg, _screenshot(pg), xy, inside)
+
 
 def test_page_follows_the_hash_to_an_inward_offset(server, page):
-    """A distance set in the URL hash after the page has loaded (a link, a script) is
-    followed: a negative one (inside the polygons and farther than |d| from their
+    """With the exact tiles (mode=exact), the slider asks for the tiles of the new
+    distance, and a distance set in the URL hash after the page has loaded (a link, a
+    script) is followed: a negative one (inside the polygons and farther than |d| from their
     boundary) in another unit, its tiles requested and drawn, the slider, its unit and
     the legend showing it; the map is window.gloffsetMap."""
-    base, shape = server
+    base, shapes = server
+    shape = shapes["mexico"]
     pg = page
-    pg.goto(f"{base}/#map=4.2/22/-100&layer=mexico&d=127km")
+    pg.goto(f"{base}/#map=4.2/22/-100&layer=mexico&d=127km&mode=exact")
     _settle(pg, "127km")
     assert pg.evaluate("() => window.gloffsetMap === window.gloffsetPage.map")
     assert pg.evaluate("() => window.gloffsetMap.getStyle().sources.offset.type") == "raster"
+    # the slider: tiles of the new distance are requested and drawn
+    _move_slider(pg, 400)
+    _settle(pg, "400km")
+    new = [(u, s) for u, s in pg.tiles if "/tiles/mexico/400km/" in u]
+    assert new and all(s == 200 for _, s in new)
+    assert "d=400km" in pg.evaluate("() => location.hash")
     seen = len(pg.tiles)
-    pg.evaluate("() => { location.hash = 'map=4.2/22/-100&layer=mexico&d=-100nmi'; }")
+    pg.evaluate("() => { location.hash = 'map=4.2/22/-100&layer=mexico&d=-100nmi&mode=exact'; }")
     _settle(pg, "-100nmi")
     new = [(u, s) for u, s in pg.tiles[seen:] if "/tiles/mexico/-100nmi/" in u]
     assert new and all(s == 200 for _, s in new), pg.tiles[seen:]

@@ -24,6 +24,14 @@ if TYPE_CHECKING:
 @click.option("--port", type=click.IntRange(0, 65535), default=8080, show_default=True)
 @number_option("--cache-mb", low=0, default=256.0, help="Rendered tiles kept in memory, MB.")
 @click.option(
+    "--field-mb",
+    type=click.FloatRange(min=0),
+    default=256.0,
+    show_default=True,
+    help="Distance fields of tiles kept in memory, MB (256 KiB a tile): a tile whose field "
+    "is kept is answered at any distance by a threshold.",
+)
+@click.option(
     "--cache-control",
     default="public, max-age=3600",
     show_default=True,
@@ -58,12 +66,22 @@ if TYPE_CHECKING:
     "appended, or to standard output ('-', or the option alone). Default: no log.",
 )
 def serve_cmd(
-    inputs, host, port, cache_mb, cache_control, queue_size, render_timeout, workers, access_log
+    inputs,
+    host,
+    port,
+    cache_mb,
+    field_mb,
+    cache_control,
+    queue_size,
+    render_timeout,
+    workers,
+    access_log,
 ):
     """Serve the offset regions of INPUT... as map tiles for any distance:
-    /tiles/LAYER/127km/z/x/y.png, /tilejson/LAYER.json?distance=127km, /offset, /shape,
-    /distance, /layers, and at / a map and globe page with a distance slider (each INPUT
-    is a layer named after its file stem).
+    /tiles/LAYER/127km/z/x/y.png, /tilejson/LAYER.json?distance=127km, distance-field
+    tiles /field/LAYER/z/x/y.png (/field/LAYER.json), /offset, /shape, /distance, /layers,
+    and at / a map and globe page with a distance slider, drawn in the browser from the
+    field tiles (each INPUT is a layer named after its file stem).
 
     One process renders on one GL thread, batching the tiles asked for together; for
     more throughput, --workers N runs N processes on the port (each with its own GL
@@ -86,6 +104,7 @@ def serve_cmd(
         cache_control=cache_control,
         queue_size=queue_size,
         cache_mb=cache_mb,
+        field_mb=field_mb,
         render_timeout=render_timeout,
         access_log=access_log,
     )

@@ -39,6 +39,13 @@ from .options import fill_options, input_options, measure, measure_options, show
     help="Tile side, pixels (a power of two).",
 )
 @click.option("--name", default=None, help="Tileset name (default: the output's name).")
+@click.option(
+    "--field",
+    is_flag=True,
+    help="Write distance-field tiles instead (no -d): every tile of the zooms holds the signed "
+    "distance in metres at its pixel centres as RGB, metres = R * 65536 + G * 256 + B - "
+    "8388608 (MapLibre raster-dem custom encoding; docs/guide/tiles.md).",
+)
 @click.option("--resume", is_flag=True, help="Complete an interrupted run (same options).")
 @click.option("--force", is_flag=True, help="Replace an existing output.")
 @click.option(
@@ -65,6 +72,7 @@ def tiles_cmd(
     outline_width,
     tile_size,
     name,
+    field,
     resume,
     force,
     workers,
@@ -76,7 +84,14 @@ def tiles_cmd(
     """Write the tile pyramid of the region within DIST of the curves of INPUT: tiles
     outside the region are skipped, tiles fully inside share one image and are not
     rendered, only tiles on the region's edge are rendered. With --ellipsoid, DIST is a
-    geodesic length on that ellipsoid (no --outline, --workers)."""
+    geodesic length on that ellipsoid (no --outline, --workers). With --field, the
+    tiles are the signed distance field instead, at every distance at once."""
+    if field:
+        return _field_tiles(
+            input, radius, ellipsoid, zooms, output, tile_size, name, force, locals()
+        )
+    if distance is None:
+        raise click.UsageError("Missing option '-d' / '--distance' (or give --field).")
     ell = measure(distance, radius, ellipsoid)[0]  # fail before the work
     refuse_stdout(
         output, "a tile pyramid is an .mbtiles or .pmtiles file or a folder of z/x/y.png tiles"
@@ -147,3 +162,40 @@ def tiles_cmd(
         f"{stats.seconds:.1f} s",
         err=True,
     )
+
+
+# -d is required unless --field is given (checked in the command)
+next(p for p in tiles_cmd.params if p.name == "distance").required = False
+
+
+def _field_tiles(input, radius, ellipsoid, zooms, output, size, name, force, given) -> None:
+    """``gloffset tiles --field``: the distance-field pyramid
+    (:func:`gloffset.raster.pyramid.fieldtiles.field_pyramid`)."""
+    from ..raster.pyramid.fieldtiles import field_pyramid
+
+    for opt, bad in (
+        ("-d", given["distance"] is not None),
+        ("--ellipsoid", ellipsoid is not None),
+        ("--outline", given["outline"] is not None),
+        ("--resume", given["resume"]),
+        ("--workers", given["workers"] is not None),
+        ("--scheduler", given["scheduler"] is not None),
+    ):
+        if bad:
+            raise click.UsageError(f"--field takes no {opt}: a field holds every distance")
+    refuse_stdout(output, "field tiles are an .mbtiles or .pmtiles file or a folder")
+    check_tile_output(output)
+    parse_zooms(zooms)
+    shape = read(input, layer=given["layer"], where=given["where"], densify=given["densify"])
+    t0 = time.perf_counter()
+    n = field_pyramid(
+        shape,
+        zooms,
+        output,
+        radius=radius,
+        size=size,
+        name=name,
+        source="stdin" if input == "-" else Path(input).stem,
+        overwrite=force,
+    )
+    click.echo(f"{n:,} field tiles written; {time.perf_counter() - t0:.1f} s", err=True)

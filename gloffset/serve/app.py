@@ -4,34 +4,34 @@
 Endpoints (each input is a layer named after its file stem):
 
 - ``GET /tiles/{layer}/{distance}/{z}/{x}/{y}.png`` (``{y}@2x.png``: 512 px): the offset
-  region at that distance (``127km``, ``500m``, ``0.02rad``, ``1.5deg``; a bare number is
-  metres) as a web-mercator tile, the pixels of ``gloffset.render(shape, d, Tile(z, x,
-  y))``, styled by the query (``fill``, ``opacity``, ``outline``, ``outline_width``) as
-  ``gloffset tiles`` styles them;
-- ``GET /tilejson/{layer}.json?distance=127km``: TileJSON 3.0.0 with absolute URLs, its
-  ``bounds`` a box that holds the region at that distance
-  (:func:`~gloffset.serve.bounds.region_bounds`);
-- ``GET /offset/{layer}.geojson?distance=127km``: the resolved vector offset;
-- ``GET /shape/{layer}.geojson``: the input;
-- ``GET /distance/{layer}?lon=..&lat=..``: the distance to the layer in metres;
-- ``GET /layers``;
-- ``GET /``: the page (``static/index.html``, ``static/page.js``): the tiles on a map
-  and a globe (MapLibre GL JS, vendored in ``static/vendor`` by
-  ``scripts/vendor_maplibre.py``) with a distance slider, the input drawn over them, a
-  click showing the distance to the curves; ``/static/...`` serves its files.
+  region at that distance (``127km``, ``0.02rad``; a bare number is metres), the pixels
+  of ``gloffset.render(shape, d, Tile(z, x, y))``, styled by the query (``fill``,
+  ``opacity``, ``outline``, ``outline_width``) as ``gloffset tiles`` styles them;
+- ``GET /tilejson/{layer}.json?distance=127km``: TileJSON 3.0.0, its ``bounds`` a box
+  that holds the region at that distance (:func:`~gloffset.serve.bounds.region_bounds`);
+- ``GET /field/{layer}/{z}/{x}/{y}.png`` (``@2x``): the tile's signed distance field in
+  metres, a lossless RGB PNG in the ``raster-dem`` ``custom`` encoding of
+  :data:`~gloffset.raster.pyramid.fieldtiles.FIELD_ENCODING` (1 m steps, +-8,388 km);
+  ``GET /field/{layer}.json``: TileJSON 3.0.0 for them, with that ``encoding``;
+- ``GET /offset/{layer}.geojson?distance=127km``, ``GET /shape/{layer}.geojson``,
+  ``GET /distance/{layer}?lon=..&lat=..`` (metres), ``GET /layers``;
+- ``GET /``: the page (``static/``: MapLibre GL JS vendored by
+  ``scripts/vendor_maplibre.py``) with a map, a globe and a distance slider.
 
 HEAD works wherever GET does. Bad input is 400 with ``{"detail": ...}`` naming the
 problem (tile numbers are ASCII digits only), an unknown layer 404, a full render queue
 (or a tile not rendered within ``render_timeout``) 503 with ``Retry-After``. Tiles carry
-a strong ETag (a hash of their bytes; ``If-None-Match`` with it, weak or strong, in a
-list, or ``*`` gives 304), the configured ``Cache-Control``, and ``X-Gloffset-Tile``: how
-the tile was found (``cached``, ``inside``, ``outside``: decided without rendering, or
-``rendered``). With ``access_log``, a line per request (:mod:`gloffset.serve.accesslog`).
+a strong ETag (``If-None-Match`` with it, weak or strong, in a list, or ``*`` gives 304),
+the configured ``Cache-Control``, and ``X-Gloffset-Tile``: how the tile was found
+(``cached``, ``inside``, ``outside``, ``field``: the threshold of the tile's kept field,
+or ``rendered``; field tiles say ``cached`` or ``computed``). With ``access_log``, a line
+per request (:mod:`gloffset.serve.accesslog`).
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import math
 import os
@@ -53,6 +53,7 @@ from ..ellipsoidal import distance as distance_to
 from ..errors import GloffsetError
 from ..grids.mercator import MAX_ZOOM
 from ..io.geojson import offset_feature
+from ..raster.pyramid.fieldtiles import FIELD_ENCODING
 from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
 from ..sphere import lonlat_to_xyz
@@ -61,7 +62,7 @@ from ..vector.arcrings import DEFAULT_TOLERANCE
 from ..vector.offset import offset
 from .accesslog import AccessLog, open_log
 from .bounds import region_bounds
-from .service import UNKNOWN, QueueFull, TileKey, TileService, etag
+from .service import UNKNOWN, FieldKey, QueueFull, TileKey, TileService, etag
 
 __all__ = ["create_app", "app_from_environment", "ENVIRONMENT", "STATIC"]
 
@@ -87,12 +88,15 @@ class _Server:
         cache_control: str,
         queue_size: int,
         cache_mb: float,
+        field_mb: float,
         render_timeout: float,
     ):
         self.layers = layers
         self.cache_control = cache_control
         self.render_timeout = render_timeout
-        self.tiles = TileService(layers, queue_size=queue_size, cache_mb=cache_mb)
+        self.tiles = TileService(
+            layers, queue_size=queue_size, cache_mb=cache_mb, field_mb=field_mb
+        )
         # the tiles whose centres are about to be measured, and the task
         self._batch: tuple[list, asyncio.Future] | None = None
 
@@ -128,17 +132,59 @@ class _Server:
             found = self.tiles.answer(key, measure=False)
         if found is UNKNOWN:  # measured but since forgotten: measure it alone
             found = await asyncio.to_thread(self.tiles.answer, key)
+        if found is None and self.tiles.field(key.field()) is not None:
+            thresholded = await asyncio.to_thread(self.tiles.from_field, key)
+            found = None if thresholded is None else (thresholded, "field")
         if found is not None:
             data, how = found
         else:
-            data, how = await self._render(key), "rendered"
-            if isinstance(data, Response):
-                return data
+            rendered = await self._render(key)
+            if isinstance(rendered, Response):
+                return rendered
+            data, how = rendered, "rendered"
+        return self._png(request, data, how)
+
+    def _png(self, request: Request, data: bytes, how: str) -> Response:
         tag = etag(data)
         headers = {"ETag": tag, "Cache-Control": self.cache_control, "X-Gloffset-Tile": how}
         if not_modified(request.headers.get("if-none-match"), tag):
             return Response(status_code=304, headers=headers)
         return Response(data, media_type="image/png", headers=headers)
+
+    async def field_tile(self, request: Request) -> Response:
+        p = request.path_params
+        self.layer(p["layer"])
+        z, x, y, size = _zxy(p["z"], p["x"], p["y"])
+        fkey = FieldKey(p["layer"], z, x, y, size)
+        kept = self.tiles.cached(fkey)
+        if kept is not None:
+            return self._png(request, kept, "cached")
+        made = await self._wait(lambda: self.tiles.submit_field(fkey), "field")
+        if isinstance(made, Response):
+            return made
+        return self._png(request, made, "computed")
+
+    async def field_tilejson(self, request: Request) -> Response:
+        name = request.path_params["layer"]
+        self.layer(name)
+        base = str(request.base_url).rstrip("/")
+        w, s, e, n = await asyncio.to_thread(region_bounds, self.layers[name], 0.0)
+        return JSONResponse(
+            {
+                "tilejson": "3.0.0",
+                "name": f"{name} signed distance (m)",
+                "description": "signed distance to the curves in metres, negative inside the "
+                "polygons: metres = R * redFactor + G * greenFactor + B * blueFactor - baseShift",
+                "tiles": [f"{base}/field/{name}/{{z}}/{{x}}/{{y}}.png"],
+                "minzoom": 0,
+                "maxzoom": MAX_ZOOM,
+                "tileSize": 256,
+                "encoding": dict(FIELD_ENCODING),
+                # every tile has a field: the whole map
+                "bounds": [-180.0, -85.0511287798066, 180.0, 85.0511287798066],
+                "center": [(w + e) / 2, (s + n) / 2, 2],
+            }
+        )
 
     async def _measured(self, key: TileKey) -> None:
         """Wait until the centre of the tile is measured: the requests that arrive together
@@ -158,16 +204,21 @@ class _Server:
 
     async def _render(self, key: TileKey) -> bytes | Response:
         """The tile rendered on the render thread, or the 503 that says why not."""
+        return await self._wait(lambda: self.tiles.submit(key), "tile")
+
+    async def _wait(self, submit, what: str) -> bytes | Response:
+        """The bytes of ``submit()``'s future (work on the render thread), or the 503 that
+        says why not."""
         busy = {"Retry-After": "1"}
         try:
-            fut = self.tiles.submit(key)
+            fut = submit()
         except QueueFull:
             detail = "the render queue is full; try again"
             return JSONResponse({"detail": detail}, status_code=503, headers=busy)
         try:
             return await asyncio.wait_for(asyncio.wrap_future(fut), self.render_timeout)
         except asyncio.TimeoutError:
-            detail = f"the tile was not rendered within {self.render_timeout:g} s; try again"
+            detail = f"the {what} was not rendered within {self.render_timeout:g} s; try again"
             return JSONResponse({"detail": detail}, status_code=503, headers=busy)
         except GloffsetError as exc:
             _bad(str(exc))
@@ -315,6 +366,7 @@ def create_app(
     cache_control: str = "public, max-age=3600",
     queue_size: int = 256,
     cache_mb: float = 256.0,
+    field_mb: float = 256.0,
     render_timeout: float = 60.0,
     access_log: str | None = None,
 ) -> Starlette:
@@ -322,6 +374,7 @@ def create_app(
 
     ``cache_control``: the tiles' Cache-Control header; ``queue_size``: tiles waiting to
     render at most (more are answered 503); ``cache_mb``: the LRU of rendered tiles;
+    ``field_mb``: the LRU of distance fields (256 KiB a 256 px tile);
     ``render_timeout``: seconds a request waits for its tile before a 503;
     ``access_log``: a file to append a line per request to, ``"-"`` for standard output
     (:mod:`gloffset.serve.accesslog`), None for none.
@@ -331,6 +384,7 @@ def create_app(
         cache_control=cache_control,
         queue_size=queue_size,
         cache_mb=cache_mb,
+        field_mb=field_mb,
         render_timeout=render_timeout,
     )
     get = ["GET", "HEAD"]
@@ -339,6 +393,8 @@ def create_app(
         Route("/layers", srv.layer_list, methods=get),
         Route("/tiles/{layer}/{distance}/{z}/{x}/{y}.png", srv.tile, methods=get),
         Route("/tilejson/{layer}.json", srv.tilejson, methods=get),
+        Route("/field/{layer}/{z}/{x}/{y}.png", srv.field_tile, methods=get),
+        Route("/field/{layer}.json", srv.field_tilejson, methods=get),
         Route("/offset/{layer}.geojson", srv.offset_geojson, methods=get),
         Route("/shape/{layer}.geojson", srv.shape_geojson, methods=get),
         Route("/distance/{layer}", srv.distance, methods=get),
@@ -347,12 +403,21 @@ def create_app(
     middleware = []
     if access_log is not None:
         middleware.append(Middleware(AccessLog, stream=open_log(access_log)))
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app):
+        try:
+            yield
+        finally:  # no more background fields once the server stops
+            srv.tiles.close()
+
     # Starlette types every handler as taking an Exception; this one is for HTTPException
     handlers = {HTTPException: _error}
     app = Starlette(
         routes=routes,
         exception_handlers=handlers,  # type: ignore[arg-type]
         middleware=middleware,
+        lifespan=lifespan,
     )
     app.state.server = srv
     return app

@@ -19,6 +19,12 @@ request at once and renders those of one layer, distance, zoom, size and style t
 runs), so throughput grows with load. Rendered tiles are kept in an LRU bounded in
 bytes. A request whose client went away is still rendered when its batch had started
 (the tile is cached, the answer dropped); one cancelled before is skipped.
+
+Distance fields of tiles are computed on the render thread too (for a field tile at
+once, for a rendered tile when the thread is idle) and kept in a second LRU bounded in
+bytes (``field_mb``); a tile whose field is kept is answered at any distance by
+:meth:`TileService.from_field`, the field's threshold, equal to the rendered tile except
+within the GPU render's stated error (1e-3 px) of ``d`` (see the design notes).
 """
 
 from __future__ import annotations
@@ -39,10 +45,13 @@ from PIL import Image
 from ..classes import CONTAINED, OUTSIDE
 from ..errors import QueueFullError as QueueFull
 from ..raster.pyramid import measure_tiles, render_tiles
+from ..raster.pyramid.fieldtiles import encode_field, field_tile
 from ..raster.pyramid.tilepaint import TileStyle
+from ..units import EARTH_RADIUS
 
 __all__ = [
     "TileKey",
+    "FieldKey",
     "TileService",
     "QueueFull",
     "EMPTY_PNG",
@@ -63,6 +72,11 @@ def _empty_png(size: int) -> bytes:
 #: A fully transparent tile of 256 and 512 pixels (every tile with nothing in it).
 EMPTY_PNG = {256: _empty_png(256), 512: _empty_png(512)}
 
+
+#: seconds without a request after which the render thread computes a waiting field
+IDLE = 0.05
+#: rendered tiles whose fields wait for an idle render thread, at most (the oldest go)
+LATER = 4096
 
 #: tiles whose centre's distance and status are kept (about 100 bytes each)
 CENTRES = 200_000
@@ -93,17 +107,44 @@ class TileKey:
     def group(self) -> tuple:
         return (self.layer, self.d, self.z, self.size, self.style)
 
+    def field(self) -> FieldKey:
+        """The key of the tile's distance field."""
+        return FieldKey(self.layer, self.z, self.x, self.y, self.size)
+
+
+@dataclass(frozen=True)
+class FieldKey:
+    """A tile's distance field: layer, z/x/y and pixel size (any distance, any style)."""
+
+    layer: str
+    z: int
+    x: int
+    y: int
+    size: int
+
 
 class TileService:
     """Tiles of ``layers`` (name -> Shape): decided at once, cached, or rendered on one
     thread in batches (see the module notes)."""
 
-    def __init__(self, layers: dict, *, queue_size: int = 256, cache_mb: float = 256.0):
+    def __init__(
+        self,
+        layers: dict,
+        *,
+        queue_size: int = 256,
+        cache_mb: float = 256.0,
+        field_mb: float = 256.0,
+    ):
         self.layers = layers
         self.queue: queue.Queue = queue.Queue(maxsize=max(1, int(queue_size)))
         self.cache: OrderedDict = OrderedDict()
         self.cache_bytes, self.cache_limit = 0, int(cache_mb * (1 << 20))
         self.centres: OrderedDict = OrderedDict()  # (layer, z, x, y) -> what triage needs
+        self.fields: OrderedDict = OrderedDict()  # FieldKey -> DistanceField (radians)
+        self.field_bytes, self.field_limit = 0, int(field_mb * (1 << 20))
+        self.later: OrderedDict = OrderedDict()  # FieldKeys to compute when idle
+        self.computed = 0  # fields computed on the render thread
+        self.closed = False  # set by close(): no more fields in the background
         self.lock = threading.Lock()
         #: cleared, the render thread waits after taking a request (tests, draining)
         self.gate = threading.Event()
@@ -113,7 +154,7 @@ class TileService:
         self.thread.start()
 
     # ------------------------------------------------------------------ requests
-    def cached(self, key: TileKey) -> bytes | None:
+    def cached(self, key: TileKey | FieldKey) -> bytes | None:
         with self.lock:
             data = self.cache.get(key)
             if data is not None:
@@ -185,6 +226,49 @@ class TileService:
                 while len(self.centres) > CENTRES:
                     self.centres.popitem(last=False)
 
+    def close(self) -> None:
+        """Compute no more fields in the background (the server is shutting down); requests
+        are still answered."""
+        with self.lock:
+            self.closed = True
+            self.later.clear()
+
+    def field(self, fkey: FieldKey):
+        """The kept :class:`~gloffset.DistanceField` of a tile (radians), or None."""
+        with self.lock:
+            f = self.fields.get(fkey)
+            if f is not None:
+                self.fields.move_to_end(fkey)
+            return f
+
+    def from_field(self, key: TileKey) -> bytes | None:
+        """The tile's bytes from its kept field: the threshold at ``key.d``
+        (:meth:`~gloffset.DistanceField.threshold`: the float64 reference render's pixels)
+        styled as :func:`~gloffset.raster.pyramid.render_tiles` styles a rendered tile;
+        None when the field is not kept or the style has an outline (those tiles are
+        rendered). The bytes are kept in the tile LRU. Runs on any thread (no GL)."""
+        if key.style.outline is not None:
+            return None
+        f = self.field(key.field())
+        if f is None:
+            return None
+        data = key.style.encode(f.threshold(key.d) > 0)
+        data = EMPTY_PNG[key.size] if data is None else data
+        self._keep(key, data)
+        return data
+
+    def submit_field(self, fkey: FieldKey) -> Future:
+        """A future of the field tile's PNG bytes
+        (:func:`~gloffset.raster.pyramid.fieldtiles.encode_field` of the field in metres on
+        the Earth's sphere), the field computed on the render thread and kept (raises
+        :class:`QueueFull`)."""
+        fut: Future = Future()
+        data = self.cached(fkey)
+        if data is not None:
+            fut.set_result(data)
+            return fut
+        return self._put(fkey, fut)
+
     def submit(self, key: TileKey) -> Future:
         """A future of the tile's PNG bytes, rendered on the render thread (raises
         :class:`QueueFull`)."""
@@ -207,7 +291,7 @@ class TileService:
             raise QueueFull("the render queue is full") from None
         return fut
 
-    def _keep(self, key: TileKey, data: bytes) -> None:
+    def _keep(self, key: TileKey | FieldKey, data: bytes) -> None:
         with self.lock:
             if key in self.cache:
                 return
@@ -217,10 +301,52 @@ class TileService:
                 _, old = self.cache.popitem(last=False)
                 self.cache_bytes -= len(old)
 
+    def _keep_field(self, fkey: FieldKey, field) -> None:
+        with self.lock:
+            self.later.pop(fkey, None)
+            if fkey in self.fields:
+                return
+            self.fields[fkey] = field
+            self.field_bytes += field.values.nbytes
+            while self.field_bytes > self.field_limit and self.fields:
+                _, old = self.fields.popitem(last=False)
+                self.field_bytes -= old.values.nbytes
+
+    def _field(self, fkey: FieldKey):
+        """The tile's field, kept or computed (on the render thread) and kept."""
+        f = self.field(fkey)
+        if f is None:
+            f = field_tile(self.layers[fkey.layer], fkey.z, fkey.x, fkey.y, fkey.size)
+            self.computed += 1
+            self._keep_field(fkey, f)
+        return f
+
     # ------------------------------------------------------------------ the render thread
+    def _next(self):
+        """The next request; while none comes and fields wait, compute them one by one."""
+        while True:
+            with self.lock:
+                waiting = bool(self.later)
+            if not waiting:
+                return self.queue.get()
+            try:
+                return self.queue.get(timeout=IDLE)
+            except queue.Empty:
+                pass
+            with self.lock:
+                if not self.later:
+                    continue
+                fkey, _ = self.later.popitem(last=True)  # the newest: the view now shown
+                if fkey in self.fields:
+                    continue
+            try:
+                self._field(fkey)
+            except Exception:  # noqa: BLE001 - the thread must outlive any one field
+                log.exception("field of %s failed", fkey)
+
     def _loop(self) -> None:
         while True:
-            batch = [self.queue.get()]
+            batch = [self._next()]
             self.gate.wait()
             while True:
                 try:
@@ -240,13 +366,31 @@ class TileService:
         # others can no longer be cancelled
         batch = [(k, f) for k, f in batch if f.set_running_or_notify_cancel()]
         groups: dict = {}
+        fields: dict = {}
         for key, fut in batch:
             if callable(key):
                 _run_call(key, fut)
+            elif isinstance(key, FieldKey):
+                fields.setdefault(key, []).append(fut)
             else:
                 groups.setdefault(key.group(), []).append((key, fut))
         for items in groups.values():
             self._render(items)
+        for fkey, futs in fields.items():
+            self._field_tile(fkey, futs)
+
+    def _field_tile(self, fkey: FieldKey, futs) -> None:
+        try:
+            data = self.cached(fkey)
+            if data is None:
+                data = encode_field(self._field(fkey).values, EARTH_RADIUS)
+                self._keep(fkey, data)
+        except Exception as exc:  # noqa: BLE001 - every waiting request hears of it
+            for fut in futs:
+                fut.set_exception(exc)
+            return
+        for fut in futs:
+            fut.set_result(data)
 
     def _render(self, items) -> None:
         key0 = items[0][0]
@@ -263,6 +407,17 @@ class TileService:
             self._keep(key, data)
             self.rendered += 1
             fut.set_result(data)
+        if key0.style.outline is None:  # their fields, when the thread is idle
+            with self.lock:
+                if self.closed:
+                    return
+                for key, _ in items:
+                    fkey = key.field()
+                    if fkey not in self.fields:
+                        self.later[fkey] = None
+                        self.later.move_to_end(fkey)
+                while len(self.later) > LATER:
+                    self.later.popitem(last=False)
 
 
 def _run_call(fn, fut: Future) -> None:

@@ -4,12 +4,17 @@
 // layer, distance and projection kept in the URL hash
 // (#map=zoom/lat/lon&layer=NAME&d=-127km&globe=1), followed when it changes.
 //
-// How the region is drawn is a mode: MODES.exact shows the server's exact tiles
-// (/tiles/LAYER/DIST/z/x/y.png, one request a tile and distance). A mode gives the sources
-// and layers it adds to the style and what a new distance does to them, so another (a
-// raster-dem source of distance-field tiles drawn by a color-relief layer whose ramp
-// changes at d, with no request) is one more entry and a toggle between them.
-// window.gloffsetMap is the MapLibre map, window.gloffsetPage the page's state.
+// How the region is drawn is a mode (#mode=field or #mode=exact, the "exact tiles" toggle):
+// - MODES.field (the default where the server has field tiles): a raster-dem source of the
+//   distance-field tiles (/field/LAYER/z/x/y.png, the signed distance in metres in the
+//   custom encoding that /field/LAYER.json gives) drawn by a color-relief layer whose
+//   colour ramp goes from the fill at d - 1 m to transparent at d. A new distance is a new
+//   ramp (a paint property): the browser's GPU redraws the region with no request. (The
+//   ramp must be an `interpolate`: a `step` expression draws nothing.)
+// - MODES.exact shows the server's exact tiles (/tiles/LAYER/DIST/z/x/y.png, one request
+//   a tile and distance): gloffset.render(shape, d, Tile(z, x, y)) for each tile.
+// A mode gives the sources and layers it adds to the style and what a new distance does
+// to them. window.gloffsetMap is the MapLibre map, window.gloffsetPage the page's state.
 "use strict";
 
 const BACKGROUND = "#f2efe9";
@@ -34,7 +39,8 @@ const state = {
   unit: "km",
   globe: false,
   view: null,
-  mode: "exact",
+  mode: null, // "field" or "exact"; null: field where the server has field tiles
+  encoding: null, // the field tiles' custom encoding (/field/LAYER.json), null: none
 };
 
 // ------------------------------------------------------------------ the URL hash
@@ -44,6 +50,7 @@ function parseHash() {
   const view = (h.get("map") || "").split("/").map(Number);
   if (view.length === 3 && view.every(Number.isFinite)) out.view = view;
   if (h.get("layer")) out.layer = h.get("layer");
+  if (MODES[h.get("mode")]) out.mode = h.get("mode");
   const d = DISTANCE.exec(h.get("d") || "");
   if (d) {
     out.unit = d[2];
@@ -57,6 +64,7 @@ function writeHash(map) {
   const view = `${map.getZoom().toFixed(2)}/${c.lat.toFixed(5)}/${c.lng.toFixed(5)}`;
   const h = new URLSearchParams({ map: view, layer: state.layer, d: distanceText() });
   if (state.globe) h.set("globe", "1");
+  if (state.mode === "exact") h.set("mode", "exact");
   history.replaceState(null, "", "#" + h.toString().replace(/%2F/g, "/"));
 }
 
@@ -84,7 +92,40 @@ function tileUrl() {
   return `${location.origin}/tiles/${layer}/${distanceText()}/{z}/{x}/{y}.png`;
 }
 
+function fieldUrl() {
+  return `${location.origin}/field/${encodeURIComponent(state.layer)}/{z}/{x}/{y}.png`;
+}
+
+// the colour of a signed distance v (metres): the fill where v <= d - 1 m, transparent
+// from d on (an interpolate: a step expression draws nothing)
+function ramp() {
+  const d = distanceMetres();
+  return ["interpolate", ["linear"], ["elevation"], d - 1, FILL, d, "rgba(0, 0, 0, 0)"];
+}
+
 const MODES = {
+  // the field tiles, thresholded at d by the browser
+  field: {
+    sources: () => ({
+      offset: {
+        type: "raster-dem",
+        tiles: [fieldUrl()],
+        tileSize: 256,
+        maxzoom: 22,
+        encoding: "custom",
+        ...state.encoding,
+      },
+    }),
+    layers: () => [
+      {
+        id: "offset",
+        type: "color-relief",
+        source: "offset",
+        paint: { "color-relief-color": ramp(), "color-relief-opacity": FILL_OPACITY },
+      },
+    ],
+    setDistance: (map) => map.setPaintProperty("offset", "color-relief-color", ramp()),
+  },
   // the server's exact tiles: gloffset.render(shape, d, Tile(z, x, y)) for each tile
   exact: {
     sources: () => ({
@@ -132,6 +173,7 @@ function showControls() {
   $("unit").value = state.unit;
   $("distance-text").textContent = describeDistance();
   $("globe").checked = state.globe;
+  $("exact").checked = state.mode === "exact";
   $("layer").value = state.layer;
   showLegend();
 }
@@ -207,8 +249,11 @@ function followHash(map) {
     state.globe = h.globe;
     setProjection(map);
   }
-  if (h.layer && h.layer !== state.layer && state.names.includes(h.layer)) {
-    state.layer = h.layer;
+  const mode = h.mode || defaultMode();
+  const layer = h.layer && state.names.includes(h.layer) ? h.layer : state.layer;
+  if (layer !== state.layer || mode !== state.mode) {
+    state.layer = layer;
+    state.mode = mode;
     map.setStyle(style()); // its sources at the new distance
     showControls();
     writeHash(map);
@@ -223,9 +268,18 @@ function wire(map) {
     state.value = Number($("distance").value);
     showControls();
     clearTimeout(pending);
-    pending = setTimeout(() => setDistance(map), 60);
+    // a field is redrawn at once; exact tiles wait until the slider rests
+    if (state.mode === "field") setDistance(map);
+    else pending = setTimeout(() => setDistance(map), 60);
   });
   $("unit").addEventListener("change", () => setUnit(map, $("unit").value));
+  $("exact").addEventListener("change", () => {
+    state.mode = $("exact").checked ? "exact" : "field";
+    if (state.mode === "field" && !state.encoding) state.mode = "exact";
+    map.setStyle(style());
+    showControls();
+    writeHash(map);
+  });
   $("globe").addEventListener("change", () => {
     state.globe = $("globe").checked;
     setProjection(map);
@@ -242,11 +296,27 @@ function wire(map) {
 }
 
 // ------------------------------------------------------------------ start
+function defaultMode() {
+  return state.encoding ? "field" : "exact";
+}
+
+// the custom encoding of the layer's field tiles, or null where the server has none
+async function fieldEncoding(layer) {
+  try {
+    const r = await fetch(`/field/${encodeURIComponent(layer)}.json`);
+    return r.ok ? (await r.json()).encoding || null : null;
+  } catch (e) {
+    return null;
+  }
+}
+
 async function start() {
   Object.assign(state, parseHash());
   const layers = await (await fetch("/layers")).json();
   const names = (state.names = layers.map((l) => l.name));
   if (!names.includes(state.layer)) state.layer = names[0];
+  state.encoding = await fieldEncoding(state.layer); // one encoding for every layer
+  if (!state.mode || (state.mode === "field" && !state.encoding)) state.mode = defaultMode();
   for (const n of names) $("layer").add(new Option(n, n, false, n === state.layer));
   for (const u of Object.keys(UNITS)) $("unit").add(new Option(u, u));
   $("legend-fill").style.background = mix(FILL, BACKGROUND, FILL_OPACITY);
@@ -267,7 +337,17 @@ async function start() {
   wire(map);
   map.once("load", () => writeHash(map));
   window.gloffsetMap = map;
-  window.gloffsetPage = { map, state, MODES, UNITS, distanceText, FILL, BACKGROUND, FILL_OPACITY };
+  window.gloffsetPage = {
+    map,
+    state,
+    MODES,
+    UNITS,
+    distanceText,
+    distanceMetres,
+    FILL,
+    BACKGROUND,
+    FILL_OPACITY,
+  };
 }
 
 start();
