@@ -34,6 +34,28 @@ def distance_option(f=None, *, default: str | None = None):
     return decorate(f) if f is not None else decorate
 
 
+def distance_list(text: str, convert) -> list[tuple[str, float]]:
+    """``-d 10km,50km,127km``: each distance as given and its value by ``convert`` (the
+    angle or the metres), refused (:class:`~gloffset.errors.InvalidDistanceError`) with an
+    empty item, a bad one or one given twice."""
+    items = [t.strip() for t in str(text).split(",")]
+    if len(items) > 1 and not all(items):
+        raise InvalidDistanceError(
+            f"-d {text!r} has an empty item: give distances separated by single commas, "
+            "e.g. 10km,50km,127km"
+        )
+    out, seen = [], {}
+    for item in items:
+        value = convert(item)
+        if value in seen:
+            raise InvalidDistanceError(
+                f"-d {text!r} gives the distance {item} twice (as {seen[value]} before)"
+            )
+        seen[value] = item
+        out.append((item, value))
+    return out
+
+
 def radius_option(f):
     return click.option(
         "--radius",
