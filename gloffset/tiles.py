@@ -2,7 +2,8 @@
 :mod:`gloffset.raster.pyramid`.
 
 :func:`pyramid` writes an XYZ folder, MBTiles or PMTiles pyramid of the region within a
-distance of the input; :func:`parse_zooms` reads a zoom range, :class:`PyramidStats`
+distance of the input, :func:`pyramids` those of several distances from one read of it;
+:func:`parse_zooms` reads a zoom range, :class:`PyramidStats`
 and :class:`TileProgress` are what a run reports. The tile server's helpers
 (:func:`render_tiles`, :func:`measure_tiles`, :class:`TileCentre`) are here too.
 """
@@ -19,11 +20,13 @@ from .raster.pyramid import (
     measure_tiles,
     parse_zooms,
     pyramid,
+    pyramids,
     render_tiles,
 )
 
 __all__ = [
     "pyramid",
+    "pyramids",
     "parse_zooms",
     "PyramidStats",
     "TileProgress",

@@ -157,3 +157,93 @@ def test_cli_render_bands(tmp_path, mexico_path):
     masks = [gloffset.render(shape, d, Equirect(512, 256)) for d in (10e3, 50e3, 127e3)]
     want, _ = gloffset.mask_bands(masks, [10e3, 50e3, 127e3])
     assert np.array_equal(np.asarray(img), want)
+
+
+def read_tiles(path):
+    """{(z, x, y): png bytes} and the metadata of an MBTiles, PMTiles or XYZ folder."""
+    import os
+    import sqlite3
+
+    path = str(path)
+    if path.endswith(".pmtiles"):
+        from gloffset.io.pmtiles import read_pmtiles
+
+        meta, tiles = read_pmtiles(path)
+        return tiles, meta
+    if path.endswith(".mbtiles"):
+        db = sqlite3.connect(path)
+        tiles = {
+            (z, x, (1 << z) - 1 - r): bytes(b) for z, x, r, b in db.execute("SELECT * FROM tiles")
+        }
+        meta = dict(db.execute("SELECT name, value FROM metadata"))
+        db.close()
+        return tiles, meta
+    tiles = {}
+    for root, _, files in os.walk(path):
+        for f in files:
+            if f.endswith(".png"):
+                z, x = (int(v) for v in os.path.relpath(root, path).split(os.sep))
+                with open(os.path.join(root, f), "rb") as fh:
+                    tiles[(z, x, int(f[:-4]))] = fh.read()
+    return tiles, None
+
+
+@pytest.mark.parametrize("ext", [".mbtiles", ".pmtiles", ""])
+def test_cli_tiles_writes_one_pyramid_per_distance(tmp_path, mexico_path, ext):
+    if ext == ".pmtiles":
+        pytest.importorskip("pmtiles")
+    texts = ("300km", "-20km", "50km")
+    many = tmp_path / "many"
+    many.mkdir()
+    r = run(
+        "tiles",
+        mexico_path,
+        "-d",
+        ",".join(texts),
+        "-z",
+        "0-4",
+        "--tile-size",
+        "64",
+        "-o",
+        many / f"m{ext}",
+    )
+    assert r.exit_code == 0, r.output
+    for text in texts:
+        got = many / (f"m_{text}{ext}" if ext else f"m/{text}")
+        alone = tmp_path / text
+        alone.mkdir()
+        want = alone / got.name
+        r = run("tiles", mexico_path, "-d", text, "-z", "0-4", "--tile-size", "64", "-o", want)
+        assert r.exit_code == 0, r.output
+        got_tiles, got_meta = read_tiles(got)
+        want_tiles, want_meta = read_tiles(want)
+        assert got_tiles and got_tiles == want_tiles, text
+        assert got_meta == want_meta, text
+
+
+def test_pyramids_equal_single_pyramids(tmp_path, mexico_path):
+    outs = [tmp_path / "a.mbtiles", tmp_path / "b.mbtiles"]
+    stats = gloffset.tiles.pyramids(mexico_path, [200e3, "-30km"], "0-3", outs, size=64)
+    assert len(stats) == 2
+    for dist, out in zip([200e3, "-30km"], outs):
+        alone = tmp_path / "alone" / out.name
+        alone.parent.mkdir(exist_ok=True)
+        gloffset.tiles.pyramid(mexico_path, dist, "0-3", alone, size=64)
+        assert read_tiles(out) == read_tiles(alone)
+
+
+@pytest.mark.parametrize(
+    "distances, outs, words",
+    [
+        ([1e5], ["a.mbtiles", "b.mbtiles"], ["one output per distance"]),
+        ([1e5, 2e5], ["a.mbtiles", "a.mbtiles"], ["a different output"]),
+        ([1e5, "3 furlongs"], ["a.mbtiles", "b.mbtiles"], ["3 furlongs"]),
+    ],
+)
+def test_pyramids_refuse_bad_lists_before_writing(tmp_path, mexico_path, distances, outs, words):
+    outs = [tmp_path / o for o in outs]
+    with pytest.raises(gloffset.GloffsetError) as exc:
+        gloffset.tiles.pyramids(mexico_path, distances, "0-2", outs, size=64)
+    for w in words:
+        assert w in str(exc.value)
+    assert not any(o.exists() for o in outs)
