@@ -13,9 +13,10 @@ from ..errors import InvalidDistanceError, InvalidEllipsoidError, OptionError
 from ..units import EARTH_RADIUS, parse_distance
 
 
-def distance_option(f=None, *, default: str | None = None):
+def distance_option(f=None, *, default: str | None = None, many: bool = False):
     """``-d/--distance``, required unless a ``default`` is given (``@distance_option`` or
-    ``@distance_option(default="0")``)."""
+    ``@distance_option(default="0")``); ``many``: the help says a list is taken
+    (:func:`distance_list`)."""
 
     def decorate(f):
         # no default=None for a required option: recent click (8.5) takes an explicit None
@@ -27,7 +28,8 @@ def distance_option(f=None, *, default: str | None = None):
             required=default is None,
             metavar="DIST",
             help="Offset distance: 500m, 127km, 0.02rad, 1.5deg (a bare number is metres). "
-            "Negative shrinks polygons.",
+            "Negative shrinks polygons."
+            + (" Several, comma-separated (10km,50km): one output per distance." if many else ""),
             **given,
         )(f)
 

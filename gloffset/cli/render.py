@@ -48,7 +48,7 @@ CubeFacesError = InputFormatError
 
 @main.command("render")
 @click.argument("input", metavar="INPUT", required=False)
-@distance_option
+@distance_option(many=True)
 @radius_option
 @ellipsoid_option
 @click.option(

@@ -30,7 +30,7 @@ from .options import (
 
 @main.command("tiles")
 @click.argument("input", metavar="INPUT")
-@distance_option
+@distance_option(many=True)
 @radius_option
 @ellipsoid_option
 @click.option("-z", "--zoom", "zooms", required=True, help="Zoom range MIN-MAX (0..22), e.g. 0-14.")
