@@ -191,7 +191,56 @@ def globe_preview(path=HERE / "globe_preview.png", size=560, center=(-60.0, 15.0
     return path
 
 
+#: The field figure's ramp: (signed distance in km, RGB), inside (negative) to outside.
+FIELD_RAMP = [
+    (-2000.0, (103, 0, 31)),
+    (-500.0, (214, 96, 77)),
+    (-50.0, (253, 219, 199)),
+    (0.0, (247, 247, 247)),
+    (50.0, (209, 229, 240)),
+    (500.0, (67, 147, 195)),
+    (2000.0, (5, 48, 97)),
+]
+
+
+def _ramp(km: np.ndarray) -> np.ndarray:
+    """The diverging colours of signed distances in km (:data:`FIELD_RAMP`, on a
+    square-root scale: the near distances get most of the colours)."""
+    stops = np.array([k for k, _ in FIELD_RAMP])
+    cols = np.array([c for _, c in FIELD_RAMP], dtype=float)
+    x = np.sign(km) * np.sqrt(np.abs(km))
+    xs = np.sign(stops) * np.sqrt(np.abs(stops))
+    return np.stack([np.interp(x, xs, cols[:, k]) for k in range(3)], axis=-1).astype(np.uint8)
+
+
+def _edge(mask: np.ndarray) -> np.ndarray:
+    """The pixels of ``mask`` with a neighbour outside it (columns wrap: a global grid)."""
+    out = np.zeros_like(mask)
+    for shift, axis in ((1, 1), (-1, 1)):
+        out |= mask & ~np.roll(mask, shift, axis=axis)
+    out[1:] |= mask[1:] & ~mask[:-1]
+    out[:-1] |= mask[:-1] & ~mask[1:]
+    return out
+
+
+def distance_field(
+    path=HERE / "distance_field.png", size=(1024, 512), src="countries_10m", contour=127e3
+):
+    """The signed distance field of the 1:10m countries (the sample holds no Antarctica)
+    on the globe (equirectangular),
+    negative (red) inside the union of the countries, positive (blue) outside, with the
+    ``contour`` (127 km) threshold's boundary in black: ``DistanceField.threshold``,
+    the same pixels as ``gloffset.render`` at that distance."""
+    shape = gloffset.read(DATA / f"{src}.geojson")
+    field = gloffset.distance_field(shape, gloffset.grids.Equirect(*size))
+    rgb = _ramp(field.values / 1e3)
+    rgb[_edge(field.threshold(contour) > 0)] = (0, 0, 0)
+    Image.fromarray(rgb, "RGB").save(path, optimize=True)
+    return path
+
+
 if __name__ == "__main__":
+    print(distance_field())
     print(vector_offsets())
     print(raster_offset_fig13())
     print(cube_globe())

@@ -24,6 +24,7 @@ from .geoseries import buffer
 from .index.contains import Index
 from .io import geojson as _geojson
 from .raster.field import DistanceField, distance_field
+from .raster.many import mask_bands, render_many
 from .raster.rasterized import raster_offset, rasterize
 from .raster.render import render
 from .shape import Shape, read
@@ -53,12 +54,14 @@ __all__ = [
     "decompose",
     "distance",
     "distance_field",
+    "mask_bands",
     "offset",
     "parse_distance",
     "raster_offset",
     "rasterize",
     "read",
     "render",
+    "render_many",
     "grids",
     "tiles",
     *errors.__all__,

@@ -3,7 +3,8 @@
 The public face of :mod:`gloffset.raster.pyramid`.
 
 :func:`pyramid` writes an XYZ folder, MBTiles or PMTiles pyramid of the region within a
-distance of the input; :func:`parse_zooms` reads a zoom range, :class:`PyramidStats`
+distance of the input, :func:`pyramids` those of several distances from one read of it;
+:func:`parse_zooms` reads a zoom range, :class:`PyramidStats`
 and :class:`TileProgress` are what a run reports. The tile server's helpers
 (:func:`render_tiles`, :func:`measure_tiles`, :class:`TileCentre`) are here too.
 """

@@ -465,3 +465,33 @@ def test_offset_distance_errors_quote_the_distance_as_given(tmp_path, dist, each
     proc = cli("offset", line, "-d", dist, *(["--each"] if each else []))
     assert_one_line_error(proc, *words)
     assert "0.000156" not in proc.stderr.decode()
+
+
+@pytest.mark.parametrize("command", ["render", "tiles"])
+@pytest.mark.parametrize(
+    "dlist, words",
+    [
+        ("10km,50parsecs", ["unknown distance unit 'parsecs'", "50parsecs"]),
+        ("10km,,50km", ["empty item", "10km,,50km"]),
+        ("10km,50km,", ["empty item"]),
+        ("10km,50km,10km", ["10km twice"]),
+        ("10km,10000m", ["10000m twice", "as 10km before"]),
+    ],
+)
+def test_bad_distance_lists(tmp_path, square, command, dlist, words):
+    """A -d list with a bad unit, an empty item or a distance twice: one line, exit 2,
+    nothing written."""
+    out = tmp_path / ("out.png" if command == "render" else "out.mbtiles")
+    extra = ["--size", "64x32"] if command == "render" else ["-z", "0-1"]
+    proc = cli(command, square, "-d", dlist, *extra, "-o", out)
+    assert_one_line_error(proc, *words)
+    assert list(tmp_path.iterdir()) == [square]
+
+
+def test_render_bands_refuse_styles_and_raster_input(tmp_path, square):
+    proc = cli("render", square, "-d", "10km,20km", "--bands", "--fill", "red", "-o", "b.png")
+    assert_one_line_error(proc, "--bands", "--fill")
+    proc = cli("render", square, "-d", "10km,20km", "--classes", "3", "-o", "b.png")
+    assert_one_line_error(proc, "several distances", "--classes")
+    proc = cli("render", square, "-d", "10km,20km", "-o", "-")
+    assert_one_line_error(proc, "one file per distance")

@@ -10,13 +10,14 @@ from typing import Any
 import click
 
 from ..ellipsoid import ELLIPSOIDS, as_ellipsoid
-from ..errors import InvalidEllipsoidError, OptionError
+from ..errors import InvalidDistanceError, InvalidEllipsoidError, OptionError
 from ..units import EARTH_RADIUS, parse_distance, to_metres
 
 
-def distance_option(f=None, *, default: str | None = None):
+def distance_option(f=None, *, default: str | None = None, many: bool = False):
     """``-d/--distance``, required unless a ``default`` is given (``@distance_option`` or
-    ``@distance_option(default="0")``)."""
+    ``@distance_option(default="0")``); ``many``: the help says a list is taken
+    (:func:`distance_list`)."""
 
     def decorate(f):
         # no default=None for a required option: recent click (8.5) takes an explicit None
@@ -30,11 +31,35 @@ def distance_option(f=None, *, default: str | None = None):
             required=default is None,
             metavar="DIST",
             help="Offset distance: 500m, 127km, 0.02rad, 1.5deg (a bare number is metres). "
-            "Negative shrinks polygons.",
+            "Negative shrinks polygons."
+            + (" Several, comma-separated (10km,50km): one output per distance." if many else ""),
             **given,
         )(f)
 
     return decorate(f) if f is not None else decorate
+
+
+def distance_list(text: str, convert) -> list[tuple[str, float]]:
+    """``-d 10km,50km,127km``: each distance as given and its value by ``convert`` (the
+    angle or the metres), refused (:class:`~gloffset.errors.InvalidDistanceError`) with an
+    empty item, a bad one or one given twice."""
+    items = [t.strip() for t in str(text).split(",")]
+    if len(items) > 1 and not all(items):
+        raise InvalidDistanceError(
+            f"-d {text!r} has an empty item: give distances separated by single commas, "
+            "e.g. 10km,50km,127km"
+        )
+    out: list[tuple[str, float]] = []
+    seen: dict[float, str] = {}
+    for item in items:
+        value = convert(item)
+        if value in seen:
+            raise InvalidDistanceError(
+                f"-d {text!r} gives the distance {item} twice (as {seen[value]} before)"
+            )
+        seen[value] = item
+        out.append((item, value))
+    return out
 
 
 def radius_option(f):
@@ -52,13 +77,14 @@ def angle(text: str, radius: float) -> float:
     return parse_distance(text, radius)
 
 
-def measure_options(f=None, *, default: str | None = None):
+def measure_options(f=None, *, default: str | None = None, many: bool = False):
     """``-d/--distance``, ``--radius`` and ``--ellipsoid``, in this order: the distance and
     the sphere or ellipsoid it is measured on (``@measure_options`` or
-    ``@measure_options(default="0")``, the default of ``-d``); :func:`measure` reads them."""
+    ``@measure_options(default="0")``, the default of ``-d``; ``many``: a list of distances
+    is taken, :func:`distance_list`); :func:`measure` reads them."""
 
     def decorate(f):
-        return distance_option(default=default)(radius_option(ellipsoid_option(f)))
+        return distance_option(default=default, many=many)(radius_option(ellipsoid_option(f)))
 
     return decorate(f) if f is not None else decorate
 

@@ -19,7 +19,16 @@ from ..raster.rasterized import CONTAINED
 from ..raster.render import render as _render
 from ..shape import read
 from . import main
-from .options import choice_option, fill_options, input_options, measure, measure_options
+from .options import (
+    angle,
+    choice_option,
+    distance_list,
+    fill_options,
+    input_options,
+    measure_options,
+    metres,
+    parse_ellipsoid,
+)
 from .options import parse_bounds as _bounds
 from .options import parse_face as _face
 from .options import parse_size as _size
@@ -32,7 +41,7 @@ CubeFacesError = InputFormatError
 
 @main.command("render")
 @click.argument("input", metavar="INPUT", required=False)
-@measure_options
+@measure_options(many=True)
 @choice_option(
     "--grid",
     "grid_kind",
@@ -91,6 +100,13 @@ CubeFacesError = InputFormatError
     "a coarser level than the output's is written at its own size (each cell one pixel; "
     "stderr says which), without georeference.",
 )
+@click.option(
+    "--bands",
+    is_flag=True,
+    help="With -d D1,D2,...: one grey image instead of one mask per distance, each pixel the "
+    "index of the smallest distance whose region holds it (0: none, k: the k-th smallest "
+    "distance; its Description says which is which).",
+)
 @choice_option("--backend", choices=("gpu", "cpu"))
 @click.option(
     "--cog",
@@ -117,6 +133,7 @@ def render_cmd(
     opacity,
     background,
     classes_level,
+    bands,
     backend,
     from_raster,
     mask_only,
@@ -132,15 +149,35 @@ def render_cmd(
 
     Equirect images are georeferenced (EPSG:4326): a .tif is a tiled, compressed GeoTIFF
     (rasterio: pip install 'gloffset[geo]'), a .png gets a world file (.pgw, pixel centres)
-    and a .prj beside it."""
-    ell, d = measure(distance, radius, ellipsoid)
+    and a .prj beside it.
+
+    Several distances, -d 10km,50km,127km, write one mask per distance, named by the
+    distance as given (out_10km.png, out_50km.png, ...; with --grid cube the folders
+    out_10km, ...), each the same as the run at that distance alone; or with --bands one
+    image of the distance bands."""
+    ell = parse_ellipsoid(ellipsoid)
+    many = distance_list(distance, lambda t: metres(t) if ell is not None else angle(t, radius))
+    if len(many) > 1 or bands:
+        if from_raster is not None or classes_level is not None or mask_only:
+            raise OptionError(
+                "several distances (or --bands) render masks of vector INPUT: no "
+                "--from-raster, --classes or --mask"
+            )
+        return _many_cmd(
+            input,
+            many,
+            ell,
+            (grid_kind, size, bounds),
+            (output, cog, not no_worldfile, bands),
+            (fill, opacity, background),
+            backend,
+            dict(layer=layer, where=where, densify=densify),
+        )
     if ell is not None and from_raster is None and classes_level is not None:
         raise OptionError("--ellipsoid renders masks of vector INPUT: no --classes")
+    d = many[0][1]
     cog = _check_output(output, grid_kind, cog)
-    for colour in (fill, background):
-        if colour is not None:
-            parse_color(colour)  # fail before the work
-    style = (fill, opacity, background)
+    style = _checked_style(fill, opacity, background)  # fail before the work
     if from_raster is not None:
         if input is not None or size is not None:
             raise OptionError("--from-raster takes no INPUT or --size (the PNGs' size)")
@@ -199,6 +236,76 @@ def render_cmd(
         click.echo("", err=True)
 
 
+def named(output, text: str) -> str:
+    """The output of distance ``text`` among several: ``out.png`` -> ``out_10km.png``
+    (``out.cog.tif`` -> ``out_10km.cog.tif``; a folder ``out`` -> ``out_10km``)."""
+    path = Path(output)
+    name = path.name
+    low = name.lower()
+    for ext in (".cog.tif", ".cog.tiff", ".tif", ".tiff", ".png"):
+        if low.endswith(ext):
+            stem, suffix = name[: -len(ext)], name[-len(ext) :]
+            break
+    else:
+        stem, suffix = name.rstrip("/"), ""
+    return str(path.with_name(f"{stem}_{text}{suffix}"))
+
+
+def _many_cmd(input, many, ell, gridopts, outopts, style, backend, read_opts):
+    """``render -d D1,D2,...``: the masks of several distances from one read of INPUT
+    (:func:`gloffset.raster.many.render_many`), one file per distance or, with
+    ``--bands``, one image of the bands (:func:`gloffset.raster.many.mask_bands`)."""
+    from ..raster.many import mask_bands, render_many
+
+    output, cog, worldfile, bands = outopts
+    grid_kind, size, bounds = gridopts
+    if input is None:
+        raise OptionError("give an INPUT file (or - for stdin)")
+    if bands and style != (None, 1.0, None):
+        raise OptionError("--bands writes distance indices: no --fill, --background, --opacity")
+    if len(many) > 1 and not bands:
+        refuse_stdout(output, "several distances write one file per distance: give a name")
+        outputs = [named(output, text) for text, _ in many]
+    else:
+        outputs = [output]
+    for out in outputs:
+        cog = _check_output(out, grid_kind, cog)
+    grid, _ = _grid(grid_kind, size, bounds)
+    shape = read(input, **read_opts)
+    values = [v for _, v in many]
+    show = sys.stderr.isatty()
+    if show:
+        click.echo(f"rendering {len(many)} distances", err=True)
+    masks = render_many(shape, values, grid, radius=1.0, backend=backend, ellipsoid=ell)
+    if bands:
+        image, order = mask_bands(masks, values)
+        key = ", ".join(f"{k}={many[i][0]}" for k, i in enumerate(order, start=1))
+        desc = (
+            "gloffset distance bands: 0 outside every region, k inside the region of the "
+            f"k-th smallest distance and of no smaller one: {key}"
+        )
+        images, what = [image], desc
+    else:
+        fill, opacity, background = style
+        styled = style != (None, 1.0, None)
+        images, what = masks, ("styled" if styled else "mask")
+    for out, img in zip(outputs, images):
+        if grid_kind == "cube":
+            folder = _out_folder(out)
+            targets = [(folder / f"{name}.png", img[k]) for k, name in enumerate(FACE_NAMES)]
+            place = None
+        else:
+            targets = [(Path(out), img)]
+            place = _placement(grid, cog, worldfile, what)
+        for path, face in targets:
+            if bands:
+                write_mask(face, path, place=place)
+            else:
+                write_mask(
+                    face, path, fill=fill, opacity=opacity, background=background, place=place
+                )
+
+
 def _from_raster_cmd(path, d, ell, grid_kind, bounds, output, opts, place):
     """``render --from-raster``: the options checked, the cube or the equirect offset of
     the mask; ``opts`` is ``(level, backend, mask_only, style)``, ``place`` ``(cog,
@@ -254,8 +361,10 @@ def _placement(grid, cog: bool, worldfile: bool, what: str) -> Placement:
         desc = "gloffset mask: 255 inside the region, 0 outside"
     elif what == "styled":
         desc = "gloffset region: the fill colour inside, the background outside"
-    else:
+    elif what == "classes":
         desc = "gloffset classes: black contained, red frontier, white outside"
+    else:
+        desc = what
     return Placement(Georef(grid.transform(), description=desc), cog=cog, worldfile=worldfile)
 
 
@@ -273,6 +382,14 @@ def _grid_of_geotiff(path, bounds) -> tuple[np.ndarray, Equirect]:
     except InvalidGridError as exc:
         raise InputFormatError(f"{str(path)!r}: its transform is no lon/lat grid: {exc}") from None
     return band >= 128, grid
+
+
+def _checked_style(fill, opacity, background) -> tuple:
+    """``(fill, opacity, background)``, the colours read once to fail before the work."""
+    for colour in (fill, background):
+        if colour is not None:
+            parse_color(colour)
+    return fill, opacity, background
 
 
 def _say_level_size(grid, level) -> None:

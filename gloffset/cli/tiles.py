@@ -9,17 +9,26 @@ from pathlib import Path
 import click
 
 from ..io.output import refuse_stdout
-from ..io.tilestore import check_tile_output
+from ..io.tilestore import TILE_FILES, check_tile_output
 from ..raster.pyramid import parse_zooms, pyramid
 from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
 from . import main
-from .options import fill_options, input_options, measure, measure_options, show_progress
+from .options import (
+    angle,
+    distance_list,
+    fill_options,
+    input_options,
+    measure_options,
+    metres,
+    parse_ellipsoid,
+    show_progress,
+)
 
 
 @main.command("tiles")
 @click.argument("input", metavar="INPUT")
-@measure_options
+@measure_options(many=True)
 @click.option("-z", "--zoom", "zooms", required=True, help="Zoom range MIN-MAX (0..22), e.g. 0-14.")
 @click.option(
     "-o",
@@ -85,18 +94,25 @@ def tiles_cmd(
     outside the region are skipped, tiles fully inside share one image and are not
     rendered, only tiles on the region's edge are rendered. With --ellipsoid, DIST is a
     geodesic length on that ellipsoid (no --outline, --workers). With --field, the
-    tiles are the signed distance field instead, at every distance at once."""
+    tiles are the signed distance field instead, at every distance at once.
+
+    Several distances, -d 10km,50km,127km, write one pyramid per distance from one read
+    of INPUT, named by the distance as given: OUT_10km.mbtiles (.pmtiles), ... or, for a
+    folder OUT, OUT/10km/z/x/y.png, ...; each the same as the run at that distance alone."""
     if field:
         return _field_tiles(
             input, radius, ellipsoid, zooms, output, tile_size, name, force, locals()
         )
     if distance is None:
         raise click.UsageError("Missing option '-d' / '--distance' (or give --field).")
-    ell = measure(distance, radius, ellipsoid)[0]  # fail before the work
+    ell = parse_ellipsoid(ellipsoid)
+    # fail before the work
+    many = distance_list(distance, lambda t: metres(t) if ell is not None else angle(t, radius))
     refuse_stdout(
         output, "a tile pyramid is an .mbtiles or .pmtiles file or a folder of z/x/y.png tiles"
     )
     check_tile_output(output)
+    outputs = [output] if len(many) == 1 else [tile_output(output, t) for t, _ in many]
     parse_zooms(zooms)
     TileStyle(fill, opacity, outline, outline_width)
     if resume and force:
@@ -130,30 +146,47 @@ def tiles_cmd(
             bar.refresh()
 
     try:
-        stats = pyramid(
-            shape,
-            distance,  # as given, for the description metadata
-            zooms,
-            output,
-            radius=radius,
-            size=tile_size,
-            fill=fill,
-            opacity=opacity,
-            outline=outline,
-            outline_width=outline_width,
-            resume=resume,
-            overwrite=force,
-            name=name,
-            source="stdin" if input == "-" else Path(input).stem,
-            progress=progress if bar is not None else None,
-            workers=workers,
-            scheduler=scheduler,
-            ellipsoid=ell,
-        )
+        for (text, _), out in zip(many, outputs):
+            if len(many) > 1:
+                click.echo(f"-d {text}: {out}", err=True)
+            stats = pyramid(
+                shape,
+                text,  # as given, for the description metadata
+                zooms,
+                out,
+                radius=radius,
+                size=tile_size,
+                fill=fill,
+                opacity=opacity,
+                outline=outline,
+                outline_width=outline_width,
+                resume=resume,
+                overwrite=force,
+                name=name,
+                source="stdin" if input == "-" else Path(input).stem,
+                progress=progress if bar is not None else None,
+                workers=workers,
+                scheduler=scheduler,
+                ellipsoid=ell,
+            )
+            _say(stats)
     finally:
         if bar is not None:
             bar.close()
-    # the progress counts every tile handled; say what became of each
+
+
+def tile_output(output, text: str) -> str:
+    """The pyramid of distance ``text`` among several: ``out.pmtiles`` ->
+    ``out_10km.pmtiles``; a folder ``out`` -> ``out/10km`` (its tiles
+    ``out/10km/z/x/y.png``)."""
+    path = Path(output)
+    if path.suffix.lower() in TILE_FILES:
+        return str(path.with_name(f"{path.stem}_{text}{path.suffix}"))
+    return str(path / text)
+
+
+def _say(stats) -> None:
+    """What became of each tile handled (the progress counts every one)."""
     click.echo(
         f"{stats.handled:,} tiles handled: {stats.written:,} tiles written "
         f"({stats.rendered - stats.empty:,} rendered, {stats.inside:,} inside without "

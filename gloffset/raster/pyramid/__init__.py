@@ -11,12 +11,13 @@ output's metadata), :mod:`.tilepaint` (PNG encoding and outlines), :mod:`.distri
 
 from __future__ import annotations
 
-from .driver import MAX_ZOOM, TilesError, parse_zooms, pyramid
+from .driver import MAX_ZOOM, TilesError, parse_zooms, pyramid, pyramids
 from .ondemand import ALONE_ZOOM, TileCentre, measure_tiles, render_tiles
 from .progress import PyramidStats, TileProgress
 
 __all__ = [
     "pyramid",
+    "pyramids",
     "parse_zooms",
     "PyramidStats",
     "TileProgress",

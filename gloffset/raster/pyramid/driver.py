@@ -63,6 +63,7 @@ from .walk import BIN_LOG2, PYRAMID_ALONE_ZOOM, BinChain, MemoryStore, ZoomWrite
 
 __all__ = [
     "pyramid",
+    "pyramids",
     "parse_zooms",
     "run_pyramid",
     "subpyramid",
@@ -277,6 +278,36 @@ def pyramid(
         store.close()
     stats.seconds = time.perf_counter() - t0
     return stats
+
+
+def pyramids(shape, distances, zooms, outs, **options) -> list[PyramidStats]:
+    """The pyramids of several distances of one shape: ``outs[k]`` is the pyramid of
+    ``distances[k]``, the same output as ``pyramid(shape, distances[k], zooms, outs[k],
+    **options)`` (tiles and metadata), from one read of the input.
+
+    The runs share what does not depend on the distance: the input read and checked
+    once (with its ``source`` name), the caches a :class:`~gloffset.Shape` keeps (its
+    arcs, the inside test's index, the multiresolution decomposition) and the GL context.
+    Each distance walks its own zooms: a tile's class and candidate arcs depend on the
+    distance. Every distance and output is checked (:class:`~gloffset.errors.TilesError`,
+    :class:`~gloffset.errors.InvalidDistanceError`) before any is written.
+    """
+    distances, outs = list(distances), list(outs)
+    if not distances or len(distances) != len(outs):
+        raise TilesError(
+            f"pyramids needs one output per distance, got {len(distances)} distances and "
+            f"{len(outs)} outputs"
+        )
+    if len({str(o) for o in outs}) != len(outs):
+        raise TilesError(f"pyramids needs a different output per distance, got {outs}")
+    options.setdefault("source", source_name(shape))
+    shape = read(shape)
+    ell = as_ellipsoid(options.get("ellipsoid"))
+    radius = ell.a if ell is not None else options.get("radius", EARTH_RADIUS)
+    for dist in distances:  # metres on an ellipsoid (to_metres), else as offset_angle reads it
+        value = to_metres(dist) if ell is not None else dist
+        offset_angle(shape, value, radius, limit=RASTER_LIMIT, what="a tile pyramid")
+    return [pyramid(shape, dist, zooms, out, **options) for dist, out in zip(distances, outs)]
 
 
 def run_pyramid(job: PyramidJob, store, have, progress, stats, *, part=None):

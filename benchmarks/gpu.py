@@ -1,0 +1,163 @@
+"""One command for a GL device: the GL tests and bounded render, pyramid and field timings.
+
+``python benchmarks/gpu.py [--skip-tests] [--budget SECONDS]``
+
+On whatever device EGL gives (``GLOFFSET_DEVICE=N`` picks one: :mod:`gloffset.gl.context`),
+it prints the device, then
+
+1. runs the GL test modules (``tests/test_shaders.py``, ``test_render.py``,
+   ``test_tiles.py``, ``test_field.py``) with pytest in a child process (on a hardware
+   device with ``-m "not slow"``, so that the tests marked ``gpu`` run too; on llvmpipe
+   the default selection), and records their counts and time;
+2. times, in this process, each once after a warm-up (so the GL context and the
+   compiled shaders are not counted):
+
+   * renders at 127 km: Mexico (1:10m) and the 234 countries of 1:10m at 4096 x 2048;
+   * a pyramid: Mexico at 127 km, zooms 0-8, 256-pixel tiles, MBTiles;
+   * a signed distance field: the 1:10m countries at 1024 x 512 (``--field-size``);
+   * five distances (10, 50, 127, 250, 500 km) at once against five single renders of
+     Mexico at 4096 x 2048.
+
+Each timing is skipped (and says so) once ``--budget`` seconds have passed (default 420,
+so that the run stays within 8 minutes on a hardware GPU; 1200 on llvmpipe). Writes
+``benchmarks/results/gpu.json``; the other benchmarks' results are left alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from common import DATA, ROOT, write  # noqa: E402
+
+import gloffset  # noqa: E402
+from gloffset.gl.context import context_info  # noqa: E402
+from gloffset.grids import Equirect  # noqa: E402
+
+GL_TESTS = [
+    "tests/test_shaders.py",
+    "tests/test_render.py",
+    "tests/test_tiles.py",
+    "tests/test_field.py",
+]
+DISTANCE = 127e3
+FIVE = [10e3, 50e3, 127e3, 250e3, 500e3]
+
+
+def run_tests(software: bool, timeout: float) -> dict:
+    """The GL test modules in a child process: its counts, exit status and time."""
+    cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *GL_TESTS]
+    if not software:
+        cmd += ["-m", "not slow"]  # the gpu-marked tests too
+    t = time.perf_counter()
+    try:
+        proc = subprocess.run(
+            cmd, cwd=ROOT, capture_output=True, text=True, timeout=timeout, env=os.environ.copy()
+        )
+    except subprocess.TimeoutExpired:
+        return {"command": " ".join(cmd[1:]), "timed_out_s": timeout}
+    seconds = time.perf_counter() - t
+    last = (proc.stdout.strip().splitlines() or [""])[-1]
+    counts = {k: int(n) for n, k in re.findall(r"(\d+) (passed|failed|skipped|errors?)", last)}
+    print(f"tests: {last} (exit {proc.returncode})", flush=True)
+    if proc.returncode != 0:
+        print(proc.stdout[-4000:], proc.stderr[-2000:], sep="\n", flush=True)
+    return {"command": " ".join(cmd[1:]), "exit": proc.returncode, "s": seconds, **counts}
+
+
+def timed(fn) -> float:
+    t = time.perf_counter()
+    fn()
+    return time.perf_counter() - t
+
+
+def renders(mexico, world) -> dict:
+    grid = Equirect(4096, 2048)
+    out = {}
+    for name, shape in (("mexico_10m", mexico), ("countries_10m", world)):
+        gloffset.render(shape, DISTANCE, Equirect(512, 256))  # caches and shaders
+        s = timed(lambda shape=shape: gloffset.render(shape, DISTANCE, grid))
+        out[name] = {"size": [4096, 2048], "distance_m": DISTANCE, "s": s}
+    return out
+
+
+def pyramid(mexico) -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "mexico.mbtiles"
+        t = time.perf_counter()
+        st = gloffset.tiles.pyramid(mexico, DISTANCE, "0-8", out)
+        s = time.perf_counter() - t
+    return {
+        "zooms": [0, 8],
+        "tile_size": 256,
+        "s": s,
+        "written": st.written,
+        "rendered": st.rendered,
+    }
+
+
+def field(world, size) -> dict:
+    t = time.perf_counter()
+    f = gloffset.distance_field(world, Equirect(*size))
+    s = time.perf_counter() - t
+    return {"input": "countries_10m", "size": list(size), "s": s, "min_m": float(f.values.min())}
+
+
+def five_distances(mexico) -> dict:
+    grid = Equirect(4096, 2048)
+    single = timed(lambda: [gloffset.render(mexico, d, grid) for d in FIVE])
+    many = timed(lambda: gloffset.render_many(mexico, FIVE, grid))
+    return {"distances_m": FIVE, "single_s": single, "many_s": many, "ratio": many / single}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--skip-tests", action="store_true")
+    ap.add_argument(
+        "--budget",
+        type=float,
+        default=None,
+        help="seconds before timings stop (420; 1200 on llvmpipe)",
+    )
+    ap.add_argument("--test-timeout", type=float, default=600.0)
+    ap.add_argument("--field-size", default="1024x512")
+    args = ap.parse_args()
+    t0 = time.perf_counter()
+    info = context_info()
+    device = {k: info[k] for k in ("device", "renderer", "vendor", "version", "software")}
+    print(f"device: {device['renderer']} ({device['vendor']}, {device['version']})", flush=True)
+    if args.budget is None:
+        args.budget = 1200.0 if info["software"] else 420.0
+    rec = {"device": device, "GLOFFSET_DEVICE": os.environ.get("GLOFFSET_DEVICE")}
+    if not args.skip_tests:
+        rec["tests"] = run_tests(info["software"], args.test_timeout)
+    mexico = gloffset.read(DATA / "mexico_10m.geojson")
+    world = gloffset.read(DATA / "countries_10m.geojson")
+    size = tuple(int(v) for v in args.field_size.split("x"))
+    steps = [
+        ("render", lambda: renders(mexico, world)),
+        ("pyramid", lambda: pyramid(mexico)),
+        ("field", lambda: field(world, size)),
+        ("five_distances", lambda: five_distances(mexico)),
+    ]
+    for name, step in steps:
+        if time.perf_counter() - t0 > args.budget:
+            rec[name] = {"skipped": f"the budget of {args.budget:g} s was spent"}
+        else:
+            rec[name] = step()
+        print(f"{name}: {rec[name]}", flush=True)
+    rec["total_s"] = time.perf_counter() - t0
+    path = write("gpu", rec)
+    print(f"total {rec['total_s']:.1f} s; wrote {path}")
+
+
+if __name__ == "__main__":
+    main()
