@@ -17,7 +17,15 @@ from ..io.output import check_output, refuse_stdout, write_bytes
 from ..raster.field import distance_field
 from ..shape import read
 from . import main
-from .options import angle, input_options, parse_bounds, parse_face, parse_size, radius_option
+from .options import (
+    angle,
+    input_options,
+    parse_bounds,
+    parse_face,
+    parse_size,
+    radius_option,
+    size_options,
+)
 
 #: What a field GeoTIFF says of its values (its DESCRIPTION tag).
 DESCRIPTION = (
@@ -52,14 +60,7 @@ def _format(output: str, grid_kind: str) -> str:
     show_default=True,
     help="equirect: one raster; cube: OUTPUT is a folder of px nx py ny pz nz .npy faces.",
 )
-@click.option(
-    "--size",
-    default=None,
-    help="WIDTHxHEIGHT in pixels (default 4096x2048); for cube the face side N.",
-)
-@click.option(
-    "--bounds", default=None, help="W,S,E,N in degrees (W > E crosses 180 deg). Default: the globe."
-)
+@size_options
 @click.option(
     "--max-distance",
     "max_distance",

@@ -264,6 +264,21 @@ class Stages:
             self.bar.close()
 
 
+def size_options(f):
+    """``--size`` (WIDTHxHEIGHT, or N for a cube face) and ``--bounds`` (W,S,E,N) of an
+    image; :func:`parse_size`, :func:`parse_face` and :func:`parse_bounds` read them."""
+    f = click.option(
+        "--bounds",
+        default=None,
+        help="W,S,E,N in degrees (W > E crosses 180 deg). Default: the globe.",
+    )(f)
+    return click.option(
+        "--size",
+        default=None,
+        help="WIDTHxHEIGHT in pixels (default 4096x2048); for cube the face side N.",
+    )(f)
+
+
 def parse_size(text: str) -> tuple[int, int]:
     """``--size WIDTHxHEIGHT`` as ``(width, height)``."""
     try:

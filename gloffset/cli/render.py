@@ -28,6 +28,7 @@ from .options import (
     measure_options,
     metres,
     parse_ellipsoid,
+    size_options,
 )
 from .options import parse_bounds as _bounds
 from .options import parse_face as _face
@@ -48,14 +49,7 @@ CubeFacesError = InputFormatError
     choices=("equirect", "cube"),
     help="equirect: one image; cube: OUTPUT is a folder of px nx py ny pz nz PNGs.",
 )
-@click.option(
-    "--size",
-    default=None,
-    help="WIDTHxHEIGHT in pixels (default 4096x2048); for cube the face side N.",
-)
-@click.option(
-    "--bounds", default=None, help="W,S,E,N in degrees (W > E crosses 180 deg). Default: the globe."
-)
+@size_options
 @click.option(
     "-o",
     "--output",
