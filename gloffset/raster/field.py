@@ -301,28 +301,36 @@ def _kids_reach(f: Frontier, grid) -> np.ndarray:
     return pad(out)
 
 
-def _bound(f: Frontier, nodes: NodeArcs, m: float, reach: np.ndarray, final: bool):
+def _bound(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool):
     """The pairs of ``f`` (cells, nodes) that can hold the nearest boundary arc of some
     point within ``reach`` (``rho``, or less: :func:`_kids_reach`) of a cell's centre,
-    every node split until its error bound is at most :data:`_KAPPA` ``rho`` (original
-    arcs at the output level, ``final``); and each cell's distance to its nearest pair
-    (exact at the output level, ``inf`` where it has none).
+    every node split until its error bound is at most :data:`_KAPPA` ``rho``; and each
+    cell's distance to its nearest pair (``inf`` where it has none). At the output level
+    (``final``) only the pixel centre is asked for (``reach`` is not read): nodes are
+    split down to the original arcs and the distance is exact.
 
     Branch and bound, rigorous both ways: a pair's run lies no nearer to the centre than
     its lower bound (the angle to the node's cap centre less the cap's radius,
     :func:`~gloffset.caps.cap_range`, widened by :data:`~gloffset.caps.CAP_SLACK`; or the
     exact distance to its arc less its error bound), and no farther than the exact
-    distance to its arc plus its error bound. A pair whose lower
-    bound exceeds the least upper bound of the cell by more than ``2 reach`` is nearer to
-    no point within ``reach`` than that one (nor within ``m`` of any, beyond ``m +
-    reach``)."""
-    cell, node, c, rho = f.pair_cell, f.pair_arc, f.centers, f.rho
+    distance to its arc plus its error bound. A pair whose lower bound exceeds the least
+    upper bound of the cell by more than ``2 reach`` (by nothing at the output level) is
+    nearer to no point within ``reach`` than that one (nor within ``m`` of any, beyond
+    ``m + reach``). Each pair's bounds are computed once: a round computes those of the
+    halves of the nodes split in the round before, the least upper bounds carried over."""
+    c, rho = f.centers, f.rho
     k = len(f.cells)
     bound = 0.0 if final else _KAPPA * rho
-    while True:
+    slack = 0.0 if final else 2.0 * reach
+    far = m if final else m + reach
+    best = np.full(k, np.inf)
+    cell, node = f.pair_cell, f.pair_arc
+    none = np.zeros(0)
+    # (cells, nodes, lower bounds, exact distances) of the pairs left as they are
+    done = [(cell[:0], node[:0], none, none)]
+    while len(cell):
         lo, hi = cap_range(pair_dots(c, cell, nodes.mid, node), nodes.reach[node])
         lo = lo - CAP_SLACK
-        best = np.full(k, np.inf)
         np.minimum.at(best, cell, hi + CAP_SLACK)
         near = np.flatnonzero(lo <= best[cell])
         exact = np.full(len(cell), np.inf)
@@ -331,15 +339,17 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, reach: np.ndarray, final: boo
         err = pad(nodes.err[ni]) + _TINY
         np.minimum.at(best, cell[near], exact[near] + err)
         lo[near] = np.maximum(lo[near], exact[near] - err)
-        keep = lo <= np.minimum(best + 2.0 * reach, m + reach)[cell] + _TINY
-        cell, node, exact = cell[keep], node[keep], exact[keep]
-        split = ~nodes.leaf[node] & (nodes.err[node] > (bound if final else bound[cell]))
-        if not split.any():
-            break
+        keep = lo <= np.minimum(best + slack, far)[cell] + _TINY
+        split = keep & ~nodes.leaf[node] & (nodes.err[node] > (bound if final else bound[cell]))
+        stay = np.flatnonzero(keep & ~split)
+        done.append((cell[stay], node[stay], lo[stay], exact[stay]))
         s = np.flatnonzero(split)
-        rest = np.flatnonzero(~split)
-        cell = np.concatenate([cell[rest], np.repeat(cell[s], 2)])
-        node = np.concatenate([node[rest], nodes.child[node[s]].ravel()])
+        cell = np.repeat(cell[s], 2)
+        node = nodes.child[node[s]].ravel()
+    cell, node, lo, exact = (np.concatenate(x) for x in zip(*done))
+    # the rounds' pairs against the least upper bounds of all rounds
+    keep = lo <= np.minimum(best + slack, far)[cell] + _TINY
+    cell, node, exact = cell[keep], node[keep], exact[keep]
     order = np.argsort(cell, kind="stable")
     cell, node, exact = cell[order], node[order], exact[order]
     dist = np.full(k, np.inf)
