@@ -328,10 +328,23 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool):
     none = np.zeros(0)
     # (cells, nodes, lower bounds, exact distances) of the pairs left as they are
     done = [(cell[:0], node[:0], none, none)]
+    # the nearest boundary vertex found so far of each cell (cosine, point)
+    vcos, vtx = np.full(k, -2.0), np.zeros((k, 3))
     while len(cell):
-        lo, hi = cap_range(pair_dots(c, cell, nodes.mid, node), nodes.reach[node])
+        cm = pair_dots(c, cell, nodes.mid, node)
+        lo, hi = cap_range(cm, nodes.reach[node])
         lo = lo - CAP_SLACK
-        np.minimum.at(best, cell, hi + CAP_SLACK)
+        hi = hi + CAP_SLACK
+        # first each cell's likeliest pair of the round (least upper bound): its exact
+        # distance tightens the bound that the others are tested against
+        least = np.full(k, np.inf)
+        np.minimum.at(least, cell, hi)
+        np.minimum(best, least, out=best)
+        first = np.flatnonzero(hi == least[cell])
+        first = first[np.diff(cell[first], prepend=-1) != 0]  # one per cell (sorted)
+        fi = node[first]
+        ex = arc_distance(c[cell[first]], nodes.a[fi], nodes.b[fi], nodes.n[fi])
+        np.minimum.at(best, cell[first], ex + pad(nodes.err[fi]) + _TINY)
         near = np.flatnonzero(lo <= best[cell])
         exact = np.full(len(cell), np.inf)
         ni = node[near]
@@ -340,6 +353,10 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool):
         np.minimum.at(best, cell[near], exact[near] + err)
         lo[near] = np.maximum(lo[near], exact[near] - err)
         keep = lo <= np.minimum(best + slack, far)[cell] + _TINY
+        if not final:
+            _nearest_vertices(c, cell[near], ni, nodes, vcos, vtx)
+            kept = np.flatnonzero(keep)
+            keep[kept] = _maybe_nearer(c, cell[kept], node[kept], cm[kept], nodes, vtx, reach)
         split = keep & ~nodes.leaf[node] & (nodes.err[node] > (bound if final else bound[cell]))
         stay = np.flatnonzero(keep & ~split)
         done.append((cell[stay], node[stay], lo[stay], exact[stay]))
@@ -356,6 +373,53 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool):
     np.minimum.at(dist, cell, exact)
     g = Frontier(f.level, f.cells, c, rho, cell, node, f.status)
     return g, dist
+
+
+#: Slack on the dot products of :func:`_maybe_nearer` (unit vectors and sums of two: each
+#: computed to a few 1e-16).
+_DOT_SLACK = 1e-12
+
+
+def _nearest_vertices(c, cell, node, nodes: NodeArcs, vcos, vtx) -> None:
+    """Update each cell's nearest boundary vertex (``vcos`` the cosine of its angle to
+    the centre, ``vtx`` the point) with the ends of the nodes ``node`` (the ends of a
+    boundary node are original vertices of the boundary, bit for bit)."""
+    for ends in (nodes.a, nodes.b):
+        cos = pair_dots(c, cell, ends, node)
+        np.maximum.at(vcos, cell, cos)
+        win = np.flatnonzero(cos == vcos[cell])
+        vtx[cell[win]] = ends[node[win]]
+
+
+def _maybe_nearer(c, cell, node, cm, nodes: NodeArcs, vtx, reach) -> np.ndarray:
+    """Whether a node's run can be as near as the cell's vertex ``vtx`` to some point
+    within ``reach`` of the cell's centre: False only where every such point is nearer
+    to the vertex than to every point of the node's cap (centre ``mid``, radius ``r`` =
+    ``nodes.reach``, which holds its run), so that the run holds no nearest point.
+
+    The test, rigorous: for ``q`` outside the cap, the cap's nearest point has ``q.y =
+    cos(angle(q, mid) - r) = cos r (q.mid) + sin r sin(angle(q, mid))``, so ``q.v >
+    sin r S`` with ``v = vtx - cos r mid`` and ``S >= max(sin(angle(q, mid)), sin r)``
+    puts ``q`` nearer to the vertex (and outside the cap: inside, ``q.v <= 1 - cos^2 r =
+    sin^2 r``, which fails the test). The
+    least of the linear ``q.v`` over the disc of radius ``reach`` about ``c`` is ``c.v
+    cos(reach) - |v x c| sin(reach)``, and ``S = sin(min(pi / 2, angle(c, mid) +
+    reach))`` (the cap test's angle, widened by its slack)."""
+    r = nodes.reach[node]
+    rr = reach[cell] if np.ndim(reach) else np.full(len(cell), float(reach))
+    cr = np.cos(r)
+    x = vtx[cell]
+    v = x - cr[:, None] * nodes.mid[node]
+    p = c[cell]
+    cv = np.einsum("ij,ij->i", p, v)
+    vv = np.einsum("ij,ij->i", v, v)
+    least = cv * np.cos(rr) - np.sqrt(np.maximum(vv - cv * cv, 0.0)) * np.sin(rr)
+    t = np.arccos(np.clip(cm, -1.0, 1.0)) + rr + CAP_SLACK
+    sin_s = np.where(t < 0.5 * np.pi, np.sin(np.minimum(t, 0.5 * np.pi)), 1.0)
+    sin_r = np.sin(r)
+    out = least <= sin_r * np.maximum(sin_s, sin_r) + _DOT_SLACK
+    # the test holds for caps and discs smaller than a quarter circle only
+    return out | (r >= 1.0) | (rr >= 1.0)
 
 
 def _parts(f: Frontier):
