@@ -268,7 +268,7 @@ def _distances(shape, grid, m: float) -> np.ndarray:
             cells, _, c, rho, pc, pn = children(f, grid)
             f = Frontier(f.level + 1, cells, c, rho, pc, pn, np.zeros((len(cells), 0), np.uint8))
         reach = _kids_reach(f, grid) if f.level == last - 1 else f.rho
-        f, dist = _bound(f, nodes, m, reach, final=f.level == last)
+        f, dist = _bound(f, nodes, m, reach, final=f.level == last, leaves=f.level == last - 1)
         if f.level == last:
             out[f.cells[:, 0], f.cells[:, 1]] = dist
             continue
@@ -301,7 +301,7 @@ def _kids_reach(f: Frontier, grid) -> np.ndarray:
     return pad(out)
 
 
-def _bound(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool):
+def _bound(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool, leaves: bool = False):
     """The pairs of ``f`` (cells, nodes) that can hold the nearest boundary arc of some
     point within ``reach`` (``rho``, or less: :func:`_kids_reach`) of a cell's centre,
     every node split until its error bound is at most :data:`_KAPPA` ``rho``; and each
@@ -320,7 +320,7 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool):
     halves of the nodes split in the round before, the least upper bounds carried over."""
     c, rho = f.centers, f.rho
     k = len(f.cells)
-    bound = 0.0 if final else _KAPPA * rho
+    bound = 0.0 if final else np.where(leaves, 0.0, _KAPPA * rho)
     slack = 0.0 if final else 2.0 * reach
     far = m if final else m + reach
     best = np.full(k, np.inf)
