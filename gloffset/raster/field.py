@@ -343,12 +343,12 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool, leaves: b
         first = np.flatnonzero(hi == least[cell])
         first = first[np.diff(cell[first], prepend=-1) != 0]  # one per cell (sorted)
         fi = node[first]
-        ex = arc_distance(c[cell[first]], nodes.a[fi], nodes.b[fi], nodes.n[fi])
+        ex = _exact(c, cell[first], nodes, fi)
         np.minimum.at(best, cell[first], ex + pad(nodes.err[fi]) + _TINY)
         near = np.flatnonzero(lo <= best[cell])
         exact = np.full(len(cell), np.inf)
         ni = node[near]
-        exact[near] = arc_distance(c[cell[near]], nodes.a[ni], nodes.b[ni], nodes.n[ni])
+        exact[near] = _exact(c, cell[near], nodes, ni)
         err = pad(nodes.err[ni]) + _TINY
         np.minimum.at(best, cell[near], exact[near] + err)
         lo[near] = np.maximum(lo[near], exact[near] - err)
@@ -373,6 +373,21 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool, leaves: b
     np.minimum.at(dist, cell, exact)
     g = Frontier(f.level, f.cells, c, rho, cell, node, f.status)
     return g, dist
+
+
+#: Pairs per call of :func:`~gloffset.sphere.arc_distance` in :func:`_exact` (its
+#: temporaries then stay in the processor's caches: about twice as fast as one call).
+_CHUNK = 1 << 16
+
+
+def _exact(c, cell, nodes: NodeArcs, node) -> np.ndarray:
+    """:func:`~gloffset.sphere.arc_distance` from the centres ``c[cell]`` to the arcs of
+    ``node``, the same bits, in chunks of :data:`_CHUNK` pairs."""
+    out = np.empty(len(cell))
+    for s in range(0, len(cell), _CHUNK):
+        ci, ni = cell[s : s + _CHUNK], node[s : s + _CHUNK]
+        out[s : s + _CHUNK] = arc_distance(c[ci], nodes.a[ni], nodes.b[ni], nodes.n[ni])
+    return out
 
 
 #: Slack on the dot products of :func:`_maybe_nearer` (unit vectors and sums of two: each
