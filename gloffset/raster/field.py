@@ -333,6 +333,7 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool, leaves: b
     while len(cell):
         cm = pair_dots(c, cell, nodes.mid, node)
         lo, hi = cap_range(cm, nodes.reach[node])
+        t = 0.5 * (lo + hi)  # the angle to the cap's centre
         lo = lo - CAP_SLACK
         hi = hi + CAP_SLACK
         # first each cell's likeliest pair of the round (least upper bound): its exact
@@ -356,7 +357,9 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool, leaves: b
         if not final:
             _nearest_vertices(c, cell[near], ni, nodes, vcos, vtx)
             kept = np.flatnonzero(keep)
-            keep[kept] = _maybe_nearer(c, cell[kept], node[kept], cm[kept], nodes, vtx, reach)
+            keep[kept] = _maybe_nearer(
+                c, cell[kept], node[kept], cm[kept], t[kept], nodes, vcos, vtx, reach
+            )
         split = keep & ~nodes.leaf[node] & (nodes.err[node] > (bound if final else bound[cell]))
         stay = np.flatnonzero(keep & ~split)
         done.append((cell[stay], node[stay], lo[stay], exact[stay]))
@@ -393,6 +396,9 @@ def _exact(c, cell, nodes: NodeArcs, node) -> np.ndarray:
 #: Slack on the dot products of :func:`_maybe_nearer` (unit vectors and sums of two: each
 #: computed to a few 1e-16).
 _DOT_SLACK = 1e-12
+#: Slack under the square root of :func:`_maybe_nearer` (its argument is a difference of
+#: values of at most 4, each good to 1e-15).
+_SQ_SLACK = 1e-13
 
 
 def _nearest_vertices(c, cell, node, nodes: NodeArcs, vcos, vtx) -> None:
@@ -406,31 +412,30 @@ def _nearest_vertices(c, cell, node, nodes: NodeArcs, vcos, vtx) -> None:
         vtx[cell[win]] = ends[node[win]]
 
 
-def _maybe_nearer(c, cell, node, cm, nodes: NodeArcs, vtx, reach) -> np.ndarray:
+def _maybe_nearer(c, cell, node, cm, t, nodes: NodeArcs, vcos, vtx, reach) -> np.ndarray:
     """Whether a node's run can be as near as the cell's vertex ``vtx`` to some point
-    within ``reach`` of the cell's centre: False only where every such point is nearer
-    to the vertex than to every point of the node's cap (centre ``mid``, radius ``r`` =
-    ``nodes.reach``, which holds its run), so that the run holds no nearest point.
+    within ``reach`` of the cell's centre ``c``: False only where every such point is
+    nearer to the vertex than to every point of the node's cap (centre ``mid``, radius
+    ``r`` = ``nodes.reach``, which holds its run), so that the run holds no nearest point.
+    ``cm`` is ``c.mid``, ``t`` its angle (good to ``CAP_SLACK / 2``), ``vcos`` ``c.vtx``.
 
-    The test, rigorous: for ``q`` outside the cap, the cap's nearest point has ``q.y =
-    cos(angle(q, mid) - r) = cos r (q.mid) + sin r sin(angle(q, mid))``, so ``q.v >
-    sin r S`` with ``v = vtx - cos r mid`` and ``S >= max(sin(angle(q, mid)), sin r)``
-    puts ``q`` nearer to the vertex (and outside the cap: inside, ``q.v <= 1 - cos^2 r =
-    sin^2 r``, which fails the test). The
-    least of the linear ``q.v`` over the disc of radius ``reach`` about ``c`` is ``c.v
-    cos(reach) - |v x c| sin(reach)``, and ``S = sin(min(pi / 2, angle(c, mid) +
-    reach))`` (the cap test's angle, widened by its slack)."""
+    The test, rigorous: for ``q`` outside the cap, the cap's nearest point ``y`` has ``q.y
+    = cos(angle(q, mid) - r) = cos r (q.mid) + sin r sin(angle(q, mid))``, so ``q.v > sin
+    r S`` with ``v = vtx - cos r mid`` and ``S >= max(sin(angle(q, mid)), sin r)`` puts
+    ``q`` nearer to the vertex (and outside the cap: inside, ``q.v <= 1 - cos^2 r = sin^2
+    r``, which fails the test). The least of the linear ``q.v`` over the disc of radius
+    ``reach`` about ``c`` is ``c.v cos(reach) - sqrt(|v|^2 - (c.v)^2) sin(reach)``, with
+    ``c.v = c.vtx - cos r c.mid`` and ``|v|^2 = 1 + cos^2 r - 2 cos r vtx.mid``; and ``S =
+    sin(min(pi / 2, t + reach))``. The rounding of these (a few 1e-16 on values of at
+    most 4) is covered by :data:`_DOT_SLACK` and by :data:`_SQ_SLACK` under the root."""
     r = nodes.reach[node]
-    rr = reach[cell] if np.ndim(reach) else np.full(len(cell), float(reach))
+    rr = reach[cell]
     cr = np.cos(r)
-    x = vtx[cell]
-    v = x - cr[:, None] * nodes.mid[node]
-    p = c[cell]
-    cv = np.einsum("ij,ij->i", p, v)
-    vv = np.einsum("ij,ij->i", v, v)
-    least = cv * np.cos(rr) - np.sqrt(np.maximum(vv - cv * cv, 0.0)) * np.sin(rr)
-    t = np.arccos(np.clip(cm, -1.0, 1.0)) + rr + CAP_SLACK
-    sin_s = np.where(t < 0.5 * np.pi, np.sin(np.minimum(t, 0.5 * np.pi)), 1.0)
+    cv = vcos[cell] - cr * cm
+    vv = 1.0 + cr * cr - 2.0 * cr * pair_dots(vtx, cell, nodes.mid, node)
+    s2 = np.maximum(vv - cv * cv, 0.0) + _SQ_SLACK
+    least = cv * np.cos(rr) - np.sqrt(s2) * np.sin(rr)
+    sin_s = np.sin(np.minimum(t + rr + CAP_SLACK, 0.5 * np.pi))
     sin_r = np.sin(r)
     out = least <= sin_r * np.maximum(sin_s, sin_r) + _DOT_SLACK
     # the test holds for caps and discs smaller than a quarter circle only
