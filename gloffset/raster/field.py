@@ -251,6 +251,7 @@ def _distances(shape, grid, m: float) -> np.ndarray:
     exact where it is at most ``m`` (larger than ``m`` elsewhere): the levels walked
     depth first with lists of nodes of the multiresolution tree (see the module notes)."""
     nodes = NodeArcs.from_shape(shape)
+    trig = np.cos(nodes.reach), np.sin(nodes.reach)
     last = grid.n_levels - 1
     h0, w0 = grid.level_shape(0)
     out = np.full((h0 << last, w0 << last), np.inf)
@@ -268,7 +269,9 @@ def _distances(shape, grid, m: float) -> np.ndarray:
             cells, _, c, rho, pc, pn = children(f, grid)
             f = Frontier(f.level + 1, cells, c, rho, pc, pn, np.zeros((len(cells), 0), np.uint8))
         reach = _kids_reach(f, grid) if f.level == last - 1 else f.rho
-        f, dist = _bound(f, nodes, m, reach, final=f.level == last, leaves=f.level == last - 1)
+        f, dist = _bound(
+            f, nodes, trig, m, reach, final=f.level == last, leaves=f.level == last - 1
+        )
         if f.level == last:
             out[f.cells[:, 0], f.cells[:, 1]] = dist
             continue
@@ -301,7 +304,7 @@ def _kids_reach(f: Frontier, grid) -> np.ndarray:
     return pad(out)
 
 
-def _bound(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool, leaves: bool = False):
+def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, leaves: bool = False):
     """The pairs of ``f`` (cells, nodes) that can hold the nearest boundary arc of some
     point within ``reach`` (``rho``, or less: :func:`_kids_reach`) of a cell's centre,
     every node split until its error bound is at most :data:`_KAPPA` ``rho``; and each
@@ -358,7 +361,7 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool, leaves: b
             _nearest_vertices(c, cell[near], ni, nodes, vcos, vtx)
             kept = np.flatnonzero(keep)
             keep[kept] = _maybe_nearer(
-                c, cell[kept], node[kept], cm[kept], t[kept], nodes, vcos, vtx, reach
+                c, cell[kept], node[kept], cm[kept], t[kept], nodes, trig, vcos, vtx, reach
             )
         split = keep & ~nodes.leaf[node] & (nodes.err[node] > (bound if final else bound[cell]))
         stay = np.flatnonzero(keep & ~split)
@@ -412,12 +415,13 @@ def _nearest_vertices(c, cell, node, nodes: NodeArcs, vcos, vtx) -> None:
         vtx[cell[win]] = ends[node[win]]
 
 
-def _maybe_nearer(c, cell, node, cm, t, nodes: NodeArcs, vcos, vtx, reach) -> np.ndarray:
+def _maybe_nearer(c, cell, node, cm, t, nodes: NodeArcs, trig, vcos, vtx, reach) -> np.ndarray:
     """Whether a node's run can be as near as the cell's vertex ``vtx`` to some point
     within ``reach`` of the cell's centre ``c``: False only where every such point is
     nearer to the vertex than to every point of the node's cap (centre ``mid``, radius
     ``r`` = ``nodes.reach``, which holds its run), so that the run holds no nearest point.
-    ``cm`` is ``c.mid``, ``t`` its angle (good to ``CAP_SLACK / 2``), ``vcos`` ``c.vtx``.
+    ``cm`` is ``c.mid``, ``t`` its angle (good to ``CAP_SLACK / 2``), ``vcos`` ``c.vtx``,
+    ``trig`` the cosines and sines of ``nodes.reach``.
 
     The test, rigorous: for ``q`` outside the cap, the cap's nearest point ``y`` has ``q.y
     = cos(angle(q, mid) - r) = cos r (q.mid) + sin r sin(angle(q, mid))``, so ``q.v > sin
@@ -430,13 +434,13 @@ def _maybe_nearer(c, cell, node, cm, t, nodes: NodeArcs, vcos, vtx, reach) -> np
     most 4) is covered by :data:`_DOT_SLACK` and by :data:`_SQ_SLACK` under the root."""
     r = nodes.reach[node]
     rr = reach[cell]
-    cr = np.cos(r)
+    cr = trig[0][node]
     cv = vcos[cell] - cr * cm
     vv = 1.0 + cr * cr - 2.0 * cr * pair_dots(vtx, cell, nodes.mid, node)
     s2 = np.maximum(vv - cv * cv, 0.0) + _SQ_SLACK
-    least = cv * np.cos(rr) - np.sqrt(s2) * np.sin(rr)
+    least = cv * np.cos(reach)[cell] - np.sqrt(s2) * np.sin(reach)[cell]
     sin_s = np.sin(np.minimum(t + rr + CAP_SLACK, 0.5 * np.pi))
-    sin_r = np.sin(r)
+    sin_r = trig[1][node]
     out = least <= sin_r * np.maximum(sin_s, sin_r) + _DOT_SLACK
     # the test holds for caps and discs smaller than a quarter circle only
     return out | (r >= 1.0) | (rr >= 1.0)
