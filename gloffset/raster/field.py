@@ -347,12 +347,16 @@ def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, lea
         first = np.flatnonzero(hi == least[cell])
         first = first[np.diff(cell[first], prepend=-1) != 0]  # one per cell (sorted)
         fi = node[first]
-        ex = _exact(c, cell[first], nodes, fi)
-        np.minimum.at(best, cell[first], ex + pad(nodes.err[fi]) + _TINY)
-        near = np.flatnonzero(lo <= best[cell])
         exact = np.full(len(cell), np.inf)
+        exact[first] = _exact(c, cell[first], nodes, fi)
+        np.minimum.at(best, cell[first], exact[first] + pad(nodes.err[fi]) + _TINY)
+        near = lo <= best[cell]
+        near[first] = False
+        rest = np.flatnonzero(near)
+        exact[rest] = _exact(c, cell[rest], nodes, node[rest])
+        near[first] = True
+        near = np.flatnonzero(near)
         ni = node[near]
-        exact[near] = _exact(c, cell[near], nodes, ni)
         err = pad(nodes.err[ni]) + _TINY
         np.minimum.at(best, cell[near], exact[near] + err)
         lo[near] = np.maximum(lo[near], exact[near] - err)
