@@ -14,12 +14,20 @@ each node an arc with a rigorous two-sided bound ``err`` on how far its run of
 original edges strays from it, Sec. 4.3, Eq. 9). A cell keeps the nodes that can hold
 the nearest boundary arc of one of its points: those whose lower bound (the cap test,
 tightened by the exact distance to the node's arc less ``err``) is at most the cell's
-least upper bound (an exact distance plus ``err``) plus ``2 rho``, the usual pruning of
-a nearest-neighbour search (:func:`_bound`). Nodes are split as the cells shrink (to
-``err <= rho / 16``), and at the output level down to the original edges, pruning
-between the splits: a branch and bound whose lists follow the pixels, not the input.
-Each pixel ends with the exact float64 distance of its nearest original arc
-(:func:`gloffset.sphere.arc_distance`, the distance every render uses). With
+least upper bound (an exact distance plus ``err``, the cell's likeliest node measured
+first) plus ``2 rho``, the usual pruning of a nearest-neighbour search (:func:`_bound`).
+That alone keeps, far from the coast, every arc within a cell's width of the nearest
+distance: hundreds of kilometres of coast. So a node must also pass the bisector test
+(:func:`_maybe_nearer`): it is dropped where every point of the cell is nearer to the
+cell's nearest boundary vertex found so far than to every point of the node's cap, a
+test on the whole disc of the cell that keeps only the arcs seen at nearly the same
+angle as the nearest one. Nodes are split as the cells shrink (to ``err <= rho / 16``),
+and at the level above the output (2 x 2 pixels) down to the original edges, pruning
+between the splits: a branch and bound whose lists follow the pixels, not the input (a
+few arcs per pixel). Each pixel ends with the exact float64 distance of its nearest
+original arc (:func:`gloffset.sphere.arc_distance`, the distance every render uses;
+pruned against the pixel centre alone, with no ``rho``). Each pair's bounds are
+computed once per level. With
 ``max_distance`` a node farther than ``max_distance + rho`` is dropped too, and a cell
 left with none costs no pixel work. The sign is the inside status of the float64
 render at distance 0 (:func:`gloffset.raster.vector.curves.classify_curves`: crossing
@@ -213,7 +221,9 @@ def distance_field(
     value; its sign is the inside status of the levels' crossing parity, as in the
     float64 reference renderer. ``threshold(d)`` equals ``render(shape, d, grid)`` (see
     :meth:`DistanceField.threshold`). Cost: the output pixels, each against the few
-    arcs that can be its nearest (see the module notes), on the CPU in float64.
+    arcs that can be its nearest (see the module notes), on the CPU in float64: about 4
+    times the floor of the same walk with one candidate arc per cell plus the inside
+    test (``benchmarks/field.py``).
     """
     if ellipsoid is not None:
         raise OptionError(
