@@ -320,7 +320,9 @@ def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, lea
     every node split until its error bound is at most :data:`_KAPPA` ``rho``; and each
     cell's distance to its nearest pair (``inf`` where it has none). At the output level
     (``final``) only the pixel centre is asked for (``reach`` is not read): nodes are
-    split down to the original arcs and the distance is exact.
+    split down to the original arcs, the distance is exact and ``f`` comes back as it
+    was (no list goes further down). With ``leaves`` (the level above the output) the
+    nodes are split down to the original arcs too.
 
     Branch and bound, rigorous both ways: a pair's run lies no nearer to the centre than
     its lower bound (the angle to the node's cap centre less the cap's radius,
@@ -329,8 +331,11 @@ def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, lea
     distance to its arc plus its error bound. A pair whose lower bound exceeds the least
     upper bound of the cell by more than ``2 reach`` (by nothing at the output level) is
     nearer to no point within ``reach`` than that one (nor within ``m`` of any, beyond
-    ``m + reach``). Each pair's bounds are computed once: a round computes those of the
-    halves of the nodes split in the round before, the least upper bounds carried over."""
+    ``m + reach``). Above the output level a pair kept for that slack alone must also
+    pass the bisector test against the cell's nearest boundary vertex found so far
+    (:func:`_maybe_nearer`). Each pair's bounds are computed once: a round computes
+    those of the halves of the nodes split in the round before, the least upper bounds
+    carried over."""
     c, rho = f.centers, f.rho
     k = len(f.cells)
     bound = 0.0 if final else np.where(leaves, 0.0, _KAPPA * rho)
@@ -373,7 +378,9 @@ def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, lea
         keep = lo <= np.minimum(best + slack, far)[cell] + _TINY
         if not final:
             _nearest_vertices(c, cell[near], ni, nodes, vcos, vtx)
-            kept = np.flatnonzero(keep)
+            # the pairs kept for the slack alone (a pair that may be the nearest at the
+            # centre stays whatever the test says, nearly always)
+            kept = np.flatnonzero(keep & (lo > best[cell]))
             keep[kept] = _maybe_nearer(
                 c, cell[kept], node[kept], cm[kept], t[kept], nodes, trig, vcos, vtx, reach
             )
@@ -384,14 +391,15 @@ def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, lea
         cell = np.repeat(cell[s], 2)
         node = nodes.child[node[s]].ravel()
     cell, node, lo, exact = (np.concatenate(x) for x in zip(*done))
-    # the rounds' pairs against the least upper bounds of all rounds
-    keep = lo <= np.minimum(best + slack, far)[cell] + _TINY
-    cell, node, exact = cell[keep], node[keep], exact[keep]
-    order = np.argsort(cell, kind="stable")
-    cell, node, exact = cell[order], node[order], exact[order]
     dist = np.full(k, np.inf)
     np.minimum.at(dist, cell, exact)
-    g = Frontier(f.level, f.cells, c, rho, cell, node, f.status)
+    if final:  # the distances are all that is asked for (no list goes further down)
+        return f, dist
+    # the rounds' pairs against the least upper bounds of all rounds, sorted by cell
+    keep = lo <= np.minimum(best + slack, far)[cell] + _TINY
+    cell, node = cell[keep], node[keep]
+    order = np.argsort(cell, kind="stable")
+    g = Frontier(f.level, f.cells, c, rho, cell[order], node[order], f.status)
     return g, dist
 
 
