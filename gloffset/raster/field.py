@@ -221,7 +221,7 @@ def distance_field(
     value; its sign is the inside status of the levels' crossing parity, as in the
     float64 reference renderer. ``threshold(d)`` equals ``render(shape, d, grid)`` (see
     :meth:`DistanceField.threshold`). Cost: the output pixels, each against the few
-    arcs that can be its nearest (see the module notes), on the CPU in float64: about 4
+    arcs that can be its nearest (see the module notes), on the CPU in float64: 3 to 4
     times the floor of the same walk with one candidate arc per cell plus the inside
     test (``benchmarks/field.py``).
     """
