@@ -12,7 +12,11 @@ One run, one input (default: the 234 countries of 1:10m), one global equirectang
   same way), run in Debian's system Python (``/usr/bin/python3`` with ``python3-gdal``)
   when present; the record says so when it is absent;
 * spherely (S2) distances per pixel on a sample (exact, slow; signed with the reference's
-  inside test): its time per pixel, and that time for the whole grid.
+  inside test): its time per pixel, and that time for the whole grid;
+* the floor this machine sets for the same passes: the field of a single point (one
+  candidate arc per cell at every level, each pixel finished in float64 against it) plus
+  the inside test of the pixels (the float64 render at distance 0), and the float64
+  finishing alone (one exact arc distance per pixel); the field's time as a ratio to it.
 
 Errors are the median, p99 and max in km, on a seeded sample of pixels, against the
 float64 reference (:mod:`gloffset.reference`). Writes ``benchmarks/results/field.json``.
@@ -33,8 +37,9 @@ from common import DATA, write
 
 import gloffset
 from gloffset import reference
+from gloffset.edges import CurveArcs
 from gloffset.grids import Equirect
-from gloffset.sphere import xyz_to_lonlat
+from gloffset.sphere import arc_distance, xyz_to_lonlat
 
 R = gloffset.EARTH_RADIUS
 KM_PER_DEG = R * np.pi / 180.0 / 1e3
@@ -116,6 +121,32 @@ def spherely_sample(shape, p: np.ndarray, inside: np.ndarray):
     return time.perf_counter() - t, np.where(inside, -dist, dist)
 
 
+def floor(shape, grid: Equirect) -> dict:
+    """The time the same passes take with one candidate arc per cell, and the float64
+    finishing alone (see the module notes)."""
+    point = gloffset.read({"type": "Point", "coordinates": [-99.1, 19.4]})
+    t = time.perf_counter()
+    gloffset.distance_field(point, grid)
+    t_walk = time.perf_counter() - t
+    t = time.perf_counter()
+    gloffset.render(shape, 0.0, grid, backend="cpu")
+    t_sign = time.perf_counter() - t
+    arcs = CurveArcs.from_shape(shape)
+    h, w = grid.level_shape(grid.n_levels - 1)
+    pick = np.random.default_rng(1).integers(0, len(arcs.a), w)
+    t = time.perf_counter()
+    for j in range(h):  # a row at a time, each pixel against one arc
+        p = grid.centers(grid.n_levels - 1, np.full(w, j), np.arange(w))
+        arc_distance(p, arcs.a[pick], arcs.b[pick], arcs.n[pick])
+    t_finish = time.perf_counter() - t
+    return {
+        "one_candidate_walk_s": t_walk,
+        "inside_test_s": t_sign,
+        "float64_finishing_alone_s": t_finish,
+        "s": t_walk + t_sign,
+    }
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--size", default="4096x2048")
@@ -170,6 +201,16 @@ def main():
         }
     except ImportError as exc:
         rec["spherely_sample"] = {"skipped": str(exc)}
+    rec["floor"] = floor(shape, grid)
+    rec["floor"]["field_over_floor"] = t_field / rec["floor"]["s"]
+    targets = {}
+    if "s" in rec["gdal_proximity"]:
+        targets["within_5x_gdal"] = t_field <= 5.0 * rec["gdal_proximity"]["s"]
+    if "s_per_pixel" in rec["spherely_sample"]:
+        targets["20x_faster_than_s2"] = (
+            20.0 * t_field <= rec["spherely_sample"]["whole_grid_s_estimate"]
+        )
+    rec["targets"] = targets
     print(json.dumps(rec, indent=2))
     path = write("field", rec)
     print(f"wrote {path}", file=sys.stderr)

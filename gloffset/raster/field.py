@@ -7,15 +7,12 @@ never negative). ``s`` does not depend on ``d``, so one field answers every dist
 :meth:`DistanceField.threshold` gives the mask of :func:`gloffset.render` at any ``d``.
 
 How it is computed: a walk over the grid's levels, coarse to fine, every cell with a
-list of candidate nodes of the multiresolution tree (paper Sec. 4.2;
-:class:`~gloffset.raster.vector.node_levels.NodeArcs`, each with a rigorous bound
-``err``, Eq. 9). A cell keeps the nodes whose lower bound is at most its least upper
-bound plus ``2 rho`` (a nearest-neighbour search's pruning, :func:`_bound`); nodes are
-split as the cells shrink, down to the original edges at the pixels, and each pixel
-ends with the exact float64 distance of its nearest arc
-(:func:`gloffset.sphere.arc_distance`). With ``max_distance`` a cell left with no node
-costs no pixel work. The sign is the inside status of the float64 render at distance 0
-(:func:`gloffset.raster.vector.curves.classify_curves`).
+list of candidate nodes of the multiresolution tree (paper Sec. 4.2, Eq. 9 bounds),
+pruned by their bounds (:func:`_bound`) and by a bisector test against the cell's
+nearest boundary vertex (:func:`_maybe_nearer`); nodes are split as the cells shrink,
+down to the original edges at the pixels, each pixel ending with the exact float64
+distance of its nearest arc. The sign is the inside status of the float64 render at
+distance 0. The derivation is in the design notes (``docs/design.md``).
 
 Accuracy: each value is the float64 distance (exact to 1e-15 rad) times ``radius``,
 clamped to ``[-max_distance, max_distance]`` and rounded to float32 once: within 1
@@ -210,7 +207,9 @@ def distance_field(
     value; its sign is the inside status of the levels' crossing parity, as in the
     float64 reference renderer. ``threshold(d)`` equals ``render(shape, d, grid)`` (see
     :meth:`DistanceField.threshold`). Cost: the output pixels, each against the few
-    arcs that can be its nearest (see the module notes), on the CPU in float64.
+    arcs that can be its nearest (see the module notes), on the CPU in float64: 3 to 4
+    times the floor of the same walk with one candidate arc per cell plus the inside
+    test (``benchmarks/field.py``).
     """
     if ellipsoid is not None:
         raise OptionError(
@@ -252,6 +251,7 @@ def _distances(shape, grid, m: float) -> np.ndarray:
     depth first with lists of nodes of the multiresolution tree (see the module notes).
     """
     nodes = NodeArcs.from_shape(shape)
+    trig = np.cos(nodes.reach), np.sin(nodes.reach)
     last = grid.n_levels - 1
     h0, w0 = grid.level_shape(0)
     out = np.full((h0 << last, w0 << last), np.inf)
@@ -269,7 +269,9 @@ def _distances(shape, grid, m: float) -> np.ndarray:
             cells, _, c, rho, pc, pn = children(f, grid)
             f = Frontier(f.level + 1, cells, c, rho, pc, pn, np.zeros((len(cells), 0), np.uint8))
         reach = _kids_reach(f, grid) if f.level == last - 1 else f.rho
-        f, dist = _bound(f, nodes, m, reach, final=f.level == last)
+        f, dist = _bound(
+            f, nodes, trig, m, reach, final=f.level == last, leaves=f.level == last - 1
+        )
         if f.level == last:
             out[f.cells[:, 0], f.cells[:, 1]] = dist
             continue
@@ -304,54 +306,168 @@ def _kids_reach(f: Frontier, grid) -> np.ndarray:
     return pad(out)
 
 
-def _bound(f: Frontier, nodes: NodeArcs, m: float, reach: np.ndarray, final: bool):
+def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, leaves: bool = False):
     """Return the pairs (cells, nodes) that can hold a nearest arc, and the distances.
 
-    The pairs of ``f`` that can hold the nearest boundary arc of some
-    point within ``reach`` (``rho``, or less: :func:`_kids_reach`) of a cell's centre,
-    every node split until its error bound is at most :data:`_KAPPA` ``rho`` (original
-    arcs at the output level, ``final``); and each cell's distance to its nearest pair
-    (exact at the output level, ``inf`` where it has none).
+    The pairs of ``f`` that can hold the nearest boundary arc of some point within
+    ``reach`` (``rho``, or less: :func:`_kids_reach`) of a cell's centre,
+    every node split until its error bound is at most :data:`_KAPPA` ``rho``; and each
+    cell's distance to its nearest pair (``inf`` where it has none). At the output level
+    (``final``) only the pixel centre is asked for (``reach`` is not read): nodes are
+    split down to the original arcs, the distance is exact and ``f`` comes back as it
+    was (no list goes further down). With ``leaves`` (the level above the output) the
+    nodes are split down to the original arcs too.
 
     Branch and bound, rigorous both ways: a pair's run lies no nearer to the centre than
     its lower bound (the angle to the node's cap centre less the cap's radius,
     :func:`~gloffset.caps.cap_range`, widened by :data:`~gloffset.caps.CAP_SLACK`; or the
     exact distance to its arc less its error bound), and no farther than the exact
-    distance to its arc plus its error bound. A pair whose lower
-    bound exceeds the least upper bound of the cell by more than ``2 reach`` is nearer to
-    no point within ``reach`` than that one (nor within ``m`` of any, beyond ``m +
-    reach``).
+    distance to its arc plus its error bound. A pair whose lower bound exceeds the least
+    upper bound of the cell by more than ``2 reach`` (by nothing at the output level) is
+    nearer to no point within ``reach`` than that one (nor within ``m`` of any, beyond
+    ``m + reach``). Above the output level a pair kept for that slack alone must also
+    pass the bisector test against the cell's nearest boundary vertex found so far
+    (:func:`_maybe_nearer`). Each pair's bounds are computed once: a round computes
+    those of the halves of the nodes split in the round before, the least upper bounds
+    carried over.
     """
-    cell, node, c, rho = f.pair_cell, f.pair_arc, f.centers, f.rho
+    c, rho = f.centers, f.rho
     k = len(f.cells)
-    bound = _KAPPA * rho  # the error allowed above the output level
-    while True:
-        lo, hi = cap_range(pair_dots(c, cell, nodes.mid, node), nodes.reach[node])
+    bound = np.where(leaves, 0.0, _KAPPA * rho)  # read above the output level only
+    slack = 0.0 if final else 2.0 * reach
+    far = m if final else m + reach
+    best = np.full(k, np.inf)
+    cell, node = f.pair_cell, f.pair_arc
+    none = np.zeros(0)
+    # (cells, nodes, lower bounds, exact distances) of the pairs left as they are
+    done = [(cell[:0], node[:0], none, none)]
+    # the nearest boundary vertex found so far of each cell (cosine, point)
+    vcos, vtx = np.full(k, -2.0), np.zeros((k, 3))
+    while len(cell):
+        cm = pair_dots(c, cell, nodes.mid, node)
+        lo, hi = cap_range(cm, nodes.reach[node])
+        t = 0.5 * (lo + hi)  # the angle to the cap's centre
         lo = lo - CAP_SLACK
-        best = np.full(k, np.inf)
-        np.minimum.at(best, cell, hi + CAP_SLACK)
-        near = np.flatnonzero(lo <= best[cell])
+        hi = hi + CAP_SLACK
+        # first each cell's likeliest pair of the round (least upper bound): its exact
+        # distance tightens the bound that the others are tested against
+        least = np.full(k, np.inf)
+        np.minimum.at(least, cell, hi)
+        np.minimum(best, least, out=best)
+        first = np.flatnonzero(hi == least[cell])
+        first = first[np.diff(cell[first], prepend=-1) != 0]  # one per cell (sorted)
+        fi = node[first]
         exact = np.full(len(cell), np.inf)
+        exact[first] = _exact(c, cell[first], nodes, fi)
+        np.minimum.at(best, cell[first], exact[first] + pad(nodes.err[fi]) + _TINY)
+        near = lo <= best[cell]
+        near[first] = False
+        rest = np.flatnonzero(near)
+        exact[rest] = _exact(c, cell[rest], nodes, node[rest])
+        near[first] = True
+        near = np.flatnonzero(near)
         ni = node[near]
-        exact[near] = arc_distance(c[cell[near]], nodes.a[ni], nodes.b[ni], nodes.n[ni])
         err = pad(nodes.err[ni]) + _TINY
         np.minimum.at(best, cell[near], exact[near] + err)
         lo[near] = np.maximum(lo[near], exact[near] - err)
-        keep = lo <= np.minimum(best + 2.0 * reach, m + reach)[cell] + _TINY
-        cell, node, exact = cell[keep], node[keep], exact[keep]
-        split = ~nodes.leaf[node] & (nodes.err[node] > (0.0 if final else bound[cell]))
-        if not split.any():
-            break
+        keep = lo <= np.minimum(best + slack, far)[cell] + _TINY
+        if not final:
+            _nearest_vertices(c, cell[near], ni, nodes, vcos, vtx)
+            # the pairs kept for the slack alone (a pair that may be the nearest at the
+            # centre stays whatever the test says, nearly always)
+            kept = np.flatnonzero(keep & (lo > best[cell]))
+            keep[kept] = _maybe_nearer(
+                c, cell[kept], node[kept], cm[kept], t[kept], nodes, trig, vcos, vtx, reach
+            )
+        split = keep & ~nodes.leaf[node] & (nodes.err[node] > (0.0 if final else bound[cell]))
+        stay = np.flatnonzero(keep & ~split)
+        done.append((cell[stay], node[stay], lo[stay], exact[stay]))
         s = np.flatnonzero(split)
-        rest = np.flatnonzero(~split)
-        cell = np.concatenate([cell[rest], np.repeat(cell[s], 2)])
-        node = np.concatenate([node[rest], nodes.child[node[s]].ravel()])
-    order = np.argsort(cell, kind="stable")
-    cell, node, exact = cell[order], node[order], exact[order]
+        cell = np.repeat(cell[s], 2)
+        node = nodes.child[node[s]].ravel()
+    cell, node, lo, exact = (np.concatenate(x) for x in zip(*done))
     dist = np.full(k, np.inf)
     np.minimum.at(dist, cell, exact)
-    g = Frontier(f.level, f.cells, c, rho, cell, node, f.status)
+    if final:  # the distances are all that is asked for (no list goes further down)
+        return f, dist
+    # the rounds' pairs against the least upper bounds of all rounds, sorted by cell
+    keep = lo <= np.minimum(best + slack, far)[cell] + _TINY
+    cell, node = cell[keep], node[keep]
+    order = np.argsort(cell, kind="stable")
+    g = Frontier(f.level, f.cells, c, rho, cell[order], node[order], f.status)
     return g, dist
+
+
+#: Pairs per call of :func:`~gloffset.sphere.arc_distance` in :func:`_exact` (its
+#: temporaries then stay in the processor's caches: about twice as fast as one call).
+_CHUNK = 1 << 16
+
+
+def _exact(c, cell, nodes: NodeArcs, node) -> np.ndarray:
+    """Return :func:`~gloffset.sphere.arc_distance` from ``c[cell]`` to the arcs of ``node``.
+
+    The same bits, in chunks of :data:`_CHUNK` pairs.
+    """
+    out = np.empty(len(cell))
+    for s in range(0, len(cell), _CHUNK):
+        ci, ni = cell[s : s + _CHUNK], node[s : s + _CHUNK]
+        out[s : s + _CHUNK] = arc_distance(c[ci], nodes.a[ni], nodes.b[ni], nodes.n[ni])
+    return out
+
+
+#: Slack on the dot products of :func:`_maybe_nearer` (unit vectors and sums of two: each
+#: computed to a few 1e-16).
+_DOT_SLACK = 1e-12
+#: Slack under the square root of :func:`_maybe_nearer` (its argument is a difference of
+#: values of at most 4, each good to 1e-15).
+_SQ_SLACK = 1e-13
+
+
+def _nearest_vertices(c, cell, node, nodes: NodeArcs, vcos, vtx) -> None:
+    """Update each cell's nearest boundary vertex with the ends of the nodes ``node``.
+
+    ``vcos`` is the cosine of its angle to the centre, ``vtx`` the point; the ends of a
+    boundary node are original vertices of the boundary, bit for bit.
+    """
+    for ends in (nodes.a, nodes.b):
+        cos = pair_dots(c, cell, ends, node)
+        np.maximum.at(vcos, cell, cos)
+        win = np.flatnonzero(cos == vcos[cell])
+        vtx[cell[win]] = ends[node[win]]
+
+
+def _maybe_nearer(c, cell, node, cm, t, nodes: NodeArcs, trig, vcos, vtx, reach) -> np.ndarray:
+    """Return whether a node's run can be as near as the cell's vertex to some point.
+
+    Whether it can be as near as the cell's vertex ``vtx`` to some point
+    within ``reach`` of the cell's centre ``c``: False only where every such point is
+    nearer to the vertex than to every point of the node's cap (centre ``mid``, radius
+    ``r`` = ``nodes.reach``, which holds its run), so that the run holds no nearest point.
+    ``cm`` is ``c.mid``, ``t`` its angle (good to ``CAP_SLACK / 2``), ``vcos`` ``c.vtx``,
+    ``trig`` the cosines and sines of ``nodes.reach``.
+
+    The test, rigorous: for ``q`` outside the cap, the cap's nearest point ``y`` has ``q.y
+    = cos(angle(q, mid) - r) = cos r (q.mid) + sin r sin(angle(q, mid))``, so ``q.v > sin
+    r S`` with ``v = vtx - cos r mid`` and ``S >= max(sin(angle(q, mid)), sin r)`` puts
+    ``q`` nearer to the vertex (and outside the cap: inside, ``q.v <= 1 - cos^2 r = sin^2
+    r``, which fails the test). The least of the linear ``q.v`` over the disc of radius
+    ``reach`` about ``c`` is ``c.v cos(reach) - sqrt(|v|^2 - (c.v)^2) sin(reach)``, with
+    ``c.v = c.vtx - cos r c.mid`` and ``|v|^2 = 1 + cos^2 r - 2 cos r vtx.mid``; and ``S =
+    sin(min(pi / 2, t + reach))``. The rounding of these (a few 1e-16 on values of at
+    most 4) is covered by :data:`_DOT_SLACK` and by :data:`_SQ_SLACK` under the root.
+    """
+    r = nodes.reach[node]
+    rr = reach[cell]
+    cr = trig[0][node]
+    cv = vcos[cell] - cr * cm
+    vv = 1.0 + cr * cr - 2.0 * cr * pair_dots(vtx, cell, nodes.mid, node)
+    s2 = np.maximum(vv - cv * cv, 0.0) + _SQ_SLACK
+    least = cv * np.cos(reach)[cell] - np.sqrt(s2) * np.sin(reach)[cell]
+    sin_s = np.sin(np.minimum(t + rr + CAP_SLACK, 0.5 * np.pi))
+    sin_r = trig[1][node]
+    out = least <= sin_r * np.maximum(sin_s, sin_r) + _DOT_SLACK
+    # the test holds for caps and discs smaller than a quarter circle only
+    return out | (r >= 1.0) | (rr >= 1.0)
 
 
 def _parts(f: Frontier):
