@@ -485,13 +485,4 @@ def _parts(f: Frontier):
     cuts = np.flatnonzero(np.r_[True, part[1:] != part[:-1]])
     at = np.r_[before[cuts], len(f.pair_cell)]
     for n, (a, b) in enumerate(zip(cuts, np.r_[cuts[1:], k])):
-        pa, pb = at[n], at[n + 1]
-        yield Frontier(
-            f.level,
-            f.cells[a:b],
-            f.centers[a:b],
-            f.rho[a:b],
-            f.pair_cell[pa:pb] - a,
-            f.pair_arc[pa:pb],
-            f.status[a:b],
-        )
+        yield f.part(int(a), int(b), int(at[n]), int(at[n + 1]))

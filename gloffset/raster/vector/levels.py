@@ -89,6 +89,18 @@ class Frontier:
     pair_arc: np.ndarray
     status: np.ndarray
 
+    def part(self, a: int, b: int, pa: int, pb: int) -> Frontier:
+        """Return cells ``a:b`` with their pairs ``pa:pb`` (those of cells ``a:b``)."""
+        return Frontier(
+            self.level,
+            self.cells[a:b],
+            self.centers[a:b],
+            self.rho[a:b],
+            self.pair_cell[pa:pb] - a,
+            self.pair_arc[pa:pb],
+            self.status[a:b],
+        )
+
 
 def row_statuses(shape, arcs: CurveArcs, h: int, w: int, first, cells, crossing) -> np.ndarray:
     """Packed statuses of every cell of an ``h x w`` level, row-major: cell 0's (centre
@@ -321,16 +333,7 @@ def refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
     pair_at = np.searchsorted(f.pair_cell, bounds)
     outs = []
     for (a, b), (pa, pb) in zip(zip(bounds[:-1], bounds[1:]), zip(pair_at[:-1], pair_at[1:])):
-        sub = Frontier(
-            f.level,
-            f.cells[a:b],
-            f.centers[a:b],
-            f.rho[a:b],
-            f.pair_cell[pa:pb] - a,
-            f.pair_arc[pa:pb],
-            f.status[a:b],
-        )
-        outs.append(_refine(sub, grid, arcs, e, shape))
+        outs.append(_refine(f.part(a, b, pa, pb), grid, arcs, e, shape))
     offsets = np.cumsum([0] + [len(o.cells) for o in outs[:-1]])
     return Frontier(
         f.level + 1,
