@@ -49,7 +49,8 @@ from .ellipsoid import (
     window_scale,
 )
 from .errors import OptionError
-from .index.contains import Index, contains_on_sphere
+from .index.contains import contains_on_sphere
+from .index.tree import Index
 from .shape import read
 from .sphere import angle, arc_distance, dot, lonlat_to_xyz, normalize, robust_cross, xyz_to_lonlat
 from .units import EARTH_RADIUS, check_lonlat, check_radius, offset_metres

@@ -118,7 +118,7 @@ class Derived:
     defects: tuple[bool, bool] | None = None
     #: The exhaustive multiresolution decomposition (:mod:`gloffset.vector.multires`).
     exhaust: Any = None
-    #: The inside test's arcs (:mod:`gloffset.index.contains`).
+    #: The inside test's arcs (:mod:`gloffset.index.arcs`).
     contains_arcs: Any = None
     #: The inside test's indexes, by ``(distance, level)`` (:mod:`gloffset.index.contains`).
     contains_indexes: dict = field(default_factory=dict)
