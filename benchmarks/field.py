@@ -33,8 +33,8 @@ from common import DATA, write
 
 import gloffset
 from gloffset import reference
+from gloffset.geometry.sphere import xyz_to_lonlat
 from gloffset.grids import Equirect
-from gloffset.sphere import xyz_to_lonlat
 
 R = gloffset.EARTH_RADIUS
 KM_PER_DEG = R * np.pi / 180.0 / 1e3

@@ -34,12 +34,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .caps import arc_cap, pad
 from .errors import InputFormatError, InvalidGeometryError
-from .io import features as _features
-from .io import geojson as _gj
-from .region import unite
-from .sphere import (
+from .geometry.caps import arc_cap, pad
+from .geometry.sphere import (
     SEAM_EPS_DEG,
     angle,
     arc_distance,
@@ -49,6 +46,9 @@ from .sphere import (
     normalize,
     robust_cross,
 )
+from .io import features as _features
+from .io import geojson as _gj
+from .region import unite
 
 if TYPE_CHECKING:
     from .edges import CurveArcs
@@ -107,7 +107,7 @@ class Derived:
     #: The distinct ends of the boundary arcs (:func:`gloffset.edges.distance_xyz`).
     boundary_vertices: np.ndarray | None = None
     #: Anchor points and their component statuses, by count
-    #: (:func:`gloffset.crossings.inside_indexed`).
+    #: (:func:`gloffset.geometry.crossings.inside_indexed`).
     anchors: dict = field(default_factory=dict)
     #: The judge's ring edges, its edge index and its densified geodesic rings by
     #: ``(a, f)`` (:mod:`gloffset.reference`, which shares nothing with the others).
@@ -337,7 +337,7 @@ class Shape:
             geoms.append(_gj.lines_to_geometry(lines, digits))
         points = [ln[0] for ln in self.lines if len(ln) == 1]
         if points:
-            from .sphere import xyz_to_lonlat
+            from .geometry.sphere import xyz_to_lonlat
 
             lon, lat = xyz_to_lonlat(np.asarray(points))
             geoms.append(
@@ -347,7 +347,7 @@ class Shape:
         return {"type": "Feature", "properties": {}, "geometry": geom}
 
     def _inside_group(self, p: np.ndarray, grp: int) -> np.ndarray:
-        from .crossings import inside
+        from .geometry.crossings import inside
 
         return inside(self, p, groups=[grp])
 
@@ -657,7 +657,7 @@ def _overlapping_components(shape: Shape) -> np.ndarray:
     if shape.n_groups < 2:
         return np.zeros((0, 2), dtype=np.int64)
     from .edges import component_status
-    from .sphere import orient
+    from .geometry.sphere import orient
 
     arcs = shape.arcs()
     ring = arcs.ring
@@ -667,7 +667,7 @@ def _overlapping_components(shape: Shape) -> np.ndarray:
     i, j = i[other], j[other]
     if len(i):
         # a proper crossing: each arc strictly separates the other's ends, on the
-        # same side of the sphere (the rule of gloffset.sphere.arcs_cross, strict)
+        # same side of the sphere (the rule of gloffset.geometry.sphere.arcs_cross, strict)
         # (sides measured as angles to the great circle; within 1e-13 rad counts as
         # touching, so borders shared up to rounding are not overlaps)
         ni = np.linalg.norm(np.cross(a[i], b[i]), axis=1)

@@ -8,7 +8,7 @@ from conftest import uniform_sphere
 
 import gloffset
 from gloffset import InvalidGeometryError, InvalidLevelError, reference
-from gloffset.sphere import (
+from gloffset.geometry.sphere import (
     angle,
     arc_distance,
     lonlat_to_xyz,
@@ -234,7 +234,7 @@ def test_short_edges_keep_their_side(world):
 
 
 def test_row_kernels_are_numpy_bit_for_bit():
-    from gloffset.sphere import cross, dot, norm
+    from gloffset.geometry.sphere import cross, dot, norm
 
     rng = np.random.default_rng(12)
     u, v = rng.normal(size=(1000, 3)), rng.normal(size=(1000, 3))

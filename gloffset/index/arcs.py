@@ -3,16 +3,16 @@
 The kernels test points against arcs packed in rows (crossing, Eq. 9's distance test);
 :class:`IndexArcs` is the multiresolution arc tree of a shape (:mod:`gloffset.vector.multires`)
 with what :class:`gloffset.index.tree.Index` needs, made once per shape and kept on it.
-Accuracy: the crossing bits are those of :func:`gloffset.sphere.crossing_rule` on
-:func:`gloffset.sphere.dot`; the distance test is accurate to about 1e-16 rad.
+Accuracy: the crossing bits are those of :func:`gloffset.geometry.sphere.crossing_rule` on
+:func:`gloffset.geometry.sphere.dot`; the distance test is accurate to about 1e-16 rad.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..caps import arc_cap, chord2, pad
-from ..sphere import cross, crossing_rule, dot, normalize, robust_cross
+from ..geometry.caps import arc_cap, chord2, pad
+from ..geometry.sphere import cross, crossing_rule, dot, normalize, robust_cross
 from ..vector.multires import full_decomposition
 
 #: Slack (rad) on every error-region and relevance test, far above their rounding.
@@ -25,9 +25,9 @@ def crosses(p, x, px, a, b, n, pn=None) -> np.ndarray:
 
     ``px = p x x``; ``pn = p . n`` if known.
 
-    The half-open rule of :func:`gloffset.sphere.crossing_rule`: a point on a great
+    The half-open rule of :func:`gloffset.geometry.sphere.crossing_rule`: a point on a great
     circle counts as on its left, so an arc through a shared vertex counts once. The
-    sides of the ends and of ``x`` use :func:`gloffset.sphere.dot`, so that a vertex
+    sides of the ends and of ``x`` use :func:`gloffset.geometry.sphere.dot`, so that a vertex
     shared by two arcs, and an anchor, get the same bits in every test.
     """
     if pn is None:
@@ -39,7 +39,7 @@ def dots(g: np.ndarray, p: np.ndarray) -> np.ndarray:
     """``p`` dotted with each 3-vector of the rows of ``g`` (n, 3k) -> (n, k), in one call.
 
     Only for tests whose bits need not agree with another computation (the sides of
-    shared vertices and of anchors go through :func:`gloffset.sphere.dot`).
+    shared vertices and of anchors go through :func:`gloffset.geometry.sphere.dot`).
     """
     return np.einsum("ijk,ik->ij", g.reshape(len(g), -1, 3), p)
 

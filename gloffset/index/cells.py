@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..sphere import lonlat_to_xyz
+from ..geometry.sphere import lonlat_to_xyz
 
 
 class Cells:

@@ -28,10 +28,10 @@ import math
 
 import numpy as np
 
-from ..caps import cap_within
 from ..edges import contains_xyz
+from ..geometry.caps import cap_within
+from ..geometry.sphere import lonlat_to_xyz
 from ..shape import read
-from ..sphere import lonlat_to_xyz
 from ..units import EARTH_RADIUS, check_lonlat, offset_angle
 from .tree import DEFAULT_DEPTH, Index
 

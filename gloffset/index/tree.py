@@ -9,11 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..caps import cos_sum_lower
-from ..crossings import inside as _inside_reference
 from ..errors import InvalidLevelError, OptionError
-from ..shape import read
-from ..sphere import (
+from ..geometry.caps import cos_sum_lower
+from ..geometry.crossings import inside as _inside_reference
+from ..geometry.sphere import (
     angle,
     arc_distance,
     cross,
@@ -21,6 +20,7 @@ from ..sphere import (
     lonlat_to_xyz,
     xyz_to_lonlat,
 )
+from ..shape import read
 from ..units import EARTH_RADIUS, check_lonlat, offset_angle
 from . import bins
 from .arcs import (

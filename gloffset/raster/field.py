@@ -13,7 +13,7 @@ list of candidate nodes of the multiresolution tree (paper Sec. 4.2;
 bound plus ``2 rho`` (a nearest-neighbour search's pruning, :func:`_bound`); nodes are
 split as the cells shrink, down to the original edges at the pixels, and each pixel
 ends with the exact float64 distance of its nearest arc
-(:func:`gloffset.sphere.arc_distance`). With ``max_distance`` a cell left with no node
+(:func:`gloffset.geometry.sphere.arc_distance`). With ``max_distance`` a cell left with no node
 costs no pixel work. The sign is the inside status of the float64 render at distance 0
 (:func:`gloffset.raster.vector.curves.classify_curves`).
 
@@ -32,12 +32,12 @@ import math
 
 import numpy as np
 
-from ..caps import CAP_SLACK, cap_range, pad
-from ..classes import CONTAINED
 from ..errors import OptionError
+from ..geometry.caps import CAP_SLACK, cap_range, pad
+from ..geometry.classes import CONTAINED
+from ..geometry.sphere import angle, arc_distance, pair_dots
 from ..grids.protocol import Image
 from ..shape import read
-from ..sphere import angle, arc_distance, pair_dots
 from ..units import EARTH_RADIUS, RASTER_LIMIT, check_radius, offset_angle, to_angle
 from .simplified import band_members
 from .vector import curves
@@ -315,7 +315,8 @@ def _bound(f: Frontier, nodes: NodeArcs, m: float, reach: np.ndarray, final: boo
 
     Branch and bound, rigorous both ways: a pair's run lies no nearer to the centre than
     its lower bound (the angle to the node's cap centre less the cap's radius,
-    :func:`~gloffset.caps.cap_range`, widened by :data:`~gloffset.caps.CAP_SLACK`; or the
+    :func:`~gloffset.geometry.caps.cap_range`, widened by
+    :data:`~gloffset.geometry.caps.CAP_SLACK`; or the
     exact distance to its arc less its error bound), and no farther than the exact
     distance to its arc plus its error bound. A pair whose lower
     bound exceeds the least upper bound of the cell by more than ``2 reach`` is nearer to

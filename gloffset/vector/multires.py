@@ -34,8 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidLevelError
+from ..geometry.sphere import angle, slerp
 from ..shape import MIN_EDGE, Edges, Shape, read
-from ..sphere import angle, slerp
 from ..units import EARTH_RADIUS
 from .arcrings import line_arcs, ring_arcs
 from .offset import Offset, offset
