@@ -88,9 +88,9 @@ def worst_error(series, buffers, d: float, points_only: bool) -> float:
         xy = shapely.get_coordinates(np.asarray(buffers, dtype=object))
         centre = np.repeat(shapely.get_coordinates(np.asarray(geoms, dtype=object)), counts, 0)
         free = _free(xy)
-        a = gloffset.sphere.lonlat_to_xyz(*_wrap(xy[free]).T)
-        b = gloffset.sphere.lonlat_to_xyz(*centre[free].T)
-        dist = gloffset.sphere.angle(a, b) * gloffset.EARTH_RADIUS
+        a = gloffset.geometry.sphere.lonlat_to_xyz(*_wrap(xy[free]).T)
+        b = gloffset.geometry.sphere.lonlat_to_xyz(*centre[free].T)
+        dist = gloffset.geometry.sphere.angle(a, b) * gloffset.EARTH_RADIUS
         return float(np.abs(dist - d).max())
     for geom, buf in zip(geoms, buffers):
         xy = shapely.get_coordinates(buf)

@@ -40,7 +40,7 @@ from common import DATA, best_of, points_around, write
 
 import gloffset
 from gloffset import reference
-from gloffset.sphere import xyz_to_lonlat
+from gloffset.geometry.sphere import xyz_to_lonlat
 
 BOX = (-120.0, 12.0, -84.0, 35.0)  # W, S, E, N
 DISTANCES = (10e3, 100e3, -10e3)

@@ -38,8 +38,8 @@ from common import DATA, write
 import gloffset
 from gloffset import reference
 from gloffset.edges import CurveArcs
+from gloffset.geometry.sphere import arc_distance, xyz_to_lonlat
 from gloffset.grids import Equirect
-from gloffset.sphere import arc_distance, xyz_to_lonlat
 
 R = gloffset.EARTH_RADIUS
 KM_PER_DEG = R * np.pi / 180.0 / 1e3

@@ -43,7 +43,7 @@ DISTANCES_KM = (50.0, 127.0, 250.0)
 def window(grid, shape, grow_rad):
     """Row and column ranges of the pixels within the border's lon/lat box grown by
     ``grow_rad`` (in latitude, and in longitude at the box's highest latitude)."""
-    from gloffset.sphere import xyz_to_lonlat
+    from gloffset.geometry.sphere import xyz_to_lonlat
 
     lo, la = xyz_to_lonlat(np.concatenate(shape.rings))
     g = math.degrees(grow_rad)

@@ -88,7 +88,7 @@ def prefilter(grid, shape):
     """Pixels inside Mexico's lon/lat box grown by D (in degrees of lat, and of lon at
     the box's highest latitude): the hand-written prefilter users add to exact tools."""
     lon, lat = pixel_lonlat(grid)
-    from gloffset.sphere import xyz_to_lonlat
+    from gloffset.geometry.sphere import xyz_to_lonlat
 
     lo, la = xyz_to_lonlat(np.concatenate(shape.rings))
     grow = math.degrees(D)
@@ -101,7 +101,7 @@ def prefilter(grid, shape):
 def alt_spherely(shape, grid):
     import spherely
 
-    from gloffset.sphere import xyz_to_lonlat
+    from gloffset.geometry.sphere import xyz_to_lonlat
 
     ii, jj, lon, lat = prefilter(grid, shape)
     polys, lines = [], []

@@ -30,7 +30,7 @@ from common import DATA, best_of, write
 from selfintersect import R_KM, shapely_polygon
 
 import gloffset
-from gloffset.sphere import normalize
+from gloffset.geometry.sphere import normalize
 
 #: Antarctica's offset distance: 1000 km on the mean Earth radius.
 D_ANTARCTICA = 1000.0 / R_KM

@@ -28,8 +28,8 @@ import numpy as np
 from common import DATA, best_of, coastline, write
 
 import gloffset
+from gloffset.geometry.sphere import normalize, xyz_to_lonlat
 from gloffset.reference import contains_xyz, distance_xyz
-from gloffset.sphere import normalize, xyz_to_lonlat
 from gloffset.vector.paper import algorithm1
 
 R_KM = gloffset.EARTH_RADIUS / 1000.0

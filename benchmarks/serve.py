@@ -37,9 +37,9 @@ import numpy as np
 from common import DATA, RESULTS, ROOT, write
 
 import gloffset
+from gloffset.geometry.sphere import xyz_to_lonlat
 from gloffset.gl import context_info
 from gloffset.grids import Tile
-from gloffset.sphere import xyz_to_lonlat
 
 #: today's figures of one gloffset.render per tile at a new distance (issue 16, Mexico)
 TODAY = {"p50_ms": 115.0, "p90_ms": 545.0}

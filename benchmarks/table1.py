@@ -23,7 +23,7 @@ from common import DATA, best_of, points_around, write
 
 import gloffset
 from gloffset import reference
-from gloffset.sphere import xyz_to_lonlat
+from gloffset.geometry.sphere import xyz_to_lonlat
 
 BOX = (-120.0, 12.0, -84.0, 35.0)  # W, S, E, N: Mexico and its surroundings
 D = 0.02  # rad, as in the paper

@@ -58,7 +58,7 @@ def progress_record(events):
 
 def grown_bbox(shape, d):
     """Mexico's lon/lat bounding box grown by d (degrees; no antimeridian here)."""
-    lon, lat = gloffset.sphere.xyz_to_lonlat(shape.edges().a)
+    lon, lat = gloffset.geometry.sphere.xyz_to_lonlat(shape.edges().a)
     pad = math.degrees(d)
     s, n = float(lat.min()) - pad, float(lat.max()) + pad
     grow = pad / math.cos(math.radians(max(abs(s), abs(n))))

@@ -13,7 +13,7 @@ import spherely
 from common import DATA, best_of, points_around, write
 
 import gloffset
-from gloffset.sphere import xyz_to_lonlat
+from gloffset.geometry.sphere import xyz_to_lonlat
 
 
 def main():

@@ -55,7 +55,7 @@ def _land(p: np.ndarray) -> np.ndarray:
     """Whether unit vectors ``p`` lie in a country of world_110m (float64 reference)."""
     import json
 
-    lon, lat = gloffset.sphere.xyz_to_lonlat(p)
+    lon, lat = gloffset.geometry.sphere.xyz_to_lonlat(p)
     inside = np.zeros(len(p), dtype=bool)
     for feature in json.loads((DATA / "world_110m.geojson").read_text())["features"]:
         inside |= gloffset.contains(feature, lon, lat)
@@ -105,7 +105,7 @@ def cube_globe(path=HERE / "cube_globe.png", size=560, face=1024, view=(-75.0, 2
     land = _land(p[disk])
     colour[near[f, j, i] | land] = (120, 170, 215)  # within 300 km
     colour[land] = (70, 80, 90)  # countries
-    lon, lat = gloffset.sphere.xyz_to_lonlat(p[disk])
+    lon, lat = gloffset.geometry.sphere.xyz_to_lonlat(p[disk])
     grid = (np.abs((lon + 15.0) % 30.0 - 15.0) < 0.35) | (np.abs((lat + 15.0) % 30.0 - 15.0) < 0.35)
     colour[grid] = colour[grid] * 0.85 + 255 * 0.15
     shade = 0.55 + 0.45 * w[disk]

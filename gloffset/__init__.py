@@ -21,7 +21,7 @@ from .ellipsoidal import contains, distance
 from .errors import *  # noqa: F403  (every exception class, listed in errors.__all__)
 from .geodesic_offset import GeodesicOffset, offset
 from .geoseries import buffer
-from .index.contains import Index
+from .index.tree import Index
 from .io import geojson as _geojson
 from .raster.field import DistanceField, distance_field
 from .raster.many import mask_bands, render_many

@@ -2,7 +2,7 @@
 
 :class:`CurveArcs` holds every edge of a :class:`~gloffset.shape.Shape` (ring edges,
 seams, line segments, points) as an arc ``a -> b`` with its unit normal, its bounding cap
-(padded: :func:`gloffset.caps.arc_cap`, :func:`gloffset.caps.pad`), whether it is
+(padded: :func:`gloffset.geometry.caps.arc_cap`, :func:`gloffset.geometry.caps.pad`), whether it is
 boundary (has distance; seams do not) and its region component, and the cap trees over
 them (:attr:`CurveArcs.tree` over every arc, :attr:`CurveArcs.ring_tree` over the ring
 edges). It is the shape's one edge index: made once per shape (:meth:`Shape.arcs
@@ -17,8 +17,8 @@ nearer), and :func:`contains_xyz` the offset region's membership from it: what
 :func:`gloffset.distance` and the exact checks of the vector offsets and the index use.
 
 Accuracy: the caps contain their arcs (padded by a relative 1e-12); the crossing tests
-are those of :func:`gloffset.sphere.arcs_cross`; distances are those of
-:func:`gloffset.sphere.arc_distance` (absolute error below 1e-15 rad).
+are those of :func:`gloffset.geometry.sphere.arcs_cross`; distances are those of
+:func:`gloffset.geometry.sphere.arc_distance` (absolute error below 1e-15 rad).
 """
 
 from __future__ import annotations
@@ -29,9 +29,9 @@ from functools import cached_property
 
 import numpy as np
 
-from .caps import arc_cap, pad
-from .crossings import inside
-from .sphere import angle, arc_distance, arcs_cross, cross, normalize, robust_cross
+from .geometry.caps import arc_cap, pad
+from .geometry.crossings import inside
+from .geometry.sphere import angle, arc_distance, arcs_cross, cross, normalize, robust_cross
 
 __all__ = [
     "CurveArcs",
@@ -84,8 +84,8 @@ class CurveArcs:
     @cached_property
     def tree(self):
         """The bounding-cap tree over the arcs (built once), each arc's start ``a`` its
-        point for early answers (:meth:`gloffset.captree.CapTree.near` with ``stop``)."""
-        from .captree import CapTree
+        point for early answers (:meth:`gloffset.geometry.captree.CapTree.near` with ``stop``)."""
+        from .geometry.captree import CapTree
 
         return CapTree(self.mid, self.half, reps=self.a)
 
@@ -99,7 +99,7 @@ class CurveArcs:
         """The bounding-cap tree over the ring edges :attr:`ring` (built once): item ``k``
         is arc ``ring[k]``. What the inside tests by crossing parity and the checks of
         crossing or overlapping rings search."""
-        from .captree import CapTree
+        from .geometry.captree import CapTree
 
         return CapTree(self.mid[self.ring], self.half[self.ring])
 
@@ -185,11 +185,11 @@ def distance_xyz(shape, p: np.ndarray) -> np.ndarray:
 
     The nearest boundary vertex (one matrix product per chunk of points) gives each point
     an upper bound ``u`` on its distance; only the boundary arcs whose bounding caps come
-    within ``u`` (found with :meth:`gloffset.captree.CapTree.near` in the cap tree of
+    within ``u`` (found with :meth:`gloffset.geometry.captree.CapTree.near` in the cap tree of
     :attr:`CurveArcs.tree`) can be nearer, and those get the exact point-to-arc distance.
 
     Accuracy: the exact distance to the nearest boundary arc, vertex or isolated point,
-    with absolute error below 1e-15 rad (that of :func:`gloffset.sphere.arc_distance`).
+    with absolute error below 1e-15 rad (that of :func:`gloffset.geometry.sphere.arc_distance`).
     Seams are not boundary and do not count. The caps are padded and the tree's test
     is rigorous, so the shortcut never drops the nearest arc.
     """
@@ -216,7 +216,7 @@ def contains_xyz(shape, p: np.ndarray, d: float) -> np.ndarray:
 
     ``d > 0``: inside a polygon of the shape or within ``d`` of its curves; ``d < 0``:
     inside a polygon and farther than ``|d|`` from its boundary; ``d = 0``: inside a
-    polygon (:func:`gloffset.crossings.inside`, every point against every ring edge).
+    polygon (:func:`gloffset.geometry.crossings.inside`, every point against every ring edge).
 
     Accuracy: exact for points whose distance differs from ``|d|`` by more than
     1e-15 rad and that lie farther than 1e-15 rad from the boundary.

@@ -34,10 +34,6 @@ from dataclasses import replace
 
 import numpy as np
 
-from .caps import arc_cap, pad
-from .captree import CapTree
-from .crossings import inside as crossings_inside
-from .crossings import inside_indexed
 from .edges import distance_xyz
 from .ellipsoid import (
     as_ellipsoid,
@@ -49,9 +45,22 @@ from .ellipsoid import (
     window_scale,
 )
 from .errors import OptionError
-from .index.contains import Index, contains_on_sphere
+from .geometry.caps import arc_cap, pad
+from .geometry.captree import CapTree
+from .geometry.crossings import inside as crossings_inside
+from .geometry.crossings import inside_indexed
+from .geometry.sphere import (
+    angle,
+    arc_distance,
+    dot,
+    lonlat_to_xyz,
+    normalize,
+    robust_cross,
+    xyz_to_lonlat,
+)
+from .index.contains import contains_on_sphere
+from .index.tree import Index
 from .shape import read
-from .sphere import angle, arc_distance, dot, lonlat_to_xyz, normalize, robust_cross, xyz_to_lonlat
 from .units import EARTH_RADIUS, check_lonlat, check_radius, offset_metres
 
 __all__ = [

@@ -33,8 +33,8 @@ from .ellipsoid import as_ellipsoid, geodesic_midpoints
 from .ellipsoidal import Conformal, conformal, nearest_geodesic
 from .ellipsoidal import contains as ellipsoidal_contains
 from .errors import InvalidDistanceError
+from .geometry.sphere import angle, dot, lonlat_to_xyz, normalize, xyz_to_lonlat
 from .shape import read
-from .sphere import angle, dot, lonlat_to_xyz, normalize, xyz_to_lonlat
 from .units import EARTH_RADIUS, VECTOR_LIMIT, distance_properties, offset_metres
 from .vector.arcrings import sample_ring
 from .vector.offset import Offset
@@ -72,7 +72,7 @@ class GeodesicOffset:
         metres of geodesic distance ``|distance|`` from the curves.
     rings : list of (n, 3) arrays
         Closed rings (first point not repeated) of unit vectors of geodetic lon/lat
-        (:func:`gloffset.sphere.lonlat_to_xyz`), the region on their left.
+        (:func:`gloffset.geometry.sphere.lonlat_to_xyz`), the region on their left.
     sphere : ResolvedOffset or None
         The resolved spherical offset on the conformal sphere the rings were traced from.
     vertex_error : float

@@ -20,10 +20,10 @@ import warnings
 import numpy as np
 
 from .errors import InputFormatError, InvalidDistanceError, InvalidGeometryError
+from .geometry.sphere import angle, lonlat_to_xyz
 from .io.crs import is_lonlat
 from .io.geojson import disc_geometry, offset_feature
 from .shape import Shape
-from .sphere import angle, lonlat_to_xyz
 from .units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, to_angle
 from .vector import discs
 from .vector.offset import offset

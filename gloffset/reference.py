@@ -8,10 +8,10 @@ tens of millions of points by two safe shortcuts and bounded memory:
   distance to the shape (a matrix product picks the vertex);
 * an edge whose bounding cap (centre ``c``, radius half its length ``h``) is farther
   than ``u + h`` from the point cannot be nearest, so only the remaining candidates
-  get the exact point-to-arc distance of :func:`gloffset.sphere.arc_distance`.
+  get the exact point-to-arc distance of :func:`gloffset.geometry.sphere.arc_distance`.
 
 Inside/outside is the judge's own crossing parity (:func:`inside_xyz`), written apart
-from :mod:`gloffset.crossings`, which the production paths use. Points are processed
+from :mod:`gloffset.geometry.crossings`, which the production paths use. Points are processed
 in chunks so memory stays bounded whatever their number.
 
 **On the ellipsoid** (``ellipsoid=`` on :func:`distance` and :func:`contains_lonlat`) the
@@ -19,8 +19,8 @@ judge is brute force on pyproj's geodesics, edges sampled down to
 :data:`GEODESIC_SPACING` (:func:`geodesic_edge_distance`, :func:`geodesic_inside`).
 
 The bounds here (an edge's bounding cap, the cap test ``c.p >= cos(u + h) - 1e-12``)
-are deliberate copies of those in :mod:`gloffset.caps`, not imports, and the crossing
-test is not that of :mod:`gloffset.crossings`: the judge shares no code with what it
+are deliberate copies of those in :mod:`gloffset.geometry.caps`, not imports, and the crossing
+test is not that of :mod:`gloffset.geometry.crossings`: the judge shares no code with what it
 judges (it imports only the maths and the shape), so a wrong bound or rule there cannot
 hide itself here. Nothing in gloffset outside the tests calls the judge. The derivation in
 full: ``docs/design.md``, *Module notes*.
@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sphere import angle, arc_distance, cross, dot, lonlat_to_xyz, normalize, robust_cross
+from .geometry.sphere import angle, arc_distance, cross, dot, lonlat_to_xyz, normalize, robust_cross
 from .units import EARTH_RADIUS, check_lonlat, check_radius, to_angle
 
 __all__ = [
@@ -61,7 +61,7 @@ def points_xyz(lon, lat) -> tuple[np.ndarray, tuple]:
 
 def _ring_edges(shape) -> tuple:
     """The ring edges (seams included) grouped by region component: ends ``a``, ``b``,
-    normals ``2 a x b`` (from :func:`gloffset.sphere.robust_cross`, accurate for short
+    normals ``2 a x b`` (from :func:`gloffset.geometry.sphere.robust_cross`, accurate for short
     edges), the components present and where each one's run of edges starts."""
     e = shape.edges()
     order = np.flatnonzero(e.group >= 0)
@@ -138,7 +138,8 @@ class _EdgeIndex:
         self.a = e.a[e.boundary]
         self.b = e.b[e.boundary]
         self.n = normalize(robust_cross(self.a, self.b))
-        # deliberately not gloffset.caps.arc_cap: the judge shares no code with what it judges
+        # deliberately not gloffset.geometry.caps.arc_cap: the judge shares no code with what it
+        # judges
         mid = normalize(self.a + self.b)
         self.c = np.where(np.linalg.norm(self.a + self.b, axis=1)[:, None] > 0, mid, self.a)
         self.h = 0.5 * angle(self.a, self.b)
@@ -156,7 +157,7 @@ def distance_xyz(shape, p: np.ndarray) -> np.ndarray:
 
     Accuracy: the exact distance to the nearest boundary arc, vertex or isolated
     point, with absolute error below 1e-15 rad (that of
-    :func:`gloffset.sphere.arc_distance`). Seams are not boundary and do not count.
+    :func:`gloffset.geometry.sphere.arc_distance`). Seams are not boundary and do not count.
     """
     ix = _index(shape)
     p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
@@ -170,7 +171,7 @@ def distance_xyz(shape, p: np.ndarray) -> np.ndarray:
         best = np.argmax(q @ ix.v.T, axis=1)
         u = angle(q, ix.v[best])
         # candidate edges: cap centre within u + h (compared as dot products, with slack);
-        # a copy of gloffset.caps.cap_within on purpose (the judge shares no code)
+        # a copy of gloffset.geometry.caps.cap_within on purpose (the judge shares no code)
         lim = np.cos(np.minimum(u[:, None] + ix.h[None, :], np.pi)) - 1e-12
         rows, cols = np.nonzero((q @ ix.c.T) >= lim)
         d = arc_distance(q[rows], ix.a[cols], ix.b[cols], ix.n[cols])

@@ -33,10 +33,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arrangement import candidate_pairs, components, cycles, split
-from .caps import arc_cap, cap_within, pad
 from .errors import InvalidGeometryError
-from .sphere import (
+from .geometry.arrangement import candidate_pairs, components, cycles, split
+from .geometry.caps import arc_cap, cap_within, pad
+from .geometry.sphere import (
     angle,
     arc_distance,
     arcs_cross,
@@ -539,7 +539,7 @@ class _Union:
         n_in = np.bincount(e_id, minlength=len(v))
         bad = np.flatnonzero(n_out != n_in)
         if len(bad):
-            from .sphere import xyz_to_lonlat
+            from .geometry.sphere import xyz_to_lonlat
 
             lon, lat = xyz_to_lonlat(v[np.flatnonzero(vid == bad[0])[0]])
             raise InvalidGeometryError(

@@ -28,27 +28,25 @@ holes give it one. The derivation in full: ``docs/design.md``, *Module notes*.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .caps import arc_cap, pad
 from .errors import InputFormatError, InvalidGeometryError
-from .io import features as _features
-from .io import geojson as _gj
-from .region import unite
-from .sphere import (
-    SEAM_EPS_DEG,
+from .geometry.caps import arc_cap, pad
+from .geometry.lonlat import is_ccw, on_seam, split_meridian_edges, validate
+from .geometry.sphere import (
     angle,
     arc_distance,
     arcs_cross,
     dot,
-    lonlat_to_xyz,
     normalize,
     robust_cross,
 )
+from .io import features as _features
+from .io import geojson as _gj
+from .region import unite
 
 if TYPE_CHECKING:
     from .edges import CurveArcs
@@ -58,11 +56,6 @@ __all__ = ["Shape", "Derived", "Edges", "read"]
 # Two reference points with a known inside/outside status per region component;
 # a query uses the first unless it is nearly antipodal to it.
 _REF = normalize(np.array([[0.2897, -0.4671, 0.8353], [0.8071, 0.5663, -0.1672]]))
-#: Angle (rad) below which consecutive points count as repeated (0.6 micrometres on
-#: the Earth): shorter edges have no computable great circle in float64.
-MIN_EDGE = 1e-13
-# Angle (rad) below which two consecutive input points count as antipodal.
-_ANTIPODAL_EPS = 1e-12
 
 
 @dataclass(frozen=True)
@@ -107,7 +100,7 @@ class Derived:
     #: The distinct ends of the boundary arcs (:func:`gloffset.edges.distance_xyz`).
     boundary_vertices: np.ndarray | None = None
     #: Anchor points and their component statuses, by count
-    #: (:func:`gloffset.crossings.inside_indexed`).
+    #: (:func:`gloffset.geometry.crossings.inside_indexed`).
     anchors: dict = field(default_factory=dict)
     #: The judge's ring edges, its edge index and its densified geodesic rings by
     #: ``(a, f)`` (:mod:`gloffset.reference`, which shares nothing with the others).
@@ -118,7 +111,7 @@ class Derived:
     defects: tuple[bool, bool] | None = None
     #: The exhaustive multiresolution decomposition (:mod:`gloffset.vector.multires`).
     exhaust: Any = None
-    #: The inside test's arcs (:mod:`gloffset.index.contains`).
+    #: The inside test's arcs (:mod:`gloffset.index.arcs`).
     contains_arcs: Any = None
     #: The inside test's indexes, by ``(distance, level)`` (:mod:`gloffset.index.contains`).
     contains_indexes: dict = field(default_factory=dict)
@@ -337,7 +330,7 @@ class Shape:
             geoms.append(_gj.lines_to_geometry(lines, digits))
         points = [ln[0] for ln in self.lines if len(ln) == 1]
         if points:
-            from .sphere import xyz_to_lonlat
+            from .geometry.sphere import xyz_to_lonlat
 
             lon, lat = xyz_to_lonlat(np.asarray(points))
             geoms.append(
@@ -347,7 +340,7 @@ class Shape:
         return {"type": "Feature", "properties": {}, "geometry": geom}
 
     def _inside_group(self, p: np.ndarray, grp: int) -> np.ndarray:
-        from .crossings import inside
+        from .geometry.crossings import inside
 
         return inside(self, p, groups=[grp])
 
@@ -401,109 +394,6 @@ def read(source, *, layer=None, where: str | None = None, densify=None) -> Shape
 # ---------------------------------------------------------------------- building
 
 
-def _validate(ll: np.ndarray, label: str, *, min_points: int) -> tuple[np.ndarray, np.ndarray]:
-    """Check lon/lat, convert to unit vectors and drop repeated consecutive points."""
-    bad = ~np.isfinite(ll)
-    if bad.any():
-        i = int(np.flatnonzero(bad.any(axis=1))[0])
-        raise InvalidGeometryError(
-            f"{label} vertex {i}: coordinate is not finite ({ll[i].tolist()})"
-        )
-    badlat = np.abs(ll[:, 1]) > 90.0 + SEAM_EPS_DEG
-    if badlat.any():
-        i = int(np.flatnonzero(badlat)[0])
-        raise InvalidGeometryError(
-            f"{label} vertex {i}: latitude {float(ll[i, 1])!r} out of range [-90, 90]"
-        )
-    badlon = np.abs(ll[:, 0]) > 180.0 + SEAM_EPS_DEG
-    if badlon.any():
-        i = int(np.flatnonzero(badlon)[0])
-        raise InvalidGeometryError(
-            f"{label} vertex {i}: longitude {float(ll[i, 0])!r} out of range [-180, 180] "
-            "(longitudes are not wrapped; subtract 360 from those above 180)"
-        )
-    v = lonlat_to_xyz(ll[:, 0], ll[:, 1])
-    idx = np.arange(len(v))
-    if len(v) > 1:
-        keep = np.ones(len(v), dtype=bool)
-        keep[1:] = angle(v[1:], v[:-1]) > MIN_EDGE
-        v, idx = v[keep], idx[keep]
-    if min_points == 3 and len(v) > 1 and angle(v[0], v[-1]) <= MIN_EDGE:
-        v, idx = v[:-1], idx[:-1]
-    if len(v) < min(min_points, 2) or (min_points == 3 and len(v) < 3):
-        what = "a ring needs at least 3" if min_points == 3 else "a line needs at least 2"
-        raise InvalidGeometryError(
-            f"{label}: {what} distinct points, got {len(v)} (empty or degenerate geometry)"
-        )
-    nxt = np.roll(v, -1, axis=0) if min_points == 3 else v[1:]
-    cur = v if min_points == 3 else v[:-1]
-    if len(cur):
-        anti = np.linalg.norm(cur + nxt, axis=1) < 2.0 * np.sin(_ANTIPODAL_EPS / 2) + 1e-300
-        if anti.any():
-            i = int(np.flatnonzero(anti)[0])
-            j = idx[(i + 1) % len(idx)]
-            raise InvalidGeometryError(
-                f"{label} vertices {idx[i]} and {j}: consecutive points are antipodal, so the "
-                "great circle between them is undefined; add a point in between"
-            )
-    return v, idx
-
-
-def _on_seam(ll: np.ndarray) -> np.ndarray:
-    return (np.abs(np.abs(ll[:, 0]) - 180.0) <= SEAM_EPS_DEG) | (
-        np.abs(np.abs(ll[:, 1]) - 90.0) <= SEAM_EPS_DEG
-    )
-
-
-def _ccw(ll: np.ndarray) -> bool:
-    """Whether a lon/lat ring runs counter-clockwise, i.e. has its interior on the left.
-
-    The shoelace area decides, after unwrapping an uncut antimeridian crossing. A
-    ring that goes once round a pole without being cut (ambiguous in GeoJSON) is
-    taken to enclose the pole on its side of the equator, the smaller region: the
-    side of the mean latitude of its vertices (summed exactly, so neither the start
-    vertex nor the direction changes it), the north when that mean is exactly 0 (a
-    ring along the equator). Going round is measured on the sphere: every edge turns
-    by less than 180 deg of longitude, so vertices on +-180 deg do not cut the ring,
-    nor does an edge along the antimeridian (it turns by 0); a vertex at a pole
-    leaves the shoelace to decide (the ring passes through the pole, not round it).
-    """
-    lon = ll[:, 0].copy()
-    jump = np.diff(np.append(lon, lon[0]))
-    pole = np.abs(np.abs(ll[:, 1]) - 90.0) <= SEAM_EPS_DEG
-    turn = float(np.sum(jump - 360.0 * np.round(jump / 360.0)))
-    if abs(abs(turn) - 360.0) < 1e-6 and not pole.any():
-        # eastward travel keeps the north on the left
-        return (turn > 0) == (math.fsum(ll[:, 1].tolist()) >= 0.0)
-    seam = _on_seam(ll)
-    big = (np.abs(jump) > 180.0) & ~(seam & np.roll(seam, -1))
-    if big.any():
-        lon[1:] -= 360.0 * np.cumsum(np.round(jump[:-1] / 360.0) * big[:-1])
-    x, y = lon, ll[:, 1]
-    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) > 0
-
-
-def _split_meridian_edges(ll: np.ndarray) -> np.ndarray:
-    """Insert midpoints into ring edges that run along a meridian over 90 deg or more.
-
-    Such an edge (a whole-world ring runs from pole to pole along +-180 deg) has
-    ends that are antipodal or nearly so once the poles are snapped, so its great
-    circle would be undefined; in lon/lat it is a meridian, and the midpoint keeps it
-    one.
-    """
-    nxt = np.roll(ll, -1, axis=0)
-    long_ = (np.abs(ll[:, 0] - nxt[:, 0]) <= SEAM_EPS_DEG) & (np.abs(ll[:, 1] - nxt[:, 1]) >= 90.0)
-    if not long_.any():
-        return ll
-    out = []
-    for k in range(len(ll)):
-        out.append(ll[k])
-        if long_[k]:
-            for t in (0.25, 0.5, 0.75):
-                out.append(ll[k] + t * (nxt[k] - ll[k]))
-    return np.asarray(out)
-
-
 def _from_parts(parts: _gj.Parts) -> Shape:
     if len(parts) == 0:
         raise InvalidGeometryError("empty geometry: no polygon, line or point to offset")
@@ -515,12 +405,12 @@ def _from_parts(parts: _gj.Parts) -> Shape:
             label = f"{plabel} ring {k}"
             if len(ll) > 1 and np.array_equal(ll[0], ll[-1]):
                 ll = ll[:-1]
-            ll = _split_meridian_edges(ll)
-            v, idx = _validate(ll, label, min_points=3)
+            ll = split_meridian_edges(ll)
+            v, idx = validate(ll, label, min_points=3)
             ll_v = ll[idx]
-            on = _on_seam(ll_v)
+            on = on_seam(ll_v)
             seam = on & np.roll(on, -1)
-            if _ccw(ll_v) != (k == 0):  # exterior CCW, holes CW
+            if is_ccw(ll_v) != (k == 0):  # exterior CCW, holes CW
                 v, seam, ll_v = v[::-1].copy(), np.roll(seam[::-1], -1), ll_v[::-1]
             rings.append(v)
             seams.append(seam)
@@ -539,13 +429,13 @@ def _from_parts(parts: _gj.Parts) -> Shape:
         )
     lines, line_labels = [], []
     for ll, label in zip(parts.lines, parts.line_labels):
-        v, idx = _validate(ll, label, min_points=2)
+        v, idx = validate(ll, label, min_points=2)
         lines.append(v)
         line_labels.append(label)
         src.lines.append(ll[idx])
         src.line_labels.append(label)
     for ll, label in zip(parts.points, parts.point_labels):
-        v, _ = _validate(ll, label, min_points=1)
+        v, _ = validate(ll, label, min_points=1)
         lines.append(v[:1])
         line_labels.append(label)
         src.points.append(ll[:1])
@@ -657,7 +547,7 @@ def _overlapping_components(shape: Shape) -> np.ndarray:
     if shape.n_groups < 2:
         return np.zeros((0, 2), dtype=np.int64)
     from .edges import component_status
-    from .sphere import orient
+    from .geometry.sphere import orient
 
     arcs = shape.arcs()
     ring = arcs.ring
@@ -667,7 +557,7 @@ def _overlapping_components(shape: Shape) -> np.ndarray:
     i, j = i[other], j[other]
     if len(i):
         # a proper crossing: each arc strictly separates the other's ends, on the
-        # same side of the sphere (the rule of gloffset.sphere.arcs_cross, strict)
+        # same side of the sphere (the rule of gloffset.geometry.sphere.arcs_cross, strict)
         # (sides measured as angles to the great circle; within 1e-13 rad counts as
         # touching, so borders shared up to rounding are not overlaps)
         ni = np.linalg.norm(np.cross(a[i], b[i]), axis=1)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import spherely
 
-from gloffset.sphere import xyz_to_lonlat
+from gloffset.geometry.sphere import xyz_to_lonlat
 
 
 def _lonlat(ring: np.ndarray) -> list:

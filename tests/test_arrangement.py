@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from gloffset.arrangement import candidate_pairs, components, cycles, split
-from gloffset.caps import arc_cap
+from gloffset.geometry.arrangement import candidate_pairs, components, cycles, split
+from gloffset.geometry.caps import arc_cap
 from gloffset.shape import read
 
 

@@ -1,9 +1,9 @@
-"""The error bounds stated in gloffset.caps, against extended precision (np.longdouble)."""
+"""The error bounds stated in gloffset.geometry.caps, against extended precision (np.longdouble)."""
 
 import numpy as np
 
-from gloffset import caps
-from gloffset.caps import (
+from gloffset.geometry import caps
+from gloffset.geometry.caps import (
     CAP_SLACK,
     angle_of_chord,
     arc_cap,
@@ -14,8 +14,8 @@ from gloffset.caps import (
     cos_sum_lower,
     pad,
 )
+from gloffset.geometry.sphere import angle, arc_distance, dot, normalize, rotate, slerp
 from gloffset.raster.vector import levels as hierarchy
-from gloffset.sphere import angle, arc_distance, dot, normalize, rotate, slerp
 
 rng = np.random.default_rng(11)
 # angles at every scale, from 1e-12 rad (6 micrometres) to pi

@@ -8,7 +8,7 @@ from conftest import uniform_sphere
 
 import gloffset
 from gloffset import InvalidGeometryError, InvalidLevelError, reference
-from gloffset.sphere import (
+from gloffset.geometry.sphere import (
     angle,
     arc_distance,
     lonlat_to_xyz,
@@ -19,7 +19,8 @@ from gloffset.sphere import (
     xyz_to_lonlat,
 )
 
-fast = importlib.import_module("gloffset.index.contains")
+tree = importlib.import_module("gloffset.index.tree")
+arcs = importlib.import_module("gloffset.index.arcs")
 
 N = 20_000
 LON, LAT = uniform_sphere(N, seed=21)
@@ -164,8 +165,8 @@ def test_eq9_matches_the_exact_distance():
     r = 10 ** rng.uniform(-8, 0.5, n)
     nrm = normalize(robust_cross(a, b))
     g = np.hstack([a, b, nrm, np.cross(nrm, a), np.cross(b, nrm)])
-    chord2, sin_r = fast._radius_terms(r, np.zeros(n, dtype=bool))
-    got = fast._within(p, g, chord2, sin_r)
+    chord2, sin_r = arcs.radius_terms(r, np.zeros(n, dtype=bool))
+    got = arcs.within(p, g, chord2, sin_r)
     dist = arc_distance(p, a, b, nrm)
     clear = np.abs(dist - r) > 1e-14
     assert np.array_equal(got[clear], (dist <= r)[clear])
@@ -233,7 +234,7 @@ def test_short_edges_keep_their_side(world):
 
 
 def test_row_kernels_are_numpy_bit_for_bit():
-    from gloffset.sphere import cross, dot, norm
+    from gloffset.geometry.sphere import cross, dot, norm
 
     rng = np.random.default_rng(12)
     u, v = rng.normal(size=(1000, 3)), rng.normal(size=(1000, 3))
@@ -294,8 +295,8 @@ def test_cell_budget_keeps_simplified_arcs_and_every_answer(world, monkeypatch, 
         if len(s.rings) == 1
         else {"type": "MultiPolygon", "coordinates": [[_densified(r, 10)] for r in s.rings]}
     )
-    monkeypatch.setattr(fast, "BUILD_CELLS", budget)
-    monkeypatch.setattr(fast, "LEAF_PAIRS", 2)
+    monkeypatch.setattr(tree, "BUILD_CELLS", budget)
+    monkeypatch.setattr(tree, "LEAF_PAIRS", 2)
     floors = []
     for shape in (s, dense):
         lon, lat = box(shape, 6000, seed=8)
@@ -303,7 +304,7 @@ def test_cell_budget_keeps_simplified_arcs_and_every_answer(world, monkeypatch, 
         lon, lat = np.r_[lon, nl], np.r_[lat, nt]
         for d in (0.0, 0.004, -0.002):
             ix = gloffset.Index(shape, d, radius=1.0)
-            assert ix.depth < fast.DEFAULT_DEPTH, ix.depth
+            assert ix.depth < tree.DEFAULT_DEPTH, ix.depth
             floors.append(ix.floor)
             want = reference.contains_lonlat(shape, lon, lat, distance=d, radius=1.0)
             assert np.array_equal(ix.contains(lon, lat), want), (budget, d)
@@ -343,8 +344,8 @@ def test_simplified_leaves_keep_a_detail_the_coarse_levels_miss(monkeypatch, d):
     beside a needle that the coarse levels cut off get the reference's answer: the
     arcs' error bounds widen every test that uses a simplified arc."""
     s = gloffset.read(_spiked_square())
-    monkeypatch.setattr(fast, "BUILD_CELLS", 1 << 6)
-    monkeypatch.setattr(fast, "LEAF_PAIRS", 1)
+    monkeypatch.setattr(tree, "BUILD_CELLS", 1 << 6)
+    monkeypatch.setattr(tree, "LEAF_PAIRS", 1)
     ix = gloffset.Index(s, d, radius=1.0)
     assert ix.floor > 0
     rng = np.random.default_rng(3)

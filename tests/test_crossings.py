@@ -6,8 +6,8 @@ import numpy as np
 from conftest import DATA, SQUARE_WITH_HOLE, uniform_sphere
 
 import gloffset
-from gloffset import crossings
-from gloffset.sphere import lonlat_to_xyz, normalize
+from gloffset.geometry import crossings
+from gloffset.geometry.sphere import lonlat_to_xyz, normalize
 
 
 def _points(shape, n=4000, seed=0):

@@ -22,8 +22,8 @@ from gloffset.ellipsoid import (
     lower_distance,
     upper_distance,
 )
+from gloffset.geometry.sphere import arc_distance, lonlat_to_xyz
 from gloffset.reference import geodesic_edge_distance
-from gloffset.sphere import arc_distance, lonlat_to_xyz
 
 pyproj = pytest.importorskip("pyproj")
 WGS84 = as_ellipsoid("WGS84")

@@ -46,7 +46,7 @@ def _near_offset(shape, d, n, seed):
     e = shape.edges()
     v = e.a[e.boundary]
     k = rng.integers(0, len(v), n)
-    lon, lat = gloffset.sphere.xyz_to_lonlat(v[k])
+    lon, lat = gloffset.geometry.sphere.xyz_to_lonlat(v[k])
     dist = abs(d) * rng.uniform(0.98, 1.02, n)
     dist[: n // 5] = rng.uniform(0.0, 30.0, n // 5)  # near the boundary itself
     plon, plat, _ = GEOD.fwd(lon, lat, rng.uniform(0, 360, n), dist)
@@ -205,7 +205,9 @@ def _check_render(shape, grid, d, pixel_m):
     mask = gloffset.render(shape, d, grid, ellipsoid="WGS84")
     h, w = grid.level_shape(grid.n_levels - 1)
     j, i = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
-    lon, lat = gloffset.sphere.xyz_to_lonlat(grid.centers(grid.n_levels - 1, j.ravel(), i.ravel()))
+    lon, lat = gloffset.geometry.sphere.xyz_to_lonlat(
+        grid.centers(grid.n_levels - 1, j.ravel(), i.ravel())
+    )
     truth = reference.contains_lonlat(shape, lon, lat, distance=d, ellipsoid="WGS84")
     got = mask.ravel() == 255
     wrong = np.flatnonzero(got != truth)
@@ -231,7 +233,7 @@ def test_render_z16_tile_on_the_ellipsoid(mexico):
     from gloffset.grids import Tile
 
     e = mexico.edges()
-    lon, lat = gloffset.sphere.xyz_to_lonlat(e.a[e.boundary][1000])
+    lon, lat = gloffset.geometry.sphere.xyz_to_lonlat(e.a[e.boundary][1000])
     t = mercantile.tile(float(lon), float(lat), 16)
     for d in (-50.0, 10.0):
         mask = _check_render(mexico, Tile(16, t.x, t.y, 16), d, 38.0)
@@ -273,9 +275,9 @@ def test_conformal_rows_bound_their_cells():
     """ConformalRows: rows at the conformal latitudes of the grid's, and bounds rho that
     hold every child centre (the level hierarchy's rule)."""
     from gloffset.ellipsoid import as_ellipsoid
+    from gloffset.geometry.sphere import angle
     from gloffset.grids import Equirect
     from gloffset.grids.conformal import ConformalRows
-    from gloffset.sphere import angle
 
     ell = as_ellipsoid("WGS84")
     base = Equirect(256, 128)
@@ -368,8 +370,8 @@ def test_conformal_tile_pyramid_bounds():
     bounds from the sphere's equator tiles: every conformal tile of zooms 0-12 is within
     them, and its centres are the conformal images of the tiles' centres."""
     from gloffset.ellipsoid import as_ellipsoid
+    from gloffset.geometry.sphere import xyz_to_lonlat
     from gloffset.grids.mercator import TilePyramid
-    from gloffset.sphere import xyz_to_lonlat
 
     ell = as_ellipsoid("WGS84")
     sphere, conf = TilePyramid(12), TilePyramid(12, ell)

@@ -8,12 +8,12 @@ import pytest
 from conftest import LINES, SQUARE_WITH_HOLE
 
 import gloffset
+from gloffset.geometry.sphere import arc_distance, dot, slerp
 from gloffset.grids import Cube, Equirect, Tile
 from gloffset.raster import gpu
 from gloffset.raster import records as E
 from gloffset.raster.vector.curves import classify_curves as classify
 from gloffset.raster.vector.levels import Frontier, cell_distances
-from gloffset.sphere import arc_distance, dot, slerp
 
 POINTS = {"type": "MultiPoint", "coordinates": [[30, 60], [31, 60.5], [-120, -20]]}
 

@@ -311,8 +311,8 @@ def test_bisector_pruning_is_rigorous():
     included), caps large and small, near and far."""
     from types import SimpleNamespace
 
+    from gloffset.geometry.sphere import angle, normalize, rotate
     from gloffset.raster.field import _maybe_nearer
-    from gloffset.sphere import angle, normalize, rotate
 
     rng = np.random.default_rng(11)
     n = 4000

@@ -547,7 +547,7 @@ def _tile_output(shape_fn, distance, tile_fn, **kw):
 def _border_tile(z: int, size: int = 256):
     """The XYZ tile at zoom ``z`` of the first vertex of Mexico's longest ring."""
     ring = max(mexico().rings, key=len)
-    lon, lat = gloffset.sphere.xyz_to_lonlat(ring[:1])
+    lon, lat = gloffset.geometry.sphere.xyz_to_lonlat(ring[:1])
     t = mercantile.tile(float(lon[0]), float(lat[0]), z)
     return Tile(t.z, t.x, t.y, size)
 

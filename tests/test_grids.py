@@ -6,8 +6,8 @@ import pytest
 from test_render import assert_matches_reference
 
 import gloffset
+from gloffset.geometry.sphere import angle, lonlat_to_xyz
 from gloffset.grids import Cube, CubeFace, Equirect, InvalidGridError, Tile, locate
-from gloffset.sphere import angle, lonlat_to_xyz
 
 
 @pytest.mark.parametrize(

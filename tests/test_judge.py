@@ -13,8 +13,9 @@ from conftest import uniform_sphere
 from spherely_ref import boundary, points, polygons
 
 import gloffset
-from gloffset import crossings, edges, reference
-from gloffset.sphere import lonlat_to_xyz, slerp, xyz_to_lonlat
+from gloffset import edges, reference
+from gloffset.geometry import crossings
+from gloffset.geometry.sphere import lonlat_to_xyz, slerp, xyz_to_lonlat
 
 HARD = ("Fiji", "Russia", "Antarctica", "Canada", "Chile")
 

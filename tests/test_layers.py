@@ -8,14 +8,14 @@ from pathlib import Path
 
 import pytest
 
-from gloffset import classes
+from gloffset.geometry import classes
 from gloffset.gl import vector_pass as gl_engine
 from gloffset.gl.context import shared
 from gloffset.gl.shaders import SHADER_DIR
 from gloffset.raster import records
 
-PACKAGE = Path(classes.__file__).resolve().parent
-GL_MAY_IMPORT = ("gloffset.gl", "gloffset.errors", "gloffset.classes")
+PACKAGE = Path(classes.__file__).resolve().parents[1]
+GL_MAY_IMPORT = ("gloffset.gl", "gloffset.errors", "gloffset.geometry.classes")
 
 
 def _imports(path: Path, package: str) -> set[str]:
@@ -108,10 +108,10 @@ def test_nothing_outside_the_tests_imports_the_judge():
 
 
 def test_the_judge_imports_only_the_maths_and_the_shape():
-    """The reference has its own crossing test and distance (no gloffset.crossings, no
+    """The reference has its own crossing test and distance (no gloffset.geometry.crossings, no
     gloffset.edges): the two implementations check each other."""
     mods = _imports(PACKAGE / "reference.py", "gloffset")
-    allowed = ("gloffset.sphere", "gloffset.units", "gloffset.errors", "gloffset.shape")
+    allowed = ("gloffset.geometry.sphere", "gloffset.units", "gloffset.errors", "gloffset.shape")
     assert mods and all(m in allowed for m in mods), sorted(mods)
 
 

@@ -1,11 +1,11 @@
-"""The allocator's settings for pyramids (gloffset.malloc)."""
+"""The allocator's settings for pyramids (gloffset.raster.pyramid.malloc)."""
 
 import ctypes
 import platform
 
 import pytest
 
-from gloffset.malloc import keep_freed_memory
+from gloffset.raster.pyramid.malloc import keep_freed_memory
 
 
 def test_keep_freed_memory_sets_glibc_once():

@@ -11,7 +11,7 @@ from hypothesis.extra import numpy as hnp
 
 import gloffset
 from gloffset import InvalidLevelError
-from gloffset.sphere import angle, arc_distance, slerp
+from gloffset.geometry.sphere import angle, arc_distance, slerp
 
 
 def circle_ring(n, radius_deg=5.0, wobble=0.0, seed=0):

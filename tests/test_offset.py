@@ -8,7 +8,7 @@ from hypothesis.extra import numpy as hnp
 
 import gloffset
 from gloffset import InvalidDistanceError
-from gloffset.sphere import angle, arc_distance, lonlat_to_xyz
+from gloffset.geometry.sphere import angle, arc_distance, lonlat_to_xyz
 from gloffset.vector.arcrings import sample_arc
 
 T = np.linspace(0.0, 1.0, 7)

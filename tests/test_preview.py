@@ -46,7 +46,7 @@ def test_globe_pixels_agree_with_contains(source, d, center):
     pick = np.random.default_rng(0).choice(len(rows), 6000, replace=False)
     rows, cols = rows[pick], cols[pick]
     p = dirs[rows, cols]
-    lon, lat = gloffset.sphere.xyz_to_lonlat(p)
+    lon, lat = gloffset.geometry.sphere.xyz_to_lonlat(p)
     dist = gloffset.distance(shape, lon, lat)
     inside = gloffset.contains(shape, lon, lat, distance=d)
     # the cube map decides at its texels' centres: leave out pixels within a texel

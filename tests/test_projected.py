@@ -12,7 +12,7 @@ from conftest import DATA
 
 import gloffset
 from gloffset.cli import main
-from gloffset.sphere import xyz_to_lonlat
+from gloffset.geometry.sphere import xyz_to_lonlat
 
 pyogrio = pytest.importorskip("pyogrio")
 pyproj = pytest.importorskip("pyproj")

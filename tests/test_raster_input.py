@@ -22,6 +22,7 @@ from PIL import Image
 import gloffset
 from gloffset.cli import main
 from gloffset.errors import InvalidDistanceError
+from gloffset.geometry.sphere import angle, arc_distance, lonlat_to_xyz, slerp
 from gloffset.gl import get_context
 from gloffset.gl.shaders import program
 from gloffset.grids import Cube, CubeFace, Equirect
@@ -36,7 +37,6 @@ from gloffset.raster.rasterized import (
     rasterize,
 )
 from gloffset.reference import distance_xyz
-from gloffset.sphere import angle, arc_distance, lonlat_to_xyz, slerp
 
 WORLD = Equirect(512, 256)
 GLSL = Path(__file__).parent / "glsl"

@@ -8,7 +8,7 @@ from spherely_ref import boundary, points, polygons
 
 import gloffset
 from gloffset import reference
-from gloffset.sphere import arc_distance, lonlat_to_xyz, slerp
+from gloffset.geometry.sphere import arc_distance, lonlat_to_xyz, slerp
 
 N = 100_000
 LON, LAT = uniform_sphere(N, seed=1)
@@ -21,7 +21,7 @@ S2_INVALID = {"Sudan"}
 
 def brute_inside(shape, lon, lat):
     """Ray parity against every ring edge with a slow per-point loop (no shortcuts)."""
-    from gloffset.sphere import arcs_cross
+    from gloffset.geometry.sphere import arcs_cross
 
     p = lonlat_to_xyz(lon, lat)
     refs, status = shape.reference_points()
@@ -144,7 +144,7 @@ def test_chunking_gives_the_same_answer(monkeypatch):
     lon, lat = uniform_sphere(5000, seed=9)
     full = reference.contains_lonlat(s, lon, lat, distance=1e5)
     monkeypatch.setattr(reference, "_PAIRS", 7)
-    from gloffset import crossings
+    from gloffset.geometry import crossings
 
     monkeypatch.setattr(crossings, "_PAIRS", 5)
     assert np.array_equal(full, reference.contains_lonlat(s, lon, lat, distance=1e5))

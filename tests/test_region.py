@@ -18,9 +18,9 @@ from conftest import DATA
 from test_selfintersect import assert_on_distance, assert_region
 
 import gloffset
+from gloffset.geometry.sphere import lonlat_to_xyz, normalize
 from gloffset.grids import Equirect, Tile
 from gloffset.reference import contains_xyz, distance_xyz
-from gloffset.sphere import lonlat_to_xyz, normalize
 
 R = gloffset.EARTH_RADIUS
 # edges of the 10m borders are straight in lon/lat for shapely and great circles for
@@ -466,7 +466,7 @@ def test_inward_offsets_of_every_country(countries):
             keep = np.abs(distance_xyz(shape, near) - abs(d)) > 1e-9
             got = res.contains_xyz(near[keep])
             want = gloffset.contains(
-                shape, *gloffset.sphere.xyz_to_lonlat(near[keep]), distance=d, radius=1.0
+                shape, *gloffset.geometry.sphere.xyz_to_lonlat(near[keep]), distance=d, radius=1.0
             )
             assert np.array_equal(got, want), name
             assert np.array_equal(want, contains_xyz(shape, near[keep], d)), name
@@ -516,7 +516,7 @@ def test_planet_union_against_shapely():
 def _crosses_itself(ring):
     """Whether two edges of a closed lon/lat ring (great-circle edges) cross, edges that
     share an end excepted."""
-    from gloffset.sphere import arcs_cross
+    from gloffset.geometry.sphere import arcs_cross
 
     v = lonlat_to_xyz(ring[:-1, 0], ring[:-1, 1])
     a, b = v, np.roll(v, -1, axis=0)

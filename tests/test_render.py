@@ -21,7 +21,7 @@ def pixel_centers(grid):
 def boundary_distance(shape, p):
     """Distance to ring edges including seams (where the inside status changes)."""
     from gloffset.edges import CurveArcs
-    from gloffset.sphere import arc_distance
+    from gloffset.geometry.sphere import arc_distance
 
     arcs = CurveArcs.from_shape(shape)
     ring = arcs.group >= 0

@@ -54,7 +54,7 @@ def test_every_start_level_gives_the_hierarchys_classes(world, what, d, grid):
 @pytest.mark.parametrize("what, d, grid", CASES[:4])
 def test_candidate_lists_are_complete(world, what, d, grid):
     """Every arc within e + rho of a frontier cell's centre is on its list."""
-    from gloffset.sphere import arc_distance
+    from gloffset.geometry.sphere import arc_distance
 
     shape = _shape(world, what)
     arcs = CurveArcs.from_shape(shape)

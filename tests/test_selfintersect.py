@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import gloffset
-from gloffset.captree import CapTree
+from gloffset.geometry.captree import CapTree
+from gloffset.geometry.sphere import angle, lonlat_to_xyz, normalize
 from gloffset.reference import contains_xyz, distance_xyz
-from gloffset.sphere import angle, lonlat_to_xyz, normalize
 from gloffset.vector.arcrings import sample_arc
 from gloffset.vector.paper import algorithm1
 from gloffset.vector.selfintersect import MIN_DISTANCE
@@ -172,7 +172,7 @@ def test_captree_queries_are_supersets():
     si, ii = tree.along(a, b)
     got = set(zip(si.tolist(), ii.tolist()))
     for k in range(0, len(a), 25):
-        near = np.nonzero(gloffset.sphere.arc_distance(c, a[k], b[k]) <= r)[0]
+        near = np.nonzero(gloffset.geometry.sphere.arc_distance(c, a[k], b[k]) <= r)[0]
         assert {(k, int(i)) for i in near} <= got
 
 
@@ -443,7 +443,7 @@ def test_mexico_10m(mexico_path):
 def _s2_polygon(s2, rings):
     loops = []
     for ring in rings:
-        lon, lat = gloffset.sphere.xyz_to_lonlat(ring)
+        lon, lat = gloffset.geometry.sphere.xyz_to_lonlat(ring)
         loop = s2.S2Loop(
             [s2.S2LatLng.FromDegrees(float(b), float(a)).ToPoint() for a, b in zip(lon, lat)]
         )
@@ -475,7 +475,7 @@ def test_against_s2_buffer(world, name, d):
     p = sample_near(shape, d, 3000, seed=5)
     far = np.abs(distance_xyz(shape, p) - d) > 2 * band
     p = p[far]
-    lon, lat = gloffset.sphere.xyz_to_lonlat(p)
+    lon, lat = gloffset.geometry.sphere.xyz_to_lonlat(p)
     s2_in = np.array(
         [
             out.Contains(s2.S2LatLng.FromDegrees(float(b), float(a)).ToPoint())

@@ -7,7 +7,7 @@ import shapely.geometry as sg
 
 import gloffset
 from gloffset import InputFormatError, InvalidGeometryError
-from gloffset.sphere import xyz_to_lonlat
+from gloffset.geometry.sphere import xyz_to_lonlat
 
 SQUARE = {"type": "Polygon", "coordinates": [[[0, 0], [10, 0], [10, 10], [0, 10], [0, 0]]]}
 
@@ -171,8 +171,8 @@ def test_to_geojson_round_trip(world, name):
 def test_one_edge_index_kept_on_the_shape_and_left_out_of_a_pickle(world):
     import pickle
 
-    from gloffset import crossings
     from gloffset.edges import CurveArcs, distance_xyz
+    from gloffset.geometry import crossings
     from gloffset.vector.arrangement import defects
 
     s = gloffset.read(world["France"])

@@ -12,11 +12,11 @@ from conftest import DATA
 from test_render import boundary_distance
 
 import gloffset
+from gloffset.geometry.sphere import arc_distance
 from gloffset.grids import CubeFace, Equirect, Tile
 from gloffset.raster import render as render_mod
 from gloffset.raster import simplified as simp
 from gloffset.reference import contains_xyz, distance_xyz
-from gloffset.sphere import arc_distance
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gloffset.sphere import (
+from gloffset.geometry.sphere import (
     angle,
     arc_distance,
     arcs_cross,
@@ -96,7 +96,7 @@ def test_rotate_preserves_angle():
 def test_einsum_dot_is_einsum_bit_for_bit():
     """``einsum_dot`` gives einsum's bits, the sign of zero included (the GPU records
     are compared byte for byte), on (k, 3) arrays and on (3, k) rows taken as ``.T``."""
-    from gloffset.sphere import einsum_dot
+    from gloffset.geometry.sphere import einsum_dot
 
     rng = np.random.default_rng(5)
     u, v = rng.normal(size=(5000, 3)), rng.normal(size=(5000, 3))
@@ -109,7 +109,7 @@ def test_einsum_dot_is_einsum_bit_for_bit():
 
 
 def test_pair_dots_are_einsum_bits():
-    from gloffset.sphere import pair_dots
+    from gloffset.geometry.sphere import pair_dots
 
     rng = np.random.default_rng(3)
     u, v = rng.normal(size=(100, 3)), rng.normal(size=(80, 3))

@@ -21,13 +21,13 @@ from PIL import Image, ImageDraw
 import gloffset
 from gloffset.cli import main
 from gloffset.edges import CurveArcs
+from gloffset.geometry.sphere import angle, arc_distance, lonlat_to_xyz
 from gloffset.grids import Tile
 from gloffset.grids.mercator import TilePyramid
 from gloffset.io.png import palette_png
 from gloffset.raster.pyramid import TilesError, parse_zooms, pyramid
 from gloffset.raster.pyramid.tilepaint import TileStyle
 from gloffset.reference import contains_xyz, distance_xyz
-from gloffset.sphere import angle, arc_distance, lonlat_to_xyz
 
 SIZE = 64
 EPS = 1e-3  # of a pixel, as in test_render
@@ -237,7 +237,7 @@ def test_directory_output_with_links_and_outline(tmp_path):
 
 def _outline_per_arc(arcs, which, center, r, z, x, y, size):
     """The outline's points arc by arc with scalar maths (as drawn before OutlineArcs)."""
-    from gloffset.sphere import xyz_to_lonlat
+    from gloffset.geometry.sphere import xyz_to_lonlat
 
     out = []
     world = float((1 << z) * size)

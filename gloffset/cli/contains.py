@@ -13,7 +13,8 @@ import numpy as np
 
 from ..ellipsoidal import contains as ellipsoidal_contains
 from ..errors import InputFormatError
-from ..index.contains import Index, depth_for
+from ..index.contains import depth_for
+from ..index.tree import Index
 from ..io.features import features, load
 from ..io.output import check_output, open_output
 from ..shape import read

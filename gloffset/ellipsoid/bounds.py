@@ -34,7 +34,7 @@ __all__ = [
 #: conformal latitude and the spherical distances).
 REL_SLACK = 1e-11
 #: Absolute slack (radians) on the spherical distances handed in: those of
-#: :mod:`gloffset.sphere` are good to 1e-15 rad, and the conformal sphere's unit
+#: :mod:`gloffset.geometry.sphere` are good to 1e-15 rad, and the conformal sphere's unit
 #: vectors to a few ulp.
 ABS_SLACK = 1e-14
 

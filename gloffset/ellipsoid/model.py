@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InvalidEllipsoidError
-from ..sphere import lonlat_to_xyz
+from ..geometry.sphere import lonlat_to_xyz
 
 __all__ = ["ELLIPSOIDS", "MAX_FLATTENING", "Ellipsoid", "as_ellipsoid"]
 

@@ -8,7 +8,7 @@ their bin's class (``shaders/upsample.frag``). The planner
 :class:`CurveLevel`: the records of the intersected cells near each bin, the per-row
 thresholds rounded outward, the cells' offsets from their bins), hands it to a run of
 :class:`RasterizedPasses` level by level, and decides in float64 the cells a pass wrote as
-ambiguous (:data:`gloffset.classes.AMBIGUOUS`) before the next level. This module only
+ambiguous (:data:`gloffset.geometry.classes.AMBIGUOUS`) before the next level. This module only
 uploads, draws and reads back; it knows no grid or curve.
 
 A run on a grid whose rows are parallels (:meth:`RasterizedPasses.lonlat`) draws each level

@@ -23,9 +23,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..caps import pad
 from ..errors import InvalidGridError
-from ..sphere import angle
+from ..geometry.caps import pad
+from ..geometry.sphere import angle
 
 __all__ = [
     "InvalidGridError",

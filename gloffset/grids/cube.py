@@ -28,8 +28,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..caps import pad
-from ..sphere import angle, normalize
+from ..geometry.caps import pad
+from ..geometry.sphere import angle, normalize
 from .base import InvalidGridError, LevelHierarchy, Square, check_size
 
 __all__ = [

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import mercantile
 import numpy as np
 
-from ..caps import pad
-from ..sphere import angle
+from ..geometry.caps import pad
+from ..geometry.sphere import angle
 from .base import InvalidGridError, LonLatGrid, Square, rect_radius
 
 __all__ = [
@@ -221,7 +221,7 @@ class TilePyramid:
 
         ``rect_radius`` is exact but loses digits for tiny tiles (arccos near 1); the
         corners, the farthest points of every tile below zoom 0, are measured with
-        the robust :func:`gloffset.sphere.angle` too and the larger value is kept.
+        the robust :func:`gloffset.geometry.sphere.angle` too and the larger value is kept.
         Rows are computed once each: a call's few distinct rows are looked up in (and
         added to) a memo of the pyramid's, many are computed as they come.
         """

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..sphere import angle, lonlat_to_xyz
+from ..geometry.sphere import angle, lonlat_to_xyz
 
 __all__ = ["MAX_LEVEL", "anchors", "radii", "locate", "children"]
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputFormatError
-from ..sphere import arc_distance, lonlat_to_xyz
+from ..geometry.sphere import arc_distance, lonlat_to_xyz
 from ..units import EARTH_RADIUS, first_not_finite, parse_distance
 
 __all__ = ["DENSIFY_TOLERANCE", "densify", "densify_tolerance", "is_lonlat", "to_lonlat"]
@@ -153,7 +153,7 @@ def densify(transform, parts: list[np.ndarray], tolerance: float | None = None) 
     halved (adaptively, all edges at once) until the great-circle arc between
     consecutive points lies within the tolerance of that line: the line's images at a
     quarter, half and three quarters of each piece are within the tolerance of the
-    piece's arc (:func:`gloffset.sphere.arc_distance`). ``tolerance`` is an angle on the
+    piece's arc (:func:`gloffset.geometry.sphere.arc_distance`). ``tolerance`` is an angle on the
     unit sphere (:func:`densify_tolerance`); None: :data:`DENSIFY_TOLERANCE` metres or a
     hundredth of the edge's chord (its arc to 1e-6 below 100 m), whichever is smaller.
     The added points are the transforms of points of the line: the original vertices are

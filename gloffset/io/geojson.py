@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputFormatError, OptionError
-from ..sphere import normalize, xyz_to_lonlat
+from ..geometry.sphere import normalize, xyz_to_lonlat
 from ..units import distance_properties
 
 __all__ = [

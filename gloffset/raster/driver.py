@@ -16,7 +16,8 @@ them into one class array per level (:func:`classes_of_level`, dense, with the `
 (float64 numpy, every level), or the classifier down to a hand-off level and a GL
 backend (:mod:`gloffset.gl`) below it (:func:`run`).
 
-Class codes: :data:`OUTSIDE`, :data:`FRONTIER`, :data:`CONTAINED` (:mod:`gloffset.classes`).
+Class codes: :data:`OUTSIDE`, :data:`FRONTIER`, :data:`CONTAINED`
+(:mod:`gloffset.geometry.classes`).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ..classes import CONTAINED, FRONTIER, OUTSIDE
+from ..geometry.classes import CONTAINED, FRONTIER, OUTSIDE
 from ..grids.protocol import Grid
 
 __all__ = [

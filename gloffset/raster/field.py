@@ -29,12 +29,12 @@ import math
 
 import numpy as np
 
-from ..caps import CAP_SLACK, cap_range, pad
-from ..classes import CONTAINED
 from ..errors import OptionError
+from ..geometry.caps import CAP_SLACK, cap_range, pad
+from ..geometry.classes import CONTAINED
+from ..geometry.sphere import angle, arc_distance, pair_dots
 from ..grids.protocol import Image
 from ..shape import read
-from ..sphere import angle, arc_distance, pair_dots
 from ..units import EARTH_RADIUS, RASTER_LIMIT, check_radius, offset_angle, to_angle
 from .simplified import band_members
 from .vector import curves
@@ -320,7 +320,8 @@ def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, lea
 
     Branch and bound, rigorous both ways: a pair's run lies no nearer to the centre than
     its lower bound (the angle to the node's cap centre less the cap's radius,
-    :func:`~gloffset.caps.cap_range`, widened by :data:`~gloffset.caps.CAP_SLACK`; or the
+    :func:`~gloffset.geometry.caps.cap_range`, widened by
+    :data:`~gloffset.geometry.caps.CAP_SLACK`; or the
     exact distance to its arc less its error bound), and no farther than the exact
     distance to its arc plus its error bound. A pair whose lower bound exceeds the least
     upper bound of the cell by more than ``2 reach`` (by nothing at the output level) is
@@ -398,15 +399,16 @@ def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, lea
     return g, dist
 
 
-#: Pairs per call of :func:`~gloffset.sphere.arc_distance` in :func:`_exact` (its
+#: Pairs per call of :func:`~gloffset.geometry.sphere.arc_distance` in :func:`_exact` (its
 #: temporaries then stay in the processor's caches: about twice as fast as one call).
 _CHUNK = 1 << 16
 
 
 def _exact(c, cell, nodes: NodeArcs, node) -> np.ndarray:
-    """Return :func:`~gloffset.sphere.arc_distance` from ``c[cell]`` to the arcs of ``node``.
+    """Return the distances from ``c[cell]`` to the arcs of ``node``.
 
-    The same bits, in chunks of :data:`_CHUNK` pairs.
+    :func:`~gloffset.geometry.sphere.arc_distance`, the same bits, in chunks of
+    :data:`_CHUNK` pairs.
     """
     out = np.empty(len(cell))
     for s in range(0, len(cell), _CHUNK):

@@ -14,10 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import OptionError
+from ..geometry.sphere import lonlat_to_xyz, normalize
 from ..grids import Cube
 from ..io.png import parse_color
 from ..shape import read
-from ..sphere import lonlat_to_xyz, normalize
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle
 from .render import render_angle
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..classes import FRONTIER
+from ..geometry.classes import FRONTIER
 from .vector.levels import Frontier
 
 __all__ = ["BinLayout"]

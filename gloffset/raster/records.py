@@ -24,10 +24,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..caps import CAP_SLACK, cap_range, chord2
 from ..edges import CurveArcs
 from ..errors import GLContextError
-from ..sphere import dot, einsum_dot
+from ..geometry.caps import CAP_SLACK, cap_range, chord2
+from ..geometry.sphere import dot, einsum_dot
 from .vector.levels import Frontier
 
 __all__ = [
@@ -119,8 +119,8 @@ def _arc_terms(f: Frontier, arcs: CurveArcs, ci, ai, e: float):
 
     Made in float64 in blocks of pairs, coordinate by coordinate (rows of
     :attr:`CurveArcs.columns` and of the centres), then cast once per block. Dot products
-    are :func:`gloffset.sphere.dot` or :func:`gloffset.sphere.einsum_dot` of the rows (as
-    ``.T`` views): the records' bits are those of the (pairs, 3) computation.
+    are :func:`gloffset.geometry.sphere.dot` or :func:`gloffset.geometry.sphere.einsum_dot` of the
+    rows (as ``.T`` views): the records' bits are those of the (pairs, 3) computation.
     """
     npair = len(ci)
     se = math.sin(e)

@@ -13,10 +13,10 @@ import numpy as np
 from ..ellipsoid import as_ellipsoid
 from ..ellipsoidal import conformal, decide, members, thresholds
 from ..errors import OptionError
+from ..geometry.sphere import xyz_to_lonlat
 from ..grids.conformal import ConformalRows
 from ..grids.protocol import Image
 from ..shape import Shape, read
-from ..sphere import xyz_to_lonlat
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, offset_metres
 from . import driver
 from .simplified import PIXEL_FRACTION, band_members, simplified, z_order

@@ -28,10 +28,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..caps import cap_within
 from ..edges import CurveArcs
+from ..geometry.caps import cap_within
+from ..geometry.sphere import arc_distance, dot
 from ..shape import Derived, Edges
-from ..sphere import arc_distance, dot
 from ..vector.multires import full_decomposition
 
 __all__ = [

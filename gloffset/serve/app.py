@@ -51,12 +51,12 @@ from starlette.staticfiles import StaticFiles
 from ..edges import points_inside
 from ..ellipsoidal import distance as distance_to
 from ..errors import GloffsetError
+from ..geometry.sphere import lonlat_to_xyz
 from ..grids.mercator import MAX_ZOOM
 from ..io.geojson import offset_feature
 from ..raster.pyramid.fieldtiles import FIELD_ENCODING
 from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
-from ..sphere import lonlat_to_xyz
 from ..units import EARTH_RADIUS, RASTER_LIMIT, VECTOR_LIMIT, offset_angle
 from ..vector.arcrings import DEFAULT_TOLERANCE
 from ..vector.offset import offset

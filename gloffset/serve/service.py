@@ -42,8 +42,8 @@ from dataclasses import dataclass
 import numpy as np
 from PIL import Image
 
-from ..classes import CONTAINED, OUTSIDE
 from ..errors import QueueFullError as QueueFull
+from ..geometry.classes import CONTAINED, OUTSIDE
 from ..raster.pyramid import measure_tiles, render_tiles
 from ..raster.pyramid.fieldtiles import encode_field, field_tile
 from ..raster.pyramid.tilepaint import TileStyle

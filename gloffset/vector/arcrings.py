@@ -26,7 +26,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..errors import InvalidDistanceError
-from ..sphere import normalize, robust_cross, rotate, slerp
+from ..geometry.sphere import normalize, robust_cross, rotate, slerp
 
 __all__ = [
     "ArcRings",

@@ -30,9 +30,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import crossings
-from ..arrangement import candidate_pairs, components, cycles, split
-from ..sphere import angle, arc_distance, arcs_cross, normalize
+from ..geometry import crossings
+from ..geometry.arrangement import candidate_pairs, components, cycles, split
+from ..geometry.sphere import angle, arc_distance, arcs_cross, normalize
 from .arcrings import OffsetRing
 from .resolved import ResolvedOffset
 from .smallcircle import MERGE_TOL, CircleArcs, circle_of, intersect, point_at, position
@@ -389,7 +389,7 @@ class _Generators:
     def closer_than(self, p: np.ndarray, thr: np.ndarray) -> np.ndarray:
         """Whether some point of the curves lies closer than ``thr`` to each ``p``.
 
-        Exact in float64 (the distances are those of :func:`gloffset.sphere.arc_distance`,
+        Exact in float64 (the distances are those of :func:`gloffset.geometry.sphere.arc_distance`,
         error below 1e-15 rad), so decisions are right whenever the distance differs
         from ``thr`` by more than that.
         """

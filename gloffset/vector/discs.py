@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidGeometryError
-from ..sphere import angle, arc_distance, lonlat_to_xyz, normalize, xyz_to_lonlat
+from ..geometry.sphere import angle, arc_distance, lonlat_to_xyz, normalize, xyz_to_lonlat
 
 __all__ = [
     "disc_rings",

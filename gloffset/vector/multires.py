@@ -34,8 +34,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidLevelError
-from ..shape import MIN_EDGE, Edges, Shape, read
-from ..sphere import angle, slerp
+from ..geometry.lonlat import MIN_EDGE
+from ..geometry.sphere import angle, slerp
+from ..shape import Edges, Shape, read
 from ..units import EARTH_RADIUS
 from .arcrings import line_arcs, ring_arcs
 from .offset import Offset, offset

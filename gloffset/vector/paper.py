@@ -24,8 +24,8 @@ import math
 
 import numpy as np
 
-from ..captree import CapTree
-from ..sphere import angle
+from ..geometry.captree import CapTree
+from ..geometry.sphere import angle
 from .arcrings import OffsetRing
 from .resolved import ResolvedOffset
 from .smallcircle import MERGE_TOL, CircleArcs, circle_of, intersect, position, sweep

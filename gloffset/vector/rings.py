@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..captree import CapTree
-from ..sphere import angle, normalize, robust_cross, rotate
+from ..geometry.captree import CapTree
+from ..geometry.sphere import angle, normalize, robust_cross, rotate
 from .smallcircle import CircleArcs, circle_of, intersect, point_at, position
 
 __all__ = ["RingParity", "holes_and_polygons", "left_areas", "ring_table"]

@@ -28,8 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..caps import angle_of_chord, pad
-from ..sphere import angle, normalize, robust_cross, rotate
+from ..geometry.caps import angle_of_chord, pad
+from ..geometry.sphere import angle, normalize, robust_cross, rotate
 
 __all__ = [
     "MERGE_TOL",

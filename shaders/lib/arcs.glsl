@@ -46,7 +46,7 @@ float arc_point_value(vec3 delta, vec4 t4, vec4 t5) {
 }
 
 // Whether the short arc p -> c crosses the arc a -> b (half-open rule of
-// gloffset.sphere.arcs_cross). c is the bin centre as a float32 unit vector.
+// gloffset.geometry.sphere.arcs_cross). c is the bin centre as a float32 unit vector.
 bool arc_crosses(vec3 delta, vec3 c, vec4 t0, vec4 t1, vec4 t4, vec4 t5) {
     bool sa = dot(delta, cross(t4.xyz, c)) >= 0.0;  // (p x c).a = delta.(c x a) = delta.((c - a) x c)
     bool sb = dot(delta, cross(t5.xyz, c)) >= 0.0;

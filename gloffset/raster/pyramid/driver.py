@@ -40,7 +40,6 @@ from ...ellipsoid import as_ellipsoid
 from ...errors import TilesError
 from ...grids.mercator import MAX_ZOOM, TilePyramid, check_tile_size
 from ...io.tilestore import INPUT_KEY, input_digest, open_store
-from ...malloc import keep_freed_memory
 from ...shape import read
 from ...units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, to_metres
 from .. import driver
@@ -49,6 +48,7 @@ from ..vector.curves import CurveCells
 from ..vector.levels import subset
 from .ellipsoid import run_ellipsoid_pyramid
 from .job import MAX_BLOCK, PyramidJob
+from .malloc import keep_freed_memory
 from .metadata import (
     check_input,
     describe,
@@ -192,8 +192,8 @@ def pyramid(
     Notes
     -----
     The process keeps the memory it frees for reuse from then on
-    (:func:`gloffset.malloc.keep_freed_memory`, glibc only): a pyramid makes and frees
-    large arrays at every zoom, and giving them back to the system cost a fifth of
+    (:func:`gloffset.raster.pyramid.malloc.keep_freed_memory`, glibc only): a pyramid makes and
+    frees large arrays at every zoom, and giving them back to the system cost a fifth of
     its time.
 
     Contract: a tile is in the output iff some pixel centre of it is in the region

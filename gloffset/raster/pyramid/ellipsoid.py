@@ -21,8 +21,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...ellipsoidal import conformal, decide, signed_distance, thresholds
+from ...geometry.sphere import angle, lonlat_to_xyz
 from ...grids.mercator import Tile, lat_at
-from ...sphere import angle, lonlat_to_xyz
 from ..render import GPU_EPS, SCREEN_MARGIN, screened
 from .ondemand import tile_masks
 

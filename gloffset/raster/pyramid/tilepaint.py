@@ -19,8 +19,8 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from ...errors import OptionError
+from ...geometry.sphere import dot, xyz_to_lonlat
 from ...io.png import palette_png, parse_color
-from ...sphere import dot, xyz_to_lonlat
 
 __all__ = ["TileStyle", "StyleError", "OutlineArcs"]
 

@@ -13,7 +13,7 @@ rounded to float32. The shader computes the cell centre relative to ``c``
 coordinates, which float32 holds exactly) and, per record, rigorous lower and upper bounds
 on the float64 squared chord (``lib/chord.glsl``); thresholds come per row as float32
 values rounded outward (:func:`thresholds`). A cell whose bounds straddle a threshold is
-written as *ambiguous* (:data:`~gloffset.classes.AMBIGUOUS`); after each level
+written as *ambiguous* (:data:`~gloffset.geometry.classes.AMBIGUOUS`); after each level
 :func:`decide_ambiguous` decides those cells with the float64 reference
 (:func:`gloffset.raster.rasterized.curve_levels.classify_cells`), so the result equals the CPU
 reference bit for bit. Ambiguous cells are rare (a band of about 1e-5 of the threshold's
@@ -30,7 +30,7 @@ from typing import cast
 
 import numpy as np
 
-from ...classes import AMBIGUOUS, FRONTIER
+from ...geometry.classes import AMBIGUOUS, FRONTIER
 from ...gl.rasterized_pass import RECORD_ROW, CurveLevel, rasterized_passes
 from ...grids.protocol import FaceCells, LonLatCells
 from .curve_levels import RasterizedCurve, classify_cells, level_centers, near_pairs

@@ -20,10 +20,10 @@ from functools import lru_cache
 
 import numpy as np
 
-from ...caps import cap_within, chord2, pad
-from ...classes import CONTAINED, FRONTIER, OUTSIDE
+from ...geometry.caps import cap_within, chord2, pad
+from ...geometry.classes import CONTAINED, FRONTIER, OUTSIDE
+from ...geometry.sphere import chord2_between
 from ...grids.protocol import CellSet
-from ...sphere import chord2_between
 
 __all__ = [
     "RasterizedCurve",

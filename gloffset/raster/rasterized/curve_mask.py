@@ -12,10 +12,10 @@ import math
 import numpy as np
 
 from ...errors import OptionError
+from ...geometry.sphere import angle, normalize, robust_cross
 from ...grids.cube import locate, project
 from ...grids.protocol import Image, RegularLonLat
 from ...shape import read
-from ...sphere import angle, normalize, robust_cross
 
 __all__ = ["rasterize"]
 

@@ -35,12 +35,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...classes import CONTAINED, FRONTIER, OUTSIDE
 from ...ellipsoid import as_ellipsoid
 from ...errors import InvalidDistanceError, InvalidMaskError, OptionError
+from ...geometry.classes import CONTAINED, FRONTIER, OUTSIDE
+from ...geometry.sphere import chord2_between
 from ...grids.conformal import ConformalRows
 from ...grids.protocol import CurveMaskImage, RegularLonLat
-from ...sphere import chord2_between
 from ...units import EARTH_RADIUS, to_angle, to_metres
 from .. import driver
 from .curve_levels import (

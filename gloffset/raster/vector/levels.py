@@ -33,10 +33,10 @@ from typing import Protocol
 
 import numpy as np
 
-from ...caps import CAP_SLACK, arc_cap, cap_range, cap_within, cap_within_pairs, pad
-from ...classes import CONTAINED, FRONTIER, OUTSIDE
 from ...edges import CurveArcs, component_status, status_bits
-from ...sphere import angle, arc_distance, arcs_cross, pair_dots
+from ...geometry.caps import CAP_SLACK, arc_cap, cap_range, cap_within, cap_within_pairs, pad
+from ...geometry.classes import CONTAINED, FRONTIER, OUTSIDE
+from ...geometry.sphere import angle, arc_distance, arcs_cross, pair_dots
 
 __all__ = [
     "CurveArcs",
@@ -202,7 +202,7 @@ def cell_distances(f: Frontier, arcs: ArcTable, *, lows: bool = False):
     (the offset distance) and to the nearest candidate ring edge, seams included
     (inside uniformity); ``inf`` where a cell has none. Only the pairs that can be a
     cell's nearest are measured (:func:`nearest`). With ``lows``, also each pair's
-    lower bound on its distance (:func:`~gloffset.caps.cap_range`), for :func:`prune`.
+    lower bound on its distance (:func:`~gloffset.geometry.caps.cap_range`), for :func:`prune`.
     """
     k = len(f.cells)
     dist = np.full(k, np.inf)  # to boundary arcs (distance)
@@ -230,7 +230,7 @@ def prune(f: Frontier, low: np.ndarray, dist: np.ndarray, e: float) -> Frontier:
     such an arc is farther than that from it, so it is never a point's nearest (nor
     within ``e`` of a point whose nearest is farther than ``e``); ring edges within
     ``rho``, which the crossing tests of the descendants can meet, are kept
-    (``dist + 2 rho >= rho``). The bound is widened by :data:`~gloffset.caps.CAP_SLACK`
+    (``dist + 2 rho >= rho``). The bound is widened by :data:`~gloffset.geometry.caps.CAP_SLACK`
     and :data:`PRUNE_SLACK` ``rho``, so the pixels are those without pruning, bit for
     bit. Candidate lists then hold the arcs near the nearest, not every arc within
     ``e + rho``: at large distances the lists of coarse cells shrink by orders of
@@ -413,7 +413,7 @@ ON_EDGE = 1e-13
 def _on_ring(f: Frontier, arcs: CurveArcs) -> np.ndarray:
     """Which cells of ``f`` have their centre on one of their candidate ring edges (to
     :data:`ON_EDGE`). A child's status is its parent's toggled by the crossings of the
-    arc child -> parent, and :func:`~gloffset.sphere.arcs_cross` is exact only when
+    arc child -> parent, and :func:`~gloffset.geometry.sphere.arcs_cross` is exact only when
     neither end lies on the other arc (a parent centre at a shared vertex, e.g. a tile
     corner at (0, 0), counts the two edges there inconsistently)."""
     ring = np.flatnonzero(arcs.group[f.pair_arc] >= 0)

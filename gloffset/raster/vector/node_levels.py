@@ -26,9 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...caps import cap_within, pad
 from ...edges import CurveArcs, component_status, inside_any, status_bits
-from ...sphere import angle, arc_distance, arcs_cross, pair_dots
+from ...geometry.caps import cap_within, pad
+from ...geometry.sphere import angle, arc_distance, arcs_cross, pair_dots
 from ...vector.multires import full_decomposition
 from .levels import Frontier, cell_distances, children, decide, on_edge
 

@@ -32,9 +32,9 @@ import math
 
 import numpy as np
 
-from ...caps import cap_within, pad
 from ...edges import CurveArcs, status_bits
-from ...sphere import angle, arcs_cross
+from ...geometry.caps import cap_within, pad
+from ...geometry.sphere import angle, arcs_cross
 from .levels import FRONTIER, Frontier, decide, nearest, prune, row_statuses
 
 __all__ = ["start_level", "scatter", "PAIRS_PER_ARC"]

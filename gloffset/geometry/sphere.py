@@ -109,7 +109,7 @@ def chord2_between(p, q) -> np.ndarray:
     """Squared chords ``|p - q|^2`` between points ``p`` and ``q`` (last axis length 3,
     broadcast together): the differences, then :func:`dot`'s sum term by term, so the
     same bits wherever the points sit. Relative error a few ulp beyond the rounding of
-    the differences; for the squared chord of an angle see :func:`gloffset.caps.chord2`.
+    the differences; for the squared chord of an angle see :func:`gloffset.geometry.caps.chord2`.
     """
     d = np.asarray(p, dtype=np.float64) - np.asarray(q, dtype=np.float64)
     return dot(d, d)

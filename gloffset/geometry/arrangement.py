@@ -6,7 +6,7 @@ offset's self-intersections (:mod:`gloffset.vector.arrangement`, small-circle ar
 go through the same steps, and those steps live here, once:
 
 1. :func:`candidate_pairs`: the pairs of arcs whose bounding caps come within a slack of
-   each other (a :class:`~gloffset.captree.CapTree`, so the cost follows the number of
+   each other (a :class:`~gloffset.geometry.captree.CapTree`, so the cost follows the number of
    nearby pairs, not n^2);
 2. the exact meeting points of each candidate pair, which are the callers' own (great
    circles with the union's tolerance, small circles with their error bounds): they
@@ -36,7 +36,7 @@ def candidate_pairs(mid, half, slack: float = 0.0) -> tuple[CapTree, np.ndarray,
     arcs whose caps come within ``slack`` (rad) of each other.
 
     A superset of the pairs of arcs that meet or come within ``slack``: the tree pads
-    every radius (:meth:`gloffset.captree.CapTree.self_pairs`). Returns
+    every radius (:meth:`gloffset.geometry.captree.CapTree.self_pairs`). Returns
     ``(tree, i, j)``; the tree serves the callers' later range queries.
     """
     tree = CapTree(mid, half)

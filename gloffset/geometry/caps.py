@@ -2,7 +2,7 @@
 
 Every path of gloffset (the raster planner, the GL engine, scatter, tiles, the inside
 index, the vector offsets) decides "can this arc matter here?" with the same few
-bounds. They live here, beside :mod:`gloffset.sphere`, with their error bounds, so
+bounds. They live here, beside :mod:`gloffset.geometry.sphere`, with their error bounds, so
 that a slack is chosen once and every caller inherits it. Each function rounds the
 way its docstring says (up, or toward "maybe"), never the other way: a bound that
 is too generous costs a little work, one that is too tight loses a pixel.
@@ -12,7 +12,7 @@ with what it judges.
 
 Accuracy notes use these facts: numpy's ``sin``, ``cos``, ``arcsin`` and ``arccos``
 are within 1 ulp of the exact value of their (rounded) argument; a dot product of
-unit vectors is within 3e-16 of its exact value; :func:`gloffset.sphere.angle` is
+unit vectors is within 3e-16 of its exact value; :func:`gloffset.geometry.sphere.angle` is
 within 1e-15 rad of the exact angle.
 """
 
@@ -72,10 +72,10 @@ def arc_cap(a, b) -> tuple[np.ndarray, np.ndarray]:
     points are its farthest points from ``mid``, so the cap is the smallest one.
 
     Error bound: ``half`` is within 1e-15 rad of the exact half-length
-    (:func:`gloffset.sphere.angle`) and ``mid`` within 2e-16 rad of the exact
+    (:func:`gloffset.geometry.sphere.angle`) and ``mid`` within 2e-16 rad of the exact
     midpoint, so every point of the arc lies within ``half + 2e-15`` of ``mid``:
     :func:`pad` with its defaults (or more) makes it a rigorous bound. Callers that
-    hand the cap to :class:`gloffset.captree.CapTree` leave it unpadded, the tree
+    hand the cap to :class:`gloffset.geometry.captree.CapTree` leave it unpadded, the tree
     pads every radius itself.
     """
     a = np.asarray(a, dtype=np.float64)

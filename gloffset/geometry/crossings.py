@@ -33,7 +33,7 @@ def crossings(p: np.ndarray, r: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.
     """(len(p), len(a)) bool: does the short arc ``p[i] -> r`` (or ``r[i]``) cross ``a[j] -> b[j]``.
 
     ``r`` is one point (3,) or one per ``p``. Half-open rule as in
-    :func:`gloffset.sphere.arcs_cross`, written as matrix products.
+    :func:`gloffset.geometry.sphere.arcs_cross`, written as matrix products.
     """
     pr = np.cross(p, r)
     sa = (pr @ a.T) >= 0.0
@@ -93,7 +93,7 @@ def inside_indexed(shape, p, *, groups=None, skip=None, anchors: int = 0) -> np.
     testing every point against every edge.
 
     Only the edges whose bounding caps meet the arc ``p -> r`` (found with
-    :meth:`gloffset.captree.CapTree.along`, a superset of the edges it can cross)
+    :meth:`gloffset.geometry.captree.CapTree.along`, a superset of the edges it can cross)
     are tested, with the predicate of :func:`crossings` written out per pair; an
     edge whose cap misses the arc is on one side of it by far more than rounding,
     so it never counts there either. Components the arc does not cross keep the

@@ -1,0 +1,129 @@
+"""Lon/lat rings and lines checked and made unit vectors, before a shape is built.
+
+:func:`validate` rejects what has no great circle (coordinates out of range or not finite,
+too few distinct points, consecutive antipodal points, each named by its vertex) and drops
+repeated points; :func:`is_ccw` tells a ring's orientation in lon/lat;
+:func:`split_meridian_edges` keeps pole-to-pole edges along a meridian. Accuracy: points
+closer than :data:`MIN_EDGE` count as repeated, coordinates within
+:data:`gloffset.geometry.sphere.SEAM_EPS_DEG` of the seam or the poles as on them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import InvalidGeometryError
+from .sphere import SEAM_EPS_DEG, angle, lonlat_to_xyz
+
+__all__ = ["MIN_EDGE", "validate", "on_seam", "is_ccw", "split_meridian_edges"]
+
+#: Angle (rad) below which consecutive points count as repeated (0.6 micrometres on
+#: the Earth): shorter edges have no computable great circle in float64.
+MIN_EDGE = 1e-13
+#: Angle (rad) below which two consecutive input points count as antipodal.
+ANTIPODAL_EPS = 1e-12
+
+
+def validate(ll: np.ndarray, label: str, *, min_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Check lon/lat, convert to unit vectors and drop repeated consecutive points."""
+    bad = ~np.isfinite(ll)
+    if bad.any():
+        i = int(np.flatnonzero(bad.any(axis=1))[0])
+        raise InvalidGeometryError(
+            f"{label} vertex {i}: coordinate is not finite ({ll[i].tolist()})"
+        )
+    badlat = np.abs(ll[:, 1]) > 90.0 + SEAM_EPS_DEG
+    if badlat.any():
+        i = int(np.flatnonzero(badlat)[0])
+        raise InvalidGeometryError(
+            f"{label} vertex {i}: latitude {float(ll[i, 1])!r} out of range [-90, 90]"
+        )
+    badlon = np.abs(ll[:, 0]) > 180.0 + SEAM_EPS_DEG
+    if badlon.any():
+        i = int(np.flatnonzero(badlon)[0])
+        raise InvalidGeometryError(
+            f"{label} vertex {i}: longitude {float(ll[i, 0])!r} out of range [-180, 180] "
+            "(longitudes are not wrapped; subtract 360 from those above 180)"
+        )
+    v = lonlat_to_xyz(ll[:, 0], ll[:, 1])
+    idx = np.arange(len(v))
+    if len(v) > 1:
+        keep = np.ones(len(v), dtype=bool)
+        keep[1:] = angle(v[1:], v[:-1]) > MIN_EDGE
+        v, idx = v[keep], idx[keep]
+    if min_points == 3 and len(v) > 1 and angle(v[0], v[-1]) <= MIN_EDGE:
+        v, idx = v[:-1], idx[:-1]
+    if len(v) < min(min_points, 2) or (min_points == 3 and len(v) < 3):
+        what = "a ring needs at least 3" if min_points == 3 else "a line needs at least 2"
+        raise InvalidGeometryError(
+            f"{label}: {what} distinct points, got {len(v)} (empty or degenerate geometry)"
+        )
+    nxt = np.roll(v, -1, axis=0) if min_points == 3 else v[1:]
+    cur = v if min_points == 3 else v[:-1]
+    if len(cur):
+        anti = np.linalg.norm(cur + nxt, axis=1) < 2.0 * np.sin(ANTIPODAL_EPS / 2) + 1e-300
+        if anti.any():
+            i = int(np.flatnonzero(anti)[0])
+            j = idx[(i + 1) % len(idx)]
+            raise InvalidGeometryError(
+                f"{label} vertices {idx[i]} and {j}: consecutive points are antipodal, so the "
+                "great circle between them is undefined; add a point in between"
+            )
+    return v, idx
+
+
+def on_seam(ll: np.ndarray) -> np.ndarray:
+    return (np.abs(np.abs(ll[:, 0]) - 180.0) <= SEAM_EPS_DEG) | (
+        np.abs(np.abs(ll[:, 1]) - 90.0) <= SEAM_EPS_DEG
+    )
+
+
+def is_ccw(ll: np.ndarray) -> bool:
+    """Whether a lon/lat ring runs counter-clockwise, i.e. has its interior on the left.
+
+    The shoelace area decides, after unwrapping an uncut antimeridian crossing. A
+    ring that goes once round a pole without being cut (ambiguous in GeoJSON) is
+    taken to enclose the pole on its side of the equator, the smaller region: the
+    side of the mean latitude of its vertices (summed exactly, so neither the start
+    vertex nor the direction changes it), the north when that mean is exactly 0 (a
+    ring along the equator). Going round is measured on the sphere: every edge turns
+    by less than 180 deg of longitude, so vertices on +-180 deg do not cut the ring,
+    nor does an edge along the antimeridian (it turns by 0); a vertex at a pole
+    leaves the shoelace to decide (the ring passes through the pole, not round it).
+    """
+    lon = ll[:, 0].copy()
+    jump = np.diff(np.append(lon, lon[0]))
+    pole = np.abs(np.abs(ll[:, 1]) - 90.0) <= SEAM_EPS_DEG
+    turn = float(np.sum(jump - 360.0 * np.round(jump / 360.0)))
+    if abs(abs(turn) - 360.0) < 1e-6 and not pole.any():
+        # eastward travel keeps the north on the left
+        return (turn > 0) == (math.fsum(ll[:, 1].tolist()) >= 0.0)
+    seam = on_seam(ll)
+    big = (np.abs(jump) > 180.0) & ~(seam & np.roll(seam, -1))
+    if big.any():
+        lon[1:] -= 360.0 * np.cumsum(np.round(jump[:-1] / 360.0) * big[:-1])
+    x, y = lon, ll[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) > 0
+
+
+def split_meridian_edges(ll: np.ndarray) -> np.ndarray:
+    """Insert midpoints into ring edges that run along a meridian over 90 deg or more.
+
+    Such an edge (a whole-world ring runs from pole to pole along +-180 deg) has
+    ends that are antipodal or nearly so once the poles are snapped, so its great
+    circle would be undefined; in lon/lat it is a meridian, and the midpoint keeps it
+    one.
+    """
+    nxt = np.roll(ll, -1, axis=0)
+    long_ = (np.abs(ll[:, 0] - nxt[:, 0]) <= SEAM_EPS_DEG) & (np.abs(ll[:, 1] - nxt[:, 1]) >= 90.0)
+    if not long_.any():
+        return ll
+    out = []
+    for k in range(len(ll)):
+        out.append(ll[k])
+        if long_[k]:
+            for t in (0.25, 0.5, 0.75):
+                out.append(ll[k] + t * (nxt[k] - ll[k]))
+    return np.asarray(out)

@@ -1,0 +1,134 @@
+"""The inside test's geometry kernels and its arc tree (paper Sec. 4.3, Eq. 9).
+
+The kernels test points against arcs packed in rows (crossing, Eq. 9's distance test);
+:class:`IndexArcs` is the multiresolution arc tree of a shape (:mod:`gloffset.vector.multires`)
+with what :class:`gloffset.index.tree.Index` needs, made once per shape and kept on it.
+Accuracy: the crossing bits are those of :func:`gloffset.geometry.sphere.crossing_rule` on
+:func:`gloffset.geometry.sphere.dot`; the distance test is accurate to about 1e-16 rad.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.caps import arc_cap, chord2, pad
+from ..geometry.sphere import cross, crossing_rule, dot, normalize, robust_cross
+from ..vector.multires import full_decomposition
+
+#: Slack (rad) on every error-region and relevance test, far above their rounding.
+MARGIN = 1e-13
+
+
+# ---------------------------------------------------------------------- geometry kernels
+def crosses(p, x, px, a, b, n, pn=None) -> np.ndarray:
+    """Whether the short arc ``p -> x`` crosses arc ``a -> b`` (normal ``n``).
+
+    ``px = p x x``; ``pn = p . n`` if known.
+
+    The half-open rule of :func:`gloffset.geometry.sphere.crossing_rule`: a point on a great
+    circle counts as on its left, so an arc through a shared vertex counts once. The
+    sides of the ends and of ``x`` use :func:`gloffset.geometry.sphere.dot`, so that a vertex
+    shared by two arcs, and an anchor, get the same bits in every test.
+    """
+    if pn is None:
+        pn = dot(p, n)
+    return crossing_rule(dot(px, a) >= 0.0, dot(px, b) >= 0.0, pn >= 0.0, dot(x, n) >= 0.0)
+
+
+def dots(g: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """``p`` dotted with each 3-vector of the rows of ``g`` (n, 3k) -> (n, k), in one call.
+
+    Only for tests whose bits need not agree with another computation (the sides of
+    shared vertices and of anchors go through :func:`gloffset.geometry.sphere.dot`).
+    """
+    return np.einsum("ijk,ik->ij", g.reshape(len(g), -1, 3), p)
+
+
+def within(p, g, chord2, sin_r, pg=None) -> np.ndarray:
+    """Eq. 9: is ``p`` within angle ``r`` of the arc? ``g`` holds a, b, n, n x a, b x n.
+
+    In the arc's wedge (``p . (n x a) >= 0`` and ``p . (b x n) >= 0``) the distance is
+    ``asin |p . n|``; it is never more than the distance to the nearer end, compared
+    through squared chords (exact for tiny angles). ``chord2 = (2 sin(r/2))^2`` and
+    ``sin_r = sin(r)`` (2 for ``r >= pi/2``, -1 for a degenerate arc); ``pg``, if
+    given, is ``dots(g, p)``. Accurate to about 1e-16 rad.
+    """
+    if pg is None:
+        pg = dots(g, p)
+    line = (np.abs(pg[:, 2]) <= sin_r) & (pg[:, 3] >= 0.0) & (pg[:, 4] >= 0.0)
+    da = p - g[:, 0:3]
+    db = p - g[:, 3:6]
+    return (
+        line | (np.einsum("ij,ij->i", da, da) <= chord2) | (np.einsum("ij,ij->i", db, db) <= chord2)
+    )
+
+
+def radius_terms(r: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``chord2`` and ``sin_r`` of :func:`within` for angles ``r``."""
+    c2 = np.where(r >= np.pi, 5.0, chord2(r))
+    sin_r = np.where(r >= 0.5 * np.pi, 2.0, np.sin(np.minimum(r, 0.5 * np.pi)))
+    return c2, np.where(degenerate, -1.0, sin_r)
+
+
+# ---------------------------------------------------------------------- the arc tree
+RING, BOUNDARY, INTERNAL = 1, 2, 4  # arc kinds, as bits
+
+
+class IndexArcs:
+    """The arc tree of a full decomposition, with what the index needs (distance-free)."""
+
+    def __init__(self, shape):
+        dec = full_decomposition(shape)  # as far as arcs merge, shared with renders
+        t = dec.tree
+        self.decomposition = dec
+        self.top = dec.level_nodes(dec.levels)
+        self.levels = dec.levels
+        self.a, self.b, self.e = t.a, t.b, t.e
+        self.child, self.level = t.child, t.level
+        self.internal = t.level > 0
+        self.ring = t.group >= 0
+        self.boundary = t.boundary
+        self.n = normalize(robust_cross(t.a, t.b))
+        self.degenerate = np.sum(self.n * self.n, axis=1) < 0.5
+        # bounding cap: the middle of the arc, half its length plus its error (padded)
+        self.mid, half = arc_cap(t.a, t.b)
+        self.rad = np.minimum(pad(half + t.e), np.pi)
+        self.cos_rad, self.sin_rad = np.cos(self.rad), np.sin(self.rad)
+        self.g = np.ascontiguousarray(
+            np.hstack([t.a, t.b, self.n, cross(self.n, t.a), cross(t.b, self.n)])
+        )
+        # what the build gathers per (cell, arc) pair, in one row: bounding cap
+        # (mid, cos, sin, radius), error bound, a, b, n
+        self.pack = np.ascontiguousarray(
+            np.column_stack([self.mid, self.cos_rad, self.sin_rad, self.rad, t.e, t.a, t.b, self.n])
+        )
+        self.kind = (
+            np.where(self.ring, RING, 0)
+            | np.where(self.boundary, BOUNDARY, 0)
+            | np.where(self.internal, INTERNAL, 0)
+        ).astype(np.int8)
+        self.saus_c2, self.saus_s = radius_terms(t.e + MARGIN, self.degenerate)
+        self._ancestors: dict[int, np.ndarray] = {}
+
+    def ancestors(self, k: int) -> np.ndarray:
+        """Return the arc of level ``k`` that stands for every tree node of level ``<= k``.
+
+        Nodes in order, original edges first; -1 for the nodes above level ``k``.
+        """
+        if k not in self._ancestors:
+            count = np.ones(len(self.a), dtype=np.int64)
+            first = np.arange(len(self.a))  # each node's first original edge
+            for lev in range(1, self.levels + 1):  # children are made before parents
+                ids = np.flatnonzero(self.level == lev)
+                count[ids] = count[self.child[ids, 0]] + count[self.child[ids, 1]]
+                first[ids] = first[self.child[ids, 0]]
+            cut = self.decomposition.level_nodes(k)
+            by_edge = np.repeat(cut, count[cut])
+            self._ancestors[k] = np.where(self.level <= k, by_edge[first], -1)
+        return self._ancestors[k]
+
+
+def arc_tree(shape) -> IndexArcs:
+    if shape.derived.contains_arcs is None:
+        shape.derived.contains_arcs = IndexArcs(shape)
+    return shape.derived.contains_arcs
