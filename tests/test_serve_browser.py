@@ -206,6 +206,7 @@ def _move_slider(pg, value: int) -> None:
     pg.locator("#distance").fill(str(value))
 
 
+@pytest.mark.slow  # about 35 s (fields of the globe's tiles on the CPU); .ci/run runs it
 def test_page_field_mode_slider_hash_and_globe(server, page):
     """The default mode draws the field tiles: the slider and the hash (to an inward
     distance too) change the drawing with no request, on the map and on the globe; a click
