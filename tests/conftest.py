@@ -38,3 +38,56 @@ def uniform_sphere(n, seed=0):
     lon = rng.uniform(-180.0, 180.0, n)
     lat = np.degrees(np.arcsin(rng.uniform(-1.0, 1.0, n)))
     return lon, lat
+
+
+# Readers of tile outputs and the one-line CLI error check, shared by the test modules
+
+
+def read_mbtiles(path):
+    """{(z, x, y): png bytes} with XYZ rows, and the metadata."""
+    import sqlite3
+
+    db = sqlite3.connect(path)
+    tiles = {
+        (z, x, (1 << z) - 1 - r): bytes(data) for z, x, r, data in db.execute("SELECT * FROM tiles")
+    }
+    meta = dict(db.execute("SELECT name, value FROM metadata"))
+    db.close()
+    return tiles, meta
+
+
+def read_dir(path):
+    """{(z, x, y): png bytes} of an XYZ folder."""
+    import os
+
+    out = {}
+    for root, _, files in os.walk(path):
+        for f in files:
+            if f.endswith(".png"):
+                z, x = (int(v) for v in os.path.relpath(root, path).split(os.sep))
+                with open(os.path.join(root, f), "rb") as fh:
+                    out[(z, x, int(f[:-4]))] = fh.read()
+    return out
+
+
+def read_tiles(path):
+    """{(z, x, y): png bytes} and the metadata of an MBTiles, PMTiles or XYZ folder."""
+    path = str(path)
+    if path.endswith(".pmtiles"):
+        from gloffset.io.pmtiles import read_pmtiles
+
+        meta, tiles = read_pmtiles(path)
+        return tiles, meta
+    if path.endswith(".mbtiles"):
+        return read_mbtiles(path)
+    return read_dir(path), None
+
+
+def assert_one_line_error(proc, *words):
+    """A command that failed with exit 2 and one line naming ``words`` on stderr."""
+    err = proc.stderr.decode()
+    assert proc.returncode == 2, err
+    lines = err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("gloffset: error: "), err
+    for w in words:
+        assert w in lines[0], err

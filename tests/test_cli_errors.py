@@ -15,6 +15,7 @@ import threading
 
 import numpy as np
 import pytest
+from conftest import assert_one_line_error
 from PIL import Image
 
 import gloffset
@@ -35,15 +36,6 @@ def cli(*args, input=None, **kw):
 @pytest.fixture(autouse=True)
 def _in_tmp_path(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # a wrong output named '-' would land here
-
-
-def assert_one_line_error(proc, *words):
-    err = proc.stderr.decode()
-    assert proc.returncode == 2, err
-    lines = err.splitlines()
-    assert len(lines) == 1 and lines[0].startswith("gloffset: error: "), err
-    for w in words:
-        assert w in lines[0], err
 
 
 @pytest.fixture

@@ -9,7 +9,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import DATA
+from conftest import DATA, assert_one_line_error
 
 import gloffset
 from gloffset import reference
@@ -252,12 +252,7 @@ def test_cli_geotiff_npy_and_cube(mexico_path, mexico, tmp_path):
 )
 def test_cli_bad_input(mexico_path, tmp_path, args, words):
     proc = cli("field", mexico_path, *args, cwd=tmp_path)
-    err = proc.stderr.decode()
-    assert proc.returncode == 2, err
-    lines = err.splitlines()
-    assert len(lines) == 1 and lines[0].startswith("gloffset: error: "), err
-    for w in words:
-        assert w in lines[0], err
+    assert_one_line_error(proc, *words)
     assert not (tmp_path / "d.tif").exists()
 
 

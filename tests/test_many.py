@@ -4,7 +4,7 @@
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from conftest import DATA, LINES
+from conftest import DATA, LINES, read_tiles
 from PIL import Image
 
 import gloffset
@@ -157,35 +157,6 @@ def test_cli_render_bands(tmp_path, mexico_path):
     masks = [gloffset.render(shape, d, Equirect(512, 256)) for d in (10e3, 50e3, 127e3)]
     want, _ = gloffset.mask_bands(masks, [10e3, 50e3, 127e3])
     assert np.array_equal(np.asarray(img), want)
-
-
-def read_tiles(path):
-    """{(z, x, y): png bytes} and the metadata of an MBTiles, PMTiles or XYZ folder."""
-    import os
-    import sqlite3
-
-    path = str(path)
-    if path.endswith(".pmtiles"):
-        from gloffset.io.pmtiles import read_pmtiles
-
-        meta, tiles = read_pmtiles(path)
-        return tiles, meta
-    if path.endswith(".mbtiles"):
-        db = sqlite3.connect(path)
-        tiles = {
-            (z, x, (1 << z) - 1 - r): bytes(b) for z, x, r, b in db.execute("SELECT * FROM tiles")
-        }
-        meta = dict(db.execute("SELECT name, value FROM metadata"))
-        db.close()
-        return tiles, meta
-    tiles = {}
-    for root, _, files in os.walk(path):
-        for f in files:
-            if f.endswith(".png"):
-                z, x = (int(v) for v in os.path.relpath(root, path).split(os.sep))
-                with open(os.path.join(root, f), "rb") as fh:
-                    tiles[(z, x, int(f[:-4]))] = fh.read()
-    return tiles, None
 
 
 @pytest.mark.parametrize("ext", [".mbtiles", ".pmtiles", ""])

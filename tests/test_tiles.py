@@ -16,6 +16,7 @@ import sys
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import read_dir, read_mbtiles
 from PIL import Image, ImageDraw
 
 import gloffset
@@ -39,28 +40,6 @@ SQUARE = {
     ],
 }
 LINE_AM = {"type": "LineString", "coordinates": [[170, -10], [-170, 5], [-160, 40]]}
-
-
-def read_mbtiles(path):
-    """{(z, x, y): png bytes} with XYZ rows, and the metadata."""
-    db = sqlite3.connect(path)
-    tiles = {
-        (z, x, (1 << z) - 1 - r): bytes(data) for z, x, r, data in db.execute("SELECT * FROM tiles")
-    }
-    meta = dict(db.execute("SELECT name, value FROM metadata"))
-    db.close()
-    return tiles, meta
-
-
-def read_dir(path):
-    out = {}
-    for root, _, files in os.walk(path):
-        for f in files:
-            if f.endswith(".png"):
-                z, x = (int(v) for v in os.path.relpath(root, path).split(os.sep))
-                with open(os.path.join(root, f), "rb") as fh:
-                    out[(z, x, int(f[:-4]))] = fh.read()
-    return out
 
 
 def alpha(png):
