@@ -22,7 +22,7 @@ Two more workloads (``--workload``, issue 29, the live map):
   new distance: what the slider's target is about).
 - ``pan``: new views (never asked by any client) at one distance (:data:`PAN_KM`).
 
-Run: python benchmarks/serve.py [--workload random|slider|pan|all] [--seconds 20]
+Run: python benchmarks/serve.py [--workload random|slider|pan|all ...] [--seconds 20]
      [--clients 1 4 16 64] [--input FILE [FILE ...]] [--render-samples 60] [--workers 1]
 Writes benchmarks/results/serve.json (key: the input's file stem, then the workload unless
 it is ``random``, and the workers if more than one). RSS and CPU are those of the server
@@ -386,13 +386,13 @@ def main():
     ap.add_argument("--seconds", type=float, default=20.0, help="per client count")
     ap.add_argument("--clients", type=int, nargs="+", default=[1, 4, 16, 64])
     ap.add_argument("--input", type=Path, nargs="+", default=[DATA / "mexico_10m.geojson"])
-    ap.add_argument("--workload", choices=[*WORKLOADS, "all"], default="random")
+    ap.add_argument("--workload", choices=[*WORKLOADS, "all"], nargs="+", default=["random"])
     ap.add_argument("--render-samples", type=int, default=60)
     ap.add_argument(
         "--workers", type=int, default=1, help="server processes (gloffset serve --workers)"
     )
     args = ap.parse_args()
-    workloads = WORKLOADS if args.workload == "all" else (args.workload,)
+    workloads = WORKLOADS if "all" in args.workload else args.workload
     tables = []
     for path in args.input:
         for workload in workloads:
