@@ -383,8 +383,8 @@ class TileService:
                 elif self.later and self._idle():
                     fkey, fut = self.later.popitem(last=True)[0], Future()
                     fut.set_running_or_notify_cancel()
-                else:
-                    self.wake.wait(IDLE)
+                else:  # polled while fields of tiles rendered once wait for an idle server
+                    self.wake.wait(IDLE if self.later else None)
                     continue
                 if fkey in self.fields:
                     fut.set_result(None)
@@ -494,6 +494,7 @@ class TileService:
                 self.later.move_to_end(fkey)
             while len(self.later) > LATER:
                 self.later.popitem(last=False)
+            self.wake.notify()
 
 
 def _run_call(fn, fut: Future) -> None:
