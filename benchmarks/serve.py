@@ -22,7 +22,11 @@ Two more workloads (``--workload``, issue 29, the live map):
   new distance: what the slider's target is about).
 - ``pan``: new views (never asked by any client) at one distance (:data:`PAN_KM`).
 
-Run: python benchmarks/serve.py [--workload random|slider|pan|all ...] [--seconds 20]
+With ``--pause S`` a slider or pan client waits S seconds after each view's tiles came (a
+user's pace; 0, the default, is a closed loop: the clients then measure the server's
+saturation, their latency the queue).
+
+Run: python benchmarks/serve.py [--workload random|slider|pan|all ...] [--seconds 20] [--pause 0]
      [--clients 1 4 16 64] [--input FILE [FILE ...]] [--render-samples 60] [--workers 1]
 Writes benchmarks/results/serve.json (key: the input's file stem, then the workload unless
 it is ``random``, and the workers if more than one). RSS and CPU are those of the server
@@ -205,10 +209,10 @@ async def view(conns, paths, out, phase):
     out += [(kind, dt, phase) for kind, dt in got]
 
 
-async def slider_client(host, port, layer, bounds, seed, stop_at, out, taken):
+async def slider_client(host, port, layer, bounds, seed, stop_at, out, taken, pause=0.0):
     """A map page whose user drags the distance slider: a view of its own at each of
     :data:`SLIDER_KM` in turn (the first distance ``first``, the others ``seen``), then a
-    new view."""
+    new view; ``pause`` seconds after each distance's tiles came (0: a closed loop)."""
     rng = np.random.default_rng(seed)
     conns = [Connection(host, port) for _ in range(6)]
     try:
@@ -219,12 +223,13 @@ async def slider_client(host, port, layer, bounds, seed, stop_at, out, taken):
                     break
                 paths = [f"/tiles/{layer}/{km}km/{z}/{x}/{y}.png" for x, y in tiles]
                 await view(conns, paths, out, "first" if i == 0 else "seen")
+                await asyncio.sleep(pause)
     finally:
         for c in conns:
             await c.close()
 
 
-async def pan_client(host, port, layer, bounds, seed, stop_at, out, taken):
+async def pan_client(host, port, layer, bounds, seed, stop_at, out, taken, pause=0.0):
     """A map page panned and zoomed at one distance (:data:`PAN_KM`): every view new."""
     rng = np.random.default_rng(seed)
     conns = [Connection(host, port) for _ in range(6)]
@@ -233,6 +238,7 @@ async def pan_client(host, port, layer, bounds, seed, stop_at, out, taken):
             z, tiles = new_view(rng, bounds, taken)
             paths = [f"/tiles/{layer}/{PAN_KM}km/{z}/{x}/{y}.png" for x, y in tiles]
             await view(conns, paths, out, "new")
+            await asyncio.sleep(pause)
     finally:
         for c in conns:
             await c.close()
@@ -292,7 +298,7 @@ def summary(samples, seconds: float) -> dict:
     return rec
 
 
-async def load(host, port, layer, bounds, n_clients, seconds, pid, workload="random"):
+async def load(host, port, layer, bounds, n_clients, seconds, pid, workload="random", pause=0.0):
     out: list = []
     rss = []
     cpu0, own0 = cpu_s(pid), time.process_time()
@@ -304,7 +310,8 @@ async def load(host, port, layer, bounds, n_clients, seconds, pid, workload="ran
     else:
         fn = slider_client if workload == "slider" else pan_client
         runs = [
-            fn(host, port, layer, bounds, 1000 + i, stop_at, out, taken) for i in range(n_clients)
+            fn(host, port, layer, bounds, 1000 + i, stop_at, out, taken, pause)
+            for i in range(n_clients)
         ]
     tasks = [asyncio.create_task(r) for r in runs]
     while not all(t.done() for t in tasks):
@@ -389,6 +396,12 @@ def main():
     ap.add_argument("--workload", choices=[*WORKLOADS, "all"], nargs="+", default=["random"])
     ap.add_argument("--render-samples", type=int, default=60)
     ap.add_argument(
+        "--pause",
+        type=float,
+        default=0.0,
+        help="slider, pan: seconds a client waits after each view's tiles came (0: closed loop)",
+    )
+    ap.add_argument(
         "--workers", type=int, default=1, help="server processes (gloffset serve --workers)"
     )
     args = ap.parse_args()
@@ -429,6 +442,7 @@ def run_input(args, path: Path, workload: str) -> str:
                         args.seconds,
                         proc.pid,
                         workload,
+                        args.pause,
                     )
                 )
             finally:
@@ -439,6 +453,7 @@ def run_input(args, path: Path, workload: str) -> str:
     (RESULTS / "serve.log.tmp").unlink(missing_ok=True)
     record = load_previous()
     key = layer if workload == "random" else f"{layer} {workload}"
+    key += f" --pause {args.pause:g}" if args.pause and workload != "random" else ""
     key = key if args.workers == 1 else f"{key} --workers {args.workers}"
     record[key] = {
         "input": path.name,
@@ -453,9 +468,9 @@ def run_input(args, path: Path, workload: str) -> str:
     if workload == "random":
         record[key] |= {"plain_render_per_tile": plain, "plain_render_today_issue16": TODAY}
     elif workload == "slider":
-        record[key] |= {"slider_km": SLIDER_KM, "view_zooms": VIEW_ZOOMS}
+        record[key] |= {"slider_km": SLIDER_KM, "view_zooms": VIEW_ZOOMS, "pause_s": args.pause}
     else:
-        record[key] |= {"pan_km": PAN_KM, "view_zooms": VIEW_ZOOMS}
+        record[key] |= {"pan_km": PAN_KM, "view_zooms": VIEW_ZOOMS, "pause_s": args.pause}
     print(write("serve", {"inputs": record}))
     return f"{key}:\n" + (table(record[key]) if workload == "random" else phase_table(record[key]))
 
