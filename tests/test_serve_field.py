@@ -194,28 +194,28 @@ def test_tiles_field_cli(tmp_path, shape):
 
 
 def test_a_tile_asked_again_at_a_new_distance_has_its_field_at_once(shape, monkeypatch):
-    """A distance slider over a view: the tile rendered at one distance and asked for at
-    another has its field computed at once, even on a server never idle (the field of a
-    tile rendered once waits for an idle server), and is answered from it, byte-identical
-    to the rendered tile, at that distance and the next ones; rendered once."""
-    from gloffset.serve.service import TileService
+    """A distance slider over a view: a tile rendered at two distances and asked for at a
+    third has its field computed at once, even on a server never idle (the field of a tile
+    rendered once waits for an idle server), and is answered from it, byte-identical to
+    the rendered tile, at that distance and the next ones."""
+    from gloffset.serve.service import AGAIN, TileService
 
     monkeypatch.setattr(TileService, "_idle", lambda self: False)
     app = create_app({"mexico": shape}, render_timeout=120)
     z, x, y = 6, 13, 27
+    dists = ["127km", "30km", "-20km", "80km", "0km", "-20km"]
     with TestClient(app) as c:
         tiles = app.state.server.tiles
-        r = c.get(f"/tiles/mexico/127km/{z}/{x}/{y}.png")
-        assert r.headers["x-gloffset-tile"] == "rendered"
-        time.sleep(0.3)
-        assert tiles.computed == 0  # never idle: a tile seen once leaves no field yet
-        for dist in ("30km", "-20km", "80km"):
+        for i, dist in enumerate(dists):
             r = c.get(f"/tiles/mexico/{dist}/{z}/{x}/{y}.png")
-            assert r.headers["x-gloffset-tile"] == "field", dist
-            d = parse_distance(dist, EARTH_RADIUS)
-            want = render_tiles(shape, d, z, [(x, y)])[(x, y)]
+            how = "rendered" if i < AGAIN else "field" if i < 5 else "cached"
+            assert r.headers["x-gloffset-tile"] == how, (dist, r.headers)
+            want = render_tiles(shape, parse_distance(dist, EARTH_RADIUS), z, [(x, y)])[(x, y)]
             assert r.content == (EMPTY_PNG[256] if want is None else want), dist
-        assert tiles.computed == 1 and tiles.rendered == 1
+            if i == AGAIN - 1:
+                time.sleep(0.3)
+                assert tiles.computed == 0  # never idle: no field yet
+        assert tiles.computed == 1 and tiles.rendered == AGAIN
 
 
 def test_renders_do_not_wait_behind_a_field(shape, monkeypatch):

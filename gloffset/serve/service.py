@@ -21,8 +21,8 @@ bytes. A request whose client went away is still rendered when its batch had sta
 (the tile is cached, the answer dropped); one cancelled before is skipped.
 
 Distance fields of tiles (a field tile's on the render thread) are computed on a field
-thread, off the render thread: at once for a tile rendered again at a new distance (a
-distance slider), newest first; for a tile rendered once, when no render is asked for. They
+thread, off the render thread: at once for a tile rendered at :data:`AGAIN` other distances
+(a distance slider), newest first; for the others, when no render is asked for. They
 are kept in a second LRU bounded in bytes (``field_mb``); a tile whose field is kept is
 answered at any distance by :meth:`TileService.from_field`, the field's threshold.
 """
@@ -75,10 +75,13 @@ EMPTY_PNG = {256: _empty_png(256), 512: _empty_png(512)}
 
 
 #: seconds without a render request after which the field thread computes the field of a
-#: tile rendered once
-IDLE = 0.05
+#: tile rendered once (a pause in the requests, not the gap between two views)
+IDLE = 0.5
 #: rendered tiles whose fields wait, at most, in each of the two queues (the oldest go)
 LATER = 4096
+#: a tile asked for after renders at this many other distances has its field first (a
+#: slider; 1 also takes a map's tiles met again at another distance, seldom asked once more)
+AGAIN = 2
 
 #: tiles whose centre's distance and status are kept (about 100 bytes each)
 CENTRES = 200_000
@@ -144,7 +147,8 @@ class TileService:
         self.centres: OrderedDict = OrderedDict()  # (layer, z, x, y) -> what triage needs
         self.fields: OrderedDict = OrderedDict()  # FieldKey -> DistanceField (radians)
         self.field_bytes, self.field_limit = 0, int(field_mb * (1 << 20))
-        self.later: OrderedDict = OrderedDict()  # FieldKey -> d, tiles rendered once: when idle
+        #: FieldKey -> the distances a tile was rendered at: its field when idle
+        self.later: OrderedDict = OrderedDict()
         self.wanted: OrderedDict = OrderedDict()  # FieldKey -> Future, tiles asked again: at once
         self.computing: dict = {}  # FieldKey -> Future, the field thread's field
         self.computed = 0  # fields computed
@@ -352,10 +356,15 @@ class TileService:
         with self.lock:
             if fkey in self.computing:
                 return self.computing[fkey]
-            if self.closed or self.later.get(fkey, key.d) == key.d and fkey not in self.wanted:
+            if self.closed or not (fkey in self.wanted or self._again(fkey, key.d)):
                 return None
             fut = self._want(fkey)
             return fut if not self.computing else None
+
+    def _again(self, fkey: FieldKey, d: float) -> bool:
+        """Whether the tile was rendered at :data:`AGAIN` other distances than ``d`` (a
+        distance slider over it; holding the lock)."""
+        return len(set(self.later.get(fkey, ())) - {d}) >= AGAIN
 
     def _want(self, fkey: FieldKey) -> Future:
         """Queue the field of ``fkey`` first (holding the lock); its future."""
@@ -487,10 +496,10 @@ class TileService:
                 fkey = key.field()
                 if fkey in self.fields or fkey in self.computing:
                     continue
-                if self.later.get(fkey, key.d) != key.d or fkey in self.wanted:
+                if fkey in self.wanted or self._again(fkey, key.d):
                     self._want(fkey)
                     continue
-                self.later[fkey] = key.d
+                self.later[fkey] = tuple(dict.fromkeys((*self.later.get(fkey, ()), key.d)))
                 self.later.move_to_end(fkey)
             while len(self.later) > LATER:
                 self.later.popitem(last=False)
