@@ -160,7 +160,7 @@ def render_cmd(
         return _many_cmd(
             input,
             many,
-            ell,
+            (ell, radius),
             (grid_kind, size, bounds),
             (output, cog, not no_worldfile, bands),
             (fill, opacity, background),
@@ -243,11 +243,14 @@ def named(output, text: str) -> str:
     return str(path.with_name(f"{stem}_{text}{suffix}"))
 
 
-def _many_cmd(input, many, ell, gridopts, outopts, style, backend, read_opts):
+def _many_cmd(input, many, measure, gridopts, outopts, style, backend, read_opts):
     """``render -d D1,D2,...``: the masks of several distances from one read of INPUT
     (:func:`gloffset.raster.many.render_many`), one file per distance or, with
-    ``--bands``, one image of the bands (:func:`gloffset.raster.many.mask_bands`)."""
+    ``--bands``, one image of the bands (:func:`gloffset.raster.many.mask_bands`);
+    ``measure`` is ``(ellipsoid, radius)``."""
     from ..raster.many import mask_bands, render_many
+
+    ell, radius = measure
 
     output, cog, worldfile, bands = outopts
     grid_kind, size, bounds = gridopts
@@ -268,7 +271,8 @@ def _many_cmd(input, many, ell, gridopts, outopts, style, backend, read_opts):
     show = sys.stderr.isatty()
     if show:
         click.echo(f"rendering {len(many)} distances", err=True)
-    masks = render_many(shape, values, grid, radius=1.0, backend=backend, ellipsoid=ell)
+    texts = [text for text, _ in many]  # as given: the library converts them once
+    masks = render_many(shape, texts, grid, radius=radius, backend=backend, ellipsoid=ell)
     if bands:
         image, order = mask_bands(masks, values)
         key = ", ".join(f"{k}={many[i][0]}" for k, i in enumerate(order, start=1))
