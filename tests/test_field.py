@@ -4,6 +4,7 @@ reference, thresholds against the renders byte for byte, clamping and bad input.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -236,6 +237,53 @@ def test_cli_geotiff_npy_and_cube(mexico_path, mexico, tmp_path):
     faces = gloffset.distance_field(mexico, Cube(16)).values
     for k, name in enumerate(("px", "nx", "py", "ny", "pz", "nz")):
         assert np.array_equal(np.load(folder / f"{name}.npy"), faces[k])
+
+
+@pytest.mark.parametrize(
+    "grid, max_distance",
+    [(Equirect(1024, 512), None), (Cube(64), 300e3), (Tile(4, 3, 6), 1.0)],
+)
+def test_progress_rises_to_the_total(mexico, grid, max_distance):
+    """``progress(done, total)`` follows the pixels: rising, many steps on a large grid,
+    ending at the total (the pixels, twice for a shape with polygons: the distance walk,
+    then the inside test); the values are those without it."""
+    seen = []
+    radius = 1.0 if isinstance(grid, Tile) else R
+    field = gloffset.distance_field(
+        mexico,
+        grid,
+        max_distance=max_distance,
+        radius=radius,
+        progress=lambda done, total: seen.append((done, total)),
+    )
+    done = np.array([d for d, _ in seen])
+    pixels = field.values.size
+    assert {t for _, t in seen} == {2 * pixels}
+    assert (np.diff(done) > 0).all() and done[-1] == 2 * pixels
+    assert pixels in done  # the walk's pixels all counted before the inside test
+    assert len(seen) >= (12 if grid.n_faces > 1 else 5)
+    plain = gloffset.distance_field(mexico, grid, max_distance=max_distance, radius=radius)
+    assert np.array_equal(field.values, plain.values)
+
+
+def test_cli_progress_on_a_terminal_only(mexico_path, tmp_path):
+    """The field shows a progress bar on stderr when forced (GLOFFSET_PROGRESS=1, as on
+    a terminal), nothing otherwise; the file is the same either way."""
+    out = tmp_path / "f.npy"
+    args = (mexico_path, "--size", "1024x512", "--max-distance", "500km", "-o", out)
+    quiet = cli("field", *args)
+    assert quiet.returncode == 0 and quiet.stderr == b"", quiet.stderr.decode()
+    written = out.read_bytes()
+    env = {**os.environ, "GLOFFSET_PROGRESS": "1"}
+    shown = subprocess.run(
+        [sys.executable, "-m", "gloffset", "field", *map(str, args)],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
+    assert shown.returncode == 0, shown.stderr
+    assert "100%" in shown.stderr and "1.05M/1.05M px" in shown.stderr, shown.stderr
+    assert out.read_bytes() == written
 
 
 @pytest.mark.parametrize(

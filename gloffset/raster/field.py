@@ -177,7 +177,13 @@ def _max_angle(max_distance, radius: float) -> float:
 
 
 def distance_field(
-    shape, grid, *, max_distance: float | None = None, radius: float = EARTH_RADIUS, ellipsoid=None
+    shape,
+    grid,
+    *,
+    max_distance: float | None = None,
+    radius: float = EARTH_RADIUS,
+    ellipsoid=None,
+    progress=None,
 ) -> DistanceField:
     """Return the signed distance field of ``shape`` on ``grid``.
 
@@ -193,6 +199,10 @@ def distance_field(
     ellipsoid : None
         Only the sphere for now: any other value raises
         :class:`~gloffset.errors.OptionError`.
+    progress : callable, optional
+        Called as ``progress(done, total)`` as the work goes on: ``done`` rises to
+        ``total``, in pixels (those whose distances are final, then, for a shape with
+        polygons, those of each level of the inside test, in output pixels).
 
     Returns
     -------
@@ -220,31 +230,72 @@ def distance_field(
     shape = read(shape)
     _check_grid(grid)
     m = _max_angle(max_distance, radius)
+    count = _Progress(progress, grid, bool(shape.rings))
     if grid.n_faces > 1:
-        values = np.stack([_field(shape, f, m, radius) for f in grid.faces])
+        values = np.stack([_field(shape, f, m, radius, count) for f in grid.faces])
     else:
-        values = _field(shape, grid, m, radius)
+        values = _field(shape, grid, m, radius, count)
     return DistanceField(
         shape, grid, values, radius, None if max_distance is None else float(max_distance)
     )
 
 
-def _field(shape, grid, m: float, radius: float) -> np.ndarray:
+class _Progress:
+    """The count of :func:`distance_field`'s ``progress``.
+
+    Pixels of the distance walk, then (with polygons) each level of the inside test as
+    its share of the pixels.
+    """
+
+    def __init__(self, callback, grid, signed: bool):
+        self.callback = callback
+        pixels = sum(math.prod(f.level_shape(f.n_levels - 1)) for f in grid.faces)
+        self.total = pixels * (2 if signed else 1)
+        self.done = 0
+
+    def add(self, n: int) -> None:
+        if self.callback is not None and n:
+            self.done += int(n)
+            self.callback(self.done, self.total)
+
+    def levels(self, grid):
+        """Return the callback of the inside test's levels on ``grid`` (None without one)."""
+        if self.callback is None:
+            return None
+        last = grid.n_levels - 1
+        pixels = math.prod(grid.level_shape(last))
+        shown = [0]
+
+        def level(lev, classes):
+            # a level's share in output pixels: a quarter of the next one's; the last
+            # level's share is added by the caller
+            now = pixels >> (2 * (last - lev)) if lev < last else 0
+            if now > shown[0]:
+                self.add(now - shown[0])
+                shown[0] = now
+
+        return level
+
+
+def _field(shape, grid, m: float, radius: float, count: _Progress) -> np.ndarray:
     """Return the float32 field of one grid (clamped to ``+-m`` rad, ``m`` may be inf).
 
     The unsigned distances of :func:`_distances`, negated where the levels' float64
     render at distance 0 (:func:`gloffset.raster.vector.curves.classify_curves`) has the
     pixel inside (a pixel on the curves has the value 0 either way).
     """
-    dist = _distances(shape, grid, m)
+    dist = _distances(shape, grid, m, count)
     inside = np.zeros(dist.shape, dtype=bool)
     if shape.rings:
-        inside = curves.classify_curves(shape, 0.0, grid)[0] == CONTAINED
+        before = count.done
+        classes = curves.classify_curves(shape, 0.0, grid, callback=count.levels(grid))[0]
+        inside = classes == CONTAINED
+        count.add(before + dist.size - count.done)  # the levels reported, all of them
     v = np.minimum(dist, m) * radius
     return np.where(inside, -v, v).astype(np.float32)
 
 
-def _distances(shape, grid, m: float) -> np.ndarray:
+def _distances(shape, grid, m: float, count: _Progress) -> np.ndarray:
     """Return the distance (rad, float64) from each pixel centre to the nearest arc.
 
     Exact where it is at most ``m`` (larger than ``m`` elsewhere): the levels walked
@@ -274,6 +325,7 @@ def _distances(shape, grid, m: float) -> np.ndarray:
         )
         if f.level == last:
             out[f.cells[:, 0], f.cells[:, 1]] = dist
+            count.add(len(f.cells))
             continue
         stack.extend((part, True) for part in reversed(list(_parts(f))))
     h, w = grid.level_shape(last)
