@@ -383,7 +383,8 @@ def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, lea
     pass the bisector test against the cell's nearest boundary vertex found so far
     (:func:`_maybe_nearer`). Each pair's bounds are computed once: a round computes
     those of the halves of the nodes split in the round before, the least upper bounds
-    carried over.
+    carried over. At the output level with arcs only (as the level above leaves its
+    lists), every pair's exact distance instead (:func:`_nearest`).
     """
     if final and nodes.leaf[f.pair_arc].all():
         return f, _nearest(f, nodes)
