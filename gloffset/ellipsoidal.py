@@ -58,7 +58,7 @@ from .geometry.sphere import (
     robust_cross,
     xyz_to_lonlat,
 )
-from .index.contains import contains_on_sphere
+from .index.contains import contains_angle, contains_on_sphere
 from .index.tree import Index
 from .shape import read
 from .units import EARTH_RADIUS, check_lonlat, check_radius, offset_metres
@@ -434,9 +434,9 @@ def screen(
     sure_in = np.zeros(len(lon), dtype=bool)
     maybe = np.ones(len(lon), dtype=bool)
     if t_in is not None:
-        sure_in = contains_on_sphere(conf.shape, lon, chi, distance=t_in, radius=1.0, level=level)
+        sure_in = contains_angle(conf.shape, lon, chi, t_in, level)
     if t_out is not None:
-        maybe = contains_on_sphere(conf.shape, lon, chi, distance=t_out, radius=1.0, level=level)
+        maybe = contains_angle(conf.shape, lon, chi, t_out, level)
     return sure_in, maybe & ~sure_in
 
 

@@ -24,9 +24,9 @@ from .geometry.sphere import angle, lonlat_to_xyz
 from .io.crs import is_lonlat
 from .io.geojson import disc_geometry, offset_feature
 from .shape import Shape
-from .units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, to_angle
+from .units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, offset_angle, to_angle
 from .vector import discs
-from .vector.offset import offset
+from .vector.offset import Offset
 
 __all__ = ["buffer"]
 
@@ -148,11 +148,10 @@ def buffer(data, distance, *, each: bool = True, resolution: int = 16, radius=EA
     if not each:
         if not isinstance(distance, str) and np.size(distance) != 1:
             raise InvalidDistanceError("each=False (the union) takes one distance")
-        d = _angles(
-            np.ravel(distance)[0] if not isinstance(distance, str) else distance, 1, radius
-        )[0]
+        given = np.ravel(distance)[0].item() if not isinstance(distance, str) else distance
         shape = Shape.from_geojson(series.__geo_interface__)
-        geom = _general(shapely, shape, d, res)
+        one = offset_angle(shape, given, radius, limit=VECTOR_LIMIT)  # checked as offset() does
+        geom = _general(shapely, shape, one, res)
         return gpd.GeoSeries([geom], crs="EPSG:4326")
     d = _angles(distance, len(series), radius)
     _check_limit(d, distance, series.index)
@@ -176,7 +175,8 @@ def _tolerance(d: float, res: int) -> float:
 
 
 def _general(shapely, shape, d: float, res: int):
-    feat = offset_feature(offset(shape, d, radius=1.0), tolerance=_tolerance(d, res))
+    """Return the buffer of ``shape`` at the angle ``d`` (checked by the caller)."""
+    feat = offset_feature(Offset(shape, d), tolerance=_tolerance(d, res))
     return shapely.geometry.shape(feat["geometry"])
 
 

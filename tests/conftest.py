@@ -1,3 +1,4 @@
+import inspect
 import json
 from pathlib import Path
 
@@ -91,3 +92,22 @@ def assert_one_line_error(proc, *words):
     assert len(lines) == 1 and lines[0].startswith("gloffset: error: "), err
     for w in words:
         assert w in lines[0], err
+
+
+def assert_options_refused(call, func, what):
+    """``call()`` passes ``func`` an unknown keyword (``sise``): a TypeError names it and
+    lists the options, those its docstring's "Other Parameters" documents, in its order."""
+    with pytest.raises(TypeError) as err:
+        call()
+    head = f"{what}() got an unexpected keyword argument 'sise'; its options are "
+    msg = str(err.value)
+    assert msg.startswith(head), msg
+    section = inspect.getdoc(func).split("Other Parameters\n----------------\n")[1]
+    names: list[str] = []
+    for line in section.splitlines():
+        if line and not line[0].isspace():
+            if set(line) == {"-"}:  # the next section's underline: its title was last
+                names.pop()
+                break
+            names += [n.strip() for n in line.split(" : ")[0].split(",")]
+    assert msg[len(head) :].split(", ") == names

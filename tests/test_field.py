@@ -4,6 +4,7 @@ reference, thresholds against the renders byte for byte, clamping and bad input.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -130,6 +131,53 @@ def test_cube_and_tile(mexico):
     assert_within_ulps(field.values[j, i], want)
 
 
+def brute_field(shape, p, radius):
+    """The field's value at points ``p`` by brute force: the least float64 distance to
+    every boundary arc (:func:`~gloffset.geometry.sphere.arc_distance`), signed by the
+    judge's inside test, times ``radius``, rounded once to float32."""
+    from gloffset.edges import CurveArcs
+    from gloffset.geometry.sphere import arc_distance
+
+    arcs = CurveArcs.from_shape(shape)
+    b = np.flatnonzero(arcs.boundary)
+    d = np.array([arc_distance(q[None], arcs.a[b], arcs.b[b], arcs.n[b]).min() for q in p])
+    v = d * radius
+    return np.where(reference.contains_xyz(shape, p, 0.0), -v, v).astype(np.float32)
+
+
+@pytest.mark.parametrize(
+    "grid", [Tile(5, 6, 13), Tile(6, 13, 28), Tile(8, 57, 113), Equirect(512, 256)]
+)
+def test_values_are_the_nearest_arcs_bit_for_bit(mexico, grid):
+    """Each value is the least exact float64 distance over all the boundary arcs, bit for
+    bit, whatever pruning found it: on the tiles the tile server asks for (Mexico's west
+    coast at z5, its Pacific coast at z6, Mexico City at z8, radians) and a global grid
+    (metres, far pixels included)."""
+    radius = 1.0 if isinstance(grid, Tile) else R
+    field = gloffset.distance_field(mexico, grid, radius=radius)
+    j, i, p = sample(grid, 300, seed=8)
+    got = field.values[j, i]
+    assert got.tobytes() == brute_field(mexico, p, radius).tobytes()
+
+
+def test_exact_is_arc_distance_bit_for_bit(mexico):
+    """The field's own kernel of the arc distance (its per-node products made once, each
+    branch on its own pairs) has the bits of :func:`arc_distance`, on Mexico's nodes,
+    merged ones included, from points on and near its coast and far away."""
+    from gloffset.geometry.sphere import arc_distance, normalize
+    from gloffset.raster.field import _exact
+    from gloffset.raster.vector.node_levels import NodeArcs
+
+    nodes = NodeArcs.from_shape(mexico)
+    rng = np.random.default_rng(9)
+    near = nodes.a[rng.integers(0, len(nodes.a), 3000)] + rng.normal(size=(3000, 3)) * 1e-3
+    c = np.concatenate([nodes.b[:1000], normalize(near), normalize(rng.normal(size=(3000, 3)))])
+    cell = rng.integers(0, len(c), 200_000)
+    node = rng.integers(0, len(nodes.a), 200_000)
+    want = arc_distance(c[cell], nodes.a[node], nodes.b[node], nodes.n[node])
+    assert _exact(c, cell, nodes, node).tobytes() == want.tobytes()
+
+
 def test_lines_and_points_are_unsigned():
     lines = {
         "type": "MultiLineString",
@@ -236,6 +284,53 @@ def test_cli_geotiff_npy_and_cube(mexico_path, mexico, tmp_path):
     faces = gloffset.distance_field(mexico, Cube(16)).values
     for k, name in enumerate(("px", "nx", "py", "ny", "pz", "nz")):
         assert np.array_equal(np.load(folder / f"{name}.npy"), faces[k])
+
+
+@pytest.mark.parametrize(
+    "grid, max_distance",
+    [(Equirect(1024, 512), None), (Cube(64), 300e3), (Tile(4, 3, 6), 1.0)],
+)
+def test_progress_rises_to_the_total(mexico, grid, max_distance):
+    """``progress(done, total)`` follows the pixels: rising, many steps on a large grid,
+    ending at the total (the pixels, twice for a shape with polygons: the distance walk,
+    then the inside test); the values are those without it."""
+    seen = []
+    radius = 1.0 if isinstance(grid, Tile) else R
+    field = gloffset.distance_field(
+        mexico,
+        grid,
+        max_distance=max_distance,
+        radius=radius,
+        progress=lambda done, total: seen.append((done, total)),
+    )
+    done = np.array([d for d, _ in seen])
+    pixels = field.values.size
+    assert {t for _, t in seen} == {2 * pixels}
+    assert (np.diff(done) > 0).all() and done[-1] == 2 * pixels
+    assert pixels in done  # the walk's pixels all counted before the inside test
+    assert len(seen) >= (12 if grid.n_faces > 1 else 5)
+    plain = gloffset.distance_field(mexico, grid, max_distance=max_distance, radius=radius)
+    assert np.array_equal(field.values, plain.values)
+
+
+def test_cli_progress_on_a_terminal_only(mexico_path, tmp_path):
+    """The field shows a progress bar on stderr when forced (GLOFFSET_PROGRESS=1, as on
+    a terminal), nothing otherwise; the file is the same either way."""
+    out = tmp_path / "f.npy"
+    args = (mexico_path, "--size", "1024x512", "--max-distance", "500km", "-o", out)
+    quiet = cli("field", *args)
+    assert quiet.returncode == 0 and quiet.stderr == b"", quiet.stderr.decode()
+    written = out.read_bytes()
+    env = {**os.environ, "GLOFFSET_PROGRESS": "1"}
+    shown = subprocess.run(
+        [sys.executable, "-m", "gloffset", "field", *map(str, args)],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
+    assert shown.returncode == 0, shown.stderr
+    assert "100%" in shown.stderr and "1.05M/1.05M px" in shown.stderr, shown.stderr
+    assert out.read_bytes() == written
 
 
 @pytest.mark.parametrize(

@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from conftest import DATA
+from conftest import DATA, assert_one_line_error
 from PIL import Image
 
 from gloffset.cli import main
@@ -104,3 +104,26 @@ def test_a_coarser_level_of_classes_says_its_size(tmp_path, masks, source):
     assert "360x180 grid" in r.stderr
     r = run(*args, "--classes", str(last), "-o", out)  # the output level: as asked, no note
     assert r.exit_code == 0 and r.stderr == "" and Image.open(out).size == (360, 180)
+
+
+def test_the_distance_is_converted_once_and_quoted_as_given(tmp_path, masks):
+    """The library takes ``-d`` as given, with ``--radius``: the mask of Mexico's border
+    is that of the library's call with the same distance and radius, and a distance too
+    large for a raster offset is refused naming it as typed."""
+    globe, _ = masks
+    curve = np.asarray(Image.open(globe)) >= 128
+    want = raster_offset(curve, "900km", Equirect(360, 180), radius=3e6, backend="cpu")
+    out = tmp_path / "m.png"
+    r = run("render", "--from-raster", globe, "-d", "900km", "--radius", "3e6", "--mask", "-o", out)
+    assert r.exit_code == 0, r.output
+    got = np.asarray(Image.open(out))
+    np.testing.assert_array_equal(got, np.where(want == CONTAINED, 255, 0))
+    assert (want == CONTAINED).sum() > (curve.sum() * 4)  # wider than the border itself
+    out.unlink()
+    proc = subprocess.run(
+        [sys.executable, "-m", "gloffset", "render", "--from-raster", str(globe)]
+        + ["-d", "5000km", "--radius", "3e6", "-o", str(out)],
+        capture_output=True,
+    )
+    assert_one_line_error(proc, "distance '5000km' is 1.667 rad", "0 < d < 1.5 rad")
+    assert not out.exists()

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import assert_options_refused
 from PIL import Image
 
 import gloffset
@@ -529,3 +530,22 @@ def test_cube_errors(tmp_path):
     assert "--bounds" in cli(tmp_path / "empty", "--bounds", "0,0,10,10")
     r = run(main, ["render", "--from-raster", str(tmp_path / "empty"), "-d", "1km", "-o", "x.png"])
     assert r.exit_code == 2 and "--grid cube" in r.output
+
+
+def test_an_unknown_option_is_refused_naming_the_documented_ones(world):
+    """``raster_offset(**options)`` refuses a misspelt option, listing every option its
+    docstring documents; the options it takes reach the offset (``level``, ``order``,
+    ``callback``: a level's classes are those the whole run called back with)."""
+    grid = Equirect(512, 256)
+    mask, parts = rasterize(gloffset.read(world["Chile"]), grid, ordered=True)
+    assert_options_refused(
+        lambda: raster_offset(mask, "127km", grid, sise=64), raster_offset, "raster_offset"
+    )
+    coarse, info = raster_offset(
+        mask, "127km", grid, backend="cpu", level=3, order=parts, return_info=True
+    )
+    assert coarse.shape == grid.level_shape(3) and info.backend == "cpu"
+    seen: dict = {}
+    full = raster_offset(mask, "127km", grid, backend="cpu", callback=seen.setdefault)
+    np.testing.assert_array_equal(seen[3], coarse)
+    assert np.count_nonzero(full == CONTAINED) > 0 and np.count_nonzero(coarse == FRONTIER) > 0

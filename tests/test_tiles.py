@@ -16,12 +16,13 @@ import sys
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from conftest import read_dir, read_mbtiles
+from conftest import assert_options_refused, read_dir, read_mbtiles
 from PIL import Image, ImageDraw
 
 import gloffset
 from gloffset.cli import main
 from gloffset.edges import CurveArcs
+from gloffset.errors import OptionError
 from gloffset.geometry.sphere import angle, arc_distance, lonlat_to_xyz
 from gloffset.grids import Tile
 from gloffset.grids.mercator import TilePyramid
@@ -840,3 +841,30 @@ def test_the_summary_counts_the_tiles_the_progress_counts(tmp_path, mexico_path)
         assert empty > 0 and (present > 0) == bool(flags)
     stats = pyramid(gloffset.read(mexico_path), "400km", (0, 6), tmp_path / "p")
     assert stats.handled == total and stats.as_dict()["handled"] == total
+
+
+def test_an_unknown_option_is_refused_naming_the_documented_ones(tmp_path, world):
+    """``pyramid(**options)`` refuses a misspelt option before any work, listing every
+    option its docstring documents; ``pyramids`` takes the same options."""
+    out = tmp_path / "mx.mbtiles"
+    mexico = world["Mexico"]
+    assert_options_refused(
+        lambda: pyramid(mexico, "127km", "0-2", out, sise=64), pyramid, "pyramid"
+    )
+    assert_options_refused(
+        lambda: gloffset.tiles.pyramids(mexico, ["10km"], "0-2", [out], sise=64),
+        pyramid,
+        "pyramids",
+    )
+    assert not out.exists()
+    with pytest.raises(OptionError, match="opacity"):  # the style checked with the options
+        pyramid(mexico, "127km", "0-2", out, opacity=2.0)
+    gloffset.tiles.pyramids(mexico, ["10km"], "0-2", [out], size=64, outline="#ff0000")
+    tiles, meta = read_mbtiles(out)
+    red = [t for t, png in tiles.items() if (255, 0, 0, 255) in rgba_colours(png)]
+    assert meta["name"] == "mx" and len(red) >= 3  # the outline, one tile a zoom at least
+
+
+def rgba_colours(png: bytes) -> set:
+    """The colours of a tile."""
+    return {c for _, c in Image.open(io.BytesIO(png)).convert("RGBA").getcolors(1 << 16)}

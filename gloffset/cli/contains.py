@@ -138,8 +138,8 @@ def contains_cmd(
     """
     if input == "-" and points == "-":
         raise InputFormatError("INPUT and POINTS cannot both be read from stdin (-)")
-    ell, d = measure(distance, radius, ellipsoid)
-    d = d if ell is None else (ell, d)
+    ell, m = measure(distance, radius, ellipsoid)  # checked before the work
+    d = (ell, distance if ell is None else m, radius)  # as given: the index converts it
     check_output(output)  # fail before the work
     tester: PerFeature | Union
     if each:
@@ -226,16 +226,19 @@ def _flagged(rows, inside, iout):
 
 
 def _tester(shape, d, level, expect):
-    """``inside(lon, lat)`` for the batches: the spherical index for an angle ``d``, the
-    ellipsoidal contains for ``d = (ellipsoid, metres)``."""
-    if isinstance(d, tuple):
-        ell, m = d
+    """``inside(lon, lat)`` for the batches, ``d`` being ``(None, distance as given,
+    radius)``: the spherical index, or ``(ellipsoid, metres, radius)``: the ellipsoidal
+    contains."""
+    ell, distance, radius = d
+    if ell is not None:
 
         def on_ellipsoid(lon, lat):
-            return ellipsoidal_contains(shape, lon, lat, distance=m, level=level, ellipsoid=ell)
+            return ellipsoidal_contains(
+                shape, lon, lat, distance=distance, level=level, ellipsoid=ell
+            )
 
         return on_ellipsoid
-    return Index(shape, d, radius=1.0, level=level, depth=depth_for(expect)).contains
+    return Index(shape, distance, radius=radius, level=level, depth=depth_for(expect)).contains
 
 
 class Union:

@@ -5,6 +5,7 @@ cube-map faces."""
 from __future__ import annotations
 
 import io
+import sys
 from pathlib import Path
 
 import click
@@ -24,6 +25,7 @@ from .options import (
     parse_face,
     parse_size,
     radius_option,
+    show_progress,
     size_options,
 )
 
@@ -108,7 +110,36 @@ def field_cmd(
         if not m > 0.0:
             raise OptionError(f"--max-distance must be a positive distance, got {max_distance!r}")
     shape = read(input, layer=layer, where=where, densify=densify)
-    field = distance_field(shape, grid, max_distance=m, radius=radius)
+    bar = None
+    if show_progress():
+        from tqdm import tqdm
+
+        bar = tqdm(
+            total=1,
+            file=sys.stderr,
+            dynamic_ncols=True,
+            unit="px",
+            unit_scale=True,
+            mininterval=0.1,
+            bar_format="{percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} px [{elapsed}<{remaining}]",
+        )
+
+    def progress(done: int, total: int) -> None:
+        assert bar is not None  # passed on with a bar only
+        bar.total = total
+        bar.update(done - bar.n)
+
+    try:
+        field = distance_field(
+            shape,
+            grid,
+            max_distance=m,
+            radius=radius,
+            progress=progress if bar is not None else None,
+        )
+    finally:
+        if bar is not None:
+            bar.close()
     if kind == "folder":
         folder = Path(output)
         try:

@@ -160,7 +160,7 @@ def render_cmd(
         return _many_cmd(
             input,
             many,
-            ell,
+            (ell, radius),
             (grid_kind, size, bounds),
             (output, cog, not no_worldfile, bands),
             (fill, opacity, background),
@@ -169,16 +169,14 @@ def render_cmd(
         )
     if ell is not None and from_raster is None and classes_level is not None:
         raise OptionError("--ellipsoid renders masks of vector INPUT: no --classes")
-    d = many[0][1]
     cog = _check_output(output, grid_kind, cog)
     style = _checked_style(fill, opacity, background)  # fail before the work
     if from_raster is not None:
         if input is not None or size is not None:
             raise OptionError("--from-raster takes no INPUT or --size (the PNGs' size)")
         raster_opts = (classes_level, backend, mask_only, style)
-        return _from_raster_cmd(
-            from_raster, d, ell, grid_kind, bounds, output, raster_opts, (cog, not no_worldfile)
-        )
+        where = (grid_kind, bounds, output, cog, not no_worldfile)
+        return _from_raster_cmd(from_raster, (many[0][0], radius, ell), where, raster_opts)
     if input is None:
         raise OptionError("give an INPUT file (or - for stdin), or --from-raster MASK.png")
     if mask_only:
@@ -245,11 +243,14 @@ def named(output, text: str) -> str:
     return str(path.with_name(f"{stem}_{text}{suffix}"))
 
 
-def _many_cmd(input, many, ell, gridopts, outopts, style, backend, read_opts):
+def _many_cmd(input, many, measure, gridopts, outopts, style, backend, read_opts):
     """``render -d D1,D2,...``: the masks of several distances from one read of INPUT
     (:func:`gloffset.raster.many.render_many`), one file per distance or, with
-    ``--bands``, one image of the bands (:func:`gloffset.raster.many.mask_bands`)."""
+    ``--bands``, one image of the bands (:func:`gloffset.raster.many.mask_bands`);
+    ``measure`` is ``(ellipsoid, radius)``."""
     from ..raster.many import mask_bands, render_many
+
+    ell, radius = measure
 
     output, cog, worldfile, bands = outopts
     grid_kind, size, bounds = gridopts
@@ -270,7 +271,8 @@ def _many_cmd(input, many, ell, gridopts, outopts, style, backend, read_opts):
     show = sys.stderr.isatty()
     if show:
         click.echo(f"rendering {len(many)} distances", err=True)
-    masks = render_many(shape, values, grid, radius=1.0, backend=backend, ellipsoid=ell)
+    texts = [text for text, _ in many]  # as given: the library converts them once
+    masks = render_many(shape, texts, grid, radius=radius, backend=backend, ellipsoid=ell)
     if bands:
         image, order = mask_bands(masks, values)
         key = ", ".join(f"{k}={many[i][0]}" for k, i in enumerate(order, start=1))
@@ -300,11 +302,17 @@ def _many_cmd(input, many, ell, gridopts, outopts, style, backend, read_opts):
                 )
 
 
-def _from_raster_cmd(path, d, ell, grid_kind, bounds, output, opts, place):
+def _from_raster_cmd(path, measure, where, opts):
     """``render --from-raster``: the options checked, the cube or the equirect offset of
-    the mask; ``opts`` is ``(level, backend, mask_only, style)``, ``place`` ``(cog,
-    worldfile)``."""
+    the mask; ``measure`` is ``(distance as given, radius, ellipsoid)``, ``where``
+    ``(grid kind, bounds, output, cog, worldfile)``, ``opts`` ``(level, backend,
+    mask_only, style)``."""
+    from ..raster.rasterized import RasterOffsetOptions
+
+    distance, radius, ell = measure  # the distance as given: the library converts it once
+    grid_kind, bounds, output, *place = where
     level, backend, mask_only, style = opts
+    options = RasterOffsetOptions(radius=radius, backend=backend, level=level, ellipsoid=ell)
     if style != (None, 1.0, None) and not mask_only:
         raise OptionError(
             "--fill, --background and --opacity style a mask: with --from-raster add "
@@ -315,13 +323,13 @@ def _from_raster_cmd(path, d, ell, grid_kind, bounds, output, opts, place):
             raise OptionError("--ellipsoid with --from-raster takes an equirect mask")
         if bounds is not None:
             raise OptionError("--bounds does not apply to --grid cube")
-        return _from_raster_cube(path, d, output, level, backend, mask_only, style)
+        return _from_raster_cube(path, distance, options, output, mask_only, style)
     if Path(path).is_dir():
         raise OptionError(
             f"--from-raster {path!r} is a folder: add --grid cube to read the six "
             "cube faces px.png nx.png py.png ny.png pz.png nz.png from it"
         )
-    return _from_raster(path, d, bounds, output, level, backend, mask_only, place, ell, style)
+    return _from_raster(path, distance, options, (bounds, output), mask_only, place, style)
 
 
 def _check_output(output, grid_kind, cog) -> bool:
@@ -417,12 +425,14 @@ def _from_raster_grid(path, bounds) -> tuple[np.ndarray, Equirect]:
     return mask, Equirect(w, h, _bounds(bounds))
 
 
-def _from_raster(path, d, bounds, output, level, backend, mask_only, place, ell=None, style=None):
-    from ..raster.rasterized import raster_offset
+def _from_raster(path, distance, opts, where, mask_only, place, style=None):
+    from ..raster.rasterized import raster_offset_with
 
+    bounds, output = where
     mask, grid = _from_raster_grid(path, bounds)
+    level = opts.level
     _say_level_size(grid, level)
-    classes = raster_offset(mask, d, grid, radius=1.0, backend=backend, level=level, ellipsoid=ell)
+    classes = raster_offset_with(mask, distance, grid, opts)
     at = None
     if level is None or level == grid.n_levels - 1:
         styled = mask_only and style is not None and style != (None, 1.0, None)
@@ -479,13 +489,13 @@ def read_cube_masks(folder) -> np.ndarray:
     return np.stack(faces)
 
 
-def _from_raster_cube(path, d, output, level, backend, mask_only, style=None):
-    from ..raster.rasterized import raster_offset
+def _from_raster_cube(path, distance, opts, output, mask_only, style=None):
+    from ..raster.rasterized import raster_offset_with
 
     mask = read_cube_masks(path)
     grid = Cube(mask.shape[1])
-    _say_level_size(grid, level)
-    classes = raster_offset(mask, d, grid, radius=1.0, backend=backend, level=level)
+    _say_level_size(grid, opts.level)
+    classes = raster_offset_with(mask, distance, grid, opts)
     folder = _out_folder(output)
     for k, name in enumerate(FACE_NAMES):
         _write_raster_classes(classes[k], folder / f"{name}.png", mask_only, style=style)

@@ -10,7 +10,8 @@ import click
 
 from ..io.output import refuse_stdout
 from ..io.tilestore import TILE_FILES, check_tile_output
-from ..raster.pyramid import parse_zooms, pyramid
+from ..raster.pyramid import parse_zooms
+from ..raster.pyramid.driver import PyramidOptions, write_pyramid
 from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
 from . import main
@@ -114,7 +115,7 @@ def tiles_cmd(
     check_tile_output(output)
     outputs = [output] if len(many) == 1 else [tile_output(output, t) for t, _ in many]
     parse_zooms(zooms)
-    TileStyle(fill, opacity, outline, outline_width)
+    style = TileStyle(fill, opacity, outline, outline_width)
     if resume and force:
         raise click.UsageError("--resume and --force exclude each other")
     shape = read(input, layer=layer, where=where, densify=densify)
@@ -145,30 +146,24 @@ def tiles_cmd(
             shown[0] = now
             bar.refresh()
 
+    options = PyramidOptions(
+        radius=radius,
+        size=tile_size,
+        style=style,
+        resume=resume,
+        overwrite=force,
+        name=name,
+        source="stdin" if input == "-" else Path(input).stem,
+        progress=progress if bar is not None else None,
+        workers=workers,
+        scheduler=scheduler,
+        ellipsoid=ell,
+    )
     try:
         for (text, _), out in zip(many, outputs):
             if len(many) > 1:
                 click.echo(f"-d {text}: {out}", err=True)
-            stats = pyramid(
-                shape,
-                text,  # as given, for the description metadata
-                zooms,
-                out,
-                radius=radius,
-                size=tile_size,
-                fill=fill,
-                opacity=opacity,
-                outline=outline,
-                outline_width=outline_width,
-                resume=resume,
-                overwrite=force,
-                name=name,
-                source="stdin" if input == "-" else Path(input).stem,
-                progress=progress if bar is not None else None,
-                workers=workers,
-                scheduler=scheduler,
-                ellipsoid=ell,
-            )
+            stats = write_pyramid(shape, text, zooms, out, options)  # text: as given
             _say(stats)
     finally:
         if bar is not None:

@@ -31,7 +31,7 @@ class ConformalRows(LonLatGrid):
     >>> from gloffset.grids import Equirect
     >>> g = ConformalRows(Equirect(4, 2), as_ellipsoid("WGS84"))
     >>> round(float(np.degrees(g.cell_lat(g.n_levels - 1, 0))), 4)  # 45 deg geodetic
-    44.8076
+    44.8077
     """
 
     width: int

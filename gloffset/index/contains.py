@@ -31,11 +31,11 @@ import numpy as np
 from ..edges import contains_xyz
 from ..geometry.caps import cap_within
 from ..geometry.sphere import lonlat_to_xyz
-from ..shape import read
+from ..shape import Shape, read
 from ..units import EARTH_RADIUS, check_lonlat, offset_angle
 from .tree import DEFAULT_DEPTH, Index
 
-__all__ = ["contains_on_sphere", "depth_for"]
+__all__ = ["contains_on_sphere", "contains_angle", "depth_for"]
 
 #: Indexes kept on a shape (by distance and level).
 CACHE_SIZE = 4
@@ -64,7 +64,7 @@ def _index(shape, d: float, level, n_points: int) -> Index:
     want = depth_for(n_points)
     ix = cache.get(key)
     if ix is None or ix.requested_depth < want:
-        ix = Index(shape, d, radius=1.0, level=level, depth=want)
+        ix = Index.at_angle(shape, d, level=level, depth=want)
         cache.pop(key, None)
         if len(cache) >= CACHE_SIZE:
             cache.pop(next(iter(cache)))
@@ -126,7 +126,14 @@ def contains_on_sphere(
     [True, True]
     """
     shape = read(shape)
-    d = offset_angle(shape, distance, radius)
+    return contains_angle(shape, lon, lat, offset_angle(shape, distance, radius), level)
+
+
+def contains_angle(shape: Shape, lon, lat, d: float, level=None) -> np.ndarray:
+    """Return :func:`contains_on_sphere` of a read ``shape`` at the angle ``d`` (radians).
+
+    The angle is checked by the caller (:func:`gloffset.units.offset_angle`).
+    """
     lon, lat, shp = check_lonlat(lon, lat)
     out = _index(shape, d, level, len(lon))._query(lon, lat)
     pairs = shape.overlapping_components()

@@ -12,28 +12,11 @@ import numpy as np
 from ..errors import InvalidLevelError, OptionError
 from ..geometry.caps import cos_sum_lower
 from ..geometry.crossings import inside as _inside_reference
-from ..geometry.sphere import (
-    angle,
-    arc_distance,
-    cross,
-    dot,
-    lonlat_to_xyz,
-    xyz_to_lonlat,
-)
-from ..shape import read
+from ..geometry.sphere import angle, arc_distance, cross, dot, lonlat_to_xyz, xyz_to_lonlat
+from ..shape import Shape, read
 from ..units import EARTH_RADIUS, check_lonlat, offset_angle
 from . import bins
-from .arcs import (
-    BOUNDARY,
-    INTERNAL,
-    MARGIN,
-    RING,
-    arc_tree,
-    crosses,
-    dots,
-    radius_terms,
-    within,
-)
+from .arcs import BOUNDARY, INTERNAL, MARGIN, RING, arc_tree, crosses, dots, radius_terms, within
 from .cells import Cells, paint_table, sample_points, subset_pairs
 
 __all__ = ["Index"]
@@ -176,8 +159,21 @@ class Index:
         depth=None,
         ellipsoid=None,
     ):
-        self.shape = read(shape)
-        self.distance = offset_angle(self.shape, distance, radius)
+        shape = read(shape)
+        self._make(shape, offset_angle(shape, distance, radius), level, depth)
+
+    @classmethod
+    def at_angle(cls, shape: Shape, d: float, *, level=None, depth=None) -> Index:
+        """Return the index of a read ``shape`` at the angle ``d`` (radians).
+
+        The angle is checked by the caller (:func:`gloffset.units.offset_angle`).
+        """
+        index = object.__new__(cls)
+        index._make(shape, d, level, depth)
+        return index
+
+    def _make(self, shape: Shape, d: float, level, depth) -> None:
+        self.shape, self.distance = shape, d
         self._arcs = arc_tree(self.shape)
         self.level = self._choose_level(level)
         default_depth = depth is None

@@ -26,13 +26,14 @@ their inside status is the sign bit of the value, kept exactly: ``-0.0`` inside)
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 
 from ..errors import OptionError
 from ..geometry.caps import CAP_SLACK, cap_range, pad
 from ..geometry.classes import CONTAINED
-from ..geometry.sphere import angle, arc_distance, pair_dots
+from ..geometry.sphere import angle, cross, dot, pair_dots
 from ..grids.protocol import Image
 from ..shape import read
 from ..units import EARTH_RADIUS, RASTER_LIMIT, check_radius, offset_angle, to_angle
@@ -177,7 +178,13 @@ def _max_angle(max_distance, radius: float) -> float:
 
 
 def distance_field(
-    shape, grid, *, max_distance: float | None = None, radius: float = EARTH_RADIUS, ellipsoid=None
+    shape,
+    grid,
+    *,
+    max_distance: float | None = None,
+    radius: float = EARTH_RADIUS,
+    ellipsoid=None,
+    progress=None,
 ) -> DistanceField:
     """Return the signed distance field of ``shape`` on ``grid``.
 
@@ -193,6 +200,10 @@ def distance_field(
     ellipsoid : None
         Only the sphere for now: any other value raises
         :class:`~gloffset.errors.OptionError`.
+    progress : callable, optional
+        Called as ``progress(done, total)`` as the work goes on: ``done`` rises to
+        ``total``, in pixels (those whose distances are final, then, for a shape with
+        polygons, those of each level of the inside test, in output pixels).
 
     Returns
     -------
@@ -220,31 +231,72 @@ def distance_field(
     shape = read(shape)
     _check_grid(grid)
     m = _max_angle(max_distance, radius)
+    count = _Progress(progress, grid, bool(shape.rings))
     if grid.n_faces > 1:
-        values = np.stack([_field(shape, f, m, radius) for f in grid.faces])
+        values = np.stack([_field(shape, f, m, radius, count) for f in grid.faces])
     else:
-        values = _field(shape, grid, m, radius)
+        values = _field(shape, grid, m, radius, count)
     return DistanceField(
         shape, grid, values, radius, None if max_distance is None else float(max_distance)
     )
 
 
-def _field(shape, grid, m: float, radius: float) -> np.ndarray:
+class _Progress:
+    """The count of :func:`distance_field`'s ``progress``.
+
+    Pixels of the distance walk, then (with polygons) each level of the inside test as
+    its share of the pixels.
+    """
+
+    def __init__(self, callback, grid, signed: bool):
+        self.callback = callback
+        pixels = sum(math.prod(f.level_shape(f.n_levels - 1)) for f in grid.faces)
+        self.total = pixels * (2 if signed else 1)
+        self.done = 0
+
+    def add(self, n: int) -> None:
+        if self.callback is not None and n:
+            self.done += int(n)
+            self.callback(self.done, self.total)
+
+    def levels(self, grid):
+        """Return the callback of the inside test's levels on ``grid`` (None without one)."""
+        if self.callback is None:
+            return None
+        last = grid.n_levels - 1
+        pixels = math.prod(grid.level_shape(last))
+        shown = [0]
+
+        def level(lev, classes):
+            # a level's share in output pixels: a quarter of the next one's; the last
+            # level's share is added by the caller
+            now = pixels >> (2 * (last - lev)) if lev < last else 0
+            if now > shown[0]:
+                self.add(now - shown[0])
+                shown[0] = now
+
+        return level
+
+
+def _field(shape, grid, m: float, radius: float, count: _Progress) -> np.ndarray:
     """Return the float32 field of one grid (clamped to ``+-m`` rad, ``m`` may be inf).
 
     The unsigned distances of :func:`_distances`, negated where the levels' float64
     render at distance 0 (:func:`gloffset.raster.vector.curves.classify_curves`) has the
     pixel inside (a pixel on the curves has the value 0 either way).
     """
-    dist = _distances(shape, grid, m)
+    dist = _distances(shape, grid, m, count)
     inside = np.zeros(dist.shape, dtype=bool)
     if shape.rings:
-        inside = curves.classify_curves(shape, 0.0, grid)[0] == CONTAINED
+        before = count.done
+        classes = curves.classify_curves(shape, 0.0, grid, callback=count.levels(grid))[0]
+        inside = classes == CONTAINED
+        count.add(before + dist.size - count.done)  # the levels reported, all of them
     v = np.minimum(dist, m) * radius
     return np.where(inside, -v, v).astype(np.float32)
 
 
-def _distances(shape, grid, m: float) -> np.ndarray:
+def _distances(shape, grid, m: float, count: _Progress) -> np.ndarray:
     """Return the distance (rad, float64) from each pixel centre to the nearest arc.
 
     Exact where it is at most ``m`` (larger than ``m`` elsewhere): the levels walked
@@ -274,6 +326,7 @@ def _distances(shape, grid, m: float) -> np.ndarray:
         )
         if f.level == last:
             out[f.cells[:, 0], f.cells[:, 1]] = dist
+            count.add(len(f.cells))
             continue
         stack.extend((part, True) for part in reversed(list(_parts(f))))
     h, w = grid.level_shape(last)
@@ -330,8 +383,11 @@ def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, lea
     pass the bisector test against the cell's nearest boundary vertex found so far
     (:func:`_maybe_nearer`). Each pair's bounds are computed once: a round computes
     those of the halves of the nodes split in the round before, the least upper bounds
-    carried over.
+    carried over. At the output level with arcs only (as the level above leaves its
+    lists), every pair's exact distance instead (:func:`_nearest`).
     """
+    if final and nodes.leaf[f.pair_arc].all():
+        return f, _nearest(f, nodes)
     c, rho = f.centers, f.rho
     k = len(f.cells)
     bound = np.where(leaves, 0.0, _KAPPA * rho)  # read above the output level only
@@ -399,21 +455,111 @@ def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, lea
     return g, dist
 
 
-#: Pairs per call of :func:`~gloffset.geometry.sphere.arc_distance` in :func:`_exact` (its
-#: temporaries then stay in the processor's caches: about twice as fast as one call).
-_CHUNK = 1 << 16
+def _nearest(f: Frontier, nodes: NodeArcs) -> np.ndarray:
+    """Return each cell's distance to its nearest pair, all of whose nodes are arcs.
+
+    Every pair's exact distance, with no bound computed first: at the output level
+    nearly every pair needs its exact distance (the lists hold the arcs that can be
+    nearest to the pixel's centre), and the least of them is the least of those a
+    pruning would leave, bit for bit (a pair pruned is never the nearest one).
+    """
+    dist = np.full(len(f.cells), np.inf)
+    np.minimum.at(dist, f.pair_cell, _exact(f.centers, f.pair_cell, nodes, f.pair_arc))
+    return dist
+
+
+#: Pairs per call of the kernel of :func:`_exact` (its temporaries then stay in the
+#: processor's caches).
+_CHUNK = 1 << 15
+
+
+class _Ends:
+    """The nodes' arcs as :func:`_exact` reads them.
+
+    Coordinates as contiguous columns (gathered one at a time, no (k, 3) copies), and
+    what :func:`~gloffset.geometry.sphere.arc_distance` computes per arc (``n x a``,
+    ``b x n`` and ``n.n > 0.5``) computed once per node, with the same bits.
+    """
+
+    def __init__(self, nodes: NodeArcs):
+        n = nodes.n
+        self.a = [np.ascontiguousarray(nodes.a[:, k]) for k in range(3)]
+        self.b = [np.ascontiguousarray(nodes.b[:, k]) for k in range(3)]
+        self.n = [np.ascontiguousarray(n[:, k]) for k in range(3)]
+        na, bn = cross(n, nodes.a), cross(nodes.b, n)
+        self.na = [np.ascontiguousarray(na[:, k]) for k in range(3)]
+        self.bn = [np.ascontiguousarray(bn[:, k]) for k in range(3)]
+        self.ok = dot(n, n) > 0.5
+
+
+#: The :class:`_Ends` of each node table (made once per table, kept while it lives).
+_ENDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _ends(nodes: NodeArcs) -> _Ends:
+    got = _ENDS.get(nodes)
+    if got is None:
+        got = _ENDS[nodes] = _Ends(nodes)
+    return got
 
 
 def _exact(c, cell, nodes: NodeArcs, node) -> np.ndarray:
     """Return the distances from ``c[cell]`` to the arcs of ``node``.
 
-    :func:`~gloffset.geometry.sphere.arc_distance`, the same bits, in chunks of
-    :data:`_CHUNK` pairs.
+    :func:`~gloffset.geometry.sphere.arc_distance` bit for bit (the same operations on
+    the same values, each in the same order), in chunks of :data:`_CHUNK` pairs, with
+    each pair's distance to the line computed only where its foot falls on the arc and
+    its distance to the ends only where it does not.
     """
+    ends = _ends(nodes)
+    cols = [np.ascontiguousarray(c[:, k]) for k in range(3)]
     out = np.empty(len(cell))
     for s in range(0, len(cell), _CHUNK):
         ci, ni = cell[s : s + _CHUNK], node[s : s + _CHUNK]
-        out[s : s + _CHUNK] = arc_distance(c[ci], nodes.a[ni], nodes.b[ni], nodes.n[ni])
+        out[s : s + _CHUNK] = _arc_distance([x[ci] for x in cols], ends, ni)
+    return out
+
+
+def _dot3(u, v, i=None):
+    """Return ``u . v`` for columns ``u``, ``v`` (``v`` gathered at ``i``).
+
+    Summed as :func:`~gloffset.geometry.sphere.dot` sums: ``(u0 v0 + u1 v1) + u2 v2``.
+    """
+    if i is None:
+        return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+    out = u[0] * v[0][i]
+    out += u[1] * v[1][i]
+    out += u[2] * v[2][i]
+    return out
+
+
+def _arc_distance(p, ends: _Ends, ni) -> np.ndarray:
+    """Return the distances from points ``p`` (columns) to the arcs ``ni`` of ``ends``.
+
+    :func:`~gloffset.geometry.sphere.arc_distance`'s, each branch on its own pairs (see
+    :func:`_exact`).
+    """
+    inside = _dot3(p, ends.na, ni) >= 0.0
+    inside &= _dot3(p, ends.bn, ni) >= 0.0
+    inside &= ends.ok[ni]
+    out = np.empty(len(ni))
+    on = np.flatnonzero(inside)
+    if len(on):
+        q, j = [x[on] for x in p], ni[on]
+        n = [x[j] for x in ends.n]
+        pn = _dot3(q, n)
+        foot = [q[k] - pn * n[k] for k in range(3)]
+        out[on] = np.arctan2(np.abs(pn), np.sqrt(_dot3(foot, foot)))
+    off = np.flatnonzero(~inside)
+    if len(off):
+        q, j = [x[off] for x in p], ni[off]
+        to = []
+        for e in (ends.a, ends.b):
+            v = [x[j] for x in e]
+            dm = [q[k] - v[k] for k in range(3)]
+            dp = [q[k] + v[k] for k in range(3)]
+            to.append(2.0 * np.arctan2(np.sqrt(_dot3(dm, dm)), np.sqrt(_dot3(dp, dp))))
+        out[off] = np.minimum(to[0], to[1])
     return out
 
 

@@ -17,7 +17,7 @@ import numpy as np
 from ..errors import InvalidDistanceError
 from ..shape import read
 from ..units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, to_metres
-from .render import render
+from .render import render, render_angle
 
 __all__ = ["render_many", "mask_bands", "MAX_DISTANCES"]
 
@@ -104,8 +104,9 @@ def render_many(
     shape's caches, the GL context): ``benchmarks/many_distances.py`` measures it.
     """
     shape = read(shape)
-    if ellipsoid is None:
-        check_distances(shape, distances, radius)
+    if ellipsoid is None:  # the angles converted once, each rendered at its angle
+        angles = check_distances(shape, distances, radius)
+        return [render_angle(shape, a, grid, backend=backend, tile=tile) for a in angles]
     else:  # geodesic lengths in metres, the render's limits on the sphere of radius a
         from ..ellipsoid import as_ellipsoid
 
@@ -114,7 +115,7 @@ def render_many(
         assert ell is not None  # ellipsoid is not None
         check_distances(shape, distances, ell.a)
     return [
-        render(shape, dist, grid, radius=radius, backend=backend, tile=tile, ellipsoid=ellipsoid)
+        render(shape, dist, grid, backend=backend, tile=tile, ellipsoid=ellipsoid)
         for dist in distances
     ]
 

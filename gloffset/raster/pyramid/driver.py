@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import re
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -41,13 +41,13 @@ from ...errors import TilesError
 from ...grids.mercator import MAX_ZOOM, TilePyramid, check_tile_size
 from ...io.tilestore import INPUT_KEY, input_digest, open_store
 from ...shape import read
-from ...units import EARTH_RADIUS, RASTER_LIMIT, offset_angle, to_metres
+from ...units import RASTER_LIMIT, offset_angle, to_metres
 from .. import driver
 from ..driver import Level
 from ..vector.curves import CurveCells
 from ..vector.levels import subset
 from .ellipsoid import run_ellipsoid_pyramid
-from .job import MAX_BLOCK, PyramidJob
+from .job import PyramidJob, PyramidOptions, pyramid_options
 from .malloc import keep_freed_memory
 from .metadata import (
     check_input,
@@ -58,12 +58,13 @@ from .metadata import (
     store_metadata,
 )
 from .progress import PyramidStats, Tracker
-from .tilepaint import TileStyle
 from .walk import BIN_LOG2, PYRAMID_ALONE_ZOOM, BinChain, MemoryStore, ZoomWriter
 
 __all__ = [
     "pyramid",
     "pyramids",
+    "write_pyramid",
+    "PyramidOptions",
     "parse_zooms",
     "run_pyramid",
     "subpyramid",
@@ -109,28 +110,7 @@ def parse_zooms(zooms) -> tuple[int, int]:
     return lo, hi
 
 
-def pyramid(
-    shape,
-    distance: float | str,
-    zooms,
-    out,
-    *,
-    radius: float = EARTH_RADIUS,
-    size: int = 256,
-    fill: str = "#3070c0",
-    opacity: float = 1.0,
-    outline: str | None = None,
-    outline_width: int = 1,
-    resume: bool = False,
-    overwrite: bool = False,
-    name: str | None = None,
-    source: str | None = None,
-    progress=None,
-    max_block: int = MAX_BLOCK,
-    workers: int | None = None,
-    scheduler: str | None = None,
-    ellipsoid=None,
-) -> PyramidStats:
+def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats:
     """Write the web-mercator tile pyramid of the offset region of ``shape``.
 
     Parameters
@@ -147,12 +127,24 @@ def pyramid(
         A path ending in ``.mbtiles`` (MBTiles 1.3, TMS rows), ``.pmtiles`` (PMTiles v3;
         needs the ``pmtiles`` package) or a directory (``z/x/y.png``); or a writer from
         :func:`gloffset.io.tilestore.open_store`.
+    **options
+        Keywords, below (:class:`~gloffset.raster.pyramid.job.PyramidOptions`); another
+        is a :class:`TypeError` that lists them.
+
+    Other Parameters
+    ----------------
+    radius : float
+        The sphere's radius (default :data:`gloffset.EARTH_RADIUS`, metres).
     size : int
         Tile side in pixels, a power of two from 16 to 4096.
-    fill, opacity, outline, outline_width
-        The style (:class:`gloffset.raster.pyramid.tilepaint.TileStyle`): region colour and its
-        opacity on a transparent background, and the colour and width of an
-        outline of the original curves (None: no outline).
+    fill : str
+        The region's colour (the style: :class:`gloffset.raster.pyramid.tilepaint.TileStyle`).
+    opacity : float
+        Its opacity, 0 to 1, on a transparent background.
+    outline : str, optional
+        The colour of an outline of the original curves (None: no outline).
+    outline_width : int
+        The outline's width in pixels.
     resume : bool
         Complete an existing output written with the same options, skipping the
         tiles it has; the result is the same as one uninterrupted run.
@@ -210,38 +202,44 @@ def pyramid(
     ...     st = gloffset.tiles.pyramid(tri, 100e3, "0-2", os.path.join(tmp, "t.mbtiles"),
     ...                                 size=64)
     >>> st.written, st.rendered, st.inside
-    (12, 9, 6)
+    (4, 9, 0)
     """
+    return write_pyramid(shape, distance, zooms, out, pyramid_options(options))
+
+
+def write_pyramid(shape, distance, zooms, out, options: PyramidOptions) -> PyramidStats:
+    """:func:`pyramid` with its keywords as one :class:`~.job.PyramidOptions`."""
+    o = options
     t0 = time.perf_counter()
     keep_freed_memory()  # a pyramid makes and frees large arrays at every zoom
-    source = source if source is not None else source_name(shape)
+    source = o.source if o.source is not None else source_name(shape)
     shape = read(shape)
-    ell = as_ellipsoid(ellipsoid)
+    ell = as_ellipsoid(o.ellipsoid)
+    radius = o.radius
     if ell is not None:
         to_metres(distance)  # a geodesic length: no angle units
         radius = ell.a  # the distance in metres, its angle on the sphere of radius a
     d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="a tile pyramid")
     zlo, zhi = parse_zooms(zooms)
-    size = check_tile_size(size, TilesError)
-    style = TileStyle(fill, opacity, outline, outline_width)
-    params = options_json(d, (zlo, zhi), size, style, ell)
+    size = check_tile_size(o.size, TilesError)
+    params = options_json(d, (zlo, zhi), size, o.style, ell)
     job = PyramidJob(
-        shape=shape, d=d, zlo=zlo, zhi=zhi, size=size, style=style, max_block=max_block
+        shape=shape, d=d, zlo=zlo, zhi=zhi, size=size, style=o.style, max_block=o.max_block
     )
-    if ell is not None and (outline is not None or workers is not None or scheduler):
+    if ell is not None and (o.style.outline is not None or o.workers is not None or o.scheduler):
         raise TilesError("on an ellipsoid, pyramids take no outline, workers or scheduler")
     if isinstance(out, (str, Path)):
-        label = name or Path(out).stem or "gloffset"
+        label = o.name or Path(out).stem or "gloffset"
         desc = describe(distance, d, radius, source)
         if ell is not None:
             desc += f"; geodesic distance on {ell}"
         meta = {**store_metadata(label, desc, (zlo, zhi), params), INPUT_KEY: input_digest(shape)}
-        store = open_store(out, meta, resume=resume, overwrite=overwrite)
+        store = open_store(out, meta, resume=o.resume, overwrite=o.overwrite)
     else:
         store = out
     stats = PyramidStats()
     try:
-        if resume:
+        if o.resume:
             have = store.metadata().get("gloffset")
             if have != params:
                 raise TilesError(
@@ -249,28 +247,28 @@ def pyramid(
                     f"other options ({have}); use --force to start again"
                 )
             check_input(store, shape, out)
-        have = store.existing() if resume else set()
+        have = store.existing() if o.resume else set()
         if ell is not None:
             run_ellipsoid_pyramid(job, ell, store, have, stats)
-        elif workers is None and scheduler is None:
-            run_pyramid(job, store, have, progress, stats)
+        elif o.workers is None and o.scheduler is None:
+            run_pyramid(job, store, have, o.progress, stats)
         else:
             from .distributed import run_distributed
 
             def split(first, count, last):
                 part = Part(split=(first, count, last))
-                return run_pyramid(job, store, have, progress, stats, part=part)
+                return run_pyramid(job, store, have, o.progress, stats, part=part)
 
             run_distributed(
                 job,
                 store,
                 have,
-                progress,
+                o.progress,
                 stats,
                 run=split,
                 task=subpyramid,
-                workers=workers,
-                scheduler=scheduler,
+                workers=o.workers,
+                scheduler=o.scheduler,
             )
         store.set_metadata(final_bounds(store, (zlo, zhi)))
         store.finish()
@@ -300,14 +298,15 @@ def pyramids(shape, distances, zooms, outs, **options) -> list[PyramidStats]:
         )
     if len({str(o) for o in outs}) != len(outs):
         raise TilesError(f"pyramids needs a different output per distance, got {outs}")
-    options.setdefault("source", source_name(shape))
+    opts = pyramid_options(options, "pyramids")
+    opts = opts if opts.source is not None else replace(opts, source=source_name(shape))
     shape = read(shape)
-    ell = as_ellipsoid(options.get("ellipsoid"))
-    radius = ell.a if ell is not None else options.get("radius", EARTH_RADIUS)
+    ell = as_ellipsoid(opts.ellipsoid)
+    radius = ell.a if ell is not None else opts.radius
     for dist in distances:  # metres on an ellipsoid (to_metres), else as offset_angle reads it
         value = to_metres(dist) if ell is not None else dist
         offset_angle(shape, value, radius, limit=RASTER_LIMIT, what="a tile pyramid")
-    return [pyramid(shape, dist, zooms, out, **options) for dist, out in zip(distances, outs)]
+    return [write_pyramid(shape, dist, zooms, out, opts) for dist, out in zip(distances, outs)]
 
 
 def run_pyramid(job: PyramidJob, store, have, progress, stats, *, part=None):

@@ -1,13 +1,17 @@
-"""The job of a pyramid run: what every tile depends on, sent whole to the workers of a
-distributed run."""
+"""The options of a pyramid run (:class:`PyramidOptions`, the keywords of
+:func:`~gloffset.tiles.pyramid`) and its job: what every tile depends on, sent whole to
+the workers of a distributed run."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
+from ...units import EARTH_RADIUS
+from ..options import check_keywords, option_names
 from .tilepaint import TileStyle
 
-__all__ = ["MAX_BLOCK", "PyramidJob"]
+__all__ = ["MAX_BLOCK", "PyramidJob", "PyramidOptions", "pyramid_options"]
 
 #: Frontier tiles rendered per GPU run: (MAX_BLOCK / tile size)^2.
 MAX_BLOCK = 4096
@@ -42,3 +46,32 @@ class PyramidJob:
     size: int
     style: TileStyle
     max_block: int = MAX_BLOCK
+
+
+@dataclass(frozen=True, kw_only=True)
+class PyramidOptions:
+    """The options of :func:`~gloffset.tiles.pyramid`, each documented there; ``style``
+    holds its ``fill``, ``opacity``, ``outline`` and ``outline_width``."""
+
+    radius: float = EARTH_RADIUS
+    size: int = 256
+    style: TileStyle = TileStyle()
+    resume: bool = False
+    overwrite: bool = False
+    name: str | None = None
+    source: str | None = None
+    progress: Any = None
+    max_block: int = MAX_BLOCK
+    workers: int | None = None
+    scheduler: str | None = None
+    ellipsoid: Any = None
+
+
+def pyramid_options(options: dict[str, Any], what: str = "pyramid") -> PyramidOptions:
+    """The keywords of :func:`~gloffset.tiles.pyramid` as :class:`PyramidOptions` (the
+    style's checked); an unknown one is a :class:`TypeError` listing them."""
+    styling = option_names(TileStyle)
+    valid = [n for k in option_names(PyramidOptions) for n in (styling if k == "style" else [k])]
+    check_keywords(what, options, valid)
+    style = TileStyle(**{k: options[k] for k in styling if k in options})
+    return PyramidOptions(**{k: v for k, v in options.items() if k not in styling}, style=style)

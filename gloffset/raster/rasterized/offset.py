@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -43,6 +44,7 @@ from ...grids.conformal import ConformalRows
 from ...grids.protocol import CurveMaskImage, RegularLonLat
 from ...units import EARTH_RADIUS, to_angle, to_metres
 from .. import driver
+from ..options import keyword_options
 from .curve_levels import (
     RasterizedCurve,
     classify_cells,
@@ -58,7 +60,10 @@ __all__ = [
     "InvalidMaskError",
     "RasterOffsetError",
     "RasterOffsetInfo",
+    "RasterOffsetOptions",
     "raster_offset",
+    "raster_offset_angle",
+    "raster_offset_with",
 ]
 
 # region-growing states (the paper's active and inactive frontier cells)
@@ -299,19 +304,33 @@ class RasterOffsetInfo:
     seconds: float = 0.0
 
 
-def _on_ellipsoid(mask, distance, grid, ellipsoid, return_info, callback, **options):
+@dataclass(frozen=True, kw_only=True)
+class RasterOffsetOptions:
+    """The options of :func:`raster_offset`, each documented there."""
+
+    radius: float = EARTH_RADIUS
+    backend: str = "gpu"
+    mode: str = "hierarchical"
+    level: int | None = None
+    order: Any = None
+    return_info: bool = False
+    callback: Any = None
+    ellipsoid: Any = None
+
+
+def _on_ellipsoid(mask, distance, grid, options: RasterOffsetOptions):
     """:func:`raster_offset` on an ellipsoid (see its ``ellipsoid``).
 
     Two spherical offsets on the conformal rows, contained from the nearer, outside from the
     farther.
     """
-    ell = as_ellipsoid(ellipsoid)
+    ell = as_ellipsoid(options.ellipsoid)
     assert ell is not None  # called with an ellipsoid
     if not (isinstance(grid, RegularLonLat) and grid.curve_masks):
         raise OptionError(
             f"raster offsets on an ellipsoid take an Equirect grid, got {type(grid).__name__}"
         )
-    if return_info or callback is not None:
+    if options.return_info or options.callback is not None:
         raise OptionError(
             "raster offsets on an ellipsoid give classes only (no return_info, callback)"
         )
@@ -328,8 +347,8 @@ def _on_ellipsoid(mask, distance, grid, ellipsoid, return_info, callback, **opti
             "less than 1.5 rad"
         )
     cgrid = ConformalRows(grid, ell)
-    inner = raster_offset(mask, near, cgrid, radius=1.0, **options)
-    outer = raster_offset(mask, far, cgrid, radius=1.0, **options)
+    inner = raster_offset_angle(mask, near, cgrid, options)
+    outer = raster_offset_angle(mask, far, cgrid, options)
     out = np.where(inner == CONTAINED, CONTAINED, np.where(outer == OUTSIDE, OUTSIDE, FRONTIER))
     return out.astype(np.uint8)
 
@@ -351,20 +370,7 @@ def _check_mask(mask, grid) -> np.ndarray:
     return m
 
 
-def raster_offset(
-    mask,
-    distance: float | str,
-    grid,
-    *,
-    radius: float = EARTH_RADIUS,
-    backend: str = "gpu",
-    mode: str = "hierarchical",
-    level: int | None = None,
-    order=None,
-    return_info: bool = False,
-    callback=None,
-    ellipsoid=None,
-):
+def raster_offset(mask, distance: float | str, grid, **options):
     """Offset a rasterized curve without its vector data (paper Sec. 5).
 
     Parameters
@@ -379,6 +385,14 @@ def raster_offset(
     grid : gloffset.grids.Equirect or gloffset.grids.Cube
         On a cube the six faces are one set of cells: the curve, the region growing
         and the offset run across face edges and corners.
+    **options
+        Keywords, below (:class:`RasterOffsetOptions`); another is a :class:`TypeError`
+        that lists them.
+
+    Other Parameters
+    ----------------
+    radius : float
+        The sphere's radius (default :data:`gloffset.EARTH_RADIUS`, metres).
     backend : {"gpu", "cpu"}
         ``"gpu"``: the coarse levels on the CPU, the levels below the bins in
         fragment shaders (:mod:`gloffset.raster.rasterized.curve_gpu`); ``"cpu"``: float64
@@ -427,19 +441,31 @@ def raster_offset(
     >>> bool(c[16, 30] == 2), bool(c[0, 0] == 0)
     (True, True)
     """
-    if ellipsoid is not None:
-        return _on_ellipsoid(
-            mask,
-            distance,
-            grid,
-            ellipsoid,
-            return_info,
-            callback,
-            backend=backend,
-            mode=mode,
-            level=level,
-            order=order,
+    return raster_offset_with(
+        mask, distance, grid, keyword_options(RasterOffsetOptions, options, "raster_offset")
+    )
+
+
+def raster_offset_with(mask, distance, grid, options: RasterOffsetOptions):
+    """Return :func:`raster_offset` with its keywords as one :class:`RasterOffsetOptions`."""
+    if options.ellipsoid is not None:
+        return _on_ellipsoid(mask, distance, grid, options)
+    d = to_angle(distance, options.radius)
+    if not 0.0 < d < 1.5:
+        raise InvalidDistanceError(
+            f"distance {distance!r} is {d:.4g} rad; raster offsets need 0 < d < 1.5 rad"
         )
+    return raster_offset_angle(mask, d, grid, options)
+
+
+def raster_offset_angle(mask, d: float, grid, options: RasterOffsetOptions):
+    """Return :func:`raster_offset` at the angle ``d`` (radians).
+
+    The angle is checked by the caller (``0 < d < 1.5``); ``options.radius`` and
+    ``options.ellipsoid`` are not read.
+    """
+    backend, mode, level = options.backend, options.mode, options.level
+    order, callback = options.order, options.callback
     t0 = time.perf_counter()
     m = _check_mask(mask, grid)
     cube = grid.cell_set() if grid.n_faces > 1 else None
@@ -447,11 +473,6 @@ def raster_offset(
         grid, m = cube, cube.stack(m)
         if order is not None:
             order = [cube.from_faces_flat(p) for p in order]
-    d = to_angle(distance, radius)
-    if not 0.0 < d < 1.5:
-        raise InvalidDistanceError(
-            f"distance {distance!r} is {d:.4g} rad; raster offsets need 0 < d < 1.5 rad"
-        )
     if backend not in _BACKENDS:
         raise OptionError(f"backend must be one of {', '.join(_BACKENDS)}, got {backend!r}")
     if mode not in _MODES:
@@ -500,4 +521,4 @@ def raster_offset(
         frontier=frontier,
         seconds=time.perf_counter() - t0,
     )
-    return (classes, info) if return_info else classes
+    return (classes, info) if options.return_info else classes

@@ -147,7 +147,7 @@ def coarse(shape, arcs: CurveArcs, grid, e: float) -> Frontier:
         qi, ai = qi[ring], ai[ring]
         hit = arcs_cross(c[qi], a_seg[qi], arcs.a[ai], arcs.b[ai], arcs.n[ai]) & (qi > 0)
         status = row_statuses(shape, arcs, h, w, c[0], qi[hit], ai[hit])
-    qi, ai, _ = tree.near(c, np.minimum(e + rho, _nearest_bound(arcs, c) + 2.0 * rho))
+    qi, ai, _ = tree.near(c, _list_reach(arcs, c, e, rho))
     order = np.lexsort((ai, qi))
     return Frontier(0, cells, c, rho, qi[order], ai[order], status)
 
@@ -167,9 +167,20 @@ def at_cells(shape, arcs: CurveArcs, grid, e: float, level: int, cells) -> Front
         status = component_status(shape, arcs, c)
     else:
         status = status_bits(arcs.n_groups, len(c))
-    qi, ai, _ = arcs.tree.near(c, np.minimum(e + rho, _nearest_bound(arcs, c) + 2.0 * rho))
+    qi, ai, _ = arcs.tree.near(c, _list_reach(arcs, c, e, rho))
     order = np.lexsort((ai, qi))
     return Frontier(level, cells, c, rho, qi[order], ai[order], status)
+
+
+def _list_reach(arcs: CurveArcs, c, e: float, rho) -> np.ndarray:
+    """How far from each centre a candidate arc's cap may lie: ``e + rho``, capped by the
+    nearest-arc bound plus ``2 rho`` (:func:`_nearest_bound`), computed only where it can
+    cap anything (``e > rho``: the bound is never negative, so ``e + rho <= 2 rho`` is the
+    least of the two, bit for bit; at ``e = 0``, as a field's inside test, never)."""
+    reach = e + rho
+    if np.any(e > rho):
+        reach = np.minimum(reach, _nearest_bound(arcs, c) + 2.0 * rho)
+    return reach
 
 
 def _nearest_bound(arcs: CurveArcs, c) -> np.ndarray:
