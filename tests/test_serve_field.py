@@ -218,6 +218,30 @@ def test_a_tile_asked_again_at_a_new_distance_has_its_field_at_once(shape, monke
         assert tiles.computed == 1 and tiles.rendered == AGAIN
 
 
+def test_a_seen_tile_has_its_field_first_once_its_renders_cost_as_much(shape, monkeypatch):
+    """Rent or buy: once a field's cost is known, a tile asked for at new distances is
+    rendered until its renders took as long as a field, then answered from its field;
+    byte-identical to the rendered tile either way."""
+    from gloffset.serve.service import TileService
+
+    monkeypatch.setattr(TileService, "_idle", lambda self: False)
+    app = create_app({"mexico": shape}, render_timeout=120)
+    z, x, y = 6, 13, 27
+    with TestClient(app) as c:
+        tiles = app.state.server.tiles
+        tiles.field_cost["mexico"] = 1e9  # a field dearer than any number of renders
+        for i, dist in enumerate(["127km", "30km", "-20km", "80km", "0km"]):
+            r = c.get(f"/tiles/mexico/{dist}/{z}/{x}/{y}.png")
+            assert r.headers["x-gloffset-tile"] == "rendered", dist
+        assert tiles.computed == 0 and tiles.rendered == 5
+        tiles.field_cost["mexico"] = 1e-9  # cheaper than the renders paid so far
+        r = c.get(f"/tiles/mexico/-60km/{z}/{x}/{y}.png")
+        assert r.headers["x-gloffset-tile"] == "field" and tiles.computed == 1
+        want = render_tiles(shape, parse_distance("-60km", EARTH_RADIUS), z, [(x, y)])[(x, y)]
+        assert r.content == (EMPTY_PNG[256] if want is None else want)
+        assert tiles.field_cost["mexico"] > 1e-6  # the field made updates the mean
+
+
 def test_renders_do_not_wait_behind_a_field(shape, monkeypatch):
     """Fields are computed off the render thread: while a tile's field is being computed
     (held here until the end), another tile is rendered and answered."""

@@ -21,8 +21,9 @@ bytes. A request whose client went away is still rendered when its batch had sta
 (the tile is cached, the answer dropped); one cancelled before is skipped.
 
 Distance fields of tiles (a field tile's on the render thread) are computed on a field
-thread, off the render thread: at once for a tile rendered at :data:`AGAIN` other distances
-(a distance slider), newest first; for the others, when no render is asked for. They
+thread, off the render thread: first for a tile asked for again at a new distance once its
+renders took as long as a field does (a distance slider: :meth:`TileService._again`, the
+rent-or-buy rule), newest first; for the others, when no render is asked for. They
 are kept in a second LRU bounded in bytes (``field_mb``); a tile whose field is kept is
 answered at any distance by :meth:`TileService.from_field`, the field's threshold.
 """
@@ -79,9 +80,12 @@ EMPTY_PNG = {256: _empty_png(256), 512: _empty_png(512)}
 IDLE = 0.5
 #: rendered tiles whose fields wait, at most, in each of the two queues (the oldest go)
 LATER = 4096
-#: a tile asked for after renders at this many other distances has its field first (a
-#: slider; 1 also takes a map's tiles met again at another distance, seldom asked once more)
+#: before any field's cost is known: a tile asked for after renders at this many other
+#: distances has its field first (a slider; 1 also takes a map's tiles met again at another
+#: distance, seldom asked once more)
 AGAIN = 2
+#: weight of the newest field in the running mean of a layer's field cost (seconds)
+COST_WEIGHT = 0.3
 
 #: tiles whose centre's distance and status are kept (about 100 bytes each)
 CENTRES = 200_000
@@ -147,8 +151,10 @@ class TileService:
         self.centres: OrderedDict = OrderedDict()  # (layer, z, x, y) -> what triage needs
         self.fields: OrderedDict = OrderedDict()  # FieldKey -> DistanceField (radians)
         self.field_bytes, self.field_limit = 0, int(field_mb * (1 << 20))
-        #: FieldKey -> the distances a tile was rendered at: its field when idle
+        #: FieldKey -> (the distances a tile was rendered at, the seconds its renders
+        #: took): its field when idle, or first once the renders cost what the field does
         self.later: OrderedDict = OrderedDict()
+        self.field_cost: dict = {}  # layer -> running mean of its fields' seconds
         self.wanted: OrderedDict = OrderedDict()  # FieldKey -> Future, tiles asked again: at once
         self.computing: dict = {}  # FieldKey -> Future, the field thread's field
         self.computed = 0  # fields computed
@@ -336,9 +342,13 @@ class TileService:
         """The tile's field, kept or computed (no GL: on any thread) and kept."""
         f = self.field(fkey)
         if f is None:
+            t0 = time.perf_counter()
             f = field_tile(self.layers[fkey.layer], fkey.z, fkey.x, fkey.y, fkey.size)
+            took = time.perf_counter() - t0
             with self.lock:
                 self.computed += 1
+                old = self.field_cost.get(fkey.layer, took)
+                self.field_cost[fkey.layer] = old + COST_WEIGHT * (took - old)
             self._keep_field(fkey, f)
         return f
 
@@ -362,9 +372,21 @@ class TileService:
             return fut if not self.computing else None
 
     def _again(self, fkey: FieldKey, d: float) -> bool:
-        """Whether the tile was rendered at :data:`AGAIN` other distances than ``d`` (a
-        distance slider over it; holding the lock)."""
-        return len(set(self.later.get(fkey, ())) - {d}) >= AGAIN
+        """Whether the tile, asked for at ``d``, should have its field first (holding the
+        lock): rendered before at another distance, and its renders took as long as a
+        field of its layer takes (the running mean); before any field of the layer is
+        made, rendered at :data:`AGAIN` other distances.
+
+        This is the rent-or-buy rule: renders are paid until they add up to the field's
+        price, then the field is bought, so a tile never costs more than twice what the
+        best choice in hindsight would have cost, whether the slider stops at the next
+        distance or goes on for ever. Where fields cost about a render (a GPU) a slider
+        gets fields from its second distance; where they cost ten (this CPU field), from
+        about the tenth, and a loaded server keeps rendering."""
+        ds, spent = self.later.get(fkey, ((), 0.0))
+        others = len(set(ds) - {d})
+        cost = self.field_cost.get(fkey.layer)
+        return others >= AGAIN if cost is None else others >= 1 and spent >= cost
 
     def _want(self, fkey: FieldKey) -> Future:
         """Queue the field of ``fkey`` first (holding the lock); its future."""
@@ -471,6 +493,7 @@ class TileService:
     def _render(self, items) -> None:
         key0 = items[0][0]
         shape, tiles = self.layers[key0.layer], {(k.x, k.y) for k, _ in items}
+        t0 = time.perf_counter()
         try:
             got = render_tiles(shape, key0.d, key0.z, tiles, size=key0.size, style=key0.style)
         except Exception as exc:  # noqa: BLE001 - every waiting request hears of it
@@ -484,11 +507,12 @@ class TileService:
             self.rendered += 1
             fut.set_result(data)
         if key0.style.outline is None:
-            self._queue_fields([key for key, _ in items])
+            share = (time.perf_counter() - t0) / len(items)
+            self._queue_fields([key for key, _ in items], share)
 
-    def _queue_fields(self, keys) -> None:
-        """Queue the fields of tiles just rendered: at once for a tile rendered before at
-        another distance (its field waiting), else when the server is idle."""
+    def _queue_fields(self, keys, share: float) -> None:
+        """Queue the fields of tiles just rendered (``share`` seconds each): first for a
+        tile whose field is due (:meth:`_again`), else when the server is idle."""
         with self.lock:
             if self.closed:
                 return
@@ -499,7 +523,8 @@ class TileService:
                 if fkey in self.wanted or self._again(fkey, key.d):
                     self._want(fkey)
                     continue
-                self.later[fkey] = tuple(dict.fromkeys((*self.later.get(fkey, ()), key.d)))
+                ds, spent = self.later.get(fkey, ((), 0.0))
+                self.later[fkey] = (tuple(dict.fromkeys((*ds, key.d))), spent + share)
                 self.later.move_to_end(fkey)
             while len(self.later) > LATER:
                 self.later.popitem(last=False)
