@@ -230,7 +230,7 @@ def test_a_seen_tile_has_its_field_first_once_its_renders_cost_as_much(shape, mo
     with TestClient(app) as c:
         tiles = app.state.server.tiles
         tiles.field_cost["mexico"] = 1e9  # a field dearer than any number of renders
-        for i, dist in enumerate(["127km", "30km", "-20km", "80km", "0km"]):
+        for dist in ["127km", "30km", "-20km", "80km", "0km"]:
             r = c.get(f"/tiles/mexico/{dist}/{z}/{x}/{y}.png")
             assert r.headers["x-gloffset-tile"] == "rendered", dist
         assert tiles.computed == 0 and tiles.rendered == 5
