@@ -13,10 +13,25 @@ every second. The clients run in this process (asyncio, a minimal keep-alive HTT
 client, 6 connections per client as browsers open) and share the machine's cores with
 the server; the CPU seconds of both are recorded.
 
-Run: python benchmarks/serve.py [--seconds 20] [--clients 1 4 16 64] [--input FILE]
-     [--render-samples 60] [--workers 1]
-Writes benchmarks/results/serve.json (key: the input's file stem, and the workers if more
-than one). RSS and CPU are those of the server process and its workers together.
+Two more workloads (``--workload``, issue 29, the live map):
+
+- ``slider``: each client has its own view (4 x 3 tiles, zoom 4-12, never asked by another
+  client) and sweeps the distance slider over it: the view's 12 tiles at each of
+  :data:`SLIDER_KM` (-200 .. +500 km, 20 steps), then a new view. Its tiles are reported
+  apart: ``first`` (the view's first distance, new tiles) and ``seen`` (a seen view at a
+  new distance: what the slider's target is about).
+- ``pan``: new views (never asked by any client) at one distance (:data:`PAN_KM`).
+
+With ``--pause S`` a slider or pan client waits S seconds after each view's tiles came (a
+user's pace; 0, the default, is a closed loop: the clients then measure the server's
+saturation, their latency the queue).
+
+Run: python benchmarks/serve.py [--workload random|slider|pan|all ...] [--seconds 20] [--pause 0]
+     [--clients 1 4 16 64] [--input FILE [FILE ...]] [--render-samples 60] [--workers 1]
+Writes benchmarks/results/serve.json (key: the input's file stem, then the workload unless
+it is ``random``, and the workers if more than one). RSS and CPU are those of the server
+process and its workers together; RSS is reported at start (after 1 s), middle and end with
+its slope (least squares over the run, MB/min).
 """
 
 from __future__ import annotations
@@ -45,6 +60,13 @@ from gloffset.grids import Tile
 TODAY = {"p50_ms": 115.0, "p90_ms": 545.0}
 VIEW = (4, 3)  # tiles per view: columns, rows
 MAXZOOM = 14
+#: the slider's sweep (km): 20 distances from -200 to +500 km
+SLIDER_KM = [int(round(v)) for v in np.linspace(-200, 500, 20)]
+#: the pan workload's one distance (km)
+PAN_KM = 100
+#: the zooms of the slider's and pan's views
+VIEW_ZOOMS = (4, 12)
+WORKLOADS = ("random", "slider", "pan")
 
 
 def family(pid: int) -> list[int]:
@@ -89,12 +111,12 @@ def cpu_s(pid: int) -> float | None:
     return total
 
 
-def pick_view(rng, bounds):
+def pick_view(rng, bounds, zooms=(0, MAXZOOM)):
     """A zoom, the tiles of a view around a point near the input, and a distance (km)."""
     w, s, e, n = bounds
     lon = rng.uniform(w - 3.0, e + 3.0)
     lat = rng.uniform(max(s - 3.0, -85.0), min(n + 3.0, 85.0))
-    z = int(rng.integers(0, MAXZOOM + 1))
+    z = int(rng.integers(zooms[0], zooms[1] + 1))
     t = mercantile.tile(lon, lat, z)
     m = 1 << z
     xs = {(t.x + dx) % m for dx in range(-(VIEW[0] // 2), VIEW[0] - VIEW[0] // 2)}
@@ -168,6 +190,60 @@ async def client(host, port, layer, bounds, seed, stop_at, out):
             await c.close()
 
 
+def new_view(rng, bounds, taken: set):
+    """A view (zoom, tiles) of zooms :data:`VIEW_ZOOMS` none of whose tiles any client asked
+    for before (``taken``, shared by the clients, is updated)."""
+    for _ in range(1000):
+        _, z, tiles = pick_view(rng, bounds, VIEW_ZOOMS)
+        keys = {(z, x, y) for x, y in tiles}
+        if not keys & taken:
+            taken |= keys
+            return z, tiles
+    raise SystemExit("no new view left near the input")
+
+
+async def view(conns, paths, out, phase):
+    """The tiles ``paths`` over the connections at once; each sample tagged ``phase``."""
+    got: list = []
+    await asyncio.gather(*(fetch(c, paths[i :: len(conns)], got) for i, c in enumerate(conns)))
+    out += [(kind, dt, phase) for kind, dt in got]
+
+
+async def slider_client(host, port, layer, bounds, seed, stop_at, out, taken, pause=0.0):
+    """A map page whose user drags the distance slider: a view of its own at each of
+    :data:`SLIDER_KM` in turn (the first distance ``first``, the others ``seen``), then a
+    new view; ``pause`` seconds after each distance's tiles came (0: a closed loop)."""
+    rng = np.random.default_rng(seed)
+    conns = [Connection(host, port) for _ in range(6)]
+    try:
+        while time.perf_counter() < stop_at:
+            z, tiles = new_view(rng, bounds, taken)
+            for i, km in enumerate(SLIDER_KM):
+                if time.perf_counter() >= stop_at:
+                    break
+                paths = [f"/tiles/{layer}/{km}km/{z}/{x}/{y}.png" for x, y in tiles]
+                await view(conns, paths, out, "first" if i == 0 else "seen")
+                await asyncio.sleep(pause)
+    finally:
+        for c in conns:
+            await c.close()
+
+
+async def pan_client(host, port, layer, bounds, seed, stop_at, out, taken, pause=0.0):
+    """A map page panned and zoomed at one distance (:data:`PAN_KM`): every view new."""
+    rng = np.random.default_rng(seed)
+    conns = [Connection(host, port) for _ in range(6)]
+    try:
+        while time.perf_counter() < stop_at:
+            z, tiles = new_view(rng, bounds, taken)
+            paths = [f"/tiles/{layer}/{PAN_KM}km/{z}/{x}/{y}.png" for x, y in tiles]
+            await view(conns, paths, out, "new")
+            await asyncio.sleep(pause)
+    finally:
+        for c in conns:
+            await c.close()
+
+
 async def fetch(conn, paths, out):
     for path in paths:
         t = time.perf_counter()
@@ -222,22 +298,36 @@ def summary(samples, seconds: float) -> dict:
     return rec
 
 
-async def load(host, port, layer, bounds, n_clients, seconds, pid):
+async def load(host, port, layer, bounds, n_clients, seconds, pid, workload="random", pause=0.0):
     out: list = []
     rss = []
     cpu0, own0 = cpu_s(pid), time.process_time()
     t0 = time.perf_counter()
     stop_at = t0 + seconds
-    tasks = [
-        asyncio.create_task(client(host, port, layer, bounds, 1000 + i, stop_at, out))
-        for i in range(n_clients)
-    ]
+    taken: set = set()
+    if workload == "random":
+        runs = [client(host, port, layer, bounds, 1000 + i, stop_at, out) for i in range(n_clients)]
+    else:
+        fn = slider_client if workload == "slider" else pan_client
+        runs = [
+            fn(host, port, layer, bounds, 1000 + i, stop_at, out, taken, pause)
+            for i in range(n_clients)
+        ]
+    tasks = [asyncio.create_task(r) for r in runs]
     while not all(t.done() for t in tasks):
         rss.append((time.perf_counter() - t0, rss_mb(pid)))
         await asyncio.wait(tasks, timeout=1.0)
     await asyncio.gather(*tasks)
     elapsed = time.perf_counter() - t0
-    rec = summary(out, elapsed)
+    if workload == "random":
+        rec = summary(out, elapsed)
+    else:  # the tiles of each phase apart, and all of them
+        rec = summary([(k, dt) for k, dt, _ in out], elapsed)
+        rec["all"] = overall([dt for _, dt, _ in out])
+        rec["phases"] = {}
+        for phase in sorted({p for _, _, p in out}):
+            got = [(k, dt) for k, dt, p in out if p == phase]
+            rec["phases"][phase] = summary(got, elapsed) | {"all": overall([dt for _, dt in got])}
     rec["seconds"] = elapsed
     cpu1 = cpu_s(pid)
     rec["cpu_s"] = {
@@ -246,11 +336,31 @@ async def load(host, port, layer, bounds, n_clients, seconds, pid):
     }
     rec["rss_mb"] = {
         "after_1s": rss[1][1] if len(rss) > 1 else None,
+        "middle": rss[len(rss) // 2][1] if rss else None,
         "end": rss_mb(pid),
         "max": max((m for _, m in rss if m is not None), default=None),
+        "slope_mb_per_min": rss_slope(rss),
         "samples": [(round(t, 1), m) for t, m in rss],
     }
     return rec
+
+
+def overall(dts) -> dict:
+    """Count, p50 and p99 (ms) of latencies ``dts`` (seconds) whatever answered them."""
+    if not dts:
+        return {"count": 0, "p50_ms": None, "p99_ms": None}
+    ms = np.asarray(dts) * 1e3
+    p50, p99 = np.percentile(ms, [50, 99])
+    return {"count": len(ms), "p50_ms": float(p50), "p99_ms": float(p99)}
+
+
+def rss_slope(rss) -> float | None:
+    """The least-squares slope (MB per minute) of the RSS samples after the first second."""
+    pts = [(t, m) for t, m in rss if m is not None and t >= 1.0]
+    if len(pts) < 3:
+        return None
+    t, m = np.asarray(pts).T
+    return float(np.polyfit(t, m, 1)[0] * 60.0)
 
 
 def plain_render(shape, bounds, samples: int, seed: int = 7) -> dict:
@@ -282,27 +392,58 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--seconds", type=float, default=20.0, help="per client count")
     ap.add_argument("--clients", type=int, nargs="+", default=[1, 4, 16, 64])
-    ap.add_argument("--input", type=Path, default=DATA / "mexico_10m.geojson")
+    ap.add_argument("--input", type=Path, nargs="+", default=[DATA / "mexico_10m.geojson"])
+    ap.add_argument("--workload", choices=[*WORKLOADS, "all"], nargs="+", default=["random"])
     ap.add_argument("--render-samples", type=int, default=60)
+    ap.add_argument(
+        "--pause",
+        type=float,
+        default=0.0,
+        help="slider, pan: seconds a client waits after each view's tiles came (0: closed loop)",
+    )
     ap.add_argument(
         "--workers", type=int, default=1, help="server processes (gloffset serve --workers)"
     )
     args = ap.parse_args()
-    shape = gloffset.read(args.input)
-    layer = args.input.stem
+    workloads = WORKLOADS if "all" in args.workload else args.workload
+    tables = []
+    for path in args.input:
+        for workload in workloads:
+            tables.append(run_input(args, path, workload))
+    print("\n\n".join(tables))
+
+
+def run_input(args, path: Path, workload: str) -> str:
+    """Run ``workload`` on ``path`` at each client count, record it, return its table."""
+    shape = gloffset.read(path)
+    layer = path.stem
     bounds = shape_bounds(shape)
-    print(f"{layer}: {shape.n_vertices} vertices, bounds {bounds}", flush=True)
-    plain = plain_render(shape, bounds, args.render_samples)
-    print(f"gloffset.render per tile: p50 {plain['p50_ms']:.1f} ms, p99 {plain['p99_ms']:.1f} ms")
+    print(f"{layer} ({workload}): {shape.n_vertices} vertices, bounds {bounds}", flush=True)
+    plain = None
+    if workload == "random":
+        plain = plain_render(shape, bounds, args.render_samples)
+        print(
+            f"gloffset.render per tile: p50 {plain['p50_ms']:.1f} ms, p99 {plain['p99_ms']:.1f} ms"
+        )
     runs = {}
     RESULTS.mkdir(exist_ok=True)
     for n_clients in args.clients:
         port = free_port()
         with open(RESULTS / "serve.log.tmp", "ab") as log:
-            proc = start_server(args.input, port, log, args.workers)
+            proc = start_server(path, port, log, args.workers)
             try:
                 rec = asyncio.run(
-                    load("127.0.0.1", port, layer, bounds, n_clients, args.seconds, proc.pid)
+                    load(
+                        "127.0.0.1",
+                        port,
+                        layer,
+                        bounds,
+                        n_clients,
+                        args.seconds,
+                        proc.pid,
+                        workload,
+                        args.pause,
+                    )
                 )
             finally:
                 proc.terminate()
@@ -311,20 +452,57 @@ def main():
         print(f"{n_clients:>3} clients: {json.dumps(rec)}", flush=True)
     (RESULTS / "serve.log.tmp").unlink(missing_ok=True)
     record = load_previous()
-    key = layer if args.workers == 1 else f"{layer} --workers {args.workers}"
+    key = layer if workload == "random" else f"{layer} {workload}"
+    key += f" --pause {args.pause:g}" if args.pause and workload != "random" else ""
+    key = key if args.workers == 1 else f"{key} --workers {args.workers}"
     record[key] = {
-        "input": args.input.name,
+        "input": path.name,
+        "workload": workload,
         "vertices": int(shape.n_vertices),
         "workers": args.workers,
         "seconds_per_run": args.seconds,
         "view_tiles": VIEW,
         "gl": context_info()["renderer"],
-        "plain_render_per_tile": plain,
-        "plain_render_today_issue16": TODAY,
         "server": runs,
     }
+    if workload == "random":
+        record[key] |= {"plain_render_per_tile": plain, "plain_render_today_issue16": TODAY}
+    elif workload == "slider":
+        record[key] |= {"slider_km": SLIDER_KM, "view_zooms": VIEW_ZOOMS, "pause_s": args.pause}
+    else:
+        record[key] |= {"pan_km": PAN_KM, "view_zooms": VIEW_ZOOMS, "pause_s": args.pause}
     print(write("serve", {"inputs": record}))
-    print(table(record[key]))
+    return f"{key}:\n" + (table(record[key]) if workload == "random" else phase_table(record[key]))
+
+
+def phase_table(rec: dict) -> str:
+    """The README's table of a slider or pan run (markdown): every tile of each phase
+    whatever answered it, and the share answered from a kept field or decided at once."""
+    phases = ["first", "seen"] if rec["workload"] == "slider" else ["new"]
+
+    def cell(r, phase):
+        got = r["phases"].get(phase)
+        if not got or not got["all"]["count"]:
+            return "- | -"
+        a, k = got["all"], got["kinds"]
+        quick = sum(k.get(n, {}).get("count", 0) for n in ("field", "cached", "inside", "outside"))
+        return f"{a['p50_ms']:.1f} / {a['p99_ms']:.0f} ms | {100.0 * quick / a['count']:.0f} %"
+
+    head = " | ".join(f"{p} p50 / p99 | {p} not rendered" for p in phases)
+    rows = [
+        f"| clients | tiles/s | {head} | RSS start / middle / end (slope) | errors |",
+        "|---|---|" + "---|---|" * len(phases) + "---|---|",
+    ]
+    for n, r in rec["server"].items():
+        m = r["rss_mb"]
+        slope = "-" if m["slope_mb_per_min"] is None else f"{m['slope_mb_per_min']:+.1f} MB/min"
+        cells = " | ".join(cell(r, p) for p in phases)
+        rows.append(
+            f"| {n} | {r['tiles_per_s']:.0f} | {cells} "
+            f"| {m['after_1s']:.0f} / {m['middle']:.0f} / {m['end']:.0f} MB ({slope}) "
+            f"| {r['errors']} |"
+        )
+    return "\n".join(rows)
 
 
 def table(rec: dict) -> str:

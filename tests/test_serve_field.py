@@ -1,12 +1,14 @@
 """Distance-field tiles of ``gloffset serve`` and ``gloffset tiles --field``: the field
 tiles decoded with their TileJSON's encoding equal ``gloffset.distance_field`` within one
 step (1 m), tiles answered from kept fields are byte-identical to the rendered tiles at
-positive, zero and negative distances, a rendered tile's field is computed when the render
-thread is idle, and the fields' LRU is bounded. On Mexico's 1:10m borders."""
+positive, zero and negative distances, a rendered tile's field is computed when the server
+is idle and at once when the tile is asked for again at a new distance, off the render
+thread, and the fields' LRU is bounded. On Mexico's 1:10m borders."""
 
 from __future__ import annotations
 
 import json
+import threading
 import time
 from pathlib import Path
 
@@ -189,3 +191,82 @@ def test_tiles_field_cli(tmp_path, shape):
     assert r.exit_code == 2 and "--field takes no -d" in r.output
     r = CliRunner().invoke(main, ["tiles", str(MEXICO), "-z", "0", "-o", str(tmp_path / "y")])
     assert r.exit_code == 2 and "--distance" in r.output
+
+
+def test_a_tile_asked_again_at_a_new_distance_has_its_field_at_once(shape, monkeypatch):
+    """A distance slider over a view: a tile rendered at two distances and asked for at a
+    third has its field computed at once, even on a server never idle (the field of a tile
+    rendered once waits for an idle server), and is answered from it, byte-identical to
+    the rendered tile, at that distance and the next ones."""
+    from gloffset.serve.service import AGAIN, TileService
+
+    monkeypatch.setattr(TileService, "_idle", lambda self: False)
+    app = create_app({"mexico": shape}, render_timeout=120)
+    z, x, y = 6, 13, 27
+    dists = ["127km", "30km", "-20km", "80km", "0km", "-20km"]
+    with TestClient(app) as c:
+        tiles = app.state.server.tiles
+        for i, dist in enumerate(dists):
+            r = c.get(f"/tiles/mexico/{dist}/{z}/{x}/{y}.png")
+            how = "rendered" if i < AGAIN else "field" if i < 5 else "cached"
+            assert r.headers["x-gloffset-tile"] == how, (dist, r.headers)
+            want = render_tiles(shape, parse_distance(dist, EARTH_RADIUS), z, [(x, y)])[(x, y)]
+            assert r.content == (EMPTY_PNG[256] if want is None else want), dist
+            if i == AGAIN - 1:
+                time.sleep(0.3)
+                assert tiles.computed == 0  # never idle: no field yet
+        assert tiles.computed == 1 and tiles.rendered == AGAIN
+
+
+def test_a_seen_tile_has_its_field_first_once_its_renders_cost_as_much(shape, monkeypatch):
+    """Rent or buy: once a field's cost is known, a tile asked for at new distances is
+    rendered until its renders took as long as a field, then answered from its field;
+    byte-identical to the rendered tile either way."""
+    from gloffset.serve.service import TileService
+
+    monkeypatch.setattr(TileService, "_idle", lambda self: False)
+    app = create_app({"mexico": shape}, render_timeout=120)
+    z, x, y = 6, 13, 27
+    with TestClient(app) as c:
+        tiles = app.state.server.tiles
+        tiles.field_cost["mexico"] = 1e9  # a field dearer than any number of renders
+        for dist in ["127km", "30km", "-20km", "80km", "0km"]:
+            r = c.get(f"/tiles/mexico/{dist}/{z}/{x}/{y}.png")
+            assert r.headers["x-gloffset-tile"] == "rendered", dist
+        assert tiles.computed == 0 and tiles.rendered == 5
+        tiles.field_cost["mexico"] = 1e-9  # cheaper than the renders paid so far
+        r = c.get(f"/tiles/mexico/-60km/{z}/{x}/{y}.png")
+        assert r.headers["x-gloffset-tile"] == "field" and tiles.computed == 1
+        want = render_tiles(shape, parse_distance("-60km", EARTH_RADIUS), z, [(x, y)])[(x, y)]
+        assert r.content == (EMPTY_PNG[256] if want is None else want)
+        assert tiles.field_cost["mexico"] > 1e-6  # the field made updates the mean
+
+
+def test_renders_do_not_wait_behind_a_field(shape, monkeypatch):
+    """Fields are computed off the render thread: while a tile's field is being computed
+    (held here until the end), another tile is rendered and answered."""
+    from gloffset.serve import service as svc
+
+    started, release = threading.Event(), threading.Event()
+    real = svc.field_tile
+
+    def held(*args, **kw):
+        started.set()
+        assert release.wait(120)
+        return real(*args, **kw)
+
+    monkeypatch.setattr(svc, "field_tile", held)
+    tiles = svc.TileService({"mexico": shape})
+    try:
+        style = TileStyle()
+        d = parse_distance("127km", EARTH_RADIUS)
+        first = svc.TileKey("mexico", d, 6, 13, 27, 256, style)
+        assert tiles.submit(first).result(timeout=120)
+        assert started.wait(60), "the field of the rendered tile did not start when idle"
+        other = svc.TileKey("mexico", d, 5, 7, 13, 256, style)
+        got = tiles.submit(other).result(timeout=60)  # not behind the held field
+        assert got == render_tiles(shape, d, 5, [(7, 13)])[(7, 13)]
+        assert tiles.computed == 0
+    finally:
+        release.set()
+        tiles.close()

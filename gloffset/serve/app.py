@@ -132,7 +132,7 @@ class _Server:
             found = self.tiles.answer(key, measure=False)
         if found is UNKNOWN:  # measured but since forgotten: measure it alone
             found = await asyncio.to_thread(self.tiles.answer, key)
-        if found is None and self.tiles.field(key.field()) is not None:
+        if found is None and await self._field_kept(key):
             thresholded = await asyncio.to_thread(self.tiles.from_field, key)
             found = None if thresholded is None else (thresholded, "field")
         if found is not None:
@@ -201,6 +201,18 @@ class _Server:
         await asyncio.sleep(0)  # the requests read with the first one join it
         self._batch = None
         await asyncio.to_thread(self.tiles.measure, keys)
+
+    async def _field_kept(self, key: TileKey) -> bool:
+        """Whether the tile's field is kept, once the field on its way is made (a tile of a
+        view seen before at another distance: the slider), within ``render_timeout``."""
+        if self.tiles.field(key.field()) is not None:
+            return True
+        fut = self.tiles.field_future(key)
+        if fut is None:
+            return False
+        with contextlib.suppress(asyncio.TimeoutError):
+            await asyncio.wait_for(asyncio.wrap_future(fut), self.render_timeout)
+        return self.tiles.field(key.field()) is not None
 
     async def _render(self, key: TileKey) -> bytes | Response:
         """The tile rendered on the render thread, or the 503 that says why not."""

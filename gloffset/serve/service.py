@@ -20,11 +20,12 @@ runs), so throughput grows with load. Rendered tiles are kept in an LRU bounded 
 bytes. A request whose client went away is still rendered when its batch had started
 (the tile is cached, the answer dropped); one cancelled before is skipped.
 
-Distance fields of tiles are computed on the render thread too (for a field tile at
-once, for a rendered tile when the thread is idle) and kept in a second LRU bounded in
-bytes (``field_mb``); a tile whose field is kept is answered at any distance by
-:meth:`TileService.from_field`, the field's threshold, equal to the rendered tile except
-within the GPU render's stated error (1e-3 px) of ``d`` (see the design notes).
+Distance fields of tiles (a field tile's on the render thread) are computed on a field
+thread, off the render thread: first for a tile asked for again at a new distance once its
+renders took as long as a field does (a distance slider: :meth:`TileService._again`, the
+rent-or-buy rule), newest first; for the others, when no render is asked for. They
+are kept in a second LRU bounded in bytes (``field_mb``); a tile whose field is kept is
+answered at any distance by :meth:`TileService.from_field`, the field's threshold.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ import io
 import logging
 import queue
 import threading
+import time
 from collections import OrderedDict
 from concurrent.futures import Future
 from dataclasses import dataclass
@@ -73,10 +75,17 @@ def _empty_png(size: int) -> bytes:
 EMPTY_PNG = {256: _empty_png(256), 512: _empty_png(512)}
 
 
-#: seconds without a request after which the render thread computes a waiting field
-IDLE = 0.05
-#: rendered tiles whose fields wait for an idle render thread, at most (the oldest go)
+#: seconds without a render request after which the field thread computes the field of a
+#: tile rendered once (a pause in the requests, not the gap between two views)
+IDLE = 0.5
+#: rendered tiles whose fields wait, at most, in each of the two queues (the oldest go)
 LATER = 4096
+#: before any field's cost is known: a tile asked for after renders at this many other
+#: distances has its field first (a slider; 1 also takes a map's tiles met again at another
+#: distance, seldom asked once more)
+AGAIN = 2
+#: weight of the newest field in the running mean of a layer's field cost (seconds)
+COST_WEIGHT = 0.3
 
 #: tiles whose centre's distance and status are kept (about 100 bytes each)
 CENTRES = 200_000
@@ -142,16 +151,28 @@ class TileService:
         self.centres: OrderedDict = OrderedDict()  # (layer, z, x, y) -> what triage needs
         self.fields: OrderedDict = OrderedDict()  # FieldKey -> DistanceField (radians)
         self.field_bytes, self.field_limit = 0, int(field_mb * (1 << 20))
-        self.later: OrderedDict = OrderedDict()  # FieldKeys to compute when idle
-        self.computed = 0  # fields computed on the render thread
+        #: FieldKey -> (the distances a tile was rendered at, the seconds its renders
+        #: took): its field when idle, or first once the renders cost what the field does
+        self.later: OrderedDict = OrderedDict()
+        self.field_cost: dict = {}  # layer -> running mean of its fields' seconds
+        self.wanted: OrderedDict = OrderedDict()  # FieldKey -> Future, tiles asked again: at once
+        self.computing: dict = {}  # FieldKey -> Future, the field thread's field
+        self.computed = 0  # fields computed
         self.closed = False  # set by close(): no more fields in the background
         self.lock = threading.Lock()
+        self.wake = threading.Condition(self.lock)  # the field thread waits on it
+        self.busy = False  # the render thread runs a batch
+        self.last_put = time.monotonic()  # when the last render request came
         #: cleared, the render thread waits after taking a request (tests, draining)
         self.gate = threading.Event()
         self.gate.set()
         self.rendered = 0  # tiles rendered on the render thread
         self.thread = threading.Thread(target=self._loop, name="gloffset-render", daemon=True)
         self.thread.start()
+        self.field_thread = threading.Thread(
+            target=self._field_loop, name="gloffset-fields", daemon=True
+        )
+        self.field_thread.start()
 
     # ------------------------------------------------------------------ requests
     def cached(self, key: TileKey | FieldKey) -> bytes | None:
@@ -232,6 +253,10 @@ class TileService:
         with self.lock:
             self.closed = True
             self.later.clear()
+            for fut in self.wanted.values():
+                fut.set_result(None)
+            self.wanted.clear()
+            self.wake.notify_all()
 
     def field(self, fkey: FieldKey):
         """The kept :class:`~gloffset.DistanceField` of a tile (radians), or None."""
@@ -285,6 +310,7 @@ class TileService:
         return self._put(fn, Future())
 
     def _put(self, item, fut: Future) -> Future:
+        self.last_put = time.monotonic()
         try:
             self.queue.put_nowait((item, fut))
         except queue.Full:
@@ -313,46 +339,116 @@ class TileService:
                 self.field_bytes -= old.values.nbytes
 
     def _field(self, fkey: FieldKey):
-        """The tile's field, kept or computed (on the render thread) and kept."""
+        """The tile's field, kept or computed (no GL: on any thread) and kept."""
         f = self.field(fkey)
         if f is None:
+            t0 = time.perf_counter()
             f = field_tile(self.layers[fkey.layer], fkey.z, fkey.x, fkey.y, fkey.size)
-            self.computed += 1
+            took = time.perf_counter() - t0
+            with self.lock:
+                self.computed += 1
+                old = self.field_cost.get(fkey.layer, took)
+                self.field_cost[fkey.layer] = old + COST_WEIGHT * (took - old)
             self._keep_field(fkey, f)
         return f
 
-    # ------------------------------------------------------------------ the render thread
-    def _next(self):
-        """The next request; while none comes and fields wait, compute them one by one."""
-        while True:
-            with self.lock:
-                waiting = bool(self.later)
-            if not waiting:
-                return self.queue.get()
-            try:
-                return self.queue.get(timeout=IDLE)
-            except queue.Empty:
-                pass
-            with self.lock:
-                if not self.later:
+    # ------------------------------------------------------------------ the field thread
+    def field_future(self, key: TileKey) -> Future | None:
+        """A future that is done when the field of tile ``key`` is kept (its result None
+        when it could not be made) if that field is the one being computed or the next:
+        a tile asked for before at another distance (a view seen before, as a distance
+        slider asks) has its field queued first. Else None: render the tile (a field
+        behind others would come later than a render). None too for styles with an
+        outline (those tiles are rendered)."""
+        if key.style.outline is not None:
+            return None
+        fkey = key.field()
+        with self.lock:
+            if fkey in self.computing:
+                return self.computing[fkey]
+            if self.closed or not (fkey in self.wanted or self._again(fkey, key.d)):
+                return None
+            fut = self._want(fkey)
+            return fut if not self.computing else None
+
+    def _again(self, fkey: FieldKey, d: float) -> bool:
+        """Whether the tile, asked for at ``d``, should have its field first (holding the
+        lock): rendered before at another distance, and its renders took as long as a
+        field of its layer takes (the running mean); before any field of the layer is
+        made, rendered at :data:`AGAIN` other distances.
+
+        This is the rent-or-buy rule: renders are paid until they add up to the field's
+        price, then the field is bought, so a tile never costs more than twice what the
+        best choice in hindsight would have cost, whether the slider stops at the next
+        distance or goes on for ever. Where fields cost about a render (a GPU) a slider
+        gets fields from its second distance; where they cost ten (this CPU field), from
+        about the tenth, and a loaded server keeps rendering."""
+        ds, spent = self.later.get(fkey, ((), 0.0))
+        others = len(set(ds) - {d})
+        cost = self.field_cost.get(fkey.layer)
+        return others >= AGAIN if cost is None else others >= 1 and spent >= cost
+
+    def _want(self, fkey: FieldKey) -> Future:
+        """Queue the field of ``fkey`` first (holding the lock); its future."""
+        self.later.pop(fkey, None)
+        fut = self.wanted.get(fkey) or self.computing.get(fkey)
+        if fut is None:
+            fut = Future()
+            fut.set_running_or_notify_cancel()  # a waiter that goes away cannot cancel it
+        if fkey not in self.computing:
+            self.wanted[fkey] = fut
+            self.wanted.move_to_end(fkey)
+            while len(self.wanted) > LATER:
+                self.wanted.popitem(last=False)[1].set_result(None)
+        self.wake.notify()
+        return fut
+
+    def _next_field(self) -> tuple[FieldKey, Future] | None:
+        """The next field to compute and its future (None once closed): the newest tile
+        asked for again at a new distance, else, when no render was asked for in
+        :data:`IDLE` seconds, the newest tile rendered once."""
+        with self.lock:
+            while not self.closed:
+                if self.wanted:
+                    fkey, fut = self.wanted.popitem(last=True)
+                elif self.later and self._idle():
+                    fkey, fut = self.later.popitem(last=True)[0], Future()
+                    fut.set_running_or_notify_cancel()
+                else:  # polled while fields of tiles rendered once wait for an idle server
+                    self.wake.wait(IDLE if self.later else None)
                     continue
-                fkey, _ = self.later.popitem(last=True)  # the newest: the view now shown
                 if fkey in self.fields:
+                    fut.set_result(None)
                     continue
+                self.computing[fkey] = fut
+                return fkey, fut
+            return None
+
+    def _idle(self) -> bool:
+        return not self.busy and self.queue.empty() and time.monotonic() - self.last_put >= IDLE
+
+    def _field_loop(self) -> None:
+        while (got := self._next_field()) is not None:
+            fkey, fut = got
             try:
                 self._field(fkey)
             except Exception:  # noqa: BLE001 - the thread must outlive any one field
                 log.exception("field of %s failed", fkey)
+            with self.lock:
+                self.computing.pop(fkey, None)
+            fut.set_result(None)
 
+    # ------------------------------------------------------------------ the render thread
     def _loop(self) -> None:
         while True:
-            batch = [self._next()]
+            batch = [self.queue.get()]
             self.gate.wait()
             while True:
                 try:
                     batch.append(self.queue.get_nowait())
                 except queue.Empty:
                     break
+            self.busy = True
             try:
                 self._run(batch)
             except Exception:  # noqa: BLE001 - the thread must outlive any one batch
@@ -360,6 +456,8 @@ class TileService:
                 for _, fut in batch:
                     if not fut.done():
                         fut.set_exception(RuntimeError("the render thread failed"))
+            finally:
+                self.busy = False
 
     def _run(self, batch) -> None:
         # a request cancelled before it ran (its client went away) is skipped; the
@@ -395,6 +493,7 @@ class TileService:
     def _render(self, items) -> None:
         key0 = items[0][0]
         shape, tiles = self.layers[key0.layer], {(k.x, k.y) for k, _ in items}
+        t0 = time.perf_counter()
         try:
             got = render_tiles(shape, key0.d, key0.z, tiles, size=key0.size, style=key0.style)
         except Exception as exc:  # noqa: BLE001 - every waiting request hears of it
@@ -407,17 +506,29 @@ class TileService:
             self._keep(key, data)
             self.rendered += 1
             fut.set_result(data)
-        if key0.style.outline is None:  # their fields, when the thread is idle
-            with self.lock:
-                if self.closed:
-                    return
-                for key, _ in items:
-                    fkey = key.field()
-                    if fkey not in self.fields:
-                        self.later[fkey] = None
-                        self.later.move_to_end(fkey)
-                while len(self.later) > LATER:
-                    self.later.popitem(last=False)
+        if key0.style.outline is None:
+            share = (time.perf_counter() - t0) / len(items)
+            self._queue_fields([key for key, _ in items], share)
+
+    def _queue_fields(self, keys, share: float) -> None:
+        """Queue the fields of tiles just rendered (``share`` seconds each): first for a
+        tile whose field is due (:meth:`_again`), else when the server is idle."""
+        with self.lock:
+            if self.closed:
+                return
+            for key in keys:
+                fkey = key.field()
+                if fkey in self.fields or fkey in self.computing:
+                    continue
+                if fkey in self.wanted or self._again(fkey, key.d):
+                    self._want(fkey)
+                    continue
+                ds, spent = self.later.get(fkey, ((), 0.0))
+                self.later[fkey] = (tuple(dict.fromkeys((*ds, key.d))), spent + share)
+                self.later.move_to_end(fkey)
+            while len(self.later) > LATER:
+                self.later.popitem(last=False)
+            self.wake.notify()
 
 
 def _run_call(fn, fut: Future) -> None:
