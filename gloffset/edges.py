@@ -23,7 +23,6 @@ are those of :func:`gloffset.geometry.sphere.arcs_cross`; distances are those of
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -119,14 +118,9 @@ class CurveArcs:
         return out
 
     @cached_property
-    def ring_reach(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(ring, present, reach)`` for :func:`component_status`: which arcs are ring
-        edges, which components have any, and each arc's ``sin`` of its cap radius
-        rounded up (made once)."""
-        ring = self.group >= 0
-        present = np.bincount(self.group[ring], minlength=self.n_groups) > 0
-        reach = pad(np.sin(np.minimum(self.half, 0.5 * math.pi)), 1e-9, 1e-9)
-        return ring, present, reach
+    def ring_present(self) -> np.ndarray:
+        """Which components have ring edges (for :func:`component_status`, made once)."""
+        return np.bincount(self.group[self.ring], minlength=self.n_groups) > 0
 
     @classmethod
     def from_shape(cls, shape) -> CurveArcs:
@@ -236,26 +230,33 @@ def contains_xyz(shape, p: np.ndarray, d: float) -> np.ndarray:
 
 
 def component_status(shape, arcs: CurveArcs, p: np.ndarray) -> np.ndarray:
-    """Packed component statuses of a few points by crossings to a reference point.
+    """Packed component statuses of points by crossings to a reference point.
 
-    Only the ring edges whose bounding caps reach the great circle of ``p -> ref``
-    (``|m.u| <= sin h`` for its unit normal ``u``) can cross the arc to the reference.
+    Only the ring edges whose bounding caps meet the arc ``p -> ref`` can cross it: they
+    are found for all the points at once in the ring edges' cap tree
+    (:meth:`~gloffset.geometry.captree.CapTree.along`, a padded superset), so a point costs
+    the edges along its way, not all of them (all 211,690 arcs of ``countries_10m``: 0.3
+    ms a point instead of 6). The crossings are those of every ring edge, exactly.
     """
     status = status_bits(arcs.n_groups, len(p))
+    if len(p) == 0:
+        return status
     refs, ref_status = shape.reference_points()
-    ring, present, reach = arcs.ring_reach
+    k = (p @ refs[0] < -0.5).astype(np.int64)  # the reference within 120 degrees
+    r = refs[k]
+    pr = np.cross(p, r)
+    short = np.sqrt(np.einsum("ij,ij->i", pr, pr)) <= 1e-6  # no direction: every edge
+    far = np.flatnonzero(~short)
+    seg, item = arcs.ring_tree.along(p[far], r[far])
+    order = np.argsort(seg, kind="stable")
+    bounds = np.searchsorted(seg[order], np.arange(1, len(far)))
+    along = iter(np.split(arcs.ring[item[order]], bounds))
+    present = arcs.ring_present
     for i, pt in enumerate(p):
-        k = int(pt @ refs[0] < -0.5)
-        r = refs[k]
-        pr = np.cross(pt, r)
-        norm = math.sqrt(float(pr @ pr))
-        cand = ring
-        if norm > 1e-6:
-            cand = ring & (np.abs(arcs.mid @ (pr / norm)) <= reach)
-        idx = np.flatnonzero(cand)
-        hit = arcs_cross(pt, r, arcs.a[idx], arcs.b[idx], arcs.n[idx])
+        idx = arcs.ring if short[i] else next(along)
+        hit = arcs_cross(pt, r[i], arcs.a[idx], arcs.b[idx], arcs.n[idx])
         par = np.bincount(arcs.group[idx[hit]], minlength=arcs.n_groups) % 2 == 1
         ins = np.zeros(arcs.n_groups, dtype=bool)
-        ins[present] = par[present] ^ ref_status[k][present]
+        ins[present] = par[present] ^ ref_status[int(k[i])][present]
         status[i] = np.packbits(ins, bitorder="little")[: status.shape[1]]
     return status
