@@ -257,9 +257,11 @@ async def fetch(conn, paths, out):
         out.append((kind, time.perf_counter() - t))
 
 
-def start_server(path: Path, port: int, log, workers: int = 1):
+def start_server(path: Path, port: int, log, workers: int = 1, caches=None):
     cmd = [sys.executable, "-m", "gloffset", "serve", str(path), "--port", str(port)]
     cmd += ["--workers", str(workers)]
+    if caches is not None:  # the tile and field LRUs' bounds, MB
+        cmd += ["--cache-mb", f"{caches[0]:g}", "--field-mb", f"{caches[1]:g}"]
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     proc = subprocess.Popen(cmd, stdout=log, stderr=log, env=env)
     end = time.monotonic() + 120
@@ -404,6 +406,13 @@ def main():
     ap.add_argument(
         "--workers", type=int, default=1, help="server processes (gloffset serve --workers)"
     )
+    ap.add_argument(
+        "--caches",
+        type=float,
+        nargs=2,
+        metavar=("TILE_MB", "FIELD_MB"),
+        help="the server's --cache-mb and --field-mb (default: the server's, 256 MB each)",
+    )
     args = ap.parse_args()
     workloads = WORKLOADS if "all" in args.workload else args.workload
     tables = []
@@ -430,7 +439,7 @@ def run_input(args, path: Path, workload: str) -> str:
     for n_clients in args.clients:
         port = free_port()
         with open(RESULTS / "serve.log.tmp", "ab") as log:
-            proc = start_server(path, port, log, args.workers)
+            proc = start_server(path, port, log, args.workers, args.caches)
             try:
                 rec = asyncio.run(
                     load(
@@ -455,6 +464,7 @@ def run_input(args, path: Path, workload: str) -> str:
     key = layer if workload == "random" else f"{layer} {workload}"
     key += f" --pause {args.pause:g}" if args.pause and workload != "random" else ""
     key = key if args.workers == 1 else f"{key} --workers {args.workers}"
+    key += "" if args.caches is None else " --caches {:g} {:g}".format(*args.caches)
     record[key] = {
         "input": path.name,
         "workload": workload,
