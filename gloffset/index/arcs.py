@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.caps import arc_cap, chord2, pad
-from ..geometry.sphere import cross, crossing_rule, dot, normalize, robust_cross
+from ..geometry.sphere import angle, cross, crossing_rule, dot, norm, normalize, robust_cross
 from ..vector.multires import full_decomposition
 
 #: Slack (rad) on every error-region and relevance test, far above their rounding.
@@ -63,6 +63,26 @@ def within(p, g, chord2, sin_r, pg=None) -> np.ndarray:
     )
 
 
+def pair_distance(p, g, solid) -> np.ndarray:
+    """Distances (rad) from points ``p`` to the arcs of the rows of ``g`` (a, b, n, n x a,
+    b x n; ``solid``: not degenerate), one point per row.
+
+    The bits of :func:`gloffset.geometry.sphere.arc_distance` (the wedge normals are ``g``'s
+    and each pair takes only the branch it uses, the same operations on the same values).
+    """
+    n = g[:, 6:9]
+    pn = dot(p, n)
+    wedge = (dot(p, g[:, 9:12]) >= 0.0) & (dot(p, g[:, 12:15]) >= 0.0) & solid
+    out = np.empty(len(p))
+    on = np.flatnonzero(wedge)
+    pw, pnw = p[on], pn[on]
+    out[on] = np.arctan2(np.abs(pnw), norm(pw - pnw[:, None] * n[on]))
+    off = np.flatnonzero(~wedge)
+    po = p[off]
+    out[off] = np.minimum(angle(po, g[off, 0:3]), angle(po, g[off, 3:6]))
+    return out
+
+
 def radius_terms(r: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``chord2`` and ``sin_r`` of :func:`within` for angles ``r``."""
     c2 = np.where(r >= np.pi, 5.0, chord2(r))
@@ -90,6 +110,7 @@ class IndexArcs:
         self.boundary = t.boundary
         self.n = normalize(robust_cross(t.a, t.b))
         self.degenerate = np.sum(self.n * self.n, axis=1) < 0.5
+        self.solid = dot(self.n, self.n) > 0.5  # arc_distance's own test
         # bounding cap: the middle of the arc, half its length plus its error (padded)
         self.mid, half = arc_cap(t.a, t.b)
         self.rad = np.minimum(pad(half + t.e), np.pi)
@@ -97,10 +118,10 @@ class IndexArcs:
         self.g = np.ascontiguousarray(
             np.hstack([t.a, t.b, self.n, cross(self.n, t.a), cross(t.b, self.n)])
         )
-        # what the build gathers per (cell, arc) pair, in one row: bounding cap
-        # (mid, cos, sin, radius), error bound, a, b, n
-        self.pack = np.ascontiguousarray(
-            np.column_stack([self.mid, self.cos_rad, self.sin_rad, self.rad, t.e, t.a, t.b, self.n])
+        # what the build's cap test gathers per (cell, arc) pair, in one row: bounding
+        # cap (mid, cos, sin, radius); its exact tests gather the rows of g
+        self.cap = np.ascontiguousarray(
+            np.column_stack([self.mid, self.cos_rad, self.sin_rad, self.rad])
         )
         self.kind = (
             np.where(self.ring, RING, 0)

@@ -16,7 +16,18 @@ from ..geometry.sphere import angle, arc_distance, cross, dot, lonlat_to_xyz, xy
 from ..shape import Shape, read
 from ..units import EARTH_RADIUS, check_lonlat, offset_angle
 from . import bins
-from .arcs import BOUNDARY, INTERNAL, MARGIN, RING, arc_tree, crosses, dots, radius_terms, within
+from .arcs import (
+    BOUNDARY,
+    INTERNAL,
+    MARGIN,
+    RING,
+    arc_tree,
+    crosses,
+    dots,
+    pair_distance,
+    radius_terms,
+    within,
+)
 from .cells import Cells, paint_table, sample_points, subset_pairs
 
 __all__ = ["Index"]
@@ -251,7 +262,7 @@ class Index:
             self._leaf_lists(None, none, none, no, no)
         self._paint(tiles, fronts)
 
-    def _settle_leaves(self, cells, pc, pn, parent=None):
+    def _settle_leaves(self, cells, pc, pn, parent=None, near=False):
         """:meth:`_settle` at the leaves.
 
         The arcs expanded down to the highest level a query may use, then one
@@ -263,7 +274,7 @@ class Index:
         arcs = self._arcs
         top = min(AUTO_MAX_LEVEL, arcs.levels) if self.level is None else self.level
         self.floor = top
-        out = self._settle(cells, pc, pn, force=True, parent=parent)
+        out = self._settle(cells, pc, pn, force=True, parent=parent, near=near)
         kept = out[0] if parent is not None else out
         budget = LEAF_PAIRS * len(cells.x)
         while self.floor > 0:
@@ -272,17 +283,18 @@ class Index:
                 break
             self.floor -= 1
             if at.any():
-                more = self._settle(cells, kept[0][at], kept[1][at], force=True)
+                more = self._settle(cells, kept[0][at], kept[1][at], force=True, near=True)
                 kept = tuple(np.concatenate([k[~at], m]) for k, m in zip(kept, more))
         return (kept, out[1]) if parent is not None else kept
 
-    def _settle(self, cells, pc, pn, *, force=False, parent=None):
+    def _settle(self, cells, pc, pn, *, force=False, parent=None, near=False):
         """Replace arcs by their two halves until every (cell, arc) pair is settled.
 
         An arc is reconstructed when the cell's anchor lies in its error region (the
         parity rule needs the anchor outside), or when it is simplified and larger
         than the cell (or ``force``: at a leaf, where only arcs of level :attr:`floor`
         or below are kept, original edges by default).
+        ``near``: the pairs passed the cap test of these cells already (not repeated).
         Returns the pairs that matter for the cell, ``(pc, pn, dist, par, dst)``, and,
         with ``parent`` (parent anchors), the parity of the crossings of each cell's
         short arc anchor -> parent anchor with the ring arcs it inherited.
@@ -292,47 +304,42 @@ class Index:
         n_cells = len(cells.x)
         parity = np.zeros(n_cells, dtype=np.int64) if parent is not None else None
         cpack = self._reach(cells)
-        cflag = cells.par.astype(np.int8) | (cells.dst.astype(np.int8) << 1)
+        cpar, cdst = cells.par, cells.dst
         while len(pc):
             x = cells.x[pc]
-            f = arcs.pack[pn]
-            c = cpack[pc]
             kind = arcs.kind[pn]
-            ring = ((kind & RING) != 0) & ((cflag[pc] & 1) != 0)
-            # a cheap cap test first: arcs whose bounding cap is beyond reach do not matter
-            far = dot(x, f[:, 0:3]) < cos_sum_lower(
-                c[:, 1] + f[:, 5], c[:, 2], c[:, 3], f[:, 3], f[:, 4]
-            )
-            if parity is not None:  # still crossed: their error region holds no anchor
-                cnt = np.flatnonzero(far & ring)
-                parity += self._anchor_crossings(x[cnt], parent[pc[cnt]], f[cnt], pc[cnt], n_cells)
-            near = np.flatnonzero(~far)
-            pc, pn, x, f, c, kind, ring = (
-                pc[near],
-                pn[near],
-                x[near],
-                f[near],
-                c[near],
-                kind[near],
-                ring[near],
-            )
-            dist = arc_distance(x, f[:, 7:10], f[:, 10:13], f[:, 13:16])
-            e, r = f[:, 6], c[:, 0]
+            ring = ((kind & RING) != 0) & cpar[pc]
+            if not near:  # a cheap cap test first: arcs whose cap is beyond reach do not matter
+                f = arcs.cap[pn]
+                c = cpack[pc]
+                far = dot(x, f[:, 0:3]) < cos_sum_lower(
+                    c[:, 1] + f[:, 5], c[:, 2], c[:, 3], f[:, 3], f[:, 4]
+                )
+                if parity is not None:  # still crossed: their error region holds no anchor
+                    cnt = np.flatnonzero(far & ring)
+                    parity += self._anchor_crossings(
+                        x[cnt], parent[pc[cnt]], pn[cnt], pc[cnt], n_cells
+                    )
+                keep = np.flatnonzero(~far)
+                pc, pn, x, kind, ring = pc[keep], pn[keep], x[keep], kind[keep], ring[keep]
+            near = False  # the halves of arcs are tested
+            dist = pair_distance(x, arcs.g[pn], arcs.solid[pn])
+            e, r = arcs.e[pn], cells.rho[pc]
             par = ring & (dist <= r + e + MARGIN)
-            dst = ((kind & BOUNDARY) != 0) & ((cflag[pc] & 2) != 0)
+            dst = ((kind & BOUNDARY) != 0) & cdst[pc]
             dst &= dist <= self._absd + r + e + MARGIN
             internal = (kind & INTERNAL) != 0
             expand = internal & ring & (dist <= e + MARGIN)
             coarse = internal & (par | dst)
             if not force:
-                coarse &= f[:, 5] > r
+                coarse &= arcs.rad[pn] > r
             if force:  # at the leaves: down to the level floor
                 coarse &= arcs.level[pn] > self.floor
             expand |= coarse
             settled = ~expand
             if parity is not None:
                 cnt = np.flatnonzero(settled & ring)
-                parity += self._anchor_crossings(x[cnt], parent[pc[cnt]], f[cnt], pc[cnt], n_cells)
+                parity += self._anchor_crossings(x[cnt], parent[pc[cnt]], pn[cnt], pc[cnt], n_cells)
             keep = settled & (par | dst)
             out.append((pc[keep], pn[keep], dist[keep], par[keep], dst[keep]))
             ex = np.flatnonzero(expand)
@@ -348,16 +355,16 @@ class Index:
         reach = np.minimum(cells.rho + MARGIN + np.where(cells.dst, self._absd, 0.0), np.pi)
         return np.column_stack([cells.rho, reach, np.cos(reach), np.sin(reach)])
 
-    @staticmethod
-    def _anchor_crossings(xc, xp, f, ci, n_cells):
+    def _anchor_crossings(self, xc, xp, arc, ci, n_cells):
         """Count the crossings of each cell's short arc to its parent's anchor.
 
-        Crossings per cell of its short arc anchor ``xc`` -> parent anchor ``xp`` with the
-        arcs whose packed data is ``f``.
+        Crossings per cell ``ci`` of its short arc anchor ``xc`` -> parent anchor ``xp``
+        with the arcs ``arc``.
         """
         if len(ci) == 0:
             return 0
-        cr = crosses(xc, xp, cross(xc, xp), f[:, 7:10], f[:, 10:13], f[:, 13:16])
+        g = self._arcs.g[arc]
+        cr = crosses(xc, xp, cross(xc, xp), g[:, 0:3], g[:, 3:6], g[:, 6:9])
         return np.bincount(ci[cr], minlength=n_cells)
 
     def _classify(self, cells, kept):
@@ -417,7 +424,7 @@ class Index:
         arcs = self._arcs
         pos = np.searchsorted(front, kept[0])
         pn = kept[1]
-        f = arcs.pack[pn]
+        f = arcs.cap[pn]
         cpack = self._reach(child).reshape(-1, 4, 4)[pos]
         xc = x.reshape(-1, 4, 3)[pos]
         far = dot(xc, f[:, None, 0:3]) < cos_sum_lower(
@@ -427,17 +434,13 @@ class Index:
         # far ring arcs still cross the short arcs child anchor -> parent anchor
         ring = ((arcs.kind[pn] & RING) != 0) & par_need[front[pos]]
         cnt_pair, cnt_child = np.nonzero(far & ring[:, None])
-        if len(cnt_pair):
-            xa = xc[cnt_pair, cnt_child]
-            parity = self._anchor_crossings(
-                xa,
-                cells.x[front[pos[cnt_pair]]],
-                f[cnt_pair],
-                child_of_pair[cnt_pair, cnt_child],
-                len(x),
-            )
-        else:
-            parity = 0
+        parity = self._anchor_crossings(
+            xc[cnt_pair, cnt_child],
+            cells.x[front[pos[cnt_pair]]],
+            pn[cnt_pair],
+            child_of_pair[cnt_pair, cnt_child],
+            len(x),
+        )
         near = ~far
         self._forced = lev >= self.depth  # the last level: leaves (_settle_leaves)
         settle = self._settle_leaves if self._forced else self._settle
@@ -446,6 +449,7 @@ class Index:
             child_of_pair[near],
             np.broadcast_to(pn[:, None], near.shape)[near],
             parent=cells.x[parent],
+            near=True,  # the cap test above
         )
         child.status = child.status ^ ((parity + parity2) & 1).astype(bool)
         return child, kept
