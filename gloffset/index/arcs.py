@@ -17,6 +17,9 @@ from ..vector.multires import full_decomposition
 
 #: Slack (rad) on every error-region and relevance test, far above their rounding.
 MARGIN = 1e-13
+#: Squared chords to an arc's two ends closer than this (relative) are a tie for
+#: :func:`pair_distance`: both angles are taken (far above their rounding, ~1e-15).
+_CHORD_TIE = 1e-6
 
 
 # ---------------------------------------------------------------------- geometry kernels
@@ -63,12 +66,16 @@ def within(p, g, chord2, sin_r, pg=None) -> np.ndarray:
     )
 
 
-def pair_distance(p, g, solid) -> np.ndarray:
+def pair_distance(p, g, solid) -> tuple[np.ndarray, np.ndarray]:
     """Distances (rad) from points ``p`` to the arcs of the rows of ``g`` (a, b, n, n x a,
-    b x n; ``solid``: not degenerate), one point per row.
+    b x n; ``solid``: not degenerate), one point per row, and ``p . n``.
 
-    The bits of :func:`gloffset.geometry.sphere.arc_distance` (the wedge normals are ``g``'s
-    and each pair takes only the branch it uses, the same operations on the same values).
+    The bits of :func:`gloffset.geometry.sphere.arc_distance`, with less work: the wedge
+    normals are ``g``'s, each pair takes only the branch it uses, and off the wedge only
+    the angle to the nearer end is taken where the squared chords to the ends (those
+    :func:`gloffset.geometry.sphere.angle` takes its square root of) differ by far more
+    than rounding, below a right angle (where that angle is well conditioned, so the other
+    end's can only be larger); both elsewhere, the smaller kept.
     """
     n = g[:, 6:9]
     pn = dot(p, n)
@@ -78,9 +85,20 @@ def pair_distance(p, g, solid) -> np.ndarray:
     pw, pnw = p[on], pn[on]
     out[on] = np.arctan2(np.abs(pnw), norm(pw - pnw[:, None] * n[on]))
     off = np.flatnonzero(~wedge)
-    po = p[off]
-    out[off] = np.minimum(angle(po, g[off, 0:3]), angle(po, g[off, 3:6]))
-    return out
+    po, go = p[off], g[off]
+    da, db = po - go[:, 0:3], po - go[:, 3:6]
+    ca, cb = dot(da, da), dot(db, db)
+    near_b = cb < ca
+    c = np.where(near_b, cb, ca)
+    end = np.where(near_b[:, None], go[:, 3:6], go[:, 0:3])
+    sm = po + end
+    ang = 2.0 * np.arctan2(np.sqrt(c), np.sqrt(dot(sm, sm)))
+    both = np.flatnonzero((np.abs(ca - cb) <= _CHORD_TIE * c) | (c > 2.0))
+    if len(both):
+        other = np.where(near_b[both, None], go[both, 0:3], go[both, 3:6])
+        ang[both] = np.minimum(ang[both], angle(po[both], other))
+    out[off] = ang
+    return out, pn
 
 
 def radius_terms(r: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -10,25 +10,21 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidLevelError, OptionError
-from ..geometry.caps import cos_sum_lower
 from ..geometry.crossings import inside as _inside_reference
-from ..geometry.sphere import angle, arc_distance, cross, dot, lonlat_to_xyz, xyz_to_lonlat
+from ..geometry.sphere import angle, arc_distance, cross, lonlat_to_xyz, xyz_to_lonlat
 from ..shape import Shape, read
 from ..units import EARTH_RADIUS, check_lonlat, offset_angle
 from . import bins
 from .arcs import (
-    BOUNDARY,
-    INTERNAL,
     MARGIN,
-    RING,
     arc_tree,
     crosses,
     dots,
-    pair_distance,
     radius_terms,
     within,
 )
 from .cells import Cells, paint_table, sample_points, subset_pairs
+from .settle import Settle
 
 __all__ = ["Index"]
 
@@ -234,7 +230,10 @@ class Index:
         pc = np.repeat(np.arange(n), len(arcs.top))
         pn = np.tile(arcs.top, n)
         self._forced = self.depth == 1
-        kept = self._settle_leaves(cells, pc, pn) if self._forced else self._settle(cells, pc, pn)
+        if self._forced:
+            kept = self._settle_leaves(cells, pc, pn)
+        else:
+            kept = Settle(self._arcs, cells, self._absd).run(pc, pn)
         leaves = None
         while True:
             state, par_need, dst_need, kept = self._classify(cells, kept)
@@ -262,8 +261,8 @@ class Index:
             self._leaf_lists(None, none, none, no, no)
         self._paint(tiles, fronts)
 
-    def _settle_leaves(self, cells, pc, pn, parent=None, near=False):
-        """:meth:`_settle` at the leaves.
+    def _settle_leaves(self, cells, pc, pn, settle=None, near=False):
+        """Settle the pairs of the leaves (:class:`Settle`, through ``settle`` if given).
 
         The arcs expanded down to the highest level a query may use, then one
         decomposition level at a time while the pairs stay within :data:`LEAF_PAIRS` per
@@ -274,8 +273,9 @@ class Index:
         arcs = self._arcs
         top = min(AUTO_MAX_LEVEL, arcs.levels) if self.level is None else self.level
         self.floor = top
-        out = self._settle(cells, pc, pn, force=True, parent=parent, near=near)
-        kept = out[0] if parent is not None else out
+        settle = Settle(arcs, cells, self._absd) if settle is None else settle
+        kept = settle.run(pc, pn, near=near, floor=self.floor)
+        plain = Settle(arcs, cells, self._absd)  # no parent: no crossings counted
         budget = LEAF_PAIRS * len(cells.x)
         while self.floor > 0:
             at = arcs.level[kept[1]] == self.floor
@@ -283,89 +283,9 @@ class Index:
                 break
             self.floor -= 1
             if at.any():
-                more = self._settle(cells, kept[0][at], kept[1][at], force=True, near=True)
+                more = plain.run(kept[0][at], kept[1][at], near=True, floor=self.floor)
                 kept = tuple(np.concatenate([k[~at], m]) for k, m in zip(kept, more))
-        return (kept, out[1]) if parent is not None else kept
-
-    def _settle(self, cells, pc, pn, *, force=False, parent=None, near=False):
-        """Replace arcs by their two halves until every (cell, arc) pair is settled.
-
-        An arc is reconstructed when the cell's anchor lies in its error region (the
-        parity rule needs the anchor outside), or when it is simplified and larger
-        than the cell (or ``force``: at a leaf, where only arcs of level :attr:`floor`
-        or below are kept, original edges by default).
-        ``near``: the pairs passed the cap test of these cells already (not repeated).
-        Returns the pairs that matter for the cell, ``(pc, pn, dist, par, dst)``, and,
-        with ``parent`` (parent anchors), the parity of the crossings of each cell's
-        short arc anchor -> parent anchor with the ring arcs it inherited.
-        """
-        arcs = self._arcs
-        out = []
-        n_cells = len(cells.x)
-        parity = np.zeros(n_cells, dtype=np.int64) if parent is not None else None
-        cpack = self._reach(cells)
-        cpar, cdst = cells.par, cells.dst
-        while len(pc):
-            x = cells.x[pc]
-            kind = arcs.kind[pn]
-            ring = ((kind & RING) != 0) & cpar[pc]
-            if not near:  # a cheap cap test first: arcs whose cap is beyond reach do not matter
-                f = arcs.cap[pn]
-                c = cpack[pc]
-                far = dot(x, f[:, 0:3]) < cos_sum_lower(
-                    c[:, 1] + f[:, 5], c[:, 2], c[:, 3], f[:, 3], f[:, 4]
-                )
-                if parity is not None:  # still crossed: their error region holds no anchor
-                    cnt = np.flatnonzero(far & ring)
-                    parity += self._anchor_crossings(
-                        x[cnt], parent[pc[cnt]], pn[cnt], pc[cnt], n_cells
-                    )
-                keep = np.flatnonzero(~far)
-                pc, pn, x, kind, ring = pc[keep], pn[keep], x[keep], kind[keep], ring[keep]
-            near = False  # the halves of arcs are tested
-            dist = pair_distance(x, arcs.g[pn], arcs.solid[pn])
-            e, r = arcs.e[pn], cells.rho[pc]
-            par = ring & (dist <= r + e + MARGIN)
-            dst = ((kind & BOUNDARY) != 0) & cdst[pc]
-            dst &= dist <= self._absd + r + e + MARGIN
-            internal = (kind & INTERNAL) != 0
-            expand = internal & ring & (dist <= e + MARGIN)
-            coarse = internal & (par | dst)
-            if not force:
-                coarse &= arcs.rad[pn] > r
-            if force:  # at the leaves: down to the level floor
-                coarse &= arcs.level[pn] > self.floor
-            expand |= coarse
-            settled = ~expand
-            if parity is not None:
-                cnt = np.flatnonzero(settled & ring)
-                parity += self._anchor_crossings(x[cnt], parent[pc[cnt]], pn[cnt], pc[cnt], n_cells)
-            keep = settled & (par | dst)
-            out.append((pc[keep], pn[keep], dist[keep], par[keep], dst[keep]))
-            ex = np.flatnonzero(expand)
-            pc = np.repeat(pc[ex], 2)
-            pn = arcs.child[pn[ex]].ravel()
-        kept = tuple(np.concatenate([o[k] for o in out]) for k in range(5))
-        if parity is not None:
-            return kept, parity
         return kept
-
-    def _reach(self, cells) -> np.ndarray:
-        """Per cell: rho, how far an arc may matter, and that reach's cos and sin."""
-        reach = np.minimum(cells.rho + MARGIN + np.where(cells.dst, self._absd, 0.0), np.pi)
-        return np.column_stack([cells.rho, reach, np.cos(reach), np.sin(reach)])
-
-    def _anchor_crossings(self, xc, xp, arc, ci, n_cells):
-        """Count the crossings of each cell's short arc to its parent's anchor.
-
-        Crossings per cell ``ci`` of its short arc anchor ``xc`` -> parent anchor ``xp``
-        with the arcs ``arc``.
-        """
-        if len(ci) == 0:
-            return 0
-        g = self._arcs.g[arc]
-        cr = crosses(xc, xp, cross(xc, xp), g[:, 0:3], g[:, 3:6], g[:, 6:9])
-        return np.bincount(ci[cr], minlength=n_cells)
 
     def _classify(self, cells, kept):
         """State (0 out, 1 in, 2 frontier) of each cell and what its children inherit.
@@ -419,39 +339,15 @@ class Index:
         child = Cells(lev, cj, ci, x, bins.radii(cj, lev), cells.status[parent])
         child.par[:] = par_need[parent]
         child.dst[:] = dst_need[parent]
-        # each child inherits its parent's pairs; a cheap cap test, for the four children
-        # at once, drops the arcs that cannot matter to a child before any exact test
-        arcs = self._arcs
-        pos = np.searchsorted(front, kept[0])
-        pn = kept[1]
-        f = arcs.cap[pn]
-        cpack = self._reach(child).reshape(-1, 4, 4)[pos]
-        xc = x.reshape(-1, 4, 3)[pos]
-        far = dot(xc, f[:, None, 0:3]) < cos_sum_lower(
-            cpack[:, :, 1] + f[:, 5:6], cpack[:, :, 2], cpack[:, :, 3], f[:, 3:4], f[:, 4:5]
-        )
-        child_of_pair = 4 * pos[:, None] + np.arange(4)
-        # far ring arcs still cross the short arcs child anchor -> parent anchor
-        ring = ((arcs.kind[pn] & RING) != 0) & par_need[front[pos]]
-        cnt_pair, cnt_child = np.nonzero(far & ring[:, None])
-        parity = self._anchor_crossings(
-            xc[cnt_pair, cnt_child],
-            cells.x[front[pos[cnt_pair]]],
-            pn[cnt_pair],
-            child_of_pair[cnt_pair, cnt_child],
-            len(x),
-        )
-        near = ~far
+        # each child inherits its parent's pairs, less those far from it (a cap test)
+        settle = Settle(self._arcs, child, self._absd, parent=cells.x[parent])
+        pc, pn = settle.inherit(np.searchsorted(front, kept[0]), kept[1])
         self._forced = lev >= self.depth  # the last level: leaves (_settle_leaves)
-        settle = self._settle_leaves if self._forced else self._settle
-        kept, parity2 = settle(
-            child,
-            child_of_pair[near],
-            np.broadcast_to(pn[:, None], near.shape)[near],
-            parent=cells.x[parent],
-            near=True,  # the cap test above
-        )
-        child.status = child.status ^ ((parity + parity2) & 1).astype(bool)
+        if self._forced:
+            kept = self._settle_leaves(child, pc, pn, settle, near=True)
+        else:
+            kept = settle.run(pc, pn, near=True)
+        child.status = child.status ^ (settle.parity & 1).astype(bool)
         return child, kept
 
     def _leaf_lists(self, leaves, pc, pn, par, dst):
