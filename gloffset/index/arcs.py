@@ -71,11 +71,8 @@ def pair_distance(p, g, solid) -> tuple[np.ndarray, np.ndarray]:
     b x n; ``solid``: not degenerate), one point per row, and ``p . n``.
 
     The bits of :func:`gloffset.geometry.sphere.arc_distance`, with less work: the wedge
-    normals are ``g``'s, each pair takes only the branch it uses, and off the wedge only
-    the angle to the nearer end is taken where the squared chords to the ends (those
-    :func:`gloffset.geometry.sphere.angle` takes its square root of) differ by far more
-    than rounding, below a right angle (where that angle is well conditioned, so the other
-    end's can only be larger); both elsewhere, the smaller kept.
+    normals are ``g``'s, each pair takes only the branch it uses, and off the wedge
+    :func:`end_distance`.
     """
     n = g[:, 6:9]
     pn = dot(p, n)
@@ -85,20 +82,29 @@ def pair_distance(p, g, solid) -> tuple[np.ndarray, np.ndarray]:
     pw, pnw = p[on], pn[on]
     out[on] = np.arctan2(np.abs(pnw), norm(pw - pnw[:, None] * n[on]))
     off = np.flatnonzero(~wedge)
-    po, go = p[off], g[off]
-    da, db = po - go[:, 0:3], po - go[:, 3:6]
+    go = g[off]
+    out[off] = end_distance(p[off], go[:, 0:3], go[:, 3:6])
+    return out, pn
+
+
+def end_distance(p, a, b) -> np.ndarray:
+    """``min(angle(p, a), angle(p, b))`` (:func:`gloffset.geometry.sphere.angle`), the same
+    bits, taking only the angle to the nearer end where the squared chords to the ends
+    (those ``angle`` takes its square root of) differ by far more than rounding, below a
+    right angle (where that angle is well conditioned, so the other end's can only be
+    larger); both elsewhere.
+    """
+    da, db = p - a, p - b
     ca, cb = dot(da, da), dot(db, db)
     near_b = cb < ca
     c = np.where(near_b, cb, ca)
-    end = np.where(near_b[:, None], go[:, 3:6], go[:, 0:3])
-    sm = po + end
-    ang = 2.0 * np.arctan2(np.sqrt(c), np.sqrt(dot(sm, sm)))
+    sm = p + np.where(near_b[:, None], b, a)
+    out = 2.0 * np.arctan2(np.sqrt(c), np.sqrt(dot(sm, sm)))
     both = np.flatnonzero((np.abs(ca - cb) <= _CHORD_TIE * c) | (c > 2.0))
     if len(both):
-        other = np.where(near_b[both, None], go[both, 0:3], go[both, 3:6])
-        ang[both] = np.minimum(ang[both], angle(po[both], other))
-    out[off] = ang
-    return out, pn
+        other = np.where(near_b[both, None], a[both], b[both])
+        out[both] = np.minimum(out[both], angle(p[both], other))
+    return out
 
 
 def radius_terms(r: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -11,19 +11,13 @@ import numpy as np
 
 from ..errors import InvalidLevelError, OptionError
 from ..geometry.crossings import inside as _inside_reference
-from ..geometry.sphere import angle, arc_distance, cross, lonlat_to_xyz, xyz_to_lonlat
+from ..geometry.sphere import arc_distance, cross, lonlat_to_xyz, xyz_to_lonlat
 from ..shape import Shape, read
 from ..units import EARTH_RADIUS, check_lonlat, offset_angle
 from . import bins
-from .arcs import (
-    MARGIN,
-    arc_tree,
-    crosses,
-    dots,
-    radius_terms,
-    within,
-)
+from .arcs import MARGIN, arc_tree, crosses, dots, end_distance, radius_terms, within
 from .cells import Cells, paint_table, sample_points, subset_pairs
+from .settle import CHUNK as PAIR_CHUNK
 from .settle import Settle
 
 __all__ = ["Index"]
@@ -301,18 +295,18 @@ class Index:
         st = cells.status
         all_within = np.zeros(n, dtype=bool)
         if self._sign != 0 and dst.any():
-            # an upper bound on each anchor's distance to the curves: exact for edges,
-            # the nearer end (an original vertex) for simplified arcs
+            # within |d| of the curves wherever in the cell, if one pair's upper bound on
+            # the anchor's distance (exact for edges, the nearer end, an original vertex,
+            # for simplified arcs) plus the cell's radius is (a rounded sum is monotone:
+            # the test of the smallest bound, in fewer operations)
             sel = np.flatnonzero(dst)
-            val = dist[sel]
-            coarse = arcs.internal[pn[sel]]
-            if coarse.any():
-                s2 = sel[coarse]
-                xs = cells.x[pc[s2]]
-                val[coarse] = np.minimum(angle(xs, arcs.a[pn[s2]]), angle(xs, arcs.b[pn[s2]]))
-            ub = np.full(n, np.inf)
-            np.minimum.at(ub, pc[sel], val)
-            all_within = ub + cells.rho <= self._absd - MARGIN
+            val, cs = dist[sel], pc[sel]
+            coarse = np.flatnonzero(arcs.internal[pn[sel]])
+            for k in range(0, len(coarse), PAIR_CHUNK):  # cache-sized chunks
+                c = coarse[k : k + PAIR_CHUNK]
+                val[c] = end_distance(cells.x[cs[c]], arcs.a[pn[sel[c]]], arcs.b[pn[sel[c]]])
+            ok = val + cells.rho[cs] <= self._absd - MARGIN
+            all_within = np.bincount(cs[ok], minlength=n) > 0
         if self._sign > 0:
             is_in = all_within | (uniform & st)
             is_out = ~is_in & uniform & ~has_dst
