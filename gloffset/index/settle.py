@@ -119,7 +119,7 @@ class Settle:
         settled = ~expand
         if self.parent is not None:
             cnt = np.flatnonzero(settled & ring)
-            self._cross(pc[cnt], pn[cnt], xn[cnt], g[cnt])
+            self._cross(pc[cnt], pn[cnt], xn[cnt], g[cnt, 0:9])
         keep = settled & (par | dst)
         ex = np.flatnonzero(expand)
         kept = (pc[keep], pn[keep], dist[keep], par[keep], dst[keep])
@@ -128,10 +128,10 @@ class Settle:
     def _cross(self, pc, pn, xn, g=None):
         """Add to :attr:`parity` the crossings of the short arcs anchor -> parent anchor of
         cells ``pc`` with arcs ``pn`` (``xn``: the anchors dotted with the arcs' normals;
-        ``g``: the arcs' rows, if gathered)."""
+        ``g``: the arcs' rows a, b, n, if gathered)."""
         if len(pc) == 0 or self.parent is None or self.px is None:
             return
-        g = self.arcs.g[pn] if g is None else g
+        g = self.arcs.g[pn, 0:9] if g is None else g
         xp = self.parent[pc]
         cr = crosses(None, xp, self.px[pc], g[:, 0:3], g[:, 3:6], g[:, 6:9], xn)
         self.parity += np.bincount(pc[cr], minlength=len(self.parity))
