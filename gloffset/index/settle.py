@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.caps import cos_sum_lower
-from ..geometry.sphere import cross, dot
+from ..geometry.sphere import angle, cross, dot
 from .arcs import BOUNDARY, INTERNAL, MARGIN, RING, crosses, pair_distance
 
 __all__ = ["CHUNK", "Settle"]
@@ -39,6 +39,14 @@ class Settle:
         self.parent = parent
         self.px = None if parent is None else cross(cells.x, parent)
         self.parity = np.zeros(len(cells.x), dtype=np.int64)
+        # an arc farther from a cell's anchor than its short arc to the parent's anchor
+        # (plus the margin) cannot cross that short arc (the rule by which a parent's list
+        # dropped far arcs too): its crossing test is skipped. ``short``: cells whose
+        # short arc lies within their reach, where every arc beyond it is that far
+        self.span = np.zeros(len(cells.x))
+        if parent is not None:
+            self.span = angle(cells.x, parent) + MARGIN
+        self.short = self.span <= reach
 
     def run(self, pc, pn, *, near: bool = False, floor=None):
         """Return the pairs that matter for the cells, ``(pc, pn, dist, par, dst)``.
@@ -66,10 +74,11 @@ class Settle:
         ``pos``: the parent of each pair, as a position among the parents (whose
         children are cells ``4 pos .. 4 pos + 3``); ``pn``: its arc. A cheap cap test
         for the four children at once drops the arcs that cannot matter to a child;
-        far ring arcs still cross the short arcs child anchor -> parent anchor.
+        far ring arcs may still cross the short arcs child anchor -> parent anchor.
         """
         arcs, cells = self.arcs, self.cells
         reach4, x4, par4 = self.reach.reshape(-1, 4, 4), cells.x.reshape(-1, 4, 3), cells.par[::4]
+        short4 = self.short.reshape(-1, 4)
         out_c, out_n = [pos[:0]], [pn[:0]]
         for s in range(0, len(pos), CHUNK // 4):
             p, a = pos[s : s + CHUNK // 4], pn[s : s + CHUNK // 4]
@@ -79,7 +88,7 @@ class Settle:
             )
             child = 4 * p[:, None] + np.arange(4)
             ring = ((arcs.kind[a] & RING) != 0) & par4[p]
-            cp, cc = np.nonzero(far & ring[:, None])
+            cp, cc = np.nonzero(far & ring[:, None] & ~short4[p])
             self._cross(child[cp, cc], a[cp], dot(xc[cp, cc], arcs.n[a[cp]]))
             near = ~far
             out_c.append(child[near])
@@ -98,7 +107,7 @@ class Settle:
                 c[:, 1] + f[:, 5], c[:, 2], c[:, 3], f[:, 3], f[:, 4]
             )
             if self.parent is not None:  # still crossed: their error region holds no anchor
-                cnt = np.flatnonzero(far & ring)
+                cnt = np.flatnonzero(far & ring & ~self.short[pc])
                 self._cross(pc[cnt], pn[cnt], dot(x[cnt], arcs.n[pn[cnt]]))
             keep = np.flatnonzero(~far)
             pc, pn, x, kind, ring = pc[keep], pn[keep], x[keep], kind[keep], ring[keep]
@@ -118,7 +127,7 @@ class Settle:
         expand |= coarse
         settled = ~expand
         if self.parent is not None:
-            cnt = np.flatnonzero(settled & ring)
+            cnt = np.flatnonzero(settled & ring & (dist <= self.span[pc]))
             self._cross(pc[cnt], pn[cnt], xn[cnt], g[cnt, 0:9])
         keep = settled & (par | dst)
         ex = np.flatnonzero(expand)
