@@ -298,15 +298,18 @@ class Index:
             # within |d| of the curves wherever in the cell, if one pair's upper bound on
             # the anchor's distance (exact for edges, the nearer end, an original vertex,
             # for simplified arcs) plus the cell's radius is (a rounded sum is monotone:
-            # the test of the smallest bound, in fewer operations)
+            # the test of the smallest bound); simplified arcs only where it can matter
             sel = np.flatnonzero(dst)
             val, cs = dist[sel], pc[sel]
-            coarse = np.flatnonzero(arcs.internal[pn[sel]])
+            coarse = arcs.internal[pn[sel]]
+            limit, rho = self._absd - MARGIN, cells.rho
+            all_within = np.bincount(cs[~coarse & (val + rho[cs] <= limit)], minlength=n) > 0
+            decided = all_within | (uniform & (st if self._sign > 0 else ~st))
+            coarse = np.flatnonzero(coarse & ~decided[cs])
             for k in range(0, len(coarse), PAIR_CHUNK):  # cache-sized chunks
                 c = coarse[k : k + PAIR_CHUNK]
                 val[c] = end_distance(cells.x[cs[c]], arcs.a[pn[sel[c]]], arcs.b[pn[sel[c]]])
-            ok = val + cells.rho[cs] <= self._absd - MARGIN
-            all_within = np.bincount(cs[ok], minlength=n) > 0
+            all_within[cs[coarse[val[coarse] + rho[cs[coarse]] <= limit]]] = True
         if self._sign > 0:
             is_in = all_within | (uniform & st)
             is_out = ~is_in & uniform & ~has_dst
