@@ -118,8 +118,8 @@ class Index:
     (7,368 vertices) at the default depth. With the default depth a long boundary
     stops the bins at :data:`BUILD_CELLS` frontier cells, and large leaves on a fine
     boundary keep simplified arcs (:attr:`floor`): all 234 countries of Natural Earth
-    1:10m at 0.02 rad build at depth 9 with leaves of level 5 in about 2 s instead of
-    17 s at depth 13, at the price of more points in frontier cells (1e6 uniform
+    1:10m at 0.02 rad build at depth 9 with leaves of level 5 in about 1.5 s instead of
+    6.5 s at depth 13, at the price of more points in frontier cells (1e6 uniform
     points on the globe: about 0.6 s instead of 0.02 s); pass ``depth=13`` for the
     deep bins, or let :func:`contains_on_sphere` choose by the number of
     points (:func:`depth_for`). A query costs a table look-up from the
