@@ -12,11 +12,16 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.caps import arc_cap, chord2, pad
-from ..geometry.sphere import cross, crossing_rule, dot, normalize, robust_cross
+from ..geometry.sphere import angle, cross, crossing_rule, dot, norm, normalize, robust_cross
 from ..vector.multires import full_decomposition
 
 #: Slack (rad) on every error-region and relevance test, far above their rounding.
 MARGIN = 1e-13
+#: Arcs per block when :class:`IndexArcs` makes its rows (the temporaries fit the cache).
+_ROWS = 1 << 14
+#: Squared chords to an arc's two ends closer than this (relative) are a tie for
+#: :func:`pair_distance`: both angles are taken (far above their rounding, ~1e-15).
+_CHORD_TIE = 1e-6
 
 
 # ---------------------------------------------------------------------- geometry kernels
@@ -63,6 +68,47 @@ def within(p, g, chord2, sin_r, pg=None) -> np.ndarray:
     )
 
 
+def pair_distance(p, g, solid) -> tuple[np.ndarray, np.ndarray]:
+    """Distances (rad) from points ``p`` to the arcs of the rows of ``g`` (a, b, n, n x a,
+    b x n; ``solid``: not degenerate), one point per row, and ``p . n``.
+
+    The bits of :func:`gloffset.geometry.sphere.arc_distance`, with less work: the wedge
+    normals are ``g``'s, each pair takes only the branch it uses, and off the wedge
+    :func:`end_distance`.
+    """
+    n = g[:, 6:9]
+    pn = dot(p, n)
+    wedge = (dot(p, g[:, 9:12]) >= 0.0) & (dot(p, g[:, 12:15]) >= 0.0) & solid
+    out = np.empty(len(p))
+    on = np.flatnonzero(wedge)
+    pw, pnw = p[on], pn[on]
+    out[on] = np.arctan2(np.abs(pnw), norm(pw - pnw[:, None] * n[on]))
+    off = np.flatnonzero(~wedge)
+    ab = g[off, 0:6]  # the columns used (narrow rows: several times faster than g[off])
+    out[off] = end_distance(p[off], ab[:, 0:3], ab[:, 3:6])
+    return out, pn
+
+
+def end_distance(p, a, b) -> np.ndarray:
+    """``min(angle(p, a), angle(p, b))`` (:func:`gloffset.geometry.sphere.angle`), the same
+    bits, taking only the angle to the nearer end where the squared chords to the ends
+    (those ``angle`` takes its square root of) differ by far more than rounding, below a
+    right angle (where that angle is well conditioned, so the other end's can only be
+    larger); both elsewhere.
+    """
+    da, db = p - a, p - b
+    ca, cb = dot(da, da), dot(db, db)
+    near_b = cb < ca
+    c = np.where(near_b, cb, ca)
+    sm = p + np.where(near_b[:, None], b, a)
+    out = 2.0 * np.arctan2(np.sqrt(c), np.sqrt(dot(sm, sm)))
+    both = np.flatnonzero((np.abs(ca - cb) <= _CHORD_TIE * c) | (c > 2.0))
+    if len(both):
+        other = np.where(near_b[both, None], a[both], b[both])
+        out[both] = np.minimum(out[both], angle(p[both], other))
+    return out
+
+
 def radius_terms(r: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``chord2`` and ``sin_r`` of :func:`within` for angles ``r``."""
     c2 = np.where(r >= np.pi, 5.0, chord2(r))
@@ -88,20 +134,19 @@ class IndexArcs:
         self.internal = t.level > 0
         self.ring = t.group >= 0
         self.boundary = t.boundary
-        self.n = normalize(robust_cross(t.a, t.b))
+        # per arc, in one row each: a, b, n, n x a, b x n (the exact tests' g); the
+        # bounding cap, the middle of the arc and half its length plus its error (padded),
+        # with the cap radius' cos, sin (the cap test's); made in cache-sized blocks
+        self.g, self.cap = np.empty((len(t.a), 15)), np.empty((len(t.a), 6))
+        for s in range(0, len(t.a), _ROWS):
+            self._rows(
+                slice(s, s + _ROWS), t.a[s : s + _ROWS], t.b[s : s + _ROWS], t.e[s : s + _ROWS]
+            )
+        self.n = self.g[:, 6:9]
+        self.mid, self.cos_rad, self.sin_rad = self.cap[:, 0:3], self.cap[:, 3], self.cap[:, 4]
+        self.rad = self.cap[:, 5].copy()
         self.degenerate = np.sum(self.n * self.n, axis=1) < 0.5
-        # bounding cap: the middle of the arc, half its length plus its error (padded)
-        self.mid, half = arc_cap(t.a, t.b)
-        self.rad = np.minimum(pad(half + t.e), np.pi)
-        self.cos_rad, self.sin_rad = np.cos(self.rad), np.sin(self.rad)
-        self.g = np.ascontiguousarray(
-            np.hstack([t.a, t.b, self.n, cross(self.n, t.a), cross(t.b, self.n)])
-        )
-        # what the build gathers per (cell, arc) pair, in one row: bounding cap
-        # (mid, cos, sin, radius), error bound, a, b, n
-        self.pack = np.ascontiguousarray(
-            np.column_stack([self.mid, self.cos_rad, self.sin_rad, self.rad, t.e, t.a, t.b, self.n])
-        )
+        self.solid = dot(self.n, self.n) > 0.5  # arc_distance's own test
         self.kind = (
             np.where(self.ring, RING, 0)
             | np.where(self.boundary, BOUNDARY, 0)
@@ -109,6 +154,16 @@ class IndexArcs:
         ).astype(np.int8)
         self.saus_c2, self.saus_s = radius_terms(t.e + MARGIN, self.degenerate)
         self._ancestors: dict[int, np.ndarray] = {}
+
+    def _rows(self, rows: slice, a, b, e) -> None:
+        """Fill ``rows`` of :attr:`g` and :attr:`cap` for the arcs ``a -> b`` of errors ``e``."""
+        n = normalize(robust_cross(a, b))
+        g = self.g[rows]
+        g[:, 0:3], g[:, 3:6], g[:, 6:9] = a, b, n
+        g[:, 9:12], g[:, 12:15] = cross(n, a), cross(b, n)
+        mid, half = arc_cap(a, b)
+        rad = np.minimum(pad(half + e), np.pi)
+        self.cap[rows] = np.column_stack([mid, np.cos(rad), np.sin(rad), rad])
 
     def ancestors(self, k: int) -> np.ndarray:
         """Return the arc of level ``k`` that stands for every tree node of level ``<= k``.

@@ -10,14 +10,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidLevelError, OptionError
-from ..geometry.caps import cos_sum_lower
 from ..geometry.crossings import inside as _inside_reference
-from ..geometry.sphere import angle, arc_distance, cross, dot, lonlat_to_xyz, xyz_to_lonlat
+from ..geometry.sphere import arc_distance, cross, lonlat_to_xyz, xyz_to_lonlat
 from ..shape import Shape, read
 from ..units import EARTH_RADIUS, check_lonlat, offset_angle
 from . import bins
-from .arcs import BOUNDARY, INTERNAL, MARGIN, RING, arc_tree, crosses, dots, radius_terms, within
+from .arcs import MARGIN, arc_tree, crosses, dots, end_distance, radius_terms, within
 from .cells import Cells, paint_table, sample_points, subset_pairs
+from .settle import CHUNK as PAIR_CHUNK
+from .settle import Settle
 
 __all__ = ["Index"]
 
@@ -117,8 +118,8 @@ class Index:
     (7,368 vertices) at the default depth. With the default depth a long boundary
     stops the bins at :data:`BUILD_CELLS` frontier cells, and large leaves on a fine
     boundary keep simplified arcs (:attr:`floor`): all 234 countries of Natural Earth
-    1:10m at 0.02 rad build at depth 9 with leaves of level 5 in about 2 s instead of
-    17 s at depth 13, at the price of more points in frontier cells (1e6 uniform
+    1:10m at 0.02 rad build at depth 9 with leaves of level 5 in about 1.5 s instead of
+    6.5 s at depth 13, at the price of more points in frontier cells (1e6 uniform
     points on the globe: about 0.6 s instead of 0.02 s); pass ``depth=13`` for the
     deep bins, or let :func:`contains_on_sphere` choose by the number of
     points (:func:`depth_for`). A query costs a table look-up from the
@@ -223,7 +224,10 @@ class Index:
         pc = np.repeat(np.arange(n), len(arcs.top))
         pn = np.tile(arcs.top, n)
         self._forced = self.depth == 1
-        kept = self._settle_leaves(cells, pc, pn) if self._forced else self._settle(cells, pc, pn)
+        if self._forced:
+            kept = self._settle_leaves(cells, pc, pn)
+        else:
+            kept = Settle(self._arcs, cells, self._absd).run(pc, pn)
         leaves = None
         while True:
             state, par_need, dst_need, kept = self._classify(cells, kept)
@@ -251,8 +255,8 @@ class Index:
             self._leaf_lists(None, none, none, no, no)
         self._paint(tiles, fronts)
 
-    def _settle_leaves(self, cells, pc, pn, parent=None):
-        """:meth:`_settle` at the leaves.
+    def _settle_leaves(self, cells, pc, pn, settle=None, near=False):
+        """Settle the pairs of the leaves (:class:`Settle`, through ``settle`` if given).
 
         The arcs expanded down to the highest level a query may use, then one
         decomposition level at a time while the pairs stay within :data:`LEAF_PAIRS` per
@@ -263,8 +267,9 @@ class Index:
         arcs = self._arcs
         top = min(AUTO_MAX_LEVEL, arcs.levels) if self.level is None else self.level
         self.floor = top
-        out = self._settle(cells, pc, pn, force=True, parent=parent)
-        kept = out[0] if parent is not None else out
+        settle = Settle(arcs, cells, self._absd) if settle is None else settle
+        kept = settle.run(pc, pn, near=near, floor=self.floor)
+        plain = Settle(arcs, cells, self._absd)  # no parent: no crossings counted
         budget = LEAF_PAIRS * len(cells.x)
         while self.floor > 0:
             at = arcs.level[kept[1]] == self.floor
@@ -272,93 +277,9 @@ class Index:
                 break
             self.floor -= 1
             if at.any():
-                more = self._settle(cells, kept[0][at], kept[1][at], force=True)
+                more = plain.run(kept[0][at], kept[1][at], near=True, floor=self.floor)
                 kept = tuple(np.concatenate([k[~at], m]) for k, m in zip(kept, more))
-        return (kept, out[1]) if parent is not None else kept
-
-    def _settle(self, cells, pc, pn, *, force=False, parent=None):
-        """Replace arcs by their two halves until every (cell, arc) pair is settled.
-
-        An arc is reconstructed when the cell's anchor lies in its error region (the
-        parity rule needs the anchor outside), or when it is simplified and larger
-        than the cell (or ``force``: at a leaf, where only arcs of level :attr:`floor`
-        or below are kept, original edges by default).
-        Returns the pairs that matter for the cell, ``(pc, pn, dist, par, dst)``, and,
-        with ``parent`` (parent anchors), the parity of the crossings of each cell's
-        short arc anchor -> parent anchor with the ring arcs it inherited.
-        """
-        arcs = self._arcs
-        out = []
-        n_cells = len(cells.x)
-        parity = np.zeros(n_cells, dtype=np.int64) if parent is not None else None
-        cpack = self._reach(cells)
-        cflag = cells.par.astype(np.int8) | (cells.dst.astype(np.int8) << 1)
-        while len(pc):
-            x = cells.x[pc]
-            f = arcs.pack[pn]
-            c = cpack[pc]
-            kind = arcs.kind[pn]
-            ring = ((kind & RING) != 0) & ((cflag[pc] & 1) != 0)
-            # a cheap cap test first: arcs whose bounding cap is beyond reach do not matter
-            far = dot(x, f[:, 0:3]) < cos_sum_lower(
-                c[:, 1] + f[:, 5], c[:, 2], c[:, 3], f[:, 3], f[:, 4]
-            )
-            if parity is not None:  # still crossed: their error region holds no anchor
-                cnt = np.flatnonzero(far & ring)
-                parity += self._anchor_crossings(x[cnt], parent[pc[cnt]], f[cnt], pc[cnt], n_cells)
-            near = np.flatnonzero(~far)
-            pc, pn, x, f, c, kind, ring = (
-                pc[near],
-                pn[near],
-                x[near],
-                f[near],
-                c[near],
-                kind[near],
-                ring[near],
-            )
-            dist = arc_distance(x, f[:, 7:10], f[:, 10:13], f[:, 13:16])
-            e, r = f[:, 6], c[:, 0]
-            par = ring & (dist <= r + e + MARGIN)
-            dst = ((kind & BOUNDARY) != 0) & ((cflag[pc] & 2) != 0)
-            dst &= dist <= self._absd + r + e + MARGIN
-            internal = (kind & INTERNAL) != 0
-            expand = internal & ring & (dist <= e + MARGIN)
-            coarse = internal & (par | dst)
-            if not force:
-                coarse &= f[:, 5] > r
-            if force:  # at the leaves: down to the level floor
-                coarse &= arcs.level[pn] > self.floor
-            expand |= coarse
-            settled = ~expand
-            if parity is not None:
-                cnt = np.flatnonzero(settled & ring)
-                parity += self._anchor_crossings(x[cnt], parent[pc[cnt]], f[cnt], pc[cnt], n_cells)
-            keep = settled & (par | dst)
-            out.append((pc[keep], pn[keep], dist[keep], par[keep], dst[keep]))
-            ex = np.flatnonzero(expand)
-            pc = np.repeat(pc[ex], 2)
-            pn = arcs.child[pn[ex]].ravel()
-        kept = tuple(np.concatenate([o[k] for o in out]) for k in range(5))
-        if parity is not None:
-            return kept, parity
         return kept
-
-    def _reach(self, cells) -> np.ndarray:
-        """Per cell: rho, how far an arc may matter, and that reach's cos and sin."""
-        reach = np.minimum(cells.rho + MARGIN + np.where(cells.dst, self._absd, 0.0), np.pi)
-        return np.column_stack([cells.rho, reach, np.cos(reach), np.sin(reach)])
-
-    @staticmethod
-    def _anchor_crossings(xc, xp, f, ci, n_cells):
-        """Count the crossings of each cell's short arc to its parent's anchor.
-
-        Crossings per cell of its short arc anchor ``xc`` -> parent anchor ``xp`` with the
-        arcs whose packed data is ``f``.
-        """
-        if len(ci) == 0:
-            return 0
-        cr = crosses(xc, xp, cross(xc, xp), f[:, 7:10], f[:, 10:13], f[:, 13:16])
-        return np.bincount(ci[cr], minlength=n_cells)
 
     def _classify(self, cells, kept):
         """State (0 out, 1 in, 2 frontier) of each cell and what its children inherit.
@@ -374,18 +295,21 @@ class Index:
         st = cells.status
         all_within = np.zeros(n, dtype=bool)
         if self._sign != 0 and dst.any():
-            # an upper bound on each anchor's distance to the curves: exact for edges,
-            # the nearer end (an original vertex) for simplified arcs
+            # within |d| of the curves wherever in the cell, if one pair's upper bound on
+            # the anchor's distance (exact for edges, the nearer end, an original vertex,
+            # for simplified arcs) plus the cell's radius is (a rounded sum is monotone:
+            # the test of the smallest bound); simplified arcs only where it can matter
             sel = np.flatnonzero(dst)
-            val = dist[sel]
+            val, cs = dist[sel], pc[sel]
             coarse = arcs.internal[pn[sel]]
-            if coarse.any():
-                s2 = sel[coarse]
-                xs = cells.x[pc[s2]]
-                val[coarse] = np.minimum(angle(xs, arcs.a[pn[s2]]), angle(xs, arcs.b[pn[s2]]))
-            ub = np.full(n, np.inf)
-            np.minimum.at(ub, pc[sel], val)
-            all_within = ub + cells.rho <= self._absd - MARGIN
+            limit, rho = self._absd - MARGIN, cells.rho
+            all_within = np.bincount(cs[~coarse & (val + rho[cs] <= limit)], minlength=n) > 0
+            decided = all_within | (uniform & (st if self._sign > 0 else ~st))
+            coarse = np.flatnonzero(coarse & ~decided[cs])
+            for k in range(0, len(coarse), PAIR_CHUNK):  # cache-sized chunks
+                c = coarse[k : k + PAIR_CHUNK]
+                val[c] = end_distance(cells.x[cs[c]], arcs.a[pn[sel[c]]], arcs.b[pn[sel[c]]])
+            all_within[cs[coarse[val[coarse] + rho[cs[coarse]] <= limit]]] = True
         if self._sign > 0:
             is_in = all_within | (uniform & st)
             is_out = ~is_in & uniform & ~has_dst
@@ -412,42 +336,15 @@ class Index:
         child = Cells(lev, cj, ci, x, bins.radii(cj, lev), cells.status[parent])
         child.par[:] = par_need[parent]
         child.dst[:] = dst_need[parent]
-        # each child inherits its parent's pairs; a cheap cap test, for the four children
-        # at once, drops the arcs that cannot matter to a child before any exact test
-        arcs = self._arcs
-        pos = np.searchsorted(front, kept[0])
-        pn = kept[1]
-        f = arcs.pack[pn]
-        cpack = self._reach(child).reshape(-1, 4, 4)[pos]
-        xc = x.reshape(-1, 4, 3)[pos]
-        far = dot(xc, f[:, None, 0:3]) < cos_sum_lower(
-            cpack[:, :, 1] + f[:, 5:6], cpack[:, :, 2], cpack[:, :, 3], f[:, 3:4], f[:, 4:5]
-        )
-        child_of_pair = 4 * pos[:, None] + np.arange(4)
-        # far ring arcs still cross the short arcs child anchor -> parent anchor
-        ring = ((arcs.kind[pn] & RING) != 0) & par_need[front[pos]]
-        cnt_pair, cnt_child = np.nonzero(far & ring[:, None])
-        if len(cnt_pair):
-            xa = xc[cnt_pair, cnt_child]
-            parity = self._anchor_crossings(
-                xa,
-                cells.x[front[pos[cnt_pair]]],
-                f[cnt_pair],
-                child_of_pair[cnt_pair, cnt_child],
-                len(x),
-            )
-        else:
-            parity = 0
-        near = ~far
+        # each child inherits its parent's pairs, less those far from it (a cap test)
+        settle = Settle(self._arcs, child, self._absd, parent=cells.x[parent])
+        pc, pn = settle.inherit(np.searchsorted(front, kept[0]), kept[1])
         self._forced = lev >= self.depth  # the last level: leaves (_settle_leaves)
-        settle = self._settle_leaves if self._forced else self._settle
-        kept, parity2 = settle(
-            child,
-            child_of_pair[near],
-            np.broadcast_to(pn[:, None], near.shape)[near],
-            parent=cells.x[parent],
-        )
-        child.status = child.status ^ ((parity + parity2) & 1).astype(bool)
+        if self._forced:
+            kept = self._settle_leaves(child, pc, pn, settle, near=True)
+        else:
+            kept = settle.run(pc, pn, near=True)
+        child.status = child.status ^ (settle.parity & 1).astype(bool)
         return child, kept
 
     def _leaf_lists(self, leaves, pc, pn, par, dst):
