@@ -20,7 +20,7 @@ from ..io.output import check_output, open_output
 from ..shape import read
 from ..units import first_not_finite
 from . import main
-from .options import input_options, measure, measure_options, number_option
+from .options import input_options, measure, measure_options, number_option, progress_bar
 
 #: Accepted names of the coordinate columns (case-insensitive).
 LON_NAMES = ("lon", "lng", "long", "longitude")
@@ -177,11 +177,7 @@ def _run(tester, src, dst, where, size, chunk):
     lowered = [h.strip().lower() for h in header]
     iout = lowered.index("inside") if "inside" in lowered else None
     writer = csv.writer(dst, lineterminator="\n")
-    bar = None
-    if sys.stderr.isatty():
-        from tqdm import tqdm
-
-        bar = tqdm(total=size, unit="B", unit_scale=True, file=sys.stderr, dynamic_ncols=True)
+    bar = progress_bar(total=size, unit="B", unit_scale=True)
     started = False
     done = 0
     try:

@@ -5,7 +5,6 @@ cube-map faces."""
 from __future__ import annotations
 
 import io
-import sys
 from pathlib import Path
 
 import click
@@ -24,8 +23,8 @@ from .options import (
     parse_bounds,
     parse_face,
     parse_size,
+    progress_bar,
     radius_option,
-    show_progress,
     size_options,
 )
 
@@ -110,19 +109,13 @@ def field_cmd(
         if not m > 0.0:
             raise OptionError(f"--max-distance must be a positive distance, got {max_distance!r}")
     shape = read(input, layer=layer, where=where, densify=densify)
-    bar = None
-    if show_progress():
-        from tqdm import tqdm
-
-        bar = tqdm(
-            total=1,
-            file=sys.stderr,
-            dynamic_ncols=True,
-            unit="px",
-            unit_scale=True,
-            mininterval=0.1,
-            bar_format="{percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} px [{elapsed}<{remaining}]",
-        )
+    bar = progress_bar(
+        total=1,
+        unit="px",
+        unit_scale=True,
+        mininterval=0.1,
+        bar_format="{percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} px [{elapsed}<{remaining}]",
+    )
 
     def progress(done: int, total: int) -> None:
         assert bar is not None  # passed on with a bar only

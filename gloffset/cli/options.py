@@ -207,6 +207,15 @@ def show_progress() -> bool:
     return sys.stderr.isatty()
 
 
+def progress_bar(**options):
+    """A tqdm bar on stderr (``options``: tqdm's) where :func:`show_progress`, else None."""
+    if not show_progress():
+        return None
+    from tqdm import tqdm
+
+    return tqdm(file=sys.stderr, dynamic_ncols=True, **options)
+
+
 class Stages:
     """The stages of a long vector command on one stderr line (tqdm): the stage, how
     many of a stage's items are done, and the time so far; nothing unless
@@ -214,16 +223,7 @@ class Stages:
     begins and :meth:`tick` after each item of a stage with items."""
 
     def __init__(self, n_stages: int):
-        self.bar = None
-        if show_progress():
-            from tqdm import tqdm
-
-            self.bar = tqdm(
-                total=n_stages,
-                file=sys.stderr,
-                dynamic_ncols=True,
-                bar_format="{desc} [{elapsed}]",
-            )
+        self.bar = progress_bar(total=n_stages, bar_format="{desc} [{elapsed}]")
         self.name, self.items, self.done, self.shown = "", 0, 0, 0.0
 
     def stage(self, name: str, items: int = 0) -> None:

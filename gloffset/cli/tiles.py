@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 
@@ -23,7 +22,7 @@ from .options import (
     measure_options,
     metres,
     parse_ellipsoid,
-    show_progress,
+    progress_bar,
 )
 
 
@@ -119,26 +118,17 @@ def tiles_cmd(
     if resume and force:
         raise click.UsageError("--resume and --force exclude each other")
     shape = read(input, layer=layer, where=where, densify=densify)
-    bar = None
-    if show_progress():
-        from tqdm import tqdm
-
-        bar = tqdm(
-            total=100,
-            file=sys.stderr,
-            dynamic_ncols=True,
-            bar_format="{percentage:3.0f}%|{bar}| {desc}",
-        )
+    bar = progress_bar(total=100, bar_format="{percentage:3.0f}%|{bar}| {desc}")
     shown = [0.0]
 
     def progress(p):
         assert bar is not None  # passed on with a bar only
         # the bar is the share of the time (p.fraction), the ETA the library's estimate
         bar.n = round(100.0 * p.fraction, 1)
-        left = "?" if p.eta is None else tqdm.format_interval(p.eta)
+        left = "?" if p.eta is None else bar.format_interval(p.eta)
         total = f"{p.total:,}" if p.done == p.total else f"~{p.total:,}"
         bar.set_description_str(
-            f"z{p.zoom}, {p.done:,}/{total} tiles [{tqdm.format_interval(p.seconds)}<{left}]",
+            f"z{p.zoom}, {p.done:,}/{total} tiles [{bar.format_interval(p.seconds)}<{left}]",
             refresh=False,
         )
         now = time.monotonic()
