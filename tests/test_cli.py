@@ -205,7 +205,14 @@ def test_render_cube_faces(tmp_path, world):
     assert faces["nz"].any() and not faces["pz"].any()
 
 
-@pytest.mark.parametrize("flags", [[], ["--each"], ["--raw"]])
+@pytest.mark.parametrize(
+    "flags",
+    [
+        [],
+        pytest.param(["--each"], marks=pytest.mark.slow),
+        pytest.param(["--raw"], marks=pytest.mark.slow),
+    ],
+)
 def test_offset_reports_its_stages_on_a_terminal_only(tmp_path, flags):
     """Long vector work says what it is doing on stderr: on a terminal, or forced with
     GLOFFSET_PROGRESS=1; nothing otherwise (stderr here is a pipe)."""

@@ -89,6 +89,7 @@ def test_offset_regions_of_hard_countries(world, d):
         assert got.any() and not got.all()
 
 
+@pytest.mark.slow  # 2.7 s; run by .ci/run with -m slow
 def test_mexico_table1_points_at_every_level(mexico_path):
     """Table 1's set-up: 10,000 points in and around Mexico; the level changes no answer."""
     s = gloffset.read(mexico_path)
@@ -102,6 +103,7 @@ def test_mexico_table1_points_at_every_level(mexico_path):
             assert np.array_equal(ix.contains(lon, lat), want), level
 
 
+@pytest.mark.slow  # 2.3 s; run by .ci/run with -m slow
 def test_levels_and_depths_change_no_answer(world):
     s = gloffset.read(world["Chile"])
     lon, lat = box(s, 20_000, seed=6)

@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+import pytest
 from conftest import DATA, SQUARE_WITH_HOLE, uniform_sphere
 
 import gloffset
@@ -28,6 +29,7 @@ def _shapes():
     yield gloffset.read(antarctica)
 
 
+@pytest.mark.slow  # 3 s; run by .ci/run with -m slow
 def test_inside_indexed_equals_inside():
     for shape in _shapes():
         p = _points(shape)

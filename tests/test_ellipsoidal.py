@@ -240,7 +240,9 @@ def test_render_z16_tile_on_the_ellipsoid(mexico):
         assert 0 < np.count_nonzero(mask) < mask.size
 
 
-@pytest.mark.parametrize("name", ["mexico", "antarctica", "russia", "fiji"])
+@pytest.mark.parametrize(
+    "name", [pytest.param("mexico", marks=pytest.mark.slow), "antarctica", "russia", "fiji"]
+)
 def test_gpu_screen_equals_the_cpu_path(mexico, world_parts, name):
     """The GPU path of render(..., ellipsoid=) (two spherical renders on the conformal
     rows, the band between them decided exactly) gives the same pixels as the CPU path

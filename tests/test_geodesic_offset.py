@@ -91,6 +91,7 @@ def test_square_in_and_out():
     check_offset(sq, -20e3, tol=2.0, n=100)
 
 
+@pytest.mark.slow  # 2.3 s; run by .ci/run with -m slow
 def test_polygon_with_hole():
     outer = [[0, 0], [2, 0], [2, 2], [0, 2], [0, 0]]
     hole = [[0.5, 0.5], [0.5, 1.5], [1.5, 1.5], [1.5, 0.5], [0.5, 0.5]]

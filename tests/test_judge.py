@@ -43,6 +43,7 @@ def shapes(world, mexico_path):
     yield "Mexico 1:10m", gloffset.read(mexico_path)
 
 
+@pytest.mark.slow  # 3.4 s; run by .ci/run with -m slow
 def test_judge_and_production_agree_on_real_borders(world, mexico_path):
     """The same inside answers (vertices and points on the seams included) and the same
     distances to the bit; the same offset membership."""

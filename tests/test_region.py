@@ -367,7 +367,7 @@ def _tile_xy(lon, lat, z):
 NEIGHBOURS = [
     ("South Africa", "Lesotho"),  # an enclave: a hole filled
     ("Austria", "Liechtenstein"),
-    ("France", "Spain", "Andorra"),
+    pytest.param(("France", "Spain", "Andorra"), marks=pytest.mark.slow),
     ("Belgium", "Netherlands", "Luxembourg"),
     ("Ethiopia", "Eritrea", "Djibouti"),
 ]
@@ -598,6 +598,7 @@ def test_polygons_that_cross_themselves_unite_by_parity():
         assert np.array_equal(got, gloffset.reference.contains_lonlat(both, lon, lat, distance=d))
 
 
+@pytest.mark.slow  # 3 s; run by .ci/run with -m slow
 def test_random_polygons_against_the_union_of_their_parts():
     """Random polygons, some whose edges cross each other, with a triangle sharing an edge:
     the united shape answers as "inside any part" does, each part read alone (the

@@ -303,6 +303,7 @@ def test_page_field_mode_slider_hash_and_globe(server, page):
     _check_pixels(pg, _screenshot(pg), xy, inside)
 
 
+@pytest.mark.slow  # 7 s; run by .ci/run with -m slow
 def test_page_follows_the_hash_to_an_inward_offset(server, page):
     """With the exact tiles (mode=exact), the slider asks for the tiles of the new
     distance, and a distance set in the URL hash after the page has loaded (a link, a

@@ -129,7 +129,11 @@ def test_tile_bounds_are_rigorous():
 
 @pytest.mark.parametrize(
     "name, d, zmax",
-    [("square", 300e3, 4), ("Brazil", -300e3, 4), ("line", 300e3, 4)],
+    [
+        ("square", 300e3, 4),
+        pytest.param("Brazil", -300e3, 4, marks=pytest.mark.slow),
+        ("line", 300e3, 4),
+    ],
 )
 def test_pyramid_holds_exactly_the_tiles_of_the_region(tmp_path, world, name, d, zmax):
     shape = {"line": LINE_AM, "square": SQUARE}.get(name) or world[name]
@@ -656,7 +660,7 @@ class _SyncClient:
         ("Mexico", -60e3, "3-6", 1, {}),  # the split below zoom min
         ("Mexico", 127e3, "0-1", 2, {}),  # the split at the deepest zoom
         ("square", 1500e3, "0-5", 2, {"outline": "#202020"}),  # outlined tiles
-        ("neighbours", 60e3, "0-6", 2, {}),  # shared borders of countries_10m
+        pytest.param("neighbours", 60e3, "0-6", 2, {}, marks=pytest.mark.slow),  # shared borders
     ],
 )
 def test_split_pyramid_tasks_make_the_same_tiles(
@@ -809,6 +813,7 @@ def _cli(*args, **env):
     return proc.stderr
 
 
+@pytest.mark.slow  # 2.5 s; run by .ci/run with -m slow
 def test_the_summary_counts_the_tiles_the_progress_counts(tmp_path, mexico_path):
     """Mexico z0-6: the progress ends at the tiles handled, which the summary names and
     splits into written, rendered empty (not written) and already present, fresh and
