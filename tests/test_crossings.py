@@ -63,3 +63,23 @@ def test_inside_indexed_empty():
     assert not crossings.inside_indexed(line, lonlat_to_xyz([0.0], [1.0])).any()
     shape = gloffset.read(SQUARE_WITH_HOLE)
     assert crossings.inside_indexed(shape, np.zeros((0, 3))).shape == (0,)
+
+
+def test_component_status_is_the_judges_inside_test():
+    """``edges.component_status`` (the ring edges along each point's arc to its
+    reference, from their cap tree) says inside exactly where the float64 judge does, on
+    the world's borders (Fiji and Russia across 180 deg, Antarctica round the pole) and
+    Mexico at 1:10m; points on the seam and at the poles included."""
+    from gloffset import reference
+    from gloffset.edges import CurveArcs, component_status, inside_any
+
+    seams = lonlat_to_xyz(
+        np.array([180.0, -180.0, 179.999, -179.999, 178.4, 0.0, 0.0, 45.0]),
+        np.array([65.0, 68.5, -17.0, -16.5, -18.1, 90.0, -90.0, -89.9]),
+    )
+    for shape in list(_shapes())[:2]:
+        p = np.vstack([_points(shape, n=1500, seed=3), seams])
+        got = inside_any(component_status(shape, CurveArcs.from_shape(shape), p))
+        want = reference.inside_xyz(shape, p)
+        assert np.array_equal(got, want)
+        assert want.any() and not want.all()

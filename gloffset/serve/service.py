@@ -381,8 +381,8 @@ class TileService:
         price, then the field is bought, so a tile never costs more than twice what the
         best choice in hindsight would have cost, whether the slider stops at the next
         distance or goes on for ever. Where fields cost about a render (a GPU) a slider
-        gets fields from its second distance; where they cost ten (this CPU field), from
-        about the tenth, and a loaded server keeps rendering."""
+        gets fields from its second distance; where they cost 5-10 (this CPU field), from
+        about the fifth to the tenth, and a loaded server keeps rendering."""
         ds, spent = self.later.get(fkey, ((), 0.0))
         others = len(set(ds) - {d})
         cost = self.field_cost.get(fkey.layer)
