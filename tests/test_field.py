@@ -343,6 +343,8 @@ def test_cli_progress_on_a_terminal_only(mexico_path, tmp_path):
         (("-o", "d.png"), ("d.png", ".tif", ".npy")),
         (("--grid", "hexagons", "-o", "d.tif"), ("hexagons",)),
         (("--grid", "cube", "--bounds", "0,0,1,1", "-o", "faces"), ("--bounds",)),
+        (("--ellipsoid", "WGS84", "-o", "d.tif"), ("'WGS84'", "intercept", "3 times")),
+        (("--ellipsoid", "Mars", "-o", "d.tif"), ("'Mars'", "WGS84")),
     ],
 )
 def test_cli_bad_input(mexico_path, tmp_path, args, words):

@@ -242,6 +242,31 @@ def test_a_seen_tile_has_its_field_first_once_its_renders_cost_as_much(shape, mo
         assert tiles.field_cost["mexico"] > 1e-6  # the field made updates the mean
 
 
+def test_new_tiles_come_from_their_fields_where_a_field_costs_under_two_renders(shape):
+    """Where a field of the layer costs at most two renders of a tile (a GPU field), a
+    tile never asked for is answered from its field, computed on the render thread at
+    once (no render), byte-identical to the rendered tile; a dear field is not."""
+    from gloffset.serve.service import AT_ONCE
+
+    app = create_app({"mexico": shape}, render_timeout=120)
+    with TestClient(app) as c:
+        tiles = app.state.server.tiles
+        r = c.get("/tiles/mexico/127km/6/13/27.png")  # no cost known: rendered
+        assert r.headers["x-gloffset-tile"] == "rendered" and not tiles.at_once("mexico")
+        tiles.field_cost["mexico"] = tiles.render_cost["mexico"] * AT_ONCE * 1.5
+        r = c.get("/tiles/mexico/127km/5/7/13.png")
+        assert r.headers["x-gloffset-tile"] == "rendered"
+        assert tiles.rendered == 2 and tiles.computed == 0
+        tiles.field_cost["mexico"] = tiles.render_cost["mexico"] * AT_ONCE * 0.5
+        assert tiles.at_once("mexico")
+        for dist, (z, x, y) in [("-30km", (6, 13, 27)), ("50km", TILES[0]), ("0km", (6, 13, 27))]:
+            r = c.get(f"/tiles/mexico/{dist}/{z}/{x}/{y}.png")
+            assert r.headers["x-gloffset-tile"] == "field", (dist, z, x, y)
+            want = render_tiles(shape, parse_distance(dist, EARTH_RADIUS), z, [(x, y)])[(x, y)]
+            assert r.content == (EMPTY_PNG[256] if want is None else want), (dist, z, x, y)
+        assert tiles.rendered == 2 and tiles.computed == 2  # the third: a kept field
+
+
 def test_renders_do_not_wait_behind_a_field(shape, monkeypatch):
     """Fields are computed off the render thread: while a tile's field is being computed
     (held here until the end), another tile is rendered and answered."""

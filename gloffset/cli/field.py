@@ -14,13 +14,14 @@ from ..errors import OptionError, OutputError
 from ..grids import FACE_NAMES, Cube, Equirect
 from ..io.georef import Georef, write_geotiff
 from ..io.output import check_output, refuse_stdout, write_bytes
-from ..raster.field import distance_field
+from ..raster.field import distance_field, ellipsoid_refusal
 from ..shape import read
 from . import main
 from .options import (
     angle,
     input_options,
     parse_bounds,
+    parse_ellipsoid,
     parse_face,
     parse_size,
     progress_bar,
@@ -76,10 +77,17 @@ def _format(output: str, grid_kind: str) -> str:
     help="NAME.tif (float32 GeoTIFF, EPSG:4326; NAME.cog.tif a Cloud Optimized one) or "
     "NAME.npy (float32); with --grid cube a folder.",
 )
+@click.option(
+    "--ellipsoid",
+    default=None,
+    metavar="NAME|A,F",
+    help="Refused with the reason: fields are on the sphere of --radius (see the docs).",
+)
 @input_options
 def field_cmd(
     input,
     radius,
+    ellipsoid,
     grid_kind,
     size,
     bounds,
@@ -94,6 +102,9 @@ def field_cmd(
 
     One field answers every distance: the region at distance d is where the field is at
     most d. Values are exact float64 distances rounded to float32."""
+    if ellipsoid is not None:
+        parse_ellipsoid(ellipsoid)  # an unknown one is named as such
+        raise OptionError(ellipsoid_refusal(ellipsoid))
     kind = _format(output, grid_kind)
     grid: Cube | Equirect
     if grid_kind == "cube":

@@ -160,6 +160,24 @@ def _members(shape, p: np.ndarray, inside: np.ndarray, e: float) -> np.ndarray:
     return out
 
 
+def ellipsoid_refusal(ellipsoid) -> str:
+    """Return the message that refuses a field on ``ellipsoid``, with the measured reason.
+
+    A value within 2 float32 ulps of the geodesic distance needs a geodesic intercept
+    (:mod:`gloffset.ellipsoid.intercept`) at every pixel at least; that alone, 6 us a
+    pixel on PROJ's geodesics, is 3.2 times the whole spherical field of the 1:10m
+    countries at 4096 x 2048 (``benchmarks/field_ellipsoid.py``), over the 3 times the
+    field was allowed.
+    """
+    return (
+        f"distance_field does not support ellipsoid={ellipsoid!r}: exact geodesic values "
+        "need a geodesic intercept per pixel, over 3 times the spherical field's time "
+        "(benchmarks/field_ellipsoid.py); use the sphere (ellipsoid=None) for the field, or "
+        "gloffset.render(..., ellipsoid=...) and gloffset.distance(..., ellipsoid=...) for "
+        "geodesic regions and distances"
+    )
+
+
 def _check_grid(grid) -> None:
     if not isinstance(grid, Image):
         raise OptionError(
@@ -198,8 +216,8 @@ def distance_field(
     radius : float
         Sphere radius; the values are in its units (metres by default).
     ellipsoid : None
-        Only the sphere for now: any other value raises
-        :class:`~gloffset.errors.OptionError`.
+        Only the sphere: any other value raises :class:`~gloffset.errors.OptionError`
+        (:func:`ellipsoid_refusal` says why).
     progress : callable, optional
         Called as ``progress(done, total)`` as the work goes on: ``done`` rises to
         ``total``, in pixels (those whose distances are final, then, for a shape with
@@ -223,10 +241,7 @@ def distance_field(
     test (``benchmarks/field.py``).
     """
     if ellipsoid is not None:
-        raise OptionError(
-            f"distance_field does not support ellipsoid={ellipsoid!r} yet: only the sphere "
-            "(ellipsoid=None, distances on the sphere of radius=)"
-        )
+        raise OptionError(ellipsoid_refusal(ellipsoid))
     radius = check_radius(radius)
     shape = read(shape)
     _check_grid(grid)

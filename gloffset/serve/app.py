@@ -135,6 +135,11 @@ class _Server:
         if found is None and await self._field_kept(key):
             thresholded = await asyncio.to_thread(self.tiles.from_field, key)
             found = None if thresholded is None else (thresholded, "field")
+        if found is None and key.style.outline is None and self.tiles.at_once(key.layer):
+            made = await self._wait(lambda: self.tiles.submit_from_field(key), "tile")
+            if isinstance(made, Response):
+                return made
+            found = (made, "field")
         if found is not None:
             data, how = found
         else:

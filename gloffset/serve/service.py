@@ -86,6 +86,9 @@ LATER = 4096
 AGAIN = 2
 #: weight of the newest field in the running mean of a layer's field cost (seconds)
 COST_WEIGHT = 0.3
+#: a new tile has its field at once, and is answered by its threshold, where a field of
+#: its layer costs at most this many of its renders (the running means): a GPU field
+AT_ONCE = 2.0
 
 #: tiles whose centre's distance and status are kept (about 100 bytes each)
 CENTRES = 200_000
@@ -155,6 +158,7 @@ class TileService:
         #: took): its field when idle, or first once the renders cost what the field does
         self.later: OrderedDict = OrderedDict()
         self.field_cost: dict = {}  # layer -> running mean of its fields' seconds
+        self.render_cost: dict = {}  # layer -> running mean of a rendered tile's seconds
         self.wanted: OrderedDict = OrderedDict()  # FieldKey -> Future, tiles asked again: at once
         self.computing: dict = {}  # FieldKey -> Future, the field thread's field
         self.computed = 0  # fields computed
@@ -275,8 +279,10 @@ class TileService:
         if key.style.outline is not None:
             return None
         f = self.field(key.field())
-        if f is None:
-            return None
+        return None if f is None else self._threshold(key, f)
+
+    def _threshold(self, key: TileKey, f) -> bytes:
+        """The tile's bytes from its field ``f``, kept in the tile LRU."""
         data = key.style.encode(f.threshold(key.d) > 0)
         data = EMPTY_PNG[key.size] if data is None else data
         self._keep(key, data)
@@ -293,6 +299,25 @@ class TileService:
             fut.set_result(data)
             return fut
         return self._put(fkey, fut)
+
+    def at_once(self, layer: str) -> bool:
+        """Whether a new tile of ``layer`` is answered from its field, computed at once: a
+        field of the layer costs at most :data:`AT_ONCE` renders of a tile (the running
+        means of those made; False before both are known)."""
+        with self.lock:
+            cost, render = self.field_cost.get(layer), self.render_cost.get(layer)
+        return cost is not None and render is not None and cost <= AT_ONCE * render
+
+    def submit_from_field(self, key: TileKey) -> Future:
+        """A future of the tile's PNG bytes from its field (:meth:`from_field`), the field
+        computed on the render thread first where it is not kept, the requests of a batch
+        that share a field with one computation (raises :class:`QueueFull`)."""
+        fut: Future = Future()
+        data = self.cached(key)
+        if data is not None:
+            fut.set_result(data)
+            return fut
+        return self._put(_FromField(key), fut)
 
     def submit(self, key: TileKey) -> Future:
         """A future of the tile's PNG bytes, rendered on the render thread (raises
@@ -380,9 +405,11 @@ class TileService:
         This is the rent-or-buy rule: renders are paid until they add up to the field's
         price, then the field is bought, so a tile never costs more than twice what the
         best choice in hindsight would have cost, whether the slider stops at the next
-        distance or goes on for ever. Where fields cost about a render (a GPU) a slider
-        gets fields from its second distance; where they cost 5-10 (this CPU field), from
-        about the fifth to the tenth, and a loaded server keeps rendering."""
+        distance or goes on for ever. It applies where a field costs more than
+        :data:`AT_ONCE` renders (the CPU field on a small CPU: 5-10): a slider gets fields
+        from about the fifth to the tenth distance, and a loaded server keeps rendering.
+        Where fields cost less (the GPU field), every new tile is answered from its field
+        at once (:meth:`at_once`)."""
         ds, spent = self.later.get(fkey, ((), 0.0))
         others = len(set(ds) - {d})
         cost = self.field_cost.get(fkey.layer)
@@ -465,17 +492,34 @@ class TileService:
         batch = [(k, f) for k, f in batch if f.set_running_or_notify_cancel()]
         groups: dict = {}
         fields: dict = {}
+        thresholds: dict = {}
         for key, fut in batch:
             if callable(key):
                 _run_call(key, fut)
             elif isinstance(key, FieldKey):
                 fields.setdefault(key, []).append(fut)
+            elif isinstance(key, _FromField):
+                thresholds.setdefault(key.key.field(), []).append((key.key, fut))
             else:
                 groups.setdefault(key.group(), []).append((key, fut))
         for items in groups.values():
             self._render(items)
         for fkey, futs in fields.items():
             self._field_tile(fkey, futs)
+        for fkey, items in thresholds.items():
+            self._from_field(fkey, items)
+
+    def _from_field(self, fkey: FieldKey, items) -> None:
+        """Answer tiles of one field from it, computed first where it is not kept."""
+        try:
+            f = self._field(fkey)
+            answers = [self._threshold(key, f) for key, _ in items]
+        except Exception as exc:  # noqa: BLE001 - every waiting request hears of it
+            for _, fut in items:
+                fut.set_exception(exc)
+            return
+        for (_, fut), data in zip(items, answers):
+            fut.set_result(data)
 
     def _field_tile(self, fkey: FieldKey, futs) -> None:
         try:
@@ -508,6 +552,9 @@ class TileService:
             fut.set_result(data)
         if key0.style.outline is None:
             share = (time.perf_counter() - t0) / len(items)
+            with self.lock:
+                old = self.render_cost.get(key0.layer, share)
+                self.render_cost[key0.layer] = old + COST_WEIGHT * (share - old)
             self._queue_fields([key for key, _ in items], share)
 
     def _queue_fields(self, keys, share: float) -> None:
@@ -529,6 +576,13 @@ class TileService:
             while len(self.later) > LATER:
                 self.later.popitem(last=False)
             self.wake.notify()
+
+
+@dataclass(frozen=True)
+class _FromField:
+    """A render-queue item: the tile ``key`` answered from its field (made if need be)."""
+
+    key: TileKey
 
 
 def _run_call(fn, fut: Future) -> None:
