@@ -434,3 +434,28 @@ def test_bisector_pruning_is_rigorous():
         q = away(c[k], reach[k] * frac * (1 - 1e-12))
         to_cap = np.maximum(angle(q, mid[k]) - r[k], 0.0)
         assert (angle(q, x[k]) < to_cap).all()
+
+
+def test_threshold_cuts_compare_float32_values_as_float64_does():
+    """The float32 comparisons of ``threshold`` agree with comparing the values in float64
+    with ``d``, for ``d`` on, between and beside float32 numbers (and 0, -0, tiny), and the
+    band it decides again in float64 holds every value within two float32 spacings of d."""
+    from gloffset.raster.field import _cuts
+
+    rng = np.random.default_rng(7)
+    base = rng.uniform(-0.2, 0.2, 300).astype(np.float32)
+    ds = [0.0, -0.0, 1e-40, -1e-40, 1e-9, -1e-9]
+    for b in base:
+        ds += [float(b), float(np.nextafter(float(b), 1.0)), float(np.nextafter(float(b), -1.0))]
+    for d in ds:
+        c32 = np.float32(d)
+        x = c32 + np.arange(-12, 13, dtype=np.float32) * np.spacing(c32)
+        x = np.concatenate([x, -x, np.float32([0.0, -0.0, 1e-45, -1e-45])])
+        cut, lo, hi = _cuts(d)
+        xd = x.astype(np.float64)
+        want = (xd <= d) if d >= 0 else (xd < d)
+        got = (x <= cut) if d >= 0 else (x < cut)
+        assert np.array_equal(got, want), d
+        sp = np.spacing(np.maximum(np.abs(xd), abs(d)).astype(np.float32)).astype(np.float64)
+        near = np.abs(xd - d) <= 2.0 * sp
+        assert ((x >= lo) & (x <= hi))[near].all(), d

@@ -105,24 +105,17 @@ class DistanceField:
                 f"threshold distance {d!r} is beyond the field's max_distance "
                 f"{self.max_distance!r}; compute the field with a larger max_distance"
             )
-        v = self.values
-        member = np.empty(v.shape, dtype=bool)
-        amb = []
-        rows = max(1, _BATCH // max(1, v.shape[-1]))
-        flat = v.reshape(-1, v.shape[-1])  # rows of every face
-        mflat = member.reshape(flat.shape)
-        for r0 in range(0, len(flat), rows):
-            x = flat[r0 : r0 + rows].astype(np.float64)
-            mflat[r0 : r0 + rows] = (x <= d) if d >= 0 else (x < d)
-            # float32 spacing at the larger of |x|, |d|: the values that round to x
-            sp = np.spacing(np.maximum(np.abs(x), abs(d)).astype(np.float32)).astype(np.float64)
-            j, i = np.nonzero(np.abs(x - d) <= 2.0 * sp)
-            if len(j):
-                amb.append((j + r0, i))
-        if amb:
-            j = np.concatenate([a[0] for a in amb])
-            i = np.concatenate([a[1] for a in amb])
+        flat = self.values.reshape(-1, self.values.shape[-1])  # rows of every face
+        cut, lo, hi = _cuts(d)
+        mflat = (flat <= cut) if d >= 0 else (flat < cut)
+        # a superset of the values within two float32 spacings of d (at the larger of
+        # |x| and |d|: a value that far has |x| < 2 |d|, so its spacing is at most twice
+        # d's), decided again in float64
+        amb = (flat >= lo) & (flat <= hi)
+        if amb.any():
+            j, i = np.nonzero(amb)
             mflat[j, i] = self._settle(j, i, e)
+        member = mflat.reshape(self.values.shape)
         return np.where(member, np.uint8(255), np.uint8(0))
 
     def _settle(self, rows: np.ndarray, cols: np.ndarray, e: float) -> np.ndarray:
@@ -142,6 +135,27 @@ class DistanceField:
             p = g.centers(g.n_levels - 1, j[sel], cols[sel])
             out[sel] = _members(self.shape, p, inside[sel], e)
         return out
+
+
+def _cuts(d: float) -> tuple[np.float32, np.float32, np.float32]:
+    """Return float32 numbers ``cut``, ``lo``, ``hi`` for comparing float32 values with ``d``.
+
+    For every float32 ``x``: ``x <= cut`` iff ``x <= d`` (``d >= 0``: ``cut`` is the largest
+    float32 not above ``d``), ``x < cut`` iff ``x < d`` (``d < 0``: the smallest not below
+    it); ``[lo, hi]`` holds ``d`` +- 4 float32 spacings of ``|d|``, rounded outwards.
+    """
+    c = np.float32(d)
+    if d >= 0 and float(c) > d:
+        c = np.nextafter(c, np.float32(-np.inf))
+    elif d < 0 and float(c) < d:
+        c = np.nextafter(c, np.float32(np.inf))
+    w = 4.0 * float(np.spacing(np.float32(abs(d))))
+    lo, hi = np.float32(d - w), np.float32(d + w)
+    if float(lo) > d - w:
+        lo = np.nextafter(lo, np.float32(-np.inf))
+    if float(hi) < d + w:
+        hi = np.nextafter(hi, np.float32(np.inf))
+    return c, lo, hi
 
 
 def _members(shape, p: np.ndarray, inside: np.ndarray, e: float) -> np.ndarray:

@@ -544,6 +544,11 @@ class TileService:
             for _, fut in items:
                 fut.set_exception(exc)
             return
+        share = (time.perf_counter() - t0) / len(items)
+        if key0.style.outline is None:
+            with self.lock:
+                old = self.render_cost.get(key0.layer, share)
+                self.render_cost[key0.layer] = old + COST_WEIGHT * (share - old)
         for key, fut in items:
             data = got[(key.x, key.y)]
             data = EMPTY_PNG[key.size] if data is None else data
@@ -551,10 +556,6 @@ class TileService:
             self.rendered += 1
             fut.set_result(data)
         if key0.style.outline is None:
-            share = (time.perf_counter() - t0) / len(items)
-            with self.lock:
-                old = self.render_cost.get(key0.layer, share)
-                self.render_cost[key0.layer] = old + COST_WEIGHT * (share - old)
             self._queue_fields([key for key, _ in items], share)
 
     def _queue_fields(self, keys, share: float) -> None:
