@@ -90,7 +90,29 @@ def pyramid_case(path: Path, zooms: str, repeat: int) -> dict:
     t_single, want = best(single, repeat)
     t_many, got = best(many, repeat)
     assert all(_tiles(a) == _tiles(b) for a, b in zip(got, want)), "tiles differ"
-    return _record(path, f"z{zooms}", t_single, t_many)
+    rec = _record(path, f"z{zooms}", t_single, t_many)
+    rec["frontier_tiles"] = _overlap([_tiles(a) for a in got])
+    print(f"{'':>14} frontier tiles: {rec['frontier_tiles']}", flush=True)
+    return rec
+
+
+def _overlap(pyramids: list[dict]) -> dict:
+    """The tiles partly in the region (neither empty nor the shared full tile) of each
+    distance: their sum over the distances, the distinct ones, and those of two or more
+    distances (the pixel work a pass shared between distances could save)."""
+    seen: dict = {}
+    total = 0
+    for tiles in pyramids:
+        blobs: dict = {}
+        for blob in tiles.values():
+            blobs[blob] = blobs.get(blob, 0) + 1
+        full = max(blobs, key=blobs.__getitem__)  # the one image of the tiles wholly inside
+        part = [key for key, blob in tiles.items() if blob != full]
+        total += len(part)
+        for key in part:
+            seen[key] = seen.get(key, 0) + 1
+    shared = sum(1 for n in seen.values() if n >= 2)
+    return {"sum": total, "distinct": len(seen), "in_two_or_more": shared}
 
 
 def _record(path: Path, what: str, t_single: float, t_many: float) -> dict:
