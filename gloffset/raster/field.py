@@ -33,12 +33,15 @@ from ..geometry.classes import CONTAINED
 from ..grids.protocol import Image
 from ..shape import read
 from ..units import EARTH_RADIUS, RASTER_LIMIT, check_radius, offset_angle, to_angle
+from .field_gpu import gpu_distances
 from .field_walk import walk_levels
 from .simplified import band_members
 from .vector import curves
 from .vector.node_levels import NodeArcs
 
 __all__ = ["DistanceField", "distance_field"]
+
+_BACKENDS = ("gpu", "cpu")
 
 #: Pixels decided again in float64 per batch of :meth:`DistanceField.threshold`.
 _BATCH = 1 << 16
@@ -177,6 +180,7 @@ def distance_field(
     radius: float = EARTH_RADIUS,
     ellipsoid=None,
     progress=None,
+    backend: str = "gpu",
 ) -> DistanceField:
     """Return the signed distance field of ``shape`` on ``grid``.
 
@@ -196,6 +200,11 @@ def distance_field(
         Called as ``progress(done, total)`` as the work goes on: ``done`` rises to
         ``total``, in pixels (those whose distances are final, then, for a shape with
         polygons, those of each level of the inside test, in output pixels).
+    backend : {"gpu", "cpu"}
+        Where the pixels' nearest arcs are found: ``"gpu"`` (the GL context's fragment
+        shaders, in float32, finished in float64) or ``"cpu"`` (in float64). The values
+        are the same, bit for bit; the walk above the pixels and the inside test run on
+        the CPU either way.
 
     Returns
     -------
@@ -219,15 +228,17 @@ def distance_field(
             f"distance_field does not support ellipsoid={ellipsoid!r} yet: only the sphere "
             "(ellipsoid=None, distances on the sphere of radius=)"
         )
+    if backend not in _BACKENDS:
+        raise OptionError(f"backend must be one of {', '.join(_BACKENDS)}, got {backend!r}")
     radius = check_radius(radius)
     shape = read(shape)
     _check_grid(grid)
     m = _max_angle(max_distance, radius)
     count = _Progress(progress, grid, bool(shape.rings))
     if grid.n_faces > 1:
-        values = np.stack([_field(shape, f, m, radius, count) for f in grid.faces])
+        values = np.stack([_field(shape, f, m, radius, count, backend) for f in grid.faces])
     else:
-        values = _field(shape, grid, m, radius, count)
+        values = _field(shape, grid, m, radius, count, backend)
     return DistanceField(
         shape, grid, values, radius, None if max_distance is None else float(max_distance)
     )
@@ -270,14 +281,17 @@ class _Progress:
         return level
 
 
-def _field(shape, grid, m: float, radius: float, count: _Progress) -> np.ndarray:
+def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str) -> np.ndarray:
     """Return the float32 field of one grid (clamped to ``+-m`` rad, ``m`` may be inf).
 
     The unsigned distances of :func:`_distances`, negated where the levels' float64
     render at distance 0 (:func:`gloffset.raster.vector.curves.classify_curves`) has the
     pixel inside (a pixel on the curves has the value 0 either way).
     """
-    dist = _distances(shape, grid, m, count)
+    if backend == "gpu" and grid.n_levels > 1:
+        dist = gpu_distances(shape, grid, m, count.add)
+    else:
+        dist = _distances(shape, grid, m, count)
     inside = np.zeros(dist.shape, dtype=bool)
     if shape.rings:
         before = count.done

@@ -1,0 +1,138 @@
+"""The GL pass of a distance field: each pixel's nearest arcs in float32
+(``shaders/nearest.frag``), run from a :class:`NearestPlan`.
+
+The planner (:mod:`gloffset.raster.field_gpu`) walks the levels in float64 down to cells
+of ``2^shift x 2^shift`` output pixels, each with the list of every arc that can be the
+nearest of one of its pixels, and hands a block of pixels over as plain arrays: their
+centres, the cells' lists and the arcs, in float32. This module uploads them, draws one
+fullscreen pass and reads back, per pixel, the arcs of the least and second least
+float32 chord, the least chord and whether a second or third arc lies within
+``2 NEAREST_ERR`` of it; the planner finishes in float64. It knows no grid or shape.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import GLContextError
+from .context import context_info, get_context, shared
+from .shaders import program
+from .textures import pot, pot_texture
+from .textures import set_uniform as _set
+
+__all__ = ["NEAREST_ERR", "NONE", "NearestPass", "NearestPlan", "nearest_pass"]
+
+#: Bound on |float32 chord - chord of the float64 distance| of ``shaders/nearest.frag``
+#: (the chord ``2 sin(t / 2)`` of an angle ``t``, at most 2). With u = 2^-24: every input
+#: (pixel centre, arc ends, normal n, n x a, b x n; unit vectors made in float64) is
+#: rounded once, off by at most u in norm. The branch test p.(n x a) >= 0 is then off by
+#: eta <= 5u, and where it picks the other branch the two formulas differ by at most
+#: 2 eta = 10u (a point within eta of the plane through an end perpendicular to the arc:
+#: c_end^2 - c_line^2 = 4 cos t sin^2(phi / 2) <= 2 min(eta^2 / cos t, cos t), so c_end -
+#: c_line <= 2 eta, splitting t at pi / 3). On the arc, s = p.n is off by 5u and
+#: |p - s n| = cos t by 12u; the chord |s| sqrt(2 / (1 + cos t)) has slopes at most
+#: sqrt(2) and 1 / sqrt(2) in them (15.6u) and its own rounding (1 + q, division, square
+#: root, product: 7u relative, chord <= sqrt(2): 10u): 26u. To an end, |p - a| is off by
+#: 2u from the inputs and 4u relative (8u) from its rounding: 10u. So 36u = 2.1e-6 in
+#: all; the constant is about twice that (4e-6 = 67u) for GPUs whose square roots and
+#: divisions round less well, the rounding of ``m1 + gap`` (4u) and a float64 margin of
+#: 1e-13 (so that an arc's float64 distance is strictly greater, bit for bit, than the
+#: least one's wherever its float32 chord is more than 2 NEAREST_ERR above the least).
+#: ``tests/test_field_gpu.py`` measures the largest error on a million real pairs.
+NEAREST_ERR = 4e-6
+#: No arc (a cell with an empty list, or a list of one for the second arc).
+NONE = 0xFFFFFFFF
+#: vec4 per arc record (``Arcs`` in ``shaders/nearest.frag``).
+ARC_TEXELS = 4
+
+
+@dataclass
+class NearestPlan:
+    """One block of pixels for :class:`NearestPass`, as plain arrays.
+
+    ``centers`` (h, w, 3) float32 the pixel centres (unit vectors made in float64 and
+    rounded); ``shift``: pixel ``(j, i)`` lies in cell ``(j >> shift, i >> shift)``;
+    ``cells`` (hc, wc, 2) uint32 each cell's first pair and pair count, ``pairs`` (n,)
+    uint32 the lists (rows of ``arcs``), ``arcs`` (m, 4, 4) float32 the arcs:
+    ``(a, n_x), (b, n_y), (n x a, n_z), (b x n, ok)`` with ``ok`` 1 where the arc has
+    a normal (0: its ends only).
+    """
+
+    centers: np.ndarray
+    shift: int
+    cells: np.ndarray
+    pairs: np.ndarray
+    arcs: np.ndarray
+
+
+class NearestPass:
+    """Draws :class:`NearestPlan` blocks: the program, compiled once, and :meth:`run`."""
+
+    def __init__(self):
+        self.ctx = get_context()
+        info = context_info()
+        #: the largest block side (pixels) and storage buffer (bytes) this context takes
+        self.max_side = min(info["max_texture_size"], *info["max_viewport_dims"])
+        self.max_bytes = info["max_storage_block_size"]
+        self.prog = program(self.ctx, "fullscreen.vert", "nearest.frag")
+        self.vao = self.ctx.vertex_array(self.prog, [])
+
+    def fits(self, h: int, w: int, pairs: int, arcs: int) -> bool:
+        """Whether a block of ``h x w`` pixels with these many pairs and arcs fits the
+        GL limits (texture side, storage buffer size)."""
+        return (
+            pot(max(h, w)) <= self.max_side
+            and 4 * pairs <= self.max_bytes
+            and 16 * ARC_TEXELS * arcs <= self.max_bytes
+        )
+
+    def run(self, plan: NearestPlan) -> np.ndarray:
+        """Return (h, w, 4) uint32 per pixel: the least chord's pair (a position in
+        ``plan.pairs``, :data:`NONE` for none), the second least's, the least chord's
+        float32 bits, and flags (1: the second within ``2 NEAREST_ERR`` of the least,
+        2: a third too)."""
+        import moderngl
+
+        h, w = plan.centers.shape[:2]
+        hc, wc = plan.cells.shape[:2]
+        if not self.fits(h, w, len(plan.pairs), len(plan.arcs)):
+            raise GLContextError(
+                f"a distance-field block of {w} x {h} pixels, {len(plan.pairs)} pairs and "
+                f"{len(plan.arcs)} arcs exceeds this GL context's limits (side "
+                f"{self.max_side}, storage buffer {self.max_bytes} bytes)"
+            )
+        if (hc, wc) != (-(-h >> plan.shift), -(-w >> plan.shift)):
+            raise ValueError(f"cells {plan.cells.shape} do not cover {h} x {w} pixels")
+        ctx = self.ctx
+        tex = pot_texture(ctx, plan.centers.astype(np.float32), 3, "f4")
+        target = ctx.texture((pot(w), pot(h)), 4, dtype="u4")
+        fbo = ctx.framebuffer(color_attachments=[target])
+        ctx.error  # noqa: B018  (see textures.class_target: an integer attachment's query)
+        bufs = [
+            ctx.buffer(np.ascontiguousarray(a, dtype=t).tobytes() or bytes(16))
+            for a, t in ((plan.cells, np.uint32), (plan.pairs, np.uint32), (plan.arcs, np.float32))
+        ]
+        try:
+            fbo.use()
+            ctx.viewport = (0, 0, w, h)
+            ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+            tex.use(0)
+            _set(self.prog, "u_centers", 0)
+            _set(self.prog, "u_shift", int(plan.shift))
+            _set(self.prog, "u_cells_w", int(wc))
+            _set(self.prog, "u_gap", 2.0 * NEAREST_ERR)
+            for k, b in enumerate(bufs):
+                b.bind_to_storage_buffer(k)
+            self.vao.render(moderngl.TRIANGLES, vertices=3)
+            data = fbo.read(viewport=(0, 0, w, h), components=4, dtype="u4")
+        finally:
+            for obj in (*bufs, fbo, target, tex):
+                obj.release()
+        return np.frombuffer(data, dtype=np.uint32).reshape(h, w, 4)
+
+
+def nearest_pass() -> NearestPass:
+    """This thread's :class:`NearestPass` (made on first use, with the GL context)."""
+    return shared(NearestPass)
