@@ -3,12 +3,14 @@
 // Drawn over a block of output pixels (fullscreen.vert): the fragment at column x, row y
 // is the pixel whose centre is texel (x, y) of u_centers; its cell (x, y) >> u_shift
 // holds the list of every arc that can be its nearest (made in float64 on the CPU,
-// gloffset/raster/field_gpu.py). Each arc's distance is measured as the chord
-// 2 sin(angle / 2) (monotone in the angle), in float32, good to NEAREST_ERR
-// (nearest_pass.py, with its derivation). Out: the arcs of the least and second least
-// chord (as positions in the block's pair list; 0xffffffff for none), the least chord
-// (its float bits) and bit 0 set where the second lies within u_gap of the least, bit 1
-// where a third does: the CPU finishes those in float64.
+// gloffset/raster/field_gpu.py). Each arc's features (the foot on the arc, or its ends)
+// are measured as chords 2 sin(angle / 2) (monotone in the angle), in float32, good to
+// NEAREST_ERR (nearest_pass.py, with its derivation); an end shared by two arcs is one
+// feature (its vertex id). Out: what the CPU finishes in float64 for the least and the
+// second least feature ((pair << 2) | 0 the arc, 1 its end a, 2 its end b; 0xffffffff
+// for none), the least chord (its float bits), and bit 0 set where the second lies
+// within u_gap of the least, bit 1 where a third does (the CPU then takes the cell's
+// whole list).
 
 uniform sampler2D u_centers;  // RGB32F: the pixel centres, unit vectors (float64 rounded)
 uniform int u_shift;          // output pixels per cell side: 1 << u_shift
@@ -23,26 +25,66 @@ layout(std430, binding = 1) readonly buffer Pairs {
 layout(std430, binding = 2) readonly buffer Arcs {
     vec4 arcs[];              // 4 per arc: (a, n.x), (b, n.y), (n x a, n.z), (b x n, ok)
 };
+layout(std430, binding = 3) readonly buffer Ends {
+    uvec2 ends[];             // per arc: the ids of its ends (one per distinct vertex)
+};
 
 out uvec4 o_near;
 
 const uint NONE = 0xffffffffu;
 
-// The chord from p to arc k: to the foot on the arc's great circle where it falls on
-// the arc (sin = |p.n|, cos = |p - (p.n) n|: 2 sin(t / 2) = sin t sqrt(2 / (1 + cos t)),
-// well conditioned at every angle), else to the nearer end. The branch test is that of
-// gloffset.geometry.sphere.arc_distance.
-float chord(vec3 p, uint k) {
+const uint LINE = 0x80000000u;  // a key of its own: the arc (line or uncertain)
+const float TEST = 1e-6;        // a branch test decided alike in float64 beyond this
+
+float m1, m2, m3;               // the three least chords of distinct features
+uint k1, k2, k3;                // their keys: a vertex id, or LINE | pair
+uint w1, w2, w3;                // what the CPU finishes: (pair << 2) | 0 arc, 1 end a, 2 end b
+
+void put(float v, uint key, uint what) {
+    if (key == k1 || key == k2 || key == k3) {
+        return;  // a vertex seen already: the same bits of the same chord
+    }
+    if (v < m1) {
+        m3 = m2; k3 = k2; w3 = w2;
+        m2 = m1; k2 = k1; w2 = w1;
+        m1 = v; k1 = key; w1 = what;
+    } else if (v < m2) {
+        m3 = m2; k3 = k2; w3 = w2;
+        m2 = v; k2 = key; w2 = what;
+    } else if (v < m3) {
+        m3 = v; k3 = key; w3 = what;
+    }
+}
+
+// The features of arc k (pair `pair`) measured from p as chords 2 sin(t / 2): the foot
+// on its great circle where it falls on the arc (sin t = |p.n|, cos t = |p - (p.n) n|:
+// 2 sin(t / 2) = sin t sqrt(2 / (1 + cos t)), well conditioned at every angle), else
+// each end, each a feature of its own (vertex id) where the float32 test is decisive
+// (beyond TEST: float64 decides alike, gloffset.geometry.sphere.arc_distance's test),
+// else the arc as a whole with its float32 branch's chord.
+void measure(vec3 p, uint k, uint pair) {
     vec4 r0 = arcs[4u * k];
     vec4 r1 = arcs[4u * k + 1u];
     vec4 r2 = arcs[4u * k + 2u];
     vec4 r3 = arcs[4u * k + 3u];
-    if (r3.w > 0.5 && dot(p, r2.xyz) >= 0.0 && dot(p, r3.xyz) >= 0.0) {
+    float ta = dot(p, r2.xyz);
+    float tb = dot(p, r3.xyz);
+    bool ok = r3.w > 0.5;
+    if (ok && ta >= 0.0 && tb >= 0.0) {
         vec3 n = vec3(r0.w, r1.w, r2.w);
         float s = dot(p, n);
-        return abs(s) * sqrt(2.0 / (1.0 + length(p - s * n)));
+        put(abs(s) * sqrt(2.0 / (1.0 + length(p - s * n))), LINE | pair, pair << 2);
+        return;
     }
-    return min(length(p - r0.xyz), length(p - r1.xyz));
+    float ca = length(p - r0.xyz);
+    float cb = length(p - r1.xyz);
+    if (!ok || ta < -TEST || tb < -TEST) {
+        uvec2 id = ends[k];
+        put(ca, id.x, (pair << 2) | 1u);
+        put(cb, id.y, (pair << 2) | 2u);
+    } else {
+        put(min(ca, cb), LINE | pair, pair << 2);
+    }
 }
 
 void main() {
@@ -51,24 +93,12 @@ void main() {
     uvec2 list = cells[cell.y * u_cells_w + cell.x];
     vec3 p = texelFetch(u_centers, px, 0).xyz;
     float inf = uintBitsToFloat(0x7f800000u);
-    float m1 = inf, m2 = inf, m3 = inf;
-    uint a1 = NONE, a2 = NONE;
+    m1 = inf; m2 = inf; m3 = inf;
+    k1 = NONE; k2 = NONE; k3 = NONE;
+    w1 = NONE; w2 = NONE; w3 = NONE;
     for (uint k = list.x; k < list.x + list.y; k++) {
-        float v = chord(p, pairs[k]);
-        if (v < m1) {
-            m3 = m2;
-            m2 = m1;
-            a2 = a1;
-            m1 = v;
-            a1 = k;
-        } else if (v < m2) {
-            m3 = m2;
-            m2 = v;
-            a2 = k;
-        } else if (v < m3) {
-            m3 = v;
-        }
+        measure(p, pairs[k], k);
     }
     uint flags = (m2 <= m1 + u_gap ? 1u : 0u) | (m3 <= m1 + u_gap ? 2u : 0u);
-    o_near = uvec4(a1, a2, floatBitsToUint(m1), flags);
+    o_near = uvec4(w1, w2, floatBitsToUint(m1), flags);
 }

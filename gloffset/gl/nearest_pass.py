@@ -57,7 +57,8 @@ class NearestPlan:
     ``cells`` (hc, wc, 2) uint32 each cell's first pair and pair count, ``pairs`` (n,)
     uint32 the lists (rows of ``arcs``), ``arcs`` (m, 4, 4) float32 the arcs:
     ``(a, n_x), (b, n_y), (n x a, n_z), (b x n, ok)`` with ``ok`` 1 where the arc has
-    a normal (0: its ends only).
+    a normal (0: its ends only); ``ends`` (m, 2) uint32 the ids of the arcs' ends (equal
+    for the same vertex, below 2^31).
     """
 
     centers: np.ndarray
@@ -65,6 +66,7 @@ class NearestPlan:
     cells: np.ndarray
     pairs: np.ndarray
     arcs: np.ndarray
+    ends: np.ndarray
 
 
 class NearestPass:
@@ -86,13 +88,15 @@ class NearestPass:
             pot(max(h, w)) <= self.max_side
             and 4 * pairs <= self.max_bytes
             and 16 * ARC_TEXELS * arcs <= self.max_bytes
+            and 4 * pairs < 1 << 32
         )
 
     def run(self, plan: NearestPlan) -> np.ndarray:
-        """Return (h, w, 4) uint32 per pixel: the least chord's pair (a position in
-        ``plan.pairs``, :data:`NONE` for none), the second least's, the least chord's
-        float32 bits, and flags (1: the second within ``2 NEAREST_ERR`` of the least,
-        2: a third too)."""
+        """Return (h, w, 4) uint32 per pixel: the least feature, as ``(pair << 2) |
+        kind`` (``pair`` a position in ``plan.pairs``; ``kind`` 0 the arc, 1 its end
+        ``a``, 2 its end ``b``; :data:`NONE` for none), the second least, the least
+        chord's float32 bits, and flags (1: the second within ``2 NEAREST_ERR`` of the
+        least, 2: a third too)."""
         import moderngl
 
         h, w = plan.centers.shape[:2]
@@ -112,7 +116,12 @@ class NearestPass:
         ctx.error  # noqa: B018  (see textures.class_target: an integer attachment's query)
         bufs = [
             ctx.buffer(np.ascontiguousarray(a, dtype=t).tobytes() or bytes(16))
-            for a, t in ((plan.cells, np.uint32), (plan.pairs, np.uint32), (plan.arcs, np.float32))
+            for a, t in (
+                (plan.cells, np.uint32),
+                (plan.pairs, np.uint32),
+                (plan.arcs, np.float32),
+                (plan.ends, np.uint32),
+            )
         ]
         try:
             fbo.use()

@@ -29,7 +29,7 @@ import numpy as np
 
 from ..geometry.sphere import cross, dot
 from ..gl.nearest_pass import NONE, NearestPlan, nearest_pass
-from .field_walk import exact_distances, walk_levels
+from .field_walk import end_distances, exact_distances, walk_levels
 from .vector.node_levels import NodeArcs
 
 __all__ = ["SHIFT", "gpu_distances"]
@@ -125,6 +125,7 @@ def _block(nodes: NodeArcs, grid, lists: _Lists, where, out: np.ndarray, t: dict
     t0 = time.perf_counter()
     first, cnt, node = lists.block(rows, cols)
     arcs, local = np.unique(node, return_inverse=True)
+    ends = _vertex_ids(nodes, arcs)
     last = grid.n_levels - 1
     h, w = out.shape
     pj = np.arange(rows.start << shift, min(h, rows.stop << shift))
@@ -144,6 +145,7 @@ def _block(nodes: NodeArcs, grid, lists: _Lists, where, out: np.ndarray, t: dict
         cells.astype(np.uint32),
         local.astype(np.uint32),
         _records(nodes)[arcs],
+        ends,
     )
     t1 = time.perf_counter()
     got = eng.run(plan).reshape(-1, 4)
@@ -157,23 +159,39 @@ def _block(nodes: NodeArcs, grid, lists: _Lists, where, out: np.ndarray, t: dict
     t["finish"] += t3 - t2
 
 
+def _vertex_ids(nodes: NodeArcs, arcs: np.ndarray) -> np.ndarray:
+    """Return (arcs, 2) uint32 ids of the ends of ``arcs``, equal for equal points."""
+    ends = np.concatenate([nodes.a[arcs], nodes.b[arcs]])
+    rows = np.ascontiguousarray(ends).view(np.dtype((np.void, 24))).ravel()
+    _, ids = np.unique(rows, return_inverse=True)
+    return ids.reshape(2, -1).T.astype(np.uint32)
+
+
 def finish(c: np.ndarray, got: np.ndarray, node: np.ndarray, lists, nodes: NodeArcs):
     """Return the exact distances (rad, float64) of pixels ``c`` from the GPU's answer.
 
     ``got`` (pixels, 4) as :meth:`~gloffset.gl.nearest_pass.NearestPass.run` returns
     it, ``node`` the block's list (pair positions to nodes), ``lists`` each cell's first
-    pair and count and each pixel's cell. The least arc's exact distance, the second's
-    where the flags say it is within reach, every arc of the cell's where a third is.
+    pair and count and each pixel's cell. The least feature's exact distance, the
+    second's where the flags say it is within reach, every arc of the cell's where a
+    third is; an arc's end has the bits the arc's distance has when the end is its
+    nearest point (:func:`~gloffset.raster.field_walk.end_distances`).
     """
     first, cnt, cell = lists
-    a1, a2, flags = got[:, 0], got[:, 1], got[:, 3]
+    flags = got[:, 3]
     dist = np.full(len(c), np.inf)
-    has = a1 != NONE
-    pix = np.flatnonzero(has)
-    dist[pix] = exact_distances(c, pix, nodes, node[a1[pix]])
-    two = np.flatnonzero(has & (flags & 1 != 0) & (a2 != NONE))
-    if len(two):
-        np.minimum.at(dist, two, exact_distances(c, two, nodes, node[a2[two]]))
+    has = got[:, 0] != NONE
+    for k, sel in ((0, has), (1, has & (flags & 1 != 0) & (got[:, 1] != NONE))):
+        pix = np.flatnonzero(sel)
+        what = got[pix, k]
+        pair, kind = node[what >> 2], what & 3
+        d = np.empty(len(pix))
+        arc = np.flatnonzero(kind == 0)
+        d[arc] = exact_distances(c, pix[arc], nodes, pair[arc])
+        for end, pts in ((1, nodes.a), (2, nodes.b)):
+            e = np.flatnonzero(kind == end)
+            d[e] = end_distances(c, pix[e], pts[pair[e]])
+        dist[pix] = np.minimum(dist[pix], d)  # one per pixel
     every = np.flatnonzero(has & (flags & 2 != 0))
     if len(every):
         k = cnt[cell[every]]

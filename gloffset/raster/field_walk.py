@@ -24,7 +24,7 @@ from ..geometry.sphere import angle, cross, dot, pair_dots
 from .vector.levels import Frontier, children
 from .vector.node_levels import NodeArcs
 
-__all__ = ["exact_distances", "walk_levels"]
+__all__ = ["end_distances", "exact_distances", "walk_levels"]
 
 #: Cells and candidate pairs of one part of a level (a larger level is walked in parts
 #: of contiguous cells: the next level has about four times as many of each).
@@ -252,6 +252,19 @@ def exact_distances(c, cell, nodes: NodeArcs, node) -> np.ndarray:
         ci, ni = cell[s : s + _CHUNK], node[s : s + _CHUNK]
         out[s : s + _CHUNK] = _arc_distance([x[ci] for x in cols], ends, ni)
     return out
+
+
+def end_distances(c, cell, v) -> np.ndarray:
+    """Return the distances from ``c[cell]`` to the points ``v`` (one per pair).
+
+    The bits :func:`exact_distances` gives an arc's end where a point's foot is off the
+    arc (the arc's distance is then the lesser of its ends').
+    """
+    q = [np.ascontiguousarray(c[cell, k]) for k in range(3)]
+    p = [v[:, k] for k in range(3)]
+    dm = [q[k] - p[k] for k in range(3)]
+    dp = [q[k] + p[k] for k in range(3)]
+    return 2.0 * np.arctan2(np.sqrt(_dot3(dm, dm)), np.sqrt(_dot3(dp, dp)))
 
 
 def _dot3(u, v, i=None):
