@@ -16,6 +16,7 @@ uniform sampler2D u_centers;  // RGB32F: the pixel centres, unit vectors (float6
 uniform int u_shift;          // output pixels per cell side: 1 << u_shift
 uniform int u_cells_w;        // cells per row of the block
 uniform float u_gap;          // 2 NEAREST_ERR: chords nearer than this to the least one
+uniform float u_same;         // NEAREST_ERR / 8: an undecided arc's two chords, at most
 layout(std430, binding = 0) readonly buffer Cells {
     uvec2 cells[];            // per cell (row-major in the block): first pair, pair count
 };
@@ -39,6 +40,7 @@ const float TEST = 1e-6;        // a branch test decided alike in float64 beyond
 float m1, m2, m3;               // the three least chords of distinct features
 uint k1, k2, k3;                // their keys: a vertex id, or LINE | pair
 uint w1, w2, w3;                // what the CPU finishes: (pair << 2) | 0 arc, 1 end a, 2 end b
+float unsure;                   // the least chord of the undecided arcs whose two differ
 
 void put(float v, uint key, uint what) {
     if (key == k1 || key == k2 || key == k3) {
@@ -59,9 +61,9 @@ void put(float v, uint key, uint what) {
 // The features of arc k (pair `pair`) measured from p as chords 2 sin(t / 2): the foot
 // on its great circle where it falls on the arc (sin t = |p.n|, cos t = |p - (p.n) n|:
 // 2 sin(t / 2) = sin t sqrt(2 / (1 + cos t)), well conditioned at every angle), else
-// each end, each a feature of its own (vertex id) where the float32 test is decisive
-// (beyond TEST: float64 decides alike, gloffset.geometry.sphere.arc_distance's test),
-// else the arc as a whole with its float32 branch's chord.
+// each end, a feature of its own (its vertex id), where the float32 test decides
+// (beyond TEST: float64 decides alike, gloffset.geometry.sphere.arc_distance's test);
+// an arc it does not decide is a feature of its own.
 void measure(vec3 p, uint k, uint pair) {
     vec4 r0 = arcs[4u * k];
     vec4 r1 = arcs[4u * k + 1u];
@@ -70,7 +72,7 @@ void measure(vec3 p, uint k, uint pair) {
     float ta = dot(p, r2.xyz);
     float tb = dot(p, r3.xyz);
     bool ok = r3.w > 0.5;
-    if (ok && ta >= 0.0 && tb >= 0.0) {
+    if (ok && ta >= TEST && tb >= TEST) {
         vec3 n = vec3(r0.w, r1.w, r2.w);
         float s = dot(p, n);
         put(abs(s) * sqrt(2.0 / (1.0 + length(p - s * n))), LINE | pair, pair << 2);
@@ -82,9 +84,19 @@ void measure(vec3 p, uint k, uint pair) {
         uvec2 id = ends[k];
         put(ca, id.x, (pair << 2) | 1u);
         put(cb, id.y, (pair << 2) | 2u);
-    } else {
-        put(min(ca, cb), LINE | pair, pair << 2);
+        return;
     }
+    // undecided: float64 may take either branch; both chords, and where they differ by
+    // more than u_same (the far side of a short arc, seen from near its circle's pole)
+    // and the lesser lies within u_gap of the least, the pixel takes its whole list
+    vec3 n = vec3(r0.w, r1.w, r2.w);
+    float s = dot(p, n);
+    float cl = abs(s) * sqrt(2.0 / (1.0 + length(p - s * n)));
+    float ce = min(ca, cb);
+    if (abs(cl - ce) > u_same) {
+        unsure = min(unsure, min(cl, ce));
+    }
+    put(min(cl, ce), LINE | pair, pair << 2);
 }
 
 void main() {
@@ -94,11 +106,12 @@ void main() {
     vec3 p = texelFetch(u_centers, px, 0).xyz;
     float inf = uintBitsToFloat(0x7f800000u);
     m1 = inf; m2 = inf; m3 = inf;
+    unsure = inf;
     k1 = NONE; k2 = NONE; k3 = NONE;
     w1 = NONE; w2 = NONE; w3 = NONE;
     for (uint k = list.x; k < list.x + list.y; k++) {
         measure(p, pairs[k], k);
     }
-    uint flags = (m2 <= m1 + u_gap ? 1u : 0u) | (m3 <= m1 + u_gap ? 2u : 0u);
+    uint flags = (m2 <= m1 + u_gap ? 1u : 0u) | (m3 <= m1 + u_gap || unsure <= m1 + u_gap ? 2u : 0u);
     o_near = uvec4(w1, w2, floatBitsToUint(m1), flags);
 }

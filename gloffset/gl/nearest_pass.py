@@ -25,22 +25,22 @@ from .textures import set_uniform as _set
 __all__ = ["NEAREST_ERR", "NONE", "NearestPass", "NearestPlan", "nearest_pass"]
 
 #: Bound on |float32 chord - chord of the float64 distance| of ``shaders/nearest.frag``
-#: (the chord ``2 sin(t / 2)`` of an angle ``t``, at most 2). With u = 2^-24: every input
-#: (pixel centre, arc ends, normal n, n x a, b x n; unit vectors made in float64) is
-#: rounded once, off by at most u in norm. The branch test p.(n x a) >= 0 is then off by
-#: eta <= 5u, and where it picks the other branch the two formulas differ by at most
-#: 2 eta = 10u (a point within eta of the plane through an end perpendicular to the arc:
-#: c_end^2 - c_line^2 = 4 cos t sin^2(phi / 2) <= 2 min(eta^2 / cos t, cos t), so c_end -
-#: c_line <= 2 eta, splitting t at pi / 3). On the arc, s = p.n is off by 5u and
-#: |p - s n| = cos t by 12u; the chord |s| sqrt(2 / (1 + cos t)) has slopes at most
-#: sqrt(2) and 1 / sqrt(2) in them (15.6u) and its own rounding (1 + q, division, square
-#: root, product: 7u relative, chord <= sqrt(2): 10u): 26u. To an end, |p - a| is off by
-#: 2u from the inputs and 4u relative (8u) from its rounding: 10u. So 36u = 2.1e-6 in
-#: all; the constant is about twice that (4e-6 = 67u) for GPUs whose square roots and
-#: divisions round less well, the rounding of ``m1 + gap`` (4u) and a float64 margin of
-#: 1e-13 (so that an arc's float64 distance is strictly greater, bit for bit, than the
-#: least one's wherever its float32 chord is more than 2 NEAREST_ERR above the least).
-#: ``tests/test_field_gpu.py`` measures the largest error on a million real pairs.
+#: (the chord ``2 sin(t / 2)`` of an angle ``t``, at most 2), u = 2^-24. Every input
+#: (pixel centre, arc ends, normal n, n x a, b x n: unit vectors made in float64) is
+#: rounded once, off by at most u in norm, so a branch test p.(n x a) is off by at most
+#: 5u (inputs 2u, three products summed 3u) and one beyond TEST (1e-6 = 16u) is decided
+#: as float64 decides it. On the arc, s = p.n is off by 5u and |p - s n| = cos t by 12u;
+#: the chord |s| sqrt(2 / (1 + cos t)) has slopes at most sqrt(2) and 1 / sqrt(2) in
+#: them (15.6u) and its own rounding (1 + q, division, square root, product: 7u
+#: relative, the chord <= sqrt(2): 10u): 26u. To an end, |p - a| is off by 2u from the
+#: inputs and 8u from its rounding (4u relative, the chord <= 2): 10u. An arc whose test
+#: is undecided has the lesser of both chords where they differ by at most NEAREST_ERR
+#: / 8 (8u; else its pixel takes its whole list): 34u. The constant, 67u, leaves 33u for
+#: GPUs whose square roots and divisions round less well, the rounding of ``m1 + gap``
+#: (4u) and a float64 margin of 1e-13 (so that a feature whose float32 chord is more
+#: than 2 NEAREST_ERR above the least has a float64 distance strictly greater than the
+#: least one's, bit for bit). ``tests/test_field_gpu.py`` measures the largest error on
+#: a million real pairs.
 NEAREST_ERR = 4e-6
 #: No arc (a cell with an empty list, or a list of one for the second arc).
 NONE = 0xFFFFFFFF
@@ -132,6 +132,7 @@ class NearestPass:
             _set(self.prog, "u_shift", int(plan.shift))
             _set(self.prog, "u_cells_w", int(wc))
             _set(self.prog, "u_gap", 2.0 * NEAREST_ERR)
+            _set(self.prog, "u_same", 0.125 * NEAREST_ERR)
             for k, b in enumerate(bufs):
                 b.bind_to_storage_buffer(k)
             self.vao.render(moderngl.TRIANGLES, vertices=3)
