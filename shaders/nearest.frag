@@ -24,8 +24,8 @@ layout(std430, binding = 1) readonly buffer Pairs {
     uint pairs[];             // the cells' lists, each pair an arc (row of Arcs)
 };
 layout(std430, binding = 2) readonly buffer Arcs {
-    vec4 arcs[];              // 4 per arc: (a, n.x), (b, n.y), (n x a, n.z), (b x n, ok)
-};
+    vec4 arcs[];              // 5 per arc: (a, n.x), (b, n.y), (n x a, n.z), (b x n, ok),
+};                            // (mid, r): its bounding cap's centre and chord radius
 layout(std430, binding = 3) readonly buffer Ends {
     uvec2 ends[];             // per arc: the ids of its ends (one per distinct vertex)
 };
@@ -65,10 +65,18 @@ void put(float v, uint key, uint what) {
 // (beyond TEST: float64 decides alike, gloffset.geometry.sphere.arc_distance's test);
 // an arc it does not decide is a feature of its own.
 void measure(vec3 p, uint k, uint pair) {
-    vec4 r0 = arcs[4u * k];
-    vec4 r1 = arcs[4u * k + 1u];
-    vec4 r2 = arcs[4u * k + 2u];
-    vec4 r3 = arcs[4u * k + 3u];
+    // an arc whose cap lies farther than the third least chord (by more than 2
+    // NEAREST_ERR, the errors of this bound and of its chords) would change nothing
+    vec4 cap = arcs[5u * k + 4u];
+    vec3 dm = p - cap.xyz;
+    float far = m3 + cap.w + u_gap;
+    if (dot(dm, dm) > far * far) {
+        return;
+    }
+    vec4 r0 = arcs[5u * k];
+    vec4 r1 = arcs[5u * k + 1u];
+    vec4 r2 = arcs[5u * k + 2u];
+    vec4 r3 = arcs[5u * k + 3u];
     float ta = dot(p, r2.xyz);
     float tb = dot(p, r3.xyz);
     bool ok = r3.w > 0.5;

@@ -45,7 +45,7 @@ NEAREST_ERR = 4e-6
 #: No arc (a cell with an empty list, or a list of one for the second arc).
 NONE = 0xFFFFFFFF
 #: vec4 per arc record (``Arcs`` in ``shaders/nearest.frag``).
-ARC_TEXELS = 4
+ARC_TEXELS = 5
 
 
 @dataclass
@@ -55,9 +55,10 @@ class NearestPlan:
     ``centers`` (h, w, 3) float32 the pixel centres (unit vectors made in float64 and
     rounded); ``shift``: pixel ``(j, i)`` lies in cell ``(j >> shift, i >> shift)``;
     ``cells`` (hc, wc, 2) uint32 each cell's first pair and pair count, ``pairs`` (n,)
-    uint32 the lists (rows of ``arcs``), ``arcs`` (m, 4, 4) float32 the arcs:
-    ``(a, n_x), (b, n_y), (n x a, n_z), (b x n, ok)`` with ``ok`` 1 where the arc has
-    a normal (0: its ends only); ``ends`` (m, 2) uint32 the ids of the arcs' ends (equal
+    uint32 the lists (rows of ``arcs``), ``arcs`` (m, 5, 4) float32 the arcs:
+    ``(a, n_x), (b, n_y), (n x a, n_z), (b x n, ok), (mid, r)`` with ``ok`` 1 where the
+    arc has a normal (0: its ends only), ``mid`` and ``r`` the centre and chord radius
+    (rounded up) of a cap that holds it; ``ends`` (m, 2) uint32 the ids of the arcs' ends (equal
     for the same vertex, below 2^31).
     """
 

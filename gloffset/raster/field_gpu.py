@@ -27,6 +27,7 @@ import weakref
 
 import numpy as np
 
+from ..geometry.caps import chord, pad
 from ..geometry.sphere import cross, dot
 from ..gl.nearest_pass import NONE, NearestPlan, nearest_pass
 from .field_walk import end_distances, exact_distances, walk_levels
@@ -44,15 +45,17 @@ _RECORDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _records(nodes: NodeArcs) -> np.ndarray:
-    """Every node's arc as ``shaders/nearest.frag`` reads it, (nodes, 4, 4) float32."""
+    """Every node's arc as ``shaders/nearest.frag`` reads it, (nodes, 5, 4) float32."""
     got = _RECORDS.get(nodes)
     if got is None:
         n = nodes.n
-        rec = np.zeros((len(n), 4, 4))
+        rec = np.zeros((len(n), 5, 4))
         rec[:, 0, :3], rec[:, 1, :3] = nodes.a, nodes.b
         rec[:, 2, :3], rec[:, 3, :3] = cross(n, nodes.a), cross(nodes.b, n)
         rec[:, :3, 3] = n
         rec[:, 3, 3] = dot(n, n) > 0.5
+        rec[:, 4, :3] = nodes.mid
+        rec[:, 4, 3] = pad(chord(np.minimum(nodes.half, np.pi)))
         got = _RECORDS[nodes] = rec.astype(np.float32)
     return got
 
