@@ -10,8 +10,11 @@ How it is computed: a walk over the grid's levels, coarse to fine, every cell wi
 list of candidate nodes of the multiresolution tree (paper Sec. 4.2, Eq. 9 bounds),
 pruned by bounds and by a bisector test, down to the original edges at the pixels,
 each pixel ending with the exact float64 distance of its nearest arc
-(:mod:`gloffset.raster.field_walk`). The sign is the inside status of the float64
-render at distance 0. The derivation is in the design notes (``docs/design.md``).
+(:mod:`gloffset.raster.field_walk`). With ``backend="gpu"`` the walk stops at cells of
+8 x 8 pixels and a fragment shader ranks each pixel's candidates in float32, the
+pixels finished in float64 to the same bits (:mod:`gloffset.raster.field_gpu`). The
+sign is the inside status of the float64 render at distance 0. The derivation is in
+the design notes (``docs/design.md``).
 
 Accuracy: each value is the float64 distance (exact to 1e-15 rad) times ``radius``,
 clamped to ``[-max_distance, max_distance]`` and rounded to float32 once: within 1
@@ -218,10 +221,14 @@ def distance_field(
     times ``radius``) rounded once to float32, so within 1 float32 ulp of the exact
     value; its sign is the inside status of the levels' crossing parity, as in the
     float64 reference renderer. ``threshold(d)`` equals ``render(shape, d, grid)`` (see
-    :meth:`DistanceField.threshold`). Cost: the output pixels, each against the few
-    arcs that can be its nearest (see the module notes), on the CPU in float64: 3 to 4
-    times the floor of the same walk with one candidate arc per cell plus the inside
-    test (``benchmarks/field.py``).
+    :meth:`DistanceField.threshold`). Both backends give the same values, bit for bit.
+    Cost: the output pixels, each against the few arcs that can be its nearest (see the
+    module notes). ``"cpu"``: the walk to the pixels in float64, 3 to 4 times the floor
+    of the same walk with one candidate arc per cell plus the inside test.
+    ``"gpu"``: the walk stops at cells of 8 x 8 pixels, the GPU ranks each pixel's
+    candidates in float32 and the CPU computes one exact distance per pixel (two or the
+    cell's list for the few the float32 values cannot rank): about half the CPU
+    backend's time even on Mesa's llvmpipe (``benchmarks/field.py``).
     """
     if ellipsoid is not None:
         raise OptionError(
