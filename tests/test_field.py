@@ -278,6 +278,10 @@ def test_cli_geotiff_npy_and_cube(mexico_path, mexico, tmp_path):
     assert cli("field", *common, "-o", npy).returncode == 0
     full = gloffset.distance_field(mexico, grid).values
     assert np.array_equal(np.load(npy), full)
+    assert cli("field", *common, "--backend", "cpu", "-o", npy).returncode == 0
+    assert np.load(npy).tobytes() == full.tobytes()
+    bad = cli("field", *common, "--backend", "cuda", "-o", npy)
+    assert bad.returncode == 2 and b"'cuda' is not one of 'gpu', 'cpu'" in bad.stderr
     folder = tmp_path / "faces"
     proc = cli("field", mexico_path, "--grid", "cube", "--size", "16", "-o", folder)
     assert proc.returncode == 0, proc.stderr.decode()

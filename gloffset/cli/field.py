@@ -19,6 +19,7 @@ from ..shape import read
 from . import main
 from .options import (
     angle,
+    choice_option,
     input_options,
     parse_bounds,
     parse_face,
@@ -76,6 +77,11 @@ def _format(output: str, grid_kind: str) -> str:
     help="NAME.tif (float32 GeoTIFF, EPSG:4326; NAME.cog.tif a Cloud Optimized one) or "
     "NAME.npy (float32); with --grid cube a folder.",
 )
+@choice_option(
+    "--backend",
+    choices=("gpu", "cpu"),
+    help="Where each pixel's nearest arcs are found (the values are the same, bit for bit).",
+)
 @input_options
 def field_cmd(
     input,
@@ -85,6 +91,7 @@ def field_cmd(
     bounds,
     max_distance,
     output,
+    backend="gpu",
     layer=None,
     where=None,
     densify=None,
@@ -129,6 +136,7 @@ def field_cmd(
             max_distance=m,
             radius=radius,
             progress=progress if bar is not None else None,
+            backend=backend,
         )
     finally:
         if bar is not None:
