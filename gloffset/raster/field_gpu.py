@@ -55,7 +55,7 @@ def _records(nodes: NodeArcs) -> np.ndarray:
         rec[:, :3, 3] = n
         rec[:, 3, 3] = dot(n, n) > 0.5
         rec[:, 4, :3] = nodes.mid
-        rec[:, 4, 3] = pad(chord(np.minimum(nodes.half, np.pi)))
+        rec[:, 4, 3] = _cap_chords(nodes)
         got = _RECORDS[nodes] = rec.astype(np.float32)
     return got
 
@@ -177,8 +177,9 @@ def finish(c: np.ndarray, got: np.ndarray, node: np.ndarray, lists, nodes: NodeA
     it, ``node`` the block's list (pair positions to nodes), ``lists`` each cell's first
     pair and count and each pixel's cell. The least feature's exact distance, the
     second's where the flags say it is within reach, every arc of the cell's where a
-    third is; an arc's end has the bits the arc's distance has when the end is its
-    nearest point (:func:`~gloffset.raster.field_walk.end_distances`).
+    third is (those whose caps come within the distance found); an arc's end has the
+    bits the arc's distance has when the end is its nearest point
+    (:func:`~gloffset.raster.field_walk.end_distances`).
     """
     first, cnt, cell = lists
     flags = got[:, 3]
@@ -200,5 +201,25 @@ def finish(c: np.ndarray, got: np.ndarray, node: np.ndarray, lists, nodes: NodeA
         k = cnt[cell[every]]
         px = np.repeat(every, k)
         at = np.repeat(first[cell[every]] - (np.cumsum(k) - k), k) + np.arange(int(k.sum()))
-        np.minimum.at(dist, px, exact_distances(c, px, nodes, node[at]))
+        # an arc whose cap lies farther than the distance found (a chord from the centre
+        # less the cap's, rounded down by _CAP_SLACK) cannot be nearer
+        pair = node[at]
+        dm = c[px] - nodes.mid[pair]
+        lb = np.sqrt(np.einsum("ij,ij->i", dm, dm)) - _cap_chords(nodes)[pair]
+        near = lb <= 2.0 * np.sin(0.5 * np.minimum(dist[px], np.pi)) + _CAP_SLACK
+        np.minimum.at(dist, px[near], exact_distances(c, px[near], nodes, pair[near]))
     return dist
+
+
+#: Slack (chord) on the cap test of :func:`finish` (float64 chords good to 1e-15).
+_CAP_SLACK = 1e-12
+
+#: The chord radii (rounded up) of each node table's caps.
+_CAPS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _cap_chords(nodes: NodeArcs) -> np.ndarray:
+    got = _CAPS.get(nodes)
+    if got is None:
+        got = _CAPS[nodes] = pad(chord(np.minimum(nodes.half, np.pi)))
+    return got
