@@ -11,7 +11,7 @@ from conftest import DATA
 
 import gloffset
 from gloffset.geometry.sphere import normalize
-from gloffset.gl.nearest_pass import NEAREST_ERR, NearestPass, NearestPlan, nearest_pass
+from gloffset.gl.nearest_pass import EVERY, NEAREST_ERR, NearestPass, NearestPlan, nearest_pass
 from gloffset.grids import Cube, Equirect, Tile
 from gloffset.raster import field_gpu
 from gloffset.raster.field_walk import exact_distances
@@ -99,7 +99,7 @@ def test_blocks_and_their_halves(mexico, monkeypatch):
 
 
 def _answers(monkeypatch):
-    """Record the GPU's answers (flags) that the finishing reads."""
+    """Record the GPU's answers (counts and flags) that the finishing reads."""
     seen = []
     finish = field_gpu.finish
 
@@ -111,17 +111,18 @@ def _answers(monkeypatch):
     return seen
 
 
-def test_the_finishing_needs_the_second_and_the_list(mexico, monkeypatch):
-    """Pixels whose float32 chords cannot tell the nearest arc are common (on the
-    medial axis, the Mexico 1:10m tile of z5): some need the second feature, some the
-    whole list; and each of those is needed: without them, values change."""
-    grid = Tile(5, 6, 13)
+def test_the_finishing_needs_the_features_within_reach(mexico, monkeypatch):
+    """Pixels whose float32 chords cannot tell the nearest feature are common (on the
+    medial axis, and seen from afar along a coast: the Mexico 1:10m tile of z3): some
+    need more features than the least, a few the cell's whole list; and each feature
+    within reach is needed: without them, values change."""
+    grid = Tile(3, 1, 3)
     want = gloffset.distance_field(mexico, grid, radius=1.0, backend="cpu").values
     seen = _answers(monkeypatch)
     got = gloffset.distance_field(mexico, grid, radius=1.0).values
     assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
     flags = np.concatenate(seen)
-    assert (flags & 1).sum() > 100 and (flags & 2).sum() > 10
+    assert (flags & 0xFF != 0).sum() > 1000 and (flags & EVERY != 0).sum() > 10
 
     def corrupt(fn):
         run = NearestPass.run
@@ -132,7 +133,7 @@ def test_the_finishing_needs_the_second_and_the_list(mexico, monkeypatch):
         monkeypatch.setattr(NearestPass, "run", wrong)
         return gloffset.distance_field(mexico, grid, radius=1.0).values
 
-    def no_flags(got):
+    def least_only(got):
         got[..., 3] = 0
         return got
 
@@ -141,9 +142,20 @@ def test_the_finishing_needs_the_second_and_the_list(mexico, monkeypatch):
         got[two, 0] = got[two, 1]
         return got
 
-    for fn in (no_flags, second_first):
+    def fewer(got):  # one feature fewer within reach
+        got[..., 3] = np.where(got[..., 3] & 0xFF != 0, got[..., 3] - 1, got[..., 3])
+        return got
+
+    for fn in (least_only, second_first, fewer):
         bad = corrupt(fn)
         assert (bad.view(np.uint32) != want.view(np.uint32)).sum() > 10, fn.__name__
+
+    def whole_lists(got):  # a wrong feature, but every pixel with its cell's whole list
+        second_first(got)
+        got[..., 3] = EVERY
+        return got
+
+    assert corrupt(whole_lists).tobytes() == want.tobytes()
 
 
 def test_float32_chords_within_their_bound(mexico):
@@ -175,12 +187,12 @@ def test_float32_chords_within_their_bound(mexico):
             np.uint32
         ),
     )
-    got = nearest_pass().run(plan).reshape(-1, 4)
+    got = nearest_pass().run(plan).reshape(-1, 8)
     chord32 = got[:, 2].view(np.float32).astype(np.float64)
     exact = exact_distances(p, np.arange(n), nodes, arc)
     err = np.abs(chord32 - 2.0 * np.sin(0.5 * exact))
     # the far side of a short arc seen from near its circle's pole: float32 cannot tell
     # the side, and such a pixel takes its whole list (flag 2)
-    whole = got[:, 3] & 2 != 0
+    whole = got[:, 3] & EVERY != 0
     assert 0 < whole.sum() < n // 200
     assert err[~whole].max() < NEAREST_ERR / 4, f"{err[~whole].max():.3g} of {NEAREST_ERR}"

@@ -5,9 +5,9 @@ The planner (:mod:`gloffset.raster.field_gpu`) walks the levels in float64 down 
 of ``2^shift x 2^shift`` output pixels, each with the list of every arc that can be the
 nearest of one of its pixels, and hands a block of pixels over as plain arrays: their
 centres, the cells' lists and the arcs, in float32. This module uploads them, draws one
-fullscreen pass and reads back, per pixel, the arcs of the least and second least
-float32 chord, the least chord and whether a second or third arc lies within
-``2 NEAREST_ERR`` of it; the planner finishes in float64. It knows no grid or shape.
+fullscreen pass and reads back, per pixel, its six least features (an arc's foot or its
+ends) in float32 chords, the least chord, how many lie within ``2 NEAREST_ERR`` of it
+and whether more may; the planner finishes in float64. It knows no grid or shape.
 """
 
 from __future__ import annotations
@@ -22,7 +22,15 @@ from .shaders import program
 from .textures import pot, pot_texture
 from .textures import set_uniform as _set
 
-__all__ = ["NEAREST_ERR", "NONE", "NearestPass", "NearestPlan", "nearest_pass"]
+__all__ = [
+    "EVERY",
+    "FEATURES",
+    "NEAREST_ERR",
+    "NONE",
+    "NearestPass",
+    "NearestPlan",
+    "nearest_pass",
+]
 
 #: Bound on |float32 chord - chord of the float64 distance| of ``shaders/nearest.frag``
 #: (the chord ``2 sin(t / 2)`` of an angle ``t``, at most 2), u = 2^-24. Every input
@@ -42,8 +50,12 @@ __all__ = ["NEAREST_ERR", "NONE", "NearestPass", "NearestPlan", "nearest_pass"]
 #: least one's, bit for bit). ``tests/test_field_gpu.py`` measures the largest error on
 #: a million real pairs.
 NEAREST_ERR = 4e-6
-#: No arc (a cell with an empty list, or a list of one for the second arc).
+#: No feature (a cell with an empty list, or fewer features than asked for).
 NONE = 0xFFFFFFFF
+#: The flag of a pixel that needs its cell's whole list (column 3 of :meth:`NearestPass.run`).
+EVERY = 0x100
+#: The columns of the features of :meth:`NearestPass.run`, least first.
+FEATURES = (0, 1, 4, 5, 6, 7)
 #: vec4 per arc record (``Arcs`` in ``shaders/nearest.frag``).
 ARC_TEXELS = 5
 
@@ -93,11 +105,12 @@ class NearestPass:
         )
 
     def run(self, plan: NearestPlan) -> np.ndarray:
-        """Return (h, w, 4) uint32 per pixel: the least feature, as ``(pair << 2) |
-        kind`` (``pair`` a position in ``plan.pairs``; ``kind`` 0 the arc, 1 its end
-        ``a``, 2 its end ``b``; :data:`NONE` for none), the second least, the least
-        chord's float32 bits, and flags (1: the second within ``2 NEAREST_ERR`` of the
-        least, 2: a third too)."""
+        """Return (h, w, 8) uint32 per pixel: the ``K`` (6) least features, as ``(pair
+        << 2) | kind`` (``pair`` a position in ``plan.pairs``; ``kind`` 0 the arc, 1 its
+        end ``a``, 2 its end ``b``; :data:`NONE` for none) in columns 0, 1, 4, 5, 6, 7
+        (ascending), the least chord's float32 bits (column 2) and the count of the
+        others within ``2 NEAREST_ERR`` of the least, plus :data:`EVERY` where one more
+        may be (column 3)."""
         import moderngl
 
         h, w = plan.centers.shape[:2]
@@ -112,8 +125,8 @@ class NearestPass:
             raise ValueError(f"cells {plan.cells.shape} do not cover {h} x {w} pixels")
         ctx = self.ctx
         tex = pot_texture(ctx, plan.centers.astype(np.float32), 3, "f4")
-        target = ctx.texture((pot(w), pot(h)), 4, dtype="u4")
-        fbo = ctx.framebuffer(color_attachments=[target])
+        targets = [ctx.texture((pot(w), pot(h)), 4, dtype="u4") for _ in range(2)]
+        fbo = ctx.framebuffer(color_attachments=targets)
         ctx.error  # noqa: B018  (see textures.class_target: an integer attachment's query)
         bufs = [
             ctx.buffer(np.ascontiguousarray(a, dtype=t).tobytes() or bytes(16))
@@ -137,11 +150,18 @@ class NearestPass:
             for k, b in enumerate(bufs):
                 b.bind_to_storage_buffer(k)
             self.vao.render(moderngl.TRIANGLES, vertices=3)
-            data = fbo.read(viewport=(0, 0, w, h), components=4, dtype="u4")
+            data = [
+                fbo.read(viewport=(0, 0, w, h), components=4, attachment=k, dtype="u4")
+                for k in range(2)
+            ]
         finally:
-            for obj in (*bufs, fbo, target, tex):
+            for obj in (*bufs, fbo, *targets, tex):
                 obj.release()
-        return np.frombuffer(data, dtype=np.uint32).reshape(h, w, 4)
+        near, more = (np.frombuffer(d, dtype=np.uint32).reshape(h, w, 4) for d in data)
+        out = np.empty((h, w, 8), dtype=np.uint32)
+        out[..., :2], out[..., 2:4], out[..., 4:6] = near[..., :2], near[..., 2:], more[..., :2]
+        out[..., 6:] = more[..., 2:]
+        return out
 
 
 def nearest_pass() -> NearestPass:

@@ -29,7 +29,7 @@ import numpy as np
 
 from ..geometry.caps import chord, pad
 from ..geometry.sphere import cross, dot
-from ..gl.nearest_pass import NONE, NearestPlan, nearest_pass
+from ..gl.nearest_pass import EVERY, FEATURES, NONE, NearestPlan, nearest_pass
 from .field_walk import end_distances, exact_distances, walk_levels
 from .vector.node_levels import NodeArcs
 
@@ -151,7 +151,7 @@ def _block(nodes: NodeArcs, grid, lists: _Lists, where, out: np.ndarray, t: dict
         ends,
     )
     t1 = time.perf_counter()
-    got = eng.run(plan).reshape(-1, 4)
+    got = eng.run(plan).reshape(-1, 8)
     t2 = time.perf_counter()
     cell = (np.arange(len(pj))[:, None] >> shift) * len(cols) + (np.arange(len(pi)) >> shift)
     dist = finish(c, got, node, (first, cnt, cell.ravel()), nodes)
@@ -173,30 +173,33 @@ def _vertex_ids(nodes: NodeArcs, arcs: np.ndarray) -> np.ndarray:
 def finish(c: np.ndarray, got: np.ndarray, node: np.ndarray, lists, nodes: NodeArcs):
     """Return the exact distances (rad, float64) of pixels ``c`` from the GPU's answer.
 
-    ``got`` (pixels, 4) as :meth:`~gloffset.gl.nearest_pass.NearestPass.run` returns
+    ``got`` (pixels, 8) as :meth:`~gloffset.gl.nearest_pass.NearestPass.run` returns
     it, ``node`` the block's list (pair positions to nodes), ``lists`` each cell's first
-    pair and count and each pixel's cell. The least feature's exact distance, the
-    second's where the flags say it is within reach, every arc of the cell's where a
-    third is (those whose caps come within the distance found); an arc's end has the
-    bits the arc's distance has when the end is its nearest point
+    pair and count and each pixel's cell. The exact distances of the features within
+    reach of the least one, the cell's whole list where more may be (those arcs whose
+    caps come within the distance found); an arc's end has the bits the arc's distance
+    has when the end is its nearest point
     (:func:`~gloffset.raster.field_walk.end_distances`).
     """
     first, cnt, cell = lists
-    flags = got[:, 3]
+    info = got[:, 3]
     dist = np.full(len(c), np.inf)
-    has = got[:, 0] != NONE
-    for k, sel in ((0, has), (1, has & (flags & 1 != 0) & (got[:, 1] != NONE))):
-        pix = np.flatnonzero(sel)
-        what = got[pix, k]
-        pair, kind = node[what >> 2], what & 3
-        d = np.empty(len(pix))
-        arc = np.flatnonzero(kind == 0)
-        d[arc] = exact_distances(c, pix[arc], nodes, pair[arc])
-        for end, pts in ((1, nodes.a), (2, nodes.b)):
-            e = np.flatnonzero(kind == end)
-            d[e] = end_distances(c, pix[e], pts[pair[e]])
-        dist[pix] = np.minimum(dist[pix], d)  # one per pixel
-    every = np.flatnonzero(has & (flags & 2 != 0))
+    # the features within reach of the least: (pixel, column) pairs, the least first
+    count = np.where(got[:, 0] != NONE, (info & 0xFF).astype(np.int64) + 1, 0)
+    pix = np.repeat(np.arange(len(c)), count)
+    col = np.arange(len(pix)) - np.repeat(np.cumsum(count) - count, count)
+    what = got[pix, np.asarray(FEATURES)[col]]
+    pair, kind = node[what >> 2], what & 3
+    d = np.empty(len(pix))
+    arc = np.flatnonzero(kind == 0)
+    d[arc] = exact_distances(c, pix[arc], nodes, pair[arc])
+    for end, pts in ((1, nodes.a), (2, nodes.b)):
+        e = np.flatnonzero(kind == end)
+        d[e] = end_distances(c, pix[e], pts[pair[e]])
+    has = np.flatnonzero(count)
+    if len(has):
+        dist[has] = np.minimum.reduceat(d, (np.cumsum(count) - count)[has])
+    every = np.flatnonzero((got[:, 0] != NONE) & (info & EVERY != 0))
     if len(every):
         k = cnt[cell[every]]
         px = np.repeat(every, k)
