@@ -226,8 +226,8 @@ def distance_field(
     module notes). ``"cpu"``: the walk to the pixels in float64, 3 to 4 times the floor
     of the same walk with one candidate arc per cell plus the inside test.
     ``"gpu"``: the walk stops at cells of 8 x 8 pixels, the GPU ranks each pixel's
-    candidates in float32 and the CPU computes one exact distance per pixel (two or the
-    cell's list for the few the float32 values cannot rank): about half the CPU
+    candidates in float32 and the CPU computes one exact distance per pixel (a few, or
+    the cell's list, where the float32 values cannot rank them): about half the CPU
     backend's time even on Mesa's llvmpipe (``benchmarks/field.py``).
     """
     if ellipsoid is not None:

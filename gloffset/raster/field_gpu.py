@@ -6,16 +6,18 @@ those of the CPU walk.
    original arcs: a cell's list holds every arc that can be the nearest (within
    ``max_distance``) of a point within the cell's ``rho``, so of each of its pixels.
 2. ``shaders/nearest.frag`` (:mod:`gloffset.gl.nearest_pass`) measures each pixel
-   against its cell's list in float32 (chords, good to ``NEAREST_ERR``) and returns the
-   arcs of the two least chords and whether a second or a third lies within
-   ``2 NEAREST_ERR`` of the least; blocks of pixels at a time, so memory stays bounded.
+   against its cell's list in float32 (chords of its arcs' features, the foot on the arc
+   or its ends, good to ``NEAREST_ERR``) and returns its six least features, how many
+   lie within ``2 NEAREST_ERR`` of the least and whether more may; blocks of pixels at
+   a time, so memory stays bounded.
 3. Each pixel is finished in float64 with the CPU's kernel
-   (:func:`~gloffset.raster.field_walk.exact_distances`): the least arc's exact
-   distance, the second's where it lies within ``2 NEAREST_ERR``, every arc of the
-   cell's where a third does. An arc whose float32 chord exceeds the least by more than
-   ``2 NEAREST_ERR`` has a true chord greater than the least arc's (by more than the
-   float64 error), so the least exact distance is among those evaluated, and the
-   minimum of the same float64 values is the CPU's, bit for bit.
+   (:func:`~gloffset.raster.field_walk.exact_distances`, whose bits an end's distance
+   has where the end is an arc's nearest point): the features within
+   ``2 NEAREST_ERR`` of the least, the cell's whole list where more may be. A feature
+   whose float32 chord exceeds the least by more than ``2 NEAREST_ERR`` has a true chord
+   greater than the least one's (by more than the float64 error), so the least exact
+   distance is among those evaluated, and the minimum of the same float64 values is the
+   CPU's, bit for bit.
 
 Pixels whose cell has no arc (all beyond ``max_distance``) stay ``inf``, as on the CPU.
 """
