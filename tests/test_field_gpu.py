@@ -196,3 +196,11 @@ def test_float32_chords_within_their_bound(mexico):
     whole = got[:, 3] & EVERY != 0
     assert 0 < whole.sum() < n // 200
     assert err[~whole].max() < NEAREST_ERR / 4, f"{err[~whole].max():.3g} of {NEAREST_ERR}"
+
+
+@pytest.mark.slow
+def test_all_countries_bit_for_bit():
+    """The 234 countries of 1:10m (307,857 vertices), on the globe and on a cube."""
+    shape = gloffset.read(DATA / "countries_10m.geojson")
+    assert_same_bits(shape, Equirect(1024, 512))
+    assert_same_bits(shape, Cube(96), max_distance=300e3)
