@@ -7,7 +7,9 @@ One run, one input (default: the 234 countries of 1:10m), three grids (``--case`
 Europe's box, -26,35,46,71: square pixels, as GDAL's proximity in degrees needs), each with:
 
 * gloffset: the exact signed distance field (float32, metres), timed once (the first
-  case cold: the shape's multiresolution tree is built inside);
+  case cold: the shape's multiresolution tree is built inside), with the default GPU
+  backend (its stages timed again on their own: ``gpu_split``) and with
+  ``backend="cpu"`` (``gloffset_cpu``: its time and whether its values have the same bits);
 * scipy's ``distance_transform_edt`` on the land mask (the field's sign), the pixel
   spacing in degrees, converted to km as users do (1 degree = R pi / 180);
 * GDAL's ``ComputeProximity`` on the same mask (``DISTUNITS=GEO``: degrees, converted the
@@ -15,7 +17,7 @@ Europe's box, -26,35,46,71: square pixels, as GDAL's proximity in degrees needs)
   when present; the record says so when it is absent;
 * spherely (S2) distances per pixel on a sample (exact, slow; signed with the reference's
   inside test): its time per pixel, and that time for the whole grid;
-* (``global`` only) the floor this machine sets for the same passes: the field of a
+* (``global`` only) the floor this machine sets for the CPU's passes: the field of a
   single point (one candidate arc per cell at every level, each pixel finished in float64
   against it) plus the inside test of the pixels (the float64 render at distance 0), and
   the float64 finishing alone (one exact arc distance per pixel); the field's time as a
@@ -152,7 +154,7 @@ def floor(shape, grid: Equirect) -> dict:
     finishing alone (see the module notes)."""
     point = gloffset.read({"type": "Point", "coordinates": [-99.1, 19.4]})
     t = time.perf_counter()
-    gloffset.distance_field(point, grid)
+    gloffset.distance_field(point, grid, backend="cpu")
     t_walk = time.perf_counter() - t
     t = time.perf_counter()
     gloffset.render(shape, 0.0, grid, backend="cpu")
@@ -173,6 +175,21 @@ def floor(shape, grid: Equirect) -> dict:
     }
 
 
+def gpu_split(shape, grid: Equirect) -> dict:
+    """The GPU backend's stages, timed on their own: the walk to the lists' level, the
+    blocks' lists and centres, the GL pass, the float64 finishing, the inside test."""
+    from gloffset.raster import field_gpu
+    from gloffset.raster.vector import curves
+
+    split: dict = {}
+    field_gpu.gpu_distances(shape, grid, np.inf, lambda n: None, split)
+    t = time.perf_counter()
+    if shape.rings:
+        curves.classify_curves(shape, 0.0, grid)
+    split["inside"] = time.perf_counter() - t
+    return {f"{k}_s": v for k, v in split.items()}
+
+
 def field_case(shape, name: str, args) -> dict:
     """The record of one grid of :data:`CASES`: gloffset and the recipes beside it."""
     w, h, bounds = CASES[name]
@@ -180,6 +197,9 @@ def field_case(shape, name: str, args) -> dict:
     t = time.perf_counter()
     values = gloffset.distance_field(shape, grid).values
     t_field = time.perf_counter() - t
+    t = time.perf_counter()
+    cpu = gloffset.distance_field(shape, grid, backend="cpu").values
+    t_cpu = time.perf_counter() - t
 
     rng = np.random.default_rng(0)
     j, i = rng.integers(0, h, args.sample), rng.integers(0, w, args.sample)
@@ -196,6 +216,11 @@ def field_case(shape, name: str, args) -> dict:
         "size": [w, h],
         "bounds": list(bounds),
         "gloffset": {"s": t_field, **errors_km(values[j, i] / 1e3, want)},
+        "gloffset_cpu": {
+            "s": t_cpu,
+            "same_bits": bool(np.array_equal(values.view(np.uint32), cpu.view(np.uint32))),
+        },
+        "gpu_split": gpu_split(shape, grid),
         "reference_sample": {"pixels": args.sample, "s": t_ref},
     }
     t_edt, edt = scipy_edt(land, grid)
@@ -220,6 +245,7 @@ def field_case(shape, name: str, args) -> dict:
     if name == "global":  # the floor of one grid is enough
         rec["floor"] = floor(shape, grid)
         rec["floor"]["field_over_floor"] = t_field / rec["floor"]["s"]
+        rec["floor"]["cpu_field_over_floor"] = t_cpu / rec["floor"]["s"]
     targets = {}
     if "s" in rec["gdal_proximity"]:
         targets["gdal_ratio"] = t_field / rec["gdal_proximity"]["s"]

@@ -165,7 +165,7 @@ def test_exact_is_arc_distance_bit_for_bit(mexico):
     branch on its own pairs) has the bits of :func:`arc_distance`, on Mexico's nodes,
     merged ones included, from points on and near its coast and far away."""
     from gloffset.geometry.sphere import arc_distance, normalize
-    from gloffset.raster.field import _exact
+    from gloffset.raster.field_walk import exact_distances
     from gloffset.raster.vector.node_levels import NodeArcs
 
     nodes = NodeArcs.from_shape(mexico)
@@ -175,7 +175,7 @@ def test_exact_is_arc_distance_bit_for_bit(mexico):
     cell = rng.integers(0, len(c), 200_000)
     node = rng.integers(0, len(nodes.a), 200_000)
     want = arc_distance(c[cell], nodes.a[node], nodes.b[node], nodes.n[node])
-    assert _exact(c, cell, nodes, node).tobytes() == want.tobytes()
+    assert exact_distances(c, cell, nodes, node).tobytes() == want.tobytes()
 
 
 def test_lines_and_points_are_unsigned():
@@ -278,6 +278,10 @@ def test_cli_geotiff_npy_and_cube(mexico_path, mexico, tmp_path):
     assert cli("field", *common, "-o", npy).returncode == 0
     full = gloffset.distance_field(mexico, grid).values
     assert np.array_equal(np.load(npy), full)
+    assert cli("field", *common, "--backend", "cpu", "-o", npy).returncode == 0
+    assert np.load(npy).tobytes() == full.tobytes()
+    bad = cli("field", *common, "--backend", "cuda", "-o", npy)
+    assert bad.returncode == 2 and b"'cuda' is not one of 'gpu', 'cpu'" in bad.stderr
     folder = tmp_path / "faces"
     proc = cli("field", mexico_path, "--grid", "cube", "--size", "16", "-o", folder)
     assert proc.returncode == 0, proc.stderr.decode()
@@ -376,10 +380,10 @@ def test_the_lists_follow_the_pixels(mexico, monkeypatch):
     of its pixels, not every arc within a cell's width of its nearest distance: the
     output level gets a handful of candidates per pixel (27 with the plain ``2 rho``
     pruning of a nearest-neighbour search, here), and the values stay exact."""
-    from gloffset.raster import field as fieldmod
+    from gloffset.raster import field_walk as walkmod
 
     seen = {}
-    bound = fieldmod._bound
+    bound = walkmod._bound
 
     def counting(f, *args, final, **kw):
         if final:
@@ -387,9 +391,9 @@ def test_the_lists_follow_the_pixels(mexico, monkeypatch):
             seen["pairs"] = seen.get("pairs", 0) + len(f.pair_cell)
         return bound(f, *args, final=final, **kw)
 
-    monkeypatch.setattr(fieldmod, "_bound", counting)
+    monkeypatch.setattr(walkmod, "_bound", counting)
     grid = Equirect(1024, 512)
-    field = gloffset.distance_field(mexico, grid)
+    field = gloffset.distance_field(mexico, grid, backend="cpu")
     assert seen["cells"] == 1024 * 512
     assert seen["pairs"] / seen["cells"] < 8.0
     j, i, p = sample(grid, 2000, seed=7)
@@ -404,7 +408,7 @@ def test_bisector_pruning_is_rigorous():
     from types import SimpleNamespace
 
     from gloffset.geometry.sphere import angle, normalize, rotate
-    from gloffset.raster.field import _maybe_nearer
+    from gloffset.raster.field_walk import _maybe_nearer
 
     rng = np.random.default_rng(11)
     n = 4000

@@ -19,6 +19,7 @@ from ..shape import read
 from . import main
 from .options import (
     angle,
+    choice_option,
     input_options,
     parse_bounds,
     parse_ellipsoid,
@@ -83,6 +84,11 @@ def _format(output: str, grid_kind: str) -> str:
     metavar="NAME|A,F",
     help="Refused with the reason: fields are on the sphere of --radius (see the docs).",
 )
+@choice_option(
+    "--backend",
+    choices=("gpu", "cpu"),
+    help="Where each pixel's nearest arcs are found (the values are the same, bit for bit).",
+)
 @input_options
 def field_cmd(
     input,
@@ -93,6 +99,7 @@ def field_cmd(
     bounds,
     max_distance,
     output,
+    backend="gpu",
     layer=None,
     where=None,
     densify=None,
@@ -140,6 +147,7 @@ def field_cmd(
             max_distance=m,
             radius=radius,
             progress=progress if bar is not None else None,
+            backend=backend,
         )
     finally:
         if bar is not None:

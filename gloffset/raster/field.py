@@ -8,11 +8,13 @@ never negative). ``s`` does not depend on ``d``, so one field answers every dist
 
 How it is computed: a walk over the grid's levels, coarse to fine, every cell with a
 list of candidate nodes of the multiresolution tree (paper Sec. 4.2, Eq. 9 bounds),
-pruned by their bounds (:func:`_bound`) and by a bisector test against the cell's
-nearest boundary vertex (:func:`_maybe_nearer`); nodes are split as the cells shrink,
-down to the original edges at the pixels, each pixel ending with the exact float64
-distance of its nearest arc. The sign is the inside status of the float64 render at
-distance 0. The derivation is in the design notes (``docs/design.md``).
+pruned by bounds and by a bisector test, down to the original edges at the pixels,
+each pixel ending with the exact float64 distance of its nearest arc
+(:mod:`gloffset.raster.field_walk`). With ``backend="gpu"`` the walk stops at cells of
+8 x 8 pixels and a fragment shader ranks each pixel's candidates in float32, the
+pixels finished in float64 to the same bits (:mod:`gloffset.raster.field_gpu`). The
+sign is the inside status of the float64 render at distance 0. The derivation is in
+the design notes (``docs/design.md``).
 
 Accuracy: each value is the float64 distance (exact to 1e-15 rad) times ``radius``,
 clamped to ``[-max_distance, max_distance]`` and rounded to float32 once: within 1
@@ -26,27 +28,23 @@ their inside status is the sign bit of the value, kept exactly: ``-0.0`` inside)
 from __future__ import annotations
 
 import math
-import weakref
 
 import numpy as np
 
 from ..errors import OptionError
-from ..geometry.caps import CAP_SLACK, cap_range, pad
 from ..geometry.classes import CONTAINED
-from ..geometry.sphere import angle, cross, dot, pair_dots
 from ..grids.protocol import Image
 from ..shape import read
 from ..units import EARTH_RADIUS, RASTER_LIMIT, check_radius, offset_angle, to_angle
+from .field_gpu import gpu_distances
+from .field_walk import walk_levels
 from .simplified import band_members
 from .vector import curves
-from .vector.levels import Frontier, children
 from .vector.node_levels import NodeArcs
 
 __all__ = ["DistanceField", "distance_field"]
 
-#: Cells and candidate pairs of one part of a level (a larger level is walked in parts
-#: of contiguous cells: the next level has about four times as many of each).
-_PART_CELLS, _PART_PAIRS = 1 << 16, 1 << 20
+_BACKENDS = ("gpu", "cpu")
 
 #: Pixels decided again in float64 per batch of :meth:`DistanceField.threshold`.
 _BATCH = 1 << 16
@@ -217,6 +215,7 @@ def distance_field(
     radius: float = EARTH_RADIUS,
     ellipsoid=None,
     progress=None,
+    backend: str = "gpu",
 ) -> DistanceField:
     """Return the signed distance field of ``shape`` on ``grid``.
 
@@ -236,6 +235,11 @@ def distance_field(
         Called as ``progress(done, total)`` as the work goes on: ``done`` rises to
         ``total``, in pixels (those whose distances are final, then, for a shape with
         polygons, those of each level of the inside test, in output pixels).
+    backend : {"gpu", "cpu"}
+        Where the pixels' nearest arcs are found: ``"gpu"`` (the GL context's fragment
+        shaders, in float32, finished in float64) or ``"cpu"`` (in float64). The values
+        are the same, bit for bit; the walk above the pixels and the inside test run on
+        the CPU either way.
 
     Returns
     -------
@@ -249,22 +253,28 @@ def distance_field(
     times ``radius``) rounded once to float32, so within 1 float32 ulp of the exact
     value; its sign is the inside status of the levels' crossing parity, as in the
     float64 reference renderer. ``threshold(d)`` equals ``render(shape, d, grid)`` (see
-    :meth:`DistanceField.threshold`). Cost: the output pixels, each against the few
-    arcs that can be its nearest (see the module notes), on the CPU in float64: 3 to 4
-    times the floor of the same walk with one candidate arc per cell plus the inside
-    test (``benchmarks/field.py``).
+    :meth:`DistanceField.threshold`). Both backends give the same values, bit for bit.
+    Cost: the output pixels, each against the few arcs that can be its nearest (see the
+    module notes). ``"cpu"``: the walk to the pixels in float64, 3 to 4 times the floor
+    of the same walk with one candidate arc per cell plus the inside test.
+    ``"gpu"``: the walk stops at cells of 8 x 8 pixels, the GPU ranks each pixel's
+    candidates in float32 and the CPU computes one exact distance per pixel (a few, or
+    the cell's list, where the float32 values cannot rank them): about half the CPU
+    backend's time even on Mesa's llvmpipe (``benchmarks/field.py``).
     """
     if ellipsoid is not None:
         raise OptionError(ellipsoid_refusal(ellipsoid))
+    if backend not in _BACKENDS:
+        raise OptionError(f"backend must be one of {', '.join(_BACKENDS)}, got {backend!r}")
     radius = check_radius(radius)
     shape = read(shape)
     _check_grid(grid)
     m = _max_angle(max_distance, radius)
     count = _Progress(progress, grid, bool(shape.rings))
     if grid.n_faces > 1:
-        values = np.stack([_field(shape, f, m, radius, count) for f in grid.faces])
+        values = np.stack([_field(shape, f, m, radius, count, backend) for f in grid.faces])
     else:
-        values = _field(shape, grid, m, radius, count)
+        values = _field(shape, grid, m, radius, count, backend)
     return DistanceField(
         shape, grid, values, radius, None if max_distance is None else float(max_distance)
     )
@@ -307,14 +317,17 @@ class _Progress:
         return level
 
 
-def _field(shape, grid, m: float, radius: float, count: _Progress) -> np.ndarray:
+def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str) -> np.ndarray:
     """Return the float32 field of one grid (clamped to ``+-m`` rad, ``m`` may be inf).
 
     The unsigned distances of :func:`_distances`, negated where the levels' float64
     render at distance 0 (:func:`gloffset.raster.vector.curves.classify_curves`) has the
     pixel inside (a pixel on the curves has the value 0 either way).
     """
-    dist = _distances(shape, grid, m, count)
+    if backend == "gpu" and grid.n_levels > 1:
+        dist = gpu_distances(shape, grid, m, count.add)
+    else:
+        dist = _distances(shape, grid, m, count)
     inside = np.zeros(dist.shape, dtype=bool)
     if shape.rings:
         before = count.done
@@ -329,337 +342,14 @@ def _distances(shape, grid, m: float, count: _Progress) -> np.ndarray:
     """Return the distance (rad, float64) from each pixel centre to the nearest arc.
 
     Exact where it is at most ``m`` (larger than ``m`` elsewhere): the levels walked
-    depth first with lists of nodes of the multiresolution tree (see the module notes).
+    depth first with lists of nodes of the multiresolution tree
+    (:func:`~gloffset.raster.field_walk.walk_levels`) down to the output pixels.
     """
     nodes = NodeArcs.from_shape(shape)
-    trig = np.cos(nodes.reach), np.sin(nodes.reach)
     last = grid.n_levels - 1
-    h0, w0 = grid.level_shape(0)
-    out = np.full((h0 << last, w0 << last), np.inf)
-    top = nodes.top[nodes.boundary[nodes.top]]
-    jj, ii = np.meshgrid(np.arange(h0), np.arange(w0), indexing="ij")
-    cells = np.column_stack([jj.ravel(), ii.ravel()])
-    k = len(cells)
-    c = grid.centers(0, cells[:, 0], cells[:, 1])
-    rho = grid.rho_at(0, cells[:, 0], cells[:, 1])
-    pc, pn = np.repeat(np.arange(k), len(top)), np.tile(top, k)
-    stack = [(Frontier(0, cells, c, rho, pc, pn, np.zeros((k, 0), np.uint8)), False)]
-    while stack:  # depth first: one part of each level at a time
-        f, parent = stack.pop()
-        if parent:
-            cells, _, c, rho, pc, pn = children(f, grid)
-            f = Frontier(f.level + 1, cells, c, rho, pc, pn, np.zeros((len(cells), 0), np.uint8))
-        reach = _kids_reach(f, grid) if f.level == last - 1 else f.rho
-        f, dist = _bound(
-            f, nodes, trig, m, reach, final=f.level == last, leaves=f.level == last - 1
-        )
-        if f.level == last:
-            out[f.cells[:, 0], f.cells[:, 1]] = dist
-            count.add(len(f.cells))
-            continue
-        stack.extend((part, True) for part in reversed(list(_parts(f))))
     h, w = grid.level_shape(last)
-    return out[:h, :w]
-
-
-#: Above the output level a cell's nodes have error bounds of at most this fraction of
-#: its rho (finer nodes tighten the bounds, coarser ones shorten the lists).
-_KAPPA = 0.0625
-
-#: Absolute slack (rad) on the bounds of :func:`_bound` (exact float64 distances are good
-#: to 1e-15 rad; the error bounds of the nodes are padded already).
-_TINY = 1e-14
-
-
-def _kids_reach(f: Frontier, grid) -> np.ndarray:
-    """Return the farthest child centre (output level) from each cell's centre, rounded up.
-
-    These are the only points of the next level whose distances are asked for, so the
-    lists of the level above the output need hold their nearest arcs only (at about half
-    the cell's ``rho``).
-    """
-    h, w = grid.level_shape(f.level + 1)
-    out = np.zeros(len(f.cells))
-    for dj in (0, 1):
-        for di in (0, 1):
-            j = np.minimum(2 * f.cells[:, 0] + dj, h - 1)
-            i = np.minimum(2 * f.cells[:, 1] + di, w - 1)
-            out = np.maximum(out, angle(grid.centers(f.level + 1, j, i), f.centers))
-    return pad(out)
-
-
-def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, leaves: bool = False):
-    """Return the pairs (cells, nodes) that can hold a nearest arc, and the distances.
-
-    The pairs of ``f`` that can hold the nearest boundary arc of some point within
-    ``reach`` (``rho``, or less: :func:`_kids_reach`) of a cell's centre,
-    every node split until its error bound is at most :data:`_KAPPA` ``rho``; and each
-    cell's distance to its nearest pair (``inf`` where it has none). At the output level
-    (``final``) only the pixel centre is asked for (``reach`` is not read): nodes are
-    split down to the original arcs, the distance is exact and ``f`` comes back as it
-    was (no list goes further down). With ``leaves`` (the level above the output) the
-    nodes are split down to the original arcs too.
-
-    Branch and bound, rigorous both ways: a pair's run lies no nearer to the centre than
-    its lower bound (the angle to the node's cap centre less the cap's radius,
-    :func:`~gloffset.geometry.caps.cap_range`, widened by
-    :data:`~gloffset.geometry.caps.CAP_SLACK`; or the
-    exact distance to its arc less its error bound), and no farther than the exact
-    distance to its arc plus its error bound. A pair whose lower bound exceeds the least
-    upper bound of the cell by more than ``2 reach`` (by nothing at the output level) is
-    nearer to no point within ``reach`` than that one (nor within ``m`` of any, beyond
-    ``m + reach``). Above the output level a pair kept for that slack alone must also
-    pass the bisector test against the cell's nearest boundary vertex found so far
-    (:func:`_maybe_nearer`). Each pair's bounds are computed once: a round computes
-    those of the halves of the nodes split in the round before, the least upper bounds
-    carried over. At the output level with arcs only (as the level above leaves its
-    lists), every pair's exact distance instead (:func:`_nearest`).
-    """
-    if final and nodes.leaf[f.pair_arc].all():
-        return f, _nearest(f, nodes)
-    c, rho = f.centers, f.rho
-    k = len(f.cells)
-    bound = np.where(leaves, 0.0, _KAPPA * rho)  # read above the output level only
-    slack = 0.0 if final else 2.0 * reach
-    far = m if final else m + reach
-    best = np.full(k, np.inf)
-    cell, node = f.pair_cell, f.pair_arc
-    none = np.zeros(0)
-    # (cells, nodes, lower bounds, exact distances) of the pairs left as they are
-    done = [(cell[:0], node[:0], none, none)]
-    # the nearest boundary vertex found so far of each cell (cosine, point)
-    vcos, vtx = np.full(k, -2.0), np.zeros((k, 3))
-    while len(cell):
-        cm = pair_dots(c, cell, nodes.mid, node)
-        lo, hi = cap_range(cm, nodes.reach[node])
-        t = 0.5 * (lo + hi)  # the angle to the cap's centre
-        lo = lo - CAP_SLACK
-        hi = hi + CAP_SLACK
-        # first each cell's likeliest pair of the round (least upper bound): its exact
-        # distance tightens the bound that the others are tested against
-        least = np.full(k, np.inf)
-        np.minimum.at(least, cell, hi)
-        np.minimum(best, least, out=best)
-        first = np.flatnonzero(hi == least[cell])
-        first = first[np.diff(cell[first], prepend=-1) != 0]  # one per cell (sorted)
-        fi = node[first]
-        exact = np.full(len(cell), np.inf)
-        exact[first] = _exact(c, cell[first], nodes, fi)
-        np.minimum.at(best, cell[first], exact[first] + pad(nodes.err[fi]) + _TINY)
-        near = lo <= best[cell]
-        near[first] = False
-        rest = np.flatnonzero(near)
-        exact[rest] = _exact(c, cell[rest], nodes, node[rest])
-        near[first] = True
-        near = np.flatnonzero(near)
-        ni = node[near]
-        err = pad(nodes.err[ni]) + _TINY
-        np.minimum.at(best, cell[near], exact[near] + err)
-        lo[near] = np.maximum(lo[near], exact[near] - err)
-        keep = lo <= np.minimum(best + slack, far)[cell] + _TINY
-        if not final:
-            _nearest_vertices(c, cell[near], ni, nodes, vcos, vtx)
-            # the pairs kept for the slack alone (a pair that may be the nearest at the
-            # centre stays whatever the test says, nearly always)
-            kept = np.flatnonzero(keep & (lo > best[cell]))
-            keep[kept] = _maybe_nearer(
-                c, cell[kept], node[kept], cm[kept], t[kept], nodes, trig, vcos, vtx, reach
-            )
-        split = keep & ~nodes.leaf[node] & (nodes.err[node] > (0.0 if final else bound[cell]))
-        stay = np.flatnonzero(keep & ~split)
-        done.append((cell[stay], node[stay], lo[stay], exact[stay]))
-        s = np.flatnonzero(split)
-        cell = np.repeat(cell[s], 2)
-        node = nodes.child[node[s]].ravel()
-    cell, node, lo, exact = (np.concatenate(x) for x in zip(*done))
-    dist = np.full(k, np.inf)
-    np.minimum.at(dist, cell, exact)
-    if final:  # the distances are all that is asked for (no list goes further down)
-        return f, dist
-    # the rounds' pairs against the least upper bounds of all rounds, sorted by cell
-    keep = lo <= np.minimum(best + slack, far)[cell] + _TINY
-    cell, node = cell[keep], node[keep]
-    order = np.argsort(cell, kind="stable")
-    g = Frontier(f.level, f.cells, c, rho, cell[order], node[order], f.status)
-    return g, dist
-
-
-def _nearest(f: Frontier, nodes: NodeArcs) -> np.ndarray:
-    """Return each cell's distance to its nearest pair, all of whose nodes are arcs.
-
-    Every pair's exact distance, with no bound computed first: at the output level
-    nearly every pair needs its exact distance (the lists hold the arcs that can be
-    nearest to the pixel's centre), and the least of them is the least of those a
-    pruning would leave, bit for bit (a pair pruned is never the nearest one).
-    """
-    dist = np.full(len(f.cells), np.inf)
-    np.minimum.at(dist, f.pair_cell, _exact(f.centers, f.pair_cell, nodes, f.pair_arc))
-    return dist
-
-
-#: Pairs per call of the kernel of :func:`_exact` (its temporaries then stay in the
-#: processor's caches).
-_CHUNK = 1 << 15
-
-
-class _Ends:
-    """The nodes' arcs as :func:`_exact` reads them.
-
-    Coordinates as contiguous columns (gathered one at a time, no (k, 3) copies), and
-    what :func:`~gloffset.geometry.sphere.arc_distance` computes per arc (``n x a``,
-    ``b x n`` and ``n.n > 0.5``) computed once per node, with the same bits.
-    """
-
-    def __init__(self, nodes: NodeArcs):
-        n = nodes.n
-        self.a = [np.ascontiguousarray(nodes.a[:, k]) for k in range(3)]
-        self.b = [np.ascontiguousarray(nodes.b[:, k]) for k in range(3)]
-        self.n = [np.ascontiguousarray(n[:, k]) for k in range(3)]
-        na, bn = cross(n, nodes.a), cross(nodes.b, n)
-        self.na = [np.ascontiguousarray(na[:, k]) for k in range(3)]
-        self.bn = [np.ascontiguousarray(bn[:, k]) for k in range(3)]
-        self.ok = dot(n, n) > 0.5
-
-
-#: The :class:`_Ends` of each node table (made once per table, kept while it lives).
-_ENDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def _ends(nodes: NodeArcs) -> _Ends:
-    got = _ENDS.get(nodes)
-    if got is None:
-        got = _ENDS[nodes] = _Ends(nodes)
-    return got
-
-
-def _exact(c, cell, nodes: NodeArcs, node) -> np.ndarray:
-    """Return the distances from ``c[cell]`` to the arcs of ``node``.
-
-    :func:`~gloffset.geometry.sphere.arc_distance` bit for bit (the same operations on
-    the same values, each in the same order), in chunks of :data:`_CHUNK` pairs, with
-    each pair's distance to the line computed only where its foot falls on the arc and
-    its distance to the ends only where it does not.
-    """
-    ends = _ends(nodes)
-    cols = [np.ascontiguousarray(c[:, k]) for k in range(3)]
-    out = np.empty(len(cell))
-    for s in range(0, len(cell), _CHUNK):
-        ci, ni = cell[s : s + _CHUNK], node[s : s + _CHUNK]
-        out[s : s + _CHUNK] = _arc_distance([x[ci] for x in cols], ends, ni)
+    out = np.full((h, w), np.inf)
+    for f, dist in walk_levels(nodes, grid, m, last):
+        out[f.cells[:, 0], f.cells[:, 1]] = dist
+        count.add(len(f.cells))
     return out
-
-
-def _dot3(u, v, i=None):
-    """Return ``u . v`` for columns ``u``, ``v`` (``v`` gathered at ``i``).
-
-    Summed as :func:`~gloffset.geometry.sphere.dot` sums: ``(u0 v0 + u1 v1) + u2 v2``.
-    """
-    if i is None:
-        return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-    out = u[0] * v[0][i]
-    out += u[1] * v[1][i]
-    out += u[2] * v[2][i]
-    return out
-
-
-def _arc_distance(p, ends: _Ends, ni) -> np.ndarray:
-    """Return the distances from points ``p`` (columns) to the arcs ``ni`` of ``ends``.
-
-    :func:`~gloffset.geometry.sphere.arc_distance`'s, each branch on its own pairs (see
-    :func:`_exact`).
-    """
-    inside = _dot3(p, ends.na, ni) >= 0.0
-    inside &= _dot3(p, ends.bn, ni) >= 0.0
-    inside &= ends.ok[ni]
-    out = np.empty(len(ni))
-    on = np.flatnonzero(inside)
-    if len(on):
-        q, j = [x[on] for x in p], ni[on]
-        n = [x[j] for x in ends.n]
-        pn = _dot3(q, n)
-        foot = [q[k] - pn * n[k] for k in range(3)]
-        out[on] = np.arctan2(np.abs(pn), np.sqrt(_dot3(foot, foot)))
-    off = np.flatnonzero(~inside)
-    if len(off):
-        q, j = [x[off] for x in p], ni[off]
-        to = []
-        for e in (ends.a, ends.b):
-            v = [x[j] for x in e]
-            dm = [q[k] - v[k] for k in range(3)]
-            dp = [q[k] + v[k] for k in range(3)]
-            to.append(2.0 * np.arctan2(np.sqrt(_dot3(dm, dm)), np.sqrt(_dot3(dp, dp))))
-        out[off] = np.minimum(to[0], to[1])
-    return out
-
-
-#: Slack on the dot products of :func:`_maybe_nearer` (unit vectors and sums of two: each
-#: computed to a few 1e-16).
-_DOT_SLACK = 1e-12
-#: Slack under the square root of :func:`_maybe_nearer` (its argument is a difference of
-#: values of at most 4, each good to 1e-15).
-_SQ_SLACK = 1e-13
-
-
-def _nearest_vertices(c, cell, node, nodes: NodeArcs, vcos, vtx) -> None:
-    """Update each cell's nearest boundary vertex with the ends of the nodes ``node``.
-
-    ``vcos`` is the cosine of its angle to the centre, ``vtx`` the point; the ends of a
-    boundary node are original vertices of the boundary, bit for bit.
-    """
-    for ends in (nodes.a, nodes.b):
-        cos = pair_dots(c, cell, ends, node)
-        np.maximum.at(vcos, cell, cos)
-        win = np.flatnonzero(cos == vcos[cell])
-        vtx[cell[win]] = ends[node[win]]
-
-
-def _maybe_nearer(c, cell, node, cm, t, nodes: NodeArcs, trig, vcos, vtx, reach) -> np.ndarray:
-    """Return whether a node's run can be as near as the cell's vertex to some point.
-
-    Whether it can be as near as the cell's vertex ``vtx`` to some point
-    within ``reach`` of the cell's centre ``c``: False only where every such point is
-    nearer to the vertex than to every point of the node's cap (centre ``mid``, radius
-    ``r`` = ``nodes.reach``, which holds its run), so that the run holds no nearest point.
-    ``cm`` is ``c.mid``, ``t`` its angle (good to ``CAP_SLACK / 2``), ``vcos`` ``c.vtx``,
-    ``trig`` the cosines and sines of ``nodes.reach``.
-
-    The test, rigorous: for ``q`` outside the cap, the cap's nearest point ``y`` has ``q.y
-    = cos(angle(q, mid) - r) = cos r (q.mid) + sin r sin(angle(q, mid))``, so ``q.v > sin
-    r S`` with ``v = vtx - cos r mid`` and ``S >= max(sin(angle(q, mid)), sin r)`` puts
-    ``q`` nearer to the vertex (and outside the cap: inside, ``q.v <= 1 - cos^2 r = sin^2
-    r``, which fails the test). The least of the linear ``q.v`` over the disc of radius
-    ``reach`` about ``c`` is ``c.v cos(reach) - sqrt(|v|^2 - (c.v)^2) sin(reach)``, with
-    ``c.v = c.vtx - cos r c.mid`` and ``|v|^2 = 1 + cos^2 r - 2 cos r vtx.mid``; and ``S =
-    sin(min(pi / 2, t + reach))``. The rounding of these (a few 1e-16 on values of at
-    most 4) is covered by :data:`_DOT_SLACK` and by :data:`_SQ_SLACK` under the root.
-    """
-    r = nodes.reach[node]
-    rr = reach[cell]
-    cr = trig[0][node]
-    cv = vcos[cell] - cr * cm
-    vv = 1.0 + cr * cr - 2.0 * cr * pair_dots(vtx, cell, nodes.mid, node)
-    s2 = np.maximum(vv - cv * cv, 0.0) + _SQ_SLACK
-    least = cv * np.cos(reach)[cell] - np.sqrt(s2) * np.sin(reach)[cell]
-    sin_s = np.sin(np.minimum(t + rr + CAP_SLACK, 0.5 * np.pi))
-    sin_r = trig[1][node]
-    out = least <= sin_r * np.maximum(sin_s, sin_r) + _DOT_SLACK
-    # the test holds for caps and discs smaller than a quarter circle only
-    return out | (r >= 1.0) | (rr >= 1.0)
-
-
-def _parts(f: Frontier):
-    """Return ``f`` cut into parts of contiguous cells.
-
-    Each part has at most :data:`_PART_CELLS` cells and about :data:`_PART_PAIRS` pairs
-    (the pairs are sorted by cell).
-    """
-    k = len(f.cells)
-    if k <= _PART_CELLS and len(f.pair_cell) <= _PART_PAIRS:
-        yield f
-        return
-    before = np.searchsorted(f.pair_cell, np.arange(k))  # pairs before each cell
-    part = np.maximum(before // _PART_PAIRS, np.arange(k) // _PART_CELLS)
-    cuts = np.flatnonzero(np.r_[True, part[1:] != part[:-1]])
-    at = np.r_[before[cuts], len(f.pair_cell)]
-    for n, (a, b) in enumerate(zip(cuts, np.r_[cuts[1:], k])):
-        yield f.part(int(a), int(b), int(at[n]), int(at[n + 1]))
