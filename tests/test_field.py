@@ -463,3 +463,43 @@ def test_threshold_cuts_compare_float32_values_as_float64_does():
         sp = np.spacing(np.maximum(np.abs(xd), abs(d)).astype(np.float32)).astype(np.float64)
         near = np.abs(xd - d) <= 2.0 * sp
         assert ((x >= lo) & (x <= hi))[near].all(), d
+
+
+@pytest.mark.parametrize(
+    "which, grid",
+    [
+        ("mexico", Tile(5, 6, 13)),
+        ("mexico", Tile(8, 55, 110)),
+        ("world", Tile(4, 0, 4)),  # Chukotka and Alaska, at the antimeridian
+        ("world", Equirect(256, 256, (170, -30, -170, -10))),  # Fiji, across 180 degrees
+    ],
+)
+def test_a_small_grid_starts_from_its_own_list(which, grid, request, monkeypatch):
+    """A tile or a regional box is first walked as one cell: its level-0 cells start from
+    the nodes that can be nearest to some point of the grid, not from the tree's top. The
+    values are those of the walk from the top, bit for bit; a global grid starts from the
+    top."""
+    from gloffset.raster import field_walk
+    from gloffset.raster.vector.node_levels import NodeArcs
+
+    if which == "mexico":
+        shape = request.getfixturevalue("mexico")
+    else:
+        shape = gloffset.read(DATA / "world_110m.geojson")
+    nodes = NodeArcs.from_shape(shape)
+    top = nodes.top[nodes.boundary[nodes.top]]
+    trig = np.cos(nodes.reach), np.sin(nodes.reach)
+    h, w = grid.level_shape(0)
+    j, i = np.divmod(np.arange(h * w), w)
+    c, rho = grid.centers(0, j, i), grid.rho_at(0, j, i)
+    own = field_walk._root_list(nodes, trig, np.inf, c, rho, top)
+    assert not np.array_equal(np.sort(own), np.sort(top))
+    world = Equirect(64, 32)
+    h, w = world.level_shape(0)
+    j, i = np.divmod(np.arange(h * w), w)
+    c, rho = world.centers(0, j, i), world.rho_at(0, j, i)
+    assert field_walk._root_list(nodes, trig, np.inf, c, rho, top) is top
+    got = gloffset.distance_field(shape, grid, radius=1.0).values
+    monkeypatch.setattr(field_walk, "_ROOT_REACH", 0.0)  # every grid from the top
+    want = gloffset.distance_field(shape, grid, radius=1.0).values
+    assert np.array_equal(got.view(np.uint32), want.view(np.uint32))

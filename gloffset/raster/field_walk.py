@@ -51,6 +51,7 @@ def walk_levels(nodes: NodeArcs, grid, m: float, stop: int):
     k = len(cells)
     c = grid.centers(0, cells[:, 0], cells[:, 1])
     rho = grid.rho_at(0, cells[:, 0], cells[:, 1])
+    top = _root_list(nodes, trig, m, c, rho, top)
     pc, pn = np.repeat(np.arange(k), len(top)), np.tile(top, k)
     stack = [(Frontier(0, cells, c, rho, pc, pn, np.zeros((k, 0), np.uint8)), False)]
     leaves = min(stop, last - 1)  # the level whose nodes are split down to the arcs
@@ -65,6 +66,41 @@ def walk_levels(nodes: NodeArcs, grid, m: float, stop: int):
             yield f, dist
             continue
         stack.extend((part, True) for part in reversed(list(_parts(f))))
+
+
+#: A grid whose level 0 lies within this angle (rad) of its centre is first walked as one
+#: cell (:func:`_root_list`): a tile, a regional box.
+_ROOT_REACH = 1.0
+
+
+def _root_list(nodes: NodeArcs, trig, m: float, c: np.ndarray, rho: np.ndarray, top):
+    """Return the nodes every cell of level 0 starts with.
+
+    For a small grid (its level-0 cells within :data:`_ROOT_REACH` of their mean
+    direction), the nodes that can hold the nearest arc of a point of the disc about that
+    centre holding every cell's disc: the grid's cells pruned and split as one (the same
+    rigorous :func:`_bound`), instead of each cell testing and splitting the tree's top
+    nodes. Else ``top``, the top boundary nodes.
+    """
+    centre = c.sum(axis=0)
+    size = np.sqrt(dot(centre, centre))
+    if len(top) == 0 or not size > 0.5 * len(c):
+        return top
+    centre = centre / size
+    reach = float(pad(np.max(angle(c, centre[None, :]) + rho)))
+    if not reach < _ROOT_REACH:
+        return top
+    root = Frontier(
+        0,
+        np.zeros((1, 2), np.int64),
+        centre[None, :],
+        np.array([reach]),
+        np.zeros(len(top), np.int64),
+        top,
+        np.zeros((1, 0), np.uint8),
+    )
+    g, _ = _bound(root, nodes, trig, m, np.array([reach]), final=False)
+    return g.pair_arc
 
 
 #: Above the output level a cell's nodes have error bounds of at most this fraction of
