@@ -296,3 +296,27 @@ def test_renders_do_not_wait_behind_a_field(shape, monkeypatch):
     finally:
         release.set()
         tiles.close()
+
+
+def test_a_seen_tile_waits_for_its_field_only_when_that_comes_sooner_than_a_render(shape):
+    """A tile whose field is due waits for it when the field being computed and its own
+    are expected no later than the render queue and its render; else it is rendered."""
+    from gloffset.serve.service import TileService
+
+    tiles = TileService({"mexico": shape})
+    try:
+        with tiles.lock:
+            tiles.field_cost["mexico"], tiles.render_cost["mexico"] = 0.1, 0.01
+            assert not tiles._sooner("mexico")  # a field is ten renders: render it
+            tiles.render_cost["mexico"] = 0.2
+            assert tiles._sooner("mexico")
+            tiles.computing[FieldKey("mexico", 6, 13, 27, 256)] = None  # one on its way
+            tiles.started = time.monotonic()
+            assert tiles._sooner("mexico")  # 0.1 s + 0.1 s against 0.2 s
+            tiles.render_cost["mexico"] = 0.15
+            assert not tiles._sooner("mexico")
+            tiles.started -= 0.1  # the field on its way is done, as expected
+            assert tiles._sooner("mexico")
+            tiles.computing.clear()
+    finally:
+        tiles.close()

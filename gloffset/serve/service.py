@@ -161,6 +161,7 @@ class TileService:
         self.render_cost: dict = {}  # layer -> running mean of a rendered tile's seconds
         self.wanted: OrderedDict = OrderedDict()  # FieldKey -> Future, tiles asked again: at once
         self.computing: dict = {}  # FieldKey -> Future, the field thread's field
+        self.started = time.monotonic()  # when the field thread began its field
         self.computed = 0  # fields computed
         self.closed = False  # set by close(): no more fields in the background
         self.lock = threading.Lock()
@@ -380,11 +381,11 @@ class TileService:
     # ------------------------------------------------------------------ the field thread
     def field_future(self, key: TileKey) -> Future | None:
         """A future that is done when the field of tile ``key`` is kept (its result None
-        when it could not be made) if that field is the one being computed or the next:
-        a tile asked for before at another distance (a view seen before, as a distance
-        slider asks) has its field queued first. Else None: render the tile (a field
-        behind others would come later than a render). None too for styles with an
-        outline (those tiles are rendered)."""
+        when it could not be made), for a tile whose field is due (:meth:`_again`: a view
+        seen before at another distance, as a distance slider asks) when waiting for the
+        field is expected to be no longer than waiting for a render (:meth:`_sooner`); the
+        field is then queued first. Else None: render the tile. None too for styles with
+        an outline (those tiles are rendered)."""
         if key.style.outline is not None:
             return None
         fkey = key.field()
@@ -393,8 +394,20 @@ class TileService:
                 return self.computing[fkey]
             if self.closed or not (fkey in self.wanted or self._again(fkey, key.d)):
                 return None
-            fut = self._want(fkey)
-            return fut if not self.computing else None
+            if not self._sooner(fkey.layer):
+                return None
+            return self._want(fkey)
+
+    def _sooner(self, layer: str) -> bool:
+        """Whether a field queued first now comes no later than a render (holding the
+        lock): the field being computed (the rest of its expected cost) and this one's
+        cost, against the render queue's tiles and this one at the renders' mean cost.
+        Before both costs are known: when no field is being computed."""
+        cost, render = self.field_cost.get(layer), self.render_cost.get(layer)
+        if cost is None or render is None:
+            return not self.computing
+        left = max(0.0, cost - (time.monotonic() - self.started)) if self.computing else 0.0
+        return left + cost <= (self.queue.qsize() + 1) * render
 
     def _again(self, fkey: FieldKey, d: float) -> bool:
         """Whether the tile, asked for at ``d``, should have its field first (holding the
@@ -448,6 +461,7 @@ class TileService:
                     fut.set_result(None)
                     continue
                 self.computing[fkey] = fut
+                self.started = time.monotonic()
                 return fkey, fut
             return None
 
