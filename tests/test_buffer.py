@@ -145,6 +145,7 @@ def by_offset_shape(shape):
     return shapely.geometry.shape(off.to_geojson(tolerance=tolerance(D))["geometry"])
 
 
+@pytest.mark.slow
 def test_countries_10m_buffered_equal_offset_per_feature():
     """Natural Earth 1:10m: Kiribati across 180 degrees, Greenland near the pole, France's
     border as lines; each buffer equals offset of the feature alone."""

@@ -208,7 +208,7 @@ def test_render_cube_faces(tmp_path, world):
 @pytest.mark.parametrize(
     "flags",
     [
-        [],
+        pytest.param([], marks=pytest.mark.slow),
         pytest.param(["--each"], marks=pytest.mark.slow),
         pytest.param(["--raw"], marks=pytest.mark.slow),
     ],

@@ -75,7 +75,7 @@ def test_every_country_inside_outside(world):
             assert got[N : N + 400].all() and not got[N + 400 : N + 800].any(), name
 
 
-@pytest.mark.parametrize("d", [0.01, -0.003, 0.2])
+@pytest.mark.parametrize("d", [0.01, -0.003, pytest.param(0.2, marks=pytest.mark.slow)])
 def test_offset_regions_of_hard_countries(world, d):
     """d != 0: global, local and points within 1e-9 of the boundary and of the distance d."""
     for name in HARD:

@@ -317,6 +317,7 @@ def test_progress_rises_to_the_total(mexico, grid, max_distance):
     assert np.array_equal(field.values, plain.values)
 
 
+@pytest.mark.slow
 def test_cli_progress_on_a_terminal_only(mexico_path, tmp_path):
     """The field shows a progress bar on stderr when forced (GLOFFSET_PROGRESS=1, as on
     a terminal), nothing otherwise; the file is the same either way."""

@@ -102,7 +102,9 @@ def test_polygon_with_hole():
     assert len(off.rings) == 2
 
 
-@pytest.mark.parametrize(("tip", "d"), [(0.02, 1000.0), (0.01, 500.0)])
+@pytest.mark.parametrize(
+    ("tip", "d"), [pytest.param(0.02, 1000.0, marks=pytest.mark.slow), (0.01, 500.0)]
+)
 def test_hairpin_far_from_the_median_latitude(tip, d):
     """A hairpin at the equator whose inner parallels meet at a sharp junction, the
     shape's median latitude (hence the spherical offset's scale) at 60 degrees: the

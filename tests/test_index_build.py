@@ -61,7 +61,10 @@ def _fingerprint(ix):
     )
 
 
-@pytest.mark.parametrize("d", [0.0, 127e3, -50e3])
+@pytest.mark.parametrize(
+    "d",
+    [pytest.param(0.0, marks=pytest.mark.slow), 127e3, pytest.param(-50e3, marks=pytest.mark.slow)],
+)
 def test_chunk_sizes_change_no_index(monkeypatch, d):
     """Chunks of 1000 pairs (and blocks of 777 arcs) build the index of every country of
     Natural Earth 110m that the default chunks build, bit for bit."""

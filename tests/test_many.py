@@ -159,7 +159,14 @@ def test_cli_render_bands(tmp_path, mexico_path):
     assert np.array_equal(np.asarray(img), want)
 
 
-@pytest.mark.parametrize("ext", [".mbtiles", ".pmtiles", ""])
+@pytest.mark.parametrize(
+    "ext",
+    [
+        ".mbtiles",
+        pytest.param(".pmtiles", marks=pytest.mark.slow),
+        pytest.param("", marks=pytest.mark.slow),
+    ],
+)
 def test_cli_tiles_writes_one_pyramid_per_distance(tmp_path, mexico_path, ext):
     if ext == ".pmtiles":
         pytest.importorskip("pmtiles")

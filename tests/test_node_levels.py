@@ -133,7 +133,10 @@ def _tiles(path):
         return sorted(con.execute("SELECT zoom_level, tile_column, tile_row, tile_data FROM tiles"))
 
 
-@pytest.mark.parametrize("name, d, zooms", [("neighbours", 60e3, "0-6"), ("seams", -80e3, "1-5")])
+@pytest.mark.parametrize(
+    "name, d, zooms",
+    [pytest.param("neighbours", 60e3, "0-6", marks=pytest.mark.slow), ("seams", -80e3, "1-5")],
+)
 def test_pyramid_tiles_with_and_without_node_levels(tmp_path, shapes, monkeypatch, name, d, zooms):
     """A pyramid whose coarse zooms are classified from the multiresolution curve writes
     the tiles of one classified from the original arcs, byte for byte."""

@@ -73,7 +73,7 @@ def test_synthetic_shapes(geom, d, size):
     [
         ("Fiji", 0.03, (256, 128), (-180, -90, 180, 90)),
         ("Fiji", 0.01, (200, 160), (170, -25, -170, -10)),  # across the antimeridian
-        ("Russia", 0.02, (512, 256), (-180, -90, 180, 90)),
+        pytest.param("Russia", 0.02, (512, 256), (-180, -90, 180, 90), marks=pytest.mark.slow),
         ("Russia", -0.01, (300, 200), (160, 55, -160, 75)),
         ("Antarctica", 0.03, (256, 128), (-180, -90, 180, 90)),
         ("Antarctica", -0.02, (256, 96), (-180, -90, 180, -60)),  # round the pole
@@ -86,7 +86,10 @@ def test_world_borders(world, name, d, size, bounds):
     assert want.any()
 
 
-@pytest.mark.parametrize("half_deg", [1e-2, 1e-4, 1e-6])
+@pytest.mark.parametrize(
+    "half_deg",
+    [pytest.param(1e-2, marks=pytest.mark.slow), 1e-4, pytest.param(1e-6, marks=pytest.mark.slow)],
+)
 def test_small_regional_bounds(mexico_path, half_deg):
     """Pixels from about 40 m down to 4 mm wide, on the offset boundary of Mexico."""
     shape = gloffset.read(mexico_path)

@@ -93,10 +93,10 @@ def _taken(monkeypatch):
     "grid, d",
     [
         (Equirect(1024, 512), 0.02),
-        (Equirect(1024, 512), -0.012),
+        pytest.param(Equirect(1024, 512), -0.012, marks=pytest.mark.slow),
         (Equirect(300, 150, bounds=(-75, 58, -10, 85)), 0.006),
         (Tile(0, 0, 0), 0.02),
-        (Tile(2, 1, 1), -0.01),
+        pytest.param(Tile(2, 1, 1), -0.01, marks=pytest.mark.slow),
         (CubeFace(4, 256), 0.015),  # +Z: the north pole
         # distances below a few pixels: simplified to an eighth of the distance
         (Equirect(64, 32), 0.02),

@@ -656,7 +656,7 @@ class _SyncClient:
     "name, d, zooms, workers, kw",
     [
         ("Mexico", 127e3, "0-6", 1, {}),  # frontier tiles of z0-1 as tasks of one tile
-        ("Mexico", 127e3, "0-6", 4, {}),  # a deeper split
+        pytest.param("Mexico", 127e3, "0-6", 4, {}, marks=pytest.mark.slow),  # a deeper split
         ("Mexico", -60e3, "3-6", 1, {}),  # the split below zoom min
         ("Mexico", 127e3, "0-1", 2, {}),  # the split at the deepest zoom
         ("square", 1500e3, "0-5", 2, {"outline": "#202020"}),  # outlined tiles
