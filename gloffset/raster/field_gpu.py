@@ -210,8 +210,8 @@ def finish(c: np.ndarray, got: np.ndarray, node: np.ndarray, lists, nodes: NodeA
         # less the cap's, rounded down by _CAP_SLACK) cannot be nearer
         pair = node[at]
         dm = c[px] - nodes.mid[pair]
-        lb = np.sqrt(np.einsum("ij,ij->i", dm, dm)) - _cap_chords(nodes)[pair]
-        near = lb <= 2.0 * np.sin(0.5 * np.minimum(dist[px], np.pi)) + _CAP_SLACK
+        lb = np.sqrt(dot(dm, dm)) - _cap_chords(nodes)[pair]
+        near = lb <= chord(dist[px]) + _CAP_SLACK
         np.minimum.at(dist, px[near], exact_distances(c, px[near], nodes, pair[near]))
     return dist
 

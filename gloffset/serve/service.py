@@ -20,12 +20,13 @@ runs), so throughput grows with load. Rendered tiles are kept in an LRU bounded 
 bytes. A request whose client went away is still rendered when its batch had started
 (the tile is cached, the answer dropped); one cancelled before is skipped.
 
-Distance fields of tiles (a field tile's on the render thread) are computed on a field
-thread, off the render thread: first for a tile asked for again at a new distance once its
-renders took as long as a field does (a distance slider: :meth:`TileService._again`, the
-rent-or-buy rule), newest first; for the others, when no render is asked for. They
-are kept in a second LRU bounded in bytes (``field_mb``); a tile whose field is kept is
-answered at any distance by :meth:`TileService.from_field`, the field's threshold.
+A new tile is answered from its field, computed on the render thread in the batch, where a
+field costs at most :data:`AT_ONCE` renders (:meth:`TileService.submit_from_field`). Else
+fields are computed on a field thread (its own GL context): first for a tile asked for
+again at a new distance once its renders took as long as a field does (a distance slider:
+:meth:`TileService._again`, rent or buy), newest first; the others when idle. They are
+kept in a second LRU bounded in bytes (``field_mb``); a tile whose field is kept is answered
+at any distance by :meth:`TileService.from_field`, the field's threshold.
 """
 
 from __future__ import annotations
@@ -365,7 +366,8 @@ class TileService:
                 self.field_bytes -= old.values.nbytes
 
     def _field(self, fkey: FieldKey):
-        """The tile's field, kept or computed (no GL: on any thread) and kept."""
+        """The tile's field, kept or computed (on the calling thread, with its GL context)
+        and kept."""
         f = self.field(fkey)
         if f is None:
             t0 = time.perf_counter()
