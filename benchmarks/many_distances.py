@@ -12,7 +12,13 @@ Each case times, in one process and the same run:
   five distances from one read.
 
 Every mask of *many* is checked equal to the single run's (every tile, for the
-pyramid). The cases: Mexico and ``countries_10m`` at 4096 x 2048, Mexico's pyramid at
+pyramid).
+
+The commands themselves (``--commands``, on by default): five ``gloffset tiles`` (and
+``gloffset render``) commands, one per distance, against one command with the five
+distances, each a new process, timed end to end: what a user runs, with the interpreter
+start, the input read, the GL context and the shader compilation that one command shares
+between its distances (the issue counts them in the gain). The outputs are checked equal. The cases: Mexico and ``countries_10m`` at 4096 x 2048, Mexico's pyramid at
 zooms 0-8 (256-pixel tiles, MBTiles). Each case is run cold once (``--repeat`` more
 times when asked, the best kept). Writes ``benchmarks/results/many_distances.json``.
 """
@@ -21,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import sqlite3
+import subprocess
 import sys
 import tempfile
 import time
@@ -96,6 +103,33 @@ def pyramid_case(path: Path, zooms: str, repeat: int) -> dict:
     return rec
 
 
+def command_case(path: Path, args: list[str], what: str, outputs) -> dict:
+    """Five ``gloffset`` commands (one distance each) against one with the five distances,
+    each a new process, timed end to end; ``args`` the command's other arguments with
+    ``{out}`` for the output, ``outputs(folder, single)`` the files of each distance."""
+    tmp = Path(tempfile.mkdtemp(prefix="many_distances_cli_"))
+
+    def run(dist: str, out: Path) -> None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        cmd = [sys.executable, "-m", "gloffset", *(a.format(out=out) for a in args)]
+        subprocess.run([*cmd[:4], str(path), "-d", dist, *cmd[4:]], check=True)
+
+    t0 = time.perf_counter()
+    for d in DISTANCES:
+        run(d, tmp / f"single_{d}" / "out")
+    t_single = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    run(",".join(DISTANCES), tmp / "many" / "out")
+    t_many = time.perf_counter() - t0
+    for d, (a, b) in zip(DISTANCES, outputs(tmp)):
+        same = a.read_bytes() == b.read_bytes() if a.suffix == ".png" else _tiles(a) == _tiles(b)
+        if not same:
+            raise SystemExit(f"the outputs of {d} differ: {a} {b}")
+    rec = _record(path, what, t_single, t_many)
+    rec["commands"] = True
+    return rec
+
+
 def _overlap(pyramids: list[dict]) -> dict:
     """The tiles partly in the region (neither empty nor the shared full tile) of each
     distance: their sum over the distances, the distinct ones, and those of two or more
@@ -139,6 +173,9 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--quick", action="store_true", help="Mexico only, 1024x512, zooms 0-5.")
     ap.add_argument("--out", default="many_distances", help="The results file's name.")
+    ap.add_argument(
+        "--no-commands", action="store_true", help="Skip the end-to-end commands' cases."
+    )
     args = ap.parse_args()
     size = (1024, 512) if args.quick else tuple(int(v) for v in args.size.split("x"))
     zooms = "0-5" if args.quick else args.zooms
@@ -151,6 +188,29 @@ def main() -> None:
     if not args.quick:
         cases.append(render_case(world, size, args.repeat))
     cases.append(pyramid_case(mexico, zooms, args.repeat))
+    if not args.no_commands:
+        w, h = size
+        cases.append(
+            command_case(
+                mexico,
+                ["render", "--size", f"{w}x{h}", "-o", "{out}.png"],
+                f"{w}x{h} cmd",
+                lambda t: [
+                    (t / f"single_{d}" / "out.png", t / "many" / f"out_{d}.png") for d in DISTANCES
+                ],
+            )
+        )
+        cases.append(
+            command_case(
+                mexico,
+                ["tiles", "-z", zooms, "-o", "{out}.mbtiles"],
+                f"z{zooms} cmd",
+                lambda t: [
+                    (t / f"single_{d}" / "out.mbtiles", t / "many" / f"out_{d}.mbtiles")
+                    for d in DISTANCES
+                ],
+            )
+        )
     path = write(
         args.out,
         {"device": device.get("renderer", str(device)), "repeat": args.repeat, "cases": cases},

@@ -31,7 +31,7 @@ Run: python benchmarks/serve.py [--workload random|slider|pan|all ...] [--second
 Writes benchmarks/results/serve.json (key: the input's file stem, then the workload unless
 it is ``random``, and the workers if more than one). RSS and CPU are those of the server
 process and its workers together; RSS is reported at start (after 1 s), middle and end with
-its slope (least squares over the run, MB/min).
+its slope (least squares over the run, and over its second half, MB/min).
 """
 
 from __future__ import annotations
@@ -342,6 +342,7 @@ async def load(host, port, layer, bounds, n_clients, seconds, pid, workload="ran
         "end": rss_mb(pid),
         "max": max((m for _, m in rss if m is not None), default=None),
         "slope_mb_per_min": rss_slope(rss),
+        "slope_second_half_mb_per_min": rss_slope(rss, elapsed / 2.0),
         "samples": [(round(t, 1), m) for t, m in rss],
     }
     return rec
@@ -356,9 +357,10 @@ def overall(dts) -> dict:
     return {"count": len(ms), "p50_ms": float(p50), "p99_ms": float(p99)}
 
 
-def rss_slope(rss) -> float | None:
-    """The least-squares slope (MB per minute) of the RSS samples after the first second."""
-    pts = [(t, m) for t, m in rss if m is not None and t >= 1.0]
+def rss_slope(rss, after: float = 1.0) -> float | None:
+    """The least-squares slope (MB per minute) of the RSS samples after ``after`` seconds
+    (the first second by default; the second half of the run: once the caches are warm)."""
+    pts = [(t, m) for t, m in rss if m is not None and t >= after]
     if len(pts) < 3:
         return None
     t, m = np.asarray(pts).T
@@ -506,6 +508,8 @@ def phase_table(rec: dict) -> str:
     for n, r in rec["server"].items():
         m = r["rss_mb"]
         slope = "-" if m["slope_mb_per_min"] is None else f"{m['slope_mb_per_min']:+.1f} MB/min"
+        half = m.get("slope_second_half_mb_per_min")
+        slope += "" if half is None else f"; 2nd half {half:+.1f}"
         cells = " | ".join(cell(r, p) for p in phases)
         rows.append(
             f"| {n} | {r['tiles_per_s']:.0f} | {cells} "

@@ -34,6 +34,7 @@ from starlette.testclient import TestClient  # noqa: E402
 from gloffset.raster.pyramid.tilepaint import TileStyle  # noqa: E402
 from gloffset.serve.app import STATIC, create_app  # noqa: E402
 from gloffset.serve.service import (  # noqa: E402
+    ENTRY,
     EMPTY_PNG,
     UNKNOWN,
     QueueFull,
@@ -645,3 +646,37 @@ def test_cli_serves_and_stops_on_ctrl_c(tmp_path, workers):
     rows = [line.split(" ") for line in log.read_text().splitlines()]
     tiles = [r for r in rows if r[2].startswith("/tiles/tri/300km/")]
     assert len(tiles) == 4 and all(r[3] == "200" and int(r[4]) > 0 for r in tiles), rows
+
+
+def test_caches_stay_within_their_bounds_for_many_small_tiles():
+    """The tile LRU counts each entry's keeping (:data:`ENTRY` bytes) beside its bytes, so
+    a bound of 64 KiB holds a hundred-odd tiny tiles, not thousands (their keys and links
+    once grew a server's memory past its bound); the newest stay."""
+    svc = TileService({"m": gloffset.read(ROOT / "data" / "mexico_10m.geojson")}, cache_mb=1 / 16)
+    style = TileStyle()
+    try:
+        keys = [TileKey("m", 0.01, 12, x, 7, 256, style) for x in range(5000)]
+        for k in keys:
+            svc._keep(k, b"tiny")
+        assert svc.cache_bytes <= svc.cache_limit
+        assert len(svc.cache) * (ENTRY + 4) <= svc.cache_limit < (len(svc.cache) + 1) * (ENTRY + 4)
+        assert svc.cached(keys[-1]) == b"tiny" and svc.cached(keys[0]) is None
+    finally:
+        svc.close()
+
+
+def test_the_row_bounds_memo_stays_small():
+    """A tile server asks a pyramid for a few rows at a time, at every zoom, for hours: the
+    memo of :meth:`TilePyramid.decision_rho` holds at most :data:`_MEMO_SIZE` rows (then
+    starts again), and every value is the one computed afresh."""
+    from gloffset.grids import mercator
+
+    pyr = mercator.TilePyramid(20)
+    rng = np.random.default_rng(3)
+    for _ in range(600):
+        z = int(rng.integers(8, 21))
+        rows = rng.integers(0, 1 << z, size=30).astype(np.float64)
+        got = pyr.decision_rho(z, rows)
+        assert np.array_equal(got, pyr._row_rho(z, rows))
+        assert len(pyr._rho_memo) <= mercator._MEMO_SIZE + mercator._MEMO_ROWS
+    assert mercator._MEMO_SIZE <= 1 << 13  # about 1 MB a pyramid

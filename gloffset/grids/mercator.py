@@ -154,9 +154,11 @@ def _xyz(lon, lat) -> np.ndarray:
 
 
 #: :meth:`TilePyramid.decision_rho`: calls with at most this many distinct rows use the
-#: memo, which holds up to :data:`_MEMO_SIZE` rows (then starts again)
+#: memo, which holds up to :data:`_MEMO_SIZE` rows (then starts again): about 1 MB a
+#: pyramid (a tile server keeps a pyramid for each zoom it is asked for; at 1 << 20 rows
+#: each could grow to 150 MB, the server's memory rising for minutes)
 _MEMO_ROWS = 512
-_MEMO_SIZE = 1 << 20
+_MEMO_SIZE = 1 << 13
 
 
 class TilePyramid:

@@ -91,8 +91,11 @@ COST_WEIGHT = 0.3
 #: its layer costs at most this many of its renders (the running means): a GPU field
 AT_ONCE = 2.0
 
-#: tiles whose centre's distance and status are kept (about 100 bytes each)
+#: tiles whose centre's distance and status are kept (about 300 bytes each, key included)
 CENTRES = 200_000
+#: bytes each entry of the tile and field LRUs counts beside its data (its key, the
+#: LRU's links, the field's object): the LRUs' bounds hold for many small tiles too
+ENTRY = 512
 #: :meth:`TileService.answer` without ``measure``: the tile's centre is not measured yet
 UNKNOWN = object()
 
@@ -349,10 +352,10 @@ class TileService:
             if key in self.cache:
                 return
             self.cache[key] = data
-            self.cache_bytes += len(data)
+            self.cache_bytes += len(data) + ENTRY
             while self.cache_bytes > self.cache_limit and self.cache:
                 _, old = self.cache.popitem(last=False)
-                self.cache_bytes -= len(old)
+                self.cache_bytes -= len(old) + ENTRY
 
     def _keep_field(self, fkey: FieldKey, field) -> None:
         with self.lock:
@@ -360,10 +363,10 @@ class TileService:
             if fkey in self.fields:
                 return
             self.fields[fkey] = field
-            self.field_bytes += field.values.nbytes
+            self.field_bytes += field.values.nbytes + ENTRY
             while self.field_bytes > self.field_limit and self.fields:
                 _, old = self.fields.popitem(last=False)
-                self.field_bytes -= old.values.nbytes
+                self.field_bytes -= old.values.nbytes + ENTRY
 
     def _field(self, fkey: FieldKey):
         """The tile's field, kept or computed (on the calling thread, with its GL context)

@@ -51,19 +51,20 @@ ALONE_ZOOM = 3
 class TileCentre:
     """What decides a tile wholly inside or outside at any distance: the exact distances
     from its centre to the nearest boundary arc (``dist``) and ring edge (``dring``),
-    whether the centre is inside, and the tile's rigorous bound ``rho`` (1-element arrays,
-    as :func:`gloffset.raster.vector.levels.decide` takes them). None of it depends on the
-    offset distance, so a tile server measures it once per tile."""
+    whether the centre is inside, and the tile's rigorous bound ``rho``. None of it
+    depends on the offset distance, so a tile server measures it once per tile (and keeps
+    many: plain numbers, about 300 bytes a tile with its key)."""
 
-    dist: np.ndarray
-    dring: np.ndarray
-    inside: np.ndarray
-    rho: np.ndarray
+    dist: float
+    dring: float
+    inside: bool
+    rho: float
 
     def decide(self, d: float):
         """CONTAINED or OUTSIDE when every pixel of the tile is so at distance ``d``
         (radians), else None (the raster levels' rule at the tile's own zoom)."""
-        cls = int(decide(self.dist, self.dring, self.inside, self.rho, d, False)[0])
+        one = (np.array([v]) for v in (self.dist, self.dring, self.inside, self.rho))
+        cls = int(decide(*one, d, False)[0])
         return cls if cls in (CONTAINED, OUTSIDE) else None
 
 
@@ -78,7 +79,7 @@ def measure_tiles(shape, z: int, tiles) -> dict:
     inside, rho = inside_any(f.status), grid.decision_rho(z, f.cells[:, 0])
     return {
         (int(x), int(y)): TileCentre(
-            dist[i : i + 1], dring[i : i + 1], inside[i : i + 1], rho[i : i + 1]
+            float(dist[i]), float(dring[i]), bool(inside[i]), float(rho[i])
         )
         for i, (y, x) in enumerate(f.cells)
     }
