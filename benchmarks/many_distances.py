@@ -12,14 +12,15 @@ Each case times, in one process and the same run:
   five distances from one read.
 
 Every mask of *many* is checked equal to the single run's (every tile, for the
-pyramid).
+pyramid). The cases: Mexico and ``countries_10m`` at 4096 x 2048, Mexico's pyramid at
+zooms 0-8 (256-pixel tiles, MBTiles).
 
-The commands themselves (``--commands``, on by default): five ``gloffset tiles`` (and
-``gloffset render``) commands, one per distance, against one command with the five
-distances, each a new process, timed end to end: what a user runs, with the interpreter
-start, the input read, the GL context and the shader compilation that one command shares
-between its distances (the issue counts them in the gain). The outputs are checked equal. The cases: Mexico and ``countries_10m`` at 4096 x 2048, Mexico's pyramid at
-zooms 0-8 (256-pixel tiles, MBTiles). Each case is run cold once (``--repeat`` more
+Then the commands themselves (skipped with ``--no-commands``), on Mexico: five ``gloffset
+render`` (and ``gloffset tiles``) commands, one per distance, against one command with the
+five distances, each a new process timed end to end: what a user runs, with the
+interpreter start, the input read, the GL context and the shader compilation that the one
+command shares between its distances (the issue counts them in the gain). The outputs are
+checked equal. Each case is run cold once (``--repeat`` more
 times when asked, the best kept). Writes ``benchmarks/results/many_distances.json``.
 """
 

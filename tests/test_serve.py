@@ -34,8 +34,8 @@ from starlette.testclient import TestClient  # noqa: E402
 from gloffset.raster.pyramid.tilepaint import TileStyle  # noqa: E402
 from gloffset.serve.app import STATIC, create_app  # noqa: E402
 from gloffset.serve.service import (  # noqa: E402
-    ENTRY,
     EMPTY_PNG,
+    ENTRY,
     UNKNOWN,
     QueueFull,
     TileKey,
