@@ -29,7 +29,8 @@ saturation, their latency the queue).
 Run: python benchmarks/serve.py [--workload random|slider|pan|all ...] [--seconds 20] [--pause 0]
      [--clients 1 4 16 64] [--input FILE [FILE ...]] [--render-samples 60] [--workers 1]
 Writes benchmarks/results/serve.json (key: the input's file stem, then the workload unless
-it is ``random``, and the workers if more than one). RSS and CPU are those of the server
+it is ``random``, the pause, the workers if more than one, the seconds if over 30 and the
+caches if given). RSS and CPU are those of the server
 process and its workers together; RSS is reported at start (after 1 s), middle and end with
 its slope (least squares over the run, and over its second half, MB/min).
 """
@@ -466,6 +467,7 @@ def run_input(args, path: Path, workload: str) -> str:
     key = layer if workload == "random" else f"{layer} {workload}"
     key += f" --pause {args.pause:g}" if args.pause and workload != "random" else ""
     key = key if args.workers == 1 else f"{key} --workers {args.workers}"
+    key += f" --seconds {args.seconds:g}" if args.seconds > 30 else ""  # longer runs apart
     key += "" if args.caches is None else " --caches {:g} {:g}".format(*args.caches)
     record[key] = {
         "input": path.name,
