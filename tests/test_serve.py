@@ -680,3 +680,35 @@ def test_the_row_bounds_memo_stays_small():
         assert np.array_equal(got, pyr._row_rho(z, rows))
         assert len(pyr._rho_memo) <= mercator._MEMO_SIZE + mercator._MEMO_ROWS
     assert mercator._MEMO_SIZE <= 1 << 13  # about 1 MB a pyramid
+
+
+@pytest.mark.parametrize("layer", ["mexico", "europe"])
+def test_renders_take_the_measured_statuses(layer, world):
+    """``render_tiles(..., centres=...)`` (a server's tiles, their centres measured for the
+    triage) takes the centres' statuses instead of counting crossings again: the same bytes
+    as without them, at positive, zero and negative distances, on one country and on a
+    union of neighbours (a status bit per country); statuses turned over change the tiles,
+    so they are read."""
+    from gloffset.raster.pyramid import measure_tiles, render_tiles
+    from gloffset.raster.pyramid.ondemand import TileCentre
+
+    if layer == "mexico":
+        shape = gloffset.read(ROOT / "data" / "mexico_10m.geojson")
+        views = [(5, 6, 13), (7, 27, 51), (10, 220, 440)]
+    else:
+        names = ["France", "Germany", "Spain", "Italy", "Switzerland", "Austria", "Belgium"]
+        shape = gloffset.read({"type": "FeatureCollection", "features": [world[n] for n in names]})
+        views = [(5, 16, 11), (6, 33, 22), (8, 133, 90)]
+    turned = 0
+    for z, x0, y0 in views:
+        tiles = [(x0 + i, y0 + j) for i in range(3) for j in range(2)]
+        centres = measure_tiles(shape, z, tiles)
+        for d in (-0.004, 0.0, 0.003):
+            want = render_tiles(shape, d, z, tiles)
+            assert render_tiles(shape, d, z, tiles, centres=centres) == want, (z, d)
+            flipped = {
+                t: TileCentre(c.dist, c.dring, c.inside, c.rho, bytes(255 ^ b for b in c.status))
+                for t, c in centres.items()
+            }
+            turned += render_tiles(shape, d, z, tiles, centres=flipped) != want
+    assert turned

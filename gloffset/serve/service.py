@@ -556,9 +556,13 @@ class TileService:
     def _render(self, items) -> None:
         key0 = items[0][0]
         shape, tiles = self.layers[key0.layer], {(k.x, k.y) for k, _ in items}
+        with self.lock:  # the centres measured already: their statuses spare the crossings
+            centres = {t: self.centres.get((key0.layer, key0.z, *t)) for t in tiles}
         t0 = time.perf_counter()
         try:
-            got = render_tiles(shape, key0.d, key0.z, tiles, size=key0.size, style=key0.style)
+            got = render_tiles(
+                shape, key0.d, key0.z, tiles, size=key0.size, style=key0.style, centres=centres
+            )
         except Exception as exc:  # noqa: BLE001 - every waiting request hears of it
             for _, fut in items:
                 fut.set_exception(exc)

@@ -59,6 +59,10 @@ class TileCentre:
     dring: float
     inside: bool
     rho: float
+    #: the centre's status in each region component (packed bits, as
+    #: :func:`~gloffset.raster.vector.levels.at_cells` gives them): a render of the tile
+    #: at any distance takes them instead of counting crossings again
+    status: bytes = b""
 
     def decide(self, d: float):
         """CONTAINED or OUTSIDE when every pixel of the tile is so at distance ``d``
@@ -79,7 +83,7 @@ def measure_tiles(shape, z: int, tiles) -> dict:
     inside, rho = inside_any(f.status), grid.decision_rho(z, f.cells[:, 0])
     return {
         (int(x), int(y)): TileCentre(
-            float(dist[i]), float(dring[i]), bool(inside[i]), float(rho[i])
+            float(dist[i]), float(dring[i]), bool(inside[i]), float(rho[i]), f.status[i].tobytes()
         )
         for i, (y, x) in enumerate(f.cells)
     }
@@ -95,10 +99,13 @@ def render_tiles(
     style=None,
     max_block=MAX_BLOCK,
     alone_zoom: int = ALONE_ZOOM,
+    centres=None,
 ):
     """The styled PNG bytes of tiles ``(x, y)`` of zoom ``z`` (None where a tile has
     nothing to draw), the pixels those of a pyramid and of :func:`gloffset.render` on
-    :class:`~gloffset.grids.Tile`; ``d`` in radians.
+    :class:`~gloffset.grids.Tile`; ``d`` in radians. ``centres``: the tiles'
+    :class:`TileCentre` where measured (:func:`measure_tiles`), whose statuses spare the
+    crossing counts of the tiles' centres (the same bits).
 
     The work follows the tiles, not the input: the tiles are classified directly at
     zoom ``z`` (their candidate arcs from the cap tree, within their reach:
@@ -119,7 +126,7 @@ def render_tiles(
     chain = BinChain(cells, max(0, plog - BIN_LOG2))
     stats = PyramidStats()
     job = ZoomWriter(cells, style, MemoryStore(), set(), size, stats, Tracker(z, z, None))
-    lev = cells.enter_cells(z, [(y, x) for x, y in want])
+    lev = cells.enter_cells(z, [(y, x) for x, y in want], _statuses(centres, want))
     rows, cols, cls = lev.cells[:, 0], lev.cells[:, 1], lev.cls
     r = cells.grid.decision_rho(z, rows)
     out = {}
@@ -144,6 +151,17 @@ def render_tiles(
         for k, mask in render_frontier_tiles(chain, which, size, max_block, stats):
             keep(front[k], mask)
     return {t: out.get(t) for t in want}
+
+
+def _statuses(centres, want) -> np.ndarray | None:
+    """The packed statuses of tiles ``want`` from their :class:`TileCentre` (None unless
+    every tile has one with its status)."""
+    if not centres:
+        return None
+    got = [centres.get(t) for t in want]
+    if any(g is None or not g.status for g in got):
+        return None
+    return np.frombuffer(b"".join(g.status for g in got), dtype=np.uint8).reshape(len(got), -1)
 
 
 def tile_masks(

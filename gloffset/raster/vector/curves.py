@@ -89,11 +89,13 @@ class CurveCells:
         )
         return Level(at, f.cells, np.full(len(f.cells), FRONTIER, dtype=np.uint8), f, dense)
 
-    def enter_cells(self, level: int, cells) -> Level:
+    def enter_cells(self, level: int, cells, status=None) -> Level:
         """The cells ``(row, column)`` of ``level`` alone, classified without the levels
-        above (:func:`gloffset.raster.vector.levels.at_cells`): the work of a few cells of a
-        fine level follows their neighbourhood, not the whole input."""
-        return self._level(at_cells(self.shape, self.arcs, self.grid, self.e, level, cells))
+        above (:func:`gloffset.raster.vector.levels.at_cells`, ``status`` the cells'
+        statuses where known): the work of a few cells of a fine level follows their
+        neighbourhood, not the whole input."""
+        f = at_cells(self.shape, self.arcs, self.grid, self.e, level, cells, status)
+        return self._level(f)
 
     def _level(self, f: Frontier) -> Level:
         """The cells of ``f`` classified: exact float64 distances to their candidates

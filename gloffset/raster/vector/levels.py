@@ -152,18 +152,25 @@ def coarse(shape, arcs: CurveArcs, grid, e: float) -> Frontier:
     return Frontier(0, cells, c, rho, qi[order], ai[order], status)
 
 
-def at_cells(shape, arcs: CurveArcs, grid, e: float, level: int, cells) -> Frontier:
+def at_cells(shape, arcs: CurveArcs, grid, e: float, level: int, cells, status=None) -> Frontier:
     """Cells ``(row, column)`` of ``level`` entered directly, no coarser level
     classified: candidates from the arcs' bounding-cap tree as in :func:`coarse` (every
     arc whose cap is within ``e + rho``, capped by the nearest-arc bound), statuses by
     crossings to the shape's reference points (a crossing count per cell: for a few
     cells, such as the tiles a server is asked for). The cells are sorted row-major.
+
+    ``status``: the cells' statuses when known already (packed bits, one row per cell
+    in the order of ``cells``, as an earlier :func:`at_cells` of the same cells gave
+    them: they do not depend on ``e``), so that no crossing is counted again.
     """
     cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
-    cells = cells[np.lexsort((cells[:, 1], cells[:, 0]))]
+    order = np.lexsort((cells[:, 1], cells[:, 0]))
+    cells = cells[order]
     c = grid.centers(level, cells[:, 0], cells[:, 1])
     rho = grid.rho_at(level, cells[:, 0], cells[:, 1])
-    if arcs.n_groups:
+    if status is not None:
+        status = np.asarray(status, dtype=np.uint8).reshape(len(cells), -1)[order]
+    elif arcs.n_groups:
         status = component_status(shape, arcs, c)
     else:
         status = status_bits(arcs.n_groups, len(c))
