@@ -67,8 +67,8 @@ class TileCentre:
     def decide(self, d: float):
         """CONTAINED or OUTSIDE when every pixel of the tile is so at distance ``d``
         (radians), else None (the raster levels' rule at the tile's own zoom)."""
-        one = (np.array([v]) for v in (self.dist, self.dring, self.inside, self.rho))
-        cls = int(decide(*one, d, False)[0])
+        dist, dring, rho = np.array([self.dist]), np.array([self.dring]), np.array([self.rho])
+        cls = int(decide(dist, dring, np.array([self.inside]), rho, d, False)[0])
         return cls if cls in (CONTAINED, OUTSIDE) else None
 
 
