@@ -712,3 +712,29 @@ def test_renders_take_the_measured_statuses(layer, world):
             }
             turned += render_tiles(shape, d, z, tiles, centres=flipped) != want
     assert turned
+
+
+def test_the_render_thread_hands_freed_memory_back(monkeypatch):
+    """After a render batch, at most every :data:`TRIM` seconds, the render thread hands the
+    freed heap back to the system (so the RSS follows the memory in use, not the largest
+    batch so far)."""
+    from gloffset.serve import service as svc
+
+    calls = []
+    monkeypatch.setattr(svc, "give_back_freed_memory", lambda: calls.append(1) or True)
+    monkeypatch.setattr(svc, "TRIM", 0.0)
+    tiles = svc.TileService({"m": gloffset.read(ROOT / "data" / "mexico_10m.geojson")})
+    try:
+        for _ in range(3):
+            assert tiles.call(lambda: 1).result(timeout=60) == 1
+        deadline = time.monotonic() + 10
+        while len(calls) < 3 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert len(calls) >= 3
+        monkeypatch.setattr(svc, "TRIM", 3600.0)
+        before = len(calls)
+        assert tiles.call(lambda: 2).result(timeout=60) == 2
+        time.sleep(0.2)
+        assert len(calls) == before
+    finally:
+        tiles.close()

@@ -49,6 +49,7 @@ from ..errors import QueueFullError as QueueFull
 from ..geometry.classes import CONTAINED, OUTSIDE
 from ..raster.pyramid import measure_tiles, render_tiles
 from ..raster.pyramid.fieldtiles import encode_field, field_tile
+from ..raster.pyramid.malloc import give_back_freed_memory
 from ..raster.pyramid.tilepaint import TileStyle
 from ..units import EARTH_RADIUS
 
@@ -91,6 +92,9 @@ COST_WEIGHT = 0.3
 #: its layer costs at most this many of its renders (the running means): a GPU field
 AT_ONCE = 2.0
 
+#: seconds between two hand-backs of the freed heap to the system (after a render batch:
+#: the RSS then follows the memory in use, not the largest batch so far)
+TRIM = 5.0
 #: tiles whose centre's distance and status are kept (about 300 bytes each, key included)
 CENTRES = 200_000
 #: bytes each entry of the tile and field LRUs counts beside its data (its key, the
@@ -176,6 +180,7 @@ class TileService:
         self.gate = threading.Event()
         self.gate.set()
         self.rendered = 0  # tiles rendered on the render thread
+        self.trimmed = time.monotonic()  # when the freed heap was last handed back
         self.thread = threading.Thread(target=self._loop, name="gloffset-render", daemon=True)
         self.thread.start()
         self.field_thread = threading.Thread(
@@ -504,6 +509,9 @@ class TileService:
                         fut.set_exception(RuntimeError("the render thread failed"))
             finally:
                 self.busy = False
+            if time.monotonic() - self.trimmed >= TRIM:
+                give_back_freed_memory()
+                self.trimmed = time.monotonic()
 
     def _run(self, batch) -> None:
         # a request cancelled before it ran (its client went away) is skipped; the
