@@ -95,10 +95,11 @@ AT_ONCE = 2.0
 #: seconds between two hand-backs of the freed heap to the system (after a render batch:
 #: the RSS then follows the memory in use, not the largest batch so far)
 TRIM = 5.0
-#: tiles whose centre's distance and status are kept (about 300 bytes each, key included)
+#: tiles whose centre's distance and status are kept (about 450 bytes each with its key, measured)
 CENTRES = 200_000
 #: bytes each entry of the tile and field LRUs counts beside its data (its key, the
-#: LRU's links, the field's object): the LRUs' bounds hold for many small tiles too
+#: LRU's links, the field's object: about 300 measured for a tile), so that the LRUs'
+#: bounds hold for many small tiles too
 ENTRY = 512
 #: :meth:`TileService.answer` without ``measure``: the tile's centre is not measured yet
 UNKNOWN = object()

@@ -37,17 +37,23 @@ SETTINGS = {
 }
 
 
+@functools.cache
+def _libc(name: str, argtypes: tuple):
+    """The C library's function ``name`` (returning an int), or None where it has none."""
+    try:
+        fn = getattr(ctypes.CDLL(None), name)
+    except (AttributeError, OSError):
+        return None
+    fn.argtypes, fn.restype = argtypes, ctypes.c_int
+    return fn
+
+
 @functools.lru_cache(maxsize=1)
 def keep_freed_memory() -> bool:
     """Set the settings above in this process, once; False where the C library has no
     ``mallopt`` (not glibc) or refuses one."""
-    try:
-        mallopt = ctypes.CDLL(None).mallopt
-    except (AttributeError, OSError):
-        return False
-    mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
-    mallopt.restype = ctypes.c_int
-    return all(mallopt(k, v) == 1 for k, v in SETTINGS.items())
+    mallopt = _libc("mallopt", (ctypes.c_int, ctypes.c_int))
+    return mallopt is not None and all(mallopt(k, v) == 1 for k, v in SETTINGS.items())
 
 
 def give_back_freed_memory() -> bool:
@@ -55,11 +61,8 @@ def give_back_freed_memory() -> bool:
     arena); False where there is no ``malloc_trim``. A long-lived process whose work
     comes in bursts of different sizes (a tile server) otherwise keeps its largest burst's
     heap: its RSS steps up to the peak and stays there."""
-    try:
-        trim = ctypes.CDLL(None).malloc_trim
-    except (AttributeError, OSError):
+    trim = _libc("malloc_trim", (ctypes.c_size_t,))
+    if trim is None:
         return False
-    trim.argtypes = (ctypes.c_size_t,)
-    trim.restype = ctypes.c_int
     trim(0)
     return True

@@ -53,7 +53,7 @@ class TileCentre:
     from its centre to the nearest boundary arc (``dist``) and ring edge (``dring``),
     whether the centre is inside, and the tile's rigorous bound ``rho``. None of it
     depends on the offset distance, so a tile server measures it once per tile (and keeps
-    many: plain numbers, about 300 bytes a tile with its key)."""
+    many: plain numbers, about 450 bytes a tile with its key)."""
 
     dist: float
     dring: float
