@@ -414,7 +414,8 @@ def test_access_log_a_line_per_request(tmp_path):
     assert rows[3][2] == "/tilejson/tri.json?distance=127km" and rows[3][3] == "200"
     assert rows[4][1:5] == ["HEAD", "/layers", "200", "0"]
     # off by default
-    assert create_app({"tri": gloffset.read(TRI)}).user_middleware == []
+    plain = create_app({"tri": gloffset.read(TRI)}, cors=None)
+    assert plain.user_middleware == []
     with pytest.raises(gloffset.errors.OutputError, match="cannot open the access log '/nowhere"):
         create_app({"tri": gloffset.read(TRI)}, access_log="/nowhere/at/all.log")
 

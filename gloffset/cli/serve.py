@@ -65,6 +65,14 @@ if TYPE_CHECKING:
     help="Log a line per request (time, method, path, status, bytes, ms) to FILE, "
     "appended, or to standard output ('-', or the option alone). Default: no log.",
 )
+@click.option(
+    "--cors",
+    metavar="ORIGINS",
+    default="*",
+    show_default=True,
+    help="The origins whose pages may use the tiles and answers (CORS headers): '*' any, "
+    "a comma-separated list such as https://example.com,http://localhost:3000, or 'none'.",
+)
 def serve_cmd(
     inputs,
     host,
@@ -76,12 +84,15 @@ def serve_cmd(
     render_timeout,
     workers,
     access_log,
+    cors,
 ):
     """Serve the offset regions of INPUT... as map tiles for any distance:
     /tiles/LAYER/127km/z/x/y.png, /tilejson/LAYER.json?distance=127km, distance-field
-    tiles /field/LAYER/z/x/y.png (/field/LAYER.json), /offset, /shape, /distance, /layers,
-    and at / a map and globe page with a distance slider, drawn in the browser from the
-    field tiles (each INPUT is a layer named after its file stem).
+    tiles /field/LAYER/z/x/y.png (/field/LAYER.json), /offset/LAYER.geojson?distance=127km,
+    /shape/LAYER.geojson, /distance/LAYER?lon=-100&lat=20 (metres), /layers, and at / a
+    map and globe page with a distance slider, drawn in the browser from the field tiles
+    (each INPUT is a layer named after its file stem). Pages of any origin may use them
+    (--cors).
 
     One process renders on one GL thread, batching the tiles asked for together; for
     more throughput, --workers N runs N processes on the port (each with its own GL
@@ -91,9 +102,10 @@ def serve_cmd(
     try:
         import uvicorn
 
-        from ..serve.app import ENVIRONMENT, create_app
+        from ..serve.app import ENVIRONMENT, cors_origins, create_app
     except ImportError:
         raise OptionError("gloffset serve needs: pip install 'gloffset[serve]'") from None
+    origins = cors_origins(cors)  # before the inputs are read
     layers = {}
     for path in inputs:
         name = Path(path).stem
@@ -107,6 +119,7 @@ def serve_cmd(
         field_mb=field_mb,
         render_timeout=render_timeout,
         access_log=access_log,
+        cors=origins,
     )
     click.echo(
         f"gloffset serve: http://{host}:{port}/ ({', '.join(layers)}"

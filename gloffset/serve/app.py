@@ -26,6 +26,11 @@ the configured ``Cache-Control``, and ``X-Gloffset-Tile``: how the tile was foun
 (``cached``, ``inside``, ``outside``, ``field``: the threshold of the tile's kept field,
 or ``rendered``; field tiles say ``cached`` or ``computed``). With ``access_log``, a line
 per request (:mod:`gloffset.serve.accesslog`).
+
+CORS: with ``cors`` (default ``("*",)``: any origin), every answer to a request from
+another origin carries ``Access-Control-Allow-Origin`` (Starlette's ``CORSMiddleware``),
+so that a map on another site can use the tiles (MapLibre fetches them, and WebGL takes
+a cross-origin image only with CORS); a list of origins allows those alone, None none.
 """
 
 from __future__ import annotations
@@ -43,6 +48,7 @@ from urllib.parse import urlencode
 from starlette.applications import Starlette
 from starlette.exceptions import HTTPException
 from starlette.middleware import Middleware
+from starlette.middleware.cors import CORSMiddleware
 from starlette.requests import Request
 from starlette.responses import HTMLResponse, JSONResponse, Response
 from starlette.routing import Mount, Route
@@ -50,7 +56,7 @@ from starlette.staticfiles import StaticFiles
 
 from ..edges import points_inside
 from ..ellipsoidal import distance as distance_to
-from ..errors import GloffsetError
+from ..errors import GloffsetError, OptionError
 from ..geometry.sphere import lonlat_to_xyz
 from ..grids.mercator import MAX_ZOOM
 from ..io.geojson import offset_feature
@@ -64,7 +70,7 @@ from .accesslog import AccessLog, open_log
 from .bounds import region_bounds
 from .service import UNKNOWN, FieldKey, QueueFull, TileKey, TileService, etag
 
-__all__ = ["create_app", "app_from_environment", "ENVIRONMENT", "STATIC"]
+__all__ = ["create_app", "app_from_environment", "cors_origins", "ENVIRONMENT", "STATIC"]
 
 #: the environment variable through which ``gloffset serve --workers N`` hands its options
 #: to the worker processes (JSON: ``inputs`` and the keywords of :func:`create_app`)
@@ -72,6 +78,37 @@ ENVIRONMENT = "GLOFFSET_SERVE"
 
 #: the page and the vendored MapLibre GL JS (package data)
 STATIC = Path(__file__).resolve().parent / "static"
+
+
+#: an origin as a browser sends it: scheme://host[:port], nothing after
+_ORIGIN = re.compile(r"[a-z][a-z0-9+.-]*://(\[[0-9a-f:.]+\]|[^/?#:@\[\]\s]+)(:[0-9]{1,5})?")
+
+#: the response headers a cross-origin script may read beside the safelisted ones
+_EXPOSED = ("ETag", "Retry-After", "X-Gloffset-Tile")
+
+
+def cors_origins(text: str) -> tuple[str, ...] | None:
+    """The origins of ``--cors``: ``"*"`` (any), ``"none"`` (None: no CORS headers) or a
+    comma-separated list of origins, each ``scheme://host[:port]`` as a browser sends it
+    (lower case, no path, no trailing slash, no default port: an origin written otherwise
+    would never match, and is refused, naming it)."""
+    items = [t.strip() for t in text.split(",")]
+    if items == ["none"]:
+        return None
+    if items == ["*"]:
+        return ("*",)
+    for t in items:
+        if t in ("*", "none"):
+            raise OptionError(f"--cors: {t!r} stands alone, not in a list: {text!r}")
+        default_port = t.startswith("http://") and t.endswith(":80")
+        default_port |= t.startswith("https://") and t.endswith(":443")
+        if not _ORIGIN.fullmatch(t) or t != t.lower() or default_port:
+            raise OptionError(
+                f"--cors: {t!r} is not an origin as a browser sends it: give scheme://host[:port] "
+                "in lower case, nothing after, no default port (e.g. https://example.com or "
+                "http://localhost:3000), '*' for any origin or 'none'"
+            )
+    return tuple(items)
 
 
 def _bad(detail: str, status: int = 400) -> NoReturn:
@@ -374,7 +411,11 @@ def _describe(name: str, shape) -> dict:
 
 
 async def _error(request: Request, exc: HTTPException) -> Response:
-    return JSONResponse({"detail": exc.detail}, status_code=exc.status_code)
+    detail = exc.detail
+    if exc.status_code == 404 and detail == "Not Found":  # the router's: no such path
+        paths = ", ".join(getattr(r, "path", "") for r in request.app.routes)
+        detail = f"no endpoint at {request.url.path!r}; the endpoints are {paths}"
+    return JSONResponse({"detail": detail}, status_code=exc.status_code)
 
 
 def create_app(
@@ -386,6 +427,7 @@ def create_app(
     field_mb: float = 256.0,
     render_timeout: float = 60.0,
     access_log: str | None = None,
+    cors: tuple[str, ...] | list[str] | None = ("*",),
 ) -> Starlette:
     """The application serving ``layers`` (name -> :class:`~gloffset.Shape`).
 
@@ -394,7 +436,8 @@ def create_app(
     ``field_mb``: the LRU of distance fields (256 KiB a 256 px tile);
     ``render_timeout``: seconds a request waits for its tile before a 503;
     ``access_log``: a file to append a line per request to, ``"-"`` for standard output
-    (:mod:`gloffset.serve.accesslog`), None for none.
+    (:mod:`gloffset.serve.accesslog`), None for none; ``cors``: the origins whose pages may
+    read the answers (:func:`cors_origins`; ``("*",)``: any, None: no CORS headers).
     """
     srv = _Server(
         layers,
@@ -420,6 +463,15 @@ def create_app(
     middleware = []
     if access_log is not None:
         middleware.append(Middleware(AccessLog, stream=open_log(access_log)))
+    if cors:  # inside the log, which then logs preflight requests too
+        middleware.append(
+            Middleware(
+                CORSMiddleware,
+                allow_origins=list(cors),
+                allow_methods=get,
+                expose_headers=_EXPOSED,
+            )
+        )
 
     @contextlib.asynccontextmanager
     async def lifespan(app):
