@@ -205,3 +205,21 @@ def test_to_geojson_is_the_io_writer(world):
     res = off.resolve()
     assert json.dumps(res.to_geojson()) == json.dumps(region_feature(res, tolerance=1e-6))
     assert off.to_geojson()["geometry"]["type"] == "MultiPolygon"
+
+
+def test_repr_names_the_distance_the_rings_and_whether_resolved(mexico_path):
+    """An offset printed in a session says what it holds, not ``<... object at 0x...>``:
+    the distance as given and as an angle, the raw rings and arcs, and what resolve gave
+    once called; ``off.centers`` is a list with one (m, 3) array of centres per ring."""
+    off = gloffset.offset(gloffset.read(mexico_path), "127km")
+    arcs = sum(len(c) for c in off.centers)
+    assert len(off.centers) == len(off.rings) > 1 and off.centers[0].shape[1] == 3
+    text = repr(off)
+    assert "object at" not in text and text.startswith("Offset('127km' = 0.019934 rad: ")
+    assert f"{len(off.rings):,} rings, {arcs:,} arcs, raw; not resolved" in text
+    res = off.resolve()
+    assert repr(off).endswith(f"raw; resolved: {res!r})") and "polygons" in repr(res)
+    line = gloffset.read({"type": "LineString", "coordinates": [[0, 0], [10, 0]]})
+    assert repr(gloffset.offset(line, 0.01, radius=1.0)) == (
+        "Offset(0.01 = 0.01 rad: 1 ring, 6 arcs, raw; not resolved)"
+    )

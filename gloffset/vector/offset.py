@@ -60,6 +60,24 @@ class Offset(ArcRings):
             for line in shape.lines:
                 self.rings.append(line_arcs(line, d))
 
+    def __repr__(self) -> str:
+        """Say what the offset holds, not ``<... object at 0x...>``.
+
+        The distance (as given and as an angle), the raw rings and arcs, and whether
+        :meth:`resolve` has been called (then the ``ResolvedOffset`` of each method
+        called), e.g. ``Offset('127km' = 0.019934 rad: 51 rings, 14,913 arcs, raw; not
+        resolved)``.
+        """
+        d = f"{self.distance:.6g} rad"
+        if self.given is not None:
+            d = f"{self.given!r} = {d}" if isinstance(self.given, str) else f"{self.given:g} = {d}"
+        n, arcs = len(self.rings), sum(len(r.centers) for r in self.rings)
+        done = self.__dict__.get("_resolved", {})
+        state = ", ".join(repr(res) for res in done.values())
+        state = f"resolved: {state}" if state else "not resolved"
+        rings = f"{n:,} ring{'' if n == 1 else 's'}, {arcs:,} arcs"
+        return f"{type(self).__name__}({d}: {rings}, raw; {state})"
+
     def sample(self, tolerance: float = DEFAULT_TOLERANCE) -> list[np.ndarray]:
         """Densified raw rings: points on the arcs, no arc deviating more than ``tolerance``.
 
