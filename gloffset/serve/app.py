@@ -25,12 +25,8 @@ a strong ETag (``If-None-Match`` with it, weak or strong, in a list, or ``*`` gi
 the configured ``Cache-Control``, and ``X-Gloffset-Tile``: how the tile was found
 (``cached``, ``inside``, ``outside``, ``field``: the threshold of the tile's kept field,
 or ``rendered``; field tiles say ``cached`` or ``computed``). With ``access_log``, a line
-per request (:mod:`gloffset.serve.accesslog`).
-
-CORS: with ``cors`` (default ``("*",)``: any origin), every answer to a request from
-another origin carries ``Access-Control-Allow-Origin`` (Starlette's ``CORSMiddleware``),
-so that a map on another site can use the tiles (MapLibre fetches them, and WebGL takes
-a cross-origin image only with CORS); a list of origins allows those alone, None none.
+per request (:mod:`gloffset.serve.accesslog`). CORS headers (``cors``, :func:`cors_origins`)
+let maps of other origins use the tiles: MapLibre fetches them, WebGL needs CORS for images.
 """
 
 from __future__ import annotations
