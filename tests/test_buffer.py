@@ -203,3 +203,25 @@ def test_a_distance_too_far_names_its_row(frame):
     dist[5] = 4e7
     with pytest.raises(gloffset.InvalidDistanceError, match=r"^distance 40000000.0 of row 105 "):
         gloffset.buffer(frame, dist)
+
+
+def test_progress_counts_the_rows_and_changes_nothing(frame, buffered, capsys):
+    """``progress``: a callable hears ``(done, total)`` rising to the rows, points and
+    segments at once and each other row alone; True draws a bar on stderr; the buffers
+    are those without it; off by default, and anything else is refused."""
+    seen = []
+    got = gloffset.buffer(frame, D, resolution=RES, progress=lambda d, t: seen.append((d, t)))
+    n = len(frame)
+    general = 5  # Fiji, Russia, Antarctica, Chile's border, the river
+    assert seen == [(k, n) for k in range(n - general, n + 1)]
+    assert got.geometry.to_wkb().tolist() == buffered.geometry.to_wkb().tolist()
+    assert capsys.readouterr().err == ""  # the callable only; nothing without progress
+    shown = gloffset.buffer(frame, D, resolution=RES, progress=True)
+    err = capsys.readouterr().err
+    assert "gloffset.buffer" in err and f"| {n}/{n} [" in err, err
+    assert shown.geometry.to_wkb().tolist() == buffered.geometry.to_wkb().tolist()
+    union = []
+    gloffset.buffer(frame.iloc[[7, 8]], D, each=False, progress=lambda *a: union.append(a))
+    assert union == [(1, 1)]
+    with pytest.raises(gloffset.errors.OptionError, match="progress must be"):
+        gloffset.buffer(frame, D, progress="yes")
