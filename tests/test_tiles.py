@@ -12,6 +12,7 @@ import re
 import sqlite3
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -873,3 +874,30 @@ def test_an_unknown_option_is_refused_naming_the_documented_ones(tmp_path, world
 def rgba_colours(png: bytes) -> set:
     """The colours of a tile."""
     return {c for _, c in Image.open(io.BytesIO(png)).convert("RGBA").getcolors(1 << 16)}
+
+
+def test_field_tiles_report_their_progress_as_the_raster_pyramids_do(tmp_path):
+    """``tiles --field`` draws the raster pyramids' bar (zoom, tiles, time so far and
+    left) on stderr where progress is shown (GLOFFSET_PROGRESS=1, as on a terminal),
+    rising to every tile of the zooms; nothing otherwise; the tiles are the same."""
+    world = Path(__file__).resolve().parents[1] / "data" / "world_110m.geojson"
+    # Mexico at 1:110m: its fields are cheap on the CPU
+    args = ("tiles", world, "--where", "NAME = 'Mexico'", "--field", "-z", "0-2")
+    args += ("--tile-size", "32")
+    quiet = CliRunner().invoke(main, [*map(str, args), "-o", str(tmp_path / "quiet")])
+    assert quiet.exit_code == 0 and quiet.stderr.startswith("21 field tiles written"), quiet.stderr
+    shown = CliRunner().invoke(
+        main, [*map(str, args), "-o", str(tmp_path / "shown")], env={"GLOFFSET_PROGRESS": "1"}
+    )
+    err = shown.stderr
+    assert shown.exit_code == 0, err
+    bar = r"(\d+)%\|[^|]*\| z(\d+), ([\d,]+)/~?([\d,]+) tiles \[[\d:]+<([\d:?]+)\]"
+    bars = re.findall(bar, err)
+    assert bars[0][1:4] == ("0", "0", "21") and bars[0][4] == "?", err  # before the first tile
+    assert bars[-1] == ("100", "2", "21", "21", "00:00"), err
+    seen = [(int(z), int(done)) for _, z, done, _, _ in bars]
+    assert seen == sorted(seen) and {z for z, _ in seen} == {0, 1, 2}, err
+    assert "21 field tiles written" in err
+    for z, x, y in ((0, 0, 0), (2, 0, 1), (2, 3, 3)):
+        one = tmp_path / "quiet" / str(z) / str(x) / f"{y}.png"
+        assert one.read_bytes() == (tmp_path / "shown" / str(z) / str(x) / f"{y}.png").read_bytes()

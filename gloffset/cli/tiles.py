@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import bisect
+import itertools
 import time
 from pathlib import Path
 
@@ -9,7 +11,7 @@ import click
 
 from ..io.output import refuse_stdout
 from ..io.tilestore import TILE_FILES, check_tile_output
-from ..raster.pyramid import parse_zooms
+from ..raster.pyramid import TileProgress, parse_zooms
 from ..raster.pyramid.driver import PyramidOptions, write_pyramid
 from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
@@ -118,24 +120,7 @@ def tiles_cmd(
     if resume and force:
         raise click.UsageError("--resume and --force exclude each other")
     shape = read(input, layer=layer, where=where, densify=densify)
-    bar = progress_bar(total=100, bar_format="{percentage:3.0f}%|{bar}| {desc}")
-    shown = [0.0]
-
-    def progress(p):
-        assert bar is not None  # passed on with a bar only
-        # the bar is the share of the time (p.fraction), the ETA the library's estimate
-        bar.n = round(100.0 * p.fraction, 1)
-        left = "?" if p.eta is None else bar.format_interval(p.eta)
-        total = f"{p.total:,}" if p.done == p.total else f"~{p.total:,}"
-        bar.set_description_str(
-            f"z{p.zoom}, {p.done:,}/{total} tiles [{bar.format_interval(p.seconds)}<{left}]",
-            refresh=False,
-        )
-        now = time.monotonic()
-        if now - shown[0] >= 0.1 or p.done == p.total:
-            shown[0] = now
-            bar.refresh()
-
+    bar, progress = _tile_bar()
     options = PyramidOptions(
         radius=radius,
         size=tile_size,
@@ -158,6 +143,53 @@ def tiles_cmd(
     finally:
         if bar is not None:
             bar.close()
+
+
+def _tile_bar():
+    """A bar on stderr (where :func:`~.options.show_progress`) and the ``progress`` that
+    draws a :class:`~gloffset.raster.pyramid.TileProgress` on it: the share of the time
+    done, the zoom, the tiles and the time left; ``(None, None)`` where none is shown.
+    The bar is closed with the command, or before by its ``close()``."""
+    bar = progress_bar(total=100, bar_format="{percentage:3.0f}%|{bar}| {desc}")
+    if bar is None:
+        return None, None
+    click.get_current_context().call_on_close(bar.close)  # on an error too
+    shown = [0.0]
+
+    def progress(p):
+        # the bar is the share of the time (p.fraction), the ETA the library's estimate
+        bar.n = round(100.0 * p.fraction, 1)
+        left = "?" if p.eta is None else bar.format_interval(p.eta)
+        total = f"{p.total:,}" if p.done == p.total else f"~{p.total:,}"
+        bar.set_description_str(
+            f"z{p.zoom}, {p.done:,}/{total} tiles [{bar.format_interval(p.seconds)}<{left}]",
+            refresh=False,
+        )
+        now = time.monotonic()
+        if now - shown[0] >= 0.1 or p.done == p.total:
+            shown[0] = now
+            bar.refresh()
+
+    return bar, progress
+
+
+def _field_progress(show, zooms: tuple[int, int]):
+    """A field pyramid's ``progress(done, total)`` (its tiles zoom by zoom) as the
+    :class:`~gloffset.raster.pyramid.TileProgress` that ``show`` draws: the zoom of
+    tile ``done``, and the time left at the pace of the tiles so far (every tile of a
+    zoom is computed alike); told once at the start."""
+    zlo, zhi = zooms
+    ends = list(itertools.accumulate(4**z for z in range(zlo, zhi + 1)))
+    t0 = time.perf_counter()
+
+    def progress(done: int, total: int) -> None:
+        zoom = min(zlo + bisect.bisect_left(ends, max(done, 1)), zhi)
+        seconds = time.perf_counter() - t0
+        eta = seconds * (total - done) / done if done else None
+        show(TileProgress(zoom, done, total, seconds, eta))
+
+    progress(0, ends[-1])
+    return progress
 
 
 def tile_output(output, text: str) -> str:
@@ -203,9 +235,10 @@ def _field_tiles(input, radius, ellipsoid, zooms, output, size, name, force, giv
             raise click.UsageError(f"--field takes no {opt}: a field holds every distance")
     refuse_stdout(output, "field tiles are an .mbtiles or .pmtiles file or a folder")
     check_tile_output(output)
-    parse_zooms(zooms)
+    zrange = parse_zooms(zooms)
     shape = read(input, layer=given["layer"], where=given["where"], densify=given["densify"])
     t0 = time.perf_counter()
+    bar, show = _tile_bar()
     n = field_pyramid(
         shape,
         zooms,
@@ -215,5 +248,8 @@ def _field_tiles(input, radius, ellipsoid, zooms, output, size, name, force, giv
         name=name,
         source="stdin" if input == "-" else Path(input).stem,
         overwrite=force,
+        progress=None if show is None else _field_progress(show, zrange),
     )
+    if bar is not None:
+        bar.close()
     click.echo(f"{n:,} field tiles written; {time.perf_counter() - t0:.1f} s", err=True)
