@@ -226,8 +226,9 @@ def _edge(mask: np.ndarray) -> np.ndarray:
 def distance_field(
     path=HERE / "distance_field.png", size=(1024, 512), src="countries_10m", contour=127e3
 ):
-    """The signed distance field of the 1:10m countries (the sample holds no Antarctica)
-    on the globe (equirectangular),
+    """The signed distance field of the 1:10m countries of ``data/countries_10m.geojson``
+    (234 of them: no Russia, Canada, China, Brazil, Mexico or Antarctica, among others,
+    ``data/README.md``) on the globe (equirectangular),
     negative (red) inside the union of the countries, positive (blue) outside, with the
     ``contour`` (127 km) threshold's boundary in black: ``DistanceField.threshold``,
     the same pixels as ``gloffset.render`` at that distance."""

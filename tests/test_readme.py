@@ -4,6 +4,7 @@ the subcommand takes, and its Python block runs and says what it gives."""
 from __future__ import annotations
 
 import ast
+import json
 import re
 from pathlib import Path
 
@@ -70,3 +71,47 @@ def test_the_python_block_runs_and_says_what_it_gives(monkeypatch):
     assert isinstance(off.centers, list) and len(off.centers) == len(off.rings) > 1
     for q, r in zip(off.centers, off.junctions):
         assert q.ndim == 2 and q.shape[1] == 3 and q.shape == r.shape
+
+
+def _points(c):
+    """The positions of GeoJSON coordinates at any depth."""
+    if isinstance(c[0], (int, float)):
+        yield c
+    else:
+        for x in c:
+            yield from _points(x)
+
+
+def _vertices(fc: dict) -> int:
+    return sum(len(list(_points(f["geometry"]["coordinates"]))) for f in fc["features"])
+
+
+def test_the_data_readme_says_what_countries_10m_holds():
+    """``countries_10m`` is not the whole world: the countries that data/README.md says
+    are missing are missing (and are in the 1:110m file), and its counts are the file's."""
+    text = " ".join((ROOT / "data" / "README.md").read_text().split())
+    big = json.loads((ROOT / "data" / "countries_10m.geojson").read_text())
+    small = json.loads((ROOT / "data" / "world_110m.geojson").read_text())
+    assert f"{len(big['features'])} countries and territories at 1:10m" in text
+    assert f"({_vertices(big):,} vertices;" in text
+    assert f"the {len(small['features'])} countries of Natural Earth 1:110m" in text
+    listed = re.search(r"not in it: (.*?) \(nor (.*?)\)", text)
+    assert listed, text
+    countries, others = (re.split(r", | and the | and ", g) for g in listed.groups())
+    assert len(countries) == 16 and "Sixteen countries of the 1:110m file" in text
+    have = {f["properties"]["name"] for f in big["features"]}
+    # the 1:110m file's names of the countries that the 1:10m file names otherwise
+    renamed = {
+        "United States of America": "United States",
+        "North Korea": "Dem. Rep. Korea",
+        "South Korea": "Republic of Korea",
+        "Congo": "Republic of the Congo",
+        "Dem. Rep. Congo": "Democratic Republic of the Congo",
+        "Fr. S. Antarctic Lands": "Fr. S. and Antarctic Lands",
+    }
+    assert set(renamed.values()) <= have
+    missing = [f["properties"]["name"] for f in small["features"]]
+    missing = [n for n in missing if renamed.get(n, n) not in have]
+    assert sorted(missing) == sorted(countries + others)
+    lats = [c[1] for f in big["features"] for c in _points(f["geometry"]["coordinates"])]
+    assert f"from {-min(lats):.1f} S to {max(lats):.1f} N" in text
