@@ -138,10 +138,10 @@ def buffer(
     progress : bool or callable
         False (the default): nothing. True: a progress bar of the rows on stderr (tqdm),
         for long runs (the 234 features of ``data/countries_10m.geojson`` take 15 s or
-        more on 2 cores). A callable: called as
-        ``progress(done, total)`` as rows are buffered (points and two-point lines at
-        once, the others one by one), ``done`` rising to ``total``, the rows (1 with
-        ``each=False``). The buffers are the same either way.
+        more on 2 cores). A callable: called as ``progress(done, total)`` as rows are
+        buffered (points and two-point lines at once, the others one by one), ``done``
+        rising to ``total``, the rows (1 with ``each=False``). The buffers are the same
+        either way.
 
     Returns
     -------
@@ -163,20 +163,19 @@ def buffer(
     gpd, shapely = _geopandas()
     series = _lonlat_series(gpd, data)
     res = discs.segments_per_quarter(resolution)
-    rows = _Rows(progress, 1 if not each else len(series))
     if not each:
         if not isinstance(distance, str) and np.size(distance) != 1:
             raise InvalidDistanceError("each=False (the union) takes one distance")
         given = np.ravel(distance)[0].item() if not isinstance(distance, str) else distance
         shape = Shape.from_geojson(series.__geo_interface__)
         one = offset_angle(shape, given, radius, limit=VECTOR_LIMIT)  # checked as offset() does
-        with rows:
+        with _Rows(progress, 1) as rows:
             geom = _general(shapely, shape, one, res)
             rows.add(1)
         return gpd.GeoSeries([geom], crs="EPSG:4326")
     d = _angles(distance, len(series), radius)
     _check_limit(d, distance, series.index)
-    with rows:
+    with _Rows(progress, len(series)) as rows:
         geoms, bad = _buffer_each(shapely, np.asarray(series.values, dtype=object), d, res, rows)
     if bad:
         _warn_bad_rows(bad, series.index, len(series))
