@@ -10,7 +10,7 @@ import click
 from ..io.output import refuse_stdout
 from ..io.tilestore import TILE_FILES, check_tile_output
 from ..raster.pyramid import parse_zooms
-from ..raster.pyramid.driver import PyramidOptions, write_pyramid
+from ..raster.pyramid.driver import PyramidOptions, check_pyramids, write_pyramid
 from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
 from . import main
@@ -99,10 +99,10 @@ def tiles_cmd(
     Several distances, -d 10km,50km,127km, write one pyramid per distance from one read
     of INPUT, named by the distance as given: OUT_10km.mbtiles (.pmtiles), ... or, for a
     folder OUT, OUT/10km/z/x/y.png, ...; each the same as the run at that distance alone."""
+    if resume and force:
+        raise click.UsageError("--resume and --force exclude each other")
     if field:
-        return _field_tiles(
-            input, radius, ellipsoid, zooms, output, tile_size, name, force, locals()
-        )
+        return _field_tiles(locals())
     if distance is None:
         raise click.UsageError("Missing option '-d' / '--distance' (or give --field).")
     ell = parse_ellipsoid(ellipsoid)
@@ -115,8 +115,6 @@ def tiles_cmd(
     outputs = [output] if len(many) == 1 else [tile_output(output, t) for t, _ in many]
     parse_zooms(zooms)
     style = TileStyle(fill, opacity, outline, outline_width)
-    if resume and force:
-        raise click.UsageError("--resume and --force exclude each other")
     shape = read(input, layer=layer, where=where, densify=densify)
     bar = progress_bar(total=100, bar_format="{percentage:3.0f}%|{bar}| {desc}")
     shown = [0.0]
@@ -149,11 +147,14 @@ def tiles_cmd(
         scheduler=scheduler,
         ellipsoid=ell,
     )
+    texts = [text for text, _ in many]  # as given
+    # every distance and output checked (free, replaced or resumable) before any is written
+    check_pyramids(shape, texts, zooms, outputs, options)
     try:
-        for (text, _), out in zip(many, outputs):
+        for text, out in zip(texts, outputs):
             if len(many) > 1:
                 click.echo(f"-d {text}: {out}", err=True)
-            stats = write_pyramid(shape, text, zooms, out, options)  # text: as given
+            stats = write_pyramid(shape, text, zooms, out, options)
             _say(stats)
     finally:
         if bar is not None:
@@ -186,34 +187,46 @@ def _say(stats) -> None:
 next(p for p in tiles_cmd.params if p.name == "distance").required = False
 
 
-def _field_tiles(input, radius, ellipsoid, zooms, output, size, name, force, given) -> None:
+#: The options of a raster pyramid that a field pyramid does not take, and why.
+_NOT_FOR_FIELD = (
+    (("distance",), "a field holds every distance"),
+    (("ellipsoid",), "field tiles are distances on the sphere of --radius"),
+    (("fill", "opacity", "outline", "outline_width"), "field tiles hold distances, not colours"),
+    (("workers", "scheduler"), "field tiles are written in one process"),
+)
+
+
+def _field_tiles(given: dict) -> None:
     """``gloffset tiles --field``: the distance-field pyramid
-    (:func:`gloffset.raster.pyramid.fieldtiles.field_pyramid`)."""
+    (:func:`gloffset.raster.pyramid.fieldtiles.field_pyramid`) of the options ``given``;
+    an option that only a raster pyramid takes is refused, even given at its default."""
     from ..raster.pyramid.fieldtiles import field_pyramid
 
-    for opt, bad in (
-        ("-d", given["distance"] is not None),
-        ("--ellipsoid", ellipsoid is not None),
-        ("--outline", given["outline"] is not None),
-        ("--resume", given["resume"]),
-        ("--workers", given["workers"] is not None),
-        ("--scheduler", given["scheduler"] is not None),
-    ):
-        if bad:
-            raise click.UsageError(f"--field takes no {opt}: a field holds every distance")
+    ctx = click.get_current_context()
+    for names, why in _NOT_FOR_FIELD:
+        for param in (p for p in tiles_cmd.params if p.name in names):
+            if ctx.get_parameter_source(param.name) not in (None, *_DEFAULTS):
+                raise click.UsageError(f"--field takes no {param.opts[0]}: {why}")
+    output = given["output"]
     refuse_stdout(output, "field tiles are an .mbtiles or .pmtiles file or a folder")
     check_tile_output(output)
-    parse_zooms(zooms)
-    shape = read(input, layer=given["layer"], where=given["where"], densify=given["densify"])
+    parse_zooms(given["zooms"])
+    shape = read(
+        given["input"], layer=given["layer"], where=given["where"], densify=given["densify"]
+    )
     t0 = time.perf_counter()
     n = field_pyramid(
         shape,
-        zooms,
+        given["zooms"],
         output,
-        radius=radius,
-        size=size,
-        name=name,
-        source="stdin" if input == "-" else Path(input).stem,
-        overwrite=force,
+        radius=given["radius"],
+        size=given["tile_size"],
+        name=given["name"],
+        source="stdin" if given["input"] == "-" else Path(given["input"]).stem,
+        overwrite=given["force"],
+        resume=given["resume"],
     )
     click.echo(f"{n:,} field tiles written; {time.perf_counter() - t0:.1f} s", err=True)
+
+
+_DEFAULTS = (click.core.ParameterSource.DEFAULT, click.core.ParameterSource.DEFAULT_MAP)
