@@ -180,16 +180,7 @@ def render_cmd(**given):
                 "several distances (or --bands) render masks of vector INPUT: no "
                 "--from-raster, --classes or --mask"
             )
-        return _many_cmd(
-            o.input,
-            many,
-            (ell, o.radius),
-            (o.grid_kind, o.size, o.bounds),
-            (o.output, o.cog, not o.no_worldfile, o.bands),
-            (o.fill, o.opacity, o.background),
-            o.backend,
-            o.read_options(),
-        )
+        return _many_cmd(o, many, ell)
     if ell is not None and o.from_raster is None and o.classes_level is not None:
         raise OptionError("--ellipsoid renders masks of vector INPUT: no --classes")
     cog = _check_output(o.output, o.grid_kind, o.cog)
@@ -273,17 +264,17 @@ def named(output, text: str) -> str:
     return str(path.with_name(f"{stem}_{text}{suffix}"))
 
 
-def _many_cmd(input, many, measure, gridopts, outopts, style, backend, read_opts):
-    """``render -d D1,D2,...``: the masks of several distances from one read of INPUT
-    (:func:`gloffset.raster.many.render_many`), one file per distance or, with
-    ``--bands``, one image of the bands (:func:`gloffset.raster.many.mask_bands`);
-    ``measure`` is ``(ellipsoid, radius)``."""
+def _many_cmd(o: _Args, many, ell) -> None:
+    """``render -d D1,D2,...``: the masks of the distances ``many`` (each as given and its
+    value) from one read of INPUT (:func:`gloffset.raster.many.render_many`), one file
+    per distance or, with ``--bands``, one image of the bands
+    (:func:`gloffset.raster.many.mask_bands`); ``ell``: the ellipsoid or None."""
     from ..raster.many import mask_bands, render_many
 
-    ell, radius = measure
-
-    output, cog, worldfile, bands = outopts
-    grid_kind, size, bounds = gridopts
+    input, radius, backend, read_opts = o.input, o.radius, o.backend, o.read_options()
+    output, cog, worldfile, bands = o.output, o.cog, not o.no_worldfile, o.bands
+    grid_kind, size, bounds = o.grid_kind, o.size, o.bounds
+    style = (o.fill, o.opacity, o.background)
     if input is None:
         raise OptionError("give an INPUT file (or - for stdin)")
     if bands and style != (None, 1.0, None):
