@@ -414,7 +414,7 @@ def test_engine_functions_take_few_parameters():
 
 
 #: the command-line commands still longer than MAX_COMMAND lines (to be split into steps)
-LONG_COMMANDS = {"contains_cmd", "field_cmd", "offset_cmd", "serve_cmd", "tiles_cmd"}
+LONG_COMMANDS = {"contains_cmd", "field_cmd", "offset_cmd", "serve_cmd"}
 #: the longest command function of gloffset/cli, its decorators (the options) included
 MAX_COMMAND = 60
 

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import click
 
@@ -25,71 +27,65 @@ from .options import (
     progress_bar,
 )
 
+_OPTIONS = [
+    click.argument("input", metavar="INPUT"),
+    measure_options(many=True),
+    click.option(
+        "-z", "--zoom", "zooms", required=True, help="Zoom range MIN-MAX (0..22), e.g. 0-14."
+    ),
+    click.option(
+        "-o",
+        "--output",
+        required=True,
+        help="OUT.mbtiles (MBTiles 1.3), OUT.pmtiles (PMTiles v3, needs the pmtiles package) "
+        "or a directory for z/x/y.png tiles (a name without an extension, or ending in /).",
+    ),
+    fill_options("#3070c0"),
+    click.option("--outline", default=None, help="Draw the input curves in this colour."),
+    click.option("--outline-width", type=int, default=1, show_default=True, help="In pixels."),
+    click.option(
+        "--tile-size",
+        type=int,
+        default=256,
+        show_default=True,
+        help="Tile side, pixels (a power of two).",
+    ),
+    click.option("--name", default=None, help="Tileset name (default: the output's name)."),
+    click.option(
+        "--field",
+        is_flag=True,
+        help="Write distance-field tiles instead (no -d): every tile of the zooms holds the signed "
+        "distance in metres at its pixel centres as RGB, metres = R * 65536 + G * 256 + B - "
+        "8388608 (MapLibre raster-dem custom encoding; docs/guide/tiles.md).",
+    ),
+    click.option("--resume", is_flag=True, help="Complete an interrupted run (same options)."),
+    click.option("--force", is_flag=True, help="Replace an existing output."),
+    click.option(
+        "--workers",
+        type=click.IntRange(min=1),
+        default=None,
+        help="Render on a local Dask cluster of N worker processes (pip install 'gloffset[dask]'); "
+        "the output is the same as with one process.",
+    ),
+    click.option(
+        "--scheduler",
+        default=None,
+        help="Render on a running Dask cluster (its scheduler address).",
+    ),
+    input_options,
+]
+
+
+def _tiles_options(f):
+    """The arguments and options of ``tiles``, in the order ``--help`` lists them."""
+    for option in reversed(_OPTIONS):
+        f = option(f)
+    return f
+
 
 @main.command("tiles")
-@click.argument("input", metavar="INPUT")
-@measure_options(many=True)
-@click.option("-z", "--zoom", "zooms", required=True, help="Zoom range MIN-MAX (0..22), e.g. 0-14.")
-@click.option(
-    "-o",
-    "--output",
-    required=True,
-    help="OUT.mbtiles (MBTiles 1.3), OUT.pmtiles (PMTiles v3, needs the pmtiles package) "
-    "or a directory for z/x/y.png tiles (a name without an extension, or ending in /).",
-)
-@fill_options("#3070c0")
-@click.option("--outline", default=None, help="Draw the input curves in this colour.")
-@click.option("--outline-width", type=int, default=1, show_default=True, help="In pixels.")
-@click.option(
-    "--tile-size",
-    type=int,
-    default=256,
-    show_default=True,
-    help="Tile side, pixels (a power of two).",
-)
-@click.option("--name", default=None, help="Tileset name (default: the output's name).")
-@click.option(
-    "--field",
-    is_flag=True,
-    help="Write distance-field tiles instead (no -d): every tile of the zooms holds the signed "
-    "distance in metres at its pixel centres as RGB, metres = R * 65536 + G * 256 + B - "
-    "8388608 (MapLibre raster-dem custom encoding; docs/guide/tiles.md).",
-)
-@click.option("--resume", is_flag=True, help="Complete an interrupted run (same options).")
-@click.option("--force", is_flag=True, help="Replace an existing output.")
-@click.option(
-    "--workers",
-    type=click.IntRange(min=1),
-    default=None,
-    help="Render on a local Dask cluster of N worker processes (pip install 'gloffset[dask]'); "
-    "the output is the same as with one process.",
-)
-@click.option(
-    "--scheduler", default=None, help="Render on a running Dask cluster (its scheduler address)."
-)
-@input_options
-def tiles_cmd(
-    input,
-    distance,
-    radius,
-    ellipsoid,
-    zooms,
-    output,
-    fill,
-    opacity,
-    outline,
-    outline_width,
-    tile_size,
-    name,
-    field,
-    resume,
-    force,
-    workers,
-    scheduler,
-    layer=None,
-    where=None,
-    densify=None,
-):
+@_tiles_options
+def tiles_cmd(**given):
     """Write the tile pyramid of the region within DIST of the curves of INPUT: tiles
     outside the region are skipped, tiles fully inside share one image and are not
     rendered, only tiles on the region's edge are rendered. With --ellipsoid, DIST is a
@@ -99,23 +95,45 @@ def tiles_cmd(
     Several distances, -d 10km,50km,127km, write one pyramid per distance from one read
     of INPUT, named by the distance as given: OUT_10km.mbtiles (.pmtiles), ... or, for a
     folder OUT, OUT/10km/z/x/y.png, ...; each the same as the run at that distance alone."""
-    if resume and force:
+    g = SimpleNamespace(**given)
+    if g.resume and g.force:
         raise click.UsageError("--resume and --force exclude each other")
-    if field:
-        return _field_tiles(locals())
-    if distance is None:
+    if g.field:
+        return _field_tiles(given)
+    if g.distance is None:
         raise click.UsageError("Missing option '-d' / '--distance' (or give --field).")
-    ell = parse_ellipsoid(ellipsoid)
+    ell = parse_ellipsoid(g.ellipsoid)
     # fail before the work
-    many = distance_list(distance, lambda t: metres(t) if ell is not None else angle(t, radius))
+    convert = (lambda t: metres(t)) if ell is not None else (lambda t: angle(t, g.radius))
+    texts = [text for text, _ in distance_list(g.distance, convert)]  # as given
+    output = g.output
     refuse_stdout(
         output, "a tile pyramid is an .mbtiles or .pmtiles file or a folder of z/x/y.png tiles"
     )
     check_tile_output(output)
-    outputs = [output] if len(many) == 1 else [tile_output(output, t) for t, _ in many]
-    parse_zooms(zooms)
-    style = TileStyle(fill, opacity, outline, outline_width)
-    shape = read(input, layer=layer, where=where, densify=densify)
+    outputs = [output] if len(texts) == 1 else [tile_output(output, t) for t in texts]
+    parse_zooms(g.zooms)
+    style = TileStyle(g.fill, g.opacity, g.outline, g.outline_width)
+    shape = read(g.input, layer=g.layer, where=g.where, densify=g.densify)
+    options = PyramidOptions(
+        radius=g.radius,
+        size=g.tile_size,
+        style=style,
+        resume=g.resume,
+        overwrite=g.force,
+        name=g.name,
+        source="stdin" if g.input == "-" else Path(g.input).stem,
+        workers=g.workers,
+        scheduler=g.scheduler,
+        ellipsoid=ell,
+    )
+    # every distance and output checked (free, replaced or resumable) before any is written
+    check_pyramids(shape, texts, g.zooms, outputs, options)
+    _write_pyramids(shape, texts, g.zooms, outputs, options)
+
+
+def _write_pyramids(shape, texts, zooms, outputs, options: PyramidOptions) -> None:
+    """Write the pyramid of each distance (as given) to its output, with a progress bar."""
     bar = progress_bar(total=100, bar_format="{percentage:3.0f}%|{bar}| {desc}")
     shown = [0.0]
 
@@ -134,28 +152,12 @@ def tiles_cmd(
             shown[0] = now
             bar.refresh()
 
-    options = PyramidOptions(
-        radius=radius,
-        size=tile_size,
-        style=style,
-        resume=resume,
-        overwrite=force,
-        name=name,
-        source="stdin" if input == "-" else Path(input).stem,
-        progress=progress if bar is not None else None,
-        workers=workers,
-        scheduler=scheduler,
-        ellipsoid=ell,
-    )
-    texts = [text for text, _ in many]  # as given
-    # every distance and output checked (free, replaced or resumable) before any is written
-    check_pyramids(shape, texts, zooms, outputs, options)
+    options = replace(options, progress=progress if bar is not None else None)
     try:
         for text, out in zip(texts, outputs):
-            if len(many) > 1:
+            if len(texts) > 1:
                 click.echo(f"-d {text}: {out}", err=True)
-            stats = write_pyramid(shape, text, zooms, out, options)
-            _say(stats)
+            _say(write_pyramid(shape, text, zooms, out, options))
     finally:
         if bar is not None:
             bar.close()
