@@ -413,6 +413,39 @@ def test_engine_functions_take_few_parameters():
     assert not many, many
 
 
+#: the command-line commands still longer than MAX_COMMAND lines (to be split into steps)
+LONG_COMMANDS = {"contains_cmd", "field_cmd", "offset_cmd", "serve_cmd"}
+#: the longest command function of gloffset/cli, its decorators (the options) included
+MAX_COMMAND = 60
+
+
+def _cli_functions():
+    for path in sorted((PACKAGE / "cli").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef):
+                command = any("command" in ast.unparse(d) for d in node.decorator_list)
+                yield path, node, command
+
+
+def test_cli_helpers_take_few_parameters_and_commands_are_short():
+    """A helper of a command takes at most 7 parameters (several options travel as one
+    dataclass); a command (click passes it every option by name) is at most MAX_COMMAND
+    lines with its decorators: option groups and steps are helpers."""
+    many, long = [], []
+    for path, node, command in _cli_functions():
+        a = node.args
+        n = len(a.posonlyargs + a.args + a.kwonlyargs) + (a.vararg is not None)
+        n += a.kwarg is not None
+        start = min([d.lineno for d in node.decorator_list] + [node.lineno])
+        lines = node.end_lineno - start + 1
+        where = f"{path.relative_to(ROOT)}:{node.lineno} {node.name}"
+        if not command and n > 7:
+            many.append(f"{where} ({n} parameters)")
+        if command and lines > MAX_COMMAND and node.name not in LONG_COMMANDS:
+            long.append(f"{where} ({lines} lines)")
+    assert not many and not long, many + long
+
+
 def test_engine_names_are_defined_once():
     """Public functions and classes of raster/ and gl/ say which they are: no name twice
     (the level operations' ``refine`` of cells and of nodes aside)."""

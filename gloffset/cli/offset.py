@@ -13,10 +13,12 @@ distance in metres: the geodesic length with ``--ellipsoid``, else on the sphere
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 
 import click
 
 from ..each import offset_each
+from ..ellipsoid import Ellipsoid
 from ..errors import OptionError
 from ..geodesic_offset import offset as geodesic_offset
 from ..io.features import features as _features
@@ -125,19 +127,8 @@ def offset_cmd(
     if vector:
         check_writable(output)
     with Stages(3 if each or ell is not None or raw else 4) as stages:
-        feats = _offsets(
-            stages,
-            input,
-            {"layer": layer, "where": where, "densify": densify},
-            distance,
-            radius,
-            ell,
-            each,
-            tol,
-            digits,
-            raw,
-            method,
-        )
+        opts = _Options(distance, radius, ell, each, tol, digits, raw, method)
+        feats = _offsets(stages, input, {"layer": layer, "where": where, "densify": densify}, opts)
         props = distance_properties(distance, 1.0 if ell is not None else radius)
         for feat in feats:
             feat["properties"].update(props)
@@ -149,31 +140,47 @@ def offset_cmd(
         write_bytes(output, (text + "\n").encode("utf-8"))
 
 
-def _offsets(stages, input, source, distance, radius, ell, each, tol, digits, raw, method):
+@dataclass(frozen=True)
+class _Options:
+    """What ``offset`` makes of its input: the distance as given, the sphere's radius or
+    the ellipsoid (None: the sphere), ``--each``, the tolerance (an angle, or metres on
+    the ellipsoid), ``--digits``, ``--raw`` and ``--method``."""
+
+    distance: str
+    radius: float
+    ell: Ellipsoid | None
+    each: bool
+    tolerance: float
+    digits: int | None
+    raw: bool
+    method: str
+
+
+def _offsets(stages, input, source: dict, o: _Options) -> list:
     """The output features, the stages reported to ``stages`` (all but the writing)."""
-    if each:
+    if o.each:
         stages.stage("reading the input")
         feats = _features(load(input, **source))
         stages.stage("offsetting each feature", len(feats))
         return offset_each(
             feats,
-            distance,
-            radius=radius,
-            tolerance=tol,
-            digits=digits,
-            raw=raw,
-            method=method,
+            o.distance,
+            radius=o.radius,
+            tolerance=o.tolerance,
+            digits=o.digits,
+            raw=o.raw,
+            method=o.method,
             progress=stages.tick,
         )
     stages.stage("reading the input")
     shape = read(input, **source)
-    if ell is not None:
-        stages.stage(f"offsetting on {ell}")
-        off = geodesic_offset(shape, metres(distance), ellipsoid=ell, tolerance=tol)
-        return [off.to_geojson(digits=digits)]
-    off = _offset(shape, distance, radius=radius)
-    if not raw and off.distance != 0.0:
+    if o.ell is not None:
+        stages.stage(f"offsetting on {o.ell}")
+        off = geodesic_offset(shape, metres(o.distance), ellipsoid=o.ell, tolerance=o.tolerance)
+        return [off.to_geojson(digits=o.digits)]
+    off = _offset(shape, o.distance, radius=o.radius)
+    if not o.raw and off.distance != 0.0:
         stages.stage("removing self-intersections and overlaps")
-        off.resolve(method)  # kept on the offset for its writing
+        off.resolve(o.method)  # kept on the offset for its writing
     stages.stage("densifying the arcs and cutting at the antimeridian")
-    return [offset_feature(off, tolerance=tol, digits=digits, raw=raw, method=method)]
+    return [offset_feature(off, tolerance=o.tolerance, digits=o.digits, raw=o.raw, method=o.method)]

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import click
 import numpy as np
@@ -40,103 +42,123 @@ from .options import parse_size as _size
 CubeFacesError = InputFormatError
 
 
+@dataclass(frozen=True)
+class _Args:
+    """The options of ``render`` as click passes them."""
+
+    input: str | None
+    distance: Any  # as given (str): the library converts it once
+    radius: float
+    ellipsoid: str | None
+    grid_kind: str
+    size: str | None
+    bounds: str | None
+    output: str
+    fill: str | None
+    opacity: float
+    background: str | None
+    classes_level: int | None
+    bands: bool
+    backend: str
+    from_raster: str | None
+    mask_only: bool
+    cog: bool
+    no_worldfile: bool
+    layer: str | None = None
+    where: str | None = None
+    densify: str | None = None
+
+    def read_options(self) -> dict:
+        return dict(layer=self.layer, where=self.where, densify=self.densify)
+
+
+def _render_options(f):
+    """The arguments and options of ``render``, in the order ``--help`` lists them."""
+    for option in reversed(_OPTIONS):
+        f = option(f)
+    return f
+
+
+_OPTIONS = [
+    click.argument("input", metavar="INPUT", required=False),
+    measure_options(many=True),
+    choice_option(
+        "--grid",
+        "grid_kind",
+        choices=("equirect", "cube"),
+        help="equirect: one image; cube: OUTPUT is a folder of px nx py ny pz nz PNGs.",
+    ),
+    size_options,
+    click.option(
+        "-o",
+        "--output",
+        required=True,
+        help="Output image: PNG, or TIFF if it ends in .tif/.tiff; - for standard output (PNG). "
+        "With --grid cube: a folder.",
+    ),
+    click.option(
+        "--from-raster",
+        "from_raster",
+        default=None,
+        metavar="MASK.png|DIR",
+        help="Offset a rasterized curve on the equirect grid of --bounds instead of INPUT (paper "
+        "Sec. 5); writes the classes picture (or with --mask a mask). The mask is a grey image "
+        "(curve: pixels at least half white, >= 128) or an image with transparency (curve: pixels "
+        "at least half opaque, alpha >= 128); colour images are refused. A PNG covers --bounds; "
+        "without --bounds only a 2:1 image is taken as the whole globe (any other needs "
+        "--bounds). A GeoTIFF has its own lon/lat transform. With --grid cube: a folder of six "
+        "face PNGs px nx py ny pz nz, and OUTPUT a folder of six PNGs.",
+    ),
+    click.option(
+        "--mask",
+        "--mask-only",
+        "mask_only",
+        is_flag=True,
+        help="With --from-raster: a plain mask as render writes for INPUT, 255 for the cells "
+        "the offset contains and 0 elsewhere (--fill, --background and --opacity style it), "
+        "instead of the classes picture.",
+    ),
+    fill_options(
+        None,
+        "the region (an RGBA image; with neither --fill nor --background a grey mask, "
+        "255 inside, 0 outside)",
+    ),
+    click.option("--background", default=None, help="Colour outside the region, e.g. '0,0,0,0'."),
+    click.option(
+        "--classes",
+        "classes_level",
+        type=int,
+        default=None,
+        help="Write the classes of this level (contained black, frontier red, outside white): "
+        "a coarser level than the output's is written at its own size (each cell one pixel; "
+        "stderr says which), without georeference.",
+    ),
+    click.option(
+        "--bands",
+        is_flag=True,
+        help="With -d D1,D2,...: one grey image instead of one mask per distance, each pixel the "
+        "index of the smallest distance whose region holds it (0: none, k: the k-th smallest "
+        "distance; its Description says which is which).",
+    ),
+    choice_option("--backend", choices=("gpu", "cpu")),
+    click.option(
+        "--cog",
+        is_flag=True,
+        help="With -o NAME.tif: a Cloud Optimized GeoTIFF (also chosen by NAME.cog.tif).",
+    ),
+    click.option(
+        "--no-worldfile",
+        "no_worldfile",
+        is_flag=True,
+        help="Write no world file (.pgw) and .prj beside a PNG.",
+    ),
+    input_options,
+]
+
+
 @main.command("render")
-@click.argument("input", metavar="INPUT", required=False)
-@measure_options(many=True)
-@choice_option(
-    "--grid",
-    "grid_kind",
-    choices=("equirect", "cube"),
-    help="equirect: one image; cube: OUTPUT is a folder of px nx py ny pz nz PNGs.",
-)
-@size_options
-@click.option(
-    "-o",
-    "--output",
-    required=True,
-    help="Output image: PNG, or TIFF if it ends in .tif/.tiff; - for standard output (PNG). "
-    "With --grid cube: a folder.",
-)
-@click.option(
-    "--from-raster",
-    "from_raster",
-    default=None,
-    metavar="MASK.png|DIR",
-    help="Offset a rasterized curve on the equirect grid of --bounds instead of INPUT (paper "
-    "Sec. 5); writes the classes picture (or with --mask a mask). The mask is a grey image "
-    "(curve: pixels at least half white, >= 128) or an image with transparency (curve: pixels "
-    "at least half opaque, alpha >= 128); colour images are refused. A PNG covers --bounds; "
-    "without --bounds only a 2:1 image is taken as the whole globe (any other needs "
-    "--bounds). A GeoTIFF has its own lon/lat transform. With --grid cube: a folder of six "
-    "face PNGs px nx py ny pz nz, and OUTPUT a folder of six PNGs.",
-)
-@click.option(
-    "--mask",
-    "--mask-only",
-    "mask_only",
-    is_flag=True,
-    help="With --from-raster: a plain mask as render writes for INPUT, 255 for the cells "
-    "the offset contains and 0 elsewhere (--fill, --background and --opacity style it), "
-    "instead of the classes picture.",
-)
-@fill_options(
-    None,
-    "the region (an RGBA image; with neither --fill nor --background a grey mask, "
-    "255 inside, 0 outside)",
-)
-@click.option("--background", default=None, help="Colour outside the region, e.g. '0,0,0,0'.")
-@click.option(
-    "--classes",
-    "classes_level",
-    type=int,
-    default=None,
-    help="Write the classes of this level (contained black, frontier red, outside white): "
-    "a coarser level than the output's is written at its own size (each cell one pixel; "
-    "stderr says which), without georeference.",
-)
-@click.option(
-    "--bands",
-    is_flag=True,
-    help="With -d D1,D2,...: one grey image instead of one mask per distance, each pixel the "
-    "index of the smallest distance whose region holds it (0: none, k: the k-th smallest "
-    "distance; its Description says which is which).",
-)
-@choice_option("--backend", choices=("gpu", "cpu"))
-@click.option(
-    "--cog",
-    is_flag=True,
-    help="With -o NAME.tif: a Cloud Optimized GeoTIFF (also chosen by NAME.cog.tif).",
-)
-@click.option(
-    "--no-worldfile",
-    "no_worldfile",
-    is_flag=True,
-    help="Write no world file (.pgw) and .prj beside a PNG.",
-)
-@input_options
-def render_cmd(
-    input,
-    distance,
-    radius,
-    ellipsoid,
-    grid_kind,
-    size,
-    bounds,
-    output,
-    fill,
-    opacity,
-    background,
-    classes_level,
-    bands,
-    backend,
-    from_raster,
-    mask_only,
-    cog,
-    no_worldfile,
-    layer=None,
-    where=None,
-    densify=None,
-):
+@_render_options
+def render_cmd(**given):
     """Render the region within DIST of the curves of INPUT as a PNG or TIFF (row 0 north),
     or as six cube-map faces px nx py ny pz nz that load straight into a GL or three.js
     cube texture (sampled with the Earth-frame direction: x to 0N 0E, z to the north pole).
@@ -149,41 +171,38 @@ def render_cmd(
     distance as given (out_10km.png, out_50km.png, ...; with --grid cube the folders
     out_10km, ...), each the same as the run at that distance alone; or with --bands one
     image of the distance bands."""
-    ell = parse_ellipsoid(ellipsoid)
-    many = distance_list(distance, lambda t: metres(t) if ell is not None else angle(t, radius))
-    if len(many) > 1 or bands:
-        if from_raster is not None or classes_level is not None or mask_only:
+    o = _Args(**given)
+    ell = parse_ellipsoid(o.ellipsoid)
+    many = distance_list(o.distance, lambda t: metres(t) if ell is not None else angle(t, o.radius))
+    if len(many) > 1 or o.bands:
+        if o.from_raster is not None or o.classes_level is not None or o.mask_only:
             raise OptionError(
                 "several distances (or --bands) render masks of vector INPUT: no "
                 "--from-raster, --classes or --mask"
             )
-        return _many_cmd(
-            input,
-            many,
-            (ell, radius),
-            (grid_kind, size, bounds),
-            (output, cog, not no_worldfile, bands),
-            (fill, opacity, background),
-            backend,
-            dict(layer=layer, where=where, densify=densify),
-        )
-    if ell is not None and from_raster is None and classes_level is not None:
+        return _many_cmd(o, many, ell)
+    if ell is not None and o.from_raster is None and o.classes_level is not None:
         raise OptionError("--ellipsoid renders masks of vector INPUT: no --classes")
-    cog = _check_output(output, grid_kind, cog)
-    style = _checked_style(fill, opacity, background)  # fail before the work
-    if from_raster is not None:
-        if input is not None or size is not None:
-            raise OptionError("--from-raster takes no INPUT or --size (the PNGs' size)")
-        raster_opts = (classes_level, backend, mask_only, style)
-        where = (grid_kind, bounds, output, cog, not no_worldfile)
-        return _from_raster_cmd(from_raster, (many[0][0], radius, ell), where, raster_opts)
-    if input is None:
+    cog = _check_output(o.output, o.grid_kind, o.cog)
+    style = _checked_style(o.fill, o.opacity, o.background)  # fail before the work
+    if o.from_raster is None:
+        return _vector_cmd(o, ell, cog)
+    if o.input is not None or o.size is not None:
+        raise OptionError("--from-raster takes no INPUT or --size (the PNGs' size)")
+    raster_opts = (o.classes_level, o.backend, o.mask_only, style)
+    where = (o.grid_kind, o.bounds, o.output, cog, not o.no_worldfile)
+    return _from_raster_cmd(o.from_raster, (many[0][0], o.radius, ell), where, raster_opts)
+
+
+def _vector_cmd(o: _Args, ell, cog: bool) -> None:
+    """``render`` of one distance of vector INPUT: the mask, or the classes of a level."""
+    if o.input is None:
         raise OptionError("give an INPUT file (or - for stdin), or --from-raster MASK.png")
-    if mask_only:
+    if o.mask_only:
         raise OptionError("--mask is for --from-raster: render writes a mask of INPUT already")
-    grid, levels = _grid(grid_kind, size, bounds)
-    _say_level_size(grid, classes_level)
-    shape = read(input, layer=layer, where=where, densify=densify)
+    grid, levels = _grid(o.grid_kind, o.size, o.bounds)
+    _say_level_size(grid, o.classes_level)
+    shape = read(o.input, **o.read_options())
     show = sys.stderr.isatty()
     t0 = time.perf_counter()
 
@@ -197,33 +216,35 @@ def render_cmd(
                 nl=False,
             )
 
-    out = "classes" if classes_level is not None else "mask"
+    out = "classes" if o.classes_level is not None else "mask"
     result = _render(
         shape,
-        distance,  # as given: the library converts it once
+        o.distance,  # as given: the library converts it once
         grid,
-        radius=radius,
+        radius=o.radius,
         out=out,
-        level=classes_level,
+        level=o.classes_level,
         callback=progress if ell is None else None,
-        backend=backend,
+        backend=o.backend,
         ellipsoid=ell,
     )
-    if grid_kind == "cube":
-        folder = _out_folder(output)
+    if o.grid_kind == "cube":
+        folder = _out_folder(o.output)
         targets = [(folder / f"{name}.png", result[k]) for k, name in enumerate(FACE_NAMES)]
     else:
-        targets = [(Path(output), result)]
-    styled = out == "mask" and (fill, background, opacity) != (None, None, 1.0)
+        targets = [(Path(o.output), result)]
+    styled = out == "mask" and (o.fill, o.background, o.opacity) != (None, None, 1.0)
     what = "styled" if styled else out
-    place = None if grid_kind == "cube" else _placement(grid, cog, not no_worldfile, what)
-    if out == "classes" and place is not None and classes_level != grid.n_levels - 1:
+    place = None if o.grid_kind == "cube" else _placement(grid, cog, not o.no_worldfile, what)
+    if out == "classes" and place is not None and o.classes_level != grid.n_levels - 1:
         place = None  # a coarser level's classes are not the grid's pixels
     for path, img in targets:
         if out == "classes":
             write_classes(img, path, place=place)
         else:
-            write_mask(img, path, fill=fill, opacity=opacity, background=background, place=place)
+            write_mask(
+                img, path, fill=o.fill, opacity=o.opacity, background=o.background, place=place
+            )
     if show:
         click.echo("", err=True)
 
@@ -243,23 +264,25 @@ def named(output, text: str) -> str:
     return str(path.with_name(f"{stem}_{text}{suffix}"))
 
 
-def _many_cmd(input, many, measure, gridopts, outopts, style, backend, read_opts):
-    """``render -d D1,D2,...``: the masks of several distances from one read of INPUT
-    (:func:`gloffset.raster.many.render_many`), one file per distance or, with
-    ``--bands``, one image of the bands (:func:`gloffset.raster.many.mask_bands`);
-    ``measure`` is ``(ellipsoid, radius)``."""
+def _many_cmd(o: _Args, many, ell) -> None:
+    """``render -d D1,D2,...``: the masks of the distances ``many`` (each as given and its
+    value) from one read of INPUT (:func:`gloffset.raster.many.render_many`), one file
+    per distance or, with ``--bands``, one image of the bands
+    (:func:`gloffset.raster.many.mask_bands`); ``ell``: the ellipsoid or None."""
     from ..raster.many import mask_bands, render_many
 
-    ell, radius = measure
-
-    output, cog, worldfile, bands = outopts
-    grid_kind, size, bounds = gridopts
+    input, radius, backend, read_opts = o.input, o.radius, o.backend, o.read_options()
+    output, cog, worldfile, bands = o.output, o.cog, not o.no_worldfile, o.bands
+    grid_kind, size, bounds = o.grid_kind, o.size, o.bounds
+    style = (o.fill, o.opacity, o.background)
     if input is None:
         raise OptionError("give an INPUT file (or - for stdin)")
     if bands and style != (None, 1.0, None):
         raise OptionError("--bands writes distance indices: no --fill, --background, --opacity")
     if len(many) > 1 and not bands:
         refuse_stdout(output, "several distances write one file per distance: give a name")
+        if grid_kind != "cube":
+            image_format(output)  # the name as given, before the names per distance
         outputs = [named(output, text) for text, _ in many]
     else:
         outputs = [output]

@@ -5,14 +5,16 @@ from __future__ import annotations
 import bisect
 import itertools
 import time
+from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import click
 
 from ..io.output import refuse_stdout
 from ..io.tilestore import TILE_FILES, check_tile_output
 from ..raster.pyramid import TileProgress, parse_zooms
-from ..raster.pyramid.driver import PyramidOptions, write_pyramid
+from ..raster.pyramid.driver import PyramidOptions, check_pyramids, write_pyramid
 from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
 from . import main
@@ -27,71 +29,65 @@ from .options import (
     progress_bar,
 )
 
+_OPTIONS = [
+    click.argument("input", metavar="INPUT"),
+    measure_options(many=True),
+    click.option(
+        "-z", "--zoom", "zooms", required=True, help="Zoom range MIN-MAX (0..22), e.g. 0-14."
+    ),
+    click.option(
+        "-o",
+        "--output",
+        required=True,
+        help="OUT.mbtiles (MBTiles 1.3), OUT.pmtiles (PMTiles v3, needs the pmtiles package) "
+        "or a directory for z/x/y.png tiles (a name without an extension, or ending in /).",
+    ),
+    fill_options("#3070c0"),
+    click.option("--outline", default=None, help="Draw the input curves in this colour."),
+    click.option("--outline-width", type=int, default=1, show_default=True, help="In pixels."),
+    click.option(
+        "--tile-size",
+        type=int,
+        default=256,
+        show_default=True,
+        help="Tile side, pixels (a power of two).",
+    ),
+    click.option("--name", default=None, help="Tileset name (default: the output's name)."),
+    click.option(
+        "--field",
+        is_flag=True,
+        help="Write distance-field tiles instead (no -d): every tile of the zooms holds the signed "
+        "distance in metres at its pixel centres as RGB, metres = R * 65536 + G * 256 + B - "
+        "8388608 (MapLibre raster-dem custom encoding; docs/guide/tiles.md).",
+    ),
+    click.option("--resume", is_flag=True, help="Complete an interrupted run (same options)."),
+    click.option("--force", is_flag=True, help="Replace an existing output."),
+    click.option(
+        "--workers",
+        type=click.IntRange(min=1),
+        default=None,
+        help="Render on a local Dask cluster of N worker processes (pip install 'gloffset[dask]'); "
+        "the output is the same as with one process.",
+    ),
+    click.option(
+        "--scheduler",
+        default=None,
+        help="Render on a running Dask cluster (its scheduler address).",
+    ),
+    input_options,
+]
+
+
+def _tiles_options(f):
+    """The arguments and options of ``tiles``, in the order ``--help`` lists them."""
+    for option in reversed(_OPTIONS):
+        f = option(f)
+    return f
+
 
 @main.command("tiles")
-@click.argument("input", metavar="INPUT")
-@measure_options(many=True)
-@click.option("-z", "--zoom", "zooms", required=True, help="Zoom range MIN-MAX (0..22), e.g. 0-14.")
-@click.option(
-    "-o",
-    "--output",
-    required=True,
-    help="OUT.mbtiles (MBTiles 1.3), OUT.pmtiles (PMTiles v3, needs the pmtiles package) "
-    "or a directory for z/x/y.png tiles (a name without an extension, or ending in /).",
-)
-@fill_options("#3070c0")
-@click.option("--outline", default=None, help="Draw the input curves in this colour.")
-@click.option("--outline-width", type=int, default=1, show_default=True, help="In pixels.")
-@click.option(
-    "--tile-size",
-    type=int,
-    default=256,
-    show_default=True,
-    help="Tile side, pixels (a power of two).",
-)
-@click.option("--name", default=None, help="Tileset name (default: the output's name).")
-@click.option(
-    "--field",
-    is_flag=True,
-    help="Write distance-field tiles instead (no -d): every tile of the zooms holds the signed "
-    "distance in metres at its pixel centres as RGB, metres = R * 65536 + G * 256 + B - "
-    "8388608 (MapLibre raster-dem custom encoding; docs/guide/tiles.md).",
-)
-@click.option("--resume", is_flag=True, help="Complete an interrupted run (same options).")
-@click.option("--force", is_flag=True, help="Replace an existing output.")
-@click.option(
-    "--workers",
-    type=click.IntRange(min=1),
-    default=None,
-    help="Render on a local Dask cluster of N worker processes (pip install 'gloffset[dask]'); "
-    "the output is the same as with one process.",
-)
-@click.option(
-    "--scheduler", default=None, help="Render on a running Dask cluster (its scheduler address)."
-)
-@input_options
-def tiles_cmd(
-    input,
-    distance,
-    radius,
-    ellipsoid,
-    zooms,
-    output,
-    fill,
-    opacity,
-    outline,
-    outline_width,
-    tile_size,
-    name,
-    field,
-    resume,
-    force,
-    workers,
-    scheduler,
-    layer=None,
-    where=None,
-    densify=None,
-):
+@_tiles_options
+def tiles_cmd(**given):
     """Write the tile pyramid of the region within DIST of the curves of INPUT: tiles
     outside the region are skipped, tiles fully inside share one image and are not
     rendered, only tiles on the region's edge are rendered. With --ellipsoid, DIST is a
@@ -101,45 +97,52 @@ def tiles_cmd(
     Several distances, -d 10km,50km,127km, write one pyramid per distance from one read
     of INPUT, named by the distance as given: OUT_10km.mbtiles (.pmtiles), ... or, for a
     folder OUT, OUT/10km/z/x/y.png, ...; each the same as the run at that distance alone."""
-    if field:
-        return _field_tiles(
-            input, radius, ellipsoid, zooms, output, tile_size, name, force, locals()
-        )
-    if distance is None:
+    g = SimpleNamespace(**given)
+    if g.resume and g.force:
+        raise click.UsageError("--resume and --force exclude each other")
+    if g.field:
+        return _field_tiles(given)
+    if g.distance is None:
         raise click.UsageError("Missing option '-d' / '--distance' (or give --field).")
-    ell = parse_ellipsoid(ellipsoid)
+    ell = parse_ellipsoid(g.ellipsoid)
     # fail before the work
-    many = distance_list(distance, lambda t: metres(t) if ell is not None else angle(t, radius))
+    convert = (lambda t: metres(t)) if ell is not None else (lambda t: angle(t, g.radius))
+    texts = [text for text, _ in distance_list(g.distance, convert)]  # as given
+    output = g.output
     refuse_stdout(
         output, "a tile pyramid is an .mbtiles or .pmtiles file or a folder of z/x/y.png tiles"
     )
     check_tile_output(output)
-    outputs = [output] if len(many) == 1 else [tile_output(output, t) for t, _ in many]
-    parse_zooms(zooms)
-    style = TileStyle(fill, opacity, outline, outline_width)
-    if resume and force:
-        raise click.UsageError("--resume and --force exclude each other")
-    shape = read(input, layer=layer, where=where, densify=densify)
-    bar, progress = _tile_bar()
+    outputs = [output] if len(texts) == 1 else [tile_output(output, t) for t in texts]
+    parse_zooms(g.zooms)
+    style = TileStyle(g.fill, g.opacity, g.outline, g.outline_width)
+    shape = read(g.input, layer=g.layer, where=g.where, densify=g.densify)
     options = PyramidOptions(
-        radius=radius,
-        size=tile_size,
+        radius=g.radius,
+        size=g.tile_size,
         style=style,
-        resume=resume,
-        overwrite=force,
-        name=name,
-        source="stdin" if input == "-" else Path(input).stem,
-        progress=progress if bar is not None else None,
-        workers=workers,
-        scheduler=scheduler,
+        resume=g.resume,
+        overwrite=g.force,
+        name=g.name,
+        source="stdin" if g.input == "-" else Path(g.input).stem,
+        workers=g.workers,
+        scheduler=g.scheduler,
         ellipsoid=ell,
     )
+    # every distance and output checked (free, replaced or resumable) before any is written
+    check_pyramids(shape, texts, g.zooms, outputs, options)
+    _write_pyramids(shape, texts, g.zooms, outputs, options)
+
+
+def _write_pyramids(shape, texts, zooms, outputs, options: PyramidOptions) -> None:
+    """Write the pyramid of each distance (as given) to its output, with a progress bar."""
+    bar, progress = _tile_bar()
+    options = replace(options, progress=progress)
     try:
-        for (text, _), out in zip(many, outputs):
-            if len(many) > 1:
+        for text, out in zip(texts, outputs):
+            if len(texts) > 1:
                 click.echo(f"-d {text}: {out}", err=True)
-            stats = write_pyramid(shape, text, zooms, out, options)  # text: as given
-            _say(stats)
+            _say(write_pyramid(shape, text, zooms, out, options))
     finally:
         if bar is not None:
             bar.close()
@@ -218,38 +221,50 @@ def _say(stats) -> None:
 next(p for p in tiles_cmd.params if p.name == "distance").required = False
 
 
-def _field_tiles(input, radius, ellipsoid, zooms, output, size, name, force, given) -> None:
+#: The options of a raster pyramid that a field pyramid does not take, and why.
+_NOT_FOR_FIELD = (
+    (("distance",), "a field holds every distance"),
+    (("ellipsoid",), "field tiles are distances on the sphere of --radius"),
+    (("fill", "opacity", "outline", "outline_width"), "field tiles hold distances, not colours"),
+    (("workers", "scheduler"), "field tiles are written in one process"),
+)
+
+
+def _field_tiles(given: dict) -> None:
     """``gloffset tiles --field``: the distance-field pyramid
-    (:func:`gloffset.raster.pyramid.fieldtiles.field_pyramid`)."""
+    (:func:`gloffset.raster.pyramid.fieldtiles.field_pyramid`) of the options ``given``;
+    an option that only a raster pyramid takes is refused, even given at its default."""
     from ..raster.pyramid.fieldtiles import field_pyramid
 
-    for opt, bad in (
-        ("-d", given["distance"] is not None),
-        ("--ellipsoid", ellipsoid is not None),
-        ("--outline", given["outline"] is not None),
-        ("--resume", given["resume"]),
-        ("--workers", given["workers"] is not None),
-        ("--scheduler", given["scheduler"] is not None),
-    ):
-        if bad:
-            raise click.UsageError(f"--field takes no {opt}: a field holds every distance")
+    ctx = click.get_current_context()
+    for names, why in _NOT_FOR_FIELD:
+        for param in (p for p in tiles_cmd.params if p.name in names):
+            if ctx.get_parameter_source(param.name) not in (None, *_DEFAULTS):
+                raise click.UsageError(f"--field takes no {param.opts[0]}: {why}")
+    output = given["output"]
     refuse_stdout(output, "field tiles are an .mbtiles or .pmtiles file or a folder")
     check_tile_output(output)
-    zrange = parse_zooms(zooms)
-    shape = read(input, layer=given["layer"], where=given["where"], densify=given["densify"])
+    zrange = parse_zooms(given["zooms"])
+    shape = read(
+        given["input"], layer=given["layer"], where=given["where"], densify=given["densify"]
+    )
     t0 = time.perf_counter()
     bar, show = _tile_bar()
     n = field_pyramid(
         shape,
-        zooms,
+        given["zooms"],
         output,
-        radius=radius,
-        size=size,
-        name=name,
-        source="stdin" if input == "-" else Path(input).stem,
-        overwrite=force,
+        radius=given["radius"],
+        size=given["tile_size"],
+        name=given["name"],
+        source="stdin" if given["input"] == "-" else Path(given["input"]).stem,
+        overwrite=given["force"],
+        resume=given["resume"],
         progress=None if show is None else _field_progress(show, zrange),
     )
     if bar is not None:
         bar.close()
     click.echo(f"{n:,} field tiles written; {time.perf_counter() - t0:.1f} s", err=True)
+
+
+_DEFAULTS = (click.core.ParameterSource.DEFAULT, click.core.ParameterSource.DEFAULT_MAP)

@@ -20,7 +20,7 @@ from pathlib import Path
 from ..errors import OutputError, OutputExistsError
 from .output import replacing
 
-__all__ = ["MBTilesWriter", "tms_row", "SCHEMA"]
+__all__ = ["MBTilesWriter", "read_metadata", "tms_row", "SCHEMA"]
 
 SCHEMA = """
 CREATE TABLE metadata (name TEXT, value TEXT);
@@ -39,6 +39,25 @@ CREATE VIEW tiles AS
 def tms_row(z: int, y: int) -> int:
     """The MBTiles (TMS) row of XYZ row ``y`` at zoom ``z``: ``2^z - 1 - y``."""
     return (1 << z) - 1 - y
+
+
+def read_metadata(path) -> dict:
+    """The metadata rows of the MBTiles file ``path``, read only (the file is not changed);
+    :class:`~gloffset.errors.OutputError` for a file that is not a gloffset MBTiles file."""
+    try:
+        db = sqlite3.connect(Path(path).absolute().as_uri() + "?mode=ro", uri=True)
+        try:
+            names = {r[0] for r in db.execute("SELECT name FROM sqlite_master")}
+            if not {"map", "images", "metadata"} <= names:
+                raise OutputError(
+                    f"{str(path)!r} was not written by gloffset (no map/images tables); "
+                    "use --force to replace it"
+                )
+            return dict(db.execute("SELECT name, value FROM metadata"))
+        finally:
+            db.close()
+    except sqlite3.Error as exc:
+        raise OutputError(f"{str(path)!r} is not an MBTiles file: {exc}") from None
 
 
 class MBTilesWriter:

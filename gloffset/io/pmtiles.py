@@ -27,9 +27,10 @@ from pathlib import Path
 
 from ..errors import OutputError, OutputExistsError
 from .mbtiles import MBTilesWriter, tms_row
+from .mbtiles import read_metadata as _staged_metadata
 from .output import replacing
 
-__all__ = ["PMTilesWriter", "read_pmtiles"]
+__all__ = ["PMTilesWriter", "read_metadata", "read_pmtiles"]
 
 
 def _pmtiles():
@@ -206,6 +207,26 @@ def _empty_parts(header: dict, meta: dict, tile, writer) -> tuple[bytes, ...]:
         tile_data_length=0,
     )
     return tile.serialize_header(header), root, packed, leaves
+
+
+def read_metadata(path) -> dict:
+    """The metadata a resumed run of the archive ``path`` continues, read only: that of its
+    staged tiles when a run was interrupted, else the finished archive's (its tiles are not
+    read)."""
+    staging = Path(path).with_name(Path(path).name + ".partial.mbtiles")
+    if staging.exists():
+        return _staged_metadata(staging)
+    _pmtiles()
+    from pmtiles.reader import MmapSource, Reader
+
+    try:
+        with open(path, "rb") as f:
+            meta = Reader(MmapSource(f)).metadata()
+    except Exception as exc:  # noqa: BLE001 - the reader's errors are of many kinds
+        raise OutputError(f"{str(path)!r} is not a PMTiles archive: {exc}") from None
+    if isinstance(meta, (bytes, str)):
+        meta = json.loads(meta)
+    return {k: str(v) for k, v in meta.items()}
 
 
 def read_pmtiles(path) -> tuple[dict, dict]:

@@ -16,7 +16,14 @@ import numpy as np
 
 from ..errors import OutputError, OutputExistsError
 
-__all__ = ["INPUT_KEY", "OutputExistsError", "check_tile_output", "input_digest", "open_store"]
+__all__ = [
+    "INPUT_KEY",
+    "OutputExistsError",
+    "check_store",
+    "check_tile_output",
+    "input_digest",
+    "open_store",
+]
 
 #: The file formats of a tile pyramid, by ending; any other output is an XYZ folder.
 TILE_FILES = (".mbtiles", ".pmtiles")
@@ -62,6 +69,42 @@ def check_tile_output(path) -> None:
         f"NAME.pmtiles or a folder for z/x/y.png tiles (a name without an extension, or "
         f"one ending in '/': {p.stem + '/'!r})"
     )
+
+
+def check_store(path, *, resume: bool = False, overwrite: bool = False) -> dict | None:
+    """Check, reading only, that :func:`open_store` with these flags would open ``path``;
+    the metadata of the output that ``resume`` continues (None: there is none, a new
+    output is written).
+
+    Raises what :func:`open_store` raises, before anything is written or unpacked: a
+    caller checks every output of a run (and whether each resumes the same pyramid) before
+    it writes any."""
+    check_tile_output(path)
+    path = Path(path)
+    if path.suffix.lower() == ".mbtiles":
+        from .mbtiles import read_metadata
+
+        busy = path.exists()
+    elif path.suffix.lower() == ".pmtiles":
+        from .pmtiles import read_metadata
+
+        busy = path.exists() or Path(f"{path}.partial.mbtiles").exists()
+    else:
+        from .xyzdir import read_metadata
+
+        if path.exists() and not path.is_dir():
+            raise OutputError(f"{str(path)!r} is a file, not a tile directory")
+        busy = path.is_dir() and any(path.iterdir())
+        if busy and overwrite and not resume and "gloffset" not in read_metadata(path):
+            raise OutputError(
+                f"{str(path)!r} is not a tile directory written by gloffset "
+                "(no metadata.json); refusing to delete it"
+            )
+    if not busy or overwrite and not resume:
+        return None
+    if not resume:
+        raise OutputExistsError(path)
+    return read_metadata(path)
 
 
 def open_store(path, metadata: dict, *, resume: bool = False, overwrite: bool = False):

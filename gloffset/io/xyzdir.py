@@ -15,9 +15,19 @@ from pathlib import Path
 
 from ..errors import OutputError, OutputExistsError
 
-__all__ = ["XYZDirWriter", "METADATA_FILE"]
+__all__ = ["XYZDirWriter", "METADATA_FILE", "read_metadata"]
 
 METADATA_FILE = "metadata.json"
+
+
+def read_metadata(path) -> dict:
+    """The ``metadata.json`` of the tile directory ``path`` as strings (empty when missing
+    or unreadable), read only."""
+    try:
+        meta = json.loads((Path(path) / METADATA_FILE).read_text())
+    except (OSError, ValueError):
+        return {}
+    return {k: str(v) for k, v in meta.items()} if isinstance(meta, dict) else {}
 
 
 class XYZDirWriter:

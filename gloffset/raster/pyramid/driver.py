@@ -39,7 +39,7 @@ import numpy as np
 from ...ellipsoid import as_ellipsoid
 from ...errors import TilesError
 from ...grids.mercator import MAX_ZOOM, TilePyramid, check_tile_size
-from ...io.tilestore import INPUT_KEY, input_digest, open_store
+from ...io.tilestore import INPUT_KEY, check_store, input_digest, open_store
 from ...shape import read
 from ...units import RASTER_LIMIT, offset_angle, to_metres
 from .. import driver
@@ -50,7 +50,7 @@ from .ellipsoid import run_ellipsoid_pyramid
 from .job import PyramidJob, PyramidOptions, pyramid_options
 from .malloc import keep_freed_memory
 from .metadata import (
-    check_input,
+    check_resume,
     describe,
     final_bounds,
     options_json,
@@ -64,6 +64,7 @@ __all__ = [
     "pyramid",
     "pyramids",
     "write_pyramid",
+    "check_pyramids",
     "PyramidOptions",
     "parse_zooms",
     "run_pyramid",
@@ -214,23 +215,12 @@ def write_pyramid(shape, distance, zooms, out, options: PyramidOptions) -> Pyram
     keep_freed_memory()  # a pyramid makes and frees large arrays at every zoom
     source = o.source if o.source is not None else source_name(shape)
     shape = read(shape)
-    ell = as_ellipsoid(o.ellipsoid)
-    radius = o.radius
-    if ell is not None:
-        to_metres(distance)  # a geodesic length: no angle units
-        radius = ell.a  # the distance in metres, its angle on the sphere of radius a
-    d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="a tile pyramid")
-    zlo, zhi = parse_zooms(zooms)
-    size = check_tile_size(o.size, TilesError)
-    params = options_json(d, (zlo, zhi), size, o.style, ell)
-    job = PyramidJob(
-        shape=shape, d=d, zlo=zlo, zhi=zhi, size=size, style=o.style, max_block=o.max_block
-    )
-    if ell is not None and (o.style.outline is not None or o.workers is not None or o.scheduler):
-        raise TilesError("on an ellipsoid, pyramids take no outline, workers or scheduler")
+    job, ell, radius, params = _plan(shape, distance, zooms, o)
+    zlo, zhi = job.zlo, job.zhi
     if isinstance(out, (str, Path)):
+        _check_output(out, params, shape, o)  # before anything is written or unpacked
         label = o.name or Path(out).stem or "gloffset"
-        desc = describe(distance, d, radius, source)
+        desc = describe(distance, job.d, radius, source)
         if ell is not None:
             desc += f"; geodesic distance on {ell}"
         meta = {**store_metadata(label, desc, (zlo, zhi), params), INPUT_KEY: input_digest(shape)}
@@ -240,13 +230,7 @@ def write_pyramid(shape, distance, zooms, out, options: PyramidOptions) -> Pyram
     stats = PyramidStats()
     try:
         if o.resume:
-            have = store.metadata().get("gloffset")
-            if have != params:
-                raise TilesError(
-                    f"cannot resume {str(getattr(store, 'path', out))!r}: it was written with "
-                    f"other options ({have}); use --force to start again"
-                )
-            check_input(store, shape, out)
+            check_resume(store.metadata(), params, shape, getattr(store, "path", out))
         have = store.existing() if o.resume else set()
         if ell is not None:
             run_ellipsoid_pyramid(job, ell, store, have, stats)
@@ -278,6 +262,48 @@ def write_pyramid(shape, distance, zooms, out, options: PyramidOptions) -> Pyram
     return stats
 
 
+def _plan(shape, distance, zooms, o: PyramidOptions):
+    """The job of the pyramid of ``distance`` (every option checked), its ellipsoid (or
+    None), the radius its angle is on, and its options as a resumed run must match them."""
+    ell = as_ellipsoid(o.ellipsoid)
+    radius = o.radius
+    if ell is not None:
+        to_metres(distance)  # a geodesic length: no angle units
+        radius = ell.a  # the distance in metres, its angle on the sphere of radius a
+    d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="a tile pyramid")
+    zlo, zhi = parse_zooms(zooms)
+    size = check_tile_size(o.size, TilesError)
+    params = options_json(d, (zlo, zhi), size, o.style, ell)
+    job = PyramidJob(
+        shape=shape, d=d, zlo=zlo, zhi=zhi, size=size, style=o.style, max_block=o.max_block
+    )
+    if ell is not None and (o.style.outline is not None or o.workers is not None or o.scheduler):
+        raise TilesError("on an ellipsoid, pyramids take no outline, workers or scheduler")
+    return job, ell, radius, params
+
+
+def _check_output(out, params: str, shape, o: PyramidOptions) -> None:
+    """Refuse, reading only, an output that exists without ``resume`` or ``overwrite``, or
+    that ``resume`` cannot continue (other options, another input)."""
+    have = check_store(out, resume=o.resume, overwrite=o.overwrite)
+    if o.resume and have is not None:
+        check_resume(have, params, shape, out)
+
+
+def check_pyramids(shape, distances, zooms, outs, options: PyramidOptions) -> None:
+    """Check the pyramids of several distances before any is written: every distance and
+    option (:class:`~gloffset.errors.TilesError`,
+    :class:`~gloffset.errors.InvalidDistanceError`) and every output, free, replaced
+    (``overwrite``) or continued by ``resume`` with the same options and input
+    (:class:`~gloffset.errors.OutputExistsError`, :class:`~gloffset.errors.OutputError`,
+    :class:`~gloffset.errors.TilesError`). Reads only: nothing is written or unpacked."""
+    shape = read(shape)
+    for distance, out in zip(distances, outs):
+        _, _, _, params = _plan(shape, distance, zooms, options)
+        if isinstance(out, (str, Path)):
+            _check_output(out, params, shape, options)
+
+
 def pyramids(shape, distances, zooms, outs, **options) -> list[PyramidStats]:
     """The pyramids of several distances of one shape: ``outs[k]`` is the pyramid of
     ``distances[k]``, the same output as ``pyramid(shape, distances[k], zooms, outs[k],
@@ -301,11 +327,7 @@ def pyramids(shape, distances, zooms, outs, **options) -> list[PyramidStats]:
     opts = pyramid_options(options, "pyramids")
     opts = opts if opts.source is not None else replace(opts, source=source_name(shape))
     shape = read(shape)
-    ell = as_ellipsoid(opts.ellipsoid)
-    radius = ell.a if ell is not None else opts.radius
-    for dist in distances:  # metres on an ellipsoid (to_metres), else as offset_angle reads it
-        value = to_metres(dist) if ell is not None else dist
-        offset_angle(shape, value, radius, limit=RASTER_LIMIT, what="a tile pyramid")
+    check_pyramids(shape, distances, zooms, outs, opts)
     return [write_pyramid(shape, dist, zooms, out, opts) for dist, out in zip(distances, outs)]
 
 

@@ -18,17 +18,18 @@ from __future__ import annotations
 
 import io
 import json
+import time
 
 import numpy as np
 from PIL import Image
 
 from ...errors import OptionError
 from ...grids import Tile
-from ...io.tilestore import INPUT_KEY, input_digest, open_store
+from ...io.tilestore import INPUT_KEY, check_store, input_digest, open_store
 from ...units import EARTH_RADIUS
 from ..field import distance_field
 from .driver import parse_zooms
-from .metadata import final_bounds, store_metadata
+from .metadata import check_resume, final_bounds, store_metadata
 
 __all__ = [
     "FIELD_ENCODING",
@@ -91,13 +92,19 @@ def field_pyramid(
     name: str | None = None,
     source: str | None = None,
     overwrite: bool = False,
+    resume: bool = False,
     progress=None,
 ) -> int:
     """Write the field tiles of ``shape`` (every tile of ``zooms``, ``"MIN-MAX"``) to
     ``out`` (``.mbtiles``, ``.pmtiles`` or an XYZ folder), encoded by
     :data:`FIELD_ENCODING` in metres on the sphere of ``radius``; the encoding is in the
     output's metadata (``encoding``). ``progress(done, total)`` is called after each
-    tile. Returns the number of tiles written.
+    tile. Returns the number of tiles written (a resumed run skips those there).
+
+    ``resume`` completes an interrupted run: the tiles the output holds are kept, the
+    others written, and the result is the output of one uninterrupted run. It is refused
+    (:class:`~gloffset.errors.TilesError`, before anything is written) when the output
+    was written with another size, radius or zoom range, or from another input.
 
     Accuracy: each pixel is the exact signed distance rounded once to float32 radians
     (:func:`gloffset.distance_field`), times ``radius``, rounded to the metre: within 1 m
@@ -106,32 +113,61 @@ def field_pyramid(
     zlo, zhi = parse_zooms(zooms)
     if size & (size - 1) or not 16 <= size <= 4096:
         raise OptionError(f"tile size must be a power of two from 16 to 4096, got {size!r}")
+    params = json.dumps(
+        {"field": True, "size": size, "radius": radius, "zooms": [zlo, zhi]}, sort_keys=True
+    )
+    have = check_store(out, resume=resume, overwrite=overwrite)  # reads only
+    if resume and have is not None:
+        check_resume(have, params, shape, out)
+    store = open_store(
+        out,
+        _field_metadata(shape, (zlo, zhi), params, name, source),
+        resume=resume,
+        overwrite=overwrite,
+    )
+    present = store.existing() if resume else set()
+    total = sum(1 << (2 * z) for z in range(zlo, zhi + 1))
+    done, written, saved = 0, 0, time.monotonic()
+    try:
+        for z, x, y in _tiles(zlo, zhi):
+            if (z, x, y) not in present:
+                f = field_tile(shape, z, x, y, size)
+                store.put(z, x, y, encode_field(f.values, radius))
+                written += 1
+                if time.monotonic() - saved >= COMMIT_SECONDS:  # a killed run keeps them
+                    store.commit()
+                    saved = time.monotonic()
+            done += 1
+            if progress is not None:
+                progress(done, total)
+        store.set_metadata(final_bounds(store, (zlo, zhi)))
+        store.finish()
+    finally:
+        store.close()
+    return written
+
+
+#: A field pyramid commits its tiles at least this often (seconds), so that a killed run
+#: loses at most the tiles of the last few seconds and ``resume`` continues from there.
+COMMIT_SECONDS = 2.0
+
+
+def _tiles(zlo: int, zhi: int):
+    """Every tile ``(z, x, y)`` of the zooms, row by row."""
+    for z in range(zlo, zhi + 1):
+        n = 1 << z
+        for y in range(n):
+            for x in range(n):
+                yield z, x, y
+
+
+def _field_metadata(shape, zooms, params: str, name, source) -> dict:
     label = name or (source or "field")
     desc = (
         f"Signed distance to the curves of {source or 'the input'} in metres (negative inside "
         "its polygons), as raster-dem custom encoding: metres = R * redFactor + G * "
         "greenFactor + B * blueFactor - baseShift"
     )
-    encoding = json.dumps(FIELD_ENCODING)
-    params = json.dumps({"field": True, "size": size, "radius": radius}, sort_keys=True)
-    meta = {**store_metadata(label, desc, (zlo, zhi), params), INPUT_KEY: input_digest(shape)}
-    meta["encoding"] = encoding  # JSON, as "gloffset" is
-    store = open_store(out, meta, overwrite=overwrite)
-    total = sum(1 << (2 * z) for z in range(zlo, zhi + 1))
-    done = 0
-    try:
-        for z in range(zlo, zhi + 1):
-            n = 1 << z
-            for y in range(n):
-                for x in range(n):
-                    f = field_tile(shape, z, x, y, size)
-                    store.put(z, x, y, encode_field(f.values, radius))
-                    done += 1
-                    if progress is not None:
-                        progress(done, total)
-            store.commit()
-        store.set_metadata(final_bounds(store, (zlo, zhi)))
-        store.finish()
-    finally:
-        store.close()
-    return done
+    meta = {**store_metadata(label, desc, zooms, params), INPUT_KEY: input_digest(shape)}
+    meta["encoding"] = json.dumps(FIELD_ENCODING)  # JSON, as "gloffset" is
+    return meta

@@ -14,7 +14,14 @@ from ...grids.mercator import lat_at
 from ...io.tilestore import INPUT_KEY, input_digest
 from ...units import EARTH_RADIUS
 
-__all__ = ["options_json", "store_metadata", "source_name", "describe", "final_bounds"]
+__all__ = [
+    "options_json",
+    "store_metadata",
+    "source_name",
+    "describe",
+    "final_bounds",
+    "check_resume",
+]
 
 
 def options_json(d, zooms, size, style, ell=None) -> str:
@@ -100,18 +107,25 @@ def final_bounds(store, zooms) -> dict:
     return {}
 
 
-def check_input(store, shape, out) -> None:
-    """Refuse to resume a pyramid of another input (or of one not recorded: an output of
-    gloffset before 2026-11-26 has no digest, and its input cannot be checked)."""
-    where = str(getattr(store, "path", out))
-    have, want = store.metadata().get(INPUT_KEY), input_digest(shape)
-    if have is None:
+def check_resume(have: dict, params: str, shape, where) -> None:
+    """Refuse to resume the output ``where`` whose metadata ``have`` records other options
+    than ``params`` (:func:`options_json`), or the tiles of another input (or of one not
+    recorded: an output of gloffset before 2026-11-26 has no digest, and its input cannot
+    be checked)."""
+    where = str(where)
+    if have.get("gloffset") != params:
+        raise TilesError(
+            f"cannot resume {where!r}: it was written with other options "
+            f"({have.get('gloffset')}); use --force to start again"
+        )
+    found, want = have.get(INPUT_KEY), input_digest(shape)
+    if found is None:
         raise TilesError(
             f"cannot resume {where!r}: it records no digest of its input ({INPUT_KEY}), so "
             "whether it holds this input's tiles cannot be checked; use --force to start again"
         )
-    if have != want:
+    if found != want:
         raise TilesError(
             f"cannot resume {where!r}: it holds the tiles of another input (its geometry's "
-            f"{have[:19]}..., this input's {want[:19]}...); use --force to start again"
+            f"{found[:19]}..., this input's {want[:19]}...); use --force to start again"
         )
