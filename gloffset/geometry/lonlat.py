@@ -2,7 +2,8 @@
 
 :func:`validate` rejects what has no great circle (coordinates out of range or not finite,
 too few distinct points, consecutive antipodal points, each named by its vertex) and drops
-repeated points; :func:`is_ccw` tells a ring's orientation in lon/lat;
+repeated points; :func:`is_ccw` tells a ring's orientation (round a pole, through one, or
+by its area on the sphere);
 :func:`split_meridian_edges` keeps pole-to-pole edges along a meridian. Accuracy: points
 closer than :data:`MIN_EDGE` count as repeated, coordinates within
 :data:`gloffset.geometry.sphere.SEAM_EPS_DEG` of the seam or the poles as on them.
@@ -83,29 +84,75 @@ def on_seam(ll: np.ndarray) -> np.ndarray:
 def is_ccw(ll: np.ndarray) -> bool:
     """Whether a lon/lat ring runs counter-clockwise, i.e. has its interior on the left.
 
-    The shoelace area decides, after unwrapping an uncut antimeridian crossing. A
-    ring that goes once round a pole without being cut (ambiguous in GeoJSON) is
-    taken to enclose the pole on its side of the equator, the smaller region: the
-    side of the mean latitude of its vertices (summed exactly, so neither the start
-    vertex nor the direction changes it), the north when that mean is exactly 0 (a
-    ring along the equator). Going round is measured on the sphere: every edge turns
-    by less than 180 deg of longitude, so vertices on +-180 deg do not cut the ring,
-    nor does an edge along the antimeridian (it turns by 0); a vertex at a pole
-    leaves the shoelace to decide (the ring passes through the pole, not round it).
+    The rules, on the sphere (edges are great circles):
+
+    - A ring that goes once round a pole without passing through it (no vertex at a
+      pole, no edge through one) is ambiguous in GeoJSON: it is taken to enclose the
+      pole on its side of the equator, the side of the mean latitude of its vertices
+      (summed exactly, so neither the start vertex nor the direction changes it), the
+      north when that mean is exactly 0 (a ring along the equator). Going round is
+      measured on the sphere: every edge turns by at most 180 deg of longitude, so
+      vertices on +-180 deg do not cut the ring, nor does an edge along the
+      antimeridian (it turns by 0).
+    - An edge whose ends lie 180 deg of longitude apart (to :data:`SEAM_EPS_DEG`)
+      passes through a pole: the north one when its ends' latitudes sum to more than
+      0, the south one when less (a sum of 0 is antipodal and refused before). The
+      ring passes through that pole, not round it: the edge turns by +180 or -180 deg,
+      whichever makes the ring's turn 0.
+    - Any other ring without a vertex at a pole encloses neither pole: the sign of its
+      area on the sphere decides (:func:`_sphere_area`, exact for great-circle edges,
+      so a long edge that bows far from its straight lon/lat line, to or past a pole,
+      is read as the sphere has it).
+    - A ring with a vertex at a pole (cut at +-180 deg and closed along the pole, as
+      Natural Earth draws Antarctica) is read by its area in lon/lat.
     """
     lon = ll[:, 0].copy()
+    lat = ll[:, 1]
     jump = np.diff(np.append(lon, lon[0]))
-    pole = np.abs(np.abs(ll[:, 1]) - 90.0) <= SEAM_EPS_DEG
-    turn = float(np.sum(jump - 360.0 * np.round(jump / 360.0)))
+    pole = np.abs(np.abs(lat) - 90.0) <= SEAM_EPS_DEG
+    step = jump - 360.0 * np.round(jump / 360.0)
+    through = (np.abs(np.abs(step) - 180.0) <= SEAM_EPS_DEG) & ~pole & ~np.roll(pole, -1)
+    if through.any():
+        step = _through_pole_steps(step, through)
+    turn = float(np.sum(step))
     if abs(abs(turn) - 360.0) < 1e-6 and not pole.any():
         # eastward travel keeps the north on the left
-        return (turn > 0) == (math.fsum(ll[:, 1].tolist()) >= 0.0)
+        return (turn > 0) == (math.fsum(lat.tolist()) >= 0.0)
+    if not pole.any():
+        return _sphere_area(step, lat) < 0.0
     seam = on_seam(ll)
     big = (np.abs(jump) > 180.0) & ~(seam & np.roll(seam, -1))
     if big.any():
         lon[1:] -= 360.0 * np.cumsum(np.round(jump[:-1] / 360.0) * big[:-1])
-    x, y = lon, ll[:, 1]
+    x, y = lon, lat
     return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) > 0
+
+
+def _through_pole_steps(step: np.ndarray, through: np.ndarray) -> np.ndarray:
+    """The longitude turns of a ring's edges, those through a pole set to +-180 deg so
+    that the ring's turn is 0 (it passes through the pole), or as near 0 as they can."""
+    step = step.copy()
+    n = int(through.sum())
+    rest = float(np.sum(step[~through]))
+    # k edges at +180 and n - k at -180 turn by 180 (2k - n): nearest to -rest
+    k = int(np.clip(np.round((-rest / 180.0 + n) / 2.0), 0, n))
+    step[through] = np.where(np.arange(n) < k, 180.0, -180.0)
+    return step
+
+
+def _sphere_area(step: np.ndarray, lat: np.ndarray) -> float:
+    """The integral of sin(latitude) d(longitude) round a ring of great-circle edges.
+
+    Edge by edge, the signed area between the edge and the equator (the edge turning
+    by ``step`` deg of longitude, under 180 or through a pole at +-180):
+    ``2 atan(tan(dlon/2) (t1 + t2) / (1 + t1 t2))`` with ``t = tan(lat/2)``. For a ring
+    that goes round neither pole it is minus the area on its left, enclosing neither
+    pole: negative when the ring runs counter-clockwise.
+    """
+    t = np.tan(np.radians(lat) / 2.0)
+    t2 = np.roll(t, -1)
+    e = 2.0 * np.arctan2(np.tan(np.radians(step) / 2.0) * (t + t2), 1.0 + t * t2)
+    return math.fsum(e.tolist())
 
 
 def split_meridian_edges(ll: np.ndarray) -> np.ndarray:
