@@ -4,6 +4,7 @@ direction), rings along the equator, rings whose edges cross each other (README,
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -232,3 +233,93 @@ def test_pole_ring_examples_are_drawn():
 
     collect()
     assert any(v for v, _ in seen) and any(step for _, step in seen)
+
+
+# ---------------------------------------------------------------------- through a pole
+
+# The V of issue 37: its base, from 90 E to 90 W at 72 S, runs over the south pole
+W_RING = [[-90, -72], [-45, -77], [0, -72], [45, -77], [90, -72]]
+
+
+def _small_cap_area(ring):
+    """S2's area (spherely, the smaller side) of a lon/lat ring on the unit sphere."""
+    spherely = pytest.importorskip("spherely")
+    return float(spherely.area(spherely.create_polygon([tuple(p) for p in ring]), radius=1.0))
+
+
+def test_an_edge_through_a_pole_bounds_the_region_between_the_ring_and_the_pole():
+    """The V with its base over the south pole is the small region between the V and the
+    pole (0.1008 sr, S2's area), not the rest of the sphere: from every start vertex,
+    both ways, and mirrored to the north pole. Contains, the area, the inward offset, the
+    render and the distance field all read it so."""
+    want = _small_cap_area(W_RING)
+    assert 0.1 < want < 0.102
+    for pole in (-1.0, 1.0):
+        ring = [[x, y * -pole] for x, y in W_RING]
+        for r in variants(ring):
+            s = gloffset.read(polygon(r))
+            assert len(s.rings) == 1
+            assert abs(left_area(s.rings[0]) - want) < 1e-12, r[:2]
+            got = gloffset.contains(
+                s, [0.0, 0.0, 0.0, 180.0, 30.0], pole * np.array([0, 80, 74.5, 80, 89])
+            )
+            assert got.tolist() == [False, True, True, False, True], r[:2]
+    s = gloffset.read(polygon(closed(W_RING)))
+    assert gloffset.offset(s, -0.005, radius=1.0).resolve().area() < want
+    assert abs(gloffset.offset(s, 0.005, radius=1.0).resolve().area() - want) < 0.03
+    grid = Equirect(72, 36)
+    mask = gloffset.render(s, 1e-6, grid, radius=1.0, backend="cpu")
+    field = gloffset.distance_field(s, grid, radius=1.0, backend="cpu").values
+    lon, lat = np.meshgrid(-180 + 5 * (np.arange(72) + 0.5), 90 - 5 * (np.arange(36) + 0.5))
+    inside = gloffset.contains(s, lon.ravel(), lat.ravel()).reshape(lon.shape)
+    assert inside.sum() <= 3 * 36 and not inside[:33].any()  # only round the south pole
+    assert inside[-1, 36:54].all() and not inside[-1, :18].any()  # 0-90 E in, 180-90 W out
+    assert np.array_equal(mask == 255, inside)
+    assert np.array_equal(field < 0, inside)
+
+
+def test_a_base_near_the_pole_on_either_side_is_read_alike():
+    """The V's base 0.01 deg of longitude short of 180 (the great circle passes the pole
+    on the V's side) or beyond it (on the far side): both are the small region, with the
+    pole outside and inside respectively; S2 agrees on the area."""
+    for end, pole_in in ((89.99, False), (90.01, True)):
+        ring = [p for p in W_RING[:-1]] + [[end, -72.0]]
+        want = _small_cap_area(ring)
+        for r in variants(ring)[::3]:
+            s = gloffset.read(polygon(r))
+            assert abs(left_area(s.rings[0]) - want) < 1e-12, (end, r[:2])
+            got = gloffset.contains(s, [0.0, 0.0, 0.0], [0.0, -80.0, -90.0])
+            assert got.tolist() == [False, True, pole_in], (end, r[:2])
+
+
+def test_a_vertex_on_the_pole_instead_of_the_edge_through_it():
+    """The V closed through a vertex at the south pole, whatever longitude the pole
+    vertex is given: the same small region."""
+    want = _small_cap_area(W_RING)
+    for plon in (0.0, 180.0, -135.0, 90.0):
+        for r in variants(W_RING + [[plon, -90.0]])[::2]:
+            s = gloffset.read(polygon(r))
+            assert abs(left_area(s.rings[0]) - want) < 1e-12, (plon, r[:2])
+            got = gloffset.contains(s, [0.0, 0.0, 180.0], [0.0, -80.0, -80.0])
+            assert got.tolist() == [False, True, False], (plon, r[:2])
+
+
+def test_a_polar_stereographic_triangle_with_its_base_through_the_pole(tmp_path):
+    """An EPSG:3031 triangle whose straight base runs through the south pole (so its ends'
+    longitudes, read back, are 180 deg apart to rounding): the triangle, not the rest of
+    the sphere; and the same in the north (EPSG:3413)."""
+    pyproj = pytest.importorskip("pyproj")
+    gpd = pytest.importorskip("geopandas")
+    shapely = pytest.importorskip("shapely")
+    pytest.importorskip("pyogrio")
+    for crs, sign in (("EPSG:3031", -1.0), ("EPSG:3413", 1.0)):
+        to = pyproj.Transformer.from_crs("OGC:CRS84", crs, always_xy=True)
+        lon0 = 0.0 if sign < 0 else -45.0  # EPSG:3413's y axis runs along 45 W
+        x, y = to.transform([lon0 + 90, lon0, lon0 - 90], [72 * sign, 75 * sign, 72 * sign])
+        path = tmp_path / f"{crs[5:]}.gpkg"
+        tri = shapely.Polygon(zip(x, y))
+        gpd.GeoDataFrame({"n": [1]}, geometry=[tri], crs=crs).to_file(path)
+        s = gloffset.read(path)
+        assert left_area(s.rings[0]) < 0.1
+        got = gloffset.contains(s, [lon0, lon0, lon0, lon0 + 180], sign * np.array([0, 74, 80, 80]))
+        assert got.tolist() == [False, False, True, False], crs

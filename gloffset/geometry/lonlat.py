@@ -86,46 +86,49 @@ def is_ccw(ll: np.ndarray) -> bool:
 
     The rules, on the sphere (edges are great circles):
 
-    - A ring that goes once round a pole without passing through it (no vertex at a
-      pole, no edge through one) is ambiguous in GeoJSON: it is taken to enclose the
-      pole on its side of the equator, the side of the mean latitude of its vertices
-      (summed exactly, so neither the start vertex nor the direction changes it), the
-      north when that mean is exactly 0 (a ring along the equator). Going round is
-      measured on the sphere: every edge turns by at most 180 deg of longitude, so
-      vertices on +-180 deg do not cut the ring, nor does an edge along the
-      antimeridian (it turns by 0).
-    - An edge whose ends lie 180 deg of longitude apart (to :data:`SEAM_EPS_DEG`)
-      passes through a pole: the north one when its ends' latitudes sum to more than
-      0, the south one when less (a sum of 0 is antipodal and refused before). The
-      ring passes through that pole, not round it: the edge turns by +180 or -180 deg,
-      whichever makes the ring's turn 0.
-    - Any other ring without a vertex at a pole encloses neither pole: the sign of its
-      area on the sphere decides (:func:`_sphere_area`, exact for great-circle edges,
-      so a long edge that bows far from its straight lon/lat line, to or past a pole,
-      is read as the sphere has it).
-    - A ring with a vertex at a pole (cut at +-180 deg and closed along the pole, as
-      Natural Earth draws Antarctica) is read by its area in lon/lat.
+    - A ring that goes once round a pole without touching it (no vertex at a pole, no
+      edge through one) is ambiguous in GeoJSON: it is taken to enclose the pole on
+      its side of the equator, the side of the mean latitude of its vertices (summed
+      exactly, so neither the start vertex nor the direction changes it), the north
+      when that mean is exactly 0 (a ring along the equator). Going round is measured
+      on the sphere: every edge turns by at most 180 deg of longitude, so vertices on
+      +-180 deg do not cut the ring, nor does an edge along the antimeridian (it turns
+      by 0).
+    - A ring that touches a pole passes through it, not round it. An edge whose ends
+      lie 180 deg of longitude apart (to :data:`SEAM_EPS_DEG`) passes through a pole
+      (the north one when its ends' latitudes sum to more than 0, the south one when
+      less; a sum of 0 is antipodal and refused before), and a lone vertex at a pole
+      joins the meridians of its neighbours: at the pole the ring turns by whatever
+      makes its whole turn 0. Edges drawn along a pole (from one pole vertex to
+      another, as Natural Earth closes Antarctica along 90 S after cutting it at
+      +-180 deg) turn by their longitudes as given.
+    - A ring that does not go round a pole is then read by its area on the sphere
+      (:func:`_sphere_area`, exact for great-circle edges, so a long edge that bows far
+      from its straight lon/lat line, to or past a pole, is read as the sphere has it):
+      the side that holds neither pole, or the side that the edges along a pole close.
     """
-    lon = ll[:, 0].copy()
-    lat = ll[:, 1]
-    jump = np.diff(np.append(lon, lon[0]))
+    lon, lat = ll[:, 0], ll[:, 1]
+    jump = np.diff(np.append(lon, lon[0]))  # edge i: vertex i -> i + 1
     pole = np.abs(np.abs(lat) - 90.0) <= SEAM_EPS_DEG
+    nxt = np.roll(pole, -1)
     step = jump - 360.0 * np.round(jump / 360.0)
-    through = (np.abs(np.abs(step) - 180.0) <= SEAM_EPS_DEG) & ~pole & ~np.roll(pole, -1)
+    along = pole & nxt
+    step[along] = jump[along]
+    through = (np.abs(np.abs(step) - 180.0) <= SEAM_EPS_DEG) & ~pole & ~nxt
     if through.any():
         step = _through_pole_steps(step, through)
+    # a lone pole vertex: the edge leaving it turns the ring to its next neighbour
+    lone = np.flatnonzero(pole & ~np.roll(pole, 1) & ~nxt)
     turn = float(np.sum(step))
-    if abs(abs(turn) - 360.0) < 1e-6 and not pole.any():
-        # eastward travel keeps the north on the left
-        return (turn > 0) == (math.fsum(lat.tolist()) >= 0.0)
-    if not pole.any():
-        return _sphere_area(step, lat) < 0.0
-    seam = on_seam(ll)
-    big = (np.abs(jump) > 180.0) & ~(seam & np.roll(seam, -1))
-    if big.any():
-        lon[1:] -= 360.0 * np.cumsum(np.round(jump[:-1] / 360.0) * big[:-1])
-    x, y = lon, lat
-    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) > 0
+    if len(lone) and abs(turn) > 180.0:
+        step[lone[0]] -= 360.0 * round(turn / 360.0)
+        turn = float(np.sum(step))
+    if abs(turn) > 180.0:
+        if not pole.any():
+            # once round a pole; eastward travel keeps the north on the left
+            return (turn > 0) == (math.fsum(lat.tolist()) >= 0.0)
+        return _lonlat_area(ll) > 0.0
+    return _sphere_area(step, lat, pole) < 0.0
 
 
 def _through_pole_steps(step: np.ndarray, through: np.ndarray) -> np.ndarray:
@@ -140,19 +143,37 @@ def _through_pole_steps(step: np.ndarray, through: np.ndarray) -> np.ndarray:
     return step
 
 
-def _sphere_area(step: np.ndarray, lat: np.ndarray) -> float:
+def _sphere_area(step: np.ndarray, lat: np.ndarray, pole: np.ndarray) -> float:
     """The integral of sin(latitude) d(longitude) round a ring of great-circle edges.
 
-    Edge by edge, the signed area between the edge and the equator (the edge turning
-    by ``step`` deg of longitude, under 180 or through a pole at +-180):
-    ``2 atan(tan(dlon/2) (t1 + t2) / (1 + t1 t2))`` with ``t = tan(lat/2)``. For a ring
-    that goes round neither pole it is minus the area on its left, enclosing neither
-    pole: negative when the ring runs counter-clockwise.
+    Edge by edge, the signed area between the edge and the equator, the edge turning by
+    ``step`` deg of longitude (under 180, or through a pole at +-180):
+    ``2 atan(tan(dlon/2) (t1 + t2) / (1 + t1 t2))`` with ``t = tan(lat/2)``; an edge
+    with an end at a pole runs along the meridian of its other end and turns at the
+    pole: its area is ``+-dlon``. For a ring whose turn is 0 it is minus the area on
+    its left: negative when the ring runs counter-clockwise.
     """
     t = np.tan(np.radians(lat) / 2.0)
     t2 = np.roll(t, -1)
-    e = 2.0 * np.arctan2(np.tan(np.radians(step) / 2.0) * (t + t2), 1.0 + t * t2)
+    rad = np.radians(step)
+    e = 2.0 * np.arctan2(np.tan(rad / 2.0) * (t + t2), 1.0 + t * t2)
+    at = pole | np.roll(pole, -1)
+    north = np.where(pole, lat, np.roll(lat, -1)) > 0.0
+    e[at] = np.where(north[at], rad[at], -rad[at])
     return math.fsum(e.tolist())
+
+
+def _lonlat_area(ll: np.ndarray) -> float:
+    """Twice the shoelace area in lon/lat, the ring's jumps over 180 deg unwrapped (those
+    along the seam or a pole kept): the reading of a ring with a vertex at a pole that
+    turns round the pole all the same."""
+    lon, lat = ll[:, 0].copy(), ll[:, 1]
+    jump = np.diff(np.append(lon, lon[0]))
+    seam = on_seam(ll)
+    big = (np.abs(jump) > 180.0) & ~(seam & np.roll(seam, -1))
+    if big.any():
+        lon[1:] -= 360.0 * np.cumsum(np.round(jump[:-1] / 360.0) * big[:-1])
+    return float(np.sum(lon * np.roll(lat, -1) - np.roll(lon, -1) * lat))
 
 
 def split_meridian_edges(ll: np.ndarray) -> np.ndarray:
