@@ -323,3 +323,118 @@ def test_a_polar_stereographic_triangle_with_its_base_through_the_pole(tmp_path)
         assert left_area(s.rings[0]) < 0.1
         got = gloffset.contains(s, [lon0, lon0, lon0, lon0 + 180], sign * np.array([0, 74, 80, 80]))
         assert got.tolist() == [False, False, True, False], crs
+
+
+@st.composite
+def through_pole_rings(draw):
+    """A ring through a pole: a base from longitude ``lon0`` to ``lon0 + 180`` (integers,
+    +-180 among them often) over the pole, and a chain back through the half between
+    them, its steps at most 60 deg; or, instead of the base, two meridians meeting at a
+    vertex on the pole (with any longitude). Latitudes 15-80 deg on the pole's side, so
+    that the chain stays under 82 deg. A random start and direction. Returns the pole
+    (+-1), the half's middle longitude and the ring."""
+    pole = draw(st.sampled_from([1.0, -1.0]))
+    lon0 = draw(st.sampled_from([-180, 0, 180]) | st.integers(-179, 179))
+    east = draw(st.booleans())  # the chain on the east or the west side of the base
+    us = set(draw(st.lists(st.integers(1, 179), max_size=6)))
+    us |= {u for u in (60, 120) if not any(abs(u - v) < 30 for v in us)}
+    us = sorted(us)
+    while max(np.diff([0, *us, 180])) > 60:  # fill the widest gap
+        gaps = np.diff([0, *us, 180])
+        k = int(np.argmax(gaps))
+        us = sorted({*us, [0, *us][k] + int(gaps[k]) // 2})
+    sign = 1 if east else -1
+
+    def wrap(x):
+        return float((x + 180) % 360 - 180) if abs(x) != 180 else float(x)
+
+    lon1 = wrap(lon0 + 180 * sign) if lon0 not in (-180, 180) else 0.0
+    chain = [[wrap(lon0 + sign * u), pole * draw(st.floats(15.0, 80.0))] for u in us]
+    ring = [[float(lon0), pole * draw(st.floats(15.0, 80.0))], *chain]
+    ring.append([lon1, pole * draw(st.floats(15.0, 80.0))])
+    if draw(st.booleans()):  # a vertex on the pole instead of the edge through it
+        ring.append([float(draw(st.integers(-180, 180))), 90.0 * pole])
+    mid = wrap(lon0 + 90 * sign)
+    k = draw(st.integers(0, len(ring) - 1))
+    ring = ring[k:] + ring[:k]
+    if draw(st.booleans()):
+        ring = ring[::-1]
+    return pole, mid, ring
+
+
+def _check_through_pole(s, pole, mid):
+    """The region of a ring through a pole: the half-lune's side of the pole inside, the
+    other half and the far hemisphere outside; its area, its points and the signs of its
+    distance field as S2 (spherely) and gloffset's own inside test have them."""
+    spherely = pytest.importorskip("spherely")
+    from gloffset.geometry.sphere import xyz_to_lonlat
+
+    assert len(s.rings) == 1
+    lon, lat = xyz_to_lonlat(s.rings[0])
+    theirs = spherely.create_polygon(list(zip(lon.tolist(), lat.tolist())))
+    area = float(spherely.area(theirs, radius=1.0))
+    assert area < 2.0 * np.pi and abs(left_area(s.rings[0]) - area) < 1e-9
+    opposite = mid - 180.0 if mid > 0 else mid + 180.0
+    got = gloffset.contains(s, [mid, opposite, mid], pole * np.array([88.0, 88.0, -10.0]))
+    assert got.tolist() == [True, False, False]
+    rng = np.random.default_rng(int(abs(mid)) + 7)
+    plon = rng.uniform(-180, 180, 300)
+    plat = np.degrees(np.arcsin(rng.uniform(-1, 1, 300)))
+    plat[:150] = pole * np.abs(plat[:150])  # half of them on the pole's side
+    far = gloffset.distance(s, plon, plat, radius=1.0) > 1e-9
+    want = spherely.contains(theirs, spherely.points(plon[far], plat[far]))
+    assert np.array_equal(gloffset.contains(s, plon, plat)[far], want)
+    grid = Equirect(24, 12)
+    field = gloffset.distance_field(s, grid, radius=1.0, backend="cpu").values.ravel()
+    glon, glat = np.meshgrid(-180 + 15 * (np.arange(24) + 0.5), 90 - 15 * (np.arange(12) + 0.5))
+    inside = gloffset.contains(s, glon.ravel(), glat.ravel())
+    sure = np.abs(field) > 1e-9
+    assert np.array_equal((field < 0)[sure], inside[sure]) and inside.any()
+
+
+@settings(max_examples=30, deadline=None)
+@given(through_pole_rings())
+def test_random_rings_through_a_pole(case):
+    """Rings with an edge through a pole (or a vertex on it), in both hemispheres, both
+    ways round, from any start vertex: the small region between the ring and the pole."""
+    pole, mid, ring = case
+    _check_through_pole(gloffset.read(polygon(closed(ring))), pole, mid)
+
+
+@settings(max_examples=10, deadline=None)
+@given(through_pole_rings())
+def test_random_projected_rings_through_a_pole(tmp_path_factory, case):
+    """The same rings in a polar stereographic file (EPSG:3031 in the south, EPSG:3413 in
+    the north): the base is the projection's straight line through the pole, the chain
+    its straight lines, densified."""
+    pyproj = pytest.importorskip("pyproj")
+    gpd = pytest.importorskip("geopandas")
+    shapely = pytest.importorskip("shapely")
+    pytest.importorskip("pyogrio")
+    pole, mid, ring = case
+    ring = [p for p in ring if abs(p[1]) != 90.0]  # the base is the straight line
+    crs = "EPSG:3413" if pole > 0 else "EPSG:3031"
+    to = pyproj.Transformer.from_crs("OGC:CRS84", crs, always_xy=True)
+    x, y = to.transform([p[0] for p in ring], [p[1] for p in ring])
+    path = tmp_path_factory.mktemp("through") / "ring.gpkg"
+    frame = gpd.GeoDataFrame({"n": [1]}, geometry=[shapely.Polygon(zip(x, y))], crs=crs)
+    frame.to_file(path)
+    _check_through_pole(gloffset.read(path), pole, mid)
+
+
+def test_through_pole_examples_are_drawn():
+    """The strategy draws both poles, both sides, bases from +-180 and vertices on the pole."""
+    seen = set()
+
+    @settings(max_examples=80, deadline=None, database=None)
+    @given(through_pole_rings())
+    def collect(case):
+        pole, _, ring = case
+        lons = {x for x, _ in ring}
+        seen.add(("pole", pole))
+        seen.add(("on pole", any(abs(y) == 90.0 for _, y in ring)))
+        seen.add(("seam", bool(lons & {-180.0, 180.0})))
+
+    collect()
+    assert {("pole", 1.0), ("pole", -1.0), ("on pole", True), ("on pole", False)} <= seen
+    assert ("seam", True) in seen
