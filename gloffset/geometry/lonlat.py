@@ -108,27 +108,36 @@ def is_ccw(ll: np.ndarray) -> bool:
       the side that holds neither pole, or the side that the edges along a pole close.
     """
     lon, lat = ll[:, 0], ll[:, 1]
-    jump = np.diff(np.append(lon, lon[0]))  # edge i: vertex i -> i + 1
-    pole = np.abs(np.abs(lat) - 90.0) <= SEAM_EPS_DEG
-    nxt = np.roll(pole, -1)
+    jump = np.diff(lon, append=lon[0])  # edge i: vertex i -> i + 1
     step = jump - 360.0 * np.round(jump / 360.0)
-    along = pole & nxt
-    step[along] = jump[along]
-    through = (np.abs(np.abs(step) - 180.0) <= SEAM_EPS_DEG) & ~pole & ~nxt
+    pole = np.abs(np.abs(lat) - 90.0) <= SEAM_EPS_DEG
+    on_pole = bool(pole.any())
+    through = np.abs(np.abs(step) - 180.0) <= SEAM_EPS_DEG
+    if on_pole:
+        nxt = _next(pole)
+        along = pole & nxt
+        step[along] = jump[along]
+        through &= ~pole & ~nxt
     if through.any():
         step = _through_pole_steps(step, through)
-    # a lone pole vertex: the edge leaving it turns the ring to its next neighbour
-    lone = np.flatnonzero(pole & ~np.roll(pole, 1) & ~nxt)
     turn = float(np.sum(step))
-    if len(lone) and abs(turn) > 180.0:
-        step[lone[0]] -= 360.0 * round(turn / 360.0)
-        turn = float(np.sum(step))
-    if abs(turn) > 180.0:
-        if not pole.any():
-            # once round a pole; eastward travel keeps the north on the left
-            return (turn > 0) == (math.fsum(lat.tolist()) >= 0.0)
-        return _lonlat_area(ll) > 0.0
-    return _sphere_area(step, lat, pole) < 0.0
+    if on_pole and abs(turn) > 180.0:
+        # a lone pole vertex: the edge leaving it turns the ring to its next neighbour
+        lone = np.flatnonzero(pole & ~np.roll(pole, 1) & ~nxt)
+        if len(lone):
+            step[lone[0]] -= 360.0 * round(turn / 360.0)
+            turn = float(np.sum(step))
+    if abs(turn) < 180.0:
+        return _sphere_area(step, lat, pole if on_pole else None) < 0.0
+    if not on_pole and abs(abs(turn) - 360.0) < 1e-6:
+        # once round a pole; eastward travel keeps the north on the left
+        return (turn > 0) == (math.fsum(lat.tolist()) >= 0.0)
+    return _lonlat_area(ll) > 0.0
+
+
+def _next(a: np.ndarray) -> np.ndarray:
+    """``a`` shifted by one, the first element last (``np.roll(a, -1)``, cheaper)."""
+    return np.concatenate((a[1:], a[:1]))
 
 
 def _through_pole_steps(step: np.ndarray, through: np.ndarray) -> np.ndarray:
@@ -143,7 +152,7 @@ def _through_pole_steps(step: np.ndarray, through: np.ndarray) -> np.ndarray:
     return step
 
 
-def _sphere_area(step: np.ndarray, lat: np.ndarray, pole: np.ndarray) -> float:
+def _sphere_area(step: np.ndarray, lat: np.ndarray, pole: np.ndarray | None) -> float:
     """The integral of sin(latitude) d(longitude) round a ring of great-circle edges.
 
     Edge by edge, the signed area between the edge and the equator, the edge turning by
@@ -154,19 +163,20 @@ def _sphere_area(step: np.ndarray, lat: np.ndarray, pole: np.ndarray) -> float:
     its left: negative when the ring runs counter-clockwise.
     """
     t = np.tan(np.radians(lat) / 2.0)
-    t2 = np.roll(t, -1)
+    t2 = _next(t)
     rad = np.radians(step)
     e = 2.0 * np.arctan2(np.tan(rad / 2.0) * (t + t2), 1.0 + t * t2)
-    at = pole | np.roll(pole, -1)
-    north = np.where(pole, lat, np.roll(lat, -1)) > 0.0
-    e[at] = np.where(north[at], rad[at], -rad[at])
+    if pole is not None:  # ``pole``: the vertices at a pole
+        at = pole | _next(pole)
+        north = np.where(pole, lat, _next(lat)) > 0.0
+        e[at] = np.where(north[at], rad[at], -rad[at])
     return math.fsum(e.tolist())
 
 
 def _lonlat_area(ll: np.ndarray) -> float:
     """Twice the shoelace area in lon/lat, the ring's jumps over 180 deg unwrapped (those
-    along the seam or a pole kept): the reading of a ring with a vertex at a pole that
-    turns round the pole all the same."""
+    along the seam or a pole kept): the reading of the rings left (one with a vertex at
+    a pole that turns round the pole all the same, one that goes round twice)."""
     lon, lat = ll[:, 0].copy(), ll[:, 1]
     jump = np.diff(np.append(lon, lon[0]))
     seam = on_seam(ll)
