@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import gloffset
@@ -438,3 +438,53 @@ def test_through_pole_examples_are_drawn():
     collect()
     assert {("pole", 1.0), ("pole", -1.0), ("on pole", True), ("on pole", False)} <= seen
     assert ("seam", True) in seen
+
+
+def test_a_long_edge_is_read_as_its_great_circle():
+    """A thin triangle whose long edge, a great circle from 65 E to 120 E, bows south of
+    the middle vertex while its straight lon/lat line passes north of it: the sliver
+    between them (S2's area), not the rest of the sphere, from every start and both ways."""
+    ring = [[120, -21], [85, -21.5], [65, -18.5]]
+    want = _small_cap_area(ring)
+    assert want < 1e-3
+    for r in variants(ring):
+        s = gloffset.read(polygon(r))
+        assert abs(left_area(s.rings[0]) - want) < 1e-12, r
+        assert not gloffset.contains(s, [0.0, 85.0, 85.0], [60.0, -20.0, -60.0]).any()
+
+
+@st.composite
+def star_rings(draw):
+    """A star-shaped ring round a random centre (vertices at 0.5-60 deg from it, in
+    angular order round it, 5 deg apart at least), either way, holding neither pole."""
+    spherely = pytest.importorskip("spherely")
+    clon, clat = draw(st.floats(-180, 180)), draw(st.floats(-80, 80))
+    ang = sorted(draw(st.lists(st.integers(0, 71), min_size=3, max_size=10, unique=True)))
+    assume(max(np.diff([*ang, ang[0] + 72])) < 36)  # round the centre, not beside it
+    ang = np.radians(5.0 * np.array(ang))
+    rad = np.radians(draw(st.lists(st.floats(0.5, 60.0), min_size=len(ang), max_size=len(ang))))
+    c = np.array(gloffset.geometry.sphere.lonlat_to_xyz(clon, clat), float).ravel()
+    e1 = np.cross(c, [0.0, 0.0, 1.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(c, e1)
+    pts = np.cos(rad)[:, None] * c + np.sin(rad)[:, None] * (
+        np.cos(ang)[:, None] * e1 + np.sin(ang)[:, None] * e2
+    )
+    lon, lat = gloffset.geometry.sphere.xyz_to_lonlat(pts)
+    ring = np.column_stack([lon, lat]).tolist()
+    if draw(st.booleans()):
+        ring = ring[::-1]
+    theirs = spherely.create_polygon([tuple(p) for p in ring])
+    poles = spherely.points([0.0, 0.0], [90.0, -90.0])
+    assume(not spherely.contains(theirs, poles).any())
+    return ring, float(spherely.area(theirs, radius=1.0))
+
+
+@settings(max_examples=60, deadline=None)
+@given(star_rings())
+def test_random_star_rings_are_their_star(case):
+    """A ring round neither pole is the side that holds neither pole, on the sphere (its
+    edges great circles), as S2 has it, whatever its edges' straight lon/lat lines do."""
+    ring, want = case
+    s = gloffset.read(polygon(closed(ring)))
+    assert abs(sum(left_area(r) for r in s.rings) - want) < 1e-9
