@@ -1,5 +1,7 @@
 """How rings are read: rings round a pole (vertices on +-180 deg, any start and
-direction), rings along the equator, rings whose edges cross each other (README, Input)."""
+direction), rings through a pole (an edge whose ends lie 180 deg of longitude apart, a
+vertex on the pole; lon/lat and polar stereographic), rings read by their area on the
+sphere, rings along the equator, rings whose edges cross each other (README, Input)."""
 
 from __future__ import annotations
 
