@@ -17,8 +17,10 @@ Orientation. Every ring is stored with its interior on the left of its direction
 of travel on the sphere: exterior rings are made counter-clockwise and holes
 clockwise in lon/lat (as RFC 7946 asks; input winding is not trusted), which is the
 same as "interior on the left" on the sphere. A ring round a pole encloses the pole
-on its side of the equator; a polygon whose edges cross (a bowtie) is read by crossing
-parity.
+on its side of the equator; a ring through a pole (a vertex on it, an edge whose ends
+lie 180 deg of longitude apart) passes through it; any other ring bounds the side that
+holds neither pole, by its area on the sphere (:func:`gloffset.geometry.lonlat.is_ccw`);
+a polygon whose edges cross (a bowtie) is read by crossing parity.
 
 Limits. Longitudes must lie in [-180, 180] and latitudes in [-90, 90] (no
 wrapping: 400 is an error, not 40). A ring that covers the whole sphere (it runs

@@ -1,10 +1,13 @@
 """How rings are read: rings round a pole (vertices on +-180 deg, any start and
-direction), rings along the equator, rings whose edges cross each other (README, Input)."""
+direction), rings through a pole (an edge whose ends lie 180 deg of longitude apart, a
+vertex on the pole; lon/lat and polar stereographic), rings read by their area on the
+sphere, rings along the equator, rings whose edges cross each other (README, Input)."""
 
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import given, settings
+import pytest
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import gloffset
@@ -232,3 +235,258 @@ def test_pole_ring_examples_are_drawn():
 
     collect()
     assert any(v for v, _ in seen) and any(step for _, step in seen)
+
+
+# ---------------------------------------------------------------------- through a pole
+
+# The V of issue 37: its base, from 90 E to 90 W at 72 S, runs over the south pole
+W_RING = [[-90, -72], [-45, -77], [0, -72], [45, -77], [90, -72]]
+
+
+def _small_cap_area(ring):
+    """S2's area (spherely, the smaller side) of a lon/lat ring on the unit sphere."""
+    spherely = pytest.importorskip("spherely")
+    return float(spherely.area(spherely.create_polygon([tuple(p) for p in ring]), radius=1.0))
+
+
+def test_an_edge_through_a_pole_bounds_the_region_between_the_ring_and_the_pole():
+    """The V with its base over the south pole is the small region between the V and the
+    pole (0.1008 sr, S2's area), not the rest of the sphere: from every start vertex,
+    both ways, and mirrored to the north pole. Contains, the area, the inward offset, the
+    render and the distance field all read it so."""
+    want = _small_cap_area(W_RING)
+    assert 0.1 < want < 0.102
+    for pole in (-1.0, 1.0):
+        ring = [[x, y * -pole] for x, y in W_RING]
+        for r in variants(ring):
+            s = gloffset.read(polygon(r))
+            assert len(s.rings) == 1
+            assert abs(left_area(s.rings[0]) - want) < 1e-12, r[:2]
+            got = gloffset.contains(
+                s, [0.0, 0.0, 0.0, 180.0, 30.0], pole * np.array([0, 80, 74.5, 80, 89])
+            )
+            assert got.tolist() == [False, True, True, False, True], r[:2]
+    s = gloffset.read(polygon(closed(W_RING)))
+    assert gloffset.offset(s, -0.005, radius=1.0).resolve().area() < want
+    assert abs(gloffset.offset(s, 0.005, radius=1.0).resolve().area() - want) < 0.03
+    grid = Equirect(72, 36)
+    mask = gloffset.render(s, 1e-6, grid, radius=1.0, backend="cpu")
+    field = gloffset.distance_field(s, grid, radius=1.0, backend="cpu").values
+    lon, lat = np.meshgrid(-180 + 5 * (np.arange(72) + 0.5), 90 - 5 * (np.arange(36) + 0.5))
+    inside = gloffset.contains(s, lon.ravel(), lat.ravel()).reshape(lon.shape)
+    assert inside.sum() <= 3 * 36 and not inside[:33].any()  # only round the south pole
+    assert inside[-1, 36:54].all() and not inside[-1, :18].any()  # 0-90 E in, 180-90 W out
+    assert np.array_equal(mask == 255, inside)
+    assert np.array_equal(field < 0, inside)
+
+
+def test_a_base_near_the_pole_on_either_side_is_read_alike():
+    """The V's base 0.01 deg of longitude short of 180 (the great circle passes the pole
+    on the V's side) or beyond it (on the far side): both are the small region, with the
+    pole outside and inside respectively; S2 agrees on the area."""
+    for end, pole_in in ((89.99, False), (90.01, True)):
+        ring = [p for p in W_RING[:-1]] + [[end, -72.0]]
+        want = _small_cap_area(ring)
+        for r in variants(ring)[::3]:
+            s = gloffset.read(polygon(r))
+            assert abs(left_area(s.rings[0]) - want) < 1e-12, (end, r[:2])
+            got = gloffset.contains(s, [0.0, 0.0, 0.0], [0.0, -80.0, -90.0])
+            assert got.tolist() == [False, True, pole_in], (end, r[:2])
+
+
+def test_a_vertex_on_the_pole_instead_of_the_edge_through_it():
+    """The V closed through a vertex at the south pole, whatever longitude the pole
+    vertex is given: the same small region."""
+    want = _small_cap_area(W_RING)
+    for plon in (0.0, 180.0, -135.0, 90.0):
+        for r in variants(W_RING + [[plon, -90.0]])[::2]:
+            s = gloffset.read(polygon(r))
+            assert abs(left_area(s.rings[0]) - want) < 1e-12, (plon, r[:2])
+            got = gloffset.contains(s, [0.0, 0.0, 180.0], [0.0, -80.0, -80.0])
+            assert got.tolist() == [False, True, False], (plon, r[:2])
+
+
+def test_a_polar_stereographic_triangle_with_its_base_through_the_pole(tmp_path):
+    """An EPSG:3031 triangle whose straight base runs through the south pole (so its ends'
+    longitudes, read back, are 180 deg apart to rounding): the triangle, not the rest of
+    the sphere; and the same in the north (EPSG:3413)."""
+    pyproj = pytest.importorskip("pyproj")
+    gpd = pytest.importorskip("geopandas")
+    shapely = pytest.importorskip("shapely")
+    pytest.importorskip("pyogrio")
+    for crs, sign in (("EPSG:3031", -1.0), ("EPSG:3413", 1.0)):
+        to = pyproj.Transformer.from_crs("OGC:CRS84", crs, always_xy=True)
+        lon0 = 0.0 if sign < 0 else -45.0  # EPSG:3413's y axis runs along 45 W
+        x, y = to.transform([lon0 + 90, lon0, lon0 - 90], [72 * sign, 75 * sign, 72 * sign])
+        path = tmp_path / f"{crs[5:]}.gpkg"
+        tri = shapely.Polygon(zip(x, y))
+        gpd.GeoDataFrame({"n": [1]}, geometry=[tri], crs=crs).to_file(path)
+        s = gloffset.read(path)
+        assert left_area(s.rings[0]) < 0.1
+        got = gloffset.contains(s, [lon0, lon0, lon0, lon0 + 180], sign * np.array([0, 74, 80, 80]))
+        assert got.tolist() == [False, False, True, False], crs
+
+
+@st.composite
+def through_pole_rings(draw):
+    """A ring through a pole: a base from longitude ``lon0`` to ``lon0 + 180`` (integers,
+    +-180 among them often) over the pole, and a chain back through the half between
+    them, its steps at most 60 deg; or, instead of the base, two meridians meeting at a
+    vertex on the pole (with any longitude). Latitudes 15-80 deg on the pole's side, so
+    that the chain stays under 82 deg. A random start and direction. Returns the pole
+    (+-1), the half's middle longitude and the ring."""
+    pole = draw(st.sampled_from([1.0, -1.0]))
+    lon0 = draw(st.sampled_from([-180, 0, 180]) | st.integers(-179, 179))
+    east = draw(st.booleans())  # the chain on the east or the west side of the base
+    us = set(draw(st.lists(st.integers(1, 179), max_size=6)))
+    us |= {u for u in (60, 120) if not any(abs(u - v) < 30 for v in us)}
+    us = sorted(us)
+    while max(np.diff([0, *us, 180])) > 60:  # fill the widest gap
+        gaps = np.diff([0, *us, 180])
+        k = int(np.argmax(gaps))
+        us = sorted({*us, [0, *us][k] + int(gaps[k]) // 2})
+    sign = 1 if east else -1
+
+    def wrap(x):
+        return float((x + 180) % 360 - 180) if abs(x) != 180 else float(x)
+
+    lon1 = wrap(lon0 + 180 * sign) if lon0 not in (-180, 180) else 0.0
+    chain = [[wrap(lon0 + sign * u), pole * draw(st.floats(15.0, 80.0))] for u in us]
+    ring = [[float(lon0), pole * draw(st.floats(15.0, 80.0))], *chain]
+    ring.append([lon1, pole * draw(st.floats(15.0, 80.0))])
+    if draw(st.booleans()):  # a vertex on the pole instead of the edge through it
+        ring.append([float(draw(st.integers(-180, 180))), 90.0 * pole])
+    mid = wrap(lon0 + 90 * sign)
+    k = draw(st.integers(0, len(ring) - 1))
+    ring = ring[k:] + ring[:k]
+    if draw(st.booleans()):
+        ring = ring[::-1]
+    return pole, mid, ring
+
+
+def _check_through_pole(s, pole, mid):
+    """The region of a ring through a pole: the half-lune's side of the pole inside, the
+    other half and the far hemisphere outside; its area, its points and the signs of its
+    distance field as S2 (spherely) and gloffset's own inside test have them."""
+    spherely = pytest.importorskip("spherely")
+    from gloffset.geometry.sphere import xyz_to_lonlat
+
+    assert len(s.rings) == 1
+    lon, lat = xyz_to_lonlat(s.rings[0])
+    theirs = spherely.create_polygon(list(zip(lon.tolist(), lat.tolist())))
+    area = float(spherely.area(theirs, radius=1.0))
+    assert area < 2.0 * np.pi and abs(left_area(s.rings[0]) - area) < 1e-9
+    opposite = mid - 180.0 if mid > 0 else mid + 180.0
+    got = gloffset.contains(s, [mid, opposite, mid], pole * np.array([88.0, 88.0, -10.0]))
+    assert got.tolist() == [True, False, False]
+    rng = np.random.default_rng(int(abs(mid)) + 7)
+    plon = rng.uniform(-180, 180, 300)
+    plat = np.degrees(np.arcsin(rng.uniform(-1, 1, 300)))
+    plat[:150] = pole * np.abs(plat[:150])  # half of them on the pole's side
+    far = gloffset.distance(s, plon, plat, radius=1.0) > 1e-9
+    want = spherely.contains(theirs, spherely.points(plon[far], plat[far]))
+    assert np.array_equal(gloffset.contains(s, plon, plat)[far], want)
+    grid = Equirect(24, 12)
+    field = gloffset.distance_field(s, grid, radius=1.0, backend="cpu").values.ravel()
+    glon, glat = np.meshgrid(-180 + 15 * (np.arange(24) + 0.5), 90 - 15 * (np.arange(12) + 0.5))
+    inside = gloffset.contains(s, glon.ravel(), glat.ravel())
+    sure = np.abs(field) > 1e-9
+    assert np.array_equal((field < 0)[sure], inside[sure]) and inside.any()
+
+
+@settings(max_examples=30, deadline=None)
+@given(through_pole_rings())
+def test_random_rings_through_a_pole(case):
+    """Rings with an edge through a pole (or a vertex on it), in both hemispheres, both
+    ways round, from any start vertex: the small region between the ring and the pole."""
+    pole, mid, ring = case
+    _check_through_pole(gloffset.read(polygon(closed(ring))), pole, mid)
+
+
+@settings(max_examples=10, deadline=None)
+@given(through_pole_rings())
+def test_random_projected_rings_through_a_pole(tmp_path_factory, case):
+    """The same rings in a polar stereographic file (EPSG:3031 in the south, EPSG:3413 in
+    the north): the base is the projection's straight line through the pole, the chain
+    its straight lines, densified."""
+    pyproj = pytest.importorskip("pyproj")
+    gpd = pytest.importorskip("geopandas")
+    shapely = pytest.importorskip("shapely")
+    pytest.importorskip("pyogrio")
+    pole, mid, ring = case
+    ring = [p for p in ring if abs(p[1]) != 90.0]  # the base is the straight line
+    crs = "EPSG:3413" if pole > 0 else "EPSG:3031"
+    to = pyproj.Transformer.from_crs("OGC:CRS84", crs, always_xy=True)
+    x, y = to.transform([p[0] for p in ring], [p[1] for p in ring])
+    path = tmp_path_factory.mktemp("through") / "ring.gpkg"
+    frame = gpd.GeoDataFrame({"n": [1]}, geometry=[shapely.Polygon(zip(x, y))], crs=crs)
+    frame.to_file(path)
+    _check_through_pole(gloffset.read(path), pole, mid)
+
+
+def test_through_pole_examples_are_drawn():
+    """The strategy draws both poles, both sides, bases from +-180 and vertices on the pole."""
+    seen = set()
+
+    @settings(max_examples=80, deadline=None, database=None)
+    @given(through_pole_rings())
+    def collect(case):
+        pole, _, ring = case
+        lons = {x for x, _ in ring}
+        seen.add(("pole", pole))
+        seen.add(("on pole", any(abs(y) == 90.0 for _, y in ring)))
+        seen.add(("seam", bool(lons & {-180.0, 180.0})))
+
+    collect()
+    assert {("pole", 1.0), ("pole", -1.0), ("on pole", True), ("on pole", False)} <= seen
+    assert ("seam", True) in seen
+
+
+def test_a_long_edge_is_read_as_its_great_circle():
+    """A thin triangle whose long edge, a great circle from 65 E to 120 E, bows south of
+    the middle vertex while its straight lon/lat line passes north of it: the sliver
+    between them (S2's area), not the rest of the sphere, from every start and both ways."""
+    ring = [[120, -21], [85, -21.5], [65, -18.5]]
+    want = _small_cap_area(ring)
+    assert want < 1e-3
+    for r in variants(ring):
+        s = gloffset.read(polygon(r))
+        assert abs(left_area(s.rings[0]) - want) < 1e-12, r
+        assert not gloffset.contains(s, [0.0, 85.0, 85.0], [60.0, -20.0, -60.0]).any()
+
+
+@st.composite
+def star_rings(draw):
+    """A star-shaped ring round a random centre (vertices at 0.5-60 deg from it, in
+    angular order round it, 5 deg apart at least), either way, holding neither pole."""
+    spherely = pytest.importorskip("spherely")
+    clon, clat = draw(st.floats(-180, 180)), draw(st.floats(-80, 80))
+    ang = sorted(draw(st.lists(st.integers(0, 71), min_size=3, max_size=10, unique=True)))
+    assume(max(np.diff([*ang, ang[0] + 72])) < 36)  # round the centre, not beside it
+    ang = np.radians(5.0 * np.array(ang))
+    rad = np.radians(draw(st.lists(st.floats(0.5, 60.0), min_size=len(ang), max_size=len(ang))))
+    c = np.array(gloffset.geometry.sphere.lonlat_to_xyz(clon, clat), float).ravel()
+    e1 = np.cross(c, [0.0, 0.0, 1.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(c, e1)
+    pts = np.cos(rad)[:, None] * c + np.sin(rad)[:, None] * (
+        np.cos(ang)[:, None] * e1 + np.sin(ang)[:, None] * e2
+    )
+    lon, lat = gloffset.geometry.sphere.xyz_to_lonlat(pts)
+    ring = np.column_stack([lon, lat]).tolist()
+    if draw(st.booleans()):
+        ring = ring[::-1]
+    theirs = spherely.create_polygon([tuple(p) for p in ring])
+    poles = spherely.points([0.0, 0.0], [90.0, -90.0])
+    assume(not spherely.contains(theirs, poles).any())
+    return ring, float(spherely.area(theirs, radius=1.0))
+
+
+@settings(max_examples=60, deadline=None)
+@given(star_rings())
+def test_random_star_rings_are_their_star(case):
+    """A ring round neither pole is the side that holds neither pole, on the sphere (its
+    edges great circles), as S2 has it, whatever its edges' straight lon/lat lines do."""
+    ring, want = case
+    s = gloffset.read(polygon(closed(ring)))
+    assert abs(sum(left_area(r) for r in s.rings) - want) < 1e-9

@@ -2,7 +2,8 @@
 
 :func:`validate` rejects what has no great circle (coordinates out of range or not finite,
 too few distinct points, consecutive antipodal points, each named by its vertex) and drops
-repeated points; :func:`is_ccw` tells a ring's orientation in lon/lat;
+repeated points; :func:`is_ccw` tells a ring's orientation (round a pole, through one, or
+by its area on the sphere);
 :func:`split_meridian_edges` keeps pole-to-pole edges along a meridian. Accuracy: points
 closer than :data:`MIN_EDGE` count as repeated, coordinates within
 :data:`gloffset.geometry.sphere.SEAM_EPS_DEG` of the seam or the poles as on them.
@@ -83,29 +84,106 @@ def on_seam(ll: np.ndarray) -> np.ndarray:
 def is_ccw(ll: np.ndarray) -> bool:
     """Whether a lon/lat ring runs counter-clockwise, i.e. has its interior on the left.
 
-    The shoelace area decides, after unwrapping an uncut antimeridian crossing. A
-    ring that goes once round a pole without being cut (ambiguous in GeoJSON) is
-    taken to enclose the pole on its side of the equator, the smaller region: the
-    side of the mean latitude of its vertices (summed exactly, so neither the start
-    vertex nor the direction changes it), the north when that mean is exactly 0 (a
-    ring along the equator). Going round is measured on the sphere: every edge turns
-    by less than 180 deg of longitude, so vertices on +-180 deg do not cut the ring,
-    nor does an edge along the antimeridian (it turns by 0); a vertex at a pole
-    leaves the shoelace to decide (the ring passes through the pole, not round it).
+    The rules, on the sphere (edges are great circles):
+
+    - A ring that goes once round a pole without touching it (no vertex at a pole, no
+      edge through one) is ambiguous in GeoJSON: it is taken to enclose the pole on
+      its side of the equator, the side of the mean latitude of its vertices (summed
+      exactly, so neither the start vertex nor the direction changes it), the north
+      when that mean is exactly 0 (a ring along the equator). Going round is measured
+      on the sphere: every edge turns by at most 180 deg of longitude, so vertices on
+      +-180 deg do not cut the ring, nor does an edge along the antimeridian (it turns
+      by 0).
+    - A ring that touches a pole passes through it, not round it. An edge whose ends
+      lie 180 deg of longitude apart (to :data:`SEAM_EPS_DEG`) passes through a pole
+      (the north one when its ends' latitudes sum to more than 0, the south one when
+      less; a sum of 0 is antipodal and refused before), and a lone vertex at a pole
+      joins the meridians of its neighbours: at the pole the ring turns by whatever
+      makes its whole turn 0. Edges drawn along a pole (from one pole vertex to
+      another, as Natural Earth closes Antarctica along 90 S after cutting it at
+      +-180 deg) turn by their longitudes as given.
+    - A ring that does not go round a pole is then read by its area on the sphere
+      (:func:`_sphere_area`, exact for great-circle edges, so a long edge that bows far
+      from its straight lon/lat line, to or past a pole, is read as the sphere has it):
+      the side that holds neither pole, or the side that the edges along a pole close.
     """
-    lon = ll[:, 0].copy()
+    lon, lat = ll[:, 0], ll[:, 1]
+    jump = np.diff(lon, append=lon[0])  # edge i: vertex i -> i + 1
+    step = jump - 360.0 * np.round(jump / 360.0)
+    pole = np.abs(np.abs(lat) - 90.0) <= SEAM_EPS_DEG
+    on_pole = bool(pole.any())
+    through = np.abs(np.abs(step) - 180.0) <= SEAM_EPS_DEG
+    if on_pole:
+        nxt = _next(pole)
+        along = pole & nxt
+        step[along] = jump[along]
+        through &= ~pole & ~nxt
+    if through.any():
+        step = _through_pole_steps(step, through)
+    turn = float(np.sum(step))
+    if on_pole and abs(turn) > 180.0:
+        # a lone pole vertex: the edge leaving it turns the ring to its next neighbour
+        lone = np.flatnonzero(pole & ~np.roll(pole, 1) & ~nxt)
+        if len(lone):
+            step[lone[0]] -= 360.0 * round(turn / 360.0)
+            turn = float(np.sum(step))
+    if abs(turn) < 180.0:
+        return _sphere_area(step, lat, pole if on_pole else None) < 0.0
+    if not on_pole and abs(abs(turn) - 360.0) < 1e-6:
+        # once round a pole; eastward travel keeps the north on the left
+        return (turn > 0) == (math.fsum(lat.tolist()) >= 0.0)
+    return _lonlat_area(ll) > 0.0
+
+
+def _next(a: np.ndarray) -> np.ndarray:
+    """``a`` shifted by one, the first element last (``np.roll(a, -1)``, cheaper)."""
+    return np.concatenate((a[1:], a[:1]))
+
+
+def _through_pole_steps(step: np.ndarray, through: np.ndarray) -> np.ndarray:
+    """The longitude turns of a ring's edges, those through a pole set to +-180 deg so
+    that the ring's turn is 0 (it passes through the pole), or as near 0 as they can."""
+    step = step.copy()
+    n = int(through.sum())
+    rest = float(np.sum(step[~through]))
+    # k edges at +180 and n - k at -180 turn by 180 (2k - n): nearest to -rest
+    k = int(np.clip(np.round((-rest / 180.0 + n) / 2.0), 0, n))
+    step[through] = np.where(np.arange(n) < k, 180.0, -180.0)
+    return step
+
+
+def _sphere_area(step: np.ndarray, lat: np.ndarray, pole: np.ndarray | None) -> float:
+    """The integral of sin(latitude) d(longitude) round a ring of great-circle edges.
+
+    Edge by edge, the signed area between the edge and the equator, the edge turning by
+    ``step`` deg of longitude (under 180, or through a pole at +-180):
+    ``2 atan(tan(dlon/2) (t1 + t2) / (1 + t1 t2))`` with ``t = tan(lat/2)``; an edge
+    with an end at a pole runs along the meridian of its other end and turns at the
+    pole: its area is ``+-dlon``. For a ring whose turn is 0 it is minus the area on
+    its left: negative when the ring runs counter-clockwise.
+    """
+    t = np.tan(np.radians(lat) / 2.0)
+    t2 = _next(t)
+    rad = np.radians(step)
+    e = 2.0 * np.arctan2(np.tan(rad / 2.0) * (t + t2), 1.0 + t * t2)
+    if pole is not None:  # ``pole``: the vertices at a pole
+        at = pole | _next(pole)
+        north = np.where(pole, lat, _next(lat)) > 0.0
+        e[at] = np.where(north[at], rad[at], -rad[at])
+    return math.fsum(e.tolist())
+
+
+def _lonlat_area(ll: np.ndarray) -> float:
+    """Twice the shoelace area in lon/lat, the ring's jumps over 180 deg unwrapped (those
+    along the seam or a pole kept): the reading of the rings left (one with a vertex at
+    a pole that turns round the pole all the same, one that goes round twice)."""
+    lon, lat = ll[:, 0].copy(), ll[:, 1]
     jump = np.diff(np.append(lon, lon[0]))
-    pole = np.abs(np.abs(ll[:, 1]) - 90.0) <= SEAM_EPS_DEG
-    turn = float(np.sum(jump - 360.0 * np.round(jump / 360.0)))
-    if abs(abs(turn) - 360.0) < 1e-6 and not pole.any():
-        # eastward travel keeps the north on the left
-        return (turn > 0) == (math.fsum(ll[:, 1].tolist()) >= 0.0)
     seam = on_seam(ll)
     big = (np.abs(jump) > 180.0) & ~(seam & np.roll(seam, -1))
     if big.any():
         lon[1:] -= 360.0 * np.cumsum(np.round(jump[:-1] / 360.0) * big[:-1])
-    x, y = lon, ll[:, 1]
-    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) > 0
+    return float(np.sum(lon * np.roll(lat, -1) - np.roll(lon, -1) * lat))
 
 
 def split_meridian_edges(ll: np.ndarray) -> np.ndarray:
