@@ -271,10 +271,10 @@ def test_cli_geotiff_npy_and_cube(mexico_path, mexico, tmp_path):
         band = src.read(1)
         assert src.crs.to_epsg() == 4326 and src.dtypes == ("float32",)
         assert tuple(src.transform)[:6] == pytest.approx((0.25, 0, -125, 0, -0.35, 40))
-        assert np.isnan(src.nodata) and "negative inside" in src.tags()["DESCRIPTION"]
+        assert src.nodata is None and "negative inside" in src.tags()["DESCRIPTION"]
+        assert float(src.tags()["MAX_DISTANCE"]) == 300e3
     beyond = np.abs(want) >= np.float32(300e3)
-    assert beyond.any() and np.isnan(band[beyond]).all()
-    assert np.array_equal(band[~beyond], want[~beyond])
+    assert beyond.any() and np.array_equal(band, want)  # clamped to +-300 km, as the .npy
     assert cli("field", *common, "-o", npy).returncode == 0
     full = gloffset.distance_field(mexico, grid).values
     assert np.array_equal(np.load(npy), full)
@@ -288,6 +288,26 @@ def test_cli_geotiff_npy_and_cube(mexico_path, mexico, tmp_path):
     faces = gloffset.distance_field(mexico, Cube(16)).values
     for k, name in enumerate(("px", "nx", "py", "ny", "pz", "nz")):
         assert np.array_equal(np.load(folder / f"{name}.npy"), faces[k])
+
+
+def test_cli_geotiff_with_max_distance_keeps_the_sign(mexico_path, mexico, tmp_path):
+    """Beyond --max-distance a field GeoTIFF holds -max inside and +max outside (as the
+    .npy): a reader's threshold at any |d| < max is the render at d. With NaN there (the
+    deep interior and the far exterior alike) v <= -50 km found 126 px of the 480."""
+    rasterio = pytest.importorskip("rasterio")
+    tif = tmp_path / "mx.tif"
+    proc = cli("field", mexico_path, "--size", "720x360", "--max-distance", "100km", "-o", tif)
+    assert proc.returncode == 0, proc.stderr.decode()
+    with rasterio.open(tif) as src:
+        v, tags, nodata = src.read(1), src.tags(), src.nodata
+    grid = Equirect(720, 360)
+    for d in (-50e3, -99e3, 0.0, 50e3, 99e3):
+        mine = (v < d) if d < 0 else (v <= d)
+        want = gloffset.render(mexico, d, grid, backend="cpu") == 255
+        assert want.any() and np.array_equal(mine, want), d
+    assert int((v < -50e3).sum()) == 480
+    assert (v == np.float32(-100e3)).any() and (v == np.float32(100e3)).any()
+    assert "clamped" in tags["DESCRIPTION"] and nodata is None
 
 
 @pytest.mark.parametrize(

@@ -34,7 +34,13 @@ from .options import (
 DESCRIPTION = (
     "gloffset signed distance field: great-circle distance in metres from each pixel centre "
     "to the curves of the input, negative inside its polygons (their union), positive "
-    "outside; lines and points unsigned; nodata (NaN) at and beyond max_distance"
+    "outside; lines and points unsigned"
+)
+#: What it adds with --max-distance (the MAX_DISTANCE tag holds the value in metres).
+CLAMPED = (
+    "; clamped to -MAX_DISTANCE..+MAX_DISTANCE (-MAX_DISTANCE: at least that far inside, "
+    "+MAX_DISTANCE: at least that far outside), so the region at a distance d with "
+    "|d| < MAX_DISTANCE is v <= d (v < d for d < 0)"
 )
 
 _FORMATS = (".tif", ".tiff", ".npy")
@@ -69,7 +75,8 @@ def _format(output: str, grid_kind: str) -> str:
     "max_distance",
     default=None,
     metavar="DIST",
-    help="Clamp the field to +-DIST (e.g. 500km): faster, and nodata beyond it in a GeoTIFF.",
+    help="Clamp the field to +-DIST (e.g. 500km): faster; -DIST and +DIST beyond it, "
+    "inside and outside.",
 )
 @click.option(
     "-o",
@@ -163,14 +170,14 @@ def field_cmd(
     elif kind == "npy":
         _write_npy(output, field.values)
     else:
-        values = field.values
-        if m is not None:
-            values = np.where(np.abs(values) >= np.float32(m), np.float32(np.nan), values)
+        # the values as the .npy has them: clamped to +-m, so that the sign (and with it
+        # every threshold within m) survives beyond m
         cog = str(output).lower().endswith((".cog.tif", ".cog.tiff"))
         assert isinstance(grid, Equirect)  # a cube goes to a folder (_format)
-        ref = Georef(grid.transform(), description=DESCRIPTION)
-        nodata = None if m is None else float("nan")
-        write_geotiff(output, values, ref, cog=cog, nodata=nodata)
+        desc = DESCRIPTION if m is None else DESCRIPTION + CLAMPED
+        ref = Georef(grid.transform(), description=desc)
+        tags = None if m is None else {"MAX_DISTANCE": repr(m)}
+        write_geotiff(output, field.values, ref, cog=cog, tags=tags)
 
 
 def _write_npy(target, values: np.ndarray) -> None:

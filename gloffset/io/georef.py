@@ -75,11 +75,18 @@ def _rasterio():
 
 
 def write_geotiff(
-    target, image: np.ndarray, ref: Georef, *, cog: bool = False, nodata: float | None = None
+    target,
+    image: np.ndarray,
+    ref: Georef,
+    *,
+    cog: bool = False,
+    nodata: float | None = None,
+    tags: dict[str, str] | None = None,
 ) -> None:
     """Write ``image`` ((h, w) or (h, w, bands), uint8 or float32: the bands keep its
     dtype) as a GeoTIFF placed by ``ref``: tiled (256 x 256) and deflate-compressed, or a
-    Cloud Optimized GeoTIFF with ``cog``; ``nodata``, if given, is the bands' nodata value.
+    Cloud Optimized GeoTIFF with ``cog``; ``nodata``, if given, is the bands' nodata value;
+    ``tags`` are added to the dataset's metadata (beside ``DESCRIPTION``).
     Written under a temporary name and moved into place (never a half-written file),
     with the permission bits of a new file (the umask's) or of the file it replaces."""
     rasterio = _rasterio()
@@ -123,6 +130,8 @@ def write_geotiff(
                 ]
             if ref.description:
                 dst.update_tags(DESCRIPTION=ref.description)
+            if tags:
+                dst.update_tags(**tags)
     except rasterio.errors.RasterioError as exc:
         raise OutputError(f"cannot write GeoTIFF {str(path)!r}: {exc}") from None
 
