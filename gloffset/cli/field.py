@@ -12,9 +12,9 @@ import numpy as np
 
 from ..errors import OptionError, OutputError
 from ..grids import FACE_NAMES, Cube, Equirect
-from ..io.georef import Georef, write_geotiff
+from ..io.georef import Georef, check_geotiff, write_geotiff
 from ..io.output import check_output, refuse_stdout, write_bytes
-from ..raster.field import distance_field, ellipsoid_refusal
+from ..raster.field import check_field_grid, distance_field, ellipsoid_refusal
 from ..shape import read
 from . import main
 from .options import (
@@ -48,14 +48,24 @@ _FORMATS = (".tif", ".tiff", ".npy")
 
 def _format(output: str, grid_kind: str) -> str:
     """The output kind: ``"tif"``, ``"npy"`` or, for a cube, ``"folder"``."""
+    name = str(output).lower()
     if grid_kind == "cube":
         refuse_stdout(output, "--grid cube writes six .npy faces into a folder")
+        if name.endswith(_FORMATS):
+            raise OptionError(
+                f"-o {str(output)!r}: --grid cube writes six .npy faces into a folder; give a "
+                "folder name (faces/), not a file name"
+            )
+        if Path(output).exists() and not Path(output).is_dir():
+            raise OutputError(f"cannot create folder {str(output)!r}: a file is in the way")
         return "folder"
-    name = str(output).lower()
     if not name.endswith(_FORMATS):
         raise OptionError(f"-o {output!r}: a field is written as NAME.tif or NAME.npy")
     check_output(output)  # fail before the work
-    return "npy" if name.endswith(".npy") else "tif"
+    if name.endswith(".npy"):
+        return "npy"
+    check_geotiff()  # rasterio is there
+    return "tif"
 
 
 @main.command("field")
@@ -128,6 +138,7 @@ def field_cmd(
     else:
         w, h = parse_size(size or "4096x2048")
         grid = Equirect(w, h, parse_bounds(bounds))
+    check_field_grid(grid)  # not too large
     m = None
     if max_distance is not None:
         m = angle(max_distance, radius) * radius

@@ -15,6 +15,7 @@ east 190), so each pixel centre is the grid's, modulo 360.
 - :func:`world_file`: the text of a world file (``.pgw`` beside a ``.png``): pixel
   *centre* convention, ``A D B E C F`` one per line; :data:`WGS84_WKT` for the ``.prj``.
 - :func:`read_geotiff`: a single-band GeoTIFF as an array and its :class:`Georef`.
+- :func:`check_geotiff`: whether GeoTIFFs can be written here, checked before the work.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ import numpy as np
 from ..errors import InputFormatError, OutputError
 from .output import replacing, write_bytes
 
-__all__ = ["Georef", "WGS84_WKT", "world_file", "write_geotiff", "read_geotiff"]
+__all__ = ["Georef", "WGS84_WKT", "check_geotiff", "world_file", "write_geotiff", "read_geotiff"]
 
 #: The ``.prj`` of EPSG:4326 (ESRI WKT, as GIS programs expect beside a world file).
 WGS84_WKT = (
@@ -72,6 +73,13 @@ def _rasterio():
             "writing or reading a GeoTIFF needs rasterio: pip install 'gloffset[geo]'"
         ) from None
     return rasterio
+
+
+def check_geotiff() -> None:
+    """Raise :class:`~gloffset.errors.OutputError` when GeoTIFFs cannot be written here
+    (rasterio, the ``geo`` extra, is not installed): for a command to refuse before its
+    work."""
+    _rasterio()
 
 
 def write_geotiff(
