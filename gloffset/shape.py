@@ -48,6 +48,7 @@ from .geometry.sphere import (
 )
 from .io import features as _features
 from .io import geojson as _gj
+from .io.crs import densify_tolerance as _densify_tolerance
 from .region import unite
 
 if TYPE_CHECKING:
@@ -374,8 +375,9 @@ def read(source, *, layer=None, where: str | None = None, densify=None) -> Shape
         The tolerance to which the edges of a file in a projected CRS are followed:
         their straight lines in the projection get points until the great circles
         between them are within it (metres, or a distance with its unit such as
-        ``"10cm"``). Default: 1 m or a hundredth of the edge, whichever is smaller.
-        Lon/lat edges are great circles already and get no points.
+        ``"0.1m"``), at least 1 mm. Default: 1 m or a hundredth of the edge, whichever
+        is smaller. Lon/lat edges are great circles already and get no points; the
+        value is checked for every input.
 
     Examples
     --------
@@ -383,6 +385,7 @@ def read(source, *, layer=None, where: str | None = None, densify=None) -> Shape
     >>> len(s.lines), len(s.lines[0])
     (1, 2)
     """
+    _densify_tolerance(densify)  # checked whatever the input
     if isinstance(source, Shape) and layer is None and where is None:
         return source
     if isinstance(source, np.ndarray):

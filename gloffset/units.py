@@ -91,12 +91,17 @@ def to_angle(distance: float | str, radius: float) -> float:
     ``radius`` (correctly rounded); a string one product by its unit's length and that
     division (``rad``: exact; ``deg``: one product by ``pi/180``).
 
-    Raises :class:`InvalidDistanceError` when ``distance`` is not a finite number or a
-    readable distance string, or ``radius`` not a positive finite number.
+    Raises :class:`InvalidDistanceError` when ``distance`` is not a finite number (a bool
+    is not one) or a readable distance string, or ``radius`` not a positive finite number.
     """
     if isinstance(distance, str):
         return parse_distance(distance, radius)
     r = check_radius(radius)
+    if isinstance(distance, (bool, np.bool_)):  # float(True) is 1.0: never meant
+        raise InvalidDistanceError(
+            f"distance must be a number or a string with a unit (500m, 127km, 0.02rad), "
+            f"got {distance!r}"
+        )
     try:
         d = float(distance)
     except (TypeError, ValueError):

@@ -326,6 +326,30 @@ def test_writes_through_a_symlink(tmp_path, square):
     assert dangling.is_symlink() and (tmp_path / "data" / "new.png").read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["render", "SQUARE", "-d", "100km", "--size", "64x32"],
+        ["render", "SQUARE", "-d", "100km", "--size", "64x32", "--cog"],
+        ["field", "SQUARE", "--size", "64x32"],
+    ],
+)
+def test_a_geotiff_is_written_through_a_symlink(tmp_path, square, args):
+    """GDAL writes to a name: the file the link points to is replaced (atomically, beside
+    it), and the link stays a link."""
+    rasterio = pytest.importorskip("rasterio")
+    (tmp_path / "data").mkdir()
+    real = old_output(tmp_path / "data", "real.tif")
+    link = tmp_path / "link.tif"
+    link.symlink_to(real)
+    proc = cli(*[square if a == "SQUARE" else a for a in args], "-o", link)
+    assert proc.returncode == 0, proc.stderr
+    assert link.is_symlink() and os.readlink(link) == str(real)
+    with rasterio.open(real) as src:
+        assert (src.width, src.height) == (64, 32)
+    assert sorted(p.name for p in (tmp_path / "data").iterdir()) == ["real.tif"]
+
+
 def read_fifo(path):
     """Start reading the FIFO ``path`` in a thread; returns a function giving what was read."""
     got = {}

@@ -226,6 +226,9 @@ def test_radius_units(world):
         ({"max_distance": float("nan")}, gloffset.InvalidDistanceError, "finite"),
         ({"radius": -1.0}, gloffset.InvalidDistanceError, "radius"),
         ({"ellipsoid": "WGS84"}, gloffset.OptionError, "ellipsoid"),
+        ({"max_distance": True}, gloffset.InvalidDistanceError, "got True"),
+        ({"max_distance": "500 parsecs"}, gloffset.InvalidDistanceError, "unknown distance"),
+        ({"max_distance": "-5km"}, gloffset.OptionError, "max_distance must be a positive"),
     ],
 )
 def test_bad_options(world, kwargs, error, match):
@@ -252,6 +255,42 @@ def test_mexico_global_unclamped(mexico):
     assert_within_ulps(field.values[j, i], reference_field(mexico, p))
 
 
+def test_distances_with_units(mexico):
+    """threshold and max_distance take "127km" as every public function does: the same
+    field and masks as the numbers (a bare ValueError, and a whole field computed before
+    an error, before)."""
+    grid = Equirect(90, 60, (-120, 10, -80, 35))
+    field = gloffset.distance_field(mexico, grid, max_distance="100km")
+    plain = gloffset.distance_field(mexico, grid, max_distance=100e3)
+    assert field.max_distance == 100e3 and np.array_equal(field.values, plain.values)
+    for text, d in (("-50km", -50e3), ("0m", 0.0), ("60000", 60e3), ("0.01rad", 0.01 * R)):
+        assert np.array_equal(field.threshold(text), plain.threshold(d)), text
+    assert np.array_equal(field.threshold("-50km"), gloffset.render(mexico, -50e3, grid))
+    with pytest.raises(gloffset.OptionError, match="beyond the field's max_distance"):
+        field.threshold("101km")
+    radians = gloffset.distance_field(mexico, grid, max_distance="0.02rad", radius=1.0)
+    assert radians.max_distance == 0.02
+    for bad, match in ((True, "got True"), ("far", "cannot read distance"), (None, "number")):
+        with pytest.raises(gloffset.InvalidDistanceError, match=match):
+            field.threshold(bad)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"grid": Equirect(200000, 100000)}, "the field has 20000000000 pixels, more than"),
+        ({"grid": Cube(20000)}, "the field has 2400000000 pixels, more than"),
+        ({"max_distance": "500km!"}, "cannot read distance"),
+        ({"max_distance": False}, "got False"),
+    ],
+)
+def test_refused_before_any_work(kwargs, match):
+    """Refused before the input is read (it does not exist here), let alone the field."""
+    args = {"grid": Equirect(8, 4), **kwargs}
+    with pytest.raises(gloffset.GloffsetError, match=match):
+        gloffset.distance_field("no/such/input.geojson", **args)
+
+
 def cli(*args, cwd=None):
     """Run ``python -m gloffset ARGS``."""
     return subprocess.run(
@@ -271,10 +310,10 @@ def test_cli_geotiff_npy_and_cube(mexico_path, mexico, tmp_path):
         band = src.read(1)
         assert src.crs.to_epsg() == 4326 and src.dtypes == ("float32",)
         assert tuple(src.transform)[:6] == pytest.approx((0.25, 0, -125, 0, -0.35, 40))
-        assert np.isnan(src.nodata) and "negative inside" in src.tags()["DESCRIPTION"]
+        assert src.nodata is None and "negative inside" in src.tags()["DESCRIPTION"]
+        assert float(src.tags()["MAX_DISTANCE"]) == 300e3
     beyond = np.abs(want) >= np.float32(300e3)
-    assert beyond.any() and np.isnan(band[beyond]).all()
-    assert np.array_equal(band[~beyond], want[~beyond])
+    assert beyond.any() and np.array_equal(band, want)  # clamped to +-300 km, as the .npy
     assert cli("field", *common, "-o", npy).returncode == 0
     full = gloffset.distance_field(mexico, grid).values
     assert np.array_equal(np.load(npy), full)
@@ -288,6 +327,73 @@ def test_cli_geotiff_npy_and_cube(mexico_path, mexico, tmp_path):
     faces = gloffset.distance_field(mexico, Cube(16)).values
     for k, name in enumerate(("px", "nx", "py", "ny", "pz", "nz")):
         assert np.array_equal(np.load(folder / f"{name}.npy"), faces[k])
+
+
+def test_cli_geotiff_with_max_distance_keeps_the_sign(mexico_path, mexico, tmp_path):
+    """Beyond --max-distance a field GeoTIFF holds -max inside and +max outside (as the
+    .npy): a reader's threshold at any |d| < max is the render at d. With NaN there (the
+    deep interior and the far exterior alike) v <= -50 km found 126 px of the 480."""
+    rasterio = pytest.importorskip("rasterio")
+    tif = tmp_path / "mx.tif"
+    proc = cli("field", mexico_path, "--size", "720x360", "--max-distance", "100km", "-o", tif)
+    assert proc.returncode == 0, proc.stderr.decode()
+    with rasterio.open(tif) as src:
+        v, tags, nodata = src.read(1), src.tags(), src.nodata
+    grid = Equirect(720, 360)
+    for d in (-50e3, -99e3, 0.0, 50e3, 99e3):
+        mine = (v < d) if d < 0 else (v <= d)
+        want = gloffset.render(mexico, d, grid, backend="cpu") == 255
+        assert want.any() and np.array_equal(mine, want), d
+    assert int((v < -50e3).sum()) == 480
+    assert (v == np.float32(-100e3)).any() and (v == np.float32(100e3)).any()
+    assert "clamped" in tags["DESCRIPTION"] and nodata is None
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--size", "200000x100000", "-o", "x.npy"], "the field has 20000000000 pixels"),
+        (["--grid", "cube", "--size", "20000", "-o", "faces"], "2400000000 pixels, more than"),
+        (["--grid", "cube", "--size", "8", "-o", "x.tif"], "give a folder name"),
+        (["--grid", "cube", "--size", "8", "-o", "x.npy"], "give a folder name"),
+        (["--grid", "cube", "--size", "8", "-o", "a_file"], "a file is in the way"),
+        (["--size", "64x32", "--densify", "-1", "-o", "x.npy"], "densify tolerance '-1'"),
+    ],
+)
+def test_cli_refused_before_any_work(mexico_path, tmp_path, args, words):
+    """One line, exit status 2, nothing written (a field of 2e10 pixels ended in a numpy
+    ArrayMemoryError at 4.6 GB; --grid cube -o x.tif made a folder x.tif)."""
+    (tmp_path / "a_file").write_bytes(b"kept")
+    proc = cli("field", mexico_path, *args, cwd=tmp_path)
+    assert_one_line_error(proc, words)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+    assert (tmp_path / "a_file").read_bytes() == b"kept"
+
+
+def test_cli_geotiff_without_rasterio_refused_first(mexico_path, tmp_path, monkeypatch):
+    """Without rasterio, -o x.tif is refused before the input is read (the whole field
+    was computed first, 5 s at 4096 x 2048); a .npy needs no rasterio."""
+    from click.testing import CliRunner
+
+    from gloffset.cli import field as field_cli
+    from gloffset.cli import main
+
+    monkeypatch.setitem(sys.modules, "rasterio", None)  # import rasterio: ImportError
+
+    def no_read(*args, **kwargs):
+        raise AssertionError("the input was read")
+
+    monkeypatch.setattr(field_cli, "read", no_read)
+    for name in ("x.tif", "x.cog.tif"):
+        r = CliRunner().invoke(main, ["field", str(mexico_path), "-o", str(tmp_path / name)])
+        assert r.exit_code == 2 and "needs rasterio" in r.output, r.output
+        assert "the input was read" not in r.output
+    monkeypatch.undo()
+    monkeypatch.setitem(sys.modules, "rasterio", None)
+    assert list(tmp_path.iterdir()) == []
+    npy = tmp_path / "x.npy"
+    r = CliRunner().invoke(main, ["field", str(mexico_path), "--size", "32x16", "-o", str(npy)])
+    assert r.exit_code == 0 and np.load(npy).shape == (16, 32), r.output
 
 
 @pytest.mark.parametrize(

@@ -119,3 +119,32 @@ def test_the_cli_densify_option(tmp_path):
     for bad in ("0m", "-1m", "far"):
         r = CliRunner().invoke(main, ["contains", str(path), str(points), "--densify", bad])
         assert r.exit_code == 2 and "distance" in r.output, (bad, r.output)
+
+
+@pytest.mark.parametrize("bad", [True, np.True_, -1, 0.0, "-1", 1e-9, "1e-12m", "0.0009", "far"])
+def test_a_bad_densify_is_refused_for_every_input_before_it_is_read(tmp_path, bad):
+    """A tolerance that is no positive distance, or under 1 mm, is refused whatever the
+    input, before it is read: a GeoJSON has no projected edge but was given it (True and
+    -1 were taken silently), and 1e-12 m on a projected file ran for a minute into a
+    numpy ArrayMemoryError."""
+    path, _, _ = box_file(tmp_path, "EPSG:32633", 13, 45, 17, 48)
+    for source in (path, MEXICO, tmp_path / "no_such.gpkg", np.array([[0.0, 0], [1, 1]])):
+        with pytest.raises(gloffset.InvalidDistanceError, match="densify tolerance|distance"):
+            gloffset.read(source, densify=bad)
+
+
+def test_the_smallest_densify_is_a_millimetre(tmp_path):
+    path, to, corners = box_file(tmp_path, "EPSG:32633", 13, 45, 17, 48)
+    fine = gloffset.read(path, densify=0.001)
+    assert fine.n_vertices > gloffset.read(path, densify="0.01m").n_vertices
+    lon, lat = along_edges(to, corners)
+    assert gloffset.distance(fine, lon, lat).max() <= 0.001
+    with pytest.raises(gloffset.InvalidDistanceError, match=r"below the smallest, 1 mm"):
+        gloffset.read(path, densify=0.000999)
+    for bad in ("1e-12m", "-1"):
+        out = tmp_path / "x.png"
+        r = CliRunner().invoke(
+            main, ["render", str(path), "-d", "1km", "--densify", bad, "-o", str(out)]
+        )
+        assert r.exit_code == 2 and "densify tolerance" in r.output, r.output
+        assert not out.exists()

@@ -26,9 +26,19 @@ def test_to_angle_reads_strings_and_numbers_alike():
     assert to_angle("127km", EARTH_RADIUS) == to_angle(127e3, EARTH_RADIUS) == 127e3 / EARTH_RADIUS
     assert to_angle("0.02rad", 2.0) == 0.02 and to_angle(np.float32(1.0), 4.0) == 0.25
     assert to_metres("127km") == to_metres(127e3) == 127e3
-    for bad in ("12 parsecs", "km", None, float("nan")):
+    for bad in ("12 parsecs", "km", None, float("nan"), True, np.False_):
         with pytest.raises(InvalidDistanceError):
             to_angle(bad, EARTH_RADIUS)
+    with pytest.raises(InvalidDistanceError, match="got True"):  # float(True) is 1.0
+        to_metres(True)
+
+
+def test_a_bool_is_no_distance(iceland):
+    """True was 1 metre (or 1 radian on the unit sphere), silently."""
+    with pytest.raises(InvalidDistanceError, match="got True"):
+        gloffset.render(iceland, True, GRID, backend="cpu")
+    with pytest.raises(InvalidDistanceError, match="got True"):
+        gloffset.contains(iceland, LON, LAT, distance=True)
 
 
 @pytest.mark.parametrize("angle", ["0.02rad", " 1.5DEG "])

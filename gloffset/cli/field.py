@@ -12,9 +12,9 @@ import numpy as np
 
 from ..errors import OptionError, OutputError
 from ..grids import FACE_NAMES, Cube, Equirect
-from ..io.georef import Georef, write_geotiff
+from ..io.georef import Georef, check_geotiff, write_geotiff
 from ..io.output import check_output, refuse_stdout, write_bytes
-from ..raster.field import distance_field, ellipsoid_refusal
+from ..raster.field import check_field_grid, distance_field, ellipsoid_refusal
 from ..shape import read
 from . import main
 from .options import (
@@ -34,7 +34,13 @@ from .options import (
 DESCRIPTION = (
     "gloffset signed distance field: great-circle distance in metres from each pixel centre "
     "to the curves of the input, negative inside its polygons (their union), positive "
-    "outside; lines and points unsigned; nodata (NaN) at and beyond max_distance"
+    "outside; lines and points unsigned"
+)
+#: What it adds with --max-distance (the MAX_DISTANCE tag holds the value in metres).
+CLAMPED = (
+    "; clamped to -MAX_DISTANCE..+MAX_DISTANCE (-MAX_DISTANCE: at least that far inside, "
+    "+MAX_DISTANCE: at least that far outside), so the region at a distance d with "
+    "|d| < MAX_DISTANCE is v <= d (v < d for d < 0)"
 )
 
 _FORMATS = (".tif", ".tiff", ".npy")
@@ -42,14 +48,24 @@ _FORMATS = (".tif", ".tiff", ".npy")
 
 def _format(output: str, grid_kind: str) -> str:
     """The output kind: ``"tif"``, ``"npy"`` or, for a cube, ``"folder"``."""
+    name = str(output).lower()
     if grid_kind == "cube":
         refuse_stdout(output, "--grid cube writes six .npy faces into a folder")
+        if name.endswith(_FORMATS):
+            raise OptionError(
+                f"-o {str(output)!r}: --grid cube writes six .npy faces into a folder; give a "
+                "folder name (faces/), not a file name"
+            )
+        if Path(output).exists() and not Path(output).is_dir():
+            raise OutputError(f"cannot create folder {str(output)!r}: a file is in the way")
         return "folder"
-    name = str(output).lower()
     if not name.endswith(_FORMATS):
         raise OptionError(f"-o {output!r}: a field is written as NAME.tif or NAME.npy")
     check_output(output)  # fail before the work
-    return "npy" if name.endswith(".npy") else "tif"
+    if name.endswith(".npy"):
+        return "npy"
+    check_geotiff()  # rasterio is there
+    return "tif"
 
 
 @main.command("field")
@@ -69,7 +85,8 @@ def _format(output: str, grid_kind: str) -> str:
     "max_distance",
     default=None,
     metavar="DIST",
-    help="Clamp the field to +-DIST (e.g. 500km): faster, and nodata beyond it in a GeoTIFF.",
+    help="Clamp the field to +-DIST (e.g. 500km): faster; -DIST and +DIST beyond it, "
+    "inside and outside.",
 )
 @click.option(
     "-o",
@@ -121,6 +138,7 @@ def field_cmd(
     else:
         w, h = parse_size(size or "4096x2048")
         grid = Equirect(w, h, parse_bounds(bounds))
+    check_field_grid(grid)  # not too large
     m = None
     if max_distance is not None:
         m = angle(max_distance, radius) * radius
@@ -163,14 +181,14 @@ def field_cmd(
     elif kind == "npy":
         _write_npy(output, field.values)
     else:
-        values = field.values
-        if m is not None:
-            values = np.where(np.abs(values) >= np.float32(m), np.float32(np.nan), values)
+        # the values as the .npy has them: clamped to +-m, so that the sign (and with it
+        # every threshold within m) survives beyond m
         cog = str(output).lower().endswith((".cog.tif", ".cog.tiff"))
         assert isinstance(grid, Equirect)  # a cube goes to a folder (_format)
-        ref = Georef(grid.transform(), description=DESCRIPTION)
-        nodata = None if m is None else float("nan")
-        write_geotiff(output, values, ref, cog=cog, nodata=nodata)
+        desc = DESCRIPTION if m is None else DESCRIPTION + CLAMPED
+        ref = Georef(grid.transform(), description=desc)
+        tags = None if m is None else {"MAX_DISTANCE": repr(m)}
+        write_geotiff(output, field.values, ref, cog=cog, tags=tags)
 
 
 def _write_npy(target, values: np.ndarray) -> None:

@@ -152,7 +152,8 @@ def input_options(f):
         default=None,
         metavar="DIST",
         help="For a vector file in a projected CRS (EPSG:3857, UTM...): follow its edges, "
-        "straight in the projection, to within DIST (e.g. 10cm; a bare number is metres). "
+        "straight in the projection, to within DIST (e.g. 0.1m; a bare number is metres; at "
+        "least 0.001m). "
         "Default: 1 m or a hundredth of the edge, whichever is smaller. Lon/lat edges are "
         "great circles and are kept as they are.",
     )(f)

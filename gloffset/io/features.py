@@ -10,7 +10,7 @@ import os
 
 from ..errors import InputFormatError
 from . import geojson, vectorfile
-from .crs import is_lonlat
+from .crs import densify_tolerance, is_lonlat
 
 __all__ = ["load", "features"]
 
@@ -21,8 +21,11 @@ def load(source, *, layer=None, where: str | None = None, densify=None) -> dict:
 
     ``layer`` and ``where`` select a layer and features of a vector file (a GeoJSON file
     with either is read through GDAL too). ``densify`` is the tolerance to which the
-    edges of a file in a projected CRS are followed (:func:`gloffset.io.vectorfile.read`).
+    edges of a file in a projected CRS are followed (:func:`gloffset.io.vectorfile.read`),
+    checked whatever the input (:func:`gloffset.io.crs.densify_tolerance`), before it is
+    read.
     """
+    densify_tolerance(densify)  # a bad one is refused even where no edge needs it
     if vectorfile.is_vector_file(source) or (
         (layer is not None or where is not None)
         and isinstance(source, (str, os.PathLike))
@@ -32,8 +35,8 @@ def load(source, *, layer=None, where: str | None = None, densify=None) -> dict:
         return vectorfile.read(source, layer=layer, where=where, densify=densify)
     if layer is not None or where is not None:
         raise InputFormatError(
-            "--layer and --where select from a file; they do not apply to stdin, GeoJSON text "
-            "or objects"
+            "layer and where (--layer, --where) select from a file; they do not apply to "
+            "stdin, GeoJSON text or objects"
         )
     obj = geojson.load(source)
     legacy = _legacy_crs(obj)

@@ -15,6 +15,7 @@ east 190), so each pixel centre is the grid's, modulo 360.
 - :func:`world_file`: the text of a world file (``.pgw`` beside a ``.png``): pixel
   *centre* convention, ``A D B E C F`` one per line; :data:`WGS84_WKT` for the ``.prj``.
 - :func:`read_geotiff`: a single-band GeoTIFF as an array and its :class:`Georef`.
+- :func:`check_geotiff`: whether GeoTIFFs can be written here, checked before the work.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ import numpy as np
 from ..errors import InputFormatError, OutputError
 from .output import replacing, write_bytes
 
-__all__ = ["Georef", "WGS84_WKT", "world_file", "write_geotiff", "read_geotiff"]
+__all__ = ["Georef", "WGS84_WKT", "check_geotiff", "world_file", "write_geotiff", "read_geotiff"]
 
 #: The ``.prj`` of EPSG:4326 (ESRI WKT, as GIS programs expect beside a world file).
 WGS84_WKT = (
@@ -74,12 +75,26 @@ def _rasterio():
     return rasterio
 
 
+def check_geotiff() -> None:
+    """Raise :class:`~gloffset.errors.OutputError` when GeoTIFFs cannot be written here
+    (rasterio, the ``geo`` extra, is not installed): for a command to refuse before its
+    work."""
+    _rasterio()
+
+
 def write_geotiff(
-    target, image: np.ndarray, ref: Georef, *, cog: bool = False, nodata: float | None = None
+    target,
+    image: np.ndarray,
+    ref: Georef,
+    *,
+    cog: bool = False,
+    nodata: float | None = None,
+    tags: dict[str, str] | None = None,
 ) -> None:
     """Write ``image`` ((h, w) or (h, w, bands), uint8 or float32: the bands keep its
     dtype) as a GeoTIFF placed by ``ref``: tiled (256 x 256) and deflate-compressed, or a
-    Cloud Optimized GeoTIFF with ``cog``; ``nodata``, if given, is the bands' nodata value.
+    Cloud Optimized GeoTIFF with ``cog``; ``nodata``, if given, is the bands' nodata value;
+    ``tags`` are added to the dataset's metadata (beside ``DESCRIPTION``).
     Written under a temporary name and moved into place (never a half-written file),
     with the permission bits of a new file (the umask's) or of the file it replaces."""
     rasterio = _rasterio()
@@ -123,6 +138,8 @@ def write_geotiff(
                 ]
             if ref.description:
                 dst.update_tags(DESCRIPTION=ref.description)
+            if tags:
+                dst.update_tags(**tags)
     except rasterio.errors.RasterioError as exc:
         raise OutputError(f"cannot write GeoTIFF {str(path)!r}: {exc}") from None
 

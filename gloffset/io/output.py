@@ -305,11 +305,14 @@ def replacing(target):
     """A temporary file name beside the file ``target``, for a writer that needs a name
     (GDAL, SQLite): when the ``with`` block ends without an error, the temporary file
     takes the permission bits of the file it replaces (of a new file where there is none)
-    and replaces ``target`` atomically; on an error it is removed and ``target`` is left
-    as it was. The temporary file exists, empty, when the block starts. Raises
-    :class:`~gloffset.errors.OutputError` naming ``target``."""
+    and replaces ``target`` atomically (a symbolic link is followed: the file it points to
+    is replaced, beside which the temporary file is made, and the link stays); on an
+    error it is removed and ``target`` is left as it was. The temporary file exists,
+    empty, when the block starts. Raises :class:`~gloffset.errors.OutputError` naming
+    ``target``."""
     name = os.fspath(target)
-    path = os.path.abspath(name)
+    t = _resolve(name)  # a symbolic link is followed: the file it points to is replaced
+    path = t.path if t.kind == "replace" and t.path is not None else os.path.abspath(name)
     fd, tmp = _temporary(path, name)
     os.close(fd)
     try:

@@ -127,7 +127,7 @@ def _gdal_layer(pyogrio, path: str, layer, where, shown: str | None = None):
     if layer is None and len(names) > 1:
         listed = ", ".join(repr(n) for n in names)
         raise InputFormatError(
-            f"{shown!r} has {len(names)} layers ({listed}); choose one with --layer"
+            f"{shown!r} has {len(names)} layers ({listed}); choose one (layer=, --layer)"
         )
     if layer is not None and str(layer) not in names:
         if not (str(layer).isdigit() and int(layer) < len(names)):
@@ -141,7 +141,7 @@ def _gdal_layer(pyogrio, path: str, layer, where, shown: str | None = None):
     except Exception as exc:  # GDAL's errors: pyogrio.errors, ValueError
         if where is not None:
             raise InputFormatError(
-                f"{shown!r}: bad --where clause {where!r} ({_first_line(exc)}); it is an OGR SQL "
+                f"{shown!r}: bad where clause {where!r} ({_first_line(exc)}); it is an OGR SQL "
                 f"condition on the attributes {_field_names(pyogrio, path, layer)}, e.g. "
                 "\"name = 'Fiji'\""
             ) from None
@@ -149,7 +149,7 @@ def _gdal_layer(pyogrio, path: str, layer, where, shown: str | None = None):
     if where is not None and len(wkb) == 0:
         name = names[layer] if isinstance(layer, int) else (layer or names[0])
         raise InputFormatError(
-            f"{shown!r}: no feature of layer {name!r} matched the --where clause {where!r}"
+            f"{shown!r}: no feature of layer {name!r} matched the where clause {where!r}"
         )
     return meta["crs"], list(wkb), dict(zip(meta["fields"], data))
 

@@ -35,14 +35,22 @@ from ..errors import OptionError
 from ..geometry.classes import CONTAINED
 from ..grids.protocol import Image
 from ..shape import read
-from ..units import EARTH_RADIUS, RASTER_LIMIT, check_radius, offset_angle, to_angle
+from ..units import (
+    EARTH_RADIUS,
+    RASTER_LIMIT,
+    check_radius,
+    offset_angle,
+    parse_length,
+    to_angle,
+)
 from .field_gpu import gpu_distances
 from .field_walk import walk_levels
+from .render import MAX_PIXELS
 from .simplified import band_members
 from .vector import curves
 from .vector.node_levels import NodeArcs
 
-__all__ = ["DistanceField", "distance_field"]
+__all__ = ["DistanceField", "check_field_grid", "distance_field"]
 
 _BACKENDS = ("gpu", "cpu")
 
@@ -80,8 +88,11 @@ class DistanceField:
             f"radius={self.radius!r}, max_distance={self.max_distance!r})"
         )
 
-    def threshold(self, d: float) -> np.ndarray:
-        """Return the mask of the region at signed distance ``d`` (units of ``radius``).
+    def threshold(self, d: float | str) -> np.ndarray:
+        """Return the mask of the region at signed distance ``d``.
+
+        ``d`` is a number in the units of ``radius`` or a string with a unit (``"127km"``,
+        ``"-50km"``, ``"0.02rad"``), as every public function takes it.
 
         uint8, 255 inside, 0 outside, in the shape of :attr:`values`.
 
@@ -97,10 +108,11 @@ class DistanceField:
         exceeds ``max_distance`` (the field does not know the pixels beyond it).
         """
         e = offset_angle(self.shape, d, self.radius, limit=RASTER_LIMIT, what="render")
-        d = float(d)
+        given = d
+        d = parse_length(d, self.radius)  # in the units of radius, as the values
         if self.max_distance is not None and abs(d) > self.max_distance:
             raise OptionError(
-                f"threshold distance {d!r} is beyond the field's max_distance "
+                f"threshold distance {given!r} is beyond the field's max_distance "
                 f"{self.max_distance!r}; compute the field with a larger max_distance"
             )
         flat = self.values.reshape(-1, self.values.shape[-1])  # rows of every face
@@ -190,21 +202,38 @@ def ellipsoid_refusal(ellipsoid) -> str:
     )
 
 
-def _check_grid(grid) -> None:
+def check_field_grid(grid) -> None:
+    """Refuse a grid :func:`distance_field` cannot take, before any work.
+
+    Raises :class:`~gloffset.errors.OptionError` for something that is not a
+    ``gloffset.grids`` grid, or one of more than :data:`~gloffset.raster.render.MAX_PIXELS`
+    pixels (the limit of :func:`gloffset.render`: the field's float32 values alone would
+    be 8 GiB, its work about 50 bytes a pixel).
+    """
     if not isinstance(grid, Image):
         raise OptionError(
             f"grid must be a gloffset.grids grid (Equirect, Tile, Cube), got {type(grid).__name__}"
         )
+    n = sum(f.width * f.height for f in grid.faces)
+    if n > MAX_PIXELS:
+        raise OptionError(
+            f"the field has {n} pixels, more than {MAX_PIXELS}; compute it in parts "
+            "(Equirect.subgrid, or fewer cube pixels)"
+        )
 
 
-def _max_angle(max_distance, radius: float) -> float:
-    """``max_distance`` as an angle (``inf`` for None); a clear error unless positive."""
+def _max_distance(max_distance, radius: float) -> tuple[float, float | None]:
+    """``max_distance`` as an angle (``inf`` for None) and in the units of ``radius``.
+
+    A number in the units of ``radius`` or a string with a unit (``"500km"``); a clear
+    error unless it is a positive distance.
+    """
     if max_distance is None:
-        return math.inf
+        return math.inf, None
     m = to_angle(max_distance, radius)
     if not m > 0.0:
         raise OptionError(f"max_distance must be a positive distance, got {max_distance!r}")
-    return m
+    return m, parse_length(max_distance, radius)
 
 
 def distance_field(
@@ -223,9 +252,10 @@ def distance_field(
     ----------
     shape : Shape or anything :func:`gloffset.read` accepts
     grid : gloffset.grids.Equirect, Tile, Cube or CubeFace
-    max_distance : float, optional
-        Clamp the field to ``[-max_distance, max_distance]`` (units of ``radius``); the
-        work then follows the band within it (cells wholly beyond it cost no pixel work).
+    max_distance : float or str, optional
+        Clamp the field to ``[-max_distance, max_distance]`` (a number in the units of
+        ``radius``, or a string with a unit: ``"500km"``); the work then follows the band
+        within it (cells wholly beyond it cost no pixel work).
     radius : float
         Sphere radius; the values are in its units (metres by default).
     ellipsoid : None
@@ -240,6 +270,15 @@ def distance_field(
         shaders, in float32, finished in float64) or ``"cpu"`` (in float64). The values
         are the same, bit for bit; the walk above the pixels and the inside test run on
         the CPU either way.
+
+    Raises
+    ------
+    OptionError
+        Before any work: a grid that is not a ``gloffset.grids`` grid or has more than
+        :data:`~gloffset.raster.render.MAX_PIXELS` pixels, a ``max_distance`` that is not
+        positive, another ``ellipsoid`` or ``backend``.
+    InvalidDistanceError
+        Before any work: a ``max_distance`` that is not a distance (``"500 parsecs"``).
 
     Returns
     -------
@@ -267,17 +306,15 @@ def distance_field(
     if backend not in _BACKENDS:
         raise OptionError(f"backend must be one of {', '.join(_BACKENDS)}, got {backend!r}")
     radius = check_radius(radius)
+    check_field_grid(grid)
+    m, max_units = _max_distance(max_distance, radius)
     shape = read(shape)
-    _check_grid(grid)
-    m = _max_angle(max_distance, radius)
     count = _Progress(progress, grid, bool(shape.rings))
     if grid.n_faces > 1:
         values = np.stack([_field(shape, f, m, radius, count, backend) for f in grid.faces])
     else:
         values = _field(shape, grid, m, radius, count, backend)
-    return DistanceField(
-        shape, grid, values, radius, None if max_distance is None else float(max_distance)
-    )
+    return DistanceField(shape, grid, values, radius, max_units)
 
 
 class _Progress:
