@@ -16,7 +16,9 @@ an index builds lazily and keeps is built here, by one mechanism:
   exist only while a build runs;
 - a kept value is never changed in place: a new value replaces it (a deeper index), an
   evicted one is dropped (a bounded :class:`Memo`), and a thread still holding the old
-  one keeps a complete, valid object.
+  one keeps a complete, valid object. Its numpy arrays are made read-only when it is
+  kept (:func:`freeze`), so a write into one raises instead of changing what every
+  thread reads.
 
 Builders must be pure (the same inputs, the same value): a value evicted and built
 again is the same, and a builder that raises keeps nothing (the next call builds again).
@@ -28,11 +30,32 @@ import threading
 from collections.abc import Callable, Hashable, Iterator, Mapping
 from typing import Any, Generic, TypeVar
 
-__all__ = ["Memo", "Locks", "MISSING", "kept_property", "once_attr"]
+import numpy as np
+
+__all__ = ["Memo", "Locks", "MISSING", "freeze", "kept_property", "once_attr"]
 
 T = TypeVar("T")
 #: what a check of :meth:`Locks.run` answers for "not built"
 MISSING: Any = object()
+
+
+def freeze(value: T) -> T:
+    """``value``, its numpy arrays made read-only: the value itself, the items of a tuple
+    or list, and the attributes of an object (and the items of its tuples), one level
+    down. What a kept object makes later (its own lazy parts) is frozen where it is kept."""
+
+    def one(v) -> None:
+        if isinstance(v, np.ndarray):
+            v.setflags(write=False)
+        elif isinstance(v, (tuple, list)):
+            for x in v:
+                if isinstance(x, np.ndarray):
+                    x.setflags(write=False)
+
+    one(value)
+    for v in getattr(value, "__dict__", {}).values():
+        one(v)
+    return value
 
 
 class Locks:
@@ -102,7 +125,7 @@ class Memo(Mapping, Generic[T]):
             return got if got is not MISSING and (fresh is None or fresh(got)) else MISSING
 
         def make():
-            value = build()
+            value = freeze(build())
             with self._guard:
                 self._values.pop(key, None)  # a rebuilt value is the newest
                 if keep is not None:
@@ -152,7 +175,7 @@ def once_attr(obj: Any, name: str, build: Callable[[], T]) -> T:
         return MISSING if got is None else got
 
     def make():
-        value = build()
+        value = freeze(build())
         object.__setattr__(obj, name, value)
         return value
 

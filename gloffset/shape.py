@@ -47,7 +47,7 @@ from .geometry.sphere import (
 )
 from .io import features as _features
 from .io import geojson as _gj
-from .memo import MISSING, Locks, Memo
+from .memo import MISSING, Locks, Memo, freeze
 from .region import unite
 
 if TYPE_CHECKING:
@@ -194,7 +194,7 @@ class Derived:
             return MISSING if got is None else got
 
         def make():
-            value = build()
+            value = freeze(build())
             object.__setattr__(self, name, value)
             return value
 

@@ -245,7 +245,7 @@ class CubeCells:
         L = self.face.n_levels - 1
         self.n = [self.face.level_shape(lev)[0] for lev in range(L + 1)]
         self.P = [self.n[0] << lev for lev in range(L + 1)]
-        self._rho: dict = {}
+        self._rho: Memo[np.ndarray] = Memo()
         self._edges: Memo[tuple[np.ndarray, np.ndarray]] = Memo()
 
     # ------------------------------------------------------------- hierarchy
@@ -319,13 +319,14 @@ class CubeCells:
 
     def rho(self, level: int) -> np.ndarray:
         """Per-row bound (radians) of ``level`` (see the class notes)."""
-        r = self._rho.get(level)
-        if r is None:
+
+        def build() -> np.ndarray:
             face = self.face.rho(level)
             pad = np.full(self.P[level], float(face.max()))
             pad[: self.n[level]] = face
-            r = self._rho[level] = np.tile(pad, 6)
-        return r
+            return np.tile(pad, 6)
+
+        return self._rho.once(level, build)
 
     def rho_at(self, level: int, j, i) -> np.ndarray:
         """The bound of cells (stacked row ``j``, column ``i``) of ``level`` (padding rows:
