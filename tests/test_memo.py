@@ -189,3 +189,20 @@ def test_a_cold_shape_hammered_by_threads_builds_each_slot_once(counted):
     for i, answers in enumerate(got):
         for a, b in zip(answers, _queries(alone, i)):
             np.testing.assert_array_equal(a, b)
+
+
+def test_kept_arrays_are_read_only(world):
+    """What every thread reads cannot be changed in place by one of them: a write into a
+    kept array raises (the values stay those of the shape)."""
+    from gloffset.edges import CurveArcs
+    from gloffset.geometry import crossings
+
+    s = gloffset.read(world["Mexico"])
+    p = gloffset.geometry.sphere.lonlat_to_xyz(np.array([-100.0]), np.array([20.0]))
+    crossings.inside_indexed(s, p, anchors=16)
+    arcs = CurveArcs.from_shape(s)
+    kept = [s.edges().a, arcs.a, arcs.ring, arcs.lunes[0], s.reference_points()[1]]
+    kept += list(s.derived.anchors[16])
+    for a in kept:
+        with pytest.raises(ValueError, match="read-only"):
+            a[...] = 0
