@@ -125,7 +125,8 @@ class CurveArcs:
     @classmethod
     def from_shape(cls, shape) -> CurveArcs:
         """The arcs of ``shape`` (made once per shape and kept on it, like its edges)."""
-        return shape.derived.once("arcs", lambda: cls._make(shape))
+        got = shape.derived.arcs  # the hot path: one read, no call
+        return got if got is not None else shape.derived.once("arcs", lambda: cls._make(shape))
 
     @classmethod
     def _make(cls, shape) -> CurveArcs:

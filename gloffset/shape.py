@@ -295,7 +295,8 @@ class Shape:
 
     def edges(self) -> Edges:
         """Return the flat edge table (cached)."""
-        return self.derived.once("edges", self._make_edges)
+        got = self.derived.edges  # the hot path: one read, no call
+        return got if got is not None else self.derived.once("edges", self._make_edges)
 
     def _make_edges(self) -> Edges:
         a, b, bd, g = [], [], [], []
@@ -337,7 +338,10 @@ class Shape:
         inside each component (left of one of its boundary edges, closer to that
         edge than to any other) to the reference point, counting crossings.
         """
-        return _REF, self.derived.once("ref_status", lambda: _reference_status(self))
+        got = self.derived.ref_status  # the hot path: one read, no call
+        if got is None:
+            got = self.derived.once("ref_status", lambda: _reference_status(self))
+        return _REF, got
 
     def overlapping_components(self) -> np.ndarray:
         """Pairs of region components that overlap, as an (k, 2) int array (cached).
