@@ -24,13 +24,13 @@ are those of :func:`gloffset.geometry.sphere.arcs_cross`; distances are those of
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 
 from .geometry.caps import arc_cap, pad
 from .geometry.crossings import inside
 from .geometry.sphere import angle, arc_distance, arcs_cross, cross, normalize, robust_cross
+from .memo import kept_property
 
 __all__ = [
     "CurveArcs",
@@ -59,19 +59,19 @@ class CurveArcs:
     group: np.ndarray  # region component, -1 for lines and points
     n_groups: int
 
-    @cached_property
+    @kept_property
     def lunes(self) -> tuple[np.ndarray, np.ndarray]:
         """``(n x a, b x n)``: the normals of the planes that bound each arc's lune (the
         points whose nearest point of the great circle lies on the arc)."""
         return cross(self.n, self.a), cross(self.b, self.n)
 
-    @cached_property
+    @kept_property
     def cap_lonlat(self) -> tuple[np.ndarray, np.ndarray]:
         """``(lon, lat)`` (radians) of the bounding caps' centres :attr:`mid` (made once)."""
         m = self.mid
         return np.arctan2(m[:, 1], m[:, 0]), np.arctan2(m[:, 2], np.hypot(m[:, 0], m[:, 1]))
 
-    @cached_property
+    @kept_property
     def columns(self) -> np.ndarray:
         """(19, n) float64, one row per coordinate: ``a``, ``b``, ``n``, the two
         :attr:`lunes` normals, ``mid`` (three rows each) and ``half``; what the GPU
@@ -80,7 +80,7 @@ class CurveArcs:
         parts = (self.a, self.b, self.n, lune1, lune2, self.mid)
         return np.ascontiguousarray(np.vstack([v.T for v in parts] + [self.half[None, :]]))
 
-    @cached_property
+    @kept_property
     def tree(self):
         """The bounding-cap tree over the arcs (built once), each arc's start ``a`` its
         point for early answers (:meth:`gloffset.geometry.captree.CapTree.near` with ``stop``)."""
@@ -88,12 +88,12 @@ class CurveArcs:
 
         return CapTree(self.mid, self.half, reps=self.a)
 
-    @cached_property
+    @kept_property
     def ring(self) -> np.ndarray:
         """Indices of the ring edges (seams included; line segments and points left out)."""
         return np.flatnonzero(self.group >= 0)
 
-    @cached_property
+    @kept_property
     def ring_tree(self):
         """The bounding-cap tree over the ring edges :attr:`ring` (built once): item ``k``
         is arc ``ring[k]``. What the inside tests by crossing parity and the checks of
@@ -102,7 +102,7 @@ class CurveArcs:
 
         return CapTree(self.mid[self.ring], self.half[self.ring])
 
-    @cached_property
+    @kept_property
     def end_samples(self) -> list[np.ndarray]:
         """At most 4096 arc ends of each kind present (boundary arcs, then ring edges),
         spread along the curves: what :func:`gloffset.raster.vector.levels.coarse` bounds the
@@ -117,7 +117,7 @@ class CurveArcs:
                 out.append(ends[:: max(1, len(ends) // 4096)])
         return out
 
-    @cached_property
+    @kept_property
     def ring_present(self) -> np.ndarray:
         """Which components have ring edges (for :func:`component_status`, made once)."""
         return np.bincount(self.group[self.ring], minlength=self.n_groups) > 0
@@ -125,9 +125,8 @@ class CurveArcs:
     @classmethod
     def from_shape(cls, shape) -> CurveArcs:
         """The arcs of ``shape`` (made once per shape and kept on it, like its edges)."""
-        if shape.derived.arcs is None:
-            shape.derived.arcs = cls._make(shape)
-        return shape.derived.arcs
+        got = shape.derived.arcs  # the hot path: one read, no call
+        return got if got is not None else shape.derived.once("arcs", lambda: cls._make(shape))
 
     @classmethod
     def _make(cls, shape) -> CurveArcs:
@@ -165,12 +164,10 @@ def points_inside(shape, p: np.ndarray) -> np.ndarray:
 def _boundary_vertices(shape, arcs: CurveArcs) -> np.ndarray:
     """The distinct ends of the boundary arcs (seams left out), made once per shape."""
 
-    if shape.derived.boundary_vertices is None:
-        bd = arcs.boundary
-        shape.derived.boundary_vertices = np.unique(
-            np.concatenate([arcs.a[bd], arcs.b[bd]]), axis=0
-        )
-    return shape.derived.boundary_vertices
+    bd = arcs.boundary
+    return shape.derived.once(
+        "boundary_vertices", lambda: np.unique(np.concatenate([arcs.a[bd], arcs.b[bd]]), axis=0)
+    )
 
 
 def distance_xyz(shape, p: np.ndarray) -> np.ndarray:

@@ -188,10 +188,7 @@ class Conformal:
 
 def conformal(shape, ell) -> Conformal:
     """Return the shape's :class:`Conformal` image for ``ell``, made once per shape."""
-    cache = shape.derived.conformal
-    if (ell.a, ell.f) not in cache:
-        cache[ell.a, ell.f] = Conformal(shape, ell)
-    return cache[ell.a, ell.f]
+    return shape.derived.conformal.once((ell.a, ell.f), lambda: Conformal(shape, ell))
 
 
 # ---------------------------------------------------------------------- distance

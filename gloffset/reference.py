@@ -115,9 +115,7 @@ def inside_xyz(shape, p: np.ndarray) -> np.ndarray:
     out = np.zeros(len(p), dtype=bool)
     if shape.n_groups == 0 or len(p) == 0:
         return out
-    if shape.derived.reference_rings is None:
-        shape.derived.reference_rings = _ring_edges(shape)
-    a, b, n, present, starts = shape.derived.reference_rings
+    a, b, n, present, starts = shape.derived.once("reference_rings", lambda: _ring_edges(shape))
     refs, status = shape.reference_points()
     ref_side = refs @ n.T  # (2, edges)
     which = (p @ refs[0] < -0.5).astype(np.int64)
@@ -147,9 +145,7 @@ class _EdgeIndex:
 
 
 def _index(shape) -> _EdgeIndex:
-    if shape.derived.reference_index is None:
-        shape.derived.reference_index = _EdgeIndex(shape)
-    return shape.derived.reference_index
+    return shape.derived.once("reference_index", lambda: _EdgeIndex(shape))
 
 
 def distance_xyz(shape, p: np.ndarray) -> np.ndarray:
@@ -446,10 +442,7 @@ def geodesic_inside(shape, lon, lat, ellipsoid) -> np.ndarray:
     geod = _geod(ellipsoid)
     if not shape.rings:
         return np.zeros(len(lon), dtype=bool)
-    cache = shape.derived.reference_geodesic
-    if (geod.a, geod.f) not in cache:
-        cache[geod.a, geod.f] = _densified(shape, geod)
-    dense = cache[geod.a, geod.f]
+    dense = shape.derived.reference_geodesic.once((geod.a, geod.f), lambda: _densified(shape, geod))
     return inside_xyz(dense, lonlat_to_xyz(lon, lat))
 
 

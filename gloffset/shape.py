@@ -30,8 +30,9 @@ holes give it one. The derivation in full: ``docs/design.md``, *Module notes*.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -49,6 +50,7 @@ from .geometry.sphere import (
 from .io import features as _features
 from .io import geojson as _gj
 from .io.crs import densify_tolerance as _densify_tolerance
+from .memo import MISSING, Locks, Memo, freeze
 from .region import unite
 
 if TYPE_CHECKING:
@@ -58,6 +60,8 @@ __all__ = ["Shape", "Derived", "Edges", "read"]
 
 # Two reference points with a known inside/outside status per region component;
 # a query uses the first unless it is nearly antipodal to it.
+T = TypeVar("T")
+
 _REF = normalize(np.array([[0.2897, -0.4671, 0.8353], [0.8071, 0.5663, -0.1672]]))
 
 
@@ -85,12 +89,14 @@ class Edges:
         return len(self.a)
 
 
-@dataclass(eq=False)
 class Derived:
-    """What is derived from a shape and kept for its life.
+    """What is derived from a shape and kept for its life, safe to share between threads.
 
     One named slot per index, each filled on first use by the one module that owns it
-    (named per slot), never by another.
+    (named per slot), never by another, and only through :meth:`once` (a single value) or
+    the slot's :class:`~gloffset.memo.Memo` (values by key): each is built once, under a
+    lock of its own, however many threads ask at the same time, and read without a lock
+    once built (:mod:`gloffset.memo`). Assigning a slot is an error.
 
     Shapes are not changed after construction, so nothing here goes stale. A pickled shape
     leaves all of it out (:meth:`Shape.__getstate__`): it is rebuilt where needed, and a
@@ -98,43 +104,108 @@ class Derived:
     layers are typed ``Any`` (this layer does not import them); their owners say the type.
     """
 
-    #: :class:`gloffset.edges.CurveArcs` (``CurveArcs.from_shape``): the edge index.
-    arcs: Any = None
-    #: The distinct ends of the boundary arcs (:func:`gloffset.edges.distance_xyz`).
-    boundary_vertices: np.ndarray | None = None
-    #: Anchor points and their component statuses, by count
-    #: (:func:`gloffset.geometry.crossings.inside_indexed`).
-    anchors: dict = field(default_factory=dict)
-    #: The judge's ring edges, its edge index and its densified geodesic rings by
-    #: ``(a, f)`` (:mod:`gloffset.reference`, which shares nothing with the others).
-    reference_rings: tuple | None = None
-    reference_index: Any = None
-    reference_geodesic: dict = field(default_factory=dict)
-    #: Crossing and overlapping rings (:func:`gloffset.vector.arrangement.defects`).
-    defects: tuple[bool, bool] | None = None
-    #: The exhaustive multiresolution decomposition (:mod:`gloffset.vector.multires`).
-    exhaust: Any = None
-    #: The inside test's arcs (:mod:`gloffset.index.arcs`).
-    contains_arcs: Any = None
-    #: The inside test's indexes, by ``(distance, level)`` (:mod:`gloffset.index.contains`).
-    contains_indexes: dict = field(default_factory=dict)
-    #: The shape on an ellipsoid's conformal sphere, by ``(a, f)``
-    #: (:mod:`gloffset.ellipsoidal`).
-    conformal: dict = field(default_factory=dict)
-    #: The multiresolution arcs of a pyramid's coarse levels
-    #: (:mod:`gloffset.raster.vector.node_levels`).
-    node_arcs: Any = None
-    #: The least distance from the reference points to the ring edges
-    #: (:mod:`gloffset.raster.simplified`).
-    ref_clearance: float | None = None
-    #: The curves simplified to a tolerance, by tolerance, None where that does not pay
-    #: (:mod:`gloffset.raster.simplified`).
-    simplified: dict = field(default_factory=dict)
-    #: The boxes of the region at each distance the tile server reported, by distance
+    #: The single slots (None until built): the shape's own edge table, reference
+    #: statuses and overlapping components (:class:`Shape`);
+    #: :class:`gloffset.edges.CurveArcs` (``CurveArcs.from_shape``), the edge index;
+    #: the distinct ends of the boundary arcs (:func:`gloffset.edges.distance_xyz`);
+    #: the judge's ring edges and its edge index (:mod:`gloffset.reference`, which
+    #: shares nothing with the others); crossing and overlapping rings
+    #: (:func:`gloffset.vector.arrangement.defects`); the exhaustive multiresolution
+    #: decomposition (:mod:`gloffset.vector.multires`); the inside test's arcs
+    #: (:mod:`gloffset.index.arcs`); the multiresolution arcs of a pyramid's coarse levels
+    #: (:mod:`gloffset.raster.vector.node_levels`); the least distance from the reference
+    #: points to the ring edges (:mod:`gloffset.raster.simplified`); the shape as GeoJSON
+    #: bytes, for the tile server's page (:mod:`gloffset.serve.app`).
+    SINGLE = (
+        "edges",
+        "ref_status",
+        "overlap",
+        "arcs",
+        "boundary_vertices",
+        "reference_rings",
+        "reference_index",
+        "defects",
+        "exhaust",
+        "contains_arcs",
+        "node_arcs",
+        "ref_clearance",
+        "serve_geojson",
+    )
+    #: The slots of values by key (:class:`~gloffset.memo.Memo`): anchor points and their
+    #: component statuses, by count (:func:`gloffset.geometry.crossings.inside_indexed`);
+    #: the judge's densified geodesic rings by ``(a, f)`` (:mod:`gloffset.reference`); the
+    #: inside test's indexes, by ``(distance, level)``, the last few
+    #: (:mod:`gloffset.index.contains`); the shape on an ellipsoid's conformal sphere, by
+    #: ``(a, f)`` (:mod:`gloffset.ellipsoidal`); the curves simplified to a tolerance, by
+    #: tolerance, None where that does not pay (:mod:`gloffset.raster.simplified`); the
+    #: boxes of the region at each distance the tile server reported, the last few
     #: (:mod:`gloffset.serve.bounds`).
-    serve_bounds: dict = field(default_factory=dict)
-    #: The shape as GeoJSON bytes, for the tile server's page (:mod:`gloffset.serve.app`).
-    serve_geojson: bytes | None = None
+    KEYED = (
+        "anchors",
+        "reference_geodesic",
+        "contains_indexes",
+        "conformal",
+        "simplified",
+        "serve_bounds",
+    )
+    __slots__ = (*SINGLE, *KEYED, "_locks")
+
+    edges: Edges | None
+    ref_status: np.ndarray | None
+    overlap: np.ndarray | None
+    arcs: Any
+    boundary_vertices: np.ndarray | None
+    reference_rings: tuple | None
+    reference_index: Any
+    defects: tuple[bool, bool] | None
+    exhaust: Any
+    contains_arcs: Any
+    node_arcs: Any
+    ref_clearance: float | None
+    serve_geojson: bytes | None
+    anchors: Memo
+    reference_geodesic: Memo
+    contains_indexes: Memo
+    conformal: Memo
+    simplified: Memo
+    serve_bounds: Memo
+    _locks: Locks
+
+    def __init__(self) -> None:
+        for name in self.SINGLE:
+            object.__setattr__(self, name, None)
+        for name in self.KEYED:
+            object.__setattr__(self, name, Memo())
+        object.__setattr__(self, "_locks", Locks())
+
+    def __setattr__(self, name: str, value) -> None:
+        raise AttributeError(
+            f"Derived.{name} is built once, through Derived.once or the slot's Memo"
+        )
+
+    def once(self, name: str, build: Callable[[], T]) -> T:
+        """Return the single slot ``name``, built by ``build()`` on first use.
+
+        Built once, under the slot's lock; a built slot is read without one.
+        """
+        got = getattr(self, name)
+        if got is not None:
+            return got
+
+        def check():
+            got = getattr(self, name)
+            return MISSING if got is None else got
+
+        def make():
+            value = freeze(build())
+            object.__setattr__(self, name, value)
+            return value
+
+        return self._locks.run(name, check, make)
+
+    def __reduce__(self):
+        # what was derived is never pickled: a copy starts empty
+        return (Derived, ())
 
 
 @dataclass
@@ -175,10 +246,7 @@ class Shape:
         self.ring_holes = np.asarray(self.ring_holes, dtype=bool).reshape(len(self.rings))
         if not self.rings and not self.lines:
             raise InvalidGeometryError("empty geometry: no polygon, line or point to offset")
-        self._edges: Edges | None = None
-        self._ref_status: np.ndarray | None = None
-        self._overlap: np.ndarray | None = None
-        #: what other modules derive from the shape (:class:`Derived`)
+        #: what is derived from the shape, by it and by other modules (:class:`Derived`)
         self.derived = Derived()
 
     def __getstate__(self):
@@ -230,29 +298,31 @@ class Shape:
 
     def edges(self) -> Edges:
         """Return the flat edge table (cached)."""
-        if self._edges is None:
-            a, b, bd, g = [], [], [], []
-            for ring, seams, grp in zip(self.rings, self.ring_seams, self.ring_groups):
-                a.append(ring)
-                b.append(np.roll(ring, -1, axis=0))
-                bd.append(~seams)
-                g.append(np.full(len(ring), grp))
-            for line in self.lines:
-                if len(line) == 1:
-                    a.append(line)
-                    b.append(line)
-                else:
-                    a.append(line[:-1])
-                    b.append(line[1:])
-                bd.append(np.ones(max(len(line) - 1, 1), dtype=bool))
-                g.append(np.full(max(len(line) - 1, 1), -1))
-            self._edges = Edges(
-                np.concatenate(a),
-                np.concatenate(b),
-                np.concatenate(bd),
-                np.concatenate(g).astype(np.int64),
-            )
-        return self._edges
+        got = self.derived.edges  # the hot path: one read, no call
+        return got if got is not None else self.derived.once("edges", self._make_edges)
+
+    def _make_edges(self) -> Edges:
+        a, b, bd, g = [], [], [], []
+        for ring, seams, grp in zip(self.rings, self.ring_seams, self.ring_groups):
+            a.append(ring)
+            b.append(np.roll(ring, -1, axis=0))
+            bd.append(~seams)
+            g.append(np.full(len(ring), grp))
+        for line in self.lines:
+            if len(line) == 1:
+                a.append(line)
+                b.append(line)
+            else:
+                a.append(line[:-1])
+                b.append(line[1:])
+            bd.append(np.ones(max(len(line) - 1, 1), dtype=bool))
+            g.append(np.full(max(len(line) - 1, 1), -1))
+        return Edges(
+            np.concatenate(a),
+            np.concatenate(b),
+            np.concatenate(bd),
+            np.concatenate(g).astype(np.int64),
+        )
 
     def arcs(self) -> CurveArcs:
         """Return the edges as arcs with their normals, bounding caps and cap trees.
@@ -271,9 +341,10 @@ class Shape:
         inside each component (left of one of its boundary edges, closer to that
         edge than to any other) to the reference point, counting crossings.
         """
-        if self._ref_status is None:
-            self._ref_status = _reference_status(self)
-        return _REF, self._ref_status
+        got = self.derived.ref_status  # the hot path: one read, no call
+        if got is None:
+            got = self.derived.once("ref_status", lambda: _reference_status(self))
+        return _REF, got
 
     def overlapping_components(self) -> np.ndarray:
         """Pairs of region components that overlap, as an (k, 2) int array (cached).
@@ -284,9 +355,7 @@ class Shape:
         other (nesting). Every operation unites components; fast paths that count
         crossings over all rings at once use this to know where that differs.
         """
-        if self._overlap is None:
-            self._overlap = _overlapping_components(self)
-        return self._overlap
+        return self.derived.once("overlap", lambda: _overlapping_components(self))
 
     def component_caps(self) -> tuple[np.ndarray, np.ndarray]:
         """Return a bounding cap (centre, radius in radians) of each region component."""

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..memo import Memo, once_attr
 from .caps import chord, pad
 from .sphere import angle, arc_distance, normalize, robust_cross, slerp
 
@@ -238,11 +239,8 @@ class CapTree:
 
     def _chords(self, k: int) -> np.ndarray:
         """Chords of the cap radii of level ``k`` (cached)."""
-        cache = self.__dict__.setdefault("_chord_cache", {})
-        if k not in cache:
-            r = self.radii[k]
-            cache[k] = pad(chord(r))
-        return cache[k]
+        chords: Memo[np.ndarray] = once_attr(self, "_chord_cache", Memo)
+        return chords.once(k, lambda: pad(chord(self.radii[k])))
 
     def along(self, a, b, *, lo=None, hi=None) -> tuple[np.ndarray, np.ndarray]:
         """Items whose cap meets the short great-circle arc ``a[i] -> b[i]``.

@@ -121,10 +121,7 @@ def inside_indexed(shape, p, *, groups=None, skip=None, anchors: int = 0) -> np.
         keep[np.asarray(groups, dtype=np.int64)] = True
         present &= keep
     if anchors > 0:
-        cache = shape.derived.anchors
-        if anchors not in cache:
-            cache[anchors] = _anchors(shape, anchors)
-        starts, state = cache[anchors]
+        starts, state = shape.derived.anchors.once(anchors, lambda: _anchors(shape, anchors))
     else:
         starts, state = shape.reference_points()
     # inside a component: its status at the start point, flipped by odd crossings

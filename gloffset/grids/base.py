@@ -26,6 +26,7 @@ import numpy as np
 from ..errors import InvalidGridError
 from ..geometry.caps import pad
 from ..geometry.sphere import angle
+from ..memo import once_attr
 
 __all__ = [
     "InvalidGridError",
@@ -210,11 +211,7 @@ class LonLatGrid(LevelHierarchy):
 
     def rho(self, level: int) -> np.ndarray:
         """Per-row bound (radians) for ``level`` (see the module notes)."""
-        cache = self.__dict__.get("_rho_cache")
-        if cache is None:
-            cache = self._rhos()
-            object.__setattr__(self, "_rho_cache", cache)
-        return cache[level]
+        return once_attr(self, "_rho_cache", self._rhos)[level]
 
     def _area(self, level: int) -> np.ndarray:
         """Per row of ``level``: the farthest point of a cell's lon/lat rectangle from its

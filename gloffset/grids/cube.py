@@ -30,6 +30,7 @@ import numpy as np
 
 from ..geometry.caps import pad
 from ..geometry.sphere import angle, normalize
+from ..memo import Memo
 from .base import InvalidGridError, LevelHierarchy, Square, check_size
 
 __all__ = [
@@ -59,7 +60,7 @@ FACES = np.array(
 )
 
 
-_RHO_CACHE: dict[int, list[np.ndarray]] = {}
+_RHO_CACHE: Memo[list[np.ndarray]] = Memo()
 
 
 def locate(r) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -158,13 +159,8 @@ class CubeFace(Square, LevelHierarchy):
     def _cache(self) -> list[np.ndarray]:
         # the six faces are congruent (rotations and mirror images of one another in
         # (s, t)), so their bounds are the same arrays: computed once per size
-        cache = _RHO_CACHE.get(int(self.size))
-        if cache is None:
-            cache = CubeFace(0, int(self.size))._rhos()
-            if len(_RHO_CACHE) >= 4:
-                _RHO_CACHE.pop(next(iter(_RHO_CACHE)))
-            _RHO_CACHE[int(self.size)] = cache
-        return cache
+        size = int(self.size)
+        return _RHO_CACHE.once(size, lambda: CubeFace(0, size)._rhos(), keep=4)
 
     def rho(self, level: int) -> np.ndarray:
         """Per-row maximum of the cells' bounds (what the GPU margins use)."""
@@ -249,8 +245,8 @@ class CubeCells:
         L = self.face.n_levels - 1
         self.n = [self.face.level_shape(lev)[0] for lev in range(L + 1)]
         self.P = [self.n[0] << lev for lev in range(L + 1)]
-        self._rho: dict = {}
-        self._edges: dict = {}
+        self._rho: Memo[np.ndarray] = Memo()
+        self._edges: Memo[tuple[np.ndarray, np.ndarray]] = Memo()
 
     # ------------------------------------------------------------- hierarchy
     @property
@@ -323,13 +319,14 @@ class CubeCells:
 
     def rho(self, level: int) -> np.ndarray:
         """Per-row bound (radians) of ``level`` (see the class notes)."""
-        r = self._rho.get(level)
-        if r is None:
+
+        def build() -> np.ndarray:
             face = self.face.rho(level)
             pad = np.full(self.P[level], float(face.max()))
             pad[: self.n[level]] = face
-            r = self._rho[level] = np.tile(pad, 6)
-        return r
+            return np.tile(pad, 6)
+
+        return self._rho.once(level, build)
 
     def rho_at(self, level: int, j, i) -> np.ndarray:
         """The bound of cells (stacked row ``j``, column ``i``) of ``level`` (padding rows:
@@ -364,9 +361,9 @@ class CubeCells:
         (``1e-3`` pixel past a face edge, twice that along it, so that the sample stays
         clear of the cell lines of the next face), located with :func:`cell_at`.
         """
-        got = self._edges.get(level)
-        if got is not None:
-            return got
+        return self._edges.once(level, lambda: self._border_cells(level))
+
+    def _border_cells(self, level: int) -> tuple[np.ndarray, np.ndarray]:
         n, b, N = self.n[level], self.block(level), self.size
         k = np.arange(n)
         jb = np.concatenate([np.zeros(n, np.int64), np.full(n, n - 1), k, k])
@@ -396,8 +393,7 @@ class CubeCells:
         keys = self.flat(level, f, jb, ib)
         table = np.stack(nb, axis=1)
         order = np.argsort(keys)
-        got = self._edges[level] = (keys[order], table[order])
-        return got
+        return keys[order], table[order]
 
     def neighbour_table(self, level: int, flat) -> np.ndarray:
         """(len(flat), 16) flat indices of the cells that touch cells ``flat`` of

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..geometry.caps import arc_cap, chord2, pad
 from ..geometry.sphere import angle, cross, crossing_rule, dot, norm, normalize, robust_cross
+from ..memo import Memo
 from ..vector.multires import full_decomposition
 
 #: Slack (rad) on every error-region and relevance test, far above their rounding.
@@ -153,7 +154,7 @@ class IndexArcs:
             | np.where(self.internal, INTERNAL, 0)
         ).astype(np.int8)
         self.saus_c2, self.saus_s = radius_terms(t.e + MARGIN, self.degenerate)
-        self._ancestors: dict[int, np.ndarray] = {}
+        self._ancestors: Memo[np.ndarray] = Memo()
 
     def _rows(self, rows: slice, a, b, e) -> None:
         """Fill ``rows`` of :attr:`g` and :attr:`cap` for the arcs ``a -> b`` of errors ``e``."""
@@ -170,20 +171,19 @@ class IndexArcs:
 
         Nodes in order, original edges first; -1 for the nodes above level ``k``.
         """
-        if k not in self._ancestors:
-            count = np.ones(len(self.a), dtype=np.int64)
-            first = np.arange(len(self.a))  # each node's first original edge
-            for lev in range(1, self.levels + 1):  # children are made before parents
-                ids = np.flatnonzero(self.level == lev)
-                count[ids] = count[self.child[ids, 0]] + count[self.child[ids, 1]]
-                first[ids] = first[self.child[ids, 0]]
-            cut = self.decomposition.level_nodes(k)
-            by_edge = np.repeat(cut, count[cut])
-            self._ancestors[k] = np.where(self.level <= k, by_edge[first], -1)
-        return self._ancestors[k]
+        return self._ancestors.once(k, lambda: self._ancestors_of(k))
+
+    def _ancestors_of(self, k: int) -> np.ndarray:
+        count = np.ones(len(self.a), dtype=np.int64)
+        first = np.arange(len(self.a))  # each node's first original edge
+        for lev in range(1, self.levels + 1):  # children are made before parents
+            ids = np.flatnonzero(self.level == lev)
+            count[ids] = count[self.child[ids, 0]] + count[self.child[ids, 1]]
+            first[ids] = first[self.child[ids, 0]]
+        cut = self.decomposition.level_nodes(k)
+        by_edge = np.repeat(cut, count[cut])
+        return np.where(self.level <= k, by_edge[first], -1)
 
 
 def arc_tree(shape) -> IndexArcs:
-    if shape.derived.contains_arcs is None:
-        shape.derived.contains_arcs = IndexArcs(shape)
-    return shape.derived.contains_arcs
+    return shape.derived.once("contains_arcs", lambda: IndexArcs(shape))

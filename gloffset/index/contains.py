@@ -59,17 +59,13 @@ def _index(shape, d: float, level, n_points: int) -> Index:
     Deep enough for a query of ``n_points`` points (built, or rebuilt deeper, when
     needed).
     """
-    cache = shape.derived.contains_indexes
-    key = (d, level)
     want = depth_for(n_points)
-    ix = cache.get(key)
-    if ix is None or ix.requested_depth < want:
-        ix = Index.at_angle(shape, d, level=level, depth=want)
-        cache.pop(key, None)
-        if len(cache) >= CACHE_SIZE:
-            cache.pop(next(iter(cache)))
-        cache[key] = ix
-    return ix
+    return shape.derived.contains_indexes.once(
+        (d, level),
+        lambda: Index.at_angle(shape, d, level=level, depth=want),
+        fresh=lambda ix: ix.requested_depth >= want,
+        keep=CACHE_SIZE,
+    )
 
 
 def contains_on_sphere(

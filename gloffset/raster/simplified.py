@@ -104,16 +104,17 @@ class Simplified:
 def _clearance(shape) -> float:
     """The least distance (rad) from the shape's reference points to its ring edges,
     seams included (kept on the shape)."""
-    if shape.derived.ref_clearance is None:
+
+    def build() -> float:
         arcs = CurveArcs.from_shape(shape)
         ring = arcs.group >= 0
-        clearance = np.inf
-        if ring.any():
-            refs, _ = shape.reference_points()
-            a, b, n = arcs.a[ring], arcs.b[ring], arcs.n[ring]
-            clearance = float(min(arc_distance(r, a, b, n).min() for r in refs))
-        shape.derived.ref_clearance = clearance
-    return shape.derived.ref_clearance
+        if not ring.any():
+            return np.inf
+        refs, _ = shape.reference_points()
+        a, b, n = arcs.a[ring], arcs.b[ring], arcs.n[ring]
+        return float(min(arc_distance(r, a, b, n).min() for r in refs))
+
+    return shape.derived.once("ref_clearance", build)
 
 
 def simplified(shape, eps: float) -> Simplified | None:
@@ -129,14 +130,14 @@ def simplified(shape, eps: float) -> Simplified | None:
     # a quarter power of two at most eps: a smaller eps is as valid, and a long-running
     # process (a tile server's many grids) keeps a few simplified shapes, not one per grid
     eps = float(2.0 ** (np.floor(4.0 * np.log2(eps)) / 4.0))
-    cache = shape.derived.simplified
-    if eps not in cache:
+
+    def build() -> Simplified | None:
         nodes = cut(shape, eps)
         if len(nodes) > MAX_FRACTION * n or _clearance(shape) <= 2.0 * eps + 1e-12:
-            cache[eps] = None
-        else:
-            cache[eps] = Simplified(shape, eps, nodes)
-    return cache[eps]
+            return None
+        return Simplified(shape, eps, nodes)
+
+    return shape.derived.simplified.once(eps, build)
 
 
 def band_members(shape, p: np.ndarray, d: float) -> np.ndarray:

@@ -385,9 +385,7 @@ def _style(q) -> TileStyle:
 
 def _geojson_bytes(shape) -> bytes:
     """The layer's input as GeoJSON bytes, made once and kept on the shape."""
-    if shape.derived.serve_geojson is None:
-        shape.derived.serve_geojson = json.dumps(shape.to_geojson()).encode()
-    return shape.derived.serve_geojson
+    return shape.derived.once("serve_geojson", lambda: json.dumps(shape.to_geojson()).encode())
 
 
 def _distance_inside(shape, lon: float, lat: float) -> tuple[float, bool]:

@@ -60,14 +60,8 @@ def region_bounds(shape, d: float) -> tuple[float, float, float, float]:
     >>> -0.91 < w < -0.89 and -0.91 < s < -0.89 and 1.89 < e < 1.91 and 1.89 < n < 1.91
     True
     """
-    kept = shape.derived.serve_bounds
     key = max(float(d), 0.0)
-    box = kept.get(key)
-    if box is None:
-        if len(kept) >= _KEPT:
-            kept.clear()
-        box = kept[key] = _grown_box(shape, key)
-    return box
+    return shape.derived.serve_bounds.once(key, lambda: _grown_box(shape, key), keep=_KEPT)
 
 
 #: the widening of every angle of :func:`region_bounds`, radians

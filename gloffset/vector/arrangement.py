@@ -514,9 +514,7 @@ def _side_ok(shape, d, mid, from_line):
 def defects(shape) -> tuple[bool, bool]:
     """Whether edges of the shape's rings cross (self-intersecting input), and whether
     a region component lies inside another (overlapping parts). Kept on the shape."""
-    if shape.derived.defects is None:
-        shape.derived.defects = _find_defects(shape)
-    return shape.derived.defects
+    return shape.derived.once("defects", lambda: _find_defects(shape))
 
 
 def _find_defects(shape) -> tuple[bool, bool]:

@@ -463,9 +463,7 @@ def full_decomposition(shape: Shape) -> Decomposition:
     What the inside-test index (:mod:`gloffset.index.contains`) and the renders from
     simplified curves (:mod:`gloffset.raster.simplified`) share.
     """
-    if shape.derived.exhaust is None:
-        shape.derived.exhaust = Decomposition(shape, 64, exhaust=True)
-    return shape.derived.exhaust
+    return shape.derived.once("exhaust", lambda: Decomposition(shape, 64, exhaust=True))
 
 
 def decompose(shape, levels: int) -> Decomposition:

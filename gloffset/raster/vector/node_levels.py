@@ -74,9 +74,7 @@ class NodeArcs:
     @classmethod
     def from_shape(cls, shape) -> NodeArcs:
         """The shape's node table (made once per shape and kept on it)."""
-        if shape.derived.node_arcs is None:
-            shape.derived.node_arcs = cls(shape)
-        return shape.derived.node_arcs
+        return shape.derived.once("node_arcs", lambda: cls(shape))
 
 
 def _split(nodes: NodeArcs, cell, node, c, reach, bound):

@@ -35,6 +35,7 @@ import numpy as np
 from ...edges import CurveArcs, status_bits
 from ...geometry.caps import cap_within, pad
 from ...geometry.sphere import angle, arcs_cross
+from ...memo import Memo, once_attr
 from .levels import FRONTIER, Frontier, decide, nearest, prune, row_statuses
 
 __all__ = ["start_level", "scatter", "PAIRS_PER_ARC"]
@@ -50,10 +51,7 @@ def _levels_geometry(grid, level: int):
     """Row latitudes, column longitudes (unwrapped, increasing), rho and centre spacing
     (read-only arrays, kept on the grid: a grid used again, such as the tiles a server
     renders at every distance, does not compute them again)."""
-    memo = grid.__dict__.setdefault("_scatter_geometry", {})
-    if level not in memo:
-        memo[level] = _geometry(grid, level)
-    return memo[level]
+    return once_attr(grid, "_scatter_geometry", Memo).once(level, lambda: _geometry(grid, level))
 
 
 def _geometry(grid, level: int):
