@@ -22,6 +22,7 @@ from .errors import *  # noqa: F403  (every exception class, listed in errors.__
 from .geodesic_offset import GeodesicOffset, offset
 from .geoseries import buffer
 from .index.tree import Index
+from .mvt import vector_tile
 from .io import geojson as _geojson
 from .raster.field import DistanceField, distance_field
 from .raster.many import mask_bands, render_many
@@ -64,5 +65,6 @@ __all__ = [
     "render_many",
     "grids",
     "tiles",
+    "vector_tile",
     *errors.__all__,
 ]

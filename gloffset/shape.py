@@ -132,6 +132,9 @@ class Derived:
     serve_bounds: dict = field(default_factory=dict)
     #: The shape as GeoJSON bytes, for the tile server's page (:mod:`gloffset.serve.app`).
     serve_geojson: bytes | None = None
+    #: The resolved boundaries of vector tiles, by distance, the last few
+    #: (:mod:`gloffset.mvt.boundary`).
+    mvt_boundaries: dict = field(default_factory=dict)
 
 
 @dataclass
