@@ -22,8 +22,8 @@ from .errors import *  # noqa: F403  (every exception class, listed in errors.__
 from .geodesic_offset import GeodesicOffset, offset
 from .geoseries import buffer
 from .index.tree import Index
-from .mvt import vector_tile
 from .io import geojson as _geojson
+from .mvt import vector_tile
 from .raster.field import DistanceField, distance_field
 from .raster.many import mask_bands, render_many
 from .raster.rasterized import raster_offset, rasterize

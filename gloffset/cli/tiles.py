@@ -55,6 +55,29 @@ from .options import (
     "distance in metres at its pixel centres as RGB, metres = R * 65536 + G * 256 + B - "
     "8388608 (MapLibre raster-dem custom encoding; docs/guide/tiles.md).",
 )
+@click.option(
+    "--format",
+    "tile_format",
+    type=click.Choice(["png", "mvt"]),
+    default="png",
+    show_default=True,
+    help="png: raster tiles; mvt: Mapbox Vector Tiles (MVT 2.1, .pbf) of the region's exact "
+    "boundary, one layer named after the input (pip install 'gloffset[mvt]').",
+)
+@click.option(
+    "--extent",
+    type=int,
+    default=4096,
+    show_default=True,
+    help="With --format mvt: tile units across a tile (a power of two).",
+)
+@click.option(
+    "--buffer",
+    type=int,
+    default=64,
+    show_default=True,
+    help="With --format mvt: tile units kept beyond each side of a tile.",
+)
 @click.option("--resume", is_flag=True, help="Complete an interrupted run (same options).")
 @click.option("--force", is_flag=True, help="Replace an existing output.")
 @click.option(
@@ -82,6 +105,9 @@ def tiles_cmd(
     tile_size,
     name,
     field,
+    tile_format,
+    extent,
+    buffer,
     resume,
     force,
     workers,
@@ -99,6 +125,8 @@ def tiles_cmd(
     Several distances, -d 10km,50km,127km, write one pyramid per distance from one read
     of INPUT, named by the distance as given: OUT_10km.mbtiles (.pmtiles), ... or, for a
     folder OUT, OUT/10km/z/x/y.png, ...; each the same as the run at that distance alone."""
+    if tile_format == "mvt":
+        return _mvt_tiles(input, distance, radius, zooms, output, name, force, locals())
     if field:
         return _field_tiles(
             input, radius, ellipsoid, zooms, output, tile_size, name, force, locals()
@@ -217,3 +245,58 @@ def _field_tiles(input, radius, ellipsoid, zooms, output, size, name, force, giv
         overwrite=force,
     )
     click.echo(f"{n:,} field tiles written; {time.perf_counter() - t0:.1f} s", err=True)
+
+
+def _mvt_tiles(input, distance, radius, zooms, output, name, force, given) -> None:
+    """``gloffset tiles --format mvt``: vector tile pyramids
+    (:func:`gloffset.mvt.pyramid.mvt_pyramid`), one per distance."""
+    from ..errors import OptionError
+    from ..mvt.pyramid import mvt_pyramid
+    from ..mvt.tile import check_mvt_options
+
+    for opt, bad in (
+        ("--field", given["field"]),
+        ("--ellipsoid", given["ellipsoid"] is not None),
+        ("--outline", given["outline"] is not None),
+        ("--resume", given["resume"]),
+        ("--workers", given["workers"] is not None),
+        ("--scheduler", given["scheduler"] is not None),
+    ):
+        if bad:
+            raise click.UsageError(f"--format mvt takes no {opt}")
+    if distance is None:
+        raise click.UsageError("Missing option '-d' / '--distance'.")
+    suffix = Path(str(output)).suffix.lower()
+    if suffix and suffix not in TILE_FILES and not str(output).endswith("/"):
+        raise OptionError(
+            f"{output!r}: --format mvt writes vector tiles to NAME.mbtiles, NAME.pmtiles or a "
+            f"folder of z/x/y.pbf tiles, not to a {suffix!r} file"
+        )
+    check_mvt_options(given["extent"], given["buffer"])
+    many = distance_list(distance, lambda t: angle(t, radius))
+    refuse_stdout(output, "vector tiles are an .mbtiles or .pmtiles file or a folder")
+    check_tile_output(output)
+    outputs = [output] if len(many) == 1 else [tile_output(output, t) for t, _ in many]
+    zlo, zhi = parse_zooms(zooms)
+    shape = read(input, layer=given["layer"], where=given["where"], densify=given["densify"])
+    layer = "offset" if input == "-" else Path(input).stem
+    for (text, _), out in zip(many, outputs):
+        if len(many) > 1:
+            click.echo(f"-d {text}: {out}", err=True)
+        stats = mvt_pyramid(
+            shape,
+            text,
+            (zlo, zhi),
+            out,
+            radius=radius,
+            extent=given["extent"],
+            buffer=given["buffer"],
+            layer=layer,
+            name=name,
+            overwrite=force,
+        )
+        click.echo(
+            f"{stats.written:,} vector tiles written ({stats.frontier:,} with boundary, "
+            f"{stats.inside:,} inside); {stats.seconds:.1f} s",
+            err=True,
+        )

@@ -1,0 +1,205 @@
+"""Pyramids of vector tiles: :func:`mvt_pyramid` writes the MVT tiles of a zoom range to
+an MBTiles file, a PMTiles archive or an XYZ folder of ``z/x/y.pbf``.
+
+The offset is resolved once (:class:`~gloffset.mvt.boundary.ResolvedBoundary`), then the
+tiles are walked zoom by zoom: a tile whose cap no boundary arc reaches is wholly inside
+or outside (one exact membership test decides); an inside tile is the one square polygon
+of the buffered tile, written with its descendants without further work, and stored once
+in MBTiles and PMTiles (one image, many entries); an outside tile is skipped with its
+descendants; the other tiles (the frontier) get their boundary
+(:func:`gloffset.mvt.tile.tile_geometry`). Every tile equals :func:`gloffset.vector_tile`
+of the same tile.
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from .._version import __version__
+from ..grids.mercator import check_zoom
+from ..io.tilestore import INPUT_KEY, input_digest, open_store
+from ..shape import read
+from ..units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, distance_properties, offset_angle
+from .boundary import ResolvedBoundary
+from .geometry import TileFrame
+from .tile import DEFAULT_LAYER, check_mvt_options, encode, tile_geometry
+
+__all__ = ["MVTStats", "mvt_pyramid", "vector_layers"]
+
+
+@dataclass
+class MVTStats:
+    """What a vector pyramid wrote: tiles with boundary, inside squares, seconds."""
+
+    frontier: int = 0
+    inside: int = 0
+    empty: int = 0
+    seconds: float = 0.0
+
+    @property
+    def written(self) -> int:
+        return self.frontier + self.inside
+
+
+def vector_layers(layer: str, zooms: tuple[int, int]) -> list[dict]:
+    """The TileJSON ``vector_layers`` of a tileset of the region."""
+    return [
+        {
+            "id": layer,
+            "description": "the region within the distance",
+            "minzoom": zooms[0],
+            "maxzoom": zooms[1],
+            "fields": {"distance_m": "Number", "distance": "String"},
+        }
+    ]
+
+
+def _metadata(name, layer, zooms, params, digest) -> dict:
+    layers = vector_layers(layer, zooms)
+    meta = {
+        "name": name,
+        "format": "pbf",
+        "type": "overlay",
+        "version": "1",
+        "description": f"{name}: the region within the distance, as vector tiles",
+        "minzoom": zooms[0],
+        "maxzoom": zooms[1],
+        "bounds": "-180.0,-85.051129,180.0,85.051129",
+        "center": f"0.0,0.0,{zooms[0]}",
+        "json": json.dumps({"vector_layers": layers}),
+        "gloffset": params,
+        "generator": f"gloffset {__version__}",
+        INPUT_KEY: digest,
+    }
+    return meta
+
+
+def mvt_pyramid(
+    shape,
+    distance,
+    zooms: tuple[int, int],
+    out,
+    *,
+    radius: float = EARTH_RADIUS,
+    extent: int = 4096,
+    buffer: int = 64,
+    layer: str | None = None,
+    name: str | None = None,
+    overwrite: bool = False,
+) -> MVTStats:
+    """Write the vector tiles of the region within ``distance`` for zooms ``zooms`` (a
+    ``(min, max)`` pair) to ``out`` (``.mbtiles``, ``.pmtiles`` or a folder of
+    ``z/x/y.pbf``). Tiles are those of :func:`gloffset.vector_tile` (same accuracy);
+    MBTiles holds them gzip-compressed (MBTiles 1.3), the others as they are. The
+    metadata has ``format`` ``pbf`` and the ``vector_layers``. Returns :class:`MVTStats`.
+    """
+    t0 = time.perf_counter()
+    zlo, zhi = (check_zoom(int(z)) for z in zooms)
+    extent, buffer = check_mvt_options(extent, buffer)
+    shape = read(shape)
+    r = check_radius(radius)
+    d = offset_angle(shape, distance, r, limit=VECTOR_LIMIT)
+    layer = layer or DEFAULT_LAYER
+    props = distance_properties(distance, r)
+    params = json.dumps(
+        {"distance_rad": repr(float(d)), "zooms": [zlo, zhi], "extent": extent, "buffer": buffer},
+        sort_keys=True,
+    )
+    label = name or Path(str(out)).stem
+    meta = _metadata(label, layer, (zlo, zhi), params, input_digest(shape))
+    gz = Path(str(out)).suffix.lower() == ".mbtiles"
+
+    def pack(data: bytes) -> bytes:
+        return gzip.compress(data, mtime=0) if gz else data
+
+    boundary = ResolvedBoundary.of(shape, d)
+    stats = MVTStats()
+    store = open_store(out, meta, overwrite=overwrite)
+    square = {}  # the inside tile's bytes, by whether it touches the world's top or bottom
+
+    def inside_bytes(z, x, y):
+        n = 1 << z
+        edge = y == 0 or y == n - 1 or z == 0
+        if edge:
+            return pack(
+                encode(tile_geometry(boundary, z, x, y, extent, buffer), layer, props, extent)
+            )
+        if "mid" not in square:
+            g = tile_geometry(boundary, z, x, y, extent, buffer)
+            square["mid"] = pack(encode(g, layer, props, extent))
+        return square["mid"]
+
+    try:
+        open_tiles = [(0, 0)]
+        inside: list[tuple[int, int]] = []
+        for z in range(0, zhi + 1):
+            n = 1 << z
+            if z >= zlo and inside:
+                mids = [(z, x, y) for x, y in inside if 0 < y < n - 1]
+                if mids:
+                    store.put_many(mids, inside_bytes(z, mids[0][1], mids[0][2]))
+                for x, y in inside:
+                    if not 0 < y < n - 1:
+                        store.put(z, x, y, inside_bytes(z, x, y))
+                stats.inside += len(inside)
+            next_open, next_inside = [], []
+            for x, y in open_tiles:
+                frame = TileFrame.of(z, x, y, extent, buffer)
+                pieces = boundary.pieces(frame.cap()) if z > 0 else None
+                if pieces is not None and not pieces.chains:
+                    u0, v0, u1, v1 = frame.rect
+                    c = frame.unproject([[0.5 * (u0 + u1), 0.5 * (v0 + v1)]])
+                    if boundary.contains(c)[0]:
+                        if z >= zlo:
+                            store.put(z, x, y, inside_bytes(z, x, y))
+                            stats.inside += 1
+                        next_inside.extend(_children(x, y))
+                    continue
+                if z >= zlo:
+                    g = tile_geometry(boundary, z, x, y, extent, buffer)
+                    if g is None:
+                        stats.empty += 1
+                    else:
+                        store.put(z, x, y, pack(encode(g, layer, props, extent)))
+                        stats.frontier += 1
+                next_open.extend(_children(x, y))
+            inside = [c for x, y in inside for c in _children(x, y)] + next_inside
+            open_tiles = next_open
+            store.commit()
+        store.set_metadata(_bounds(store, (zlo, zhi)))
+        store.finish()
+    finally:
+        store.close()
+    stats.seconds = time.perf_counter() - t0
+    return stats
+
+
+def _children(x: int, y: int):
+    return [(2 * x, 2 * y), (2 * x + 1, 2 * y), (2 * x, 2 * y + 1), (2 * x + 1, 2 * y + 1)]
+
+
+def _bounds(store, zooms) -> dict:
+    """The box of the tiles written at the deepest zoom that has some."""
+    for z in range(zooms[1], zooms[0] - 1, -1):
+        ext = store.extent(z)
+        if ext is not None:
+            x0, y0, x1, y1 = ext
+            n = 1 << z
+
+            def lat(v, n=n):
+                return math.degrees(math.atan(math.sinh(math.pi * (1 - 2 * v / n))))
+
+            w, e = x0 * 360.0 / n - 180.0, (x1 + 1) * 360.0 / n - 180.0
+            s, nn = lat(y1 + 1), lat(y0)
+            b = (round(w, 6), round(s, 6), round(e, 6), round(nn, 6))
+            cz = min(zooms[1], max(zooms[0], z - 2))
+            return {
+                "bounds": ",".join(repr(v) for v in b),
+                "center": f"{round((w + e) / 2, 6)},{round((s + nn) / 2, 6)},{cz}",
+            }
+    return {}
