@@ -92,9 +92,16 @@ def _chains(rings, selected_by_ring):
     return out
 
 
-def _select(tree: CapTree, rid, cap):
+#: Up to this many arcs a tile's arcs are found by one vectorised test, not the tree.
+_BRUTE = 20000
+
+
+def _select(tree: CapTree, mid, rad, rid, cap):
     c, r = cap
-    _, items, _ = tree.near(c[None, :], r)
+    if len(mid) <= _BRUTE:
+        items = np.flatnonzero(angle(mid, np.broadcast_to(c, mid.shape)) <= rad + r + 1e-12)
+    else:
+        _, items, _ = tree.near(c[None, :], r)
     by_ring: dict = {}
     if len(items):
         items = np.unique(items)
@@ -130,10 +137,11 @@ class ResolvedBoundary:
         first = np.concatenate([[0], np.cumsum([len(r.centers) for r in self.rings])])
         self._first = first
         mid, rad = _arc_caps(q, s, e) if len(q) else (q, np.zeros(0))
+        self._mid, self._rad = mid, rad
         self._tree = CapTree(mid, rad)
 
     def pieces(self, cap) -> Pieces:
-        by_ring = _select(self._tree, self._rid, cap)
+        by_ring = _select(self._tree, self._mid, self._rad, self._rid, cap)
         local = {k: v - self._first[k] for k, v in by_ring.items()}
         return Pieces(_chains(self.rings, local), None)
 

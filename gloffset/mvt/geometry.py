@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..geometry.sphere import angle
 from ..vector.arcrings import sample_arc
 
 __all__ = ["DENSIFY", "TileFrame", "densify", "clip_rings", "to_polygons", "SIMPLIFY"]
@@ -95,6 +96,13 @@ class TileFrame:
     def cap(self) -> tuple[np.ndarray, float]:
         """A spherical cap ``(centre, radius)`` holding the clip rectangle."""
         u0, v0, u1, v1 = self.rect
+        c = self.unproject([[0.5 * (u0 + u1), 0.5 * (v0 + v1)]])[0]
+        if self.z >= 3:
+            # the box spans less than 90 deg of longitude each side of its centre: the
+            # distance from the centre grows along each side to the corners
+            pts = self.unproject([[u0, v0], [u1, v0], [u0, v1], [u1, v1]])
+            r = float(np.max(angle(pts, np.broadcast_to(c, pts.shape))))
+            return c, min(math.pi, r * (1.0 + 1e-9) + 1e-12)
         t = np.linspace(0.0, 1.0, 33)
         edge = np.concatenate(
             [
@@ -104,7 +112,6 @@ class TileFrame:
                 np.column_stack([np.full_like(t, u1), v0 + (v1 - v0) * t]),
             ]
         )
-        c = self.unproject([[0.5 * (u0 + u1), 0.5 * (v0 + v1)]])[0]
         pts = self.unproject(edge)
         r = float(np.max(np.arccos(np.clip(pts @ c, -1.0, 1.0))))
         return c, min(math.pi, 1.1 * r + 1e-9)
@@ -122,18 +129,23 @@ def densify(frame: TileFrame, centers, starts, ends) -> list[tuple[np.ndarray, n
     if m == 0:
         return []
     u0, v0, u1, v1 = frame.rect
-    # initial parameters: 8 segments an arc (finer for long turns)
+    # initial parameters: 8 segments an arc
     k0 = 8
+    t0 = np.arange(k0 + 1) / k0
+    arc = np.repeat(np.arange(m), k0 + 1)
+    tt = np.tile(t0, m)
+    q = frame.project(_unit(sample_arc(centers[arc], starts[arc], ends[arc], tt)))
+    q = q.reshape(m, k0 + 1, 2)
     arc = np.repeat(np.arange(m), k0)
-    ta = np.tile(np.arange(k0) / k0, m)
+    ta = np.tile(t0[:-1], m)
     tb = ta + 1.0 / k0
+    qa = q[:, :-1].reshape(-1, 2)
+    qb = q[:, 1:].reshape(-1, 2)
     world = (1 << frame.z) * frame.extent
     done_a, done_arc = [], []
     for _ in range(60):
-        pa = sample_arc(centers[arc], starts[arc], ends[arc], ta)
-        pb = sample_arc(centers[arc], starts[arc], ends[arc], tb)
-        pm = sample_arc(centers[arc], starts[arc], ends[arc], 0.5 * (ta + tb))
-        qa, qb, qm = frame.project(pa), frame.project(pb), frame.project(pm)
+        tm = 0.5 * (ta + tb)
+        qm = frame.project(_unit(sample_arc(centers[arc], starts[arc], ends[arc], tm)))
         dev = np.hypot(*(qm - 0.5 * (qa + qb)).T)
         lo = np.minimum(qa, qb) - 2.0 * dev[:, None] - 1.0
         hi = np.maximum(qa, qb) + 2.0 * dev[:, None] + 1.0
@@ -145,11 +157,13 @@ def densify(frame: TileFrame, centers, starts, ends) -> list[tuple[np.ndarray, n
         done_arc.append(arc[keep])
         if not split.any():
             break
-        sa, sb, sarc = ta[split], tb[split], arc[split]
-        mid = 0.5 * (sa + sb)
+        sa, sb, sarc, sm = ta[split], tb[split], arc[split], tm[split]
+        sqa, sqb, sqm = qa[split], qb[split], qm[split]
         arc = np.repeat(sarc, 2)
-        ta = np.column_stack([sa, mid]).ravel()
-        tb = np.column_stack([mid, sb]).ravel()
+        ta = np.column_stack([sa, sm]).ravel()
+        tb = np.column_stack([sm, sb]).ravel()
+        qa = np.stack([sqa, sqm], axis=1).reshape(-1, 2)
+        qb = np.stack([sqm, sqb], axis=1).reshape(-1, 2)
     else:
         done_a.append(ta)
         done_arc.append(arc)
@@ -164,6 +178,10 @@ def densify(frame: TileFrame, centers, starts, ends) -> list[tuple[np.ndarray, n
     uv = frame.project(pts)
     bounds = np.searchsorted(a_all, np.arange(1, m))
     return list(zip(np.split(pts, bounds), np.split(uv, bounds)))
+
+
+def _unit(p: np.ndarray) -> np.ndarray:
+    return p / np.linalg.norm(p, axis=1, keepdims=True)
 
 
 def _liang_barsky(p0: np.ndarray, p1: np.ndarray, rect) -> tuple[np.ndarray, np.ndarray]:

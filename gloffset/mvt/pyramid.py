@@ -148,26 +148,32 @@ def mvt_pyramid(
                         store.put(z, x, y, inside_bytes(z, x, y))
                 stats.inside += len(inside)
             next_open, next_inside = [], []
+            uniform = []
             for x, y in open_tiles:
                 frame = TileFrame.of(z, x, y, extent, buffer)
                 pieces = boundary.pieces(frame.cap()) if z > 0 else None
                 if pieces is not None and not pieces.chains:
                     u0, v0, u1, v1 = frame.rect
-                    c = frame.unproject([[0.5 * (u0 + u1), 0.5 * (v0 + v1)]])
-                    if boundary.contains(c)[0]:
-                        if z >= zlo:
-                            store.put(z, x, y, inside_bytes(z, x, y))
-                            stats.inside += 1
-                        next_inside.extend(_children(x, y))
+                    uniform.append((x, y, (0.5 * (u0 + u1), 0.5 * (v0 + v1)), frame))
                     continue
                 if z >= zlo:
-                    g = tile_geometry(boundary, z, x, y, extent, buffer)
+                    g = tile_geometry(boundary, z, x, y, extent, buffer, pieces=pieces)
                     if g is None:
                         stats.empty += 1
                     else:
                         store.put(z, x, y, pack(encode(g, layer, props, extent)))
                         stats.frontier += 1
                 next_open.extend(_children(x, y))
+            if uniform:  # one exact membership test for all of them
+                import numpy as np
+
+                centres = np.vstack([f.unproject([c]) for _, _, c, f in uniform])
+                for (x, y, _, _), ins in zip(uniform, boundary.contains(centres)):
+                    if ins:
+                        if z >= zlo:
+                            store.put(z, x, y, inside_bytes(z, x, y))
+                            stats.inside += 1
+                        next_inside.extend(_children(x, y))
             inside = [c for x, y in inside for c in _children(x, y)] + next_inside
             open_tiles = next_open
             store.commit()

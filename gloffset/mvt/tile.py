@@ -52,9 +52,10 @@ def _check_tile(z, x, y) -> tuple[int, int, int]:
     return z, int(x), int(y)
 
 
-def _frame_geometry(boundary, frame: TileFrame):
+def _frame_geometry(boundary, frame: TileFrame, pieces=None):
     """Return the region inside one frame's rectangle as rings (the box when inside)."""
-    pieces = boundary.pieces(frame.cap())
+    if pieces is None:
+        pieces = boundary.pieces(frame.cap())
     polylines = []
     world = (1 << frame.z) * frame.extent
     for q, s, e, closed in pieces.chains:
@@ -86,13 +87,16 @@ def _frame_geometry(boundary, frame: TileFrame):
     return rings
 
 
-def tile_geometry(boundary, z: int, x: int, y: int, extent: int = 4096, buffer: int = 64):
+def tile_geometry(
+    boundary, z: int, x: int, y: int, extent: int = 4096, buffer: int = 64, *, pieces=None
+):
     """Return the region in tile ``z/x/y`` as a valid shapely (Multi)Polygon.
 
     In integer tile coordinates (``v`` down), or None where the tile holds none of it.
 
     ``boundary`` is a :class:`~gloffset.mvt.boundary.LocalBoundary` or
-    :class:`~gloffset.mvt.boundary.ResolvedBoundary`.
+    :class:`~gloffset.mvt.boundary.ResolvedBoundary`; ``pieces`` its
+    :class:`~gloffset.mvt.boundary.Pieces` for the tile when already found (not at zoom 0).
     """
     if z == 0:  # the world's seam runs along the tile's sides: two halves, then their union
         import shapely
@@ -108,7 +112,7 @@ def tile_geometry(boundary, z: int, x: int, y: int, extent: int = 4096, buffer: 
         g = shapely.unary_union(halves) if len(halves) > 1 else halves[0]
         return g if g.area > 0 else None
     frame = TileFrame.of(z, x, y, extent, buffer)
-    return to_polygons(_frame_geometry(boundary, frame))
+    return to_polygons(_frame_geometry(boundary, frame, pieces))
 
 
 def encode(geom, layer: str, properties: dict, extent: int) -> bytes:
