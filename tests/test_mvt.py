@@ -146,7 +146,9 @@ def frontier_tiles(shape, d, z, n, seed=0):
     return [(z, tiles[i][0], tiles[i][1]) for i in pick]
 
 
-@pytest.mark.parametrize("z", [5, 8, 10, 12])
+@pytest.mark.parametrize(
+    "z", [5, pytest.param(8, marks=pytest.mark.slow), pytest.param(10, marks=pytest.mark.slow), 12]
+)
 def test_mexico_frontier_tiles_at_new_distances(mexico, z):
     for d in (33e3, -21e3):
         for zxy in frontier_tiles(mexico, d, z, 2, seed=z):

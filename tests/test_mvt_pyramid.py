@@ -84,7 +84,7 @@ def test_pmtiles_stores_the_inside_square_once(pyramid_pmtiles):
 
 def test_mbtiles_and_folder_with_several_distances(tmp_path, mexico_path, mexico):
     out = tmp_path / "m.mbtiles"
-    proc = run_cli(mexico_path, "-d", "50km,-20km", "-z", "3-5", "--format", "mvt", "-o", out)
+    proc = run_cli(mexico_path, "-d", "50km,-20km", "-z", "3-4", "--format", "mvt", "-o", out)
     assert proc.returncode == 0, proc.stderr.decode()
     for text in ("50km", "-20km"):
         tiles, meta = read_mbtiles(tmp_path / f"m_{text}.mbtiles")
@@ -94,7 +94,7 @@ def test_mbtiles_and_folder_with_several_distances(tmp_path, mexico_path, mexico
         for (z, x, y), data in list(tiles.items())[:6]:
             assert gzip.decompress(data) == vector_tile(mexico, text, z, x, y, layer="mexico_10m")
     folder = tmp_path / "xyz"
-    proc = run_cli(mexico_path, "-d", "50km", "-z", "4-5", "--format", "mvt", "-o", folder)
+    proc = run_cli(mexico_path, "-d", "50km", "-z", "4", "--format", "mvt", "-o", folder)
     assert proc.returncode == 0, proc.stderr.decode()
     tiles = read_pbf_dir(folder)
     assert tiles
