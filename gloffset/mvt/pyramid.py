@@ -20,6 +20,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from .._version import __version__
 from ..grids.mercator import check_zoom
 from ..io.tilestore import INPUT_KEY, input_digest, open_store
@@ -112,77 +114,113 @@ def mvt_pyramid(
     )
     label = name or Path(str(out)).stem
     meta = _metadata(label, layer, (zlo, zhi), params, input_digest(shape))
-    gz = Path(str(out)).suffix.lower() == ".mbtiles"
-
-    def pack(data: bytes) -> bytes:
-        return gzip.compress(data, mtime=0) if gz else data
-
-    boundary = ResolvedBoundary.of(shape, d)
-    stats = MVTStats()
+    walk = _Walk(
+        ResolvedBoundary.of(shape, d),
+        extent,
+        buffer,
+        layer,
+        props,
+        gzip_tiles=Path(str(out)).suffix.lower() == ".mbtiles",
+    )
     store = open_store(out, meta, overwrite=overwrite)
-    square = {}  # the inside tile's bytes, by whether it touches the world's top or bottom
-
-    def inside_bytes(z, x, y):
-        n = 1 << z
-        edge = y == 0 or y == n - 1 or z == 0
-        if edge:
-            return pack(
-                encode(tile_geometry(boundary, z, x, y, extent, buffer), layer, props, extent)
-            )
-        if "mid" not in square:
-            g = tile_geometry(boundary, z, x, y, extent, buffer)
-            square["mid"] = pack(encode(g, layer, props, extent))
-        return square["mid"]
-
     try:
-        open_tiles = [(0, 0)]
-        inside: list[tuple[int, int]] = []
-        for z in range(0, zhi + 1):
-            n = 1 << z
-            if z >= zlo and inside:
-                mids = [(z, x, y) for x, y in inside if 0 < y < n - 1]
-                if mids:
-                    store.put_many(mids, inside_bytes(z, mids[0][1], mids[0][2]))
-                for x, y in inside:
-                    if not 0 < y < n - 1:
-                        store.put(z, x, y, inside_bytes(z, x, y))
-                stats.inside += len(inside)
-            next_open, next_inside = [], []
-            uniform = []
-            for x, y in open_tiles:
-                frame = TileFrame.of(z, x, y, extent, buffer)
-                pieces = boundary.pieces(frame.cap()) if z > 0 else None
-                if pieces is not None and not pieces.chains:
-                    u0, v0, u1, v1 = frame.rect
-                    uniform.append((x, y, (0.5 * (u0 + u1), 0.5 * (v0 + v1)), frame))
-                    continue
-                if z >= zlo:
-                    g = tile_geometry(boundary, z, x, y, extent, buffer, pieces=pieces)
-                    if g is None:
-                        stats.empty += 1
-                    else:
-                        store.put(z, x, y, pack(encode(g, layer, props, extent)))
-                        stats.frontier += 1
-                next_open.extend(_children(x, y))
-            if uniform:  # one exact membership test for all of them
-                import numpy as np
-
-                centres = np.vstack([f.unproject([c]) for _, _, c, f in uniform])
-                for (x, y, _, _), ins in zip(uniform, boundary.contains(centres)):
-                    if ins:
-                        if z >= zlo:
-                            store.put(z, x, y, inside_bytes(z, x, y))
-                            stats.inside += 1
-                        next_inside.extend(_children(x, y))
-            inside = [c for x, y in inside for c in _children(x, y)] + next_inside
-            open_tiles = next_open
-            store.commit()
+        walk.run(store, zlo, zhi)
         store.set_metadata(_bounds(store, (zlo, zhi)))
         store.finish()
     finally:
         store.close()
-    stats.seconds = time.perf_counter() - t0
-    return stats
+    walk.stats.seconds = time.perf_counter() - t0
+    return walk.stats
+
+
+class _Walk:
+    """The zoom-by-zoom walk of a vector pyramid (see the module notes)."""
+
+    def __init__(self, boundary, extent, buffer, layer, props, *, gzip_tiles: bool):
+        self.boundary = boundary
+        self.extent, self.buffer = extent, buffer
+        self.layer, self.props = layer, props
+        self.gzip_tiles = gzip_tiles
+        self.stats = MVTStats()
+        self._square: bytes | None = None  # an inside tile off the world's top and bottom
+
+    def tile(self, z, x, y, pieces=None):
+        """The tile's bytes as stored, or None for a tile without the region."""
+        b = self.boundary
+        g = tile_geometry(b, z, x, y, self.extent, self.buffer, pieces=pieces)
+        if g is None:
+            return None
+        data = encode(g, self.layer, self.props, self.extent)
+        return gzip.compress(data, mtime=0) if self.gzip_tiles else data
+
+    def inside_tile(self, z, x, y) -> bytes:
+        """An inside tile's bytes: one square, cut at the world's top and bottom."""
+        if y == 0 or y == (1 << z) - 1 or z == 0:
+            data = self.tile(z, x, y)
+            assert data is not None
+            return data
+        if self._square is None:
+            self._square = self.tile(z, x, y)
+        assert self._square is not None
+        return self._square
+
+    def run(self, store, zlo: int, zhi: int) -> None:
+        open_tiles = [(0, 0)]
+        inside: list[tuple[int, int]] = []
+        for z in range(0, zhi + 1):
+            if z >= zlo:
+                self.write_inside(store, z, inside)
+            next_open, uniform = self.frontier(store, z, zlo, open_tiles)
+            next_inside = self.settle(store, z, zlo, uniform)
+            inside = [c for x, y in inside for c in _children(x, y)] + next_inside
+            open_tiles = next_open
+            store.commit()
+
+    def write_inside(self, store, z, inside) -> None:
+        """The tiles known to be inside from their parents."""
+        n = 1 << z
+        mids = [(z, x, y) for x, y in inside if 0 < y < n - 1]
+        if mids:
+            store.put_many(mids, self.inside_tile(z, mids[0][1], mids[0][2]))
+        for x, y in inside:
+            if not 0 < y < n - 1:
+                store.put(z, x, y, self.inside_tile(z, x, y))
+        self.stats.inside += len(inside)
+
+    def frontier(self, store, z, zlo, open_tiles):
+        """Write the tiles that arcs reach; return their children and the others."""
+        next_open, uniform = [], []
+        for x, y in open_tiles:
+            frame = TileFrame.of(z, x, y, self.extent, self.buffer)
+            pieces = self.boundary.pieces(frame.cap()) if z > 0 else None
+            if pieces is not None and not pieces.chains:
+                u0, v0, u1, v1 = frame.rect
+                uniform.append((x, y, frame.unproject([[0.5 * (u0 + u1), 0.5 * (v0 + v1)]])))
+                continue
+            if z >= zlo:
+                data = self.tile(z, x, y, pieces)
+                if data is None:
+                    self.stats.empty += 1
+                else:
+                    store.put(z, x, y, data)
+                    self.stats.frontier += 1
+            next_open.extend(_children(x, y))
+        return next_open, uniform
+
+    def settle(self, store, z, zlo, uniform) -> list:
+        """Decide the tiles no arc reaches in one exact membership test; write the inside
+        ones and return their children."""
+        if not uniform:
+            return []
+        centres = np.vstack([c for _, _, c in uniform])
+        out = []
+        for (x, y, _), ins in zip(uniform, self.boundary.contains(centres)):
+            if ins:
+                if z >= zlo:
+                    store.put(z, x, y, self.inside_tile(z, x, y))
+                    self.stats.inside += 1
+                out.extend(_children(x, y))
+        return out
 
 
 def _children(x: int, y: int):

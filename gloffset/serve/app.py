@@ -13,10 +13,7 @@ Endpoints (each input is a layer named after its file stem):
   metres, a lossless RGB PNG in the ``raster-dem`` ``custom`` encoding of
   :data:`~gloffset.raster.pyramid.fieldtiles.FIELD_ENCODING` (1 m steps, +-8,388 km);
   ``GET /field/{layer}.json``: TileJSON 3.0.0 for them, with that ``encoding``;
-- ``GET /mvt/{layer}/{z}/{x}/{y}.pbf?d=127km``: the region as a Mapbox Vector Tile
-  (MVT 2.1, extent 4096, buffer 64; :func:`gloffset.vector_tile`), its one layer named
-  after the input; ``GET /mvt/{layer}.json?d=127km``: TileJSON 3.0.0 with
-  ``vector_layers``;
+- ``GET /mvt/{layer}/{z}/{x}/{y}.pbf?d=127km`` (:func:`gloffset.vector_tile`), its TileJSON;
 - ``GET /offset/{layer}.geojson?distance=127km``, ``GET /shape/{layer}.geojson``,
   ``GET /distance/{layer}?lon=..&lat=..`` (metres), ``GET /layers``;
 - ``GET /``: the page (``static/``: MapLibre GL JS vendored by
