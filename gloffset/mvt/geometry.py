@@ -227,26 +227,27 @@ def _runs(uv: np.ndarray, xyz: np.ndarray, closed: bool, rect):
     seg = np.flatnonzero(t0 <= t1)
     if len(seg) == 0:
         return []
-    runs = []
-    cur: list = []
-    cur_xyz = None
-    for i in seg:
-        a, b = float(t0[i]), float(t1[i])
-        if a > 0.0 or not cur:
-            if cur:  # a run that did not close (cannot happen for exact clips)
-                runs.append((np.array(cur), cur_xyz, False))
-            cur = [p0[i] + a * (p1[i] - p0[i])]
-            cur_xyz = None
-        cur.append(p0[i] + b * (p1[i] - p0[i]) if b < 1.0 else p1[i])
-        if cur_xyz is None and b >= 1.0:
-            cur_xyz = xyz[i + 1]
-        if b < 1.0:
-            runs.append((np.array(cur), cur_xyz, False))
-            cur = []
-            cur_xyz = None
-    if cur:
-        runs.append((np.array(cur), cur_xyz, False))
-    return runs
+    a, b = t0[seg], t1[seg]
+    d = p1[seg] - p0[seg]
+    entry = p0[seg] + a[:, None] * d
+    end = np.where((b >= 1.0)[:, None], p1[seg], p0[seg] + b[:, None] * d)
+    # a run starts where a segment enters the rectangle or follows one that left it
+    prev_b = np.concatenate([[0.0], b[:-1]])
+    starts = (a > 0.0) | (prev_b < 1.0)
+    starts[0] = True
+    idx_end = np.cumsum(1 + starts.astype(np.int64)) - 1
+    pts = np.empty((int(idx_end[-1]) + 1, 2))
+    pts[idx_end] = end
+    pts[idx_end[starts] - 1] = entry[starts]
+    run_of = np.cumsum(starts) - 1
+    # a point of the run on the sphere: the end of its first segment that ends inside
+    probe: list = [None] * int(run_of[-1] + 1)
+    inner = np.flatnonzero(b >= 1.0)
+    runs_with, first = np.unique(run_of[inner], return_index=True)
+    for r, k in zip(runs_with, inner[first]):
+        probe[int(r)] = xyz[seg[k] + 1]
+    parts = np.split(pts, idx_end[starts][1:] - 1)
+    return [(part, probe[r], False) for r, part in enumerate(parts)]
 
 
 def _perimeter(p: np.ndarray, rect) -> float:

@@ -28,8 +28,16 @@ from ..io.tilestore import INPUT_KEY, input_digest, open_store
 from ..shape import read
 from ..units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, distance_properties, offset_angle
 from .boundary import ResolvedBoundary
-from .geometry import TileFrame
-from .tile import DEFAULT_LAYER, check_mvt_options, encode, tile_geometry
+from .geometry import TileFrame, to_polygons
+from .tile import (
+    DEFAULT_LAYER,
+    boxed,
+    check_mvt_options,
+    corner,
+    encode,
+    frame_rings,
+    tile_geometry,
+)
 
 __all__ = ["MVTStats", "mvt_pyramid", "vector_layers"]
 
@@ -147,7 +155,10 @@ class _Walk:
     def tile(self, z, x, y, pieces=None):
         """The tile's bytes as stored, or None for a tile without the region."""
         b = self.boundary
-        g = tile_geometry(b, z, x, y, self.extent, self.buffer, pieces=pieces)
+        return self.encoded(tile_geometry(b, z, x, y, self.extent, self.buffer, pieces=pieces))
+
+    def encoded(self, g):
+        """A tile's geometry as stored, or None for none."""
         if g is None:
             return None
         data = encode(g, self.layer, self.props, self.extent)
@@ -188,8 +199,9 @@ class _Walk:
         self.stats.inside += len(inside)
 
     def frontier(self, store, z, zlo, open_tiles):
-        """Write the tiles that arcs reach; return their children and the others."""
-        next_open, uniform = [], []
+        """Write the tiles that arcs reach; return their children and the others. The
+        tiles that no boundary crosses are decided by one membership test together."""
+        next_open, uniform, undecided = [], [], []
         for x, y in open_tiles:
             frame = TileFrame.of(z, x, y, self.extent, self.buffer)
             pieces = self.boundary.pieces(frame.cap()) if z > 0 else None
@@ -197,15 +209,29 @@ class _Walk:
                 u0, v0, u1, v1 = frame.rect
                 uniform.append((x, y, frame.unproject([[0.5 * (u0 + u1), 0.5 * (v0 + v1)]])))
                 continue
-            if z >= zlo:
-                data = self.tile(z, x, y, pieces)
-                if data is None:
-                    self.stats.empty += 1
-                else:
-                    store.put(z, x, y, data)
-                    self.stats.frontier += 1
             next_open.extend(_children(x, y))
+            if z < zlo:
+                continue
+            if z == 0:
+                self.put(store, z, x, y, self.tile(z, x, y))
+                continue
+            rings, crossed = frame_rings(self.boundary, frame, pieces)
+            if crossed:
+                self.put(store, z, x, y, self.encoded(to_polygons(rings)))
+            else:
+                undecided.append((x, y, rings, frame))
+        if undecided:
+            ins = self.boundary.contains(np.vstack([corner(f) for _, _, _, f in undecided]))
+            for (x, y, rings, frame), i in zip(undecided, ins):
+                self.put(store, z, x, y, self.encoded(to_polygons(boxed(rings, frame, i))))
         return next_open, uniform
+
+    def put(self, store, z, x, y, data) -> None:
+        if data is None:
+            self.stats.empty += 1
+        else:
+            store.put(z, x, y, data)
+            self.stats.frontier += 1
 
     def settle(self, store, z, zlo, uniform) -> list:
         """Decide the tiles no arc reaches in one exact membership test; write the inside

@@ -52,8 +52,11 @@ def _check_tile(z, x, y) -> tuple[int, int, int]:
     return z, int(x), int(y)
 
 
-def _frame_geometry(boundary, frame: TileFrame, pieces=None):
-    """Return the region inside one frame's rectangle as rings (the box when inside)."""
+def frame_rings(boundary, frame: TileFrame, pieces=None):
+    """Return the region's rings inside one frame's rectangle and whether any crossed it.
+
+    Where none crossed, the rectangle's status decides (:func:`boxed`).
+    """
     if pieces is None:
         pieces = boundary.pieces(frame.cap())
     polylines = []
@@ -77,13 +80,29 @@ def _frame_geometry(boundary, frame: TileFrame, pieces=None):
         for part_uv, part_xyz in zip(np.split(uv, jump + 1), np.split(xyz, jump + 1)):
             if len(part_uv) >= 2:
                 polylines.append((part_uv, part_xyz, False))
-    rings, crossed = clip_rings(polylines, frame, pieces.keep)
-    if not crossed:
+    return clip_rings(polylines, frame, pieces.keep)
+
+
+def corner(frame: TileFrame) -> np.ndarray:
+    """Return the point whose membership decides a rectangle no boundary crosses."""
+    u0, v0, _, _ = frame.rect
+    return frame.unproject([[u0, v0]])
+
+
+def boxed(rings: list, frame: TileFrame, inside: bool) -> list:
+    """Return ``rings`` with the whole rectangle added when its corner is inside."""
+    if inside:
         u0, v0, u1, v1 = frame.rect
-        corner = frame.unproject([[u0, v0]])
-        if boundary.contains(corner)[0]:
-            box = np.array([[u0, v1], [u1, v1], [u1, v0], [u0, v0], [u0, v1]], dtype=np.float64)
-            rings.append(box)
+        box = np.array([[u0, v1], [u1, v1], [u1, v0], [u0, v0], [u0, v1]], dtype=np.float64)
+        rings = [*rings, box]
+    return rings
+
+
+def _frame_geometry(boundary, frame: TileFrame, pieces=None):
+    """Return the region inside one frame's rectangle as rings (the box when inside)."""
+    rings, crossed = frame_rings(boundary, frame, pieces)
+    if not crossed:
+        rings = boxed(rings, frame, bool(boundary.contains(corner(frame))[0]))
     return rings
 
 
