@@ -23,6 +23,7 @@ from .geodesic_offset import GeodesicOffset, offset
 from .geoseries import buffer
 from .index.tree import Index
 from .io import geojson as _geojson
+from .mvt import vector_tile
 from .raster.field import DistanceField, distance_field
 from .raster.many import mask_bands, render_many
 from .raster.rasterized import raster_offset, rasterize
@@ -64,5 +65,6 @@ __all__ = [
     "render_many",
     "grids",
     "tiles",
+    "vector_tile",
     *errors.__all__,
 ]

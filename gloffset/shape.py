@@ -139,7 +139,8 @@ class Derived:
     #: ``(a, f)`` (:mod:`gloffset.ellipsoidal`); the curves simplified to a tolerance, by
     #: tolerance, None where that does not pay (:mod:`gloffset.raster.simplified`); the
     #: boxes of the region at each distance the tile server reported, the last few
-    #: (:mod:`gloffset.serve.bounds`).
+    #: (:mod:`gloffset.serve.bounds`); the resolved boundaries of vector tiles, by distance,
+    #: the last few (:mod:`gloffset.mvt.boundary`).
     KEYED = (
         "anchors",
         "reference_geodesic",
@@ -147,6 +148,7 @@ class Derived:
         "conformal",
         "simplified",
         "serve_bounds",
+        "mvt_boundaries",
     )
     __slots__ = (*SINGLE, *KEYED, "_locks")
 
@@ -169,6 +171,7 @@ class Derived:
     conformal: Memo
     simplified: Memo
     serve_bounds: Memo
+    mvt_boundaries: Memo
     _locks: Locks
 
     def __init__(self) -> None:

@@ -60,6 +60,29 @@ _OPTIONS = [
         "distance in metres at its pixel centres as RGB, metres = R * 65536 + G * 256 + B - "
         "8388608 (MapLibre raster-dem custom encoding; docs/guide/tiles.md).",
     ),
+    click.option(
+        "--format",
+        "tile_format",
+        type=click.Choice(["png", "mvt"]),
+        default="png",
+        show_default=True,
+        help="png: raster tiles; mvt: Mapbox Vector Tiles (MVT 2.1, .pbf) of the region's exact "
+        "boundary, one layer named after the input (pip install 'gloffset[mvt]').",
+    ),
+    click.option(
+        "--extent",
+        type=int,
+        default=4096,
+        show_default=True,
+        help="With --format mvt: tile units across a tile (a power of two).",
+    ),
+    click.option(
+        "--buffer",
+        type=int,
+        default=64,
+        show_default=True,
+        help="With --format mvt: tile units kept beyond each side of a tile.",
+    ),
     click.option("--resume", is_flag=True, help="Complete an interrupted run (same options)."),
     click.option("--force", is_flag=True, help="Replace an existing output."),
     click.option(
@@ -100,6 +123,12 @@ def tiles_cmd(**given):
     g = SimpleNamespace(**given)
     if g.resume and g.force:
         raise click.UsageError("--resume and --force exclude each other")
+    if g.tile_format == "mvt":
+        return _mvt_tiles(given)
+    ctx = click.get_current_context()
+    for opt in ("extent", "buffer"):
+        if ctx.get_parameter_source(opt) not in (None, *_DEFAULTS):
+            raise click.UsageError(f"--{opt} is an option of vector tiles (--format mvt)")
     if g.field:
         return _field_tiles(given)
     if g.distance is None:
@@ -227,6 +256,7 @@ _NOT_FOR_FIELD = (
     (("ellipsoid",), "field tiles are distances on the sphere of --radius"),
     (("fill", "opacity", "outline", "outline_width"), "field tiles hold distances, not colours"),
     (("workers", "scheduler"), "field tiles are written in one process"),
+    (("extent", "buffer"), "these are options of vector tiles (--format mvt)"),
 )
 
 
@@ -268,3 +298,64 @@ def _field_tiles(given: dict) -> None:
 
 
 _DEFAULTS = (click.core.ParameterSource.DEFAULT, click.core.ParameterSource.DEFAULT_MAP)
+
+
+def _mvt_tiles(given: dict) -> None:
+    """``gloffset tiles --format mvt``: vector tile pyramids
+    (:func:`gloffset.mvt.pyramid.mvt_pyramid`), one per distance, every distance and
+    output checked before any is written."""
+    from ..errors import OptionError
+    from ..io.tilestore import check_store
+    from ..mvt.pyramid import mvt_pyramid
+    from ..mvt.tile import check_mvt_options
+
+    g = SimpleNamespace(**given)
+    for opt, bad in (
+        ("--field", g.field),
+        ("--ellipsoid", g.ellipsoid is not None),
+        ("--outline", g.outline is not None),
+        ("--resume", g.resume),
+        ("--workers", g.workers is not None),
+        ("--scheduler", g.scheduler is not None),
+    ):
+        if bad:
+            raise click.UsageError(f"--format mvt takes no {opt}")
+    if g.distance is None:
+        raise click.UsageError("Missing option '-d' / '--distance'.")
+    output = g.output
+    suffix = Path(str(output)).suffix.lower()
+    if suffix and suffix not in TILE_FILES and not str(output).endswith("/"):
+        raise OptionError(
+            f"{output!r}: --format mvt writes vector tiles to NAME.mbtiles, NAME.pmtiles or a "
+            f"folder of z/x/y.pbf tiles, not to a {suffix!r} file"
+        )
+    check_mvt_options(g.extent, g.buffer)
+    many = distance_list(g.distance, lambda t: angle(t, g.radius))
+    refuse_stdout(output, "vector tiles are an .mbtiles or .pmtiles file or a folder")
+    check_tile_output(output)
+    outputs = [output] if len(many) == 1 else [tile_output(output, t) for t, _ in many]
+    zlo, zhi = parse_zooms(g.zooms)
+    for out in outputs:  # every output free (or replaced) before any is written
+        check_store(out, overwrite=g.force)
+    shape = read(g.input, layer=g.layer, where=g.where, densify=g.densify)
+    layer = "offset" if g.input == "-" else Path(g.input).stem
+    for (text, _), out in zip(many, outputs):
+        if len(many) > 1:
+            click.echo(f"-d {text}: {out}", err=True)
+        stats = mvt_pyramid(
+            shape,
+            text,
+            (zlo, zhi),
+            out,
+            radius=g.radius,
+            extent=g.extent,
+            buffer=g.buffer,
+            layer=layer,
+            name=g.name,
+            overwrite=g.force,
+        )
+        click.echo(
+            f"{stats.written:,} vector tiles written ({stats.frontier:,} with boundary, "
+            f"{stats.inside:,} inside); {stats.seconds:.1f} s",
+            err=True,
+        )

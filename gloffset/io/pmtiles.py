@@ -97,7 +97,9 @@ class PMTilesWriter:
     def finish(self) -> None:
         """Write the archive from the staged tiles and remove the staging file."""
         self.stage.commit()
-        meta = self.stage.metadata()
+        meta: dict = self.stage.metadata()
+        if "json" in meta:  # vector tiles: MBTiles' "json" row holds the vector_layers
+            meta.update(json.loads(meta.pop("json")))
         rows = self.stage.db.execute(
             "SELECT map.zoom_level, map.tile_column, map.tile_row, map.tile_id FROM map"
         ).fetchall()
@@ -135,7 +137,7 @@ def _header(meta: dict, tile) -> dict:
     w, s, e, n = (float(v) for v in meta.get("bounds", "-180,-85.051129,180,85.051129").split(","))
     lon, lat, cz = (float(v) for v in meta.get("center", "0,0,0").split(","))
     return {
-        "tile_type": tile.TileType.PNG,
+        "tile_type": tile.TileType.MVT if meta.get("format") == "pbf" else tile.TileType.PNG,
         "tile_compression": tile.Compression.NONE,
         "min_zoom": int(meta["minzoom"]),
         "max_zoom": int(meta["maxzoom"]),

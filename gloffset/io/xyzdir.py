@@ -1,4 +1,5 @@
-"""XYZ tile directory output: ``DIR/z/x/y.png`` (y = 0 at the north) and ``metadata.json``.
+"""XYZ tile directory output: ``DIR/z/x/y.png`` (y = 0 at the north) and ``metadata.json``
+(``z/x/y.pbf`` for vector tiles: the metadata's ``format``).
 
 Every file is written to a temporary name and moved into place with
 :func:`os.replace`, so a file that exists is complete whatever interrupted the run.
@@ -45,6 +46,8 @@ class XYZDirWriter:
 
     def __init__(self, path, metadata: dict, *, resume=False, overwrite=False):
         self.path = Path(path)
+        #: the tiles' file ending: the metadata's ``format`` (``png``, or ``pbf`` for MVT)
+        self.ext = str(metadata.get("format", "png"))
         if self.path.exists() and not self.path.is_dir():
             raise OutputError(f"{str(self.path)!r} is a file, not a tile directory")
         busy = self.path.is_dir() and any(self.path.iterdir())
@@ -92,7 +95,7 @@ class XYZDirWriter:
                     continue
                 for f in os.scandir(xd):
                     stem, dot, ext = f.name.partition(".")
-                    if ext == "png" and stem.isdigit():
+                    if ext == self.ext and stem.isdigit():
                         out.add((int(zd.name), int(xd.name), int(stem)))
         return out
 
@@ -118,7 +121,7 @@ class XYZDirWriter:
         if d not in self._dirs:
             d.mkdir(parents=True, exist_ok=True)
             self._dirs.add(d)
-        return d / f"{y}.png"
+        return d / f"{y}.{self.ext}"
 
     def _atomic(self, path: Path, data: bytes | None, link: Path | None = None) -> None:
         tmp = path.with_name(path.name + ".tmp")

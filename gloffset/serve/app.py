@@ -13,6 +13,7 @@ Endpoints (each input is a layer named after its file stem):
   metres, a lossless RGB PNG in the ``raster-dem`` ``custom`` encoding of
   :data:`~gloffset.raster.pyramid.fieldtiles.FIELD_ENCODING` (1 m steps, +-8,388 km);
   ``GET /field/{layer}.json``: TileJSON 3.0.0 for them, with that ``encoding``;
+- ``GET /mvt/{layer}/{z}/{x}/{y}.pbf?d=127km`` (:func:`gloffset.vector_tile`), its TileJSON;
 - ``GET /offset/{layer}.geojson?distance=127km``, ``GET /shape/{layer}.geojson``,
   ``GET /distance/{layer}?lon=..&lat=..`` (metres), ``GET /layers``;
 - ``GET /``: the page (``static/``: MapLibre GL JS vendored by
@@ -37,6 +38,7 @@ import json
 import math
 import os
 import re
+import threading
 from pathlib import Path
 from typing import NoReturn
 from urllib.parse import urlencode
@@ -56,10 +58,20 @@ from ..errors import GloffsetError, OptionError
 from ..geometry.sphere import lonlat_to_xyz
 from ..grids.mercator import MAX_ZOOM
 from ..io.geojson import offset_feature
+from ..mvt.boundary import ResolvedBoundary
+from ..mvt.pyramid import vector_layers
+from ..mvt.tile import encode as encode_mvt
+from ..mvt.tile import tile_geometry
 from ..raster.pyramid.fieldtiles import FIELD_ENCODING
 from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
-from ..units import EARTH_RADIUS, RASTER_LIMIT, VECTOR_LIMIT, offset_angle
+from ..units import (
+    EARTH_RADIUS,
+    RASTER_LIMIT,
+    VECTOR_LIMIT,
+    distance_properties,
+    offset_angle,
+)
 from ..vector.arcrings import DEFAULT_TOLERANCE
 from ..vector.offset import offset
 from .accesslog import AccessLog, open_log
@@ -132,6 +144,7 @@ class _Server:
         )
         # the tiles whose centres are about to be measured, and the task
         self._batch: tuple[list, asyncio.Future] | None = None
+        self._mvt_lock = threading.Lock()
 
     def layer(self, name: str):
         if name not in self.layers:
@@ -296,6 +309,60 @@ class _Server:
             }
         )
 
+    def _vector_distance(self, request: Request, shape) -> tuple[str, float]:
+        """The ``d`` (or ``distance``) of a vector tile request, as given and as an angle."""
+        q = request.query_params
+        text = q.get("d", q.get("distance"))
+        if text is None:
+            _bad("give the distance, e.g. ?d=127km")
+        return text, self.angle(shape, text, vector=True)
+
+    async def mvt_tile(self, request: Request) -> Response:
+        p = request.path_params
+        name = p["layer"]
+        shape = self.layer(name)
+        text, d = self._vector_distance(request, shape)
+        z, x, y, size = _zxy(p["z"], p["x"], p["y"])
+        if size != 256:
+            _bad("vector tiles have no @2x: their extent serves every pixel ratio")
+        try:
+            data = await asyncio.to_thread(self._mvt_bytes, shape, name, text, d, z, x, y)
+        except GloffsetError as exc:
+            _bad(str(exc))
+        tag = etag(data)
+        headers = {"ETag": tag, "Cache-Control": self.cache_control, "X-Gloffset-Tile": "vector"}
+        if not_modified(request.headers.get("if-none-match"), tag):
+            return Response(status_code=304, headers=headers)
+        return Response(data, media_type="application/vnd.mapbox-vector-tile", headers=headers)
+
+    def _mvt_bytes(self, shape, name: str, text: str, d: float, z: int, x: int, y: int):
+        """One vector tile (:mod:`gloffset.mvt`), the distance's boundary resolved once
+        (one thread resolves a new distance while the others wait for it)."""
+        with self._mvt_lock:
+            boundary = ResolvedBoundary.of(shape, d)
+        geom = tile_geometry(boundary, z, x, y)
+        return encode_mvt(geom, name, distance_properties(text, EARTH_RADIUS), 4096)
+
+    async def mvt_tilejson(self, request: Request) -> Response:
+        name = request.path_params["layer"]
+        shape = self.layer(name)
+        text, d = self._vector_distance(request, shape)
+        base = str(request.base_url).rstrip("/")
+        w, s, e, n = await asyncio.to_thread(region_bounds, shape, d)
+        query = urlencode({"d": text})
+        return JSONResponse(
+            {
+                "tilejson": "3.0.0",
+                "name": f"{name} within {text}",
+                "tiles": [f"{base}/mvt/{name}/{{z}}/{{x}}/{{y}}.pbf?{query}"],
+                "minzoom": 0,
+                "maxzoom": MAX_ZOOM,
+                "bounds": [w, s, e, n],
+                "center": [(w + e) / 2, (s + n) / 2, 2],
+                "vector_layers": vector_layers(name, (0, MAX_ZOOM)),
+            }
+        )
+
     async def offset_geojson(self, request: Request) -> Response:
         shape = self.layer(request.path_params["layer"])
         text = request.query_params.get("distance")
@@ -452,6 +519,8 @@ def create_app(
         Route("/offset/{layer}.geojson", srv.offset_geojson, methods=get),
         Route("/shape/{layer}.geojson", srv.shape_geojson, methods=get),
         Route("/distance/{layer}", srv.distance, methods=get),
+        Route("/mvt/{layer}/{z}/{x}/{y}.pbf", srv.mvt_tile, methods=get),
+        Route("/mvt/{layer}.json", srv.mvt_tilejson, methods=get),
         Mount("/static", StaticFiles(directory=STATIC), name="static"),
     ]
     middleware = []

@@ -13,6 +13,10 @@
 //   ramp must be an `interpolate`: a `step` expression draws nothing.)
 // - MODES.exact shows the server's exact tiles (/tiles/LAYER/DIST/z/x/y.png, one request
 //   a tile and distance): gloffset.render(shape, d, Tile(z, x, y)) for each tile.
+// - MODES.vector (#mode=vector, the "vector tiles" toggle): the server's Mapbox Vector
+//   Tiles of the region's exact boundary (/mvt/LAYER/z/x/y.pbf?d=DIST, one layer named
+//   after the input), drawn by a fill and an outline layer styled here; crisp at any zoom
+//   and on the globe.
 // A mode gives the sources and layers it adds to the style and what a new distance does
 // to them. window.gloffsetMap is the MapLibre map, window.gloffsetPage the page's state.
 "use strict";
@@ -21,6 +25,7 @@ const BACKGROUND = "#f2efe9";
 const FILL = "#3070c0";
 const FILL_OPACITY = 0.6;
 const INPUT_COLOUR = "#202020";
+const OUTLINE = "#1d4f8c";
 
 // each unit: metres in one, the slider's reach (-max..+max) and step
 const UNITS = {
@@ -39,7 +44,7 @@ const state = {
   unit: "km",
   globe: false,
   view: null,
-  mode: null, // "field" or "exact"; null: field where the server has field tiles
+  mode: null, // "field", "exact" or "vector"; null: field where the server has field tiles
   encoding: null, // the field tiles' custom encoding (/field/LAYER.json), null: none
 };
 
@@ -64,7 +69,7 @@ function writeHash(map) {
   const view = `${map.getZoom().toFixed(2)}/${c.lat.toFixed(5)}/${c.lng.toFixed(5)}`;
   const h = new URLSearchParams({ map: view, layer: state.layer, d: distanceText() });
   if (state.globe) h.set("globe", "1");
-  if (state.mode === "exact") h.set("mode", "exact");
+  if (state.mode === "exact" || state.mode === "vector") h.set("mode", state.mode);
   history.replaceState(null, "", "#" + h.toString().replace(/%2F/g, "/"));
 }
 
@@ -90,6 +95,11 @@ function describeDistance() {
 function tileUrl() {
   const layer = encodeURIComponent(state.layer);
   return `${location.origin}/tiles/${layer}/${distanceText()}/{z}/{x}/{y}.png`;
+}
+
+function mvtUrl() {
+  const layer = encodeURIComponent(state.layer);
+  return `${location.origin}/mvt/${layer}/{z}/{x}/{y}.pbf?d=${distanceText()}`;
 }
 
 function fieldUrl() {
@@ -141,6 +151,29 @@ const MODES = {
     ],
     setDistance: (map) => map.getSource("offset").setTiles([tileUrl()]),
   },
+  // the server's vector tiles of the exact boundary, filled and outlined here
+  vector: {
+    sources: () => ({
+      offset: { type: "vector", tiles: [mvtUrl()], maxzoom: 16 },
+    }),
+    layers: () => [
+      {
+        id: "offset",
+        type: "fill",
+        source: "offset",
+        "source-layer": state.layer,
+        paint: { "fill-color": FILL, "fill-opacity": FILL_OPACITY, "fill-antialias": false },
+      },
+      {
+        id: "offset-outline",
+        type: "line",
+        source: "offset",
+        "source-layer": state.layer,
+        paint: { "line-color": OUTLINE, "line-width": 1.5 },
+      },
+    ],
+    setDistance: (map) => map.getSource("offset").setTiles([mvtUrl()]),
+  },
 };
 
 function style() {
@@ -174,6 +207,7 @@ function showControls() {
   $("distance-text").textContent = describeDistance();
   $("globe").checked = state.globe;
   $("exact").checked = state.mode === "exact";
+  $("vector").checked = state.mode === "vector";
   $("layer").value = state.layer;
   showLegend();
 }
@@ -273,13 +307,17 @@ function wire(map) {
     else pending = setTimeout(() => setDistance(map), 60);
   });
   $("unit").addEventListener("change", () => setUnit(map, $("unit").value));
-  $("exact").addEventListener("change", () => {
-    state.mode = $("exact").checked ? "exact" : "field";
-    if (state.mode === "field" && !state.encoding) state.mode = "exact";
-    map.setStyle(style());
-    showControls();
-    writeHash(map);
-  });
+  for (const [id, mode] of [
+    ["exact", "exact"],
+    ["vector", "vector"],
+  ]) {
+    $(id).addEventListener("change", () => {
+      state.mode = $(id).checked ? mode : defaultMode();
+      map.setStyle(style());
+      showControls();
+      writeHash(map);
+    });
+  }
   $("globe").addEventListener("change", () => {
     state.globe = $("globe").checked;
     setProjection(map);
@@ -345,6 +383,7 @@ async function start() {
     distanceText,
     distanceMetres,
     FILL,
+    OUTLINE,
     BACKGROUND,
     FILL_OPACITY,
   };

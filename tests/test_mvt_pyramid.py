@@ -1,0 +1,133 @@
+"""Vector tile pyramids (``gloffset tiles --format mvt``): tiles equal to the on-demand
+ones, the metadata's ``vector_layers``, one stored copy of the inside square, GDAL's MVT
+driver, and the refusals."""
+
+from __future__ import annotations
+
+import gzip
+import json
+import subprocess
+import sys
+
+import pytest
+from conftest import assert_one_line_error, read_mbtiles
+
+import gloffset
+
+mvt = pytest.importorskip("mapbox_vector_tile")
+pytest.importorskip("shapely")
+
+from gloffset.mvt import vector_tile  # noqa: E402
+from gloffset.mvt.pyramid import mvt_pyramid  # noqa: E402
+
+
+def run_cli(*args):
+    return subprocess.run(
+        [sys.executable, "-m", "gloffset", "tiles", *map(str, args)],
+        capture_output=True,
+        timeout=600,
+    )
+
+
+def read_pbf_dir(path):
+    out = {}
+    for f in path.rglob("*.pbf"):
+        z, x = int(f.parent.parent.name), int(f.parent.name)
+        out[(z, x, int(f.stem))] = f.read_bytes()
+    return out
+
+
+@pytest.fixture(scope="module")
+def mexico(mexico_path):
+    return gloffset.read(mexico_path)
+
+
+@pytest.fixture(scope="module")
+def pyramid_pmtiles(tmp_path_factory, mexico_path):
+    pytest.importorskip("pmtiles")
+    out = tmp_path_factory.mktemp("mvt") / "mexico.pmtiles"
+    proc = run_cli(mexico_path, "-d", "127km", "-z", "0-6", "--format", "mvt", "-o", out)
+    assert proc.returncode == 0, proc.stderr.decode()
+    return out
+
+
+def test_pyramid_tiles_equal_the_on_demand_ones(pyramid_pmtiles, mexico):
+    from gloffset.io.pmtiles import read_pmtiles
+
+    meta, tiles = read_pmtiles(pyramid_pmtiles)
+    assert meta["format"] == "pbf"
+    (vl,) = meta["vector_layers"]
+    assert vl["id"] == "mexico_10m" and set(vl["fields"]) == {"distance_m", "distance"}
+    assert len(tiles) > 20
+    frontier = 0
+    for (z, x, y), data in tiles.items():
+        want = vector_tile(mexico, "127km", z, x, y, layer="mexico_10m")
+        assert data == want, (z, x, y)
+        feats = mvt.decode(data)["mexico_10m"]["features"]
+        assert len(feats) == 1
+        polys = feats[0]["geometry"]["coordinates"]
+        frontier += not (feats[0]["geometry"]["type"] == "Polygon" and len(polys[0]) == 5)
+    assert frontier > 10
+    # every tile the region reaches is there: the frontier and inside tiles of zoom 6
+    z6 = {(x, y) for z, x, y in tiles if z == 6}
+    assert (14, 28) in z6  # Mexico City's
+
+
+def test_pmtiles_stores_the_inside_square_once(pyramid_pmtiles):
+    from pmtiles.reader import MmapSource, Reader
+
+    with open(pyramid_pmtiles, "rb") as f:
+        h = Reader(MmapSource(f)).header()
+    assert h["tile_type"].name == "MVT"
+    assert h["tile_contents_count"] < h["addressed_tiles_count"]
+
+
+def test_mbtiles_and_folder_with_several_distances(tmp_path, mexico_path, mexico):
+    out = tmp_path / "m.mbtiles"
+    proc = run_cli(mexico_path, "-d", "50km,-20km", "-z", "3-4", "--format", "mvt", "-o", out)
+    assert proc.returncode == 0, proc.stderr.decode()
+    for text in ("50km", "-20km"):
+        tiles, meta = read_mbtiles(tmp_path / f"m_{text}.mbtiles")
+        assert meta["format"] == "pbf"
+        assert json.loads(meta["json"])["vector_layers"][0]["id"] == "mexico_10m"
+        assert tiles and min(z for z, _, _ in tiles) == 3
+        for (z, x, y), data in list(tiles.items())[:6]:
+            assert gzip.decompress(data) == vector_tile(mexico, text, z, x, y, layer="mexico_10m")
+    folder = tmp_path / "xyz"
+    proc = run_cli(mexico_path, "-d", "50km", "-z", "4", "--format", "mvt", "-o", folder)
+    assert proc.returncode == 0, proc.stderr.decode()
+    tiles = read_pbf_dir(folder)
+    assert tiles
+    for (z, x, y), data in tiles.items():
+        assert data == vector_tile(mexico, "50km", z, x, y, layer="mexico_10m")
+    assert json.loads(json.loads((folder / "metadata.json").read_text())["json"])["vector_layers"]
+
+
+def test_gdal_opens_the_mbtiles_as_vector(tmp_path, mexico):
+    pyogrio = pytest.importorskip("pyogrio")
+    if "MVT" not in pyogrio.list_drivers():
+        pytest.skip("this GDAL has no MVT driver")
+    out = tmp_path / "g.mbtiles"
+    mvt_pyramid(mexico, "127km", (0, 4), out, layer="coast")
+    layers = pyogrio.list_layers(out)
+    assert "coast" in [str(n) for n in layers[:, 0]]
+    df = pyogrio.read_dataframe(out, layer="coast")
+    assert len(df) > 0
+    assert set(df.geometry.geom_type) <= {"Polygon", "MultiPolygon"}
+    assert (df["distance_m"] == 127000.0).all()
+
+
+@pytest.mark.parametrize(
+    "args,words",
+    [
+        (["--extent", "4000", "-o", "t.pmtiles"], ["power of two"]),
+        (["--buffer", "-3", "-o", "t.pmtiles"], ["buffer"]),
+        (["-o", "t.png"], ["mvt", ".png"]),
+        (["--outline", "red", "-o", "t.pmtiles"], ["--outline"]),
+    ],
+)
+def test_cli_refusals(tmp_path, mexico_path, args, words):
+    args = [a if not a.startswith("t.") else tmp_path / a for a in args]
+    proc = run_cli(mexico_path, "-d", "127km", "-z", "0-3", "--format", "mvt", *args)
+    assert_one_line_error(proc, *words)
+    assert not any(tmp_path.iterdir())
