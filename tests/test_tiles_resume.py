@@ -14,8 +14,8 @@ from conftest import DATA
 
 import gloffset
 from gloffset.cli import main
-from gloffset.io.pmtiles import read_pmtiles
-from gloffset.io.tilestore import INPUT_KEY, input_digest
+from gloffset.tiles.store.pmtiles import read_pmtiles
+from gloffset.tiles.store.tilestore import INPUT_KEY, input_digest
 
 MEXICO = DATA / "mexico_10m.geojson"
 ARGS = ["-d", "100km", "-z", "0-2", "--tile-size", "64"]

@@ -8,11 +8,11 @@ from pathlib import Path
 import click
 
 from ..io.output import refuse_stdout
-from ..io.tilestore import TILE_FILES, check_tile_output
-from ..raster.pyramid import parse_zooms
-from ..raster.pyramid.driver import PyramidOptions, write_pyramid
-from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
+from ..tiles.store.tilestore import TILE_FILES, check_tile_output
+from ..tiles.tiling import parse_zooms
+from ..tiles.tiling.driver import PyramidOptions, write_pyramid
+from ..tiles.tiling.tilepaint import TileStyle
 from . import main
 from .options import (
     angle,
@@ -188,8 +188,8 @@ next(p for p in tiles_cmd.params if p.name == "distance").required = False
 
 def _field_tiles(input, radius, ellipsoid, zooms, output, size, name, force, given) -> None:
     """``gloffset tiles --field``: the distance-field pyramid
-    (:func:`gloffset.raster.pyramid.fieldtiles.field_pyramid`)."""
-    from ..raster.pyramid.fieldtiles import field_pyramid
+    (:func:`gloffset.tiles.tiling.fieldtiles.field_pyramid`)."""
+    from ..tiles.tiling.fieldtiles import field_pyramid
 
     for opt, bad in (
         ("-d", given["distance"] is not None),

@@ -26,7 +26,7 @@ class BinLayout:
 
     The passes draw the bins packed row by row into a small *canvas* (:meth:`pos`),
     whatever their place on the sphere (a grid's frontier, or the frontier bins of a
-    batch of map tiles, see :mod:`gloffset.raster.pyramid`); the caller fills in every other
+    batch of map tiles, see :mod:`gloffset.tiles.pyramid`); the caller fills in every other
     cell from its bin's class. Bin ``k`` (in the order of the :class:`Frontier`) has the
     *geo row and column* ``geo[k]``, which index the geometry. Level ``bin level + s``
     has ``2^s x 2^s`` cells per bin; per geo row ``g`` and sub-row ``q < 2^s`` of it:

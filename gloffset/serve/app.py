@@ -11,7 +11,7 @@ Endpoints (each input is a layer named after its file stem):
   that holds the region at that distance (:func:`~gloffset.serve.bounds.region_bounds`);
 - ``GET /field/{layer}/{z}/{x}/{y}.png`` (``@2x``): the tile's signed distance field in
   metres, a lossless RGB PNG in the ``raster-dem`` ``custom`` encoding of
-  :data:`~gloffset.raster.pyramid.fieldtiles.FIELD_ENCODING` (1 m steps, +-8,388 km);
+  :data:`~gloffset.tiles.tiling.fieldtiles.FIELD_ENCODING` (1 m steps, +-8,388 km);
   ``GET /field/{layer}.json``: TileJSON 3.0.0 for them, with that ``encoding``;
 - ``GET /offset/{layer}.geojson?distance=127km``, ``GET /shape/{layer}.geojson``,
   ``GET /distance/{layer}?lon=..&lat=..`` (metres), ``GET /layers``;
@@ -54,9 +54,9 @@ from ..errors import GloffsetError
 from ..geometry.sphere import lonlat_to_xyz
 from ..grids.mercator import MAX_ZOOM
 from ..io.geojson import offset_feature
-from ..raster.pyramid.fieldtiles import FIELD_ENCODING
-from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
+from ..tiles.tiling.fieldtiles import FIELD_ENCODING
+from ..tiles.tiling.tilepaint import TileStyle
 from ..units import EARTH_RADIUS, RASTER_LIMIT, VECTOR_LIMIT, offset_angle
 from ..vector.arcrings import DEFAULT_TOLERANCE
 from ..vector.offset import offset

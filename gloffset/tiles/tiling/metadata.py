@@ -11,8 +11,8 @@ from pathlib import Path
 from ..._version import __version__
 from ...errors import TilesError
 from ...grids.mercator import lat_at
-from ...io.tilestore import INPUT_KEY, input_digest
 from ...units import EARTH_RADIUS
+from ..store.tilestore import INPUT_KEY, input_digest
 
 __all__ = ["options_json", "store_metadata", "source_name", "describe", "final_bounds"]
 

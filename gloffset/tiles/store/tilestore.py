@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import OutputError, OutputExistsError
+from ...errors import OutputError, OutputExistsError
 
 __all__ = ["INPUT_KEY", "OutputExistsError", "check_tile_output", "input_digest", "open_store"]
 

@@ -7,8 +7,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from ...raster.options import check_keywords, option_names
 from ...units import EARTH_RADIUS
-from ..options import check_keywords, option_names
 from .tilepaint import TileStyle
 
 __all__ = ["MAX_BLOCK", "PyramidJob", "PyramidOptions", "pyramid_options"]

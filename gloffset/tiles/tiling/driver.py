@@ -39,13 +39,13 @@ import numpy as np
 from ...ellipsoid import as_ellipsoid
 from ...errors import TilesError
 from ...grids.mercator import MAX_ZOOM, TilePyramid, check_tile_size
-from ...io.tilestore import INPUT_KEY, input_digest, open_store
+from ...raster import driver
+from ...raster.driver import Level
+from ...raster.vector.curves import CurveCells
+from ...raster.vector.levels import subset
 from ...shape import read
 from ...units import RASTER_LIMIT, offset_angle, to_metres
-from .. import driver
-from ..driver import Level
-from ..vector.curves import CurveCells
-from ..vector.levels import subset
+from ..store.tilestore import INPUT_KEY, input_digest, open_store
 from .ellipsoid import run_ellipsoid_pyramid
 from .job import PyramidJob, PyramidOptions, pyramid_options
 from .malloc import keep_freed_memory
@@ -126,9 +126,9 @@ def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats
     out : str, Path or a tile store
         A path ending in ``.mbtiles`` (MBTiles 1.3, TMS rows), ``.pmtiles`` (PMTiles v3;
         needs the ``pmtiles`` package) or a directory (``z/x/y.png``); or a writer from
-        :func:`gloffset.io.tilestore.open_store`.
+        :func:`gloffset.tiles.store.tilestore.open_store`.
     **options
-        Keywords, below (:class:`~gloffset.raster.pyramid.job.PyramidOptions`); another
+        Keywords, below (:class:`~gloffset.tiles.tiling.job.PyramidOptions`); another
         is a :class:`TypeError` that lists them.
 
     Other Parameters
@@ -138,7 +138,7 @@ def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats
     size : int
         Tile side in pixels, a power of two from 16 to 4096.
     fill : str
-        The region's colour (the style: :class:`gloffset.raster.pyramid.tilepaint.TileStyle`).
+        The region's colour (the style: :class:`gloffset.tiles.tiling.tilepaint.TileStyle`).
     opacity : float
         Its opacity, 0 to 1, on a transparent background.
     outline : str, optional
@@ -166,7 +166,7 @@ def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats
         this process classifies the zooms down to a coarse one, writes their decided
         tiles and hands every other tile to the workers (the frontier tiles above that
         zoom one by one, the kept tiles of that zoom with their sub-pyramids:
-        :mod:`gloffset.raster.pyramid.distributed`); each worker makes its own GL context; the
+        :mod:`gloffset.tiles.tiling.distributed`); each worker makes its own GL context; the
         tiles stream back to this process, which writes them. The output is
         byte-identical to a run in one process.
     scheduler : str, optional
@@ -175,7 +175,7 @@ def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats
         ``None``: the sphere of ``radius``. Otherwise ``distance`` is a geodesic length
         in metres on the ellipsoid (a string takes length units only), and every tile
         equals ``render(shape, distance, Tile(z, x, y, size), ellipsoid=...)``
-        (:mod:`gloffset.raster.pyramid.ellipsoid`; no outline, no workers).
+        (:mod:`gloffset.tiles.tiling.ellipsoid`; no outline, no workers).
 
     Returns
     -------
@@ -184,7 +184,7 @@ def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats
     Notes
     -----
     The process keeps the memory it frees for reuse from then on
-    (:func:`gloffset.raster.pyramid.malloc.keep_freed_memory`, glibc only): a pyramid makes and
+    (:func:`gloffset.tiles.tiling.malloc.keep_freed_memory`, glibc only): a pyramid makes and
     frees large arrays at every zoom, and giving them back to the system cost a fifth of
     its time.
 

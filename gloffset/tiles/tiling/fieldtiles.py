@@ -24,9 +24,9 @@ from PIL import Image
 
 from ...errors import OptionError
 from ...grids import Tile
-from ...io.tilestore import INPUT_KEY, input_digest, open_store
+from ...raster.field import distance_field
 from ...units import EARTH_RADIUS
-from ..field import distance_field
+from ..store.tilestore import INPUT_KEY, input_digest, open_store
 from .driver import parse_zooms
 from .metadata import final_bounds, store_metadata
 

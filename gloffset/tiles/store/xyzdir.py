@@ -13,7 +13,7 @@ import os
 import shutil
 from pathlib import Path
 
-from ..errors import OutputError, OutputExistsError
+from ...errors import OutputError, OutputExistsError
 
 __all__ = ["XYZDirWriter", "METADATA_FILE"]
 

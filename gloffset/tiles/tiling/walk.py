@@ -10,11 +10,11 @@ import functools
 import numpy as np
 
 from ...grids.mercator import Tile
-from ..driver import CONTAINED, FRONTIER, NOT_FORCED, OUTSIDE, Level
-from ..layout import BinLayout
-from ..render import render_grid
-from ..vector.curves import CurveCells
-from ..vector.levels import subset
+from ...raster.driver import CONTAINED, FRONTIER, NOT_FORCED, OUTSIDE, Level
+from ...raster.layout import BinLayout
+from ...raster.render import render_grid
+from ...raster.vector.curves import CurveCells
+from ...raster.vector.levels import subset
 from .tilepaint import OutlineArcs
 
 __all__ = [
@@ -363,7 +363,7 @@ def render_frontier_tiles(chain, which, size, max_block, stats):
     ``(index, mask)``: the GPU levels classify the frontier bins of up to
     ``(max_block / size)^2`` tiles per run, packed into one small canvas; every other
     pixel of a tile is its bin's class."""
-    from ..gpu import bin_passes
+    from ...raster.gpu import bin_passes
 
     plog = size.bit_length() - 1
     ns = plog - chain.nb  # GPU levels: a bin is 2^ns pixels on a side
