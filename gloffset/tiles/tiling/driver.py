@@ -39,13 +39,14 @@ import numpy as np
 from ...ellipsoid import as_ellipsoid
 from ...errors import TilesError
 from ...grids.mercator import MAX_ZOOM, TilePyramid, check_tile_size
+from ...grids.tms import tms_quad
 from ...raster import driver
 from ...raster.driver import Level
 from ...raster.vector.curves import CurveCells
 from ...raster.vector.levels import subset
 from ...shape import read
 from ...units import RASTER_LIMIT, offset_angle, to_metres
-from ..store.tilestore import INPUT_KEY, input_digest, open_store
+from ..store.tilestore import INPUT_KEY, TILE_FILES, input_digest, open_store
 from .ellipsoid import run_ellipsoid_pyramid
 from .job import PyramidJob, PyramidOptions, pyramid_options
 from .malloc import keep_freed_memory
@@ -111,7 +112,8 @@ def parse_zooms(zooms) -> tuple[int, int]:
 
 
 def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats:
-    """Write the web-mercator tile pyramid of the offset region of ``shape``.
+    """Write the tile pyramid (web mercator, or another ``tms``) of the offset region of
+    ``shape``.
 
     Parameters
     ----------
@@ -176,6 +178,14 @@ def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats
         in metres on the ellipsoid (a string takes length units only), and every tile
         equals ``render(shape, distance, Tile(z, x, y, size), ellipsoid=...)``
         (:mod:`gloffset.tiles.tiling.ellipsoid`; no outline, no workers).
+    tms : str or morecantile.TileMatrixSet, optional
+        The OGC TileMatrixSet of the tiles (its identifier, e.g. ``"WorldCRS84Quad"``, or
+        a morecantile ``TileMatrixSet``; :func:`gloffset.grids.TmsTile`); default
+        ``WebMercatorQuad``. Another TMS is written to a folder (``z/x/y.png``, its OGC
+        JSON document beside the tiles in ``tileMatrixSet.json``; MBTiles and PMTiles hold
+        web-mercator tiles only), its tile size the TMS's, no outline, no ellipsoid; each
+        tile equals ``render(shape, distance, TmsTile(tms, z, x, y))``. TMSs in lon/lat
+        (``WorldCRS84Quad``, ``WGS1984Quad``) are supported.
 
     Returns
     -------
@@ -222,9 +232,17 @@ def write_pyramid(shape, distance, zooms, out, options: PyramidOptions) -> Pyram
     d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="a tile pyramid")
     zlo, zhi = parse_zooms(zooms)
     size = check_tile_size(o.size, TilesError)
-    params = options_json(d, (zlo, zhi), size, o.style, ell)
+    quad = pyramid_quad(o, out, zhi)
+    params = options_json(d, (zlo, zhi), size, o.style, ell, quad)
     job = PyramidJob(
-        shape=shape, d=d, zlo=zlo, zhi=zhi, size=size, style=o.style, max_block=o.max_block
+        shape=shape,
+        d=d,
+        zlo=zlo,
+        zhi=zhi,
+        size=size,
+        style=o.style,
+        max_block=o.max_block,
+        quad=quad,
     )
     if ell is not None and (o.style.outline is not None or o.workers is not None or o.scheduler):
         raise TilesError("on an ellipsoid, pyramids take no outline, workers or scheduler")
@@ -234,6 +252,9 @@ def write_pyramid(shape, distance, zooms, out, options: PyramidOptions) -> Pyram
         if ell is not None:
             desc += f"; geodesic distance on {ell}"
         meta = {**store_metadata(label, desc, (zlo, zhi), params), INPUT_KEY: input_digest(shape)}
+        if quad is not None:
+            meta["tileMatrixSet"] = quad.id
+            meta["bounds"] = ",".join(repr(v) for v in quad.lonlat_bounds())
         store = open_store(out, meta, resume=o.resume, overwrite=o.overwrite)
     else:
         store = out
@@ -270,7 +291,9 @@ def write_pyramid(shape, distance, zooms, out, options: PyramidOptions) -> Pyram
                 workers=o.workers,
                 scheduler=o.scheduler,
             )
-        store.set_metadata(final_bounds(store, (zlo, zhi)))
+        store.set_metadata(final_bounds(store, (zlo, zhi), quad))
+        if quad is not None and isinstance(out, (str, Path)):  # an XYZ folder (pyramid_quad)
+            store.put_document(TMS_DOCUMENT, quad.document().encode())
         store.finish()
     finally:
         store.close()
@@ -309,6 +332,41 @@ def pyramids(shape, distances, zooms, outs, **options) -> list[PyramidStats]:
     return [write_pyramid(shape, dist, zooms, out, opts) for dist, out in zip(distances, outs)]
 
 
+#: The file beside an XYZ folder's tiles that holds the TileMatrixSet (its OGC JSON) when
+#: it is not web mercator.
+TMS_DOCUMENT = "tileMatrixSet.json"
+
+
+def pyramid_quad(o: PyramidOptions, out, zhi: int):
+    """The :class:`~gloffset.grids.tms.TmsQuad` of ``o.tms`` (None for web mercator),
+    checked against the other options and the output before any work
+    (:class:`~gloffset.errors.TilesError`)."""
+    if o.tms is None:
+        return None
+    quad = tms_quad(o.tms, TilesError)
+    if quad.kind == "mercator":
+        if o.size != quad.size:
+            raise TilesError(f"the tiles of {quad.id} are {quad.size} pixels, not {o.size}")
+        return None
+    if isinstance(out, (str, Path)) and Path(out).suffix.lower() in TILE_FILES:
+        raise TilesError(
+            f"{Path(out).suffix} holds web-mercator tiles only: write the tiles of {quad.id} "
+            "to a folder (z/x/y.png, with the TileMatrixSet beside them)"
+        )
+    if quad.kind != "lonlat":
+        raise TilesError(
+            f"pyramids of {quad.id} (a projected CRS, {quad.crs}) are not supported yet; "
+            "the TileMatrixSets in lon/lat are (WorldCRS84Quad, WGS1984Quad)"
+        )
+    if o.size != quad.size:
+        raise TilesError(f"the tiles of {quad.id} are {quad.size} pixels, not {o.size}")
+    if zhi > quad.maxzoom:
+        raise TilesError(f"{quad.id} has zooms 0 to {quad.maxzoom}, not {zhi}")
+    if o.ellipsoid is not None or o.style.outline is not None:
+        raise TilesError(f"pyramids of {quad.id} take no outline and no ellipsoid")
+    return quad
+
+
 def run_pyramid(job: PyramidJob, store, have, progress, stats, *, part=None):
     """Write the tiles of ``job`` into ``store`` (skipping ``have``); see :class:`Part`
     for a run that classifies down to a split and returns the tasks of the tiles left, or
@@ -316,7 +374,7 @@ def run_pyramid(job: PyramidJob, store, have, progress, stats, *, part=None):
     shape, d, zlo, zhi, size, style = job.shape, job.d, job.zlo, job.zhi, job.size, job.style
     max_block = job.max_block
     plog = size.bit_length() - 1
-    levels = TilePyramid(zhi + plog)  # down to the pixels of the deepest tiles
+    levels = TilePyramid(zhi + plog, quad=job.quad)  # down to the pixels of the deepest tiles
     nb = max(0, plog - BIN_LOG2)
     # the levels no tile is rendered from (bins of zooms drawn alone or not written)
     # classify with the multiresolution curve: their lists follow the cells' size

@@ -17,8 +17,10 @@ from ..store.tilestore import INPUT_KEY, input_digest
 __all__ = ["options_json", "store_metadata", "source_name", "describe", "final_bounds"]
 
 
-def options_json(d, zooms, size, style, ell=None) -> str:
+def options_json(d, zooms, size, style, ell=None, quad=None) -> str:
     extra = {} if ell is None else {"ellipsoid": [ell.a, ell.f]}
+    if quad is not None:
+        extra["tms"] = quad.id
     return json.dumps(
         {
             **extra,
@@ -84,13 +86,21 @@ def describe(distance, d: float, radius: float, source: str | None) -> str:
     return f"{what} ({value}); gloffset {__version__}"
 
 
-def final_bounds(store, zooms) -> dict:
+def final_bounds(store, zooms, quad=None) -> dict:
+    """The ``bounds`` and ``center`` metadata of the tiles written (lon/lat degrees), from
+    the deepest zoom that has any; ``quad``: a lon/lat TMS's quadtree (None: web
+    mercator)."""
     for z in range(zooms[1], zooms[0] - 1, -1):
         ext = store.extent(z)
         if ext is not None:
             x0, y0, x1, y1 = ext
-            w, e = x0 * 360.0 / (1 << z) - 180.0, (x1 + 1) * 360.0 / (1 << z) - 180.0
-            n, s = (math.degrees(float(lat_at(v, 1 << z))) for v in (y0, y1 + 1))
+            if quad is None:
+                w, e = x0 * 360.0 / (1 << z) - 180.0, (x1 + 1) * 360.0 / (1 << z) - 180.0
+                n, s = (math.degrees(float(lat_at(v, 1 << z))) for v in (y0, y1 + 1))
+            else:
+                rows, cols = quad.matrix_shape(z)
+                w, e = (math.degrees(float(quad.lon_at(v, cols))) for v in (x0, x1 + 1))
+                n, s = (math.degrees(float(quad.lat_at(v, rows))) for v in (y0, y1 + 1))
             b = (round(w, 6), round(s, 6), round(e, 6), round(n, 6))
             cz = min(zooms[1], max(zooms[0], z - 2))
             return {

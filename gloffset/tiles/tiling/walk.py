@@ -205,11 +205,14 @@ class ZoomWriter:
             # few tiles, each far coarser than the input: one render per tile, from the
             # curves simplified to its pixels where that pays (as render_tiles does)
             shape, d, size = self.cells.shape, self.cells.d, self.size
+            quad = self.cells.grid.quad
             masks = (
                 (
                     k,
                     render_grid(
-                        shape, d, tile_grid(z, int(cols[front[k]]), int(rows[front[k]]), size)
+                        shape,
+                        d,
+                        tile_grid(z, int(cols[front[k]]), int(rows[front[k]]), size, quad),
                     )
                     > 0,
                 )
@@ -352,10 +355,13 @@ PYRAMID_ALONE_ZOOM = 2
 
 
 @functools.lru_cache(maxsize=1024)
-def tile_grid(z: int, x: int, y: int, size: int) -> Tile:
-    """The :class:`~gloffset.grids.Tile`, made once: it keeps its levels' bounds and
+def tile_grid(z: int, x: int, y: int, size: int, quad=None):
+    """The :class:`~gloffset.grids.Tile` (or the tile of the TMS quadtree ``quad``, a
+    :class:`~gloffset.grids.tms.TmsQuad`), made once: it keeps its levels' bounds and
     geometry, the same for every distance (zooms 0-3 have 85 tiles)."""
-    return Tile(z, x, y, size)
+    if quad is None:
+        return Tile(z, x, y, size)
+    return quad.tile(z, x, y)
 
 
 def render_frontier_tiles(chain, which, size, max_block, stats):
