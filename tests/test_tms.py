@@ -246,3 +246,52 @@ def test_pyramid_tms_refused_before_any_output(tmp_path, out, tms, match):
     with pytest.raises(TilesError, match=match):
         gloffset.tiles.pyramid(SQUARE_WITH_HOLE, "100km", "0-2", tmp_path / out, tms=tms)
     assert not list(tmp_path.iterdir())
+
+
+# ------------------------------------------------------------------------- the command
+def _cli(*args):
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    env = {**os.environ, "PYTHONPATH": str(root)}
+    cmd = [sys.executable, "-m", "gloffset", *map(str, args)]
+    return subprocess.run(cmd, capture_output=True, env=env, timeout=300)
+
+
+@pytest.mark.parametrize(
+    "tms, out, words",
+    [
+        ("UPSAntarcticWGS84Quad", "t.mbtiles", [".mbtiles holds web-mercator tiles only"]),
+        ("UPSArcticWGS84Quad", "t.pmtiles", [".pmtiles holds web-mercator tiles only"]),
+        ("Nope", "t", ["unknown TileMatrixSet 'Nope'", "WorldCRS84Quad"]),
+        ("WGS1984Quad", "t", ["tiles of WGS1984Quad are 256 pixels, not 512"]),
+    ],
+)
+def test_cli_tms_refused_before_any_work(tmp_path, mexico_path, tms, out, words):
+    from conftest import assert_one_line_error
+
+    extra = ["--tile-size", "512"] if tms == "WGS1984Quad" else []
+    proc = _cli(
+        "tiles", mexico_path, "-d", "127km", "-z", "0-8", "--tms", tms, *extra, "-o", tmp_path / out
+    )
+    assert_one_line_error(proc, *words)
+    assert not list(tmp_path.iterdir())
+
+
+def test_cli_tms_writes_the_folder_and_its_tms(tmp_path, mexico_path):
+    out = tmp_path / "out"
+    proc = _cli(
+        "tiles", mexico_path, "-d", "127km", "-z", "0-2", "--tms", "WorldCRS84Quad", "-o", out
+    )
+    assert proc.returncode == 0, proc.stderr.decode()
+    assert json.loads((out / "tileMatrixSet.json").read_text())["id"] == "WorldCRS84Quad"
+    shape = gloffset.read(mexico_path)
+    from gloffset.tiles.tiling.tilepaint import TileStyle
+
+    for z, x, y in [(0, 0, 0), (1, 0, 0), (2, 1, 1), (2, 0, 0)]:
+        mask = gloffset.render(shape, "127km", TmsTile("WorldCRS84Quad", z, x, y))
+        assert _tile_bytes(out, z, x, y) == TileStyle().encode(mask > 0)
+    assert (out / "2" / "1" / "1.png").exists()  # Mexico's tile at zoom 2

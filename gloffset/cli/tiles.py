@@ -1,4 +1,5 @@
-"""``gloffset tiles``: a web-mercator tile pyramid (MBTiles or XYZ directory) of the region."""
+"""``gloffset tiles``: a tile pyramid (MBTiles, PMTiles or XYZ directory) of the region, web
+mercator or another OGC TileMatrixSet (``--tms``)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from ..io.output import refuse_stdout
 from ..shape import read
 from ..tiles.store.tilestore import TILE_FILES, check_tile_output
 from ..tiles.tiling import parse_zooms
-from ..tiles.tiling.driver import PyramidOptions, write_pyramid
+from ..tiles.tiling.driver import PyramidOptions, pyramid_quad, write_pyramid
 from ..tiles.tiling.tilepaint import TileStyle
 from . import main
 from .options import (
@@ -47,6 +48,13 @@ from .options import (
     show_default=True,
     help="Tile side, pixels (a power of two).",
 )
+@click.option(
+    "--tms",
+    default=None,
+    metavar="ID",
+    help="The OGC TileMatrixSet of the tiles (default WebMercatorQuad), e.g. WorldCRS84Quad "
+    "(two tiles at zoom 0): written to a folder, z/x/y.png with tileMatrixSet.json beside them.",
+)
 @click.option("--name", default=None, help="Tileset name (default: the output's name).")
 @click.option(
     "--field",
@@ -80,6 +88,7 @@ def tiles_cmd(
     outline,
     outline_width,
     tile_size,
+    tms,
     name,
     field,
     resume,
@@ -100,6 +109,8 @@ def tiles_cmd(
     of INPUT, named by the distance as given: OUT_10km.mbtiles (.pmtiles), ... or, for a
     folder OUT, OUT/10km/z/x/y.png, ...; each the same as the run at that distance alone."""
     if field:
+        if tms is not None:
+            raise click.UsageError("--field takes no --tms (its tiles are web mercator)")
         return _field_tiles(
             input, radius, ellipsoid, zooms, output, tile_size, name, force, locals()
         )
@@ -113,8 +124,11 @@ def tiles_cmd(
     )
     check_tile_output(output)
     outputs = [output] if len(many) == 1 else [tile_output(output, t) for t, _ in many]
-    parse_zooms(zooms)
+    _, zhi = parse_zooms(zooms)
     style = TileStyle(fill, opacity, outline, outline_width)
+    checked = PyramidOptions(size=tile_size, style=style, ellipsoid=ell, tms=tms)
+    for out in outputs:  # the TileMatrixSet against the options and outputs
+        pyramid_quad(checked, out, zhi)
     if resume and force:
         raise click.UsageError("--resume and --force exclude each other")
     shape = read(input, layer=layer, where=where, densify=densify)
@@ -148,6 +162,7 @@ def tiles_cmd(
         workers=workers,
         scheduler=scheduler,
         ellipsoid=ell,
+        tms=tms,
     )
     try:
         for (text, _), out in zip(many, outputs):
