@@ -1,7 +1,7 @@
 """Raster grids: pixel centres, the level hierarchy and per-cell bounds rho.
 
 ``Equirect`` (lon/lat plate carree), ``Tile`` (web-mercator XYZ tile), ``Cube`` and
-``CubeFace`` (GL cube maps).
+``CubeFace`` (GL cube maps), ``Projected`` (an image in any projected CRS, pyproj).
 """
 
 from typing import TYPE_CHECKING
@@ -10,8 +10,18 @@ from .base import InvalidGridError
 from .cube import FACE_NAMES, Cube, CubeFace, locate
 from .equirect import Equirect
 from .mercator import Tile
+from .projected import Projected
 
-__all__ = ["Cube", "CubeFace", "Equirect", "FACE_NAMES", "InvalidGridError", "Tile", "locate"]
+__all__ = [
+    "Cube",
+    "CubeFace",
+    "Equirect",
+    "FACE_NAMES",
+    "InvalidGridError",
+    "Projected",
+    "Tile",
+    "locate",
+]
 
 if TYPE_CHECKING:  # read by mypy (`mypy gloffset`): every grid answers its protocols
     from .conformal import ConformalRows
@@ -29,12 +39,19 @@ if TYPE_CHECKING:  # read by mypy (`mypy gloffset`): every grid answers its prot
     )
 
     def _answers(
-        e: Equirect, t: Tile, r: ConformalRows, f: CubeFace, c: Cube, cc: CubeCells, p: TilePyramid
+        e: Equirect,
+        t: Tile,
+        r: ConformalRows,
+        f: CubeFace,
+        c: Cube,
+        cc: CubeCells,
+        p: TilePyramid,
+        pr: Projected,
     ) -> None:
         regular: list[RegularLonLat] = [e]
         lonlat: list[LonLatCells] = [e, t, r]
-        images: list[Image] = [e, t, r, f, c]
-        image_grids: list[ImageGrid] = [e, t, r, f]
+        images: list[Image] = [e, t, r, f, c, pr]
+        image_grids: list[ImageGrid] = [e, t, r, f, pr]
         faces: list[FaceGrid] = [f]
         curve_masks: list[CurveMaskImage] = [e, c, r]
         cell_sets: list[FaceCells] = [cc]
