@@ -1,46 +1,27 @@
 """Images in a projected CRS: :class:`Projected`, any CRS that pyproj knows.
 
-Pixel ``(i, j)`` (column, row; row 0 at the top, ``ymax``) of a ``width x height`` grid
-over ``bounds = (xmin, ymin, xmax, ymax)`` (the outer edges, in the CRS's units) has its
-centre at
+Pixel ``(i, j)`` (row 0 at ``ymax``) of a ``width x height`` grid over the outer edges
+``bounds = (xmin, ymin, xmax, ymax)`` (CRS units) has its centre at ``x = xmin + (i +
+0.5) (xmax - xmin) / width``, ``y = ymax - (j + 0.5) (ymax - ymin) / height`` (in that
+order of operations), and its lon/lat is pyproj's inverse to the CRS's own geographic
+CRS, read as a point of the sphere like every input point. A pixel without an inverse
+(outside the projection's domain) is outside every region: mask 0, field ``+inf``.
 
-    x = xmin + (i + 0.5) (xmax - xmin) / width,   y = ymax - (j + 0.5) (ymax - ymin) / height
+Levels are those of :mod:`gloffset.grids.base`; a cell's centre is the inverse of its
+block's centre. Its bound ``rho`` covers every pixel centre of the cell, and ``rho_l >=
+angle(centre, child centre) + rho_child``; pixels are decided at their centres. Two
+ways (derivation: docs/design.md, "gloffset.grids.projected"):
 
-(evaluated in that order: ``xmin + ((i + 0.5) * (xmax - xmin)) / width``), and its
-lon/lat is pyproj's inverse projection to the CRS's own geographic CRS (no datum
-change), read as a point of the sphere like every input point
-(:func:`~gloffset.geometry.sphere.lonlat_to_xyz`; with ``ellipsoid=`` a geodetic
-position). A pixel whose inverse has no answer (outside the projection's domain: pyproj
-gives no finite lon/lat) is outside every region: its mask is 0, its distance-field
-value ``+inf``.
+* a formula where the projection gives one: the inverse is ``K``-Lipschitz from the
+  plane to the unit sphere, ``K = 1 / (k_min a (1 - e^2))``, so ``rho = K h`` (``h`` the
+  cell's half-diagonal) plus 3e-9 rad per level for the inverse's own error. Polar
+  stereographic (variants A and B: EPSG:3031, 3413, 3976, UPS): ``k_min`` is the scale
+  at the pole, and the whole plane is the domain;
+* otherwise from the pixel centres themselves (every one computed by pyproj, about
+  0.5-0.7 us each): exact for the pixels, correct for any CRS, slower.
 
-Levels are those of :mod:`gloffset.grids.base`: a cell of level ``l`` is a block of
-``2^(L-l)`` pixels a side, its centre the inverse of the block's centre in the plane.
-
-Bounds rho. A cell is decided at its centre with a bound ``rho`` that covers every
-pixel centre of the cell (pixels are decided at their centres) and, from level to level,
-``rho_l >= angle(centre, child centre) + rho_child``. Two ways:
-
-* a **formula** where the projection gives one: a Lipschitz bound of the inverse. The
-  distance on the unit sphere between the images of two points of the plane is at most
-  ``K`` times their distance in the plane, ``K = 1 / (k_min a (1 - e^2))`` (``k_min``
-  the projection's smallest scale factor over the plane, ``a (1 - e^2)`` the smallest
-  radius of curvature of the ellipsoid, which bounds how much reading a geodetic
-  position as a point of the unit sphere stretches it). A cell of half-diagonal ``h``
-  then has ``rho = K h``, rounded up, plus ``3e-9`` rad per level below it for the
-  inverse's own error (PROJ's iterations stop at 1e-10 rad) and the roundings. Polar
-  stereographic (variants A and B, EPSG:3031, 3413, 3976, UPS): ``k_min`` is the scale
-  at the pole (the scale grows away from it) and the whole plane is the domain.
-* otherwise, **from the pixel centres themselves**: every pixel centre is computed
-  (pyproj), and ``rho`` of a cell of the level above the pixels is the largest angle
-  from its centre to its pixels' centres, each level above the largest ``angle(centre,
-  child centre) + rho_child`` (padded, :func:`~gloffset.geometry.caps.pad`): exact for
-  the pixels, correct for any CRS, and it costs one inverse per pixel (about 0.5-0.7 us
-  each). Cells whose centre has no inverse take a child's centre; cells with no pixel
-  in the domain are outside.
-
-The GPU levels draw a Projected grid from a texture of cell centres made here in
-float64 (:mod:`gloffset.raster.layout`, ``centres = "texture"``).
+The GPU levels read a Projected grid's cell centres from a texture made here in float64
+(``centres = "texture"``, :mod:`gloffset.raster.layout`).
 """
 
 from __future__ import annotations
