@@ -113,6 +113,7 @@ class CubeFace(Square, LevelHierarchy):
 
     face: int
     size: int
+    centres = "cube"
 
     def __post_init__(self):
         if self.face not in range(6):

@@ -217,6 +217,27 @@ def render_grid(shape, d: float, grid) -> np.ndarray:
 
 
 def _render_one(shape, d, grid, *, backend, level, callback, mask, simplify=True):
+    """Return the classes of ``level`` (default: the output level) or the mask.
+
+    Cells without a place on the sphere (the grid's ``valid``) are outside.
+    """
+    out = _render_cells(
+        shape,
+        d,
+        grid,
+        backend=backend,
+        level=level,
+        callback=callback,
+        mask=mask,
+        simplify=simplify,
+    )
+    valid = grid.valid(grid.n_levels - 1 if level is None else level)
+    if valid is not None:
+        out[~valid] = 0
+    return out
+
+
+def _render_cells(shape, d, grid, *, backend, level, callback, mask, simplify=True):
     """Classes of ``level`` (default: the output level) or, with ``mask``, the mask.
 
     The float64 levels (:class:`~gloffset.raster.vector.curves.CurveCells`) run down to the
