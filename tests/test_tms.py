@@ -142,13 +142,16 @@ def test_lonlat_quad_bounds_cover_tiles_and_descendants(z):
 # --------------------------------------------------------------- against the reference
 @pytest.fixture(scope="module")
 def shapes(world):
-    return {n: gloffset.read(world[n]) for n in ("Mexico", "Russia", "Antarctica", "Fiji")}
+    names = ("Mexico", "Russia", "Antarctica", "Fiji", "Greenland")
+    return {n: gloffset.read(world[n]) for n in names}
 
 
 def _point_on(world, name, k=0):
+    """A vertex of the outer ring of ``name``'s largest polygon (k: another one)."""
     geom = world[name]["geometry"]
-    ring = geom["coordinates"][0] if geom["type"] == "Polygon" else geom["coordinates"][k][0]
-    return ring[len(ring) // 3]
+    polys = [geom["coordinates"]] if geom["type"] == "Polygon" else geom["coordinates"]
+    ring = max((p[0] for p in polys), key=len)
+    return ring[(len(ring) // 3 + k * len(ring) // 2) % len(ring)]
 
 
 FAST = [
@@ -182,6 +185,37 @@ def test_lonlat_tms_every_zoom_against_reference(world, shapes, tms, z):
         x, y = frontier_tile(tms, _point_on(world, name), z)
         assert_tile_matches_reference(shapes[name], d, tms, z, x, y)
         assert_tile_matches_reference(shapes[name], d, tms, z, (x + 1) % cols, min(y, rows - 1))
+
+
+POLAR = [
+    # (TMS, shape, d in rad, zoom): frontier tiles of the polar quads
+    ("UPSAntarcticWGS84Quad", "Antarctica", 0.02, 0),
+    ("UPSArcticWGS84Quad", "Russia", 0.01, 2),
+    ("UPSAntarcticWGS84Quad", "Antarctica", -0.002, 6),
+    ("UPSArcticWGS84Quad", "Greenland", 0.0, 9),
+    ("UPSAntarcticWGS84Quad", "Antarctica", 1e-4, 12),
+]
+
+
+@pytest.mark.parametrize("tms, name, d, z", POLAR)
+def test_polar_tiles_against_reference(world, shapes, tms, name, d, z):
+    x, y = frontier_tile(tms, _point_on(world, name), z)
+    want = assert_tile_matches_reference(shapes[name], d, tms, z, x, y, step=2)
+    assert z == 0 or (want.any() and not want.all()), "the boundary crosses the tile"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("z", range(13))
+@pytest.mark.parametrize("tms", ["UPSArcticWGS84Quad", "UPSAntarcticWGS84Quad"])
+def test_polar_tms_every_zoom_against_reference(world, shapes, tms, z):
+    """Two frontier tiles a zoom and the neighbour east of each."""
+    n = 1 << z
+    names = ["Russia", "Greenland"] if "Arctic" in tms and "Ant" not in tms else ["Antarctica"]
+    for name in names:
+        for k, d in ((0, 0.003), (1, -0.001)):
+            x, y = frontier_tile(tms, _point_on(world, name, k), z)
+            assert_tile_matches_reference(shapes[name], d, tms, z, x, y)
+            assert_tile_matches_reference(shapes[name], d, tms, z, min(x + 1, n - 1), y)
 
 
 # --------------------------------------------------------------------------- pyramids

@@ -20,7 +20,9 @@ zoom 0, origin at the top left. Its tiles are grids of three kinds:
   (``W, S, E, N`` the extent of the TMS; :meth:`TmsQuad.lon_at`, :meth:`TmsQuad.lat_at`
   are the one copy of it, which the pyramids use too);
 * a TMS in a projected CRS (the polar ``UPS...Quad``, ``EuropeanETRS89_LAEAQuad``...):
-  the tile's pixels in its CRS (``Projected``, where the grids have it).
+  :class:`~gloffset.grids.Projected` over the tile's bounds in the CRS (morecantile's),
+  pixel centres at ``x = xmin + (i + 0.5) (xmax - xmin) / size``, ``y = ymax - (j +
+  0.5) (ymax - ymin) / size``.
 
 The CRSs are pyproj's, the matrices morecantile's: neither is written here.
 """
@@ -28,13 +30,13 @@ The CRSs are pyproj's, the matrices morecantile's: neither is written here.
 from __future__ import annotations
 
 import functools
-import importlib
 from dataclasses import dataclass
 
 import numpy as np
 
 from .base import InvalidGridError, LonLatGrid, check_size
 from .mercator import MAX_ZOOM, Tile
+from .projected import Projected
 
 __all__ = ["TmsTile", "TmsQuad", "LonLatTile", "tms_quad", "tms_ids", "as_tms", "WEB_MERCATOR"]
 
@@ -144,19 +146,10 @@ class TmsQuad:
         return as_tms(self.id).model_dump_json(exclude_none=True, indent=2)
 
 
-def _projected_tile(quad: TmsQuad, z: int, x: int, y: int):
-    tms = as_tms(quad.id)
-    try:
-        projected = importlib.import_module(f"{__package__}.projected")
-    except ImportError:  # the projected grid is not in this build
-        raise InvalidGridError(
-            f"{quad.id} is a TileMatrixSet in a projected CRS ({quad.crs}); its tiles need "
-            "the projected grid (gloffset.grids.Projected)"
-        ) from None
-    b = tms.xy_bounds(x, y, z)
-    return projected.Projected(
-        quad.size, quad.size, crs=quad.crs, bounds=(b.left, b.bottom, b.right, b.top)
-    )
+def _projected_tile(quad: TmsQuad, z: int, x: int, y: int) -> Projected:
+    b = as_tms(quad.id).xy_bounds(x, y, z)
+    bounds = (b.left, b.bottom, b.right, b.top)
+    return Projected(quad.size, quad.size, crs=quad.crs, bounds=bounds)
 
 
 @functools.lru_cache(maxsize=64)
