@@ -268,12 +268,59 @@ def test_world_crs84_pyramid_real_border(tmp_path, mexico_path):
 
 
 @pytest.mark.parametrize(
+    "tms, name, d",
+    [
+        ("UPSAntarcticWGS84Quad", "Antarctica", "300km"),
+        ("UPSArcticWGS84Quad", "Greenland", "-100km"),
+    ],
+)
+def test_polar_pyramid_tiles_are_single_renders(tmp_path, world, tms, name, d):
+    """Every tile of a polar pyramid (z0-3, all 85) equals the render of its TmsTile."""
+    from gloffset.tiles.tiling.tilepaint import TileStyle
+
+    shape = gloffset.read(world[name])
+    out = tmp_path / "p"
+    st = gloffset.tiles.pyramid(shape, d, "0-3", out, tms=tms)
+    assert st.rendered > 5
+    style = TileStyle()
+    for z in range(4):
+        for x in range(1 << z):
+            for y in range(1 << z):
+                mask = gloffset.render(shape, d, TmsTile(tms, z, x, y))
+                assert _tile_bytes(out, z, x, y) == style.encode(mask > 0), (z, x, y)
+    assert json.loads((out / "tileMatrixSet.json").read_text())["id"] == tms
+
+
+@pytest.mark.parametrize("z, x, y", [(0, 0, 0), (2, 1, 2), (5, 15, 16), (9, 300, 200)])
+def test_projected_quad_bounds_cover_the_tiles(z, x, y):
+    """A polar quad's tile bound covers every pixel centre of the tile (as TmsTile has
+    them), and its list bound the children's discs."""
+    from gloffset.grids.tms import ProjectedQuadLevels
+
+    quad = tms_quad("UPSArcticWGS84Quad")
+    levels = ProjectedQuadLevels(quad, z + 1)
+    t = TmsTile(quad.id, z, x, y)
+    jj, ii = np.meshgrid(np.arange(0, 256, 5), np.arange(0, 256, 5), indexing="ij")
+    pix = t.centers(t.n_levels - 1, jj, ii)
+    c = levels.centers(z, y, x)
+    assert angle(c, pix).max() <= levels.decision_rho(z, y, x)
+    if z >= 5:  # small tiles, the scale nearly constant over each: the bound is tight
+        assert angle(c, pix).max() > 0.5 * levels.decision_rho(z, y, x)
+    for dj in (0, 1):
+        for di in (0, 1):
+            cj, ci = 2 * y + dj, 2 * x + di
+            far = angle(c, levels.centers(z + 1, cj, ci)) + levels.rho_at(z + 1, cj, ci)
+            assert far <= levels.rho_at(z, y, x)
+
+
+@pytest.mark.parametrize(
     "out, tms, match",
     [
         ("t.mbtiles", "WorldCRS84Quad", r"\.mbtiles holds web-mercator tiles only"),
         ("t.pmtiles", "UPSAntarcticWGS84Quad", r"\.pmtiles holds web-mercator tiles only"),
         ("t", "Nope", "unknown TileMatrixSet 'Nope'"),
         ("t", "CanadianNAD83_LCC", "not a quadtree"),
+        ("t", "EuropeanETRS89_LAEAQuad", "need a bound of its projection"),
     ],
 )
 def test_pyramid_tms_refused_before_any_output(tmp_path, out, tms, match):

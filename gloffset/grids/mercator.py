@@ -181,6 +181,8 @@ class TilePyramid:
     """
 
     lonlat = False
+    #: the levels below a tile are its pixels' (lon/lat rows: the GPU bin levels)
+    bins_below = True
 
     def __init__(self, maxzoom: int, ell=None, quad=None):
         self.maxzoom = int(maxzoom)

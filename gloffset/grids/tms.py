@@ -30,15 +30,26 @@ The CRSs are pyproj's, the matrices morecantile's: neither is written here.
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..geometry.caps import pad
 from .base import InvalidGridError, LonLatGrid, check_size
 from .mercator import MAX_ZOOM, Tile
 from .projected import Projected
 
-__all__ = ["TmsTile", "TmsQuad", "LonLatTile", "tms_quad", "tms_ids", "as_tms", "WEB_MERCATOR"]
+__all__ = [
+    "TmsTile",
+    "TmsQuad",
+    "LonLatTile",
+    "ProjectedQuadLevels",
+    "tms_quad",
+    "tms_ids",
+    "as_tms",
+    "WEB_MERCATOR",
+]
 
 #: The identifier of the web-mercator TMS (the tiles of :class:`~gloffset.grids.Tile`).
 WEB_MERCATOR = "WebMercatorQuad"
@@ -306,3 +317,90 @@ class LonLatTile(LonLatGrid):
 
     def __repr__(self) -> str:
         return f"TmsTile({self.quad.id!r}, {self.z}, {self.x}, {self.y})"
+
+
+class ProjectedQuadLevels:
+    """The tile quadtree of a TMS in a projected CRS down to zoom ``maxzoom`` as a level
+    hierarchy (level = zoom, cell ``(row, column)`` = tile ``(y, x)``): the grid a
+    pyramid walks to decide its tiles.
+
+    Zoom ``z``'s tiles are those of the TMS's matrix ``z`` (its own origin and cell size,
+    morecantile's); a tile's centre is pyproj's inverse of its centre in the CRS, as for
+    :class:`~gloffset.grids.Projected` (a zoom is a ``Projected`` grid of one pixel a
+    tile). Bounds: the inverse is ``K``-Lipschitz from the plane to the unit sphere where
+    the projection gives ``K`` (polar stereographic: the UPS quads), so every point of a
+    tile lies within ``K h`` of its centre (``h`` the tile's half-diagonal), plus the
+    inverse's error and ``K`` times the largest gap between a zoom's extent and zoom
+    0's (the matrices' cell sizes are rounded: a tile's children may stick out of it by
+    that much). :meth:`decision_rho` is that bound; :meth:`rho_at` (the list bound)
+    adds those of the zooms below (down to one level below ``maxzoom``, the last, which
+    a walk to ``maxzoom`` does not reach). No bin levels below the tiles: a pyramid renders each
+    frontier tile on its own grid (``bins_below`` is False).
+    """
+
+    lonlat = False
+    #: the levels below a tile are not its pixels' (tiles render on their own grids)
+    bins_below = False
+
+    def __init__(self, quad: TmsQuad, maxzoom: int):
+        if quad.kind != "projected":
+            raise InvalidGridError(f"{quad.id} is not a TMS in a projected CRS")
+        self.quad, self.maxzoom = quad, int(maxzoom)
+        tms = as_tms(quad.id)
+        self._zooms = []
+        gap = 0.0
+        for z in range(self.maxzoom + 1):
+            rows, cols = quad.matrix_shape(z)
+            a, b = tms.xy_bounds(0, 0, z), tms.xy_bounds(cols - 1, rows - 1, z)
+            ext = (a.left, b.bottom, b.right, a.top)
+            gap = max(gap, *(abs(u - v) for u, v in zip(ext, quad.bounds)))
+            self._zooms.append(Projected(cols, rows, crs=quad.crs, bounds=ext))
+        # one level below the deepest tiles (never walked): the driver decides the cells
+        # of a grid's last level at their centres, as pixels, and tiles are not pixels
+        rows, cols = quad.matrix_shape(self.maxzoom + 1)
+        self._zooms.append(Projected(cols, rows, crs=quad.crs, bounds=ext))
+        lip = self._zooms[0]._lipschitz()
+        if lip is None:
+            raise InvalidGridError(
+                f"pyramids of {quad.id} need a bound of its projection ({quad.crs}) that "
+                "gloffset does not have (it has one for polar stereographic CRSs)"
+            )
+        xmin, ymin, xmax, ymax = quad.bounds
+        self._decision = []
+        for z in range(self.maxzoom + 2):
+            rows, cols = quad.matrix_shape(z)
+            half = 0.5 * math.hypot((xmax - xmin) / cols, (ymax - ymin) / rows) + gap
+            self._decision.append(pad(lip * half * (1.0 + 1e-9) + _INVERSE_SLACK))
+        tail = np.cumsum(self._decision[::-1])[::-1]
+        last = self.maxzoom + 1
+        self._extra = [float(tail[z + 1]) if z < last else 0.0 for z in range(len(tail))]
+
+    @property
+    def n_levels(self) -> int:
+        """The zooms 0..``maxzoom`` and one below (see the notes in ``__init__``)."""
+        return self.maxzoom + 2
+
+    def level_shape(self, z: int) -> tuple[int, int]:
+        return self.quad.matrix_shape(z)
+
+    def centers(self, z: int, j, i) -> np.ndarray:
+        """Unit vectors of the centres of tiles (row ``j`` = y, column ``i`` = x) of zoom z."""
+        g = self._zooms[z]
+        return g.centers(g.n_levels - 1, j, i)
+
+    def decision_rho(self, z: int, j, i=0) -> np.ndarray:
+        """Largest angle from a tile's centre to any point of the tile (every tile of a
+        zoom alike)."""
+        return np.full(np.broadcast(np.asarray(j), np.asarray(i)).shape, self._decision[z])
+
+    def rho_at(self, z: int, j, i) -> np.ndarray:
+        """The list bound ``L`` of tiles (``j``, ``i``) of zoom ``z``."""
+        return pad(self.decision_rho(z, j, i) + self._extra[z])
+
+    def rho(self, z: int) -> np.ndarray:
+        """Per-row list bound of zoom ``z``."""
+        return self.rho_at(z, np.arange(self.level_shape(z)[0]), 0)
+
+
+#: Allowance (rad) for pyproj's inverse's own error at a tile's centre.
+_INVERSE_SLACK = 3e-9

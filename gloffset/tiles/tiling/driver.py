@@ -37,9 +37,9 @@ from pathlib import Path
 import numpy as np
 
 from ...ellipsoid import as_ellipsoid
-from ...errors import TilesError
+from ...errors import InvalidGridError, TilesError
 from ...grids.mercator import MAX_ZOOM, TilePyramid, check_tile_size
-from ...grids.tms import tms_quad
+from ...grids.tms import ProjectedQuadLevels, tms_quad
 from ...raster import driver
 from ...raster.driver import Level
 from ...raster.vector.curves import CurveCells
@@ -185,7 +185,9 @@ def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats
         JSON document beside the tiles in ``tileMatrixSet.json``; MBTiles and PMTiles hold
         web-mercator tiles only), its tile size the TMS's, no outline, no ellipsoid; each
         tile equals ``render(shape, distance, TmsTile(tms, z, x, y))``. TMSs in lon/lat
-        (``WorldCRS84Quad``, ``WGS1984Quad``) are supported.
+        (``WorldCRS84Quad``, ``WGS1984Quad``) and in polar stereographic CRSs
+        (``UPSArcticWGS84Quad``, ``UPSAntarcticWGS84Quad``) are supported; the frontier
+        tiles of a projected TMS render each on its own grid.
 
     Returns
     -------
@@ -353,11 +355,11 @@ def pyramid_quad(o: PyramidOptions, out, zhi: int):
             f"{Path(out).suffix} holds web-mercator tiles only: write the tiles of {quad.id} "
             "to a folder (z/x/y.png, with the TileMatrixSet beside them)"
         )
-    if quad.kind != "lonlat":
-        raise TilesError(
-            f"pyramids of {quad.id} (a projected CRS, {quad.crs}) are not supported yet; "
-            "the TileMatrixSets in lon/lat are (WorldCRS84Quad, WGS1984Quad)"
-        )
+    if quad.kind == "projected":
+        try:
+            ProjectedQuadLevels(quad, 0)  # a bound of the projection
+        except InvalidGridError as e:
+            raise TilesError(str(e)) from None
     if o.size != quad.size:
         raise TilesError(f"the tiles of {quad.id} are {quad.size} pixels, not {o.size}")
     if zhi > quad.maxzoom:
@@ -374,8 +376,14 @@ def run_pyramid(job: PyramidJob, store, have, progress, stats, *, part=None):
     shape, d, zlo, zhi, size, style = job.shape, job.d, job.zlo, job.zhi, job.size, job.style
     max_block = job.max_block
     plog = size.bit_length() - 1
-    levels = TilePyramid(zhi + plog, quad=job.quad)  # down to the pixels of the deepest tiles
-    nb = max(0, plog - BIN_LOG2)
+    levels: TilePyramid | ProjectedQuadLevels
+    if job.quad is not None and job.quad.kind == "projected":
+        # the tiles' own levels; each frontier tile renders on its own grid
+        levels = ProjectedQuadLevels(job.quad, zhi)
+        nb = 0
+    else:
+        levels = TilePyramid(zhi + plog, quad=job.quad)  # down to the deepest tiles' pixels
+        nb = max(0, plog - BIN_LOG2)
     # the levels no tile is rendered from (bins of zooms drawn alone or not written)
     # classify with the multiresolution curve: their lists follow the cells' size
     until = None if style.outline is not None else max(PYRAMID_ALONE_ZOOM, zlo - 1) + nb

@@ -147,7 +147,7 @@ class ZoomWriter:
         outline crosses, whose children inherit the class: ``lev.forced``); returns the
         zoom's decision radii and which tiles are carried so."""
         cls = lev.cls
-        r = self.cells.grid.decision_rho(lev.level, lev.cells[:, 0])
+        r = self.cells.grid.decision_rho(lev.level, lev.cells[:, 0], lev.cells[:, 1])
         carry = (cls != FRONTIER) & (lev.measure <= r)
         if self.outline is None:
             carry[:] = False
@@ -157,7 +157,9 @@ class ZoomWriter:
 
     def alone(self, z: int) -> bool:
         """Whether the frontier tiles of zoom ``z`` are rendered one by one (without
-        the bin chain)."""
+        the bin chain; every zoom of a grid without bin levels below its tiles)."""
+        if not self.cells.grid.bins_below:
+            return True
         return z <= PYRAMID_ALONE_ZOOM and self.outline is None
 
     def inside(self, lev: Level, cont, zlo: int, zhi: int):
