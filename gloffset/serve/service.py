@@ -67,14 +67,14 @@ __all__ = [
 log = logging.getLogger("gloffset.serve")
 
 
-def _empty_png(size: int) -> bytes:
+def empty_png(size: int) -> bytes:
     buf = io.BytesIO()
     Image.fromarray(np.zeros((size, size, 4), np.uint8), mode="RGBA").save(buf, format="PNG")
     return buf.getvalue()
 
 
 #: A fully transparent tile of 256 and 512 pixels (every tile with nothing in it).
-EMPTY_PNG = {256: _empty_png(256), 512: _empty_png(512)}
+EMPTY_PNG = {256: empty_png(256), 512: empty_png(512)}
 
 
 #: seconds without a render request after which the field thread computes the field of a

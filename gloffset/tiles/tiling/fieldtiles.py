@@ -74,11 +74,12 @@ def decode_field(png: bytes) -> np.ndarray:
     )
 
 
-def field_tile(shape, z: int, x: int, y: int, size: int = 256):
+def field_tile(shape, z: int, x: int, y: int, size: int = 256, quad=None):
     """The :class:`~gloffset.DistanceField` of tile ``z/x/y`` (``size`` px) in radians
     (``radius=1``, unclamped): what a field tile encodes (times the Earth's radius) and
     what :meth:`~gloffset.DistanceField.threshold` answers any tile of it from."""
-    return distance_field(shape, Tile(z, x, y, size), radius=1.0)
+    grid = Tile(z, x, y, size) if quad is None else quad.tile(z, x, y)
+    return distance_field(shape, grid, radius=1.0)
 
 
 def field_pyramid(
