@@ -376,3 +376,27 @@ def test_cli_tms_writes_the_folder_and_its_tms(tmp_path, mexico_path):
         mask = gloffset.render(shape, "127km", TmsTile("WorldCRS84Quad", z, x, y))
         assert _tile_bytes(out, z, x, y) == TileStyle().encode(mask > 0)
     assert (out / "2" / "1" / "1.png").exists()  # Mexico's tile at zoom 2
+
+
+@pytest.mark.parametrize("tms", ["WorldCRS84Quad", "UPSArcticWGS84Quad"])
+def test_field_pyramid_of_a_tms(tmp_path, world, tms):
+    """--field --tms: every tile of z0-1 is the distance field of its TmsTile (to the
+    metre), with the TileMatrixSet beside the tiles; MBTiles refused before any work."""
+    from gloffset.tiles.tiling.fieldtiles import decode_field, field_pyramid
+
+    shape = gloffset.read(world["Greenland"])
+    out = tmp_path / "f"
+    n = field_pyramid(shape, "0-1", out, tms=tms)
+    rows, cols = tms_quad(tms).matrix_shape(1)
+    assert n == rows * cols * 5 // 4
+    for z, x, y in [(0, 0, 0), (1, cols - 1, rows - 1), (1, 0, 0)]:
+        f = gloffset.distance_field(shape, TmsTile(tms, z, x, y))
+        got = decode_field(_tile_bytes(out, z, x, y))
+        assert np.abs(got - np.clip(f.values, -8388608, 8388607)).max() <= 1.0  # to the metre
+    assert json.loads((out / "tileMatrixSet.json").read_text())["id"] == tms
+    meta = json.loads((out / "metadata.json").read_text())
+    w, s, e, n_ = (float(v) for v in meta["bounds"].split(","))
+    assert -180 <= w < e <= 180 and -90 <= s < n_ <= 90
+    with pytest.raises(TilesError, match="web-mercator tiles only"):
+        field_pyramid(shape, "0-1", tmp_path / "f.mbtiles", tms=tms)
+    assert not (tmp_path / "f.mbtiles").exists()

@@ -109,8 +109,6 @@ def tiles_cmd(
     of INPUT, named by the distance as given: OUT_10km.mbtiles (.pmtiles), ... or, for a
     folder OUT, OUT/10km/z/x/y.png, ...; each the same as the run at that distance alone."""
     if field:
-        if tms is not None:
-            raise click.UsageError("--field takes no --tms (its tiles are web mercator)")
         return _field_tiles(
             input, radius, ellipsoid, zooms, output, tile_size, name, force, locals()
         )
@@ -218,7 +216,8 @@ def _field_tiles(input, radius, ellipsoid, zooms, output, size, name, force, giv
             raise click.UsageError(f"--field takes no {opt}: a field holds every distance")
     refuse_stdout(output, "field tiles are an .mbtiles or .pmtiles file or a folder")
     check_tile_output(output)
-    parse_zooms(zooms)
+    _, zhi = parse_zooms(zooms)
+    pyramid_quad(PyramidOptions(size=size, tms=given["tms"]), output, zhi)
     shape = read(input, layer=given["layer"], where=given["where"], densify=given["densify"])
     t0 = time.perf_counter()
     n = field_pyramid(
@@ -230,5 +229,6 @@ def _field_tiles(input, radius, ellipsoid, zooms, output, size, name, force, giv
         name=name,
         source="stdin" if input == "-" else Path(input).stem,
         overwrite=force,
+        tms=given["tms"],
     )
     click.echo(f"{n:,} field tiles written; {time.perf_counter() - t0:.1f} s", err=True)

@@ -146,6 +146,22 @@ class TmsQuad:
             return LonLatTile(self, int(z), int(x), int(y))
         return _projected_tile(self, int(z), int(x), int(y))
 
+    def tiles_lonlat(self, z: int, x0: int, y0: int, x1: int, y1: int) -> tuple:
+        """(W, S, E, N) degrees of the tiles ``x0..x1``, ``y0..y1`` of zoom ``z`` (a
+        projected TMS's through pyproj, its edges densified, the poles inside included)."""
+        if self.kind == "lonlat":
+            rows, cols = self.matrix_shape(z)
+            w, e = (float(np.degrees(self.lon_at(v, cols))) for v in (x0, x1 + 1))
+            n, s = (float(np.degrees(self.lat_at(v, rows))) for v in (y0, y1 + 1))
+            return (w, s, e, n)
+        from pyproj import Transformer
+
+        tms = as_tms(self.id)
+        a, b = tms.xy_bounds(x0, y0, z), tms.xy_bounds(x1, y1, z)
+        tr = Transformer.from_crs(self.crs, "OGC:CRS84", always_xy=True)
+        w, s, e, n = tr.transform_bounds(a.left, b.bottom, b.right, a.top, densify_pts=64)
+        return (float(w), float(s), float(e), float(n))
+
     def lonlat_bounds(self) -> tuple[float, float, float, float]:
         """The extent as (W, S, E, N) degrees (a lon/lat TMS's own; the world's else)."""
         if self.kind == "lonlat":

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import io
 import json
+from pathlib import Path
 
 import numpy as np
 from PIL import Image
@@ -27,7 +28,7 @@ from ...grids import Tile
 from ...raster.field import distance_field
 from ...units import EARTH_RADIUS
 from ..store.tilestore import INPUT_KEY, input_digest, open_store
-from .driver import parse_zooms
+from .driver import TMS_DOCUMENT, PyramidOptions, parse_zooms, pyramid_quad
 from .metadata import final_bounds, store_metadata
 
 __all__ = [
@@ -93,12 +94,15 @@ def field_pyramid(
     source: str | None = None,
     overwrite: bool = False,
     progress=None,
+    tms=None,
 ) -> int:
     """Write the field tiles of ``shape`` (every tile of ``zooms``, ``"MIN-MAX"``) to
     ``out`` (``.mbtiles``, ``.pmtiles`` or an XYZ folder), encoded by
     :data:`FIELD_ENCODING` in metres on the sphere of ``radius``; the encoding is in the
     output's metadata (``encoding``). ``progress(done, total)`` is called after each
-    tile. Returns the number of tiles written.
+    tile. Returns the number of tiles written. ``tms``: the tiles of another OGC
+    TileMatrixSet (:func:`gloffset.grids.TmsTile`; an XYZ folder only, the TMS's tile
+    size), as :func:`~gloffset.tiles.pyramid` takes it.
 
     Accuracy: each pixel is the exact signed distance rounded once to float32 radians
     (:func:`gloffset.distance_field`), times ``radius``, rounded to the metre: within 1 m
@@ -107,6 +111,7 @@ def field_pyramid(
     zlo, zhi = parse_zooms(zooms)
     if size & (size - 1) or not 16 <= size <= 4096:
         raise OptionError(f"tile size must be a power of two from 16 to 4096, got {size!r}")
+    quad = pyramid_quad(PyramidOptions(size=size, tms=tms), out, zhi)
     label = name or (source or "field")
     desc = (
         f"Signed distance to the curves of {source or 'the input'} in metres (negative inside "
@@ -114,24 +119,31 @@ def field_pyramid(
         "greenFactor + B * blueFactor - baseShift"
     )
     encoding = json.dumps(FIELD_ENCODING)
-    params = json.dumps({"field": True, "size": size, "radius": radius}, sort_keys=True)
+    extra = {} if quad is None else {"tms": quad.id}
+    params = json.dumps({"field": True, "size": size, "radius": radius, **extra}, sort_keys=True)
     meta = {**store_metadata(label, desc, (zlo, zhi), params), INPUT_KEY: input_digest(shape)}
+    if quad is not None:
+        meta["tileMatrixSet"] = quad.id
+        meta["bounds"] = ",".join(repr(v) for v in quad.lonlat_bounds())
     meta["encoding"] = encoding  # JSON, as "gloffset" is
     store = open_store(out, meta, overwrite=overwrite)
-    total = sum(1 << (2 * z) for z in range(zlo, zhi + 1))
+    shapes = [(1 << z, 1 << z) if quad is None else quad.matrix_shape(z) for z in range(zhi + 1)]
+    total = sum(rows * cols for rows, cols in shapes[zlo:])
     done = 0
     try:
         for z in range(zlo, zhi + 1):
-            n = 1 << z
-            for y in range(n):
-                for x in range(n):
-                    f = field_tile(shape, z, x, y, size)
+            rows, cols = shapes[z]
+            for y in range(rows):
+                for x in range(cols):
+                    f = field_tile(shape, z, x, y, size, quad)
                     store.put(z, x, y, encode_field(f.values, radius))
                     done += 1
                     if progress is not None:
                         progress(done, total)
             store.commit()
-        store.set_metadata(final_bounds(store, (zlo, zhi)))
+        store.set_metadata(final_bounds(store, (zlo, zhi), quad))
+        if quad is not None and isinstance(out, (str, Path)):  # a folder (pyramid_quad)
+            store.put_document(TMS_DOCUMENT, quad.document().encode())
         store.finish()
     finally:
         store.close()

@@ -98,9 +98,7 @@ def final_bounds(store, zooms, quad=None) -> dict:
                 w, e = x0 * 360.0 / (1 << z) - 180.0, (x1 + 1) * 360.0 / (1 << z) - 180.0
                 n, s = (math.degrees(float(lat_at(v, 1 << z))) for v in (y0, y1 + 1))
             else:
-                rows, cols = quad.matrix_shape(z)
-                w, e = (math.degrees(float(quad.lon_at(v, cols))) for v in (x0, x1 + 1))
-                n, s = (math.degrees(float(quad.lat_at(v, rows))) for v in (y0, y1 + 1))
+                w, s, e, n = quad.tiles_lonlat(z, x0, y0, x1, y1)
             b = (round(w, 6), round(s, 6), round(e, 6), round(n, 6))
             cz = min(zooms[1], max(zooms[0], z - 2))
             return {
