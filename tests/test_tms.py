@@ -289,6 +289,14 @@ def test_polar_pyramid_tiles_are_single_renders(tmp_path, world, tms, name, d):
                 mask = gloffset.render(shape, d, TmsTile(tms, z, x, y))
                 assert _tile_bytes(out, z, x, y) == style.encode(mask > 0), (z, x, y)
     assert json.loads((out / "tileMatrixSet.json").read_text())["id"] == tms
+    # the bounds metadata in lon/lat (pyproj's), the pole inside the tiles written
+    w, s, e, n = (
+        float(v) for v in json.loads((out / "metadata.json").read_text())["bounds"].split(",")
+    )
+    if "Antarctic" in tms:  # round the pole
+        assert (w, s, e) == (-180.0, -90.0, 180.0) and -70 < n < 0
+    else:  # Greenland's tiles
+        assert -180 <= w < e <= 180 and 30 < s < n <= 90
 
 
 @pytest.mark.parametrize("z, x, y", [(0, 0, 0), (2, 1, 2), (5, 15, 16), (9, 300, 200)])
