@@ -408,3 +408,15 @@ def test_field_pyramid_of_a_tms(tmp_path, world, tms):
     with pytest.raises(TilesError, match="web-mercator tiles only"):
         field_pyramid(shape, "0-1", tmp_path / "f.mbtiles", tms=tms)
     assert not (tmp_path / "f.mbtiles").exists()
+
+
+def test_web_mercator_quad_pyramid_is_the_default(tmp_path):
+    """tms="WebMercatorQuad" is today's pyramid, MBTiles included, byte for byte."""
+    from conftest import read_mbtiles
+
+    a, b = tmp_path / "a.mbtiles", tmp_path / "b.mbtiles"
+    gloffset.tiles.pyramid(SQUARE_WITH_HOLE, "300km", "0-3", a)
+    gloffset.tiles.pyramid(SQUARE_WITH_HOLE, "300km", "0-3", b, tms="WebMercatorQuad")
+    (ta, ma), (tb, mb) = read_mbtiles(a), read_mbtiles(b)
+    assert ta == tb and len(ta) > 10
+    assert ma["gloffset"] == mb["gloffset"]
