@@ -224,7 +224,7 @@ def _tile_bytes(path, z, x, y):
     return f.read_bytes() if f.exists() else None
 
 
-@pytest.mark.parametrize("d", ["400km", "-150km"])
+@pytest.mark.parametrize("d", ["400km", pytest.param("-150km", marks=pytest.mark.slow)])
 def test_world_crs84_pyramid_tiles_are_single_renders(tmp_path, d):
     """Every tile of the pyramid (z0-3, all 170) equals the render of its TmsTile; the
     folder holds the TileMatrixSet beside the tiles."""
@@ -271,7 +271,7 @@ def test_world_crs84_pyramid_real_border(tmp_path, mexico_path):
     "tms, name, d",
     [
         ("UPSAntarcticWGS84Quad", "Antarctica", "300km"),
-        ("UPSArcticWGS84Quad", "Greenland", "-100km"),
+        pytest.param("UPSArcticWGS84Quad", "Greenland", "-100km", marks=pytest.mark.slow),
     ],
 )
 def test_polar_pyramid_tiles_are_single_renders(tmp_path, world, tms, name, d):
