@@ -67,7 +67,7 @@ def assert_tile_matches_reference(shape, d, tms, z, x, y, step=1):
 
 def frontier_tile(tms, shape_lonlat, z):
     """The tile of zoom z holding a point of the boundary (a frontier tile at d = 0)."""
-    t = morecantile.tms.get(tms)
+    t = morecantile.tms.get(tms) if isinstance(tms, str) else tms
     lon, lat = shape_lonlat
     tile = t.tile(lon, lat, z)
     return tile.x, tile.y
@@ -420,3 +420,27 @@ def test_web_mercator_quad_pyramid_is_the_default(tmp_path):
     (ta, ma), (tb, mb) = read_mbtiles(a), read_mbtiles(b)
     assert ta == tb and len(ta) > 10
     assert ma["gloffset"] == mb["gloffset"]
+
+
+def test_a_custom_polar_tms(tmp_path, world, shapes):
+    """A TileMatrixSet given as a morecantile object, not registered (a NASA-style
+    EPSG:3031 quad): its tiles against the reference, its pyramid against single renders."""
+    import pyproj
+
+    from gloffset.tiles.tiling.tilepaint import TileStyle
+
+    half = 4194304.0
+    tms = morecantile.TileMatrixSet.custom(
+        [-half, -half, half, half], pyproj.CRS("EPSG:3031"), id="Antarctic3031", maxzoom=12
+    )
+    x, y = frontier_tile(tms, _point_on(world, "Antarctica"), 4)
+    want = assert_tile_matches_reference(shapes["Antarctica"], 0.01, tms, 4, x, y, step=2)
+    assert want.any() and not want.all()
+    out = tmp_path / "c"
+    gloffset.tiles.pyramid(shapes["Antarctica"], "200km", "0-2", out, tms=tms)
+    for z in range(3):
+        for x in range(1 << z):
+            for y in range(1 << z):
+                mask = gloffset.render(shapes["Antarctica"], "200km", TmsTile(tms, z, x, y))
+                assert _tile_bytes(out, z, x, y) == TileStyle().encode(mask > 0)
+    assert json.loads((out / "tileMatrixSet.json").read_text())["id"] == "Antarctic3031"

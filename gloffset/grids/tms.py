@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -102,6 +102,12 @@ class TmsQuad:
     maxzoom: int
     bounds: tuple[float, float, float, float]
     crs: str
+    #: the TMS's OGC JSON document (a TMS given as an object need not be registered)
+    doc: str = field(default="", repr=False, compare=False)
+
+    def tms(self):
+        """The morecantile ``TileMatrixSet``."""
+        return _parsed(self.doc) if self.doc else as_tms(self.id)
 
     # ------------------------------------------------------------ lon/lat quadtrees
     def lon_at(self, pos, n) -> np.ndarray:
@@ -156,7 +162,7 @@ class TmsQuad:
             return (w, s, e, n)
         from pyproj import Transformer
 
-        tms = as_tms(self.id)
+        tms = self.tms()
         a, b = tms.xy_bounds(x0, y0, z), tms.xy_bounds(x1, y1, z)
         tr = Transformer.from_crs(self.crs, "OGC:CRS84", always_xy=True)
         w, s, e, n = tr.transform_bounds(a.left, b.bottom, b.right, a.top, densify_pts=64)
@@ -170,13 +176,20 @@ class TmsQuad:
 
     def document(self) -> str:
         """The TMS as its OGC JSON document (morecantile's)."""
-        return as_tms(self.id).model_dump_json(exclude_none=True, indent=2)
+        return self.tms().model_dump_json(exclude_none=True, indent=2)
 
 
 def _projected_tile(quad: TmsQuad, z: int, x: int, y: int) -> Projected:
-    b = as_tms(quad.id).xy_bounds(x, y, z)
+    b = quad.tms().xy_bounds(x, y, z)
     bounds = (b.left, b.bottom, b.right, b.top)
     return Projected(quad.size, quad.size, crs=quad.crs, bounds=bounds)
+
+
+@functools.lru_cache(maxsize=64)
+def _parsed(doc: str):
+    import morecantile
+
+    return morecantile.TileMatrixSet.model_validate_json(doc)
 
 
 @functools.lru_cache(maxsize=64)
@@ -228,6 +241,7 @@ def _quad_of(tms) -> TmsQuad:
         int(tms.maxzoom),
         bounds,
         crs.to_string(),
+        tms.model_dump_json(exclude_none=True),
     )
 
 
@@ -362,7 +376,7 @@ class ProjectedQuadLevels:
         if quad.kind != "projected":
             raise InvalidGridError(f"{quad.id} is not a TMS in a projected CRS")
         self.quad, self.maxzoom = quad, int(maxzoom)
-        tms = as_tms(quad.id)
+        tms = quad.tms()
         self._zooms = []
         gap = 0.0
         for z in range(self.maxzoom + 1):
