@@ -264,8 +264,23 @@ class Projected(LevelHierarchy):
         return v, ok
 
     def _check_domain(self) -> None:
-        """Refuse bounds where no point of a 9 x 9 sample (corners and edges included)
-        has an inverse that projects back to it."""
+        """Refuse bounds that miss the CRS's area of use (projected) altogether, or where
+        no point of a 9 x 9 sample (corners and edges included) has an inverse that
+        projects back to it."""
+        area = None
+        if self._crs.area_of_use is not None:
+            try:
+                area = self.area_bounds(self._crs)
+            except InvalidGridError:
+                area = None
+        xmin, ymin, xmax, ymax = self.bounds
+        if area is not None and (
+            xmax <= area[0] or xmin >= area[2] or ymax <= area[1] or ymin >= area[3]
+        ):
+            raise InvalidGridError(
+                f"bounds {self.bounds!r} lie outside the domain of {self._crs.name!r}: its "
+                f"area of use is {tuple(round(v) for v in area)!r} in its units"
+            )
         t = np.linspace(0.0, 1.0, 9)
         x, y = np.meshgrid(t * self.width, t * self.height)
         lon, lat = self._lonlat_at(x, y)
