@@ -296,3 +296,19 @@ def test_cli_bad_crs_or_bounds(tmp_path, antarctica_file, args, words):
     proc = cli("render", antarctica_file, "-d", "50km", *args, "-o", out)
     assert_one_line_error(proc, *words)
     assert not out.exists()
+
+
+def test_polar_twin_is_pyprojs_inverse():
+    """The float64 twin that the coarse levels and the GPU's textures use is pyproj's
+    inverse to within 1e-12 rad (both hemispheres, variants A and B, false origins)."""
+    from gloffset.grids.projected import polar_inverse
+
+    rng = np.random.default_rng(1)
+    for code in ("EPSG:3031", "EPSG:3413", "EPSG:5041", "EPSG:3976", "EPSG:32761"):
+        crs = pyproj.CRS(code)
+        x, y = rng.uniform(-9e6, 9e6, (2, 20000))
+        lon, lat = pyproj.Transformer.from_crs(crs, crs.geodetic_crs, always_xy=True).transform(
+            x, y
+        )
+        assert np.max(angle(polar_inverse(crs)(x, y), lonlat_to_xyz(lon, lat))) < 1e-12, code
+    assert polar_inverse(pyproj.CRS("EPSG:3035")) is None
