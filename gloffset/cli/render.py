@@ -157,12 +157,7 @@ def render_cmd(
     image of the distance bands."""
     ell = parse_ellipsoid(ellipsoid)
     many = distance_list(distance, lambda t: metres(t) if ell is not None else angle(t, radius))
-    if crs is not None:
-        if grid_kind == "cube":
-            raise OptionError("--crs does not apply to --grid cube")
-        if from_raster is not None:
-            raise OptionError("--from-raster offsets lon/lat masks: no --crs")
-        grid_kind = ("crs", crs)
+    grid_kind = _with_crs(grid_kind, crs, from_raster)
     if len(many) > 1 or bands:
         if from_raster is not None or classes_level is not None or mask_only:
             raise OptionError(
@@ -355,6 +350,17 @@ def _check_output(output, grid_kind, cog) -> bool:
         image_format(output)
         check_output(output)
     return cog
+
+
+def _with_crs(grid_kind, crs, from_raster):
+    """The grid kind, ``("crs", CRS)`` with ``--crs`` (checked against the other options)."""
+    if crs is None:
+        return grid_kind
+    if grid_kind == "cube":
+        raise OptionError("--crs does not apply to --grid cube")
+    if from_raster is not None:
+        raise OptionError("--from-raster offsets lon/lat masks: no --crs")
+    return ("crs", crs)
 
 
 def _grid(grid_kind, size, bounds):

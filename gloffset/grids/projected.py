@@ -16,7 +16,8 @@ ways (derivation: docs/design.md, "gloffset.grids.projected"):
   plane to the unit sphere, ``K = 1 / (k_min a (1 - e^2))``, so ``rho = K h`` (``h`` the
   cell's half-diagonal) plus 3e-9 rad per level for the inverse's own error. Polar
   stereographic (variants A and B: EPSG:3031, 3413, 3976, UPS): ``k_min`` is the scale
-  at the pole, and the whole plane is the domain;
+  at the pole, and the whole plane is the domain; Transverse Mercator (UTM, national
+  grids) within 3900 km of the central meridian: ``k_0``;
 * otherwise from the pixel centres themselves (every one computed by pyproj, about
   0.5-0.7 us each): exact for the pixels, correct for any CRS, slower.
 
@@ -156,6 +157,28 @@ def polar_inverse(crs):
         return np.stack([cp * cl, cp * sl, sp], axis=-1)
 
     return inverse
+
+
+#: Transverse Mercator: the formula bound is used where every cell centre lies within this
+#: distance (metres, over the scale factor) of the central meridian, where PROJ's series
+#: are good to nanometres (Karney 2011: 5 nm within 3900 km)
+_TM_REACH = 3.9e6
+
+
+def transverse_scale_min(crs, box) -> float | None:
+    """The smallest scale factor of a Transverse Mercator ``crs`` (UTM and national
+    grids) over the box ``(xmin, ymin, xmax, ymax)`` (CRS units): ``k_0``, the scale on
+    the central meridian (it grows away from it), where the box lies within
+    :data:`_TM_REACH` of it; else None, as for other CRSs."""
+    op = crs.coordinate_operation
+    if op is None or op.method_name != "Transverse Mercator":
+        return None
+    params = {p.name: p.value for p in op.params}
+    k0 = float(params.get("Scale factor at natural origin", 1.0))
+    fe = params.get("False easting", 0.0)
+    unit = crs.axis_info[0].unit_conversion_factor or 1.0
+    reach = max(abs(box[0] - fe), abs(box[2] - fe)) * unit / k0
+    return k0 if reach <= _TM_REACH else None
 
 
 def _eccentricity_squared(crs) -> float:
@@ -365,7 +388,13 @@ class Projected(LevelHierarchy):
         """Radians on the unit sphere per CRS unit, an upper bound (formula grids), or None."""
         if "_lip" in self.__dict__:
             return self.__dict__["_lip"]
+        # every cell centre lies in the grid's bounds grown by their size on each side
+        fx0, fy0, fw, fh, (xmin, ymin, xmax, ymax) = self._frame
+        w, h = xmax - xmin, ymax - ymin
+        box = (xmin - w, ymin - h, xmax + w, ymax + h)
         k = polar_scale_min(self._crs)
+        if k is None:
+            k = transverse_scale_min(self._crs, box)
         lip = None
         if k is not None and k > 0.0:
             a = self._crs.ellipsoid.semi_major_metre
