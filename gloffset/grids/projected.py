@@ -28,6 +28,7 @@ The GPU levels read a Projected grid's cell centres from a texture made here in 
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
@@ -52,6 +53,42 @@ def _pyproj():
             "a Projected grid needs pyproj: pip install 'gloffset[files]'"
         ) from None
     return pyproj
+
+
+#: pyproj transformers and projected areas of use, per thread and CRS (making a
+#: transformer costs about 1 ms: a tile pyramid makes many grids of one CRS)
+_CACHE: dict = {}
+_CACHE_SIZE = 64
+
+
+def _cached(kind: str, crs, make):
+    key = (kind, threading.get_ident(), crs.to_wkt())
+    got = _CACHE.get(key)
+    if got is None:
+        got = make()
+        if len(_CACHE) >= _CACHE_SIZE:
+            _CACHE.pop(next(iter(_CACHE)), None)
+        _CACHE[key] = got
+    return got
+
+
+def _inverse_transformer(crs):
+    """pyproj's inverse of ``crs``: to its own geographic CRS, lon/lat order."""
+    pyproj = _pyproj()
+    return _cached(
+        "inverse",
+        crs,
+        lambda: pyproj.Transformer.from_crs(crs, crs.geodetic_crs, always_xy=True),
+    )
+
+
+def _forward_transformer(crs):
+    pyproj = _pyproj()
+    return _cached(
+        "forward",
+        crs,
+        lambda: pyproj.Transformer.from_crs(crs.geodetic_crs, crs, always_xy=True),
+    )
 
 
 def _as_crs(crs):
@@ -187,6 +224,21 @@ def _eccentricity_squared(crs) -> float:
     return f * (2.0 - f)
 
 
+def _projected_area(crs) -> tuple[float, float, float, float]:
+    area = crs.area_of_use
+    if area is None:
+        raise InvalidGridError(f"CRS {crs.name!r} has no area of use: give bounds")
+    try:
+        b = _forward_transformer(crs).transform_bounds(*area.bounds, densify_pts=101)
+    except Exception as exc:
+        raise InvalidGridError(
+            f"the area of use of {crs.name!r} cannot be projected: {exc}; give bounds"
+        ) from None
+    if not all(math.isfinite(x) for x in b) or not (b[0] < b[2] and b[1] < b[3]):
+        raise InvalidGridError(f"the area of use of {crs.name!r} does not project: give bounds")
+    return (float(b[0]), float(b[1]), float(b[2]), float(b[3]))
+
+
 class Projected(LevelHierarchy):
     """A ``width x height`` image in the projected CRS ``crs`` over ``bounds`` (the outer
     edges ``(xmin, ymin, xmax, ymax)`` in the CRS's units; default: the CRS's area of
@@ -263,7 +315,6 @@ class Projected(LevelHierarchy):
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        state.pop("_transformer", None)
         state.pop("_inverse", None)
         state["_crs"] = self._crs.to_wkt()
         return state
@@ -277,30 +328,12 @@ class Projected(LevelHierarchy):
     def area_bounds(crs) -> tuple[float, float, float, float]:
         """The area of use of ``crs`` projected to it: ``(xmin, ymin, xmax, ymax)``."""
         crs = _as_crs(crs)
-        area = crs.area_of_use
-        if area is None:
-            raise InvalidGridError(f"CRS {crs.name!r} has no area of use: give bounds")
-        pyproj = _pyproj()
-        to = pyproj.Transformer.from_crs(crs.geodetic_crs, crs, always_xy=True)
-        try:
-            b = to.transform_bounds(*area.bounds, densify_pts=101)
-        except Exception as exc:
-            raise InvalidGridError(
-                f"the area of use of {crs.name!r} cannot be projected: {exc}; give bounds"
-            ) from None
-        if not all(math.isfinite(x) for x in b) or not (b[0] < b[2] and b[1] < b[3]):
-            raise InvalidGridError(f"the area of use of {crs.name!r} does not project: give bounds")
-        return tuple(float(x) for x in b)  # type: ignore[return-value]
+        return _cached("area", crs, lambda: _projected_area(crs))
 
     @property
     def transformer(self):
         """pyproj's inverse: the CRS to its geographic CRS, lon/lat order."""
-        t = self.__dict__.get("_transformer")
-        if t is None:
-            pyproj = _pyproj()
-            t = pyproj.Transformer.from_crs(self._crs, self._crs.geodetic_crs, always_xy=True)
-            self.__dict__["_transformer"] = t
-        return t
+        return _inverse_transformer(self._crs)
 
     # ------------------------------------------------------------------ geometry
     def transform(self) -> tuple:
@@ -370,8 +403,7 @@ class Projected(LevelHierarchy):
         lon, lat = self._lonlat_at(x, y)
         ok = np.isfinite(lon)
         if ok.any():
-            pyproj = _pyproj()
-            fwd = pyproj.Transformer.from_crs(self._crs.geodetic_crs, self._crs, always_xy=True)
+            fwd = _forward_transformer(self._crs)
             bx, by = fwd.transform(lon[ok], lat[ok], errcheck=False)
             px, py = self.pixel_xy(x[ok], y[ok])
             xmin, ymin, xmax, ymax = self.bounds
