@@ -103,6 +103,8 @@ def test_polar_scale_is_the_smallest_scale():
     "crs, bounds, size",
     [
         ("EPSG:3031", (-3.3e6, -3.1e6, 3.5e6, 3.0e6), (150, 120)),  # the formula
+        ("EPSG:32633", (1.0e5, 4.0e6, 9.0e5, 5.3e6), (110, 150)),  # the formula (k0)
+        ("EPSG:32633", (-6e6, 4.0e6, 6e6, 5.3e6), (110, 60)),  # too wide: the pixels
         ("EPSG:3035", (2.5e6, 1.4e6, 6.5e6, 5.5e6), (120, 130)),  # from the pixel centres
         (ORTHO, (-8e6, -7e6, 8e6, 8e6), (130, 110)),  # pixels outside the domain
     ],
@@ -224,3 +226,91 @@ def test_default_bounds_are_the_area_of_use():
 def test_bad_grids(kwargs, words):
     with pytest.raises(InvalidGridError, match=words):
         Projected(16, 16, **kwargs)
+
+
+@pytest.fixture(scope="module")
+def antarctica_file(tmp_path_factory, world110):
+    path = tmp_path_factory.mktemp("in") / "antarctica.geojson"
+    path.write_text(json.dumps(world110["Antarctica"]))
+    return path
+
+
+def cli(*args):
+    import subprocess
+    import sys
+
+    return subprocess.run(
+        [sys.executable, "-m", "gloffset", *map(str, args)], capture_output=True, check=False
+    )
+
+
+def test_cli_geotiff_in_the_crs(tmp_path, antarctica_file):
+    """``render --crs EPSG:3031 --bounds ... -o out.tif`` (and a COG): rasterio reads its
+    CRS and transform back, and its pixels are the library's render; a PNG gets a world
+    file and the CRS's .prj; ``field --crs`` writes the library's field, whose threshold
+    is that render."""
+    rasterio = pytest.importorskip("rasterio")
+    bounds = (-3.2e6, -3.0e6, 3.4e6, 3.1e6)
+    common = ["--crs", "EPSG:3031", "--bounds", ",".join(map(str, bounds)), "--size", "120x100"]
+    tif, png, cog, fld = (tmp_path / n for n in ("a.tif", "a.png", "a.cog.tif", "f.tif"))
+    for out in (tif, png, cog):
+        proc = cli("render", antarctica_file, "-d", "50km", *common, "-o", out)
+        assert proc.returncode == 0, proc.stderr.decode()
+    proc = cli("field", antarctica_file, *common, "-o", fld)
+    assert proc.returncode == 0, proc.stderr.decode()
+    g = Projected(120, 100, crs="EPSG:3031", bounds=bounds)
+    want = gloffset.render(gloffset.read(antarctica_file), 50e3, g)
+    for path in (tif, cog):
+        with rasterio.open(path) as src:
+            assert src.crs.to_epsg() == 3031
+            assert tuple(src.transform)[:6] == pytest.approx(g.transform())
+            assert np.array_equal(src.read(1), want)
+    from gloffset.io.png import read_mask
+
+    assert np.array_equal(read_mask(png), want == 255)
+    pgw = [float(v) for v in (tmp_path / "a.pgw").read_text().split()]
+    assert pgw[4] == pytest.approx(bounds[0] + 0.5 * (bounds[2] - bounds[0]) / 120)
+    prj = (tmp_path / "a.prj").read_text()
+    assert "Stereographic" in prj and pyproj.CRS(prj).to_epsg() in (3031, None)
+    with rasterio.open(fld) as src:
+        assert src.crs.to_epsg() == 3031
+        values = src.read(1)
+    field = gloffset.distance_field(gloffset.read(antarctica_file), g)
+    assert np.array_equal(values, field.values)
+    assert np.array_equal(field.threshold(50e3), want)
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--crs", "EPSG:99999999"], ["unknown CRS"]),
+        (["--crs", "EPSG:3031", "--bounds", "1e12,1e12,2e12,2e12"], ["outside the domain"]),
+        (["--crs", ORTHO, "--bounds", "2e7,2e7,3e7,3e7"], ["outside the domain"]),
+        (["--crs", "EPSG:3031", "--bounds", "1,2,3"], ["XMIN,YMIN,XMAX,YMAX"]),
+        (["--crs", "EPSG:4326"], ["not a projected CRS"]),
+        (["--crs", "EPSG:3031", "--grid", "cube"], ["--crs"]),
+    ],
+)
+def test_cli_bad_crs_or_bounds(tmp_path, antarctica_file, args, words):
+    from conftest import assert_one_line_error
+
+    out = tmp_path / "x.tif"
+    proc = cli("render", antarctica_file, "-d", "50km", *args, "-o", out)
+    assert_one_line_error(proc, *words)
+    assert not out.exists()
+
+
+def test_polar_twin_is_pyprojs_inverse():
+    """The float64 twin that the coarse levels and the GPU's textures use is pyproj's
+    inverse to within 1e-12 rad (both hemispheres, variants A and B, false origins)."""
+    from gloffset.grids.projected import polar_inverse
+
+    rng = np.random.default_rng(1)
+    for code in ("EPSG:3031", "EPSG:3413", "EPSG:5041", "EPSG:3976", "EPSG:32761"):
+        crs = pyproj.CRS(code)
+        x, y = rng.uniform(-9e6, 9e6, (2, 20000))
+        lon, lat = pyproj.Transformer.from_crs(crs, crs.geodetic_crs, always_xy=True).transform(
+            x, y
+        )
+        assert np.max(angle(polar_inverse(crs)(x, y), lonlat_to_xyz(lon, lat))) < 1e-12, code
+    assert polar_inverse(pyproj.CRS("EPSG:3035")) is None

@@ -11,7 +11,7 @@ import click
 import numpy as np
 
 from ..errors import OptionError, OutputError
-from ..grids import FACE_NAMES, Cube, Equirect
+from ..grids import FACE_NAMES, Cube, Equirect, Projected
 from ..io.georef import Georef, write_geotiff
 from ..io.output import check_output, refuse_stdout, write_bytes
 from ..raster.field import distance_field, ellipsoid_refusal
@@ -20,12 +20,15 @@ from . import main
 from .options import (
     angle,
     choice_option,
+    crs_option,
     input_options,
     parse_bounds,
     parse_ellipsoid,
     parse_face,
     parse_size,
     progress_bar,
+    projected_georef,
+    projected_grid,
     radius_option,
     size_options,
 )
@@ -64,6 +67,7 @@ def _format(output: str, grid_kind: str) -> str:
     help="equirect: one raster; cube: OUTPUT is a folder of px nx py ny pz nz .npy faces.",
 )
 @size_options
+@crs_option
 @click.option(
     "--max-distance",
     "max_distance",
@@ -97,6 +101,7 @@ def field_cmd(
     grid_kind,
     size,
     bounds,
+    crs,
     max_distance,
     output,
     backend="gpu",
@@ -108,13 +113,18 @@ def field_cmd(
     each pixel centre to its curves, negative inside its polygons (row 0 north).
 
     One field answers every distance: the region at distance d is where the field is at
-    most d. Values are exact float64 distances rounded to float32."""
+    most d. Values are exact float64 distances rounded to float32. With --crs the raster
+    is in that projected CRS (+inf where a pixel has no lon/lat)."""
     if ellipsoid is not None:
         parse_ellipsoid(ellipsoid)  # an unknown one is named as such
         raise OptionError(ellipsoid_refusal(ellipsoid))
+    if crs is not None and grid_kind == "cube":
+        raise OptionError("--crs does not apply to --grid cube")
     kind = _format(output, grid_kind)
-    grid: Cube | Equirect
-    if grid_kind == "cube":
+    grid: Cube | Equirect | Projected
+    if crs is not None:
+        grid = projected_grid(crs, size, bounds)
+    elif grid_kind == "cube":
         if bounds is not None:
             raise OptionError("--bounds does not apply to --grid cube")
         grid = Cube(parse_face(size or "1024"))
@@ -167,8 +177,11 @@ def field_cmd(
         if m is not None:
             values = np.where(np.abs(values) >= np.float32(m), np.float32(np.nan), values)
         cog = str(output).lower().endswith((".cog.tif", ".cog.tiff"))
-        assert isinstance(grid, Equirect)  # a cube goes to a folder (_format)
-        ref = Georef(grid.transform(), description=DESCRIPTION)
+        if isinstance(grid, Projected):
+            ref = projected_georef(grid, DESCRIPTION)
+        else:
+            assert isinstance(grid, Equirect)  # a cube goes to a folder (_format)
+            ref = Georef(grid.transform(), description=DESCRIPTION)
         nodata = None if m is None else float("nan")
         write_geotiff(output, values, ref, cog=cog, nodata=nodata)
 

@@ -11,7 +11,7 @@ import click
 import numpy as np
 
 from ..errors import InputFormatError, OptionError, OutputError
-from ..grids import FACE_NAMES, Cube, CubeFace, Equirect, InvalidGridError
+from ..grids import FACE_NAMES, Cube, CubeFace, Equirect, InvalidGridError, Projected
 from ..io.georef import Georef, read_geotiff
 from ..io.output import check_output, refuse_stdout
 from ..io.png import Placement, image_format, parse_color, read_mask, write_classes, write_mask
@@ -22,12 +22,15 @@ from . import main
 from .options import (
     angle,
     choice_option,
+    crs_option,
     distance_list,
     fill_options,
     input_options,
     measure_options,
     metres,
     parse_ellipsoid,
+    projected_georef,
+    projected_grid,
     size_options,
 )
 from .options import parse_bounds as _bounds
@@ -50,6 +53,7 @@ CubeFacesError = InputFormatError
     help="equirect: one image; cube: OUTPUT is a folder of px nx py ny pz nz PNGs.",
 )
 @size_options
+@crs_option
 @click.option(
     "-o",
     "--output",
@@ -122,6 +126,7 @@ def render_cmd(
     grid_kind,
     size,
     bounds,
+    crs,
     output,
     fill,
     opacity,
@@ -143,7 +148,8 @@ def render_cmd(
 
     Equirect images are georeferenced (EPSG:4326): a .tif is a tiled, compressed GeoTIFF
     (rasterio: pip install 'gloffset[geo]'), a .png gets a world file (.pgw, pixel centres)
-    and a .prj beside it.
+    and a .prj beside it. With --crs (e.g. EPSG:3031 --bounds XMIN,YMIN,XMAX,YMAX) the
+    image is in that projected CRS, georeferenced in it.
 
     Several distances, -d 10km,50km,127km, write one mask per distance, named by the
     distance as given (out_10km.png, out_50km.png, ...; with --grid cube the folders
@@ -151,6 +157,7 @@ def render_cmd(
     image of the distance bands."""
     ell = parse_ellipsoid(ellipsoid)
     many = distance_list(distance, lambda t: metres(t) if ell is not None else angle(t, radius))
+    grid_kind = _with_crs(grid_kind, crs, from_raster)
     if len(many) > 1 or bands:
         if from_raster is not None or classes_level is not None or mask_only:
             raise OptionError(
@@ -336,13 +343,24 @@ def _check_output(output, grid_kind, cog) -> bool:
     """Check the output options before the work; whether a COG is written."""
     cog = cog or str(output).lower().endswith((".cog.tif", ".cog.tiff"))
     if cog and (grid_kind == "cube" or image_format(output) != "TIFF"):
-        raise OptionError("--cog needs an equirect image written to NAME.tif")
+        raise OptionError("--cog needs an equirect or --crs image written to NAME.tif")
     if grid_kind == "cube":
         refuse_stdout(output, "--grid cube writes six images into a folder")
     else:  # fail before the work
         image_format(output)
         check_output(output)
     return cog
+
+
+def _with_crs(grid_kind, crs, from_raster):
+    """The grid kind, ``("crs", CRS)`` with ``--crs`` (checked against the other options)."""
+    if crs is None:
+        return grid_kind
+    if grid_kind == "cube":
+        raise OptionError("--crs does not apply to --grid cube")
+    if from_raster is not None:
+        raise OptionError("--from-raster offsets lon/lat masks: no --crs")
+    return ("crs", crs)
 
 
 def _grid(grid_kind, size, bounds):
@@ -352,6 +370,9 @@ def _grid(grid_kind, size, bounds):
             raise OptionError("--bounds does not apply to --grid cube")
         n = _face(size or "1024")
         return Cube(n), CubeFace(0, n).n_levels
+    if isinstance(grid_kind, tuple):  # ("crs", CRS): a projected image
+        projected = projected_grid(grid_kind[1], size, bounds)
+        return projected, projected.n_levels
     w, h = _size(size or "4096x2048")
     grid = Equirect(w, h, _bounds(bounds))
     return grid, grid.n_levels
@@ -367,6 +388,8 @@ def _placement(grid, cog: bool, worldfile: bool, what: str) -> Placement:
         desc = "gloffset classes: black contained, red frontier, white outside"
     else:
         desc = what
+    if isinstance(grid, Projected):  # georeferenced in its CRS
+        return Placement(projected_georef(grid, desc), cog=cog, worldfile=worldfile)
     return Placement(Georef(grid.transform(), description=desc), cog=cog, worldfile=worldfile)
 
 

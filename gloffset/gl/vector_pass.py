@@ -20,6 +20,7 @@ one buffer (:func:`_groups`), one draw per group.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,8 +62,9 @@ class BinPlan:
     columns, 2^s) float32 the cell rows' latitude and columns' longitude minus their bin's.
     Cube faces: ``basis`` (3, 3) the face's axes and ``face_size`` its pixels per side.
     Other grids (textured centres): ``bin_centre`` (hb, wb, 3) float32 the bin centres on
-    the canvas, ``cell_delta[s]`` (hb 2^s, wb 2^s, 3) float32 each cell's centre minus its
-    bin's (made in float64).
+    the canvas, ``cell_delta(s, parent)`` (hb 2^s, wb 2^s, 3) float32 each cell's centre
+    minus its bin's (made in float64) for the children of the frontier cells of
+    ``parent``, the classes read back from shift ``s - 1`` (the canvas at shift 1).
     """
 
     canvas: np.ndarray
@@ -88,7 +90,7 @@ class BinPlan:
     basis: np.ndarray | None = None
     face_size: int | None = None
     bin_centre: np.ndarray | None = None
-    cell_delta: dict | None = None
+    cell_delta: Callable[[int, np.ndarray], np.ndarray] | None = None
 
     @property
     def cube(self) -> bool:
@@ -167,10 +169,24 @@ class VectorPasses:
         out = plan.canvas
         owned = [parent]
         try:
+            textured = plan.kind == "texture"
             for s in range(1, plan.stop + 1):
-                read = callback is not None or s == plan.stop
+                # a textured plan reads every level back: its next level's centres are
+                # made for the children of the frontier cells only
+                read = callback is not None or s == plan.stop or textured
+                delta = None
+                if textured:
+                    assert plan.cell_delta is not None  # a textured plan's
+                    delta = plan.cell_delta(s, out)
                 target, got, done = self._level(
-                    s, plan, p, (pre, pre_vao, len(fb)), draws, parent, read, timings is not None
+                    s,
+                    plan,
+                    p,
+                    (pre, pre_vao, len(fb)),
+                    draws,
+                    (parent, delta),
+                    read,
+                    timings is not None,
                 )
                 if timings is not None:
                     timings.append((s, done))
@@ -275,12 +291,14 @@ class VectorPasses:
         return draws
 
     def _level(self, s: int, plan: BinPlan, p, prepass, draws, parent, read: bool, timed: bool):
-        """Shift ``s`` drawn into a new class target from the ``parent`` classes: the
+        """Shift ``s`` drawn into a new class target from the ``parent`` classes (and, for
+        a textured plan, the level's centres: ``parent`` is ``(classes, centres)``): the
         prepass (from :data:`_MASK_FROM` on), then the level's pass. Returns the target
         (the next parent), the classes read back (with ``read``, else None) and, with
         ``timed``, the time the pass finished (else None)."""
         import moderngl
 
+        parent, delta = parent
         ctx = self.ctx
         pre, pre_vao, n_bins = prepass
         hb, wb = plan.canvas.shape
@@ -296,9 +314,8 @@ class VectorPasses:
             ctx.viewport = (0, 0, w, h)
             parent.use(0)
             mt.use(5)
-            if plan.kind == "texture":
-                assert plan.cell_delta is not None  # a textured plan's
-                level_tex = [self._tex(plan.cell_delta[s], 3, "f4")]
+            if delta is not None:  # a textured plan's
+                level_tex = [self._tex(delta, 3, "f4")]
                 level_tex[0].use(7)
                 _set(p, "u_cell_delta", 7)
             elif not plan.cube:

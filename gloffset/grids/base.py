@@ -125,6 +125,11 @@ class LevelHierarchy:
         """The bound of cells (``j``, ``i``) of ``level``."""
         return self.rho(level)[np.asarray(j)] + 0.0 * np.asarray(i)
 
+    def texture_centers(self, level: int, j, i) -> np.ndarray:
+        """The cell centres the GPU levels read from textures (``centres`` is
+        ``"texture"``): :meth:`centers`, or a faster float64 twin of them."""
+        return self.centers(level, j, i)  # type: ignore[attr-defined]
+
     def valid(self, level: int) -> np.ndarray | None:
         """Per cell of ``level``: whether a pixel of it has a place on the sphere; None
         when every pixel has (every grid but a projection with a limited domain)."""

@@ -16,7 +16,8 @@ ways (derivation: docs/design.md, "gloffset.grids.projected"):
   plane to the unit sphere, ``K = 1 / (k_min a (1 - e^2))``, so ``rho = K h`` (``h`` the
   cell's half-diagonal) plus 3e-9 rad per level for the inverse's own error. Polar
   stereographic (variants A and B: EPSG:3031, 3413, 3976, UPS): ``k_min`` is the scale
-  at the pole, and the whole plane is the domain;
+  at the pole, and the whole plane is the domain; Transverse Mercator (UTM, national
+  grids) within 3900 km of the central meridian: ``k_0``;
 * otherwise from the pixel centres themselves (every one computed by pyproj, about
   0.5-0.7 us each): exact for the pixels, correct for any CRS, slower.
 
@@ -27,6 +28,7 @@ The GPU levels read a Projected grid's cell centres from a texture made here in 
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
@@ -51,6 +53,42 @@ def _pyproj():
             "a Projected grid needs pyproj: pip install 'gloffset[files]'"
         ) from None
     return pyproj
+
+
+#: pyproj transformers and projected areas of use, per thread and CRS (making a
+#: transformer costs about 1 ms: a tile pyramid makes many grids of one CRS)
+_CACHE: dict = {}
+_CACHE_SIZE = 64
+
+
+def _cached(kind: str, crs, make):
+    key = (kind, threading.get_ident(), crs.to_wkt())
+    got = _CACHE.get(key)
+    if got is None:
+        got = make()
+        if len(_CACHE) >= _CACHE_SIZE:
+            _CACHE.pop(next(iter(_CACHE)), None)
+        _CACHE[key] = got
+    return got
+
+
+def _inverse_transformer(crs):
+    """pyproj's inverse of ``crs``: to its own geographic CRS, lon/lat order."""
+    pyproj = _pyproj()
+    return _cached(
+        "inverse",
+        crs,
+        lambda: pyproj.Transformer.from_crs(crs, crs.geodetic_crs, always_xy=True),
+    )
+
+
+def _forward_transformer(crs):
+    pyproj = _pyproj()
+    return _cached(
+        "forward",
+        crs,
+        lambda: pyproj.Transformer.from_crs(crs.geodetic_crs, crs, always_xy=True),
+    )
 
 
 def _as_crs(crs):
@@ -98,10 +136,107 @@ def polar_scale_min(crs) -> float | None:
     return None
 
 
+def polar_inverse(crs):
+    """The float64 twin of pyproj's inverse of a polar stereographic ``crs``: a function
+    ``(x, y) -> unit vectors (..., 3)`` (numpy, a few times faster than pyproj and
+    :func:`~gloffset.geometry.sphere.lonlat_to_xyz`), or None for other CRSs. EPSG
+    Guidance Note 7-2, 1.3.7: the conformal latitude from ``t = rho / (a k_p C)`` (``C = 2
+    / sqrt((1 + e)^(1 + e) (1 - e)^(1 - e))``, ``k_p`` the scale at the pole,
+    :func:`polar_scale_min`), the geodetic latitude from its series to ``e^8`` and one
+    fixed-point step (which divides the error by about ``1 / e^2``), the longitude's
+    cosine and sine straight from ``x`` and ``y``: within 1e-12 rad of pyproj's (tested)."""
+    k = polar_scale_min(crs)
+    if k is None:
+        return None
+    op = crs.coordinate_operation
+    params = {p.name: p.value for p in op.params}
+    lat0 = params.get("Latitude of natural origin", params.get("Latitude of standard parallel"))
+    south = lat0 is not None and lat0 < 0
+    lon0 = math.radians(
+        params.get("Longitude of origin", params.get("Longitude of natural origin", 0.0))
+    )
+    fe = params.get("False easting", 0.0)
+    fn = params.get("False northing", 0.0)
+    a = crs.ellipsoid.semi_major_metre
+    unit = crs.axis_info[0].unit_conversion_factor or 1.0
+    es = _eccentricity_squared(crs)
+    e = math.sqrt(es)
+    scale = 2.0 * a * k / math.sqrt((1 + e) ** (1 + e) * (1 - e) ** (1 - e))
+    e4, e6, e8 = es * es, es**3, es**4
+    c2 = es / 2 + 5 * e4 / 24 + e6 / 12 + 13 * e8 / 360
+    c4 = 7 * e4 / 48 + 29 * e6 / 240 + 811 * e8 / 11520
+    c6 = 7 * e6 / 120 + 81 * e8 / 1120
+    c8 = 4279 * e8 / 161280
+    cl0, sl0 = math.cos(lon0), math.sin(lon0)
+
+    def inverse(x, y):
+        dx = (np.asarray(x, dtype=np.float64) - fe) * unit
+        dy = (np.asarray(y, dtype=np.float64) - fn) * unit
+        rho = np.hypot(dx, dy)
+        t = rho / scale
+        chi = np.pi / 2 - 2.0 * np.arctan(t)
+        s2, c2x = np.sin(2 * chi), np.cos(2 * chi)
+        s4 = 2 * s2 * c2x
+        c4x = 1 - 2 * s2 * s2
+        s6 = s4 * c2x + c4x * s2
+        s8 = 2 * s4 * c4x
+        phi = chi + c2 * s2 + c4 * s4 + c6 * s6 + c8 * s8
+        es_ = e * np.sin(phi)
+        phi = np.pi / 2 - 2.0 * np.arctan(t * ((1.0 - es_) / (1.0 + es_)) ** (e / 2))
+        # longitude lon0 + atan2(dx, -dy) (north) or atan2(dx, dy) (south)
+        safe = np.where(rho > 0.0, rho, 1.0)
+        ct = np.where(rho > 0.0, (dy if south else -dy) / safe, 1.0)
+        st = np.where(rho > 0.0, dx / safe, 0.0)
+        cl, sl = cl0 * ct - sl0 * st, sl0 * ct + cl0 * st
+        cp, sp = np.cos(phi), np.sin(phi)
+        if south:
+            sp = -sp
+        return np.stack([cp * cl, cp * sl, sp], axis=-1)
+
+    return inverse
+
+
+#: Transverse Mercator: the formula bound is used where every cell centre lies within this
+#: distance (metres, over the scale factor) of the central meridian, where PROJ's series
+#: are good to nanometres (Karney 2011: 5 nm within 3900 km)
+_TM_REACH = 3.9e6
+
+
+def transverse_scale_min(crs, box) -> float | None:
+    """The smallest scale factor of a Transverse Mercator ``crs`` (UTM and national
+    grids) over the box ``(xmin, ymin, xmax, ymax)`` (CRS units): ``k_0``, the scale on
+    the central meridian (it grows away from it), where the box lies within
+    :data:`_TM_REACH` of it; else None, as for other CRSs."""
+    op = crs.coordinate_operation
+    if op is None or op.method_name != "Transverse Mercator":
+        return None
+    params = {p.name: p.value for p in op.params}
+    k0 = float(params.get("Scale factor at natural origin", 1.0))
+    fe = params.get("False easting", 0.0)
+    unit = crs.axis_info[0].unit_conversion_factor or 1.0
+    reach = max(abs(box[0] - fe), abs(box[2] - fe)) * unit / k0
+    return k0 if reach <= _TM_REACH else None
+
+
 def _eccentricity_squared(crs) -> float:
     inv_f = crs.ellipsoid.inverse_flattening
     f = 1.0 / inv_f if inv_f else 0.0
     return f * (2.0 - f)
+
+
+def _projected_area(crs) -> tuple[float, float, float, float]:
+    area = crs.area_of_use
+    if area is None:
+        raise InvalidGridError(f"CRS {crs.name!r} has no area of use: give bounds")
+    try:
+        b = _forward_transformer(crs).transform_bounds(*area.bounds, densify_pts=101)
+    except Exception as exc:
+        raise InvalidGridError(
+            f"the area of use of {crs.name!r} cannot be projected: {exc}; give bounds"
+        ) from None
+    if not all(math.isfinite(x) for x in b) or not (b[0] < b[2] and b[1] < b[3]):
+        raise InvalidGridError(f"the area of use of {crs.name!r} does not project: give bounds")
+    return (float(b[0]), float(b[1]), float(b[2]), float(b[3]))
 
 
 class Projected(LevelHierarchy):
@@ -180,7 +315,7 @@ class Projected(LevelHierarchy):
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        state.pop("_transformer", None)
+        state.pop("_inverse", None)
         state["_crs"] = self._crs.to_wkt()
         return state
 
@@ -193,30 +328,12 @@ class Projected(LevelHierarchy):
     def area_bounds(crs) -> tuple[float, float, float, float]:
         """The area of use of ``crs`` projected to it: ``(xmin, ymin, xmax, ymax)``."""
         crs = _as_crs(crs)
-        area = crs.area_of_use
-        if area is None:
-            raise InvalidGridError(f"CRS {crs.name!r} has no area of use: give bounds")
-        pyproj = _pyproj()
-        to = pyproj.Transformer.from_crs(crs.geodetic_crs, crs, always_xy=True)
-        try:
-            b = to.transform_bounds(*area.bounds, densify_pts=101)
-        except Exception as exc:
-            raise InvalidGridError(
-                f"the area of use of {crs.name!r} cannot be projected: {exc}; give bounds"
-            ) from None
-        if not all(math.isfinite(x) for x in b) or not (b[0] < b[2] and b[1] < b[3]):
-            raise InvalidGridError(f"the area of use of {crs.name!r} does not project: give bounds")
-        return tuple(float(x) for x in b)  # type: ignore[return-value]
+        return _cached("area", crs, lambda: _projected_area(crs))
 
     @property
     def transformer(self):
         """pyproj's inverse: the CRS to its geographic CRS, lon/lat order."""
-        t = self.__dict__.get("_transformer")
-        if t is None:
-            pyproj = _pyproj()
-            t = pyproj.Transformer.from_crs(self._crs, self._crs.geodetic_crs, always_xy=True)
-            self.__dict__["_transformer"] = t
-        return t
+        return _inverse_transformer(self._crs)
 
     # ------------------------------------------------------------------ geometry
     def transform(self) -> tuple:
@@ -264,15 +381,29 @@ class Projected(LevelHierarchy):
         return v, ok
 
     def _check_domain(self) -> None:
-        """Refuse bounds where no point of a 9 x 9 sample (corners and edges included)
-        has an inverse that projects back to it."""
+        """Refuse bounds that miss the CRS's area of use (projected) altogether, or where
+        no point of a 9 x 9 sample (corners and edges included) has an inverse that
+        projects back to it."""
+        area = None
+        if self._crs.area_of_use is not None:
+            try:
+                area = self.area_bounds(self._crs)
+            except InvalidGridError:
+                area = None
+        xmin, ymin, xmax, ymax = self.bounds
+        if area is not None and (
+            xmax <= area[0] or xmin >= area[2] or ymax <= area[1] or ymin >= area[3]
+        ):
+            raise InvalidGridError(
+                f"bounds {self.bounds!r} lie outside the domain of {self._crs.name!r}: its "
+                f"area of use is {tuple(round(v) for v in area)!r} in its units"
+            )
         t = np.linspace(0.0, 1.0, 9)
         x, y = np.meshgrid(t * self.width, t * self.height)
         lon, lat = self._lonlat_at(x, y)
         ok = np.isfinite(lon)
         if ok.any():
-            pyproj = _pyproj()
-            fwd = pyproj.Transformer.from_crs(self._crs.geodetic_crs, self._crs, always_xy=True)
+            fwd = _forward_transformer(self._crs)
             bx, by = fwd.transform(lon[ok], lat[ok], errcheck=False)
             px, py = self.pixel_xy(x[ok], y[ok])
             xmin, ymin, xmax, ymax = self.bounds
@@ -289,7 +420,13 @@ class Projected(LevelHierarchy):
         """Radians on the unit sphere per CRS unit, an upper bound (formula grids), or None."""
         if "_lip" in self.__dict__:
             return self.__dict__["_lip"]
+        # every cell centre lies in the grid's bounds grown by their size on each side
+        fx0, fy0, fw, fh, (xmin, ymin, xmax, ymax) = self._frame
+        w, h = xmax - xmin, ymax - ymin
+        box = (xmin - w, ymin - h, xmax + w, ymax + h)
         k = polar_scale_min(self._crs)
+        if k is None:
+            k = transverse_scale_min(self._crs, box)
         lip = None
         if k is not None and k > 0.0:
             a = self._crs.ellipsoid.semi_major_metre
@@ -317,6 +454,8 @@ class Projected(LevelHierarchy):
         pyproj's inverse of the block's centre (see the module notes for cells without
         one; the pixels outside the domain are masked afterwards)."""
         j, i = np.broadcast_arrays(np.asarray(j, dtype=np.int64), np.asarray(i, dtype=np.int64))
+        if level < self.n_levels - 1 and self._twin() is not None:
+            return self.texture_centers(level, j, i)
         v, ok = self._raw_centres(level, j, i)
         if ok.all() or self._lipschitz() is not None or level == self.n_levels - 1:
             return v
@@ -324,6 +463,24 @@ class Projected(LevelHierarchy):
         h, w = sub.shape[:2]
         jj, ii = np.minimum(j, h - 1), np.minimum(i, w - 1)
         return np.where(ok[..., None], v, sub[jj, ii])
+
+    def _twin(self):
+        """The float64 twin of the inverse (:func:`polar_inverse`), or None."""
+        if "_inverse" not in self.__dict__:
+            self.__dict__["_inverse"] = polar_inverse(self._crs)
+        return self.__dict__["_inverse"]
+
+    def texture_centers(self, level: int, j, i) -> np.ndarray:
+        """The centres the GPU levels read (:mod:`gloffset.raster.layout`): the float64
+        twin's where the projection has one (within 1e-12 rad of :meth:`centers`; the
+        coarse levels' centres are the twin's anyway), else :meth:`centers`."""
+        inv = self._twin()
+        if inv is None:
+            return self.centers(level, j, i)
+        b = self.block(level)
+        x = (np.asarray(i, dtype=np.float64) + 0.5) * b
+        y = (np.asarray(j, dtype=np.float64) + 0.5) * b
+        return inv(*self.pixel_xy(x, y))
 
     def _tree(self) -> dict:
         """The bounds made from every pixel centre (see the module notes): per level the

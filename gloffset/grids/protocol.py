@@ -186,6 +186,11 @@ class ImageGrid(Grid, Image, Protocol):
         (where ``subgrids``)."""
         ...
 
+    def texture_centers(self, level: int, j, i) -> np.ndarray:
+        """The cell centres that textured GPU levels read: :meth:`centers` or a float64
+        twin of them (a few 1e-13 rad apart at most)."""
+        ...
+
     def valid(self, level: int) -> np.ndarray | None:
         """Per cell of ``level``: whether a pixel of it has a place on the sphere (a
         projection's domain); None when all have. Pixels without one are outside."""

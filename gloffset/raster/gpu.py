@@ -51,11 +51,8 @@ def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs) -> BinPl
     if layout.basis is not None:
         plan.basis, plan.face_size = layout.basis, layout.face_size
     elif layout.centre is not None:
-        assert layout.delta is not None  # set with centre
         plan.bin_centre = layout.canvas_of(layout.centre[:, None, None, :], 0).astype(np.float32)
-        plan.cell_delta = {
-            s: layout.canvas_of(layout.delta[s], s).astype(np.float32) for s in shifts
-        }
+        plan.cell_delta = layout.delta_canvas
     else:
         lat, lon = layout.lat, layout.lon
         # a lon/lat layout (no basis) has them all

@@ -4,6 +4,7 @@ small canvas, and the float64 geometry of their cell rows and columns at each le
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,9 +37,8 @@ class BinLayout:
       the cell row's latitude minus it; per geo column ``lon`` and ``dlam`` the same;
     * cube faces (``basis`` set): geo rows and columns are the bin's own on the face;
     * any other grid (``centre`` set, the grid's ``centres`` is ``"texture"``):
-      ``centre`` (k, 3) the bin centres and ``delta[s]`` (k, 2^s, 2^s, 3) each cell's
-      centre minus its bin's, from the grid's own float64 centres (:meth:`canvas_of`
-      lays them out on the canvas).
+      ``centre`` (k, 3) the bin centres; :meth:`delta_canvas` each cell's centre minus its
+      bin's, from the grid's float64 centres (``texture_centers``), a level at a time.
 
     ``last`` is the shift of the output level (decided at the centres) and ``stop``
     the shift to stop at. Differences are made in float64 before the cast, so the
@@ -56,7 +56,8 @@ class BinLayout:
     basis: np.ndarray | None = None
     face_size: int | None = None
     centre: np.ndarray | None = None
-    delta: dict | None = None
+    bins: np.ndarray | None = None
+    centres_at: Callable | None = None
 
     @classmethod
     def build(
@@ -106,22 +107,40 @@ class BinLayout:
 
     @classmethod
     def _textured(cls, bins, last, stop, rho_at, centres_at) -> BinLayout:
-        """The layout of a grid whose cell centres the GPU reads from textures."""
+        """The layout of a grid whose cell centres the GPU reads from textures (made a
+        level at a time, for the children of frontier cells only: :meth:`delta_canvas`)."""
         g, ginv = np.unique(bins[:, 0], return_inverse=True)
         _, cinv = np.unique(bins[:, 1], return_inverse=True)
         geo = np.column_stack([ginv, cinv])
         centre = centres_at(0, bins[:, 0], bins[:, 1]).reshape(-1, 3)
-        rho, delta = {}, {}
+        rho = {}
         for s in range(1, stop + 1):
-            q = np.arange(1 << s)
-            rows = (g[:, None] << s) + q[None, :]
+            rows = (g[:, None] << s) + np.arange(1 << s)[None, :]
             rho[s] = np.zeros(rows.shape) if s == last else rho_at(s, rows)
-            cr = (bins[:, 0, None, None] << s) + q[None, :, None]
-            cc = (bins[:, 1, None, None] << s) + q[None, None, :]
-            p = centres_at(s, cr, cc)
-            dv = p - centre[:, None, None, :]
-            delta[s] = np.where(np.isfinite(dv), dv, 0.0)
-        return cls(geo, last, stop, rho, centre=centre, delta=delta)
+        out = cls(geo, last, stop, rho, centre=centre)
+        out.bins, out.centres_at = bins, centres_at
+        return out
+
+    def delta_canvas(self, s: int, parent: np.ndarray) -> np.ndarray:
+        """(hb 2^s, wb 2^s, 3) float32: on the canvas of shift ``s``, each child of a
+        frontier cell of ``parent`` (the canvas classes of shift ``s - 1``) gets its
+        centre minus its bin's, made in float64 (zeros elsewhere: never read)."""
+        # a textured layout's
+        assert self.centre is not None and self.bins is not None and self.centres_at is not None
+        b = 1 << s
+        hb = max(1, -(-len(self.geo) // self.side))
+        out = np.zeros((hb * b, self.side * b, 3), dtype=np.float32)
+        pj, pi = np.nonzero(parent == FRONTIER)
+        cj = (2 * pj[:, None] + np.array([0, 0, 1, 1])).ravel()
+        ci = (2 * pi[:, None] + np.array([0, 1, 0, 1])).ravel()
+        k = (cj >> s) * self.side + (ci >> s)
+        keep = k < len(self.geo)
+        cj, ci, k = cj[keep], ci[keep], k[keep]
+        rows = (self.bins[k, 0] << s) + (cj & (b - 1))
+        cols = (self.bins[k, 1] << s) + (ci & (b - 1))
+        dv = self.centres_at(s, rows, cols) - self.centre[k]
+        out[cj, ci] = np.where(np.isfinite(dv), dv, 0.0)
+        return out
 
     def canvas_of(self, per_bin: np.ndarray, s: int) -> np.ndarray:
         """Per-cell values ``per_bin`` (k, 2^s, 2^s, ...) of shift ``s`` laid out on the
@@ -148,7 +167,8 @@ class BinLayout:
 
             def centres_at(s, rows, cols):
                 h, w = grid.level_shape(bl + s)
-                return grid.centers(bl + s, np.minimum(rows, h - 1), np.minimum(cols, w - 1))
+                rows, cols = np.minimum(rows, h - 1), np.minimum(cols, w - 1)
+                return grid.texture_centers(bl + s, rows, cols)
 
             return cls.build(
                 f.cells, grid.n_levels - 1 - bl, stop_level - bl, rho_at, centres_at=centres_at

@@ -99,6 +99,9 @@ def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoi
         lon, lat, chi = _centres_lonlat(grid, lev, j0, j1, w, ell)
         inside = members(conf, lon, lat, distance, chi=chi)
         image[j0:j1] = np.where(inside, 255, 0).reshape(j1 - j0, w)
+    valid = grid.valid(lev)
+    if valid is not None:
+        image[~valid] = 0
     return image
 
 
