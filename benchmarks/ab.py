@@ -61,7 +61,7 @@ rng = np.random.default_rng(0)
 lon = rng.uniform(-120.0, -85.0, 1_000_000)
 lat = rng.uniform(12.0, 34.0, 1_000_000)
 import mercantile
-from gloffset.raster.pyramid import render_tiles
+from gloffset.tiles.tiling import render_tiles
 # 40 map views near Mexico as benchmarks/serve.py makes them (zooms 4-14, 4 x 3 tiles, a
 # new distance each): the tiles the render thread of gloffset serve renders
 views = []

@@ -46,7 +46,7 @@ def _cpu(children: bool = True) -> float:
 def writer_rate(path: Path, n: int) -> dict:
     """Seconds to store ``n`` entries of one image (the rows of z14 tiles from 0/0 on) and
     to finish the file, and the entries per second."""
-    from gloffset.io.tilestore import open_store
+    from gloffset.tiles.store.tilestore import open_store
 
     side = int(n**0.5) + 1
     t = time.perf_counter()

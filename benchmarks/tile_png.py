@@ -26,7 +26,7 @@ from common import DATA, write
 from PIL import Image
 
 import gloffset
-from gloffset.raster.pyramid.tilepaint import TileStyle
+from gloffset.tiles.tiling.tilepaint import TileStyle
 
 D = 0.02  # radians
 

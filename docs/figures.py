@@ -240,7 +240,34 @@ def distance_field(
     return path
 
 
+def polar_offsets(path=HERE / "polar_offsets.png", size=440):
+    """Antarctica (1:110m) on EPSG:3031 (the south pole at the centre): the regions
+    within 100 and 300 km of it and the region 100 km inside its coast, rendered straight
+    on the polar grid (:class:`gloffset.grids.Projected`, every pixel the float64
+    reference's at pyproj's pixel centre)."""
+    fc = __import__("json").loads((DATA / "world_110m.geojson").read_text())
+    ant = next(f for f in fc["features"] if f["properties"]["name"] == "Antarctica")
+    shape = gloffset.read(ant)
+    grid = gloffset.grids.Projected(
+        size, size, crs="EPSG:3031", bounds=(-3.6e6,) * 2 + (3.6e6,) * 2
+    )
+    rgb = np.full((size, size, 3), (250, 250, 248), dtype=np.uint8)
+    for d, col in [
+        (300e3, (209, 229, 240)),
+        (100e3, (146, 197, 222)),
+        (0.0, (150, 150, 150)),
+        (-100e3, (90, 90, 90)),
+    ]:
+        rgb[gloffset.render(shape, d, grid) > 0] = col
+    c = size // 2
+    rgb[c - 6 : c + 6, c - 1 : c + 1] = (200, 40, 40)  # the pole
+    rgb[c - 1 : c + 1, c - 6 : c + 6] = (200, 40, 40)
+    Image.fromarray(rgb, "RGB").quantize(16).save(path, optimize=True)
+    return path
+
+
 if __name__ == "__main__":
+    print(polar_offsets())
     print(distance_field())
     print(vector_offsets())
     print(raster_offset_fig13())

@@ -28,6 +28,9 @@ uniform vec3 u_face_e;         // cube face axis; u_face_u, u_face_v: directions
 uniform vec3 u_face_u;
 uniform vec3 u_face_v;
 uniform float u_px;            // face coordinate (2 s - 1) per output pixel: 2 / size
+#elif defined(GRID_TEXTURE)
+uniform sampler2D u_bin_centre; // per canvas bin: its centre c (unit vector)
+uniform sampler2D u_cell_delta; // per canvas cell of level l: its centre minus c (float64-made)
 #else
 uniform sampler2D u_bin_lat;   // per geo row: (cos, sin) of the bin centre latitude
 uniform sampler2D u_bin_lon;   // per geo column: (cos, sin) of the bin centre longitude
@@ -77,6 +80,9 @@ void main() {
     vec3 c;
     vec3 delta = cube_offset(bpx.x * u_px - 1.0, bpx.y * u_px - 1.0, dpx.x * u_px, dpx.y * u_px,
                              u_face_e, u_face_u, u_face_v, c);
+#elif defined(GRID_TEXTURE)
+    vec3 c = texelFetch(u_bin_centre, bin, 0).xyz;
+    vec3 delta = texelFetch(u_cell_delta, cell, 0).xyz;
 #else
     vec2 cs_phi = texelFetch(u_bin_lat, ivec2(geo.y, 0), 0).xy;
     vec2 cs_lam = texelFetch(u_bin_lon, ivec2(geo.x, 0), 0).xy;

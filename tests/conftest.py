@@ -75,7 +75,7 @@ def read_tiles(path):
     """{(z, x, y): png bytes} and the metadata of an MBTiles, PMTiles or XYZ folder."""
     path = str(path)
     if path.endswith(".pmtiles"):
-        from gloffset.io.pmtiles import read_pmtiles
+        from gloffset.tiles.store.pmtiles import read_pmtiles
 
         meta, tiles = read_pmtiles(path)
         return tiles, meta

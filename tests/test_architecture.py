@@ -368,7 +368,7 @@ GRID_CLASSES |= {"ConformalRows", "LevelHierarchy", "LonLatGrid"}
 
 
 def _engine_modules():
-    for top in ("raster", "gl"):
+    for top in ("raster", "gl", "tiles"):
         yield from sorted((PACKAGE / top).rglob("*.py"))
 
 
@@ -376,8 +376,8 @@ def test_gloffset_tiles_is_a_module_of_its_own():
     import gloffset.tiles
 
     assert gloffset.tiles.__name__ == "gloffset.tiles"
-    assert Path(gloffset.tiles.__file__).resolve() == PACKAGE / "tiles.py"
-    assert gloffset.tiles.pyramid.__module__.startswith("gloffset.raster.pyramid")
+    assert Path(gloffset.tiles.__file__).resolve() == PACKAGE / "tiles" / "__init__.py"
+    assert gloffset.tiles.pyramid.__module__.startswith("gloffset.tiles.tiling")
 
 
 def test_modules_and_packages_are_small():

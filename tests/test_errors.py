@@ -84,14 +84,14 @@ def test_base_class_never_raised():
 OLD_NAMES = [
     ("gloffset.grids", "InvalidGridError", "InvalidGridError"),
     ("gloffset.grids.base", "InvalidGridError", "InvalidGridError"),
-    ("gloffset.raster.pyramid", "TilesError", "TilesError"),
+    ("gloffset.tiles", "TilesError", "TilesError"),
     ("gloffset.gl", "ShaderError", "ShaderError"),
     ("gloffset.gl.shaders", "ShaderError", "ShaderError"),
-    ("gloffset.io.tilestore", "OutputExistsError", "OutputExistsError"),
+    ("gloffset.tiles.store.tilestore", "OutputExistsError", "OutputExistsError"),
     ("gloffset.raster.rasterized", "InvalidMaskError", "InvalidMaskError"),
     ("gloffset.raster.render", "RenderError", "OptionError"),
     ("gloffset.raster.rasterized", "RasterOffsetError", "OptionError"),
-    ("gloffset.raster.pyramid.tilepaint", "StyleError", "OptionError"),
+    ("gloffset.tiles.tiling.tilepaint", "StyleError", "OptionError"),
     ("gloffset.io.png", "ColorError", "OptionError"),
     ("gloffset.cli.render", "CubeFacesError", "InputFormatError"),
 ]

@@ -125,7 +125,7 @@ def test_tile_limits_are_those_of_the_pyramid_and_the_cli(tmp_path):
     """One MAX_ZOOM (22) and one tile-size rule (a power of two, 16..4096) for Tile,
     pyramid and the CLI; each refused with gloffset's own error."""
     from gloffset.grids import mercator
-    from gloffset.raster.pyramid import MAX_ZOOM, TilesError, parse_zooms, pyramid
+    from gloffset.tiles.tiling import MAX_ZOOM, TilesError, parse_zooms, pyramid
 
     assert MAX_ZOOM == mercator.MAX_ZOOM == 22
     assert Tile(22, (1 << 22) - 1, 5).z == 22

@@ -1,4 +1,4 @@
-"""The allocator's settings for pyramids (gloffset.raster.pyramid.malloc)."""
+"""The allocator's settings for pyramids (gloffset.tiles.tiling.malloc)."""
 
 import ctypes
 import platform
@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from gloffset.raster.pyramid.malloc import keep_freed_memory
+from gloffset.tiles.tiling.malloc import keep_freed_memory
 
 
 def test_keep_freed_memory_sets_glibc_once():
@@ -44,7 +44,7 @@ for b in blocks:
     libc.free(b)
 ok = True
 if sys.argv[1] == "trim":  # imported after: with numpy imported first, glibc gave these back itself
-    from gloffset.raster.pyramid.malloc import give_back_freed_memory
+    from gloffset.tiles.tiling.malloc import give_back_freed_memory
     ok = give_back_freed_memory()
 print(ok, held, rss())
 """

@@ -155,9 +155,9 @@ def _queries(shape, i: int):
     """One thread's mix of what the tile server asks of a shape (no GL)."""
     from gloffset.edges import distance_xyz, points_inside
     from gloffset.geometry.sphere import lonlat_to_xyz
-    from gloffset.raster.pyramid import measure_tiles
     from gloffset.raster.simplified import simplified
     from gloffset.serve.bounds import region_bounds
+    from gloffset.tiles.tiling import measure_tiles
 
     rng = np.random.default_rng(i % 4)
     lon, lat = rng.uniform(-118, -86, 50), rng.uniform(14, 33, 50)

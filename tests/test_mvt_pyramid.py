@@ -52,7 +52,7 @@ def pyramid_pmtiles(tmp_path_factory, mexico_path):
 
 
 def test_pyramid_tiles_equal_the_on_demand_ones(pyramid_pmtiles, mexico):
-    from gloffset.io.pmtiles import read_pmtiles
+    from gloffset.tiles.store.pmtiles import read_pmtiles
 
     meta, tiles = read_pmtiles(pyramid_pmtiles)
     assert meta["format"] == "pbf"

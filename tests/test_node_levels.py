@@ -16,9 +16,9 @@ from gloffset.edges import CurveArcs, component_status
 from gloffset.grids.mercator import TilePyramid
 from gloffset.raster import driver
 from gloffset.raster.driver import FRONTIER
-from gloffset.raster.pyramid import driver as tl
 from gloffset.raster.vector import node_levels
 from gloffset.raster.vector.curves import CurveCells
+from gloffset.tiles.tiling import driver as tl
 
 NEIGHBOURS = {"France", "Spain", "Portugal", "Andorra", "Germany", "Belgium", "Luxembourg"}
 NEIGHBOURS |= {"Netherlands", "Austria", "Czechia", "Poland", "Croatia", "Denmark"}

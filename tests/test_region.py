@@ -390,7 +390,7 @@ def test_neighbours_pyramid_against_shapely_union(countries, tmp_path):
 
     from PIL import Image
 
-    from gloffset.raster.pyramid import pyramid
+    from gloffset.tiles.tiling import pyramid
 
     feats = [countries["South Africa"], countries["Lesotho"]]
     fc = {"type": "FeatureCollection", "features": feats}

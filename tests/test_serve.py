@@ -31,7 +31,6 @@ pytest.importorskip("starlette")
 pytest.importorskip("httpx")
 from starlette.testclient import TestClient  # noqa: E402
 
-from gloffset.raster.pyramid.tilepaint import TileStyle  # noqa: E402
 from gloffset.serve.app import STATIC, create_app  # noqa: E402
 from gloffset.serve.service import (  # noqa: E402
     EMPTY_PNG,
@@ -42,6 +41,7 @@ from gloffset.serve.service import (  # noqa: E402
     TileService,
     full_png,
 )
+from gloffset.tiles.tiling.tilepaint import TileStyle  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 TRI = {"type": "Polygon", "coordinates": [[[-110, 15], [-90, 15], [-100, 30], [-110, 15]]]}
@@ -89,7 +89,7 @@ def test_tiles_equal_render(client, layer, dist, z, x, y):
 def test_coarse_tiles_rendered_alone_are_the_bytes_of_render_tiles(client):
     """Zooms up to ALONE_ZOOM go through gloffset.render on their own Tile: the same
     bytes as the pyramid's levels give (the same pixels, the same encoding)."""
-    from gloffset.raster.pyramid import ALONE_ZOOM, render_tiles
+    from gloffset.tiles.tiling import ALONE_ZOOM, render_tiles
 
     shape = client.app.state.server.layers["tri"]
     style = TileStyle("#3070c0", 0.5)
@@ -110,7 +110,7 @@ def test_batched_tiles_equal_render_on_a_real_border(client):
     """Views of 3 x 3 tiles of Mexico's border at random zooms and distances (inward
     too), rendered as one batch each (render_tiles, as the server batches them): every
     tile has the pixels of gloffset.render on its Tile."""
-    from gloffset.raster.pyramid import render_tiles
+    from gloffset.tiles.tiling import render_tiles
 
     shape = gloffset.read(ROOT / "data" / "mexico_10m.geojson")
     rng = np.random.default_rng(16)
@@ -690,8 +690,8 @@ def test_renders_take_the_measured_statuses(layer, world):
     as without them, at positive, zero and negative distances, on one country and on a
     union of neighbours (a status bit per country); statuses turned over change the tiles,
     so they are read."""
-    from gloffset.raster.pyramid import measure_tiles, render_tiles
-    from gloffset.raster.pyramid.ondemand import TileCentre
+    from gloffset.tiles.tiling import measure_tiles, render_tiles
+    from gloffset.tiles.tiling.ondemand import TileCentre
 
     if layer == "mexico":
         shape = gloffset.read(ROOT / "data" / "mexico_10m.geojson")

@@ -19,9 +19,9 @@ from click.testing import CliRunner
 import gloffset
 from gloffset.cli import main
 from gloffset.grids import Tile
-from gloffset.raster.pyramid import render_tiles
-from gloffset.raster.pyramid.fieldtiles import FIELD_ENCODING, FIELD_MAX, FIELD_MIN
-from gloffset.raster.pyramid.tilepaint import TileStyle
+from gloffset.tiles.tiling import render_tiles
+from gloffset.tiles.tiling.fieldtiles import FIELD_ENCODING, FIELD_MAX, FIELD_MIN
+from gloffset.tiles.tiling.tilepaint import TileStyle
 from gloffset.units import EARTH_RADIUS, parse_distance
 
 pytest.importorskip("starlette")

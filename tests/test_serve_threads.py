@@ -30,7 +30,7 @@ from gloffset.edges import points_inside
 from gloffset.geometry.sphere import lonlat_to_xyz
 from gloffset.grids import Tile
 from gloffset.io.geojson import offset_feature
-from gloffset.raster.pyramid.fieldtiles import encode_field, field_tile
+from gloffset.tiles.tiling.fieldtiles import encode_field, field_tile
 from gloffset.units import EARTH_RADIUS, offset_angle
 from gloffset.vector.arcrings import DEFAULT_TOLERANCE
 from gloffset.vector.offset import offset
@@ -140,7 +140,7 @@ def _check(kind: str, r, want, what: str) -> None:
 
 @pytest.mark.slow
 def test_a_cold_server_under_64_concurrent_clients_answers_as_the_library():
-    from gloffset.raster.pyramid import ondemand, walk
+    from gloffset.tiles.tiling import ondemand, walk
 
     seed = int(os.environ.get("GLOFFSET_STRESS_SEED") or random.SystemRandom().randrange(1 << 30))
     rng = random.Random(seed)

@@ -41,6 +41,12 @@ def test_grid_cube_variants_compile(ctx, name):
     assert ctx.error == "GL_NO_ERROR"
 
 
+def test_textured_centres_variant_compiles(ctx):
+    # grids whose cell centres come from textures (gloffset.grids.Projected)
+    assert program(ctx, "bins.vert", "classify.frag", {"GRID_TEXTURE": 1}) is not None
+    assert ctx.error == "GL_NO_ERROR"
+
+
 def test_includes_once_with_line_directives():
     src, files = load_source("classify.frag")
     assert src.startswith("#version 430\n")

@@ -28,9 +28,9 @@ from gloffset.geometry.sphere import angle, arc_distance, lonlat_to_xyz
 from gloffset.grids import Tile
 from gloffset.grids.mercator import TilePyramid
 from gloffset.io.png import palette_png
-from gloffset.raster.pyramid import TilesError, parse_zooms, pyramid
-from gloffset.raster.pyramid.tilepaint import TileStyle
 from gloffset.reference import contains_xyz, distance_xyz
+from gloffset.tiles.tiling import TilesError, parse_zooms, pyramid
+from gloffset.tiles.tiling.tilepaint import TileStyle
 
 SIZE = 64
 EPS = 1e-3  # of a pixel, as in test_render
@@ -140,7 +140,7 @@ def test_pyramid_holds_exactly_the_tiles_of_the_region(tmp_path, world, name, d,
     shape = {"line": LINE_AM, "square": SQUARE}.get(name) or world[name]
     st = pyramid(shape, d, (0, zmax), tmp_path / "t.mbtiles", size=SIZE)
     tiles, meta = read_mbtiles(tmp_path / "t.mbtiles")
-    full = gloffset.raster.pyramid.tilepaint.TileStyle().encode(np.ones((SIZE, SIZE), bool))
+    full = gloffset.tiles.tiling.tilepaint.TileStyle().encode(np.ones((SIZE, SIZE), bool))
     n_full = check_against_reference(shape, d / gloffset.EARTH_RADIUS, tiles, zmax, full)
     assert st.written == len(tiles) and n_full >= st.inside
     assert st.rendered > 0 and st.outside > 0
@@ -269,7 +269,7 @@ def test_outline_points_are_those_of_the_arc_by_arc_maths(world, name, tiles):
     loops may round the last bit differently from the scalar maths, by CPU), so the
     drawn pixels are the same; on tiles where the disc's edge cuts arcs, at zoom 0 (disc
     wider than a hemisphere) and across the antimeridian."""
-    from gloffset.raster.pyramid.tilepaint import OutlineArcs
+    from gloffset.tiles.tiling.tilepaint import OutlineArcs
 
     arcs = CurveArcs.from_shape(gloffset.read(LINE_AM if name == "line" else world[name]))
     prepared = OutlineArcs(arcs)
@@ -361,7 +361,7 @@ def test_progress_events(tmp_path, world, mexico_path, name, d, zooms, kw):
     events = []
     st = pyramid(shape, d, zooms, tmp_path / "t.mbtiles", progress=events.append, **kw)
     first, last = events[0], events[-1]
-    assert isinstance(first, gloffset.raster.pyramid.TileProgress)
+    assert isinstance(first, gloffset.tiles.tiling.TileProgress)
     assert first.done == 0 and first.total > 0 and first.eta is None
     assert last.done == last.total and last.eta == 0.0 and last.fraction == 1.0
     # every tile handled is counted: written, rendered empty (or outlined with nothing)
@@ -525,7 +525,7 @@ def test_pmtiles_archive_holds_the_mbtiles_tiles_and_resumes(tmp_path):
     from pmtiles.reader import MmapSource, Reader
     from pmtiles.tile import TileType
 
-    from gloffset.io.pmtiles import read_pmtiles
+    from gloffset.tiles.store.pmtiles import read_pmtiles
 
     kw = dict(size=SIZE, outline="#202020", name="square")
     pyramid(SQUARE, 1500e3, "0-4", tmp_path / "a.mbtiles", **kw)
@@ -584,7 +584,7 @@ def test_pmtiles_archive_holds_the_mbtiles_tiles_and_resumes(tmp_path):
 def test_an_empty_pyramid_is_a_valid_archive_in_every_format(tmp_path):
     """An inward offset that empties the shape covers no tile: MBTiles and PMTiles both
     hold no tile and the same metadata (PMTiles crashed in pmtiles' finalize_header)."""
-    from gloffset.io.pmtiles import read_pmtiles
+    from gloffset.tiles.store.pmtiles import read_pmtiles
 
     small = {"type": "Polygon", "coordinates": [[[6, 49.5], [6.4, 49.5], [6.4, 49.9], [6, 49.5]]]}
     stats = pyramid(small, -50e3, "0-4", tmp_path / "e.pmtiles", size=SIZE)
@@ -604,7 +604,7 @@ def test_pyramid_on_two_dask_workers_is_byte_identical(tmp_path):
     cross the split); interrupted while the workers run, it resumes to the same."""
     pytest.importorskip("distributed")
     pytest.importorskip("pmtiles")
-    from gloffset.io.pmtiles import read_pmtiles
+    from gloffset.tiles.store.pmtiles import read_pmtiles
 
     kw = dict(size=SIZE, outline="#202020", name="square")
     one = pyramid(SQUARE, 1500e3, "0-6", tmp_path / "one.mbtiles", **kw)
@@ -674,8 +674,8 @@ def test_split_pyramid_tasks_make_the_same_tiles(
     pytest.importorskip("distributed")
     import distributed
 
-    from gloffset.raster.pyramid import distributed as dist
-    from gloffset.raster.pyramid import driver as tl
+    from gloffset.tiles.tiling import distributed as dist
+    from gloffset.tiles.tiling import driver as tl
 
     def source():
         if name == "neighbours":  # nine countries of countries_10m that share borders
@@ -742,7 +742,7 @@ def test_split_pyramid_tasks_make_the_same_tiles(
 def test_a_resumed_split_hands_each_task_the_tiles_it_has():
     """A task skips the tiles of a resumed output that are its tile or below it, down to
     its last zoom: a sub-pyramid's, or its one tile's."""
-    from gloffset.raster.pyramid.distributed import _have_of
+    from gloffset.tiles.tiling.distributed import _have_of
 
     have = {(2, 1, 1), (3, 2, 2), (3, 3, 3), (4, 4, 4), (3, 0, 0), (2, 0, 0), (5, 9, 9)}
     tasks = [((2, 1, 1), 255, None, 4), ((2, 0, 0), 255, None, 2), ((1, 0, 0), 255, None, 1)]

@@ -14,8 +14,8 @@ from conftest import DATA, read_mbtiles
 
 import gloffset
 from gloffset.cli import main
-from gloffset.io.pmtiles import read_pmtiles
-from gloffset.io.tilestore import INPUT_KEY, input_digest
+from gloffset.tiles.store.pmtiles import read_pmtiles
+from gloffset.tiles.store.tilestore import INPUT_KEY, input_digest
 
 MEXICO = DATA / "mexico_10m.geojson"
 ARGS = ["-d", "100km", "-z", "0-2", "--tile-size", "64"]
@@ -125,7 +125,7 @@ def field_output(out):
 
 def interrupted_field(out, after):
     """A field pyramid of Mexico stopped after ``after`` tiles."""
-    from gloffset.raster.pyramid.fieldtiles import field_pyramid
+    from gloffset.tiles.tiling.fieldtiles import field_pyramid
 
     def stop(done, total):
         if done >= after:
@@ -177,7 +177,7 @@ def test_a_killed_field_pyramid_keeps_its_tiles_and_resumes(tmp_path):
     tiles(whole, [MEXICO, *FIELD, "-o", whole])
     script = (
         "import os, sys\n"
-        "import gloffset.raster.pyramid.fieldtiles as ft\n"
+        "import gloffset.tiles.tiling.fieldtiles as ft\n"
         "from gloffset.cli import main\n"
         "ft.COMMIT_SECONDS = 0.0\n"
         "put = ft.encode_field\n"

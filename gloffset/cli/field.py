@@ -11,7 +11,7 @@ import click
 import numpy as np
 
 from ..errors import OptionError, OutputError
-from ..grids import FACE_NAMES, Cube, Equirect
+from ..grids import FACE_NAMES, Cube, Equirect, Projected
 from ..io.georef import Georef, check_geotiff, write_geotiff
 from ..io.output import check_output, refuse_stdout, write_bytes
 from ..raster.field import check_field_grid, distance_field, ellipsoid_refusal
@@ -20,12 +20,15 @@ from . import main
 from .options import (
     angle,
     choice_option,
+    crs_option,
     input_options,
     parse_bounds,
     parse_ellipsoid,
     parse_face,
     parse_size,
     progress_bar,
+    projected_georef,
+    projected_grid,
     radius_option,
     size_options,
 )
@@ -80,6 +83,7 @@ def _format(output: str, grid_kind: str) -> str:
     help="equirect: one raster; cube: OUTPUT is a folder of px nx py ny pz nz .npy faces.",
 )
 @size_options
+@crs_option
 @click.option(
     "--max-distance",
     "max_distance",
@@ -114,6 +118,7 @@ def field_cmd(
     grid_kind,
     size,
     bounds,
+    crs,
     max_distance,
     output,
     backend="gpu",
@@ -125,13 +130,18 @@ def field_cmd(
     each pixel centre to its curves, negative inside its polygons (row 0 north).
 
     One field answers every distance: the region at distance d is where the field is at
-    most d. Values are exact float64 distances rounded to float32."""
+    most d. Values are exact float64 distances rounded to float32. With --crs the raster
+    is in that projected CRS (+inf where a pixel has no lon/lat)."""
     if ellipsoid is not None:
         parse_ellipsoid(ellipsoid)  # an unknown one is named as such
         raise OptionError(ellipsoid_refusal(ellipsoid))
+    if crs is not None and grid_kind == "cube":
+        raise OptionError("--crs does not apply to --grid cube")
     kind = _format(output, grid_kind)
-    grid: Cube | Equirect
-    if grid_kind == "cube":
+    grid: Cube | Equirect | Projected
+    if crs is not None:
+        grid = projected_grid(crs, size, bounds)
+    elif grid_kind == "cube":
         if bounds is not None:
             raise OptionError("--bounds does not apply to --grid cube")
         grid = Cube(parse_face(size or "1024"))
@@ -184,9 +194,12 @@ def field_cmd(
         # the values as the .npy has them: clamped to +-m, so that the sign (and with it
         # every threshold within m) survives beyond m
         cog = str(output).lower().endswith((".cog.tif", ".cog.tiff"))
-        assert isinstance(grid, Equirect)  # a cube goes to a folder (_format)
         desc = DESCRIPTION if m is None else DESCRIPTION + CLAMPED
-        ref = Georef(grid.transform(), description=desc)
+        if isinstance(grid, Projected):
+            ref = projected_georef(grid, desc)
+        else:
+            assert isinstance(grid, Equirect)  # a cube goes to a folder (_format)
+            ref = Georef(grid.transform(), description=desc)
         tags = None if m is None else {"MAX_DISTANCE": repr(m)}
         write_geotiff(output, field.values, ref, cog=cog, tags=tags)
 

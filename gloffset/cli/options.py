@@ -280,6 +280,53 @@ def size_options(f):
     )(f)
 
 
+def crs_option(f):
+    """``--crs`` of an image in a projected CRS (:class:`gloffset.grids.Projected`)."""
+    return click.option(
+        "--crs",
+        default=None,
+        metavar="CRS",
+        help="A projected CRS pyproj knows (EPSG:3031, EPSG:3413, a UTM zone, WKT, PROJ): the "
+        "image is in it, --bounds XMIN,YMIN,XMAX,YMAX are its outer edges in its units "
+        "(default: the CRS's area of use, projected) and --size defaults to 2048x2048. "
+        "Pixels outside the projection's domain are outside.",
+    )(f)
+
+
+def projected_grid(crs: str, size: str | None, bounds: str | None):
+    """The :class:`~gloffset.grids.Projected` grid of ``--crs``, ``--size`` and ``--bounds``
+    (XMIN,YMIN,XMAX,YMAX in the CRS's units)."""
+    from ..grids import Projected
+
+    w, h = parse_size(size or "2048x2048")
+    b = None
+    if bounds is not None:
+        try:
+            b = tuple(float(v) for v in bounds.split(","))
+        except ValueError:
+            b = ()
+        if len(b) != 4:
+            raise OptionError(
+                "--bounds with --crs must be XMIN,YMIN,XMAX,YMAX in the CRS's units, "
+                f"got {bounds!r}"
+            )
+    return Projected(w, h, crs=crs, bounds=b)
+
+
+def projected_georef(grid, description: str | None):
+    """The :class:`~gloffset.io.georef.Georef` of a Projected grid: its transform, its CRS
+    (EPSG code, else WKT) and the ESRI WKT of a ``.prj``."""
+    from ..io.georef import Georef
+
+    code = grid.crs.to_epsg()
+    name = f"EPSG:{code}" if code is not None else grid.crs.to_wkt()
+    try:
+        prj = grid.crs.to_wkt("WKT1_ESRI")
+    except Exception:  # a CRS without an ESRI form: the OGC WKT
+        prj = grid.crs.to_wkt("WKT1_GDAL")
+    return Georef(grid.transform(), crs=name, description=description, prj=prj)
+
+
 def parse_size(text: str) -> tuple[int, int]:
     """``--size WIDTHxHEIGHT`` as ``(width, height)``."""
     try:

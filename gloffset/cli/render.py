@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -13,7 +13,7 @@ import click
 import numpy as np
 
 from ..errors import InputFormatError, OptionError, OutputError
-from ..grids import FACE_NAMES, Cube, CubeFace, Equirect, InvalidGridError
+from ..grids import FACE_NAMES, Cube, CubeFace, Equirect, InvalidGridError, Projected
 from ..io.georef import Georef, read_geotiff
 from ..io.output import check_output, refuse_stdout
 from ..io.png import Placement, image_format, parse_color, read_mask, write_classes, write_mask
@@ -24,12 +24,15 @@ from . import main
 from .options import (
     angle,
     choice_option,
+    crs_option,
     distance_list,
     fill_options,
     input_options,
     measure_options,
     metres,
     parse_ellipsoid,
+    projected_georef,
+    projected_grid,
     size_options,
 )
 from .options import parse_bounds as _bounds
@@ -50,9 +53,10 @@ class _Args:
     distance: Any  # as given (str): the library converts it once
     radius: float
     ellipsoid: str | None
-    grid_kind: str
+    grid_kind: Any  # "equirect", "cube" or ("crs", CRS)
     size: str | None
     bounds: str | None
+    crs: str | None
     output: str
     fill: str | None
     opacity: float
@@ -89,6 +93,7 @@ _OPTIONS = [
         help="equirect: one image; cube: OUTPUT is a folder of px nx py ny pz nz PNGs.",
     ),
     size_options,
+    crs_option,
     click.option(
         "-o",
         "--output",
@@ -165,13 +170,15 @@ def render_cmd(**given):
 
     Equirect images are georeferenced (EPSG:4326): a .tif is a tiled, compressed GeoTIFF
     (rasterio: pip install 'gloffset[geo]'), a .png gets a world file (.pgw, pixel centres)
-    and a .prj beside it.
+    and a .prj beside it. With --crs (e.g. EPSG:3031 --bounds XMIN,YMIN,XMAX,YMAX) the
+    image is in that projected CRS, georeferenced in it.
 
     Several distances, -d 10km,50km,127km, write one mask per distance, named by the
     distance as given (out_10km.png, out_50km.png, ...; with --grid cube the folders
     out_10km, ...), each the same as the run at that distance alone; or with --bands one
     image of the distance bands."""
     o = _Args(**given)
+    o = replace(o, grid_kind=_with_crs(o.grid_kind, o.crs, o.from_raster))
     ell = parse_ellipsoid(o.ellipsoid)
     many = distance_list(o.distance, lambda t: metres(t) if ell is not None else angle(t, o.radius))
     if len(many) > 1 or o.bands:
@@ -359,13 +366,24 @@ def _check_output(output, grid_kind, cog) -> bool:
     """Check the output options before the work; whether a COG is written."""
     cog = cog or str(output).lower().endswith((".cog.tif", ".cog.tiff"))
     if cog and (grid_kind == "cube" or image_format(output) != "TIFF"):
-        raise OptionError("--cog needs an equirect image written to NAME.tif")
+        raise OptionError("--cog needs an equirect or --crs image written to NAME.tif")
     if grid_kind == "cube":
         refuse_stdout(output, "--grid cube writes six images into a folder")
     else:  # fail before the work
         image_format(output)
         check_output(output)
     return cog
+
+
+def _with_crs(grid_kind, crs, from_raster):
+    """The grid kind, ``("crs", CRS)`` with ``--crs`` (checked against the other options)."""
+    if crs is None:
+        return grid_kind
+    if grid_kind == "cube":
+        raise OptionError("--crs does not apply to --grid cube")
+    if from_raster is not None:
+        raise OptionError("--from-raster offsets lon/lat masks: no --crs")
+    return ("crs", crs)
 
 
 def _grid(grid_kind, size, bounds):
@@ -375,6 +393,9 @@ def _grid(grid_kind, size, bounds):
             raise OptionError("--bounds does not apply to --grid cube")
         n = _face(size or "1024")
         return Cube(n), CubeFace(0, n).n_levels
+    if isinstance(grid_kind, tuple):  # ("crs", CRS): a projected image
+        projected = projected_grid(grid_kind[1], size, bounds)
+        return projected, projected.n_levels
     w, h = _size(size or "4096x2048")
     grid = Equirect(w, h, _bounds(bounds))
     return grid, grid.n_levels
@@ -390,6 +411,8 @@ def _placement(grid, cog: bool, worldfile: bool, what: str) -> Placement:
         desc = "gloffset classes: black contained, red frontier, white outside"
     else:
         desc = what
+    if isinstance(grid, Projected):  # georeferenced in its CRS
+        return Placement(projected_georef(grid, desc), cog=cog, worldfile=worldfile)
     return Placement(Georef(grid.transform(), description=desc), cog=cog, worldfile=worldfile)
 
 

@@ -1,4 +1,5 @@
-"""``gloffset tiles``: a web-mercator tile pyramid (MBTiles or XYZ directory) of the region."""
+"""``gloffset tiles``: a tile pyramid (MBTiles, PMTiles or XYZ directory) of the region, web
+mercator or another OGC TileMatrixSet (``--tms``)."""
 
 from __future__ import annotations
 
@@ -12,11 +13,11 @@ from types import SimpleNamespace
 import click
 
 from ..io.output import refuse_stdout
-from ..io.tilestore import TILE_FILES, check_tile_output
-from ..raster.pyramid import TileProgress, parse_zooms
-from ..raster.pyramid.driver import PyramidOptions, check_pyramids, write_pyramid
-from ..raster.pyramid.tilepaint import TileStyle
 from ..shape import read
+from ..tiles.store.tilestore import TILE_FILES, check_tile_output
+from ..tiles.tiling import TileProgress, parse_zooms
+from ..tiles.tiling.driver import PyramidOptions, check_pyramids, pyramid_quad, write_pyramid
+from ..tiles.tiling.tilepaint import TileStyle
 from . import main
 from .options import (
     angle,
@@ -51,6 +52,14 @@ _OPTIONS = [
         default=256,
         show_default=True,
         help="Tile side, pixels (a power of two).",
+    ),
+    click.option(
+        "--tms",
+        default=None,
+        metavar="ID",
+        help="The OGC TileMatrixSet of the tiles (default WebMercatorQuad), e.g. WorldCRS84Quad "
+        "(two tiles at zoom 0): written to a folder, z/x/y.png with tileMatrixSet.json beside "
+        "them.",
     ),
     click.option("--name", default=None, help="Tileset name (default: the output's name)."),
     click.option(
@@ -143,8 +152,11 @@ def tiles_cmd(**given):
     )
     check_tile_output(output)
     outputs = [output] if len(texts) == 1 else [tile_output(output, t) for t in texts]
-    parse_zooms(g.zooms)
+    _, zhi = parse_zooms(g.zooms)
     style = TileStyle(g.fill, g.opacity, g.outline, g.outline_width)
+    checked = PyramidOptions(size=g.tile_size, style=style, ellipsoid=ell, tms=g.tms)
+    for out in outputs:  # the TileMatrixSet against the options and outputs, before the read
+        pyramid_quad(checked, out, zhi)
     shape = read(g.input, layer=g.layer, where=g.where, densify=g.densify)
     options = PyramidOptions(
         radius=g.radius,
@@ -157,6 +169,7 @@ def tiles_cmd(**given):
         workers=g.workers,
         scheduler=g.scheduler,
         ellipsoid=ell,
+        tms=g.tms,
     )
     # every distance and output checked (free, replaced or resumable) before any is written
     check_pyramids(shape, texts, g.zooms, outputs, options)
@@ -179,7 +192,7 @@ def _write_pyramids(shape, texts, zooms, outputs, options: PyramidOptions) -> No
 
 def _tile_bar():
     """A bar on stderr (where :func:`~.options.show_progress`) and the ``progress`` that
-    draws a :class:`~gloffset.raster.pyramid.TileProgress` on it: the share of the time
+    draws a :class:`~gloffset.tiles.tiling.TileProgress` on it: the share of the time
     done, the zoom, the tiles and the time left; ``(None, None)`` where none is shown.
     The bar is closed with the command, or before by its ``close()``."""
     bar = progress_bar(total=100, bar_format="{percentage:3.0f}%|{bar}| {desc}")
@@ -207,7 +220,7 @@ def _tile_bar():
 
 def _field_progress(show, zooms: tuple[int, int]):
     """A field pyramid's ``progress(done, total)`` (its tiles zoom by zoom) as the
-    :class:`~gloffset.raster.pyramid.TileProgress` that ``show`` draws: the zoom of
+    :class:`~gloffset.tiles.tiling.TileProgress` that ``show`` draws: the zoom of
     tile ``done``, and the time left at the pace of the tiles so far (every tile of a
     zoom is computed alike); told once at the start."""
     zlo, zhi = zooms
@@ -262,9 +275,9 @@ _NOT_FOR_FIELD = (
 
 def _field_tiles(given: dict) -> None:
     """``gloffset tiles --field``: the distance-field pyramid
-    (:func:`gloffset.raster.pyramid.fieldtiles.field_pyramid`) of the options ``given``;
+    (:func:`gloffset.tiles.tiling.fieldtiles.field_pyramid`) of the options ``given``;
     an option that only a raster pyramid takes is refused, even given at its default."""
-    from ..raster.pyramid.fieldtiles import field_pyramid
+    from ..tiles.tiling.fieldtiles import field_pyramid
 
     ctx = click.get_current_context()
     for names, why in _NOT_FOR_FIELD:
@@ -275,6 +288,7 @@ def _field_tiles(given: dict) -> None:
     refuse_stdout(output, "field tiles are an .mbtiles or .pmtiles file or a folder")
     check_tile_output(output)
     zrange = parse_zooms(given["zooms"])
+    pyramid_quad(PyramidOptions(size=given["tile_size"], tms=given["tms"]), output, zrange[1])
     shape = read(
         given["input"], layer=given["layer"], where=given["where"], densify=given["densify"]
     )
@@ -291,6 +305,7 @@ def _field_tiles(given: dict) -> None:
         overwrite=given["force"],
         resume=given["resume"],
         progress=None if show is None else _field_progress(show, zrange),
+        tms=given["tms"],
     )
     if bar is not None:
         bar.close()
@@ -305,13 +320,14 @@ def _mvt_tiles(given: dict) -> None:
     (:func:`gloffset.mvt.pyramid.mvt_pyramid`), one per distance, every distance and
     output checked before any is written."""
     from ..errors import OptionError
-    from ..io.tilestore import check_store
     from ..mvt.pyramid import mvt_pyramid
     from ..mvt.tile import check_mvt_options
+    from ..tiles.store.tilestore import check_store
 
     g = SimpleNamespace(**given)
     for opt, bad in (
         ("--field", g.field),
+        ("--tms", g.tms not in (None, "WebMercatorQuad")),
         ("--ellipsoid", g.ellipsoid is not None),
         ("--outline", g.outline is not None),
         ("--resume", g.resume),

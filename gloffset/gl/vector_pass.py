@@ -20,6 +20,7 @@ one buffer (:func:`_groups`), one draw per group.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,6 +61,10 @@ class BinPlan:
     bin centres' latitude and longitude, ``dphi[s]`` (geo rows, 2^s) and ``dlam[s]`` (geo
     columns, 2^s) float32 the cell rows' latitude and columns' longitude minus their bin's.
     Cube faces: ``basis`` (3, 3) the face's axes and ``face_size`` its pixels per side.
+    Other grids (textured centres): ``bin_centre`` (hb, wb, 3) float32 the bin centres on
+    the canvas, ``cell_delta(s, parent)`` (hb 2^s, wb 2^s, 3) float32 each cell's centre
+    minus its bin's (made in float64) for the children of the frontier cells of
+    ``parent``, the classes read back from shift ``s - 1`` (the canvas at shift 1).
     """
 
     canvas: np.ndarray
@@ -84,10 +89,19 @@ class BinPlan:
     dlam: dict | None = None
     basis: np.ndarray | None = None
     face_size: int | None = None
+    bin_centre: np.ndarray | None = None
+    cell_delta: Callable[[int, np.ndarray], np.ndarray] | None = None
 
     @property
     def cube(self) -> bool:
         return self.basis is not None
+
+    @property
+    def kind(self) -> str:
+        """The program variant: ``"cube"``, ``"texture"`` or ``"lonlat"``."""
+        if self.basis is not None:
+            return "cube"
+        return "texture" if self.bin_centre is not None else "lonlat"
 
 
 def _groups(first: np.ndarray, counts: np.ndarray, limit: int) -> list[tuple[int, int]]:
@@ -123,6 +137,15 @@ class VectorPasses:
             "cube": program(self.ctx, "bins.vert", "classify.frag", {"GRID_CUBE": 1}),
         }
 
+    def _program(self, kind: str):
+        """The level program of a grid kind (the textured one compiled on first use)."""
+        p = self.progs.get(kind)
+        if p is None:
+            p = self.progs[kind] = program(
+                self.ctx, "bins.vert", "classify.frag", {"GRID_TEXTURE": 1}
+            )
+        return p
+
     def _tex(self, array: np.ndarray, comps: int, dtype: str):
         return pot_texture(self.ctx, array, comps, dtype)
 
@@ -135,7 +158,7 @@ class VectorPasses:
             )
         ctx = self.ctx
         groups = _groups(plan.first, plan.counts, self.max_records)
-        p = self.progs["cube" if plan.cube else "lonlat"]
+        p = self._program(plan.kind)
         textures = self._bin_textures(p, plan, groups)
         parent = self._tex(plan.canvas, 1, "u1")
         fb = np.ascontiguousarray(plan.pos[:, ::-1], dtype=np.int32)  # (column, row)
@@ -146,10 +169,24 @@ class VectorPasses:
         out = plan.canvas
         owned = [parent]
         try:
+            textured = plan.kind == "texture"
             for s in range(1, plan.stop + 1):
-                read = callback is not None or s == plan.stop
+                # a textured plan reads every level back: its next level's centres are
+                # made for the children of the frontier cells only
+                read = callback is not None or s == plan.stop or textured
+                delta = None
+                if textured:
+                    assert plan.cell_delta is not None  # a textured plan's
+                    delta = plan.cell_delta(s, out)
                 target, got, done = self._level(
-                    s, plan, p, (pre, pre_vao, len(fb)), draws, parent, read, timings is not None
+                    s,
+                    plan,
+                    p,
+                    (pre, pre_vao, len(fb)),
+                    draws,
+                    (parent, delta),
+                    read,
+                    timings is not None,
                 )
                 if timings is not None:
                     timings.append((s, done))
@@ -208,6 +245,11 @@ class VectorPasses:
             _set(p, "u_face_u", tuple(float(x) for x in u_))
             _set(p, "u_face_v", tuple(float(x) for x in v_))
             _set(p, "u_px", 2.0 / plan.face_size)
+        elif plan.kind == "texture":
+            assert plan.bin_centre is not None  # a textured plan's
+            textures.append(self._tex(plan.bin_centre, 3, "f4"))
+            textures[-1].use(3)
+            _set(p, "u_bin_centre", 3)
         else:
             assert plan.bin_lat is not None and plan.bin_lon is not None  # a lon/lat plan's
             textures += [self._tex(plan.bin_lat, 2, "f4"), self._tex(plan.bin_lon, 2, "f4")]
@@ -249,12 +291,14 @@ class VectorPasses:
         return draws
 
     def _level(self, s: int, plan: BinPlan, p, prepass, draws, parent, read: bool, timed: bool):
-        """Shift ``s`` drawn into a new class target from the ``parent`` classes: the
+        """Shift ``s`` drawn into a new class target from the ``parent`` classes (and, for
+        a textured plan, the level's centres: ``parent`` is ``(classes, centres)``): the
         prepass (from :data:`_MASK_FROM` on), then the level's pass. Returns the target
         (the next parent), the classes read back (with ``read``, else None) and, with
         ``timed``, the time the pass finished (else None)."""
         import moderngl
 
+        parent, delta = parent
         ctx = self.ctx
         pre, pre_vao, n_bins = prepass
         hb, wb = plan.canvas.shape
@@ -270,7 +314,11 @@ class VectorPasses:
             ctx.viewport = (0, 0, w, h)
             parent.use(0)
             mt.use(5)
-            if not plan.cube:
+            if delta is not None:  # a textured plan's
+                level_tex = [self._tex(delta, 3, "f4")]
+                level_tex[0].use(7)
+                _set(p, "u_cell_delta", 7)
+            elif not plan.cube:
                 assert plan.dphi is not None and plan.dlam is not None  # a lon/lat plan's
                 level_tex = [self._tex(plan.dphi[s], 1, "f4"), self._tex(plan.dlam[s], 1, "f4")]
                 level_tex[0].use(7)

@@ -1,7 +1,8 @@
 """Raster grids: pixel centres, the level hierarchy and per-cell bounds rho.
 
-``Equirect`` (lon/lat plate carree), ``Tile`` (web-mercator XYZ tile), ``Cube`` and
-``CubeFace`` (GL cube maps).
+``Equirect`` (lon/lat plate carree), ``Tile`` (web-mercator XYZ tile), ``TmsTile`` (a
+tile of an OGC TileMatrixSet), ``Cube`` and ``CubeFace`` (GL cube maps), ``Projected``
+(an image in any projected CRS, pyproj).
 """
 
 from typing import TYPE_CHECKING
@@ -10,8 +11,20 @@ from .base import InvalidGridError
 from .cube import FACE_NAMES, Cube, CubeFace, locate
 from .equirect import Equirect
 from .mercator import Tile
+from .projected import Projected
+from .tms import TmsTile
 
-__all__ = ["Cube", "CubeFace", "Equirect", "FACE_NAMES", "InvalidGridError", "Tile", "locate"]
+__all__ = [
+    "Cube",
+    "CubeFace",
+    "Equirect",
+    "FACE_NAMES",
+    "InvalidGridError",
+    "Projected",
+    "Tile",
+    "TmsTile",
+    "locate",
+]
 
 if TYPE_CHECKING:  # read by mypy (`mypy gloffset`): every grid answers its protocols
     from .conformal import ConformalRows
@@ -27,14 +40,23 @@ if TYPE_CHECKING:  # read by mypy (`mypy gloffset`): every grid answers its prot
         RegularLonLat,
         TileLevels,
     )
+    from .tms import LonLatTile
 
     def _answers(
-        e: Equirect, t: Tile, r: ConformalRows, f: CubeFace, c: Cube, cc: CubeCells, p: TilePyramid
+        e: Equirect,
+        t: Tile,
+        r: ConformalRows,
+        f: CubeFace,
+        c: Cube,
+        cc: CubeCells,
+        p: TilePyramid,
+        pr: Projected,
+        g: LonLatTile,
     ) -> None:
         regular: list[RegularLonLat] = [e]
-        lonlat: list[LonLatCells] = [e, t, r]
-        images: list[Image] = [e, t, r, f, c]
-        image_grids: list[ImageGrid] = [e, t, r, f]
+        lonlat: list[LonLatCells] = [e, t, r, g]
+        images: list[Image] = [e, t, r, f, c, pr, g]
+        image_grids: list[ImageGrid] = [e, t, r, f, pr, g]
         faces: list[FaceGrid] = [f]
         curve_masks: list[CurveMaskImage] = [e, c, r]
         cell_sets: list[FaceCells] = [cc]

@@ -68,6 +68,9 @@ class LevelHierarchy:
         def rho(self, level: int) -> np.ndarray: ...
 
     lonlat = False
+    #: how the GPU levels get the cell centres (:mod:`gloffset.grids.protocol`):
+    #: ``"texture"`` (made on the host from :meth:`centers`) unless a grid has a GLSL form
+    centres = "texture"
     n_faces = 1
     subgrids = False
     curve_masks = False
@@ -123,6 +126,16 @@ class LevelHierarchy:
         """The bound of cells (``j``, ``i``) of ``level``."""
         return self.rho(level)[np.asarray(j)] + 0.0 * np.asarray(i)
 
+    def texture_centers(self, level: int, j, i) -> np.ndarray:
+        """The cell centres the GPU levels read from textures (``centres`` is
+        ``"texture"``): :meth:`centers`, or a faster float64 twin of them."""
+        return self.centers(level, j, i)  # type: ignore[attr-defined]
+
+    def valid(self, level: int) -> np.ndarray | None:
+        """Per cell of ``level``: whether a pixel of it has a place on the sphere; None
+        when every pixel has (every grid but a projection with a limited domain)."""
+        return None
+
     def decision_rho(self, level: int, j, i) -> np.ndarray:
         """The bound a cell is decided with: :meth:`rho_at` (a grid whose decisions need
         only the cell's own points, not its descendants' lists, overrides it)."""
@@ -173,6 +186,7 @@ class LonLatGrid(LevelHierarchy):
     """
 
     lonlat = True
+    centres = "lonlat"
 
     def pixel_lat(self, y):  # pragma: no cover - abstract
         """Latitude (radians) at fractional output-pixel row ``y`` (0: the northern edge)."""

@@ -114,6 +114,7 @@ class CubeFace(Square, LevelHierarchy):
 
     face: int
     size: int
+    centres = "cube"
 
     def __post_init__(self):
         if self.face not in range(6):

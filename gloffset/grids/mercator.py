@@ -173,38 +173,67 @@ class TilePyramid:
     ``ell``: an ellipsoid whose geodetic latitudes the tiles' are: the pyramid is then
     the one on its conformal sphere (every latitude mapped to its conformal latitude,
     as :class:`~gloffset.grids.conformal.ConformalRows` does for one grid).
+
+    ``quad``: the quadtree of a TMS in a geographic CRS
+    (:class:`~gloffset.grids.tms.TmsQuad`, ``kind == "lonlat"``, e.g. ``WorldCRS84Quad``)
+    instead of web mercator: zoom ``z`` has ``rows0 2^z x cols0 2^z`` tiles, rows and
+    columns evenly spaced in latitude and longitude over the TMS's extent.
     """
 
     lonlat = False
+    #: the levels below a tile are its pixels' (lon/lat rows: the GPU bin levels)
+    bins_below = True
 
-    def __init__(self, maxzoom: int, ell=None):
+    def __init__(self, maxzoom: int, ell=None, quad=None):
         self.maxzoom = int(maxzoom)
         self.ell = ell
-        # the tiles next to the equator are the largest of a zoom; on the conformal
-        # sphere every tile is smaller than those (0.3 % smaller from zoom 5 on,
-        # tested), so their bounds serve the conformal pyramid too
+        if quad is not None and (ell is not None or quad.kind != "lonlat"):
+            raise ValueError("a TilePyramid's quad is a lon/lat TMS's, on the sphere")
+        self.quad = quad
+        # the tiles next to the equator are the largest of a zoom (web mercator, and
+        # rows evenly spaced in latitude alike); on the conformal sphere every tile is
+        # smaller than those (0.3 % smaller from zoom 5 on, tested), so their bounds
+        # serve the conformal pyramid too
         sphere = self if ell is None else TilePyramid(maxzoom)
         eq = [
-            sphere.decision_rho(z, max(0, (1 << z) // 2 - 1))[()] for z in range(self.maxzoom + 1)
+            float(np.max(sphere.decision_rho(z, self._equator_rows(z))))
+            for z in range(self.maxzoom + 1)
         ]
         tail = np.cumsum(eq[::-1])[::-1]  # tail[z] = sum of eq[z..Z]
         self._extra = [float(tail[z + 1]) if z < self.maxzoom else 0.0 for z in range(len(eq))]
+
+    def _equator_rows(self, z: int) -> np.ndarray:
+        """The rows of zoom ``z`` next to the equator (the largest tiles of the zoom)."""
+        rows = self.level_shape(z)[0]
+        if self.quad is None:
+            return np.array([max(0, rows // 2 - 1)])
+        _, south, _, north = self.quad.bounds
+        at = rows * north / (north - south) if south < 0.0 < north else 0.0
+        near = np.floor(at) + np.arange(-1.0, 2.0)
+        if north <= 0.0:
+            near = np.array([0.0])
+        elif south >= 0.0:
+            near = np.array([rows - 1.0])
+        return np.clip(near, 0, rows - 1)
 
     @property
     def n_levels(self) -> int:
         return self.maxzoom + 1
 
     def level_shape(self, z: int) -> tuple[int, int]:
+        if self.quad is not None:
+            return self.quad.matrix_shape(z)
         return (1 << z, 1 << z)
 
     def centers(self, z: int, j, i) -> np.ndarray:
         """Unit vectors of the centres of tiles (row ``j`` = y, column ``i`` = x) of zoom z."""
-        n = 1 << z
-        lon = lon_at(np.asarray(i, dtype=np.float64) + 0.5, n)
-        return _xyz(lon, self._lat(np.asarray(j, dtype=np.float64) + 0.5, n))
+        lon = self.tile_lon(z, np.asarray(i, dtype=np.float64) + 0.5)
+        return _xyz(lon, self.tile_lat(z, np.asarray(j, dtype=np.float64) + 0.5))
 
     def _lat(self, pos, n) -> np.ndarray:
-        """:func:`lat_at`, or its conformal latitude on the ellipsoid ``ell``."""
+        """:func:`lat_at` (the quad's), or its conformal latitude on the ellipsoid ``ell``."""
+        if self.quad is not None:
+            return self.quad.lat_at(pos, n)
         lat = lat_at(pos, n)
         if self.ell is None:
             return lat
@@ -212,10 +241,12 @@ class TilePyramid:
 
     def tile_lat(self, z: int, yy) -> np.ndarray:
         """Latitude (radians) at fractional tile row ``yy`` of zoom ``z``."""
-        return self._lat(yy, 1 << z)
+        return self._lat(yy, self.level_shape(z)[0])
 
     def tile_lon(self, z: int, xx) -> np.ndarray:
         """Longitude (radians) at fractional tile column ``xx`` of zoom ``z``."""
+        if self.quad is not None:
+            return self.quad.lon_at(xx, self.level_shape(z)[1])
         return lon_at(xx, 1 << z)
 
     def decision_rho(self, z: int, j, i=0) -> np.ndarray:
@@ -243,9 +274,16 @@ class TilePyramid:
 
     def _row_rho(self, z: int, j: np.ndarray) -> np.ndarray:
         """:meth:`decision_rho` of rows ``j`` (float64), computed."""
-        n = 1 << z
-        north, south, mid = self._lat(j, n), self._lat(j + 1.0, n), self._lat(j + 0.5, n)
-        dl = math.pi / n
+        north, south, mid = (
+            self.tile_lat(z, j),
+            self.tile_lat(z, j + 1.0),
+            self.tile_lat(z, j + 0.5),
+        )
+        if self.quad is None:
+            dl = math.pi / (1 << z)
+        else:
+            west, _, east, _ = self.quad.bounds
+            dl = 0.5 * math.radians(east - west) / self.level_shape(z)[1]
         exact = rect_radius(np.full(j.shape, dl), mid, south, north)
         c = _xyz(0.0, mid)
         corners = np.maximum(angle(c, _xyz(dl, north)), angle(c, _xyz(dl, south)))
@@ -253,7 +291,7 @@ class TilePyramid:
 
     def rho(self, z: int) -> np.ndarray:
         """Per-row list bound ``L`` of zoom ``z``."""
-        return self.rho_at(z, np.arange(1 << z), 0)
+        return self.rho_at(z, np.arange(self.level_shape(z)[0]), 0)
 
     def rho_at(self, z: int, j, i) -> np.ndarray:
         """The list bound ``L`` of tiles (``j``, ``i``) of zoom ``z``."""

@@ -156,6 +156,11 @@ class ImageGrid(Grid, Image, Protocol):
 
     #: the grid can be cut into parts (:meth:`subgrid`)
     subgrids: bool
+    #: how the GPU levels get the cell centres: ``"lonlat"`` (rows and columns from
+    #: their latitude and longitude, ``lib/lonlat.glsl``), ``"cube"`` (a cube face,
+    #: ``lib/cube.glsl``) or ``"texture"`` (each cell's centre minus its bin's, made on
+    #: the host from :meth:`centers` in float64: any grid)
+    centres: str
 
     @property
     def width(self) -> int: ...
@@ -179,6 +184,16 @@ class ImageGrid(Grid, Image, Protocol):
     def subgrid(self, x0: int, y0: int, w: int, h: int) -> ImageGrid:
         """The ``w x h`` pixels from column ``x0``, row ``y0`` as a grid of their own
         (where ``subgrids``)."""
+        ...
+
+    def texture_centers(self, level: int, j, i) -> np.ndarray:
+        """The cell centres that textured GPU levels read: :meth:`centers` or a float64
+        twin of them (a few 1e-13 rad apart at most)."""
+        ...
+
+    def valid(self, level: int) -> np.ndarray | None:
+        """Per cell of ``level``: whether a pixel of it has a place on the sphere (a
+        projection's domain); None when all have. Pixels without one are outside."""
         ...
 
 

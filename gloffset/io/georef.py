@@ -45,6 +45,8 @@ class Georef:
     transform: tuple
     crs: str = "EPSG:4326"
     description: str | None = None
+    #: the ``.prj`` beside a world file (ESRI WKT) for a CRS other than EPSG:4326
+    prj: str | None = None
 
 
 def world_file(ref: Georef) -> str:
@@ -61,7 +63,9 @@ def write_world_files(target, ref: Georef) -> None:
     path = Path(target)
     ext = {".png": ".pgw", ".tif": ".tfw", ".tiff": ".tfw"}.get(path.suffix.lower(), ".wld")
     write_bytes(path.with_suffix(ext), world_file(ref).encode())
-    if ref.crs == "EPSG:4326":
+    if ref.prj is not None:
+        write_bytes(path.with_suffix(".prj"), (ref.prj + "\n").encode())
+    elif ref.crs == "EPSG:4326":
         write_bytes(path.with_suffix(".prj"), (WGS84_WKT + "\n").encode())
 
 

@@ -24,8 +24,8 @@ import numpy as np
 
 from .._version import __version__
 from ..grids.mercator import check_zoom
-from ..io.tilestore import INPUT_KEY, input_digest, open_store
 from ..shape import read
+from ..tiles.store.tilestore import INPUT_KEY, input_digest, open_store
 from ..units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, distance_properties, offset_angle
 from .boundary import ResolvedBoundary
 from .geometry import TileFrame, to_polygons

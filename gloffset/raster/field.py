@@ -372,7 +372,11 @@ def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str)
         inside = classes == CONTAINED
         count.add(before + dist.size - count.done)  # the levels reported, all of them
     v = np.minimum(dist, m) * radius
-    return np.where(inside, -v, v).astype(np.float32)
+    out = np.where(inside, -v, v).astype(np.float32)
+    valid = grid.valid(grid.n_levels - 1)
+    if valid is not None:  # pixels without a place on the sphere: farther than any d
+        out[~valid] = np.inf
+    return out
 
 
 def _distances(shape, grid, m: float, count: _Progress) -> np.ndarray:

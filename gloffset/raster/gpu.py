@@ -50,6 +50,9 @@ def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs) -> BinPl
     )
     if layout.basis is not None:
         plan.basis, plan.face_size = layout.basis, layout.face_size
+    elif layout.centre is not None:
+        plan.bin_centre = layout.canvas_of(layout.centre[:, None, None, :], 0).astype(np.float32)
+        plan.cell_delta = layout.delta_canvas
     else:
         lat, lon = layout.lat, layout.lon
         # a lon/lat layout (no basis) has them all

@@ -1,5 +1,5 @@
 """The keyword options of the public raster functions, gathered into one frozen dataclass
-per function (:class:`~gloffset.raster.pyramid.job.PyramidOptions`,
+per function (:class:`~gloffset.tiles.tiling.job.PyramidOptions`,
 :class:`~gloffset.raster.rasterized.offset.RasterOffsetOptions`): the public function
 takes them as keywords, the package passes the object on.
 """

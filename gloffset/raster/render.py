@@ -99,6 +99,9 @@ def _render_on_ellipsoid(shape, distance, grid, out, backend, callback, ellipsoi
         lon, lat, chi = _centres_lonlat(grid, lev, j0, j1, w, ell)
         inside = members(conf, lon, lat, distance, chi=chi)
         image[j0:j1] = np.where(inside, 255, 0).reshape(j1 - j0, w)
+    valid = grid.valid(lev)
+    if valid is not None:
+        image[~valid] = 0
     return image
 
 
@@ -217,6 +220,27 @@ def render_grid(shape, d: float, grid) -> np.ndarray:
 
 
 def _render_one(shape, d, grid, *, backend, level, callback, mask, simplify=True):
+    """Return the classes of ``level`` (default: the output level) or the mask.
+
+    Cells without a place on the sphere (the grid's ``valid``) are outside.
+    """
+    out = _render_cells(
+        shape,
+        d,
+        grid,
+        backend=backend,
+        level=level,
+        callback=callback,
+        mask=mask,
+        simplify=simplify,
+    )
+    valid = grid.valid(grid.n_levels - 1 if level is None else level)
+    if valid is not None:
+        out[~valid] = 0
+    return out
+
+
+def _render_cells(shape, d, grid, *, backend, level, callback, mask, simplify=True):
     """Classes of ``level`` (default: the output level) or, with ``mask``, the mask.
 
     The float64 levels (:class:`~gloffset.raster.vector.curves.CurveCells`) run down to the

@@ -11,7 +11,7 @@ Endpoints (each input is a layer named after its file stem):
   that holds the region at that distance (:func:`~gloffset.serve.bounds.region_bounds`);
 - ``GET /field/{layer}/{z}/{x}/{y}.png`` (``@2x``): the tile's signed distance field in
   metres, a lossless RGB PNG in the ``raster-dem`` ``custom`` encoding of
-  :data:`~gloffset.raster.pyramid.fieldtiles.FIELD_ENCODING` (1 m steps, +-8,388 km);
+  :data:`~gloffset.tiles.tiling.fieldtiles.FIELD_ENCODING` (1 m steps, +-8,388 km);
   ``GET /field/{layer}.json``: TileJSON 3.0.0 for them, with that ``encoding``;
 - ``GET /mvt/{layer}/{z}/{x}/{y}.pbf?d=127km`` (:func:`gloffset.vector_tile`), its TileJSON;
 - ``GET /offset/{layer}.geojson?distance=127km``, ``GET /shape/{layer}.geojson``,
@@ -57,14 +57,16 @@ from ..ellipsoidal import distance as distance_to
 from ..errors import GloffsetError, OptionError
 from ..geometry.sphere import lonlat_to_xyz
 from ..grids.mercator import MAX_ZOOM
+from ..grids.tms import WEB_MERCATOR, TmsQuad, as_tms, tms_ids, tms_quad
 from ..io.geojson import offset_feature
 from ..mvt.boundary import ResolvedBoundary
 from ..mvt.pyramid import vector_layers
 from ..mvt.tile import encode as encode_mvt
 from ..mvt.tile import tile_geometry
-from ..raster.pyramid.fieldtiles import FIELD_ENCODING
-from ..raster.pyramid.tilepaint import TileStyle
+from ..raster.render import render_angle
 from ..shape import read
+from ..tiles.tiling.fieldtiles import FIELD_ENCODING, encode_field, field_tile
+from ..tiles.tiling.tilepaint import TileStyle
 from ..units import (
     EARTH_RADIUS,
     RASTER_LIMIT,
@@ -76,7 +78,16 @@ from ..vector.arcrings import DEFAULT_TOLERANCE
 from ..vector.offset import offset
 from .accesslog import AccessLog, open_log
 from .bounds import region_bounds
-from .service import UNKNOWN, FieldKey, QueueFull, TileKey, TileService, etag
+from .service import (
+    EMPTY_PNG,
+    UNKNOWN,
+    FieldKey,
+    QueueFull,
+    TileKey,
+    TileService,
+    empty_png,
+    etag,
+)
 
 __all__ = ["create_app", "app_from_environment", "cors_origins", "ENVIRONMENT", "STATIC"]
 
@@ -396,6 +407,84 @@ class _Server:
         body = {"layer": name, "lon": lon, "lat": lat, "distance_m": metres, "inside": inside}
         return JSONResponse(body)
 
+    # ------------------------------------------------------ other TileMatrixSets
+    def tms(self, name: str) -> TmsQuad:
+        """The quadtree of the TileMatrixSet ``name`` (404 when gloffset has none)."""
+        try:
+            return tms_quad(name)
+        except GloffsetError as exc:
+            _bad(str(exc), 404)
+
+    def tms_tile_at(self, quad: TmsQuad, z: str, x: str, y: str) -> tuple[int, int, int]:
+        if not all(_NUMBER.fullmatch(v) for v in (z, x, y)):
+            _bad(f"z/x/y must be integers of at most 8 ASCII digits, got {z!r}/{x!r}/{y!r}")
+        zi, xi, yi = int(z), int(x), int(y)
+        try:
+            quad.check_tile(zi, xi, yi)
+        except GloffsetError as exc:
+            _bad(str(exc))
+        return zi, xi, yi
+
+    async def tms_tile(self, request: Request) -> Response:
+        """A tile of a TileMatrixSet: web mercator's as :meth:`tile`, another's rendered
+        on its own grid (:func:`gloffset.grids.TmsTile`) on the render thread."""
+        p = request.path_params
+        if p["tms"] == WEB_MERCATOR:
+            return await self.tile(request)
+        quad = self.tms(p["tms"])
+        shape = self.layer(p["layer"])
+        d = self.angle(shape, p["distance"])
+        z, x, y = self.tms_tile_at(quad, p["z"], p["x"], p["y"])
+        style = _style(request.query_params)
+        if style.outline is not None:
+            _bad(f"tiles of {quad.id} take no outline")
+
+        def render() -> bytes:
+            png = style.encode(render_angle(shape, d, quad.tile(z, x, y)) > 0)
+            return png if png is not None else EMPTY_PNG.get(quad.size) or empty_png(quad.size)
+
+        made = await self._wait(lambda: self.tiles.call(render), "tile")
+        if isinstance(made, Response):
+            return made
+        return self._png(request, made, "rendered")
+
+    async def tms_field_tile(self, request: Request) -> Response:
+        """A distance-field tile of a TileMatrixSet (web mercator's as :meth:`field_tile`)."""
+        p = request.path_params
+        if p["tms"] == WEB_MERCATOR:
+            return await self.field_tile(request)
+        quad = self.tms(p["tms"])
+        shape = self.layer(p["layer"])
+        z, x, y = self.tms_tile_at(quad, p["z"], p["x"], p["y"])
+
+        def compute() -> bytes:
+            f = field_tile(shape, z, x, y, quad.size, quad)
+            return encode_field(f.values, EARTH_RADIUS)
+
+        made = await self._wait(lambda: self.tiles.call(compute), "field")
+        if isinstance(made, Response):
+            return made
+        return self._png(request, made, "computed")
+
+    async def tile_matrix_sets(self, request: Request) -> Response:
+        """The TileMatrixSets served (OGC API - Tiles, as TiTiler lists them)."""
+        base = str(request.base_url).rstrip("/")
+        items = []
+        for name in await asyncio.to_thread(_served_tms):
+            t = as_tms(name)
+            link = {
+                "href": f"{base}/tileMatrixSets/{name}",
+                "rel": "http://www.opengis.net/def/rel/ogc/1.0/tiling-scheme",
+                "type": "application/json",
+                "title": f"Definition of {name}",
+            }
+            items.append({"id": name, "title": t.title or name, "links": [link]})
+        return JSONResponse({"tileMatrixSets": items})
+
+    async def tile_matrix_set(self, request: Request) -> Response:
+        quad = self.tms(request.path_params["tms"])
+        return Response(quad.document(), media_type="application/json")
+
     async def layer_list(self, request: Request) -> Response:
         items = sorted(self.layers.items())
         return JSONResponse(await asyncio.to_thread(lambda: [_describe(n, s) for n, s in items]))
@@ -422,6 +511,18 @@ def _zxy(z: str, x: str, y: str) -> tuple[int, int, int, int]:
     if not (0 <= xi < n and 0 <= yi < n):
         _bad(f"tile {zi}/{xi}/{yi} does not exist: x and y must be in 0..{n - 1}")
     return zi, xi, yi, size
+
+
+def _served_tms() -> list[str]:
+    """The TileMatrixSets whose tiles the server makes (the quadtrees of morecantile's)."""
+    out = []
+    for name in tms_ids():
+        try:
+            tms_quad(name)
+        except GloffsetError:
+            continue
+        out.append(name)
+    return out
 
 
 def not_modified(header: str | None, tag: str) -> bool:
@@ -513,6 +614,10 @@ def create_app(
         Route("/", srv.index, methods=get),
         Route("/layers", srv.layer_list, methods=get),
         Route("/tiles/{layer}/{distance}/{z}/{x}/{y}.png", srv.tile, methods=get),
+        Route("/tiles/{tms}/{layer}/{distance}/{z}/{x}/{y}.png", srv.tms_tile, methods=get),
+        Route("/field/{tms}/{layer}/{z}/{x}/{y}.png", srv.tms_field_tile, methods=get),
+        Route("/tileMatrixSets", srv.tile_matrix_sets, methods=get),
+        Route("/tileMatrixSets/{tms}", srv.tile_matrix_set, methods=get),
         Route("/tilejson/{layer}.json", srv.tilejson, methods=get),
         Route("/field/{layer}/{z}/{x}/{y}.png", srv.field_tile, methods=get),
         Route("/field/{layer}.json", srv.field_tilejson, methods=get),

@@ -5,8 +5,8 @@ bytes.
 A tile wholly inside or wholly outside the offset region is decided without the render
 thread or the GPU (:meth:`TileService.answer`): the exact distances from the tile's
 centre to the curves and whether the centre is inside, against the tile's rigorous
-bound, with the decision rule of the raster levels (:func:`gloffset.raster.pyramid.measure_tiles`,
-:class:`~gloffset.raster.pyramid.TileCentre`); those distances do not depend on the offset
+bound, with the decision rule of the raster levels (:func:`gloffset.tiles.tiling.measure_tiles`,
+:class:`~gloffset.tiles.tiling.TileCentre`); those distances do not depend on the offset
 distance, so they are measured once per tile.
 The answer is one shared PNG per size and style (empty: fully transparent).
 
@@ -15,7 +15,7 @@ render thread. Requests wait on a :class:`concurrent.futures.Future`; the queue 
 most ``queue_size`` pending tiles (a full queue raises :class:`QueueFull`, which the
 server answers with 503 and ``Retry-After``). The render thread takes every pending
 request at once and renders those of one layer, distance, zoom, size and style together
-(:func:`gloffset.raster.pyramid.render_tiles`: one walk down the zooms and batched GPU
+(:func:`gloffset.tiles.tiling.render_tiles`: one walk down the zooms and batched GPU
 runs), so throughput grows with load. Rendered tiles are kept in an LRU bounded in
 bytes. A request whose client went away is still rendered when its batch had started
 (the tile is cached, the answer dropped); one cancelled before is skipped.
@@ -47,10 +47,10 @@ from PIL import Image
 
 from ..errors import QueueFullError as QueueFull
 from ..geometry.classes import CONTAINED, OUTSIDE
-from ..raster.pyramid import measure_tiles, render_tiles
-from ..raster.pyramid.fieldtiles import encode_field, field_tile
-from ..raster.pyramid.malloc import give_back_freed_memory
-from ..raster.pyramid.tilepaint import TileStyle
+from ..tiles.tiling import measure_tiles, render_tiles
+from ..tiles.tiling.fieldtiles import encode_field, field_tile
+from ..tiles.tiling.malloc import give_back_freed_memory
+from ..tiles.tiling.tilepaint import TileStyle
 from ..units import EARTH_RADIUS
 
 __all__ = [
@@ -67,14 +67,14 @@ __all__ = [
 log = logging.getLogger("gloffset.serve")
 
 
-def _empty_png(size: int) -> bytes:
+def empty_png(size: int) -> bytes:
     buf = io.BytesIO()
     Image.fromarray(np.zeros((size, size, 4), np.uint8), mode="RGBA").save(buf, format="PNG")
     return buf.getvalue()
 
 
 #: A fully transparent tile of 256 and 512 pixels (every tile with nothing in it).
-EMPTY_PNG = {256: _empty_png(256), 512: _empty_png(512)}
+EMPTY_PNG = {256: empty_png(256), 512: empty_png(512)}
 
 
 #: seconds without a render request after which the field thread computes the field of a
@@ -284,7 +284,7 @@ class TileService:
     def from_field(self, key: TileKey) -> bytes | None:
         """The tile's bytes from its kept field: the threshold at ``key.d``
         (:meth:`~gloffset.DistanceField.threshold`: the float64 reference render's pixels)
-        styled as :func:`~gloffset.raster.pyramid.render_tiles` styles a rendered tile;
+        styled as :func:`~gloffset.tiles.tiling.render_tiles` styles a rendered tile;
         None when the field is not kept or the style has an outline (those tiles are
         rendered). The bytes are kept in the tile LRU. Runs on any thread (no GL)."""
         if key.style.outline is not None:
@@ -301,7 +301,7 @@ class TileService:
 
     def submit_field(self, fkey: FieldKey) -> Future:
         """A future of the field tile's PNG bytes
-        (:func:`~gloffset.raster.pyramid.fieldtiles.encode_field` of the field in metres on
+        (:func:`~gloffset.tiles.tiling.fieldtiles.encode_field` of the field in metres on
         the Earth's sphere), the field computed on the render thread and kept (raises
         :class:`QueueFull`)."""
         fut: Future = Future()

@@ -55,7 +55,7 @@ class CurveCells:
     def remember(self, ahead: int | None) -> None:
         """Keep each refined level until it is asked for again (once), by the level and
         the cells of its parents. A tile pyramid refines the same frontier twice: its
-        bin levels run ahead of the zoom walk (:class:`gloffset.raster.pyramid.walk.BinChain`)
+        bin levels run ahead of the zoom walk (:class:`gloffset.tiles.tiling.walk.BinChain`)
         and the walk reaches the same cells later. The classes, candidates and
         measures are those of computing the level again: only the work is saved.
         ``ahead``: how many levels the first caller runs ahead of the second (levels

@@ -14,7 +14,7 @@ import os
 import shutil
 from pathlib import Path
 
-from ..errors import OutputError, OutputExistsError
+from ...errors import OutputError, OutputExistsError
 
 __all__ = ["XYZDirWriter", "METADATA_FILE", "read_metadata"]
 
@@ -165,6 +165,11 @@ class XYZDirWriter:
     def set_metadata(self, values: dict) -> None:
         """Update ``metadata.json`` with ``values``."""
         self._write_metadata({**self._read_metadata(), **values})
+
+    def put_document(self, name: str, data: bytes) -> None:
+        """Write the file ``name`` beside the tiles (the TileMatrixSet of a pyramid that is
+        not web mercator)."""
+        self._atomic(self.path / name, data)
 
     def commit(self) -> None:
         """Files are complete as soon as they are written: nothing to do."""

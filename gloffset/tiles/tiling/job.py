@@ -7,8 +7,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from ...raster.options import check_keywords, option_names
 from ...units import EARTH_RADIUS
-from ..options import check_keywords, option_names
 from .tilepaint import TileStyle
 
 __all__ = ["MAX_BLOCK", "PyramidJob", "PyramidOptions", "pyramid_options"]
@@ -37,6 +37,9 @@ class PyramidJob:
     max_block : int
         Frontier tiles per GPU run: at most ``(max_block / size)^2``; the tiles do not
         depend on it.
+    quad : TmsQuad or None
+        The tile quadtree of the TileMatrixSet
+        (:class:`~gloffset.grids.tms.TmsQuad`); None: web mercator.
     """
 
     shape: object
@@ -46,6 +49,7 @@ class PyramidJob:
     size: int
     style: TileStyle
     max_block: int = MAX_BLOCK
+    quad: Any = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -65,6 +69,7 @@ class PyramidOptions:
     workers: int | None = None
     scheduler: str | None = None
     ellipsoid: Any = None
+    tms: Any = None
 
 
 def pyramid_options(options: dict[str, Any], what: str = "pyramid") -> PyramidOptions:

@@ -17,8 +17,8 @@ import hashlib
 import sqlite3
 from pathlib import Path
 
-from ..errors import OutputError, OutputExistsError
-from .output import replacing
+from ...errors import OutputError, OutputExistsError
+from ...io.output import replacing
 
 __all__ = ["MBTilesWriter", "read_metadata", "tms_row", "SCHEMA"]
 

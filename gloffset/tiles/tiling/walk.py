@@ -10,11 +10,11 @@ import functools
 import numpy as np
 
 from ...grids.mercator import Tile
-from ..driver import CONTAINED, FRONTIER, NOT_FORCED, OUTSIDE, Level
-from ..layout import BinLayout
-from ..render import render_grid
-from ..vector.curves import CurveCells
-from ..vector.levels import subset
+from ...raster.driver import CONTAINED, FRONTIER, NOT_FORCED, OUTSIDE, Level
+from ...raster.layout import BinLayout
+from ...raster.render import render_grid
+from ...raster.vector.curves import CurveCells
+from ...raster.vector.levels import subset
 from .tilepaint import OutlineArcs
 
 __all__ = [
@@ -147,7 +147,7 @@ class ZoomWriter:
         outline crosses, whose children inherit the class: ``lev.forced``); returns the
         zoom's decision radii and which tiles are carried so."""
         cls = lev.cls
-        r = self.cells.grid.decision_rho(lev.level, lev.cells[:, 0])
+        r = self.cells.grid.decision_rho(lev.level, lev.cells[:, 0], lev.cells[:, 1])
         carry = (cls != FRONTIER) & (lev.measure <= r)
         if self.outline is None:
             carry[:] = False
@@ -157,7 +157,9 @@ class ZoomWriter:
 
     def alone(self, z: int) -> bool:
         """Whether the frontier tiles of zoom ``z`` are rendered one by one (without
-        the bin chain)."""
+        the bin chain; every zoom of a grid without bin levels below its tiles)."""
+        if not self.cells.grid.bins_below:
+            return True
         return z <= PYRAMID_ALONE_ZOOM and self.outline is None
 
     def inside(self, lev: Level, cont, zlo: int, zhi: int):
@@ -205,11 +207,14 @@ class ZoomWriter:
             # few tiles, each far coarser than the input: one render per tile, from the
             # curves simplified to its pixels where that pays (as render_tiles does)
             shape, d, size = self.cells.shape, self.cells.d, self.size
+            quad = self.cells.grid.quad
             masks = (
                 (
                     k,
                     render_grid(
-                        shape, d, tile_grid(z, int(cols[front[k]]), int(rows[front[k]]), size)
+                        shape,
+                        d,
+                        tile_grid(z, int(cols[front[k]]), int(rows[front[k]]), size, quad),
                     )
                     > 0,
                 )
@@ -352,10 +357,13 @@ PYRAMID_ALONE_ZOOM = 2
 
 
 @functools.lru_cache(maxsize=1024)
-def tile_grid(z: int, x: int, y: int, size: int) -> Tile:
-    """The :class:`~gloffset.grids.Tile`, made once: it keeps its levels' bounds and
+def tile_grid(z: int, x: int, y: int, size: int, quad=None):
+    """The :class:`~gloffset.grids.Tile` (or the tile of the TMS quadtree ``quad``, a
+    :class:`~gloffset.grids.tms.TmsQuad`), made once: it keeps its levels' bounds and
     geometry, the same for every distance (zooms 0-3 have 85 tiles)."""
-    return Tile(z, x, y, size)
+    if quad is None:
+        return Tile(z, x, y, size)
+    return quad.tile(z, x, y)
 
 
 def render_frontier_tiles(chain, which, size, max_block, stats):
@@ -363,7 +371,7 @@ def render_frontier_tiles(chain, which, size, max_block, stats):
     ``(index, mask)``: the GPU levels classify the frontier bins of up to
     ``(max_block / size)^2`` tiles per run, packed into one small canvas; every other
     pixel of a tile is its bin's class."""
-    from ..gpu import bin_passes
+    from ...raster.gpu import bin_passes
 
     plog = size.bit_length() - 1
     ns = plog - chain.nb  # GPU levels: a bin is 2^ns pixels on a side

@@ -23,7 +23,7 @@ import numpy as np
 from ...ellipsoidal import conformal, decide, signed_distance, thresholds
 from ...geometry.sphere import angle, lonlat_to_xyz
 from ...grids.mercator import Tile, lat_at
-from ..render import GPU_EPS, SCREEN_MARGIN, screened
+from ...raster.render import GPU_EPS, SCREEN_MARGIN, screened
 from .ondemand import tile_masks
 
 __all__ = ["run_ellipsoid_pyramid", "tile_caps"]
@@ -80,10 +80,10 @@ def classify_tiles(conf, m: float, z: int, xs, ys):
 
 
 def run_ellipsoid_pyramid(job, ell, store, have, stats):
-    """Write the tiles of ``job`` (a :class:`~gloffset.raster.pyramid.job.PyramidJob`,
+    """Write the tiles of ``job`` (a :class:`~gloffset.tiles.tiling.job.PyramidJob`,
     ``job.d`` on the sphere of radius ``ell.a``) into ``store`` (skipping ``have``):
     contained tiles and their descendants as one full image, frontier tiles rendered
-    (:func:`frontier_masks`, with :func:`gloffset.raster.pyramid.ondemand.tile_masks`)."""
+    (:func:`frontier_masks`, with :func:`gloffset.tiles.tiling.ondemand.tile_masks`)."""
     shape, m, size, style = job.shape, job.d * ell.a, job.size, job.style
     zlo, zhi = zooms = job.zlo, job.zhi
     full = style.encode(np.ones((size, size), dtype=bool))

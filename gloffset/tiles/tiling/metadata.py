@@ -11,8 +11,8 @@ from pathlib import Path
 from ..._version import __version__
 from ...errors import TilesError
 from ...grids.mercator import lat_at
-from ...io.tilestore import INPUT_KEY, input_digest
 from ...units import EARTH_RADIUS
+from ..store.tilestore import INPUT_KEY, input_digest
 
 __all__ = [
     "options_json",
@@ -24,8 +24,10 @@ __all__ = [
 ]
 
 
-def options_json(d, zooms, size, style, ell=None) -> str:
+def options_json(d, zooms, size, style, ell=None, quad=None) -> str:
     extra = {} if ell is None else {"ellipsoid": [ell.a, ell.f]}
+    if quad is not None:
+        extra["tms"] = quad.id
     return json.dumps(
         {
             **extra,
@@ -91,13 +93,19 @@ def describe(distance, d: float, radius: float, source: str | None) -> str:
     return f"{what} ({value}); gloffset {__version__}"
 
 
-def final_bounds(store, zooms) -> dict:
+def final_bounds(store, zooms, quad=None) -> dict:
+    """The ``bounds`` and ``center`` metadata of the tiles written (lon/lat degrees), from
+    the deepest zoom that has any; ``quad``: a lon/lat TMS's quadtree (None: web
+    mercator)."""
     for z in range(zooms[1], zooms[0] - 1, -1):
         ext = store.extent(z)
         if ext is not None:
             x0, y0, x1, y1 = ext
-            w, e = x0 * 360.0 / (1 << z) - 180.0, (x1 + 1) * 360.0 / (1 << z) - 180.0
-            n, s = (math.degrees(float(lat_at(v, 1 << z))) for v in (y0, y1 + 1))
+            if quad is None:
+                w, e = x0 * 360.0 / (1 << z) - 180.0, (x1 + 1) * 360.0 / (1 << z) - 180.0
+                n, s = (math.degrees(float(lat_at(v, 1 << z))) for v in (y0, y1 + 1))
+            else:
+                w, s, e, n = quad.tiles_lonlat(z, x0, y0, x1, y1)
             b = (round(w, 6), round(s, 6), round(e, 6), round(n, 6))
             cz = min(zooms[1], max(zooms[0], z - 2))
             return {

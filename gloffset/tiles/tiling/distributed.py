@@ -6,7 +6,7 @@ first zoom from ``max(zmin, 2)`` on where at least eight tiles per worker are ke
 (frontier tiles, and tiles an outline crosses), or the deepest zoom. This process
 writes the decided tiles of those zooms (fully inside tiles with their subtrees, tiles
 an outline crosses above the split) and renders nothing: every other tile is a task,
-:func:`~gloffset.raster.pyramid.driver.subpyramid`. The frontier tiles above the split are
+:func:`~gloffset.tiles.tiling.driver.subpyramid`. The frontier tiles above the split are
 tasks of one tile each, the kept tiles of the split zoom tasks of their subtrees down
 to the deepest zoom. A worker starts from the task's cell as the split classified it
 (its candidate arcs, inside statuses and class: what the whole run has for it, since a
@@ -89,14 +89,14 @@ async def _warm() -> None:
     """Import what a task needs (on each worker, while the split is made; a coroutine
     so that the call does not wait for it)."""
     from ...gl import vector_pass  # noqa: F401
-    from .. import render  # noqa: F401  (the task module itself is imported by Dask)
+    from ...raster import render  # noqa: F401  (the task module itself is imported by Dask)
 
 
 def run_distributed(job, store, have, progress, stats, *, run, task, workers=None, scheduler=None):
     """Write the pyramid ``job`` into ``store`` with its tiles rendered on a Dask cluster.
 
     ``run(split, first, count, last)`` classifies the zooms down to the split and writes
-    their decided tiles (see :class:`gloffset.raster.pyramid.driver.Part`); it returns the tasks
+    their decided tiles (see :class:`gloffset.tiles.tiling.driver.Part`); it returns the tasks
     ``(tile, forced class, start, last zoom)`` and the progress tracker.
     ``task(job, tile, have, start, last)`` (importable by the workers) renders one
     task's tiles from ``start``, the tile's level as the split classified it (so no

@@ -11,15 +11,17 @@ from __future__ import annotations
 import hashlib
 import os
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
-from ..errors import OutputError, OutputExistsError
+from ...errors import OutputError, OutputExistsError
 
 __all__ = [
     "INPUT_KEY",
     "OutputExistsError",
     "check_store",
+    "TileStore",
     "check_tile_output",
     "input_digest",
     "open_store",
@@ -30,6 +32,47 @@ TILE_FILES = (".mbtiles", ".pmtiles")
 
 #: The metadata entry that holds :func:`input_digest` of the pyramid's input.
 INPUT_KEY = "gloffset_input"
+
+
+class TileStore(Protocol):
+    """What a pyramid writes its tiles to (MBTiles, PMTiles, an XYZ folder, or a store
+    of the caller's): tiles by XYZ ``(z, x, y)`` (y = 0 at the north)."""
+
+    def existing(self) -> set[tuple[int, int, int]]:
+        """The tiles already there (a resumed output's)."""
+        ...
+
+    def put(self, z: int, x: int, y: int, data: bytes) -> None:
+        """Write one tile."""
+        ...
+
+    def put_many(self, tiles, data: bytes) -> None:
+        """Write the one image ``data`` at every ``(z, x, y)`` of ``tiles``."""
+        ...
+
+    def metadata(self) -> dict:
+        """The metadata recorded (strings)."""
+        ...
+
+    def set_metadata(self, values: dict) -> None:
+        """Update the metadata with ``values``."""
+        ...
+
+    def extent(self, z: int) -> tuple[int, int, int, int] | None:
+        """``(x0, y0, x1, y1)`` of the tiles of zoom ``z`` written (None if none)."""
+        ...
+
+    def commit(self) -> None:
+        """Make the tiles written so far durable."""
+        ...
+
+    def finish(self) -> None:
+        """The pyramid is complete."""
+        ...
+
+    def close(self) -> None:
+        """Release the output."""
+        ...
 
 
 def input_digest(shape) -> str:

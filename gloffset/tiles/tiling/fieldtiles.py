@@ -19,16 +19,17 @@ from __future__ import annotations
 import io
 import json
 import time
+from pathlib import Path
 
 import numpy as np
 from PIL import Image
 
 from ...errors import OptionError
 from ...grids import Tile
-from ...io.tilestore import INPUT_KEY, check_store, input_digest, open_store
+from ...raster.field import distance_field
 from ...units import EARTH_RADIUS
-from ..field import distance_field
-from .driver import parse_zooms
+from ..store.tilestore import INPUT_KEY, check_store, input_digest, open_store
+from .driver import TMS_DOCUMENT, PyramidOptions, parse_zooms, pyramid_quad
 from .metadata import check_resume, final_bounds, store_metadata
 
 __all__ = [
@@ -75,11 +76,12 @@ def decode_field(png: bytes) -> np.ndarray:
     )
 
 
-def field_tile(shape, z: int, x: int, y: int, size: int = 256):
+def field_tile(shape, z: int, x: int, y: int, size: int = 256, quad=None):
     """The :class:`~gloffset.DistanceField` of tile ``z/x/y`` (``size`` px) in radians
     (``radius=1``, unclamped): what a field tile encodes (times the Earth's radius) and
     what :meth:`~gloffset.DistanceField.threshold` answers any tile of it from."""
-    return distance_field(shape, Tile(z, x, y, size), radius=1.0)
+    grid = Tile(z, x, y, size) if quad is None else quad.tile(z, x, y)
+    return distance_field(shape, grid, radius=1.0)
 
 
 def field_pyramid(
@@ -94,17 +96,20 @@ def field_pyramid(
     overwrite: bool = False,
     resume: bool = False,
     progress=None,
+    tms=None,
 ) -> int:
     """Write the field tiles of ``shape`` (every tile of ``zooms``, ``"MIN-MAX"``) to
     ``out`` (``.mbtiles``, ``.pmtiles`` or an XYZ folder), encoded by
     :data:`FIELD_ENCODING` in metres on the sphere of ``radius``; the encoding is in the
     output's metadata (``encoding``). ``progress(done, total)`` is called after each
-    tile. Returns the number of tiles written (a resumed run skips those there).
+    tile. Returns the number of tiles written (a resumed run skips those there). ``tms``:
+    the tiles of another OGC TileMatrixSet (:func:`gloffset.grids.TmsTile`; an XYZ folder
+    only, the TMS's tile size), as :func:`~gloffset.tiles.pyramid` takes it.
 
     ``resume`` completes an interrupted run: the tiles the output holds are kept, the
     others written, and the result is the output of one uninterrupted run. It is refused
     (:class:`~gloffset.errors.TilesError`, before anything is written) when the output
-    was written with another size, radius or zoom range, or from another input.
+    was written with another size, radius, zoom range or TMS, or from another input.
 
     Accuracy: each pixel is the exact signed distance rounded once to float32 radians
     (:func:`gloffset.distance_field`), times ``radius``, rounded to the metre: within 1 m
@@ -113,25 +118,29 @@ def field_pyramid(
     zlo, zhi = parse_zooms(zooms)
     if size & (size - 1) or not 16 <= size <= 4096:
         raise OptionError(f"tile size must be a power of two from 16 to 4096, got {size!r}")
+    quad = pyramid_quad(PyramidOptions(size=size, tms=tms), out, zhi)
+    extra = {} if quad is None else {"tms": quad.id}
     params = json.dumps(
-        {"field": True, "size": size, "radius": radius, "zooms": [zlo, zhi]}, sort_keys=True
+        {"field": True, "size": size, "radius": radius, "zooms": [zlo, zhi], **extra},
+        sort_keys=True,
     )
     have = check_store(out, resume=resume, overwrite=overwrite)  # reads only
     if resume and have is not None:
         check_resume(have, params, shape, out)
     store = open_store(
         out,
-        _field_metadata(shape, (zlo, zhi), params, name, source),
+        _field_metadata(shape, (zlo, zhi), params, name, source, quad),
         resume=resume,
         overwrite=overwrite,
     )
     present = store.existing() if resume else set()
-    total = sum(1 << (2 * z) for z in range(zlo, zhi + 1))
+    shapes = [(1 << z, 1 << z) if quad is None else quad.matrix_shape(z) for z in range(zhi + 1)]
+    total = sum(rows * cols for rows, cols in shapes[zlo:])
     done, written, saved = 0, 0, time.monotonic()
     try:
-        for z, x, y in _tiles(zlo, zhi):
+        for z, x, y in _tiles(shapes, zlo, zhi):
             if (z, x, y) not in present:
-                f = field_tile(shape, z, x, y, size)
+                f = field_tile(shape, z, x, y, size, quad)
                 store.put(z, x, y, encode_field(f.values, radius))
                 written += 1
                 if time.monotonic() - saved >= COMMIT_SECONDS:  # a killed run keeps them
@@ -140,7 +149,9 @@ def field_pyramid(
             done += 1
             if progress is not None:
                 progress(done, total)
-        store.set_metadata(final_bounds(store, (zlo, zhi)))
+        store.set_metadata(final_bounds(store, (zlo, zhi), quad))
+        if quad is not None and isinstance(out, (str, Path)):  # a folder (pyramid_quad)
+            store.put_document(TMS_DOCUMENT, quad.document().encode())
         store.finish()
     finally:
         store.close()
@@ -152,16 +163,16 @@ def field_pyramid(
 COMMIT_SECONDS = 2.0
 
 
-def _tiles(zlo: int, zhi: int):
-    """Every tile ``(z, x, y)`` of the zooms, row by row."""
+def _tiles(shapes, zlo: int, zhi: int):
+    """Every tile ``(z, x, y)`` of the zooms, row by row (``shapes[z]``: rows, columns)."""
     for z in range(zlo, zhi + 1):
-        n = 1 << z
-        for y in range(n):
-            for x in range(n):
+        rows, cols = shapes[z]
+        for y in range(rows):
+            for x in range(cols):
                 yield z, x, y
 
 
-def _field_metadata(shape, zooms, params: str, name, source) -> dict:
+def _field_metadata(shape, zooms, params: str, name, source, quad=None) -> dict:
     label = name or (source or "field")
     desc = (
         f"Signed distance to the curves of {source or 'the input'} in metres (negative inside "
@@ -169,5 +180,8 @@ def _field_metadata(shape, zooms, params: str, name, source) -> dict:
         "greenFactor + B * blueFactor - baseShift"
     )
     meta = {**store_metadata(label, desc, zooms, params), INPUT_KEY: input_digest(shape)}
+    if quad is not None:
+        meta["tileMatrixSet"] = quad.id
+        meta["bounds"] = ",".join(repr(v) for v in quad.lonlat_bounds())
     meta["encoding"] = json.dumps(FIELD_ENCODING)  # JSON, as "gloffset" is
     return meta

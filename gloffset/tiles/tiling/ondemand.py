@@ -14,10 +14,10 @@ import numpy as np
 from ...edges import CurveArcs, inside_any
 from ...grids.conformal import ConformalRows
 from ...grids.mercator import Tile, TilePyramid
-from ..driver import CONTAINED, FRONTIER, OUTSIDE
-from ..render import render_angle, render_grid
-from ..vector.curves import CurveCells
-from ..vector.levels import at_cells, cell_distances, decide, subset
+from ...raster.driver import CONTAINED, FRONTIER, OUTSIDE
+from ...raster.render import render_angle, render_grid
+from ...raster.vector.curves import CurveCells
+from ...raster.vector.levels import at_cells, cell_distances, decide, subset
 from .job import MAX_BLOCK
 from .progress import PyramidStats, Tracker
 from .tilepaint import TileStyle

@@ -1,6 +1,6 @@
 """Web-mercator tile pyramids of the offset region.
 
-The public face of :mod:`gloffset.raster.pyramid`.
+The public face of :mod:`gloffset.tiles.tiling`.
 
 :func:`pyramid` writes an XYZ folder, MBTiles or PMTiles pyramid of the region within a
 distance of the input, :func:`pyramids` those of several distances from one read of it;
@@ -11,5 +11,5 @@ and :class:`TileProgress` are what a run reports. The tile server's helpers
 
 from __future__ import annotations
 
-from .raster.pyramid import *  # noqa: F403  (the names listed in raster.pyramid.__all__)
-from .raster.pyramid import __all__  # noqa: F401  (the same list, once)
+from .tiling import *  # noqa: F403  (the names listed in tiling.__all__)
+from .tiling import __all__  # noqa: F401  (the same list, once)

@@ -2,7 +2,7 @@
 
 A PMTiles archive is written in one go (its directories come first and are sorted by
 tile id), so the writer stages the tiles in an MBTiles file beside the output
-(``OUT.pmtiles.partial.mbtiles``, see :mod:`gloffset.io.mbtiles`) and builds the
+(``OUT.pmtiles.partial.mbtiles``, see :mod:`gloffset.tiles.store.mbtiles`) and builds the
 archive when the pyramid is complete (:meth:`PMTilesWriter.finish`): under a temporary
 name, moved into place atomically, the staging file then removed. An interrupted run
 leaves the staging file, which ``resume`` continues; resuming a finished archive reads
@@ -25,10 +25,10 @@ import math
 import tempfile
 from pathlib import Path
 
-from ..errors import OutputError, OutputExistsError
+from ...errors import OutputError, OutputExistsError
+from ...io.output import replacing
 from .mbtiles import MBTilesWriter, tms_row
 from .mbtiles import read_metadata as _staged_metadata
-from .output import replacing
 
 __all__ = ["PMTilesWriter", "read_metadata", "read_pmtiles"]
 
@@ -46,7 +46,7 @@ def _pmtiles():
 class PMTilesWriter:
     """Write PNG tiles into a PMTiles v3 archive (see the module notes).
 
-    The interface is that of :class:`~gloffset.io.mbtiles.MBTilesWriter`, plus
+    The interface is that of :class:`~gloffset.tiles.store.mbtiles.MBTilesWriter`, plus
     :meth:`finish`, which writes the archive.
     """
 

@@ -37,15 +37,16 @@ from pathlib import Path
 import numpy as np
 
 from ...ellipsoid import as_ellipsoid
-from ...errors import TilesError
+from ...errors import InvalidGridError, TilesError
 from ...grids.mercator import MAX_ZOOM, TilePyramid, check_tile_size
-from ...io.tilestore import INPUT_KEY, check_store, input_digest, open_store
+from ...grids.tms import ProjectedQuadLevels, tms_quad
+from ...raster import driver
+from ...raster.driver import Level
+from ...raster.vector.curves import CurveCells
+from ...raster.vector.levels import subset
 from ...shape import read
 from ...units import RASTER_LIMIT, offset_angle, to_metres
-from .. import driver
-from ..driver import Level
-from ..vector.curves import CurveCells
-from ..vector.levels import subset
+from ..store.tilestore import INPUT_KEY, TILE_FILES, check_store, input_digest, open_store
 from .ellipsoid import run_ellipsoid_pyramid
 from .job import PyramidJob, PyramidOptions, pyramid_options
 from .malloc import keep_freed_memory
@@ -112,7 +113,8 @@ def parse_zooms(zooms) -> tuple[int, int]:
 
 
 def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats:
-    """Write the web-mercator tile pyramid of the offset region of ``shape``.
+    """Write the tile pyramid (web mercator, or another ``tms``) of the offset region of
+    ``shape``.
 
     Parameters
     ----------
@@ -127,9 +129,9 @@ def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats
     out : str, Path or a tile store
         A path ending in ``.mbtiles`` (MBTiles 1.3, TMS rows), ``.pmtiles`` (PMTiles v3;
         needs the ``pmtiles`` package) or a directory (``z/x/y.png``); or a writer from
-        :func:`gloffset.io.tilestore.open_store`.
+        :func:`gloffset.tiles.store.tilestore.open_store`.
     **options
-        Keywords, below (:class:`~gloffset.raster.pyramid.job.PyramidOptions`); another
+        Keywords, below (:class:`~gloffset.tiles.tiling.job.PyramidOptions`); another
         is a :class:`TypeError` that lists them.
 
     Other Parameters
@@ -139,7 +141,7 @@ def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats
     size : int
         Tile side in pixels, a power of two from 16 to 4096.
     fill : str
-        The region's colour (the style: :class:`gloffset.raster.pyramid.tilepaint.TileStyle`).
+        The region's colour (the style: :class:`gloffset.tiles.tiling.tilepaint.TileStyle`).
     opacity : float
         Its opacity, 0 to 1, on a transparent background.
     outline : str, optional
@@ -167,7 +169,7 @@ def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats
         this process classifies the zooms down to a coarse one, writes their decided
         tiles and hands every other tile to the workers (the frontier tiles above that
         zoom one by one, the kept tiles of that zoom with their sub-pyramids:
-        :mod:`gloffset.raster.pyramid.distributed`); each worker makes its own GL context; the
+        :mod:`gloffset.tiles.tiling.distributed`); each worker makes its own GL context; the
         tiles stream back to this process, which writes them. The output is
         byte-identical to a run in one process.
     scheduler : str, optional
@@ -176,7 +178,17 @@ def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats
         ``None``: the sphere of ``radius``. Otherwise ``distance`` is a geodesic length
         in metres on the ellipsoid (a string takes length units only), and every tile
         equals ``render(shape, distance, Tile(z, x, y, size), ellipsoid=...)``
-        (:mod:`gloffset.raster.pyramid.ellipsoid`; no outline, no workers).
+        (:mod:`gloffset.tiles.tiling.ellipsoid`; no outline, no workers).
+    tms : str or morecantile.TileMatrixSet, optional
+        The OGC TileMatrixSet of the tiles (its identifier, e.g. ``"WorldCRS84Quad"``, or
+        a morecantile ``TileMatrixSet``; :func:`gloffset.grids.TmsTile`); default
+        ``WebMercatorQuad``. Another TMS is written to a folder (``z/x/y.png``, its OGC
+        JSON document beside the tiles in ``tileMatrixSet.json``; MBTiles and PMTiles hold
+        web-mercator tiles only), its tile size the TMS's, no outline, no ellipsoid; each
+        tile equals ``render(shape, distance, TmsTile(tms, z, x, y))``. TMSs in lon/lat
+        (``WorldCRS84Quad``, ``WGS1984Quad``) and in polar stereographic CRSs
+        (``UPSArcticWGS84Quad``, ``UPSAntarcticWGS84Quad``) are supported; the frontier
+        tiles of a projected TMS render each on its own grid.
 
     Returns
     -------
@@ -185,7 +197,7 @@ def pyramid(shape, distance: float | str, zooms, out, **options) -> PyramidStats
     Notes
     -----
     The process keeps the memory it frees for reuse from then on
-    (:func:`gloffset.raster.pyramid.malloc.keep_freed_memory`, glibc only): a pyramid makes and
+    (:func:`gloffset.tiles.tiling.malloc.keep_freed_memory`, glibc only): a pyramid makes and
     frees large arrays at every zoom, and giving them back to the system cost a fifth of
     its time.
 
@@ -215,8 +227,8 @@ def write_pyramid(shape, distance, zooms, out, options: PyramidOptions) -> Pyram
     keep_freed_memory()  # a pyramid makes and frees large arrays at every zoom
     source = o.source if o.source is not None else source_name(shape)
     shape = read(shape)
-    job, ell, radius, params = _plan(shape, distance, zooms, o)
-    zlo, zhi = job.zlo, job.zhi
+    job, ell, radius, params = _plan(shape, distance, zooms, out, o)
+    zlo, zhi, quad = job.zlo, job.zhi, job.quad
     if isinstance(out, (str, Path)):
         _check_output(out, params, shape, o)  # before anything is written or unpacked
         label = o.name or Path(out).stem or "gloffset"
@@ -224,6 +236,9 @@ def write_pyramid(shape, distance, zooms, out, options: PyramidOptions) -> Pyram
         if ell is not None:
             desc += f"; geodesic distance on {ell}"
         meta = {**store_metadata(label, desc, (zlo, zhi), params), INPUT_KEY: input_digest(shape)}
+        if quad is not None:
+            meta["tileMatrixSet"] = quad.id
+            meta["bounds"] = ",".join(repr(v) for v in quad.lonlat_bounds())
         store = open_store(out, meta, resume=o.resume, overwrite=o.overwrite)
     else:
         store = out
@@ -254,7 +269,9 @@ def write_pyramid(shape, distance, zooms, out, options: PyramidOptions) -> Pyram
                 workers=o.workers,
                 scheduler=o.scheduler,
             )
-        store.set_metadata(final_bounds(store, (zlo, zhi)))
+        store.set_metadata(final_bounds(store, (zlo, zhi), quad))
+        if quad is not None and isinstance(out, (str, Path)):  # an XYZ folder (pyramid_quad)
+            store.put_document(TMS_DOCUMENT, quad.document().encode())
         store.finish()
     finally:
         store.close()
@@ -262,9 +279,10 @@ def write_pyramid(shape, distance, zooms, out, options: PyramidOptions) -> Pyram
     return stats
 
 
-def _plan(shape, distance, zooms, o: PyramidOptions):
-    """The job of the pyramid of ``distance`` (every option checked), its ellipsoid (or
-    None), the radius its angle is on, and its options as a resumed run must match them."""
+def _plan(shape, distance, zooms, out, o: PyramidOptions):
+    """The job of the pyramid of ``distance`` into ``out`` (every option checked), its
+    ellipsoid (or None), the radius its angle is on, and its options as a resumed run must
+    match them."""
     ell = as_ellipsoid(o.ellipsoid)
     radius = o.radius
     if ell is not None:
@@ -273,9 +291,17 @@ def _plan(shape, distance, zooms, o: PyramidOptions):
     d = offset_angle(shape, distance, radius, limit=RASTER_LIMIT, what="a tile pyramid")
     zlo, zhi = parse_zooms(zooms)
     size = check_tile_size(o.size, TilesError)
-    params = options_json(d, (zlo, zhi), size, o.style, ell)
+    quad = pyramid_quad(o, out, zhi)
+    params = options_json(d, (zlo, zhi), size, o.style, ell, quad)
     job = PyramidJob(
-        shape=shape, d=d, zlo=zlo, zhi=zhi, size=size, style=o.style, max_block=o.max_block
+        shape=shape,
+        d=d,
+        zlo=zlo,
+        zhi=zhi,
+        size=size,
+        style=o.style,
+        max_block=o.max_block,
+        quad=quad,
     )
     if ell is not None and (o.style.outline is not None or o.workers is not None or o.scheduler):
         raise TilesError("on an ellipsoid, pyramids take no outline, workers or scheduler")
@@ -299,7 +325,7 @@ def check_pyramids(shape, distances, zooms, outs, options: PyramidOptions) -> No
     :class:`~gloffset.errors.TilesError`). Reads only: nothing is written or unpacked."""
     shape = read(shape)
     for distance, out in zip(distances, outs):
-        _, _, _, params = _plan(shape, distance, zooms, options)
+        _, _, _, params = _plan(shape, distance, zooms, out, options)
         if isinstance(out, (str, Path)):
             _check_output(out, params, shape, options)
 
@@ -331,6 +357,41 @@ def pyramids(shape, distances, zooms, outs, **options) -> list[PyramidStats]:
     return [write_pyramid(shape, dist, zooms, out, opts) for dist, out in zip(distances, outs)]
 
 
+#: The file beside an XYZ folder's tiles that holds the TileMatrixSet (its OGC JSON) when
+#: it is not web mercator.
+TMS_DOCUMENT = "tileMatrixSet.json"
+
+
+def pyramid_quad(o: PyramidOptions, out, zhi: int):
+    """The :class:`~gloffset.grids.tms.TmsQuad` of ``o.tms`` (None for web mercator),
+    checked against the other options and the output before any work
+    (:class:`~gloffset.errors.TilesError`)."""
+    if o.tms is None:
+        return None
+    quad = tms_quad(o.tms, TilesError)
+    if quad.kind == "mercator":
+        if o.size != quad.size:
+            raise TilesError(f"the tiles of {quad.id} are {quad.size} pixels, not {o.size}")
+        return None
+    if isinstance(out, (str, Path)) and Path(out).suffix.lower() in TILE_FILES:
+        raise TilesError(
+            f"{Path(out).suffix} holds web-mercator tiles only: write the tiles of {quad.id} "
+            "to a folder (z/x/y.png, with the TileMatrixSet beside them)"
+        )
+    if quad.kind == "projected":
+        try:
+            ProjectedQuadLevels(quad, 0)  # a bound of the projection
+        except InvalidGridError as e:
+            raise TilesError(str(e)) from None
+    if o.size != quad.size:
+        raise TilesError(f"the tiles of {quad.id} are {quad.size} pixels, not {o.size}")
+    if zhi > quad.maxzoom:
+        raise TilesError(f"{quad.id} has zooms 0 to {quad.maxzoom}, not {zhi}")
+    if o.ellipsoid is not None or o.style.outline is not None:
+        raise TilesError(f"pyramids of {quad.id} take no outline and no ellipsoid")
+    return quad
+
+
 def run_pyramid(job: PyramidJob, store, have, progress, stats, *, part=None):
     """Write the tiles of ``job`` into ``store`` (skipping ``have``); see :class:`Part`
     for a run that classifies down to a split and returns the tasks of the tiles left, or
@@ -338,8 +399,14 @@ def run_pyramid(job: PyramidJob, store, have, progress, stats, *, part=None):
     shape, d, zlo, zhi, size, style = job.shape, job.d, job.zlo, job.zhi, job.size, job.style
     max_block = job.max_block
     plog = size.bit_length() - 1
-    levels = TilePyramid(zhi + plog)  # down to the pixels of the deepest tiles
-    nb = max(0, plog - BIN_LOG2)
+    levels: TilePyramid | ProjectedQuadLevels
+    if job.quad is not None and job.quad.kind == "projected":
+        # the tiles' own levels; each frontier tile renders on its own grid
+        levels = ProjectedQuadLevels(job.quad, zhi)
+        nb = 0
+    else:
+        levels = TilePyramid(zhi + plog, quad=job.quad)  # down to the deepest tiles' pixels
+        nb = max(0, plog - BIN_LOG2)
     # the levels no tile is rendered from (bins of zooms drawn alone or not written)
     # classify with the multiresolution curve: their lists follow the cells' size
     until = None if style.outline is not None else max(PYRAMID_ALONE_ZOOM, zlo - 1) + nb

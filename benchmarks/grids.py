@@ -1,0 +1,129 @@
+"""Polar grids: a 4096 x 4096 EPSG:3031 render of Antarctica (1:110m, the pole inside) at
+50 km against the equirectangular 4096 x 2048 render of the same region, per boundary
+pixel of the mask, and against the usual recipe: an equirectangular render (8192 x 4096)
+warped to the same polar grid with rasterio's nearest-neighbour ``reproject`` (GDAL's
+warper, as ``gdalwarp -r near`` does), its time and how many pixels it gets wrong.
+
+Run: python benchmarks/grids.py [--quick]
+Writes benchmarks/results/grids.json. Needs rasterio (the ``geo`` extra).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+from common import DATA, best_of, write
+
+import gloffset
+from gloffset.grids import Equirect, Projected
+
+D = 50e3  # metres
+CRS = "EPSG:3031"
+BOUNDS = (-3.4e6, -3.4e6, 3.4e6, 3.4e6)  # the continent and 50 km round it, the pole inside
+
+
+def antarctica():
+    fc = json.loads((DATA / "world_110m.geojson").read_text())
+    return gloffset.read(next(f for f in fc["features"] if f["properties"]["name"] == "Antarctica"))
+
+
+def boundary_pixels(mask: np.ndarray) -> int:
+    """Pixels with a 4-neighbour of the other value (the mask's boundary, both sides)."""
+    m = mask > 0
+    b = np.zeros_like(m)
+    b[1:] |= m[1:] != m[:-1]
+    b[:-1] |= m[1:] != m[:-1]
+    b[:, 1:] |= m[:, 1:] != m[:, :-1]
+    b[:, :-1] |= m[:, 1:] != m[:, :-1]
+    return int(b.sum())
+
+
+def timed_render(shape, grid, repeat: int) -> tuple[float, np.ndarray]:
+    gloffset.render(shape, D, grid)  # warm: programs compiled, caches made
+    return best_of(lambda: gloffset.render(shape, D, grid), repeat)
+
+
+def warped(shape, polar: Projected, size: tuple[int, int]) -> tuple[float, float, np.ndarray]:
+    """The render on an Equirect grid of ``size`` and its nearest-neighbour warp to
+    ``polar``: (render seconds, warp seconds, the warped mask)."""
+    from rasterio.crs import CRS as RCRS
+    from rasterio.transform import Affine
+    from rasterio.warp import Resampling, reproject
+
+    eq = Equirect(*size)
+    t_render, src = timed_render(shape, eq, 1)
+    dst = np.zeros(polar.shape, dtype=np.uint8)
+
+    def run():
+        reproject(
+            src,
+            dst,
+            src_transform=Affine(*eq.transform()),
+            src_crs=RCRS.from_epsg(4326),
+            dst_transform=Affine(*polar.transform()),
+            dst_crs=RCRS.from_user_input(CRS),
+            resampling=Resampling.nearest,
+        )
+        return dst.copy()
+
+    t_warp, out = best_of(run, 1)
+    return t_render, t_warp, out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--quick", action="store_true", help="1024-pixel grids, one repeat")
+    args = ap.parse_args()
+    n = 1024 if args.quick else 4096
+    repeat = 1 if args.quick else 3
+    shape = antarctica()
+    polar = Projected(n, n, crs=CRS, bounds=BOUNDS)
+    eq = Equirect(n, n // 2)
+
+    t_polar, m_polar = timed_render(shape, polar, repeat)
+    t_eq, m_eq = timed_render(shape, eq, repeat)
+    b_polar, b_eq = boundary_pixels(m_polar), boundary_pixels(m_eq)
+    per_polar, per_eq = t_polar / b_polar, t_eq / b_eq
+    record = {
+        "input": "Natural Earth 1:110m Antarctica",
+        "distance_m": D,
+        "polar": {
+            "grid": f"Projected({n}, {n}, crs={CRS!r}, bounds={BOUNDS})",
+            "s": t_polar,
+            "boundary_pixels": b_polar,
+            "us_per_boundary_pixel": 1e6 * per_polar,
+        },
+        "equirect": {
+            "grid": f"Equirect({n}, {n // 2})",
+            "s": t_eq,
+            "boundary_pixels": b_eq,
+            "us_per_boundary_pixel": 1e6 * per_eq,
+        },
+        "ratio_per_boundary_pixel": per_polar / per_eq,
+        "warps": [],
+    }
+    for size in ((2 * n, n), (n, n // 2)):
+        t_r, t_w, m_w = warped(shape, polar, size)
+        wrong = int(np.count_nonzero((m_w > 0) != (m_polar > 0)))
+        record["warps"].append(
+            {
+                "source": f"Equirect{size}",
+                "render_s": t_r,
+                "reproject_nearest_s": t_w,
+                "total_s": t_r + t_w,
+                "wrong_pixels": wrong,
+                "wrong_per_boundary_pixel": wrong / b_polar,
+            }
+        )
+    print(json.dumps(record, indent=2))
+    if not args.quick:
+        print("wrote", write("grids", record))
+
+
+if __name__ == "__main__":
+    t0 = time.perf_counter()
+    main()
+    print(f"{time.perf_counter() - t0:.1f} s")

@@ -1,0 +1,650 @@
+"""Images in a projected CRS: :class:`Projected`, any CRS that pyproj knows.
+
+Pixel ``(i, j)`` (row 0 at ``ymax``) of a ``width x height`` grid over the outer edges
+``bounds = (xmin, ymin, xmax, ymax)`` (CRS units) has its centre at ``x = xmin + (i +
+0.5) (xmax - xmin) / width``, ``y = ymax - (j + 0.5) (ymax - ymin) / height`` (in that
+order of operations), and its lon/lat is pyproj's inverse to the CRS's own geographic
+CRS, read as a point of the sphere like every input point. A pixel without an inverse
+(outside the projection's domain) is outside every region: mask 0, field ``+inf``.
+
+Levels are those of :mod:`gloffset.grids.base`; a cell's centre is the inverse of its
+block's centre. Its bound ``rho`` covers every pixel centre of the cell, and ``rho_l >=
+angle(centre, child centre) + rho_child``; pixels are decided at their centres. Two
+ways (derivation: docs/design.md, "gloffset.grids.projected"):
+
+* a formula where the projection gives one: the inverse is ``K``-Lipschitz from the
+  plane to the unit sphere, ``K = 1 / (k_min a (1 - e^2))``, so ``rho = K h`` (``h`` the
+  cell's half-diagonal) plus 3e-9 rad per level for the inverse's own error. Polar
+  stereographic (variants A and B: EPSG:3031, 3413, 3976, UPS): ``k_min`` is the scale
+  at the pole, and the whole plane is the domain; Transverse Mercator (UTM, national
+  grids) within 3900 km of the central meridian: ``k_0``;
+* otherwise from the pixel centres themselves (every one computed by pyproj, about
+  0.5-0.7 us each): exact for the pixels, correct for any CRS, slower.
+
+The GPU levels read a Projected grid's cell centres from a texture made here in float64
+(``centres = "texture"``, :mod:`gloffset.raster.layout`).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+
+from ..errors import InvalidGridError
+from ..geometry.caps import pad
+from ..geometry.sphere import angle, lonlat_to_xyz
+from .base import LevelHierarchy, check_size
+
+__all__ = ["Projected", "polar_scale_min"]
+
+#: Allowance (rad) per level for the inverse's error and the roundings of a formula bound.
+_LEVEL_SLACK = 3e-9
+#: Rows of pixels per strip when the bounds are made from every pixel centre.
+_STRIP = 256
+
+
+def _pyproj():
+    try:
+        import pyproj
+    except ImportError:  # pragma: no cover - pyproj is a dependency of the files extra
+        raise InvalidGridError(
+            "a Projected grid needs pyproj: pip install 'gloffset[files]'"
+        ) from None
+    return pyproj
+
+
+#: pyproj transformers and projected areas of use, per thread and CRS (making a
+#: transformer costs about 1 ms: a tile pyramid makes many grids of one CRS)
+_CACHE: dict = {}
+_CACHE_SIZE = 64
+
+
+def _cached(kind: str, crs, make):
+    key = (kind, threading.get_ident(), crs.to_wkt())
+    got = _CACHE.get(key)
+    if got is None:
+        got = make()
+        if len(_CACHE) >= _CACHE_SIZE:
+            _CACHE.pop(next(iter(_CACHE)), None)
+        _CACHE[key] = got
+    return got
+
+
+def _inverse_transformer(crs):
+    """pyproj's inverse of ``crs``: to its own geographic CRS, lon/lat order."""
+    pyproj = _pyproj()
+    return _cached(
+        "inverse",
+        crs,
+        lambda: pyproj.Transformer.from_crs(crs, crs.geodetic_crs, always_xy=True),
+    )
+
+
+def _forward_transformer(crs):
+    pyproj = _pyproj()
+    return _cached(
+        "forward",
+        crs,
+        lambda: pyproj.Transformer.from_crs(crs.geodetic_crs, crs, always_xy=True),
+    )
+
+
+def _as_crs(crs):
+    pyproj = _pyproj()
+    try:
+        out = pyproj.CRS.from_user_input(crs)
+    except Exception as exc:  # pyproj raises CRSError (and others for odd input)
+        raise InvalidGridError(f"unknown CRS {crs!r}: {str(exc).splitlines()[0]}") from None
+    if not out.is_projected:
+        raise InvalidGridError(
+            f"CRS {crs!r} is not a projected CRS ({out.type_name}); use Equirect for lon/lat grids"
+        )
+    return out
+
+
+def polar_scale_min(crs) -> float | None:
+    """The smallest scale factor of a polar stereographic ``crs`` (at its pole), or None
+    when ``crs`` is not polar stereographic.
+
+    Variant A: the scale factor at the natural origin (the pole). Variant B (a standard
+    parallel ``phi_c``): ``m_c sqrt((1 + e)^(1 + e) (1 - e)^(1 - e)) / (2 t_c)`` (EPSG
+    Guidance Note 7-2, 1.3.7.2), 1 when the standard parallel is the pole.
+    """
+    op = crs.coordinate_operation
+    if op is None or not op.method_name.startswith("Polar Stereographic"):
+        return None
+    params = {p.name: p.value for p in op.params}
+    e = math.sqrt(_eccentricity_squared(crs))
+    if "variant A" in op.method_name:
+        lat0 = params.get("Latitude of natural origin")
+        if lat0 is None or abs(abs(lat0) - 90.0) > 1e-12:
+            return None
+        return float(params.get("Scale factor at natural origin", 1.0))
+    if "variant B" in op.method_name:
+        lat_c = params.get("Latitude of standard parallel")
+        if lat_c is None:
+            return None
+        phi = math.radians(abs(lat_c))
+        if abs(phi - math.pi / 2) < 1e-15:
+            return 1.0
+        s = math.sin(phi)
+        m_c = math.cos(phi) / math.sqrt(1.0 - e * e * s * s)
+        t_c = math.tan(math.pi / 4 - phi / 2) / ((1.0 - e * s) / (1.0 + e * s)) ** (e / 2)
+        return m_c * math.sqrt((1 + e) ** (1 + e) * (1 - e) ** (1 - e)) / (2.0 * t_c)
+    return None
+
+
+def polar_inverse(crs):
+    """The float64 twin of pyproj's inverse of a polar stereographic ``crs``: a function
+    ``(x, y) -> unit vectors (..., 3)`` (numpy, a few times faster than pyproj and
+    :func:`~gloffset.geometry.sphere.lonlat_to_xyz`), or None for other CRSs. EPSG
+    Guidance Note 7-2, 1.3.7: the conformal latitude from ``t = rho / (a k_p C)`` (``C = 2
+    / sqrt((1 + e)^(1 + e) (1 - e)^(1 - e))``, ``k_p`` the scale at the pole,
+    :func:`polar_scale_min`), the geodetic latitude from its series to ``e^8`` and one
+    fixed-point step (which divides the error by about ``1 / e^2``), the longitude's
+    cosine and sine straight from ``x`` and ``y``: within 1e-12 rad of pyproj's (tested)."""
+    k = polar_scale_min(crs)
+    if k is None:
+        return None
+    op = crs.coordinate_operation
+    params = {p.name: p.value for p in op.params}
+    lat0 = params.get("Latitude of natural origin", params.get("Latitude of standard parallel"))
+    south = lat0 is not None and lat0 < 0
+    lon0 = math.radians(
+        params.get("Longitude of origin", params.get("Longitude of natural origin", 0.0))
+    )
+    fe = params.get("False easting", 0.0)
+    fn = params.get("False northing", 0.0)
+    a = crs.ellipsoid.semi_major_metre
+    unit = crs.axis_info[0].unit_conversion_factor or 1.0
+    es = _eccentricity_squared(crs)
+    e = math.sqrt(es)
+    scale = 2.0 * a * k / math.sqrt((1 + e) ** (1 + e) * (1 - e) ** (1 - e))
+    e4, e6, e8 = es * es, es**3, es**4
+    c2 = es / 2 + 5 * e4 / 24 + e6 / 12 + 13 * e8 / 360
+    c4 = 7 * e4 / 48 + 29 * e6 / 240 + 811 * e8 / 11520
+    c6 = 7 * e6 / 120 + 81 * e8 / 1120
+    c8 = 4279 * e8 / 161280
+    cl0, sl0 = math.cos(lon0), math.sin(lon0)
+
+    def inverse(x, y):
+        dx = (np.asarray(x, dtype=np.float64) - fe) * unit
+        dy = (np.asarray(y, dtype=np.float64) - fn) * unit
+        rho = np.hypot(dx, dy)
+        t = rho / scale
+        chi = np.pi / 2 - 2.0 * np.arctan(t)
+        s2, c2x = np.sin(2 * chi), np.cos(2 * chi)
+        s4 = 2 * s2 * c2x
+        c4x = 1 - 2 * s2 * s2
+        s6 = s4 * c2x + c4x * s2
+        s8 = 2 * s4 * c4x
+        phi = chi + c2 * s2 + c4 * s4 + c6 * s6 + c8 * s8
+        es_ = e * np.sin(phi)
+        phi = np.pi / 2 - 2.0 * np.arctan(t * ((1.0 - es_) / (1.0 + es_)) ** (e / 2))
+        # longitude lon0 + atan2(dx, -dy) (north) or atan2(dx, dy) (south)
+        safe = np.where(rho > 0.0, rho, 1.0)
+        ct = np.where(rho > 0.0, (dy if south else -dy) / safe, 1.0)
+        st = np.where(rho > 0.0, dx / safe, 0.0)
+        cl, sl = cl0 * ct - sl0 * st, sl0 * ct + cl0 * st
+        cp, sp = np.cos(phi), np.sin(phi)
+        if south:
+            sp = -sp
+        return np.stack([cp * cl, cp * sl, sp], axis=-1)
+
+    return inverse
+
+
+#: Transverse Mercator: the formula bound is used where every cell centre lies within this
+#: distance (metres, over the scale factor) of the central meridian, where PROJ's series
+#: are good to nanometres (Karney 2011: 5 nm within 3900 km)
+_TM_REACH = 3.9e6
+
+
+def transverse_scale_min(crs, box) -> float | None:
+    """The smallest scale factor of a Transverse Mercator ``crs`` (UTM and national
+    grids) over the box ``(xmin, ymin, xmax, ymax)`` (CRS units): ``k_0``, the scale on
+    the central meridian (it grows away from it), where the box lies within
+    :data:`_TM_REACH` of it; else None, as for other CRSs."""
+    op = crs.coordinate_operation
+    if op is None or op.method_name != "Transverse Mercator":
+        return None
+    params = {p.name: p.value for p in op.params}
+    k0 = float(params.get("Scale factor at natural origin", 1.0))
+    fe = params.get("False easting", 0.0)
+    unit = crs.axis_info[0].unit_conversion_factor or 1.0
+    reach = max(abs(box[0] - fe), abs(box[2] - fe)) * unit / k0
+    return k0 if reach <= _TM_REACH else None
+
+
+def _eccentricity_squared(crs) -> float:
+    inv_f = crs.ellipsoid.inverse_flattening
+    f = 1.0 / inv_f if inv_f else 0.0
+    return f * (2.0 - f)
+
+
+def _projected_area(crs) -> tuple[float, float, float, float]:
+    area = crs.area_of_use
+    if area is None:
+        raise InvalidGridError(f"CRS {crs.name!r} has no area of use: give bounds")
+    try:
+        b = _forward_transformer(crs).transform_bounds(*area.bounds, densify_pts=101)
+    except Exception as exc:
+        raise InvalidGridError(
+            f"the area of use of {crs.name!r} cannot be projected: {exc}; give bounds"
+        ) from None
+    if not all(math.isfinite(x) for x in b) or not (b[0] < b[2] and b[1] < b[3]):
+        raise InvalidGridError(f"the area of use of {crs.name!r} does not project: give bounds")
+    return (float(b[0]), float(b[1]), float(b[2]), float(b[3]))
+
+
+class Projected(LevelHierarchy):
+    """A ``width x height`` image in the projected CRS ``crs`` over ``bounds`` (the outer
+    edges ``(xmin, ymin, xmax, ymax)`` in the CRS's units; default: the CRS's area of
+    use, projected). See the module notes for the pixel centres and the bounds.
+
+    Parameters
+    ----------
+    width, height : int
+    crs : anything ``pyproj.CRS.from_user_input`` takes ("EPSG:3031", WKT, a PROJ string)
+    bounds : (xmin, ymin, xmax, ymax), optional
+
+    Raises
+    ------
+    InvalidGridError
+        An unknown or non-projected CRS, bounds that are not four finite numbers with
+        ``xmin < xmax`` and ``ymin < ymax``, or bounds where no pixel has an inverse.
+
+    Examples
+    --------
+    >>> g = Projected(256, 256, crs="EPSG:3031", bounds=(-3e6, -3e6, 3e6, 3e6))
+    >>> lon, lat = g.pixel_lonlat(128, 128)
+    >>> round(float(lat), 3)
+    -89.847
+    """
+
+    width: int
+    height: int
+    subgrids = True
+    curve_masks = False
+    #: the GPU levels get the cell centres from a texture made on the host
+    centres = "texture"
+
+    def __init__(self, width: int, height: int, *, crs, bounds=None):
+        w, h = check_size(width, height)
+        self._crs = _as_crs(crs)
+        self.width, self.height = w, h
+        if bounds is None:
+            bounds = self.area_bounds(self._crs)
+        try:
+            b = tuple(float(x) for x in bounds)
+        except (TypeError, ValueError):
+            raise InvalidGridError(
+                f"bounds must be 4 numbers xmin,ymin,xmax,ymax, got {bounds!r}"
+            ) from None
+        if len(b) != 4 or not all(math.isfinite(x) for x in b) or not (b[0] < b[2] and b[1] < b[3]):
+            raise InvalidGridError(
+                f"bounds must be 4 finite numbers xmin,ymin,xmax,ymax with xmin < xmax and "
+                f"ymin < ymax, got {bounds!r}"
+            )
+        self.bounds = b
+        # the pixel frame: this grid's pixels are columns x0.. and rows y0.. of a
+        # full_w x full_h grid over full (a subgrid keeps its parent's pixel centres)
+        self._frame = (0, 0, w, h, b)
+        self._check_domain()
+
+    # ------------------------------------------------------------------ identity
+    @property
+    def crs(self):
+        """The CRS (``pyproj.CRS``)."""
+        return self._crs
+
+    def _key(self):
+        return (self.width, self.height, self._crs.to_wkt(), self._frame)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, Projected) and self._key() == other._key()
+
+    def __hash__(self) -> int:
+        return hash(self._key())
+
+    def __repr__(self) -> str:
+        name = self._crs.to_string()
+        return f"Projected({self.width}, {self.height}, crs={name!r}, bounds={self.bounds!r})"
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.pop("_inverse", None)
+        state["_crs"] = self._crs.to_wkt()
+        return state
+
+    def __setstate__(self, state):
+        state = dict(state)
+        state["_crs"] = _pyproj().CRS.from_wkt(state["_crs"])
+        self.__dict__.update(state)
+
+    @staticmethod
+    def area_bounds(crs) -> tuple[float, float, float, float]:
+        """The area of use of ``crs`` projected to it: ``(xmin, ymin, xmax, ymax)``."""
+        crs = _as_crs(crs)
+        return _cached("area", crs, lambda: _projected_area(crs))
+
+    @property
+    def transformer(self):
+        """pyproj's inverse: the CRS to its geographic CRS, lon/lat order."""
+        return _inverse_transformer(self._crs)
+
+    # ------------------------------------------------------------------ geometry
+    def transform(self) -> tuple:
+        """The affine transform in GDAL order ``(a, b, c, d, e, f)`` (pixel edges, CRS
+        units): ``x = a col + c``, ``y = e row + f``."""
+        xmin, ymin, xmax, ymax = self.bounds
+        return ((xmax - xmin) / self.width, 0.0, xmin, 0.0, -(ymax - ymin) / self.height, ymax)
+
+    def pixel_xy(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        """CRS coordinates at fractional output-pixel coordinates ``(x, y)`` (0: the left
+        and top edges; pixel centres at ``i + 0.5``)."""
+        x0, y0, fw, fh, (xmin, ymin, xmax, ymax) = self._frame
+        fx = np.asarray(x, dtype=np.float64) + x0
+        fy = np.asarray(y, dtype=np.float64) + y0
+        return xmin + fx * (xmax - xmin) / fw, ymax - fy * (ymax - ymin) / fh
+
+    def _lonlat_at(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        """Lon/lat (degrees) at fractional pixel coordinates; NaN where there is none."""
+        px, py = self.pixel_xy(x, y)
+        px, py = np.broadcast_arrays(px, py)
+        lon, lat = self.transformer.transform(np.ravel(px), np.ravel(py), errcheck=False)
+        lon = np.asarray(lon, dtype=np.float64).reshape(px.shape)
+        lat = np.asarray(lat, dtype=np.float64).reshape(px.shape)
+        bad = ~(np.isfinite(lon) & np.isfinite(lat) & (np.abs(lat) <= 90.0))
+        if bad.any():
+            lon = np.where(bad, np.nan, lon)
+            lat = np.where(bad, np.nan, lat)
+        return lon, lat
+
+    def pixel_lonlat(self, i, j):
+        """Centre (lon, lat) in degrees of pixel column ``i``, row ``j`` (pyproj's
+        inverse; NaN outside the projection's domain)."""
+        lon, lat = self._lonlat_at(
+            np.asarray(i, dtype=np.float64) + 0.5, np.asarray(j, dtype=np.float64) + 0.5
+        )
+        if np.ndim(lon) == 0:
+            return float(lon), float(lat)
+        return lon, lat
+
+    def _points(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        """Unit vectors at fractional pixel coordinates and whether each has an inverse."""
+        lon, lat = self._lonlat_at(x, y)
+        ok = np.isfinite(lon)
+        v = lonlat_to_xyz(np.where(ok, lon, 0.0), np.where(ok, lat, 0.0))
+        return v, ok
+
+    def _check_domain(self) -> None:
+        """Refuse bounds that miss the CRS's area of use (projected) altogether, or where
+        no point of a 9 x 9 sample (corners and edges included) has an inverse that
+        projects back to it."""
+        area = None
+        if self._crs.area_of_use is not None:
+            try:
+                area = self.area_bounds(self._crs)
+            except InvalidGridError:
+                area = None
+        xmin, ymin, xmax, ymax = self.bounds
+        if area is not None and (
+            xmax <= area[0] or xmin >= area[2] or ymax <= area[1] or ymin >= area[3]
+        ):
+            raise InvalidGridError(
+                f"bounds {self.bounds!r} lie outside the domain of {self._crs.name!r}: its "
+                f"area of use is {tuple(round(v) for v in area)!r} in its units"
+            )
+        t = np.linspace(0.0, 1.0, 9)
+        x, y = np.meshgrid(t * self.width, t * self.height)
+        lon, lat = self._lonlat_at(x, y)
+        ok = np.isfinite(lon)
+        if ok.any():
+            fwd = _forward_transformer(self._crs)
+            bx, by = fwd.transform(lon[ok], lat[ok], errcheck=False)
+            px, py = self.pixel_xy(x[ok], y[ok])
+            xmin, ymin, xmax, ymax = self.bounds
+            tol = 1e-6 * max(xmax - xmin, ymax - ymin, 1.0)
+            ok[ok] = (np.abs(np.asarray(bx) - px) <= tol) & (np.abs(np.asarray(by) - py) <= tol)
+        if not ok.any():
+            raise InvalidGridError(
+                f"bounds {self.bounds!r} lie outside the domain of {self._crs.name!r}: "
+                "no point of them has a longitude and latitude"
+            )
+
+    # ------------------------------------------------------------------ levels
+    def _lipschitz(self) -> float | None:
+        """Radians on the unit sphere per CRS unit, an upper bound (formula grids), or None."""
+        if "_lip" in self.__dict__:
+            return self.__dict__["_lip"]
+        # every cell centre lies in the grid's bounds grown by their size on each side
+        fx0, fy0, fw, fh, (xmin, ymin, xmax, ymax) = self._frame
+        w, h = xmax - xmin, ymax - ymin
+        box = (xmin - w, ymin - h, xmax + w, ymax + h)
+        k = polar_scale_min(self._crs)
+        if k is None:
+            k = transverse_scale_min(self._crs, box)
+        lip = None
+        if k is not None and k > 0.0:
+            a = self._crs.ellipsoid.semi_major_metre
+            es = _eccentricity_squared(self._crs)
+            unit = self._crs.axis_info[0].unit_conversion_factor or 1.0
+            # rounded up by a relative 1e-9 (the scale formula's and the constants' roundings)
+            lip = unit / (k * a * (1.0 - es)) * (1.0 + 1e-9)
+        self.__dict__["_lip"] = lip
+        return lip
+
+    def _half_diagonal(self, level: int) -> float:
+        xmin, ymin, xmax, ymax = self._frame[4]
+        fw, fh = self._frame[2], self._frame[3]
+        b = self.block(level)
+        return 0.5 * b * math.hypot((xmax - xmin) / fw, (ymax - ymin) / fh) * (1.0 + 1e-12)
+
+    def _raw_centres(self, level: int, j, i) -> tuple[np.ndarray, np.ndarray]:
+        b = self.block(level)
+        return self._points(
+            (np.asarray(i, dtype=np.float64) + 0.5) * b, (np.asarray(j, dtype=np.float64) + 0.5) * b
+        )
+
+    def centers(self, level: int, j, i) -> np.ndarray:
+        """Unit vectors of the centres of cells (row ``j``, column ``i``) of ``level``:
+        pyproj's inverse of the block's centre (see the module notes for cells without
+        one; the pixels outside the domain are masked afterwards)."""
+        j, i = np.broadcast_arrays(np.asarray(j, dtype=np.int64), np.asarray(i, dtype=np.int64))
+        if level < self.n_levels - 1 and self._twin() is not None:
+            return self.texture_centers(level, j, i)
+        v, ok = self._raw_centres(level, j, i)
+        if ok.all() or self._lipschitz() is not None or level == self.n_levels - 1:
+            return v
+        sub = self._tree()["centres"][level]
+        h, w = sub.shape[:2]
+        jj, ii = np.minimum(j, h - 1), np.minimum(i, w - 1)
+        return np.where(ok[..., None], v, sub[jj, ii])
+
+    def _twin(self):
+        """The float64 twin of the inverse (:func:`polar_inverse`), or None."""
+        if "_inverse" not in self.__dict__:
+            self.__dict__["_inverse"] = polar_inverse(self._crs)
+        return self.__dict__["_inverse"]
+
+    def texture_centers(self, level: int, j, i) -> np.ndarray:
+        """The centres the GPU levels read (:mod:`gloffset.raster.layout`): the float64
+        twin's where the projection has one (within 1e-12 rad of :meth:`centers`; the
+        coarse levels' centres are the twin's anyway), else :meth:`centers`."""
+        inv = self._twin()
+        if inv is None:
+            return self.centers(level, j, i)
+        b = self.block(level)
+        x = (np.asarray(i, dtype=np.float64) + 0.5) * b
+        y = (np.asarray(j, dtype=np.float64) + 0.5) * b
+        return inv(*self.pixel_xy(x, y))
+
+    def _tree(self) -> dict:
+        """The bounds made from every pixel centre (see the module notes): per level the
+        cells' rho, their centres (a child's where their own has no inverse) and whether
+        a pixel of theirs is in the domain."""
+        tree = self.__dict__.get("_tree_cache")
+        if tree is not None:
+            return tree
+        n = self.n_levels
+        last = n - 1
+        H, W = self.level_shape(last)
+        if n == 1:
+            _, ok = self._raw_centres(last, *np.meshgrid(np.arange(H), np.arange(W), indexing="ij"))
+            tree = {"rho": [np.zeros((H, W))], "centres": [None], "valid": [ok]}
+            self.__dict__["_tree_cache"] = tree
+            return tree
+        rho: list = [None] * n
+        cen: list = [None] * n
+        valid: list = [None] * n
+        rho[last] = None  # 0 everywhere (pixels are decided at their centres)
+        valid[last] = np.zeros((H, W), dtype=bool)
+        # the level above the pixels, from strips of pixel rows
+        h1, w1 = self.level_shape(last - 1)
+        r1 = np.zeros((h1, w1))
+        c1 = np.zeros((h1, w1, 3))
+        v1 = np.zeros((h1, w1), dtype=bool)
+        ii = np.arange(W)
+        for y0 in range(0, H, _STRIP):
+            rows = np.arange(y0, min(H, y0 + _STRIP))
+            jj, iii = np.meshgrid(rows, ii, indexing="ij")
+            p, ok = self._raw_centres(last, jj, iii)
+            valid[last][rows] = ok
+            prow = rows // 2
+            pj = np.arange(prow[0], prow[-1] + 1)
+            cj, ci = np.meshgrid(pj, np.arange(w1), indexing="ij")
+            c, cok = self._raw_centres(last - 1, cj, ci)
+            self._fill(c, cok, r1, c1, v1, pj, p, ok, rows - 2 * pj[0], None)
+        rho[last - 1], cen[last - 1], valid[last - 1] = pad(r1), c1, v1
+        for lev in range(last - 2, -1, -1):
+            h, w = self.level_shape(lev)
+            cj, ci = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
+            c, cok = self._raw_centres(lev, cj, ci)
+            r = np.zeros((h, w))
+            cc = np.zeros((h, w, 3))
+            vv = np.zeros((h, w), dtype=bool)
+            self._fill(
+                c,
+                cok,
+                r,
+                cc,
+                vv,
+                np.arange(h),
+                cen[lev + 1],
+                valid[lev + 1],
+                np.arange(len(cen[lev + 1])),
+                rho[lev + 1],
+            )
+            rho[lev], cen[lev], valid[lev] = pad(r), cc, vv
+        tree = {"rho": rho, "centres": cen, "valid": valid}
+        self.__dict__["_tree_cache"] = tree
+        return tree
+
+    @staticmethod
+    def _fill(c, cok, r, cc, vv, prows, child, child_ok, child_rows, child_rho) -> None:
+        """Bounds and centres of parent rows ``prows`` from their children (rows
+        ``child_rows`` of the arrays ``child``, ``child_ok``, ``child_rho``; parent row of
+        a child row ``k``: ``prows[0] + k // 2`` where ``child_rows`` start at 0)."""
+        h = len(prows)
+        w = r.shape[1]
+        cw = child.shape[1]
+        cent = c.copy()
+        have = cok.copy()
+        # a parent without an inverse takes its first child's centre that has one
+        for dj in (0, 1):
+            for di in (0, 1):
+                k = 2 * np.arange(h)[:, None] + dj
+                q = 2 * np.arange(w)[None, :] + di
+                inside = (k < len(child_rows)) & (q < cw)
+                kk, qq = np.minimum(k, len(child_rows) - 1), np.minimum(q, cw - 1)
+                kk = np.broadcast_to(kk, (h, w))
+                qq = np.broadcast_to(qq, (h, w))
+                okc = inside & child_ok[kk, qq]
+                take = ~have & okc
+                cent[take] = child[kk, qq][take]
+                have |= take
+        out = np.zeros((h, w))
+        anyv = np.zeros((h, w), dtype=bool)
+        for dj in (0, 1):
+            for di in (0, 1):
+                k = 2 * np.arange(h)[:, None] + dj
+                q = 2 * np.arange(w)[None, :] + di
+                inside = (k < len(child_rows)) & (q < cw)
+                kk = np.broadcast_to(np.minimum(k, len(child_rows) - 1), (h, w))
+                qq = np.broadcast_to(np.minimum(q, cw - 1), (h, w))
+                okc = inside & child_ok[kk, qq]
+                a = angle(cent, child[kk, qq])
+                if child_rho is not None:
+                    a = a + child_rho[kk, qq]
+                out = np.where(okc, np.maximum(out, a), out)
+                anyv |= okc
+        r[prows] = out
+        cc[prows] = np.where(have[..., None], cent, np.array([0.0, 0.0, 1.0]))
+        vv[prows] = anyv
+
+    def rho_at(self, level: int, j, i) -> np.ndarray:
+        """The bound of cells (``j``, ``i``) of ``level`` (0 at the output level)."""
+        j, i = np.broadcast_arrays(np.asarray(j, dtype=np.int64), np.asarray(i, dtype=np.int64))
+        last = self.n_levels - 1
+        if level == last:
+            return np.zeros(j.shape)
+        lip = self._lipschitz()
+        if lip is not None:
+            r = lip * self._half_diagonal(level) + _LEVEL_SLACK * (last - level)
+            return np.full(j.shape, r)
+        r = self._tree()["rho"][level]
+        h, w = r.shape
+        return r[np.minimum(j, h - 1), np.minimum(i, w - 1)]
+
+    def rho(self, level: int) -> np.ndarray:
+        """Per row of ``level``: the largest bound of its cells."""
+        h, w = self.level_shape(level)
+        if level == self.n_levels - 1:
+            return np.zeros(h)
+        if self._lipschitz() is not None:
+            return self.rho_at(level, np.arange(h), 0)
+        return self._tree()["rho"][level].max(axis=1)
+
+    def area_rho_at(self, level: int, j, i) -> np.ndarray:
+        """A bound on the distance from the centres of cells (``j``, ``i``) to their
+        points (at the output level, the pixel's own extent): the formula's where there
+        is one, else the next level's bound of the cell (a pixel: its 2 x 2 parent's)."""
+        j, i = np.broadcast_arrays(np.asarray(j, dtype=np.int64), np.asarray(i, dtype=np.int64))
+        lip = self._lipschitz()
+        if lip is not None:
+            return np.full(j.shape, pad(lip * self._half_diagonal(level)))
+        if level == self.n_levels - 1:
+            if level == 0:
+                return np.zeros(j.shape)
+            return 2.0 * self.rho_at(level - 1, j // 2, i // 2)
+        return self.rho_at(level, j, i)
+
+    def valid(self, level: int) -> np.ndarray | None:
+        """Per cell of ``level``: whether a pixel of it is in the projection's domain;
+        None when every pixel is (formula grids, and grids whose pixels all are)."""
+        if self._lipschitz() is not None:
+            return None
+        tree = self._tree()
+        if tree["valid"][-1].all():
+            return None
+        return tree["valid"][level]
+
+    def subgrid(self, x0: int, y0: int, w: int, h: int) -> Projected:
+        """The pixels ``[x0, x0+w) x [y0, y0+h)`` as a grid of their own (the same pixel
+        centres, bit for bit)."""
+        out = object.__new__(Projected)
+        out._crs = self._crs
+        out.width, out.height = int(w), int(h)
+        fx0, fy0, fw, fh, full = self._frame
+        xmin, ymin, xmax, ymax = full
+        out._frame = (fx0 + x0, fy0 + y0, fw, fh, full)
+        out.bounds = (
+            xmin + (fx0 + x0) * (xmax - xmin) / fw,
+            ymax - (fy0 + y0 + h) * (ymax - ymin) / fh,
+            xmin + (fx0 + x0 + w) * (xmax - xmin) / fw,
+            ymax - (fy0 + y0) * (ymax - ymin) / fh,
+        )
+        return out
