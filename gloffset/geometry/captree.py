@@ -14,7 +14,9 @@ answer, to be confirmed by an exact test.
 
 Cost: building is O(n). A query costs O(log n) levels; the work per level is the
 number of surviving pairs, about the size of the answer plus the number of nodes
-the query's cap touches on each level.
+the query's cap touches on each level. The pairs of items among themselves
+(:meth:`CapTree.self_pairs`) come instead from a grid of cubes over the items' caps
+(:func:`_grid_pairs`): a few sorts and searches, with the same chord test per pair.
 """
 
 from __future__ import annotations
