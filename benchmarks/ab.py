@@ -46,6 +46,7 @@ WORKLOADS = {
     ),
     "offset+resolve mexico": "g.offset(mexico, 0.02, radius=1.0).resolve()",
     "contains mexico 1e6 points": "g.contains(mexico, lon, lat, distance=0.02, radius=1.0)",
+    "read countries_10m": "g.read(countries_path)",
 }
 
 SETUP = """
@@ -55,6 +56,7 @@ import gloffset as g
 from gloffset.grids import Cube, Equirect
 mexico = g.read({data!r} + '/mexico_10m.geojson')
 world = g.read({data!r} + '/world_110m.geojson')
+countries_path = {data!r} + '/countries_10m.geojson'
 line_mask = g.rasterize(mexico, Equirect(2048, 1024))
 line_mask_small = g.rasterize(mexico, Equirect(1024, 512))
 rng = np.random.default_rng(0)

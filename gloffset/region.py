@@ -35,7 +35,7 @@ import numpy as np
 
 from .errors import InvalidGeometryError
 from .geometry.arrangement import candidate_pairs, components, cycles, split
-from .geometry.caps import arc_cap, cap_within, pad
+from .geometry.caps import arc_cap, cap_threshold, pad
 from .geometry.sphere import (
     angle,
     arc_distance,
@@ -46,7 +46,7 @@ from .geometry.sphere import (
     robust_cross,
 )
 
-__all__ = ["TOL", "Boundary", "unite", "left_area"]
+__all__ = ["TOL", "Boundary", "unite", "left_area", "left_areas"]
 
 #: Distance (rad) below which vertices merge and a vertex lies on an edge.
 TOL = 1e-12
@@ -69,14 +69,33 @@ def left_area(ring: np.ndarray) -> float:
     ``2 pi`` minus the sum of the turning angles at the vertices (great-circle
     edges have no geodesic curvature). Accuracy: about 1e-15 rad per vertex.
     """
-    v = np.asarray(ring, dtype=np.float64)
-    n = normalize(robust_cross(v, np.roll(v, -1, axis=0)))  # edge i: v[i] -> v[i+1]
+    v = np.asarray(ring, dtype=np.float64).reshape(-1, 3)
+    return float(left_areas(v, np.array([0, len(v)]))[0])
+
+
+def left_areas(v: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """:func:`left_area` of many rings at once: ring ``r`` is ``v[at[r]:at[r + 1]]``
+    (the terms element by element, each ring's turns summed apart). Accuracy as
+    :func:`left_area`'s."""
+    v = np.asarray(v, dtype=np.float64)
+    at = np.asarray(at, dtype=np.int64)
+    sizes = np.diff(at)
+    if len(sizes) == 0:
+        return np.zeros(0)
+    base = np.repeat(at[:-1], sizes)
+    pos = np.arange(len(v)) - base
+    size = np.repeat(sizes, sizes)
+    nxt = base + (pos + 1) % size
+    prv = base + (pos - 1) % size
+    n = normalize(robust_cross(v, v[nxt]))  # edge i: v[i] -> v[i+1]
     t_out = cross(n, v)  # direction of travel leaving v[i]
-    t_in = cross(np.roll(n, 1, axis=0), v)  # arriving at v[i] along edge i-1
+    t_in = cross(n[prv], v)  # arriving at v[i] along edge i-1
     turn = np.arctan2(
         np.einsum("ij,ij->i", cross(t_in, t_out), v), np.einsum("ij,ij->i", t_in, t_out)
     )
-    return float(2.0 * np.pi - turn.sum()) % (4.0 * np.pi)
+    return np.array(
+        [float(2.0 * np.pi - turn[a:b].sum()) % (4.0 * np.pi) for a, b in zip(at[:-1], at[1:])]
+    )
 
 
 def _proper_crossings(a, b, n, i, j) -> np.ndarray:
@@ -226,22 +245,25 @@ class _Union:
         n = normalize(robust_cross(a, b))
         self.n = n
         out_e, out_p, meet_a, meet_b = [], [], [], []
-        # an end of one edge on the other (T-junctions, collinear overlaps)
+        # an end of one edge on the other (T-junctions, collinear overlaps); the tests
+        # after the first only for the ends within TOL of the other's great circle
         for e, f in ((i, j), (j, i)):
             for end in (f, nx[f]):
-                p = v[end]
-                off = np.abs(np.einsum("ij,ij->i", p, n[e]))
-                between = (np.einsum("ij,ij->i", p, cross(n[e], a[e])) > 0.0) & (
-                    np.einsum("ij,ij->i", p, cross(b[e], n[e])) > 0.0
+                off = np.abs(np.einsum("ij,ij->i", v[end], n[e]))
+                near = np.flatnonzero(off <= TOL)
+                e_, f_, end_ = e[near], f[near], end[near]
+                p = v[end_]
+                between = (np.einsum("ij,ij->i", p, cross(n[e_], a[e_])) > 0.0) & (
+                    np.einsum("ij,ij->i", p, cross(b[e_], n[e_])) > 0.0
                 )
-                far = (np.linalg.norm(p - a[e], axis=1) > TOL) & (
-                    np.linalg.norm(p - b[e], axis=1) > TOL
+                far = (np.linalg.norm(p - a[e_], axis=1) > TOL) & (
+                    np.linalg.norm(p - b[e_], axis=1) > TOL
                 )
-                on = (off <= TOL) & between & far
-                out_e.append(e[on])
-                out_p.append(end[on])
-                meet_a.append(e[on])
-                meet_b.append(f[on])
+                on = between & far
+                out_e.append(e_[on])
+                out_p.append(end_[on])
+                meet_a.append(e_[on])
+                meet_b.append(f_[on])
         # proper crossings: each edge's ends clearly on both sides of the other
         hit = _proper_crossings(a, b, n, i, j)
         ci, cj = i[hit], j[hit]
@@ -393,9 +415,7 @@ class _Union:
 
     def _inside_other(self, p, own, excl):
         """For points ``p``: inside any input polygon other than ``own``/``excl``?"""
-        caps_c, caps_r = self.caps
-        cq = np.einsum("ij,kj->ik", p, caps_c)  # (points, comps)
-        cand = cap_within(cq, caps_r[None, :])
+        cand = self._near_caps(p)  # (points, comps)
         cand[np.arange(len(p)), own] = False
         for k, cs in excl.items():
             cand[k, list(cs)] = False
@@ -403,6 +423,14 @@ class _Union:
         out = np.zeros(len(p), bool)
         np.logical_or.at(out, pi, self._inside(p[pi], ci))
         return out
+
+    def _near_caps(self, p):
+        """(points, polygons) bool: the point lies within the polygon's cap
+        (:func:`~gloffset.geometry.caps.cap_within`, its threshold once per polygon; the
+        products ``c.m`` by a matrix product, within 1e-15 of exact, far below the test's
+        slack)."""
+        caps_c, caps_r = self.caps
+        return (p @ caps_c.T) >= cap_threshold(caps_r)[None, :]
 
     def _inside(self, p, ci):
         """Whether each point ``p[k]`` lies inside input polygon ``ci[k]``: parity of the
@@ -517,9 +545,7 @@ class _Union:
 
     def _in_union(self, p):
         """Whether points ``p`` lie inside any input polygon."""
-        caps_c, caps_r = self.caps
-        cq = np.einsum("ij,kj->ik", p, caps_c)
-        pi, ci = np.nonzero(cap_within(cq, caps_r[None, :]))
+        pi, ci = np.nonzero(self._near_caps(p))
         out = np.zeros(len(p), bool)
         np.logical_or.at(out, pi, self._inside(p[pi], ci))
         return out
@@ -564,19 +590,35 @@ class _Union:
                     "cannot unite the polygons: their borders touch in a way that leaves "
                     "the union's boundary ambiguous"
                 )
-        rings, seams, groups, holes, labels = [], [], [], [], []
-        for cyc in cycles(nxt)[0]:  # every piece is on one (nxt is a permutation)
-            if len(cyc) < 3:
-                continue
-            comps = np.unique(self.comp[edge[cyc]])
-            self.meets.append((np.full(len(comps) - 1, comps[0]), comps[1:]))
-            ring = v[start[cyc]]
-            rings.append(ring)
-            seams.append(self.seam[edge[cyc]])
-            groups.append(int(comps[0]))
-            holes.append(left_area(ring) > 2.0 * np.pi)
-            names = dict.fromkeys(self.labels[r] for r in self.ring_of[edge[cyc]].tolist())
-            labels.append(" + ".join(names))
+        # every piece is on one cycle (nxt is a permutation); the rings' arrays at once
+        cyc_all = [cyc for cyc in cycles(nxt)[0] if len(cyc) >= 3]
+        sizes = np.array([len(c) for c in cyc_all], dtype=np.int64)
+        at = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+        flat = np.concatenate(cyc_all) if cyc_all else np.zeros(0, np.int64)
+        e_flat = edge[flat]
+        c_flat = self.comp[e_flat]
+        ring_id = np.repeat(np.arange(len(sizes)), sizes)
+        # the polygons along a ring are one component of the result, under its smallest
+        first_comp = np.minimum.reduceat(c_flat, at[:-1]) if len(flat) else c_flat
+        self.meets.append((first_comp[ring_id], c_flat))
+        v_flat = v[start[flat]]
+        s_flat = self.seam[e_flat]
+        hole = left_areas(v_flat, at) > 2.0 * np.pi
+        # the input rings along each ring, in the order met
+        src = self.ring_of[e_flat]
+        n_src = int(src.max()) + 1 if len(src) else 1
+        _, first = np.unique(ring_id * n_src + src, return_index=True)
+        first = np.sort(first)
+        names_at = np.searchsorted(first, at)
+        src_first = src[first].tolist()
+        rings = [v_flat[at[r] : at[r + 1]] for r in range(len(sizes))]
+        seams = [s_flat[at[r] : at[r + 1]] for r in range(len(sizes))]
+        groups = first_comp.tolist()
+        holes = hole.tolist()
+        labels = [
+            " + ".join(self.labels[q] for q in src_first[names_at[r] : names_at[r + 1]])
+            for r in range(len(sizes))
+        ]
         root = components(self.n_comp, *(np.concatenate(x) for x in zip(*self.meets)))
         roots = root[np.array(groups, dtype=np.int64)]
         _, group_of = np.unique(roots, return_inverse=True)

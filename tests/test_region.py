@@ -648,3 +648,17 @@ def test_random_polygons_against_the_union_of_their_parts():
         assert np.array_equal(got[far], want[far])
         done += 1
     assert done > 30
+
+
+def test_left_areas_of_many_rings_are_those_of_each_ring():
+    from gloffset.region import left_area, left_areas
+
+    world = gloffset.read(DATA / "world_110m.geojson")
+    rings = world.rings
+    at = np.concatenate([[0], np.cumsum([len(r) for r in rings])])
+    got = left_areas(np.concatenate(rings), at)
+    want = np.array([left_area(r) for r in rings])
+    assert np.array_equal(got, want)
+    # the union's holes are the rings with more than a hemisphere on their left
+    assert np.array_equal(got > 2.0 * np.pi, world.ring_holes)
+    assert (got > 0.0).all() and len(got) > 100

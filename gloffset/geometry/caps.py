@@ -142,7 +142,13 @@ def cap_within(cm, reach) -> np.ndarray:
     In angles the slack is ``1e-12 / sin(reach)``, at least 1e-12 rad, and about
     1.4e-6 rad for reaches near 0 or pi: a few extra candidates, never a missing one.
     """
-    return cm >= np.cos(np.minimum(reach, np.pi)) - COS_SLACK
+    return cm >= cap_threshold(reach)
+
+
+def cap_threshold(reach) -> np.ndarray:
+    """The threshold of :func:`cap_within`, ``cos(min(reach, pi)) - COS_SLACK``: computed
+    once per cap where many points meet the same caps (``c.m >= threshold``)."""
+    return np.cos(np.minimum(reach, np.pi)) - COS_SLACK
 
 
 #: Margin on the cosine thresholds of :func:`cap_within_pairs` (far above the 1 ulp by

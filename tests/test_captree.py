@@ -1,0 +1,87 @@
+"""CapTree.self_pairs: its grid broad phase returns exactly the pairs of its chord test."""
+
+import numpy as np
+import pytest
+from conftest import DATA
+
+import gloffset
+from gloffset.geometry.caps import arc_cap, chord, pad
+from gloffset.geometry.captree import CapTree, _grid_pairs
+from gloffset.geometry.sphere import angle, arcs_cross, normalize
+
+
+def brute_pairs(c, r_padded, slack):
+    """Every pair i < j that passes the chord test of self_pairs (all n^2 pairs)."""
+    ii, jj = np.triu_indices(len(c), 1)
+    d2 = np.einsum("ij,ij->i", c[ii] - c[jj], c[ii] - c[jj])
+    ok = d2 <= pad(chord(r_padded[ii] + r_padded[jj] + slack)) ** 2
+    return ii[ok], jj[ok]
+
+
+def mixed_caps(n, seed):
+    """Caps along random walks, radii from 1e-12 rad to pi (most tiny, a few huge)."""
+    rng = np.random.default_rng(seed)
+    c = normalize(np.cumsum(rng.normal(size=(n, 3)) * 0.003, axis=0) + rng.normal(size=3))
+    c[::50] = normalize(rng.normal(size=(len(c[::50]), 3)))  # scattered ones
+    r = 10.0 ** rng.uniform(-12, -2.5, n)
+    r[::97] = rng.uniform(0.0, np.pi, len(r[::97]))  # a few caps of any size
+    r[::31] = 0.0
+    return c, r
+
+
+@pytest.mark.parametrize("slack", [0.0, 2e-12, 1e-3, 0.5])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_self_pairs_equal_the_chord_test_of_every_pair(slack, seed):
+    c, r = mixed_caps(1500, seed)
+    tree = CapTree(c, r)
+    i, j = tree.self_pairs(slack)
+    wi, wj = brute_pairs(tree.centers[0], tree.radii[0], slack)
+    # the same pairs, sorted by i then j
+    assert np.array_equal(i, wi) and np.array_equal(j, wj)
+    assert len(i) > 0
+
+
+def test_self_pairs_hold_every_pair_of_caps_that_meet():
+    c, r = mixed_caps(1200, 5)
+    i, j = CapTree(c, r).self_pairs()
+    got = set(zip(i.tolist(), j.tolist()))
+    dist = angle(c[:, None], c[None])
+    want = {(a, b) for a, b in zip(*np.nonzero(dist <= r[:, None] + r[None])) if a < b}
+    assert want <= got
+
+
+def test_grid_pairs_find_balls_that_touch_across_cell_faces():
+    # balls of one size on a line whose spacing equals two radii: each touches the next,
+    # many across the faces, edges and corners of cells
+    rng = np.random.default_rng(3)
+    axis = normalize(rng.normal(size=3))
+    start = normalize(rng.normal(size=3))
+    t = np.linspace(0.0, 2.0, 4001)
+    side = normalize(np.cross(axis, start))
+    p = normalize(np.cos(t)[:, None] * start + np.sin(t)[:, None] * side)
+    step = np.linalg.norm(p[1:] - p[:-1], axis=1)
+    ext = np.full(len(p), 0.5 * step.max())
+    ii, jj = _grid_pairs(p, ext)
+    got = set(zip(ii.tolist(), jj.tolist()))
+    assert {(k, k + 1) for k in range(len(p) - 1)} <= got
+    assert (ii < jj).all() and len(got) == len(ii)  # each pair once
+
+
+def test_self_pairs_of_real_borders_hold_every_crossing_and_shared_vertex():
+    shape = gloffset.read(DATA / "world_110m.geojson")
+    rings = shape.rings[:30]  # about 1500 edges: all their pairs fit in memory
+    a = np.concatenate(rings)
+    sizes = np.array([len(x) for x in rings])
+    starts = np.repeat(np.concatenate([[0], np.cumsum(sizes)[:-1]]), sizes)
+    b = a[starts + (np.arange(len(a)) - starts + 1) % np.repeat(sizes, sizes)]
+    tree = CapTree(*arc_cap(a, b))
+    i, j = tree.self_pairs(2e-12)
+    wi, wj = brute_pairs(tree.centers[0], tree.radii[0], 2e-12)
+    assert np.array_equal(i, wi) and np.array_equal(j, wj)
+    # every pair of edges that share a vertex or cross is a candidate
+    got = set(zip(i.tolist(), j.tolist()))
+    ii, jj = np.triu_indices(len(a), 1)
+    meet = (a[ii] == b[jj]).all(axis=1) | (b[ii] == a[jj]).all(axis=1)
+    meet |= arcs_cross(a[ii], b[ii], a[jj], b[jj])
+    assert set(zip(ii[meet].tolist(), jj[meet].tolist())) <= got
+    assert meet.sum() > len(a) // 2
