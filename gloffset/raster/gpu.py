@@ -29,8 +29,9 @@ __all__ = ["BinPasses", "bin_plan", "bin_passes", "gpu_box_pairs"]
 #: could differ from the host's, so no pair the exact test keeps is dropped.
 GPU_PAIR_MARGIN = 1e-9
 #: Fewest box cells for which :func:`gpu_box_pairs` runs the shader: below, the numpy path
-#: costs less than the shader's first run in a process (llvmpipe compiles it then, about
-#: 0.15 s; numpy takes about 0.1-0.3 us a box cell). See ``benchmarks/README.md``, ab.py.
+#: costs less than the shader's first run in a process (llvmpipe compiles it then: 0.15-0.2
+#: s measured; numpy took 0.3-0.5 us a box cell, the shader about half). See
+#: ``benchmarks/README.md``, ab.py.
 GPU_MIN_PAIRS = 500_000
 
 
