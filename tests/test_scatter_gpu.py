@@ -48,6 +48,14 @@ def _same_pairs(arcs, grid, e, level):
     return len(rj)
 
 
+def test_mexico_10m_pairs_and_bits(mexico_path):
+    # a finer level than the render at 127 km enters (level 2): more than 100,000 pairs
+    arcs = CurveArcs.from_shape(gloffset.read(mexico_path))
+    grid, e = Equirect(4096, 2048), 0.02
+    assert _same_pairs(arcs, grid, e, 4) > 100_000
+
+
+@pytest.mark.slow
 def test_countries_10m_pairs_and_bits():
     # the render of all countries at 127 km, 4096 x 2048: its entry level's million pairs
     shape = gloffset.read(DATA / "countries_10m.geojson")
