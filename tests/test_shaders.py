@@ -18,7 +18,9 @@ def ctx():
 
 @pytest.mark.parametrize("name", shader_files())
 def test_every_shader_file_compiles(ctx, name):
-    if name.endswith(".vert"):
+    if name.endswith(".comp"):
+        prog = ctx.compute_shader(load_source(name)[0])
+    elif name.endswith(".vert"):
         prog = program(ctx, name, "upsample.frag")
     elif name.endswith(".frag"):
         prog = program(ctx, "fullscreen.vert", name)

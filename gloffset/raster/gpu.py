@@ -14,12 +14,70 @@ from __future__ import annotations
 import numpy as np
 
 from ..edges import CurveArcs
+from ..geometry.caps import COS_SLACK, cap_within
+from ..gl.scatter_pass import UNSURE, scatter_pass
 from ..gl.vector_pass import BinPlan, vector_passes
 from .layout import BinLayout
 from .records import margins, records
 from .vector.levels import Frontier
+from .vector.scatter import box_pairs
 
-__all__ = ["BinPasses", "bin_plan", "bin_passes"]
+__all__ = ["BinPasses", "bin_plan", "bin_passes", "gpu_box_pairs"]
+
+#: Margin below the lowest exact threshold of an arc's cap test under which the compute
+#: shader drops a pair: far above the few ulp (1e-15) by which a device's float64 ``c.m``
+#: could differ from the host's, so no pair the exact test keeps is dropped.
+GPU_PAIR_MARGIN = 1e-9
+#: Fewest box cells for which :func:`gpu_box_pairs` runs the shader: below, the numpy path
+#: costs less than the shader's first run in a process (llvmpipe compiles it then: 0.15-0.2
+#: s measured; numpy took 0.3-0.5 us a box cell, the shader about half). See
+#: ``benchmarks/README.md``, ab.py.
+GPU_MIN_PAIRS = 500_000
+
+
+def gpu_box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, min_pairs=None):
+    """:func:`gloffset.raster.vector.scatter.box_pairs` with the box cells enumerated and
+    their ``c.m`` computed by the compute shader of :mod:`gloffset.gl.scatter_pass`: the
+    same pairs and ``cm`` (in another order; the caller sorts them).
+
+    The shader keeps a pair when its ``cm`` reaches the arc's lowest threshold (that of
+    the greatest row reach), less :data:`GPU_PAIR_MARGIN`: a superset of the exact test's
+    pairs. It marks those below the arc's highest threshold (the least row reach), plus
+    the margin; the exact test (``cap_within``) runs on the host on those alone. ``cos``,
+    ``min`` and the sums are monotone and the margin is far above their rounding, so the
+    pairs above the highest threshold pass the exact test: the result is its booleans.
+    Fewer box cells than ``min_pairs`` (default :data:`GPU_MIN_PAIRS`), or boxes beyond the
+    GL limits, take the numpy path.
+    """
+    a_idx, j0, j1, i0, i1 = boxes
+    total = int(((j1 - j0) * (i1 - i0)).sum())
+    least = GPU_MIN_PAIRS if min_pairs is None else min_pairs
+    if total < least:
+        return box_pairs(arcs, lat, lon, row_reach, boxes, w)
+    engine = scatter_pass()
+    if not engine.fits(total, len(a_idx)) or len(lat) * w >= 1 << 31:
+        return box_pairs(arcs, lat, lon, row_reach, boxes, w)
+    lo = np.cos(np.minimum(row_reach.max() + arcs.half, np.pi)) - COS_SLACK - GPU_PAIR_MARGIN
+    hi = np.cos(np.minimum(row_reach.min() + arcs.half, np.pi)) - COS_SLACK + GPU_PAIR_MARGIN
+    cell, ai, cm = engine.run(
+        np.column_stack([j0, j1, i0, i1]),
+        a_idx,
+        np.column_stack([arcs.mid, lo]),
+        hi,
+        np.column_stack([np.cos(lat), np.sin(lat)]),
+        np.column_stack([np.cos(lon), np.sin(lon)]),
+        w,
+        total,
+    )
+    jj, ii = np.divmod(cell.astype(np.int64), w)
+    unsure = np.flatnonzero(ai >= UNSURE)
+    ai = (ai & (UNSURE - 1)).astype(np.int64)
+    keep = np.ones(len(ai), dtype=bool)
+    u = ai[unsure]
+    keep[unsure] = cap_within(cm[unsure], row_reach[jj[unsure]] + arcs.half[u])
+    if len(unsure) == 0 or keep.all():
+        return jj, ii, ai, cm
+    return jj[keep], ii[keep], ai[keep], cm[keep]
 
 
 def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs) -> BinPlan:

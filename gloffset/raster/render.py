@@ -258,9 +258,9 @@ def _render_cells(shape, d, grid, *, backend, level, callback, mask, simplify=Tr
     if backend == "cpu" or stop <= bins:
         classes = driver.run(CurveCells(shape, d, grid), stop, callback=callback)
         return _MASK[classes] if mask else classes
-    from .gpu import bin_passes
+    from .gpu import bin_passes, gpu_box_pairs
 
-    cells = CurveCells(shape, d, grid, start="auto")
+    cells = CurveCells(shape, d, grid, start="auto", pairs=gpu_box_pairs)
 
     def on_gpu(classes, lev):
         return bin_passes().run(

@@ -37,13 +37,22 @@ class CurveCells:
     """
 
     def __init__(
-        self, shape, d: float, grid, *, start: str | int = "coarse", nodes_until: int | None = None
+        self,
+        shape,
+        d: float,
+        grid,
+        *,
+        start: str | int = "coarse",
+        nodes_until: int | None = None,
+        pairs=None,
     ):
         self.shape, self.d, self.grid = shape, d, grid
         self.arcs = CurveArcs.from_shape(shape)
         self.e = abs(d)
         self.last = grid.n_levels - 1
         self.start = start
+        #: what finds a directly entered level's box pairs (``scatter``'s ``pairs``)
+        self.pairs = pairs
         if nodes_until is not None and not 0 <= nodes_until < self.last:
             nodes_until = None
         #: the last level whose lists hold arcs of the multiresolution curve
@@ -85,7 +94,14 @@ class CurveCells:
             f = coarse(self.shape, self.arcs, self.grid, self.e)
             return self._level(f)
         dense, f = scatter(
-            self.shape, self.arcs, self.grid, self.d, at, final=(at == self.last), plan=plan
+            self.shape,
+            self.arcs,
+            self.grid,
+            self.d,
+            at,
+            final=(at == self.last),
+            plan=plan,
+            pairs=self.pairs,
         )
         return Level(at, f.cells, np.full(len(f.cells), FRONTIER, dtype=np.uint8), f, dense)
 

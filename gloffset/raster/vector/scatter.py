@@ -38,7 +38,7 @@ from ...geometry.sphere import angle, arcs_cross
 from ...memo import Memo, once_attr
 from .levels import FRONTIER, Frontier, decide, nearest, prune, row_statuses
 
-__all__ = ["start_level", "scatter", "PAIRS_PER_ARC"]
+__all__ = ["start_level", "scatter", "box_pairs", "PAIRS_PER_ARC"]
 
 #: Most box-enumerated (cell, arc) pairs per arc for a level to be entered directly.
 PAIRS_PER_ARC = 48
@@ -123,19 +123,13 @@ def start_level(arcs: CurveArcs, grid, e: float, finest: int):
     return None, None
 
 
-def scatter(shape, arcs: CurveArcs, grid, d: float, level: int, final: bool, *, plan=None):
-    """Classes of every cell of ``level`` and the :class:`Frontier` of its frontier cells.
-
-    ``final``: ``level`` is the output level (decided at the centres); ``plan``: what
-    :func:`start_level` gave for this level and distance, if it chose it.
-    """
-    e = abs(d)
-    h, w = grid.level_shape(level)
-    (lat, lon, rho, spacing, row_reach), (a_idx, j0, j1, i0, i1) = plan or _plan(
-        arcs, grid, e, level
-    )
-
-    # every cell of every box, then the exact cap test
+def box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int):
+    """``(row, column, arc, cm)`` of every cell of every box (:func:`_boxes`) that passes
+    the cap test ``cap_within(cm, row_reach[row] + half[arc])``, ``cm`` the float64 dot
+    product of the cell's centre and the arc's cap centre (``w``: the level's width; the
+    numpy path, in box order; :func:`gloffset.raster.gpu.gpu_box_pairs` is the same pairs
+    from a compute shader, in any order). No two pairs share a cell and an arc."""
+    a_idx, j0, j1, i0, i1 = boxes
     nc = i1 - i0
     count = (j1 - j0) * nc
     box = np.repeat(np.arange(len(count)), count)
@@ -147,12 +141,32 @@ def scatter(shape, arcs: CurveArcs, grid, d: float, level: int, final: bool, *, 
     clam, slam = np.cos(lon), np.sin(lon)
     m = arcs.mid[ai]
     cm = cphi[jj] * (clam[ii] * m[:, 0] + slam[ii] * m[:, 1]) + sphi[jj] * m[:, 2]
+    keep = cap_within(cm, row_reach[jj] + arcs.half[ai])
+    return jj[keep], ii[keep], ai[keep], cm[keep]
+
+
+def scatter(
+    shape, arcs: CurveArcs, grid, d: float, level: int, final: bool, *, plan=None, pairs=None
+):
+    """Classes of every cell of ``level`` and the :class:`Frontier` of its frontier cells.
+
+    ``final``: ``level`` is the output level (decided at the centres); ``plan``: what
+    :func:`start_level` gave for this level and distance, if it chose it; ``pairs``: what
+    finds the box pairs (:func:`box_pairs`, the default, or a function with its arguments
+    and results, such as :func:`gloffset.raster.gpu.gpu_box_pairs`).
+    """
+    e = abs(d)
+    h, w = grid.level_shape(level)
+    (lat, lon, rho, spacing, row_reach), boxes = plan or _plan(arcs, grid, e, level)
+
+    # every cell of every box within the exact cap test, sorted by cell, then arc
+    jj, ii, ai, cm = (pairs or box_pairs)(arcs, lat, lon, row_reach, boxes, w)
     half = arcs.half[ai]
-    keep = cap_within(cm, row_reach[jj] + half)
-    jj, ii, ai, cm, half = jj[keep], ii[keep], ai[keep], cm[keep], half[keep]
     cell = jj * w + ii
     order = np.argsort(cell * len(arcs.a) + ai, kind="stable")
     jj, ii, ai, cm, half, cell = (x[order] for x in (jj, ii, ai, cm, half, cell))
+    cphi, sphi = np.cos(lat), np.sin(lat)
+    clam, slam = np.cos(lon), np.sin(lon)
 
     def center(j, i):
         return np.stack([cphi[j] * clam[i], cphi[j] * slam[i], sphi[j]], axis=-1)

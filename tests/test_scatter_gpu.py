@@ -1,0 +1,158 @@
+"""The entry level's box pairs from the compute shader (gloffset.raster.gpu.gpu_box_pairs)
+are the numpy path's (gloffset.raster.vector.scatter.box_pairs): the same pairs, the same
+float64 bits of c.m, and so the same level."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gloffset
+from gloffset.edges import CurveArcs
+from gloffset.gl.scatter_pass import UNSURE, scatter_pass
+from gloffset.grids import Equirect, Tile
+from gloffset.raster.gpu import GPU_MIN_PAIRS, gpu_box_pairs
+from gloffset.raster.vector.scatter import _plan, box_pairs, scatter, start_level
+
+DATA = Path(__file__).resolve().parent.parent / "data"
+LINE_OVER_POLE = {
+    "type": "LineString",
+    "coordinates": [[170, 60], [-170, 70], [-100, 85], [80, 88]],
+}
+CASES = [
+    ("Fiji", 0.004, Equirect(200, 160, (170, -25, -170, -10)), 4),  # across the antimeridian
+    ("Antarctica", 0.03, Equirect(256, 128), 3),  # round the pole
+    ("Chile", 0.01, Tile(3, 2, 4, size=256), 4),  # web mercator
+    (LINE_OVER_POLE, 0.02, Equirect(256, 256, (150, 50, -150, 90)), 4),
+    ("Italy", 0.0, Equirect(240, 240, (6, 36, 19, 47.5)), 4),
+]
+
+
+def _sorted(pairs, w, n):
+    jj, ii, ai, cm = pairs
+    order = np.argsort((jj * w + ii) * n + ai)
+    return [x[order] for x in (jj, ii, ai)], cm[order]
+
+
+def _same_pairs(arcs, grid, e, level):
+    (lat, lon, _, _, row_reach), boxes = _plan(arcs, grid, e, level)
+    w = grid.level_shape(level)[1]
+    ref = box_pairs(arcs, lat, lon, row_reach, boxes, w)
+    got = gpu_box_pairs(arcs, lat, lon, row_reach, boxes, w, min_pairs=0)
+    (rj, ri, ra), rcm = _sorted(ref, w, len(arcs.a))
+    (gj, gi, ga), gcm = _sorted(got, w, len(arcs.a))
+    assert len(rj) == len(gj)
+    for a, b in ((rj, gj), (ri, gi), (ra, ga)):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(rcm.view(np.int64), gcm.view(np.int64))  # the bits
+    return len(rj)
+
+
+def test_mexico_10m_pairs_and_bits(mexico_path):
+    # a finer level than the render at 127 km enters (level 2): more than 100,000 pairs
+    arcs = CurveArcs.from_shape(gloffset.read(mexico_path))
+    grid, e = Equirect(4096, 2048), 0.02
+    assert _same_pairs(arcs, grid, e, 4) > 100_000
+
+
+@pytest.mark.slow
+def test_countries_10m_pairs_and_bits():
+    # the render of all countries at 127 km, 4096 x 2048: its entry level's million pairs
+    shape = gloffset.read(DATA / "countries_10m.geojson")
+    grid, e = Equirect(4096, 2048), 127e3 / 6371008.8
+    arcs = CurveArcs.from_shape(shape)
+    level, _ = start_level(arcs, grid, e, grid.bin_level_for(e))
+    assert level is not None
+    assert _same_pairs(arcs, grid, e, level) > GPU_MIN_PAIRS  # a render takes the shader
+
+
+@pytest.mark.parametrize("what, d, grid, level", CASES)
+def test_pairs_and_bits_on_borders(world, what, d, grid, level):
+    shape = gloffset.read(world[what] if isinstance(what, str) else what)
+    arcs = CurveArcs.from_shape(shape)
+    assert _same_pairs(arcs, grid, abs(d), min(level, grid.n_levels - 1)) > 0
+
+
+def test_shader_marks_the_pairs_near_the_threshold(mexico_path):
+    # between the arc's lowest and highest thresholds the exact test is the host's: the
+    # shader marks those pairs, and drops none the exact test keeps
+    arcs = CurveArcs.from_shape(gloffset.read(mexico_path))
+    grid, e, level = Equirect(2048, 1024), 0.02, 3
+    (lat, lon, _, _, row_reach), (a_idx, j0, j1, i0, i1) = _plan(arcs, grid, e, level)
+    w = grid.level_shape(level)[1]
+    total = int(((j1 - j0) * (i1 - i0)).sum())
+    mid = np.cos(0.5 * (row_reach.max() + row_reach.min()) + arcs.half)
+    cell, ai, cm = scatter_pass().run(
+        np.column_stack([j0, j1, i0, i1]),
+        a_idx,
+        np.column_stack([arcs.mid, np.full(len(arcs.a), -2.0)]),  # every box cell
+        mid,
+        np.column_stack([np.cos(lat), np.sin(lat)]),
+        np.column_stack([np.cos(lon), np.sin(lon)]),
+        w,
+        total,
+    )
+    assert len(cell) == total
+    unsure = ai >= UNSURE
+    np.testing.assert_array_equal(unsure, cm < mid[ai & (UNSURE - 1)])
+    assert 0 < unsure.sum() < total
+
+
+def test_no_pairs():
+    shape = gloffset.read({"type": "LineString", "coordinates": [[0, 0], [1, 1]]})
+    arcs = CurveArcs.from_shape(shape)
+    grid = Equirect(256, 128, (100, -40, 140, -10))  # far from the line
+    (lat, lon, _, _, row_reach), boxes = _plan(arcs, grid, 0.001, 2)
+    jj, ii, ai, cm = gpu_box_pairs(
+        arcs, lat, lon, row_reach, boxes, grid.level_shape(2)[1], min_pairs=0
+    )
+    assert len(jj) == len(ii) == len(ai) == len(cm) == 0
+
+
+def test_scatter_gives_the_same_level(mexico_path):
+    shape = gloffset.read(mexico_path)
+    arcs = CurveArcs.from_shape(shape)
+    grid, d, level = Equirect(2048, 1024), 0.02, 4
+    ref_cls, ref = scatter(shape, arcs, grid, d, level, False)
+
+    def on_gpu(*args):
+        return gpu_box_pairs(*args, min_pairs=0)
+
+    cls, f = scatter(shape, arcs, grid, d, level, False, pairs=on_gpu)
+    np.testing.assert_array_equal(cls, ref_cls)
+    for name in ("cells", "centers", "rho", "pair_cell", "pair_arc", "status"):
+        np.testing.assert_array_equal(getattr(f, name), getattr(ref, name))
+
+
+def test_a_box_larger_than_a_shader_loop():
+    # llvmpipe ends a loop after 65535 iterations: a box of 90,000 cells comes back whole
+    h = w = 300
+    lat = np.linspace(1.5, -1.5, h)
+    lon = np.linspace(-3.0, 3.0, w)
+    cell, ai, cm = scatter_pass().run(
+        np.array([[0, h, 0, w]]),
+        np.array([0]),
+        np.array([[1.0, 0.0, 0.0, -2.0]]),  # every cell passes
+        np.array([2.0]),  # and is marked
+        np.column_stack([np.cos(lat), np.sin(lat)]),
+        np.column_stack([np.cos(lon), np.sin(lon)]),
+        w,
+        h * w,
+    )
+    np.testing.assert_array_equal(np.sort(cell), np.arange(h * w))
+    assert (ai == UNSURE).all()
+    j, i = np.divmod(cell.astype(np.int64), w)
+    np.testing.assert_array_equal(
+        cm, np.cos(lat[j]) * (np.cos(lon[i]) * 1.0 + np.sin(lon[i]) * 0.0) + np.sin(lat[j]) * 0.0
+    )
+
+
+@pytest.mark.slow
+def test_countries_render_is_the_numpy_paths(monkeypatch):
+    import gloffset.raster.gpu as gpu
+
+    shape = gloffset.read(DATA / "countries_10m.geojson")
+    grid = Equirect(4096, 2048)
+    on_gpu = gloffset.render(shape, 127e3, grid)
+    monkeypatch.setattr(gpu, "gpu_box_pairs", box_pairs)
+    np.testing.assert_array_equal(on_gpu, gloffset.render(shape, 127e3, grid))
