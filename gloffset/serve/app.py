@@ -14,10 +14,9 @@ Endpoints (each input is a layer named after its file stem):
   :data:`~gloffset.tiles.tiling.fieldtiles.FIELD_ENCODING` (1 m steps, +-8,388 km);
   ``GET /field/{layer}.json``: TileJSON 3.0.0 for them, with that ``encoding``;
 - ``GET /mvt/{layer}/{z}/{x}/{y}.pbf?d=127km`` (:func:`gloffset.vector_tile`), its TileJSON;
-- ``GET /offset/{layer}.geojson?distance=127km``, ``GET /shape/{layer}.geojson``,
-  ``GET /distance/{layer}?lon=..&lat=..`` (metres), ``GET /layers``;
-- ``GET /``: the page (``static/``: MapLibre GL JS vendored by
-  ``scripts/vendor_maplibre.py``) with a map, a globe and a distance slider.
+  ``/offset/{layer}.geojson?distance=``, ``/shape/{layer}.geojson``, ``/layers``,
+  ``/distance/{layer}?lon=..&lat=..`` (metres);
+- ``GET /``: the page (``static/``, MapLibre GL JS vendored): a map, a globe, a slider.
 
 HEAD works wherever GET does. Bad input is 400 with ``{"detail": ...}`` naming the
 problem (tile numbers are ASCII digits only), an unknown layer 404, a full render queue

@@ -20,7 +20,7 @@ from pathlib import Path
 from ...errors import OutputError, OutputExistsError
 from ...io.output import replacing
 
-__all__ = ["MBTilesWriter", "read_metadata", "tms_row", "SCHEMA"]
+__all__ = ["MBTilesWriter", "read_mbtiles_metadata", "tms_row", "SCHEMA"]
 
 SCHEMA = """
 CREATE TABLE metadata (name TEXT, value TEXT);
@@ -41,7 +41,7 @@ def tms_row(z: int, y: int) -> int:
     return (1 << z) - 1 - y
 
 
-def read_metadata(path) -> dict:
+def read_mbtiles_metadata(path) -> dict:
     """The metadata rows of the MBTiles file ``path``, read only (the file is not changed);
     :class:`~gloffset.errors.OutputError` for a file that is not a gloffset MBTiles file."""
     try:

@@ -28,9 +28,9 @@ from pathlib import Path
 from ...errors import OutputError, OutputExistsError
 from ...io.output import replacing
 from .mbtiles import MBTilesWriter, tms_row
-from .mbtiles import read_metadata as _staged_metadata
+from .mbtiles import read_mbtiles_metadata as _staged_metadata
 
-__all__ = ["PMTilesWriter", "read_metadata", "read_pmtiles"]
+__all__ = ["PMTilesWriter", "read_pmtiles_metadata", "read_pmtiles"]
 
 
 def _pmtiles():
@@ -211,7 +211,7 @@ def _empty_parts(header: dict, meta: dict, tile, writer) -> tuple[bytes, ...]:
     return tile.serialize_header(header), root, packed, leaves
 
 
-def read_metadata(path) -> dict:
+def read_pmtiles_metadata(path) -> dict:
     """The metadata a resumed run of the archive ``path`` continues, read only: that of its
     staged tiles when a run was interrupted, else the finished archive's (its tiles are not
     read)."""

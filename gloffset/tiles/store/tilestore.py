@@ -125,15 +125,15 @@ def check_store(path, *, resume: bool = False, overwrite: bool = False) -> dict 
     check_tile_output(path)
     path = Path(path)
     if path.suffix.lower() == ".mbtiles":
-        from .mbtiles import read_metadata
+        from .mbtiles import read_mbtiles_metadata as read_metadata
 
         busy = path.exists()
     elif path.suffix.lower() == ".pmtiles":
-        from .pmtiles import read_metadata
+        from .pmtiles import read_pmtiles_metadata as read_metadata
 
         busy = path.exists() or Path(f"{path}.partial.mbtiles").exists()
     else:
-        from .xyzdir import read_metadata
+        from .xyzdir import read_xyz_metadata as read_metadata
 
         if path.exists() and not path.is_dir():
             raise OutputError(f"{str(path)!r} is a file, not a tile directory")

@@ -16,12 +16,12 @@ from pathlib import Path
 
 from ...errors import OutputError, OutputExistsError
 
-__all__ = ["XYZDirWriter", "METADATA_FILE", "read_metadata"]
+__all__ = ["XYZDirWriter", "METADATA_FILE", "read_xyz_metadata"]
 
 METADATA_FILE = "metadata.json"
 
 
-def read_metadata(path) -> dict:
+def read_xyz_metadata(path) -> dict:
     """The ``metadata.json`` of the tile directory ``path`` as strings (empty when missing
     or unreadable), read only."""
     try:

@@ -19,7 +19,9 @@ from __future__ import annotations
 import io
 import json
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from PIL import Image
@@ -84,20 +86,21 @@ def field_tile(shape, z: int, x: int, y: int, size: int = 256, quad=None):
     return distance_field(shape, grid, radius=1.0)
 
 
-def field_pyramid(
-    shape,
-    zooms,
-    out,
-    *,
-    radius: float = EARTH_RADIUS,
-    size: int = 256,
-    name: str | None = None,
-    source: str | None = None,
-    overwrite: bool = False,
-    resume: bool = False,
-    progress=None,
-    tms=None,
-) -> int:
+@dataclass(frozen=True)
+class FieldPyramidOptions:
+    """The keywords of :func:`field_pyramid`, as one value."""
+
+    radius: float = EARTH_RADIUS
+    size: int = 256
+    name: str | None = None
+    source: str | None = None
+    overwrite: bool = False
+    resume: bool = False
+    progress: Any = None
+    tms: Any = None
+
+
+def field_pyramid(shape, zooms, out, **options) -> int:
     """Write the field tiles of ``shape`` (every tile of ``zooms``, ``"MIN-MAX"``) to
     ``out`` (``.mbtiles``, ``.pmtiles`` or an XYZ folder), encoded by
     :data:`FIELD_ENCODING` in metres on the sphere of ``radius``; the encoding is in the
@@ -114,7 +117,17 @@ def field_pyramid(
     Accuracy: each pixel is the exact signed distance rounded once to float32 radians
     (:func:`gloffset.distance_field`), times ``radius``, rounded to the metre: within 1 m
     of the exact distance up to 8,000 km (float32's relative 6e-8 is 0.48 m there).
+
+    The keywords (:class:`FieldPyramidOptions`): ``radius`` (default the Earth's),
+    ``size`` (256), ``name``, ``source``, ``overwrite``, ``resume``, ``progress``, ``tms``.
     """
+    try:
+        o = FieldPyramidOptions(**options)
+    except TypeError:
+        bad = sorted(set(options) - set(FieldPyramidOptions.__dataclass_fields__))
+        raise OptionError(f"field_pyramid takes no {', '.join(bad)}") from None
+    radius, size, name, source = o.radius, o.size, o.name, o.source
+    overwrite, resume, progress, tms = o.overwrite, o.resume, o.progress, o.tms
     zlo, zhi = parse_zooms(zooms)
     if size & (size - 1) or not 16 <= size <= 4096:
         raise OptionError(f"tile size must be a power of two from 16 to 4096, got {size!r}")
