@@ -896,7 +896,9 @@ def test_field_tiles_report_their_progress_as_the_raster_pyramids_do(tmp_path):
     assert bars[0][1:4] == ("0", "0", "21") and bars[0][4] == "?", err  # before the first tile
     assert bars[-1] == ("100", "2", "21", "21", "00:00"), err
     seen = [(int(z), int(done)) for _, z, done, _, _ in bars]
-    assert seen == sorted(seen) and {z for z, _ in seen} == {0, 1, 2}, err
+    # the bar is redrawn at most every 0.1 s: the first and last zooms are always drawn, a
+    # zoom in between only if its tiles took that long
+    assert seen == sorted(seen) and {0, 2} <= {z for z, _ in seen} <= {0, 1, 2}, err
     assert "21 field tiles written" in err
     for z, x, y in ((0, 0, 0), (2, 0, 1), (2, 3, 3)):
         one = tmp_path / "quiet" / str(z) / str(x) / f"{y}.png"
