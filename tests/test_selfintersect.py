@@ -437,6 +437,58 @@ def test_mexico_10m(mexico_path):
         assert res.polygons
 
 
+def _lonlat_lines(lines_xyz):
+    from gloffset.geometry.sphere import xyz_to_lonlat
+
+    out = []
+    for line in lines_xyz:
+        lon, lat = xyz_to_lonlat(line)
+        out.append(np.column_stack([lon, lat]).tolist())
+    return {"type": "MultiLineString", "coordinates": out}
+
+
+def _pieces(ring, k):
+    """A ring cut into open lines of ``k`` edges, each starting where the last ends."""
+    closed = np.vstack([ring, ring[:1]])
+    return [closed[i : i + k + 1] for i in range(0, len(ring), k)]
+
+
+def test_lines_that_share_an_end():
+    """Two lines that meet at a vertex of Russia's border (Franz Josef Land) at 200 km:
+    their round caps lie on one circle, which the edge arcs leaving it touch; the
+    crossings there were placed ~1e-8 off, the two copies of the cap were not seen as
+    one, and the whole region was lost (0 rings)."""
+    lines = {
+        "type": "MultiLineString",
+        "coordinates": [
+            [[49.79368452332071, 80.4154277615482], [51.13618655783127, 80.54728017854094]],
+            [[51.13618655783127, 80.54728017854094], [50.03976769389462, 80.91888540315178]],
+        ],
+    }
+    shape = gloffset.read(lines)
+    res = check(shape, 200e3 / gloffset.EARTH_RADIUS)
+    assert len(res.polygons) == 1
+    one = gloffset.read(
+        {"type": "LineString", "coordinates": lines["coordinates"][0] + lines["coordinates"][1][1:]}
+    )
+    assert res.area() == pytest.approx(
+        gloffset.offset(one, 200e3 / gloffset.EARTH_RADIUS, radius=1.0).resolve().area(), rel=1e-9
+    )
+
+
+@pytest.mark.parametrize("name, d, k", [("Russia", 200e3, 5), ("Mexico", 127e3, 3)])
+def test_borders_cut_into_lines(world, name, d, k):
+    """A country's border given as many lines that touch end to end: the region is
+    the band around the whole border, as the reference has it."""
+    shape = gloffset.read(world[name])
+    lines = [p for ring in shape.rings for p in _pieces(ring, k)]
+    cut = gloffset.read(_lonlat_lines(lines))
+    res = check(cut, d / gloffset.EARTH_RADIUS, n=3000)
+    whole = gloffset.read(_lonlat_lines([np.vstack([r, r[:1]]) for r in shape.rings]))
+    same = gloffset.offset(whole, d / gloffset.EARTH_RADIUS, radius=1.0).resolve()
+    assert len(res.rings) == len(same.rings)
+
+
 # ----------------------------------------------------------------------------- S2 cross-check
 
 

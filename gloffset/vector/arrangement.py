@@ -304,6 +304,15 @@ def _crossing_events(events: _Events, table: _RawArcs, live: _LiveArcs, ia, ib) 
         k = np.flatnonzero(good)
         if len(k) == 0:
             continue
+        # a crossing at an arc's end is that end: place it on both arcs from the end
+        # point itself, which lies on its circle to rounding, not from the crossing,
+        # which tangent circles (a join and the edge arc that leaves it, met by a third
+        # arc on the join's circle) fix only to ~1e-8
+        snap = _snapped(A, ia[k], ib[k], sa[k], ea[k], sb[k], eb[k])
+        if len(snap[0]):
+            j, xj = snap
+            ta[k[j]] = live.on_arc(ia[k[j]], xj, err[k[j]])[0]
+            tb[k[j]] = live.on_arc(ib[k[j]], xj, err[k[j]])[0]
         nid = events.add_nodes(xs[k], ia[k], ta[k], ib[k], tb[k])
         for near, arc_idx, which in (
             (sa[k], ia[k], "s"),
@@ -321,6 +330,22 @@ def _crossing_events(events: _Events, table: _RawArcs, live: _LiveArcs, ia, ib) 
         for pt, node in ((A.start[b_idx], prev[alive[b_idx]]), (A.end[b_idx], alive[b_idx])):
             t, inside_, _, _ = live.on_arc(a_idx, pt, np.zeros(len(a_idx)))
             events.add_splits(a_idx[inside_], t[inside_], node[inside_])
+
+
+def _snapped(A: CircleArcs, ia, ib, sa, ea, sb, eb):
+    """The crossings (of arcs ``ia``, ``ib``) that lie at an arc's end, and that end point.
+
+    Returns ``(j, x)``: the indices of those crossings and the end each one is (the first
+    of the start or end of ``ia``, then of ``ib``)."""
+    j = np.flatnonzero(sa | ea | sb | eb)
+    if len(j) == 0:
+        return j, np.zeros((0, 3))
+    x = np.where(
+        sa[j, None],
+        A.start[ia[j]],
+        np.where(ea[j, None], A.end[ia[j]], np.where(sb[j, None], A.start[ib[j]], A.end[ib[j]])),
+    )
+    return j, x
 
 
 def _split(ev_arc, ev_t, ev_node, cut_start, cut_end) -> _Pieces:
