@@ -11,7 +11,9 @@ curves (exact float64 point-to-arc distances) and link those into closed rings, 
 into exteriors and holes by crossing parity (:mod:`gloffset.vector.rings`).
 
 Robustness: intersections from angular radii with error bounds, nodes closer than
-:data:`~gloffset.vector.smallcircle.MERGE_TOL` merged, doubtful pieces kept only where
+:data:`~gloffset.vector.smallcircle.MERGE_TOL` merged (a crossing merged with an arc's
+end is placed along both arcs from that end, and circles within MERGE_TOL of each other
+everywhere are one circle, split at each other's ends), doubtful pieces kept only where
 they close into rings with certain pieces; certain pieces that fail to close are
 counted in :attr:`~gloffset.vector.resolved.ResolvedOffset.unlinked`.
 
@@ -293,6 +295,12 @@ def _crossing_events(events: _Events, table: _RawArcs, live: _LiveArcs, ia, ib) 
         return
     A, prev, alive = live.A, table.prev, live.alive
     x, ok, err, coin = intersect(A.axis[ia], A.rho[ia], A.axis[ib], A.rho[ib])
+    # circles closer than MERGE_TOL everywhere (the edge arcs of two copies of an edge
+    # whose ends differ by rounding) meet, if at all, at points their error bound cannot
+    # place (err ~ 1 rad): they are one circle
+    near = _same_circle(A.axis[ia], A.rho[ia], A.axis[ib], A.rho[ib])
+    coin = coin | near
+    ok = ok & ~near
     twin = np.linalg.norm(x[:, 0] - x[:, 1], axis=1) <= MERGE_TOL
     for s in range(2):
         xs = x[:, s]
@@ -330,6 +338,16 @@ def _crossing_events(events: _Events, table: _RawArcs, live: _LiveArcs, ia, ib) 
         for pt, node in ((A.start[b_idx], prev[alive[b_idx]]), (A.end[b_idx], alive[b_idx])):
             t, inside_, _, _ = live.on_arc(a_idx, pt, np.zeros(len(a_idx)))
             events.add_splits(a_idx[inside_], t[inside_], node[inside_])
+
+
+def _same_circle(a1, r1, a2, r2) -> np.ndarray:
+    """Whether the circles ``(a1, r1)`` and ``(a2, r2)`` (unit axes, angular radii) lie
+    within :data:`MERGE_TOL` of each other everywhere (the same circle, either way round)."""
+    g = angle(a1, a2)
+    return (
+        np.where(g < 0.5 * np.pi, g + np.abs(r1 - r2), (np.pi - g) + np.abs(r1 + r2 - np.pi))
+        < MERGE_TOL
+    )
 
 
 def _snapped(A: CircleArcs, ia, ib, sa, ea, sb, eb):
