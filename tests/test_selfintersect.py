@@ -509,6 +509,17 @@ def test_line_and_its_copy_off_by_rounding(world, d):
     assert res.area() == pytest.approx(alone.area(), rel=1e-9)
 
 
+def test_rings_cut_at_the_antimeridian_as_lines(world):
+    """Russia's and Fiji's rings as lines: they meet end to end, and the two sides of
+    each seam (+-180 deg) are copies of one edge that differ by rounding."""
+    parts = gloffset.io.geojson.parse(
+        {"type": "FeatureCollection", "features": [world["Russia"], world["Fiji"]]}
+    )
+    rings = [r.tolist() for poly in parts.polygons for r in poly]
+    lines = gloffset.read({"type": "MultiLineString", "coordinates": rings})
+    check(lines, 0.01, n=4000)
+
+
 # ----------------------------------------------------------------------------- S2 cross-check
 
 
