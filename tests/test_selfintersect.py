@@ -520,15 +520,10 @@ def test_rings_cut_at_the_antimeridian_as_lines(world):
     check(lines, 0.01, n=4000)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="at a node where a certain piece and a doubtful one leave tangent to each "
-    "other, _link may take the doubtful detour (a sliver below 1e-9 rad) and leave the "
-    "certain piece unlinked: the region is right to 1e-9 rad but unlinked is 1",
-)
 def test_edge_two_metres_long_between_lines():
     """Three lines along Russia's border (Caspian coast near 48.58 E), the middle one an
-    edge 2 m long: the caps at its ends nearly coincide."""
+    edge 2 m long: the caps at its ends nearly coincide, and a doubtful detour between
+    them (a sliver below 1e-9 rad) left the tangent certain edge arc unlinked."""
     lines = {
         "type": "MultiLineString",
         "coordinates": [

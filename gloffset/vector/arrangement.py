@@ -409,6 +409,27 @@ def _close_rings(pieces: _Pieces, certain, table: _RawArcs, live: _LiveArcs, pts
     nxt = _link(live, pieces, pts)
     closed, open_pieces = cycles(nxt)
     unlinked = int(np.count_nonzero(certain[open_pieces]))
+    if unlinked:
+        # a doubtful detour that leaves a node tangent to a certain piece can take its
+        # place: link again without the doubtful pieces at the open certain ones' ends
+        # and keep that when it leaves fewer certain pieces open
+        ends = np.concatenate(
+            [
+                pieces.n0[open_pieces[certain[open_pieces]]],
+                pieces.n1[open_pieces[certain[open_pieces]]],
+            ]
+        )
+        drop = ~certain & (np.isin(pieces.n0, ends) | np.isin(pieces.n1, ends))
+        if drop.any():
+            keep = np.flatnonzero(~drop)
+            keep = keep[_prune_dangling(pieces.n0[keep], pieces.n1[keep])]
+            sub = pieces.take(keep)
+            closed2, _ = cycles(_link(live, sub, pts))
+            in_rings = sum(int(np.count_nonzero(certain[keep[c]])) for c in closed2)
+            unlinked2 = int(np.count_nonzero(certain)) - in_rings
+            if unlinked2 < unlinked:
+                pieces, certain, unlinked = sub, certain[keep], unlinked2
+                closed = closed2
     rings = []
     for cyc in closed:
         if not certain[cyc].any():
