@@ -437,6 +437,104 @@ def test_mexico_10m(mexico_path):
         assert res.polygons
 
 
+def _lonlat_lines(lines_xyz):
+    from gloffset.geometry.sphere import xyz_to_lonlat
+
+    out = []
+    for line in lines_xyz:
+        lon, lat = xyz_to_lonlat(line)
+        out.append(np.column_stack([lon, lat]).tolist())
+    return {"type": "MultiLineString", "coordinates": out}
+
+
+def _pieces(ring, k):
+    """A ring cut into open lines of ``k`` edges, each starting where the last ends."""
+    closed = np.vstack([ring, ring[:1]])
+    return [closed[i : i + k + 1] for i in range(0, len(ring), k)]
+
+
+def test_lines_that_share_an_end():
+    """Two lines that meet at a vertex of Russia's border (Franz Josef Land) at 200 km:
+    their round caps lie on one circle, which the edge arcs leaving it touch; the
+    crossings there were placed ~1e-8 off, the two copies of the cap were not seen as
+    one, and the whole region was lost (0 rings)."""
+    lines = {
+        "type": "MultiLineString",
+        "coordinates": [
+            [[49.79368452332071, 80.4154277615482], [51.13618655783127, 80.54728017854094]],
+            [[51.13618655783127, 80.54728017854094], [50.03976769389462, 80.91888540315178]],
+        ],
+    }
+    shape = gloffset.read(lines)
+    res = check(shape, 200e3 / gloffset.EARTH_RADIUS)
+    assert len(res.polygons) == 1
+    one = gloffset.read(
+        {"type": "LineString", "coordinates": lines["coordinates"][0] + lines["coordinates"][1][1:]}
+    )
+    assert res.area() == pytest.approx(
+        gloffset.offset(one, 200e3 / gloffset.EARTH_RADIUS, radius=1.0).resolve().area(), rel=1e-9
+    )
+
+
+@pytest.mark.parametrize("name, d, k", [("Russia", 200e3, 5), ("Mexico", 127e3, 3)])
+def test_borders_cut_into_lines(world, name, d, k):
+    """A country's border given as many lines that touch end to end: the region is
+    the band around the whole border, as the reference has it."""
+    shape = gloffset.read(world[name])
+    lines = [p for ring in shape.rings for p in _pieces(ring, k)]
+    cut = gloffset.read(_lonlat_lines(lines))
+    res = check(cut, d / gloffset.EARTH_RADIUS, n=3000)
+    whole = gloffset.read(_lonlat_lines([np.vstack([r, r[:1]]) for r in shape.rings]))
+    same = gloffset.offset(whole, d / gloffset.EARTH_RADIUS, radius=1.0).resolve()
+    assert len(res.rings) == len(same.rings)
+    # the outside point the rings are sorted from may lie in a hole with no exterior
+    # around it (Russia's inside, for the cut border): the area holds all the same
+    assert res.area() == pytest.approx(same.area(), rel=1e-9)
+
+
+@pytest.mark.parametrize("d", [20e3, 127e3])
+def test_line_and_its_copy_off_by_rounding(world, d):
+    """A stretch of Mexico's border and the same stretch run back, one latitude one
+    unit in the last place off (a border given by both countries): their edge arcs lie
+    on circles 3e-15 rad apart, whose crossing no error bound places (it was taken as
+    lying at every arc's end, which merged far nodes: 60% too much area at 20 km)."""
+    ring = gloffset.read(world["Mexico"]).rings[0]
+    stretch = _lonlat_lines([ring[:7]])["coordinates"][0]
+    back = [list(p) for p in stretch[::-1]]
+    back[3][1] = float(np.nextafter(back[3][1], 90.0))
+    both = gloffset.read({"type": "MultiLineString", "coordinates": [stretch, back]})
+    res = check(both, d / gloffset.EARTH_RADIUS, n=4000)
+    one = gloffset.read({"type": "LineString", "coordinates": stretch})
+    alone = gloffset.offset(one, d / gloffset.EARTH_RADIUS, radius=1.0).resolve()
+    assert res.area() == pytest.approx(alone.area(), rel=1e-9)
+
+
+def test_rings_cut_at_the_antimeridian_as_lines(world):
+    """Russia's and Fiji's rings as lines: they meet end to end, and the two sides of
+    each seam (+-180 deg) are copies of one edge that differ by rounding."""
+    parts = gloffset.io.geojson.parse(
+        {"type": "FeatureCollection", "features": [world["Russia"], world["Fiji"]]}
+    )
+    rings = [r.tolist() for poly in parts.polygons for r in poly]
+    lines = gloffset.read({"type": "MultiLineString", "coordinates": rings})
+    check(lines, 0.01, n=4000)
+
+
+def test_edge_two_metres_long_between_lines():
+    """Three lines along Russia's border (Caspian coast near 48.58 E), the middle one an
+    edge 2 m long: the caps at its ends nearly coincide, and a doubtful detour between
+    them (a sliver below 1e-9 rad) left the tangent certain edge arc unlinked."""
+    lines = {
+        "type": "MultiLineString",
+        "coordinates": [
+            [[47.98728315612598, 41.40581920019423], [48.58435339611342, 41.80886879162067]],
+            [[48.58435339611342, 41.80886879162067], [48.58437000000015, 41.808880000000045]],
+            [[48.58437000000015, 41.808880000000045], [47.49252000000007, 42.98658000000012]],
+        ],
+    }
+    check(gloffset.read(lines), 127e3 / gloffset.EARTH_RADIUS)
+
+
 # ----------------------------------------------------------------------------- S2 cross-check
 
 

@@ -11,7 +11,9 @@ curves (exact float64 point-to-arc distances) and link those into closed rings, 
 into exteriors and holes by crossing parity (:mod:`gloffset.vector.rings`).
 
 Robustness: intersections from angular radii with error bounds, nodes closer than
-:data:`~gloffset.vector.smallcircle.MERGE_TOL` merged, doubtful pieces kept only where
+:data:`~gloffset.vector.smallcircle.MERGE_TOL` merged (a crossing merged with an arc's
+end is placed along both arcs from that end, and circles within MERGE_TOL of each other
+everywhere are one circle, split at each other's ends), doubtful pieces kept only where
 they close into rings with certain pieces; certain pieces that fail to close are
 counted in :attr:`~gloffset.vector.resolved.ResolvedOffset.unlinked`.
 
@@ -293,6 +295,12 @@ def _crossing_events(events: _Events, table: _RawArcs, live: _LiveArcs, ia, ib) 
         return
     A, prev, alive = live.A, table.prev, live.alive
     x, ok, err, coin = intersect(A.axis[ia], A.rho[ia], A.axis[ib], A.rho[ib])
+    # circles closer than MERGE_TOL everywhere (the edge arcs of two copies of an edge
+    # whose ends differ by rounding) meet, if at all, at points their error bound cannot
+    # place (err ~ 1 rad): they are one circle
+    near = _same_circle(A.axis[ia], A.rho[ia], A.axis[ib], A.rho[ib])
+    coin = coin | near
+    ok = ok & ~near
     twin = np.linalg.norm(x[:, 0] - x[:, 1], axis=1) <= MERGE_TOL
     for s in range(2):
         xs = x[:, s]
@@ -304,6 +312,15 @@ def _crossing_events(events: _Events, table: _RawArcs, live: _LiveArcs, ia, ib) 
         k = np.flatnonzero(good)
         if len(k) == 0:
             continue
+        # a crossing at an arc's end is that end: place it on both arcs from the end
+        # point itself, which lies on its circle to rounding, not from the crossing,
+        # which tangent circles (a join and the edge arc that leaves it, met by a third
+        # arc on the join's circle) fix only to ~1e-8
+        snap = _snapped(A, ia[k], ib[k], sa[k], ea[k], sb[k], eb[k])
+        if len(snap[0]):
+            j, xj = snap
+            ta[k[j]] = live.on_arc(ia[k[j]], xj, err[k[j]])[0]
+            tb[k[j]] = live.on_arc(ib[k[j]], xj, err[k[j]])[0]
         nid = events.add_nodes(xs[k], ia[k], ta[k], ib[k], tb[k])
         for near, arc_idx, which in (
             (sa[k], ia[k], "s"),
@@ -321,6 +338,32 @@ def _crossing_events(events: _Events, table: _RawArcs, live: _LiveArcs, ia, ib) 
         for pt, node in ((A.start[b_idx], prev[alive[b_idx]]), (A.end[b_idx], alive[b_idx])):
             t, inside_, _, _ = live.on_arc(a_idx, pt, np.zeros(len(a_idx)))
             events.add_splits(a_idx[inside_], t[inside_], node[inside_])
+
+
+def _same_circle(a1, r1, a2, r2) -> np.ndarray:
+    """Whether the circles ``(a1, r1)`` and ``(a2, r2)`` (unit axes, angular radii) lie
+    within :data:`MERGE_TOL` of each other everywhere (the same circle, either way round)."""
+    g = angle(a1, a2)
+    return (
+        np.where(g < 0.5 * np.pi, g + np.abs(r1 - r2), (np.pi - g) + np.abs(r1 + r2 - np.pi))
+        < MERGE_TOL
+    )
+
+
+def _snapped(A: CircleArcs, ia, ib, sa, ea, sb, eb):
+    """The crossings (of arcs ``ia``, ``ib``) that lie at an arc's end, and that end point.
+
+    Returns ``(j, x)``: the indices of those crossings and the end each one is (the first
+    of the start or end of ``ia``, then of ``ib``)."""
+    j = np.flatnonzero(sa | ea | sb | eb)
+    if len(j) == 0:
+        return j, np.zeros((0, 3))
+    x = np.where(
+        sa[j, None],
+        A.start[ia[j]],
+        np.where(ea[j, None], A.end[ia[j]], np.where(sb[j, None], A.start[ib[j]], A.end[ib[j]])),
+    )
+    return j, x
 
 
 def _split(ev_arc, ev_t, ev_node, cut_start, cut_end) -> _Pieces:
@@ -366,6 +409,27 @@ def _close_rings(pieces: _Pieces, certain, table: _RawArcs, live: _LiveArcs, pts
     nxt = _link(live, pieces, pts)
     closed, open_pieces = cycles(nxt)
     unlinked = int(np.count_nonzero(certain[open_pieces]))
+    if unlinked:
+        # a doubtful detour that leaves a node tangent to a certain piece can take its
+        # place: link again without the doubtful pieces at the open certain ones' ends
+        # and keep that when it leaves fewer certain pieces open
+        ends = np.concatenate(
+            [
+                pieces.n0[open_pieces[certain[open_pieces]]],
+                pieces.n1[open_pieces[certain[open_pieces]]],
+            ]
+        )
+        drop = ~certain & (np.isin(pieces.n0, ends) | np.isin(pieces.n1, ends))
+        if drop.any():
+            keep = np.flatnonzero(~drop)
+            keep = keep[_prune_dangling(pieces.n0[keep], pieces.n1[keep])]
+            sub = pieces.take(keep)
+            closed2, _ = cycles(_link(live, sub, pts))
+            in_rings = sum(int(np.count_nonzero(certain[keep[c]])) for c in closed2)
+            unlinked2 = int(np.count_nonzero(certain)) - in_rings
+            if unlinked2 < unlinked:
+                pieces, certain, unlinked = sub, certain[keep], unlinked2
+                closed = closed2
     rings = []
     for cyc in closed:
         if not certain[cyc].any():

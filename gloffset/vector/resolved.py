@@ -101,10 +101,13 @@ class ResolvedOffset(ArcRings):
             return 4.0 * np.pi if self._parity_index().outside_status else 0.0
         arcs, ring_id, first = ring_table(self.rings)
         left = left_areas(arcs, ring_id, first)
-        ext = [i for i, _ in self.polygons]
-        total = sum(left[i] for i in ext)
-        total -= sum(4.0 * np.pi - left[j] for _, hs in self.polygons for j in hs)
-        return float(total)
+        # crossing ring k from the outside point X into its left side adds 1 to the
+        # region's indicator, so 1_R(p) = 1_R(X) + sum_k (1[p left of k] - 1[X left of k]),
+        # and X lies on the left of the holes: the area is the sum of the left areas less
+        # 4 pi per hole, wherever X lies (a hole may have no exterior around it)
+        parity = self._parity_index()
+        total = float(np.sum(left)) - 4.0 * np.pi * int(np.count_nonzero(self.holes))
+        return total + (4.0 * np.pi if parity.outside_status else 0.0)
 
     def to_geojson(
         self,
