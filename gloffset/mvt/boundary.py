@@ -16,9 +16,8 @@ Two sources give the same curves inside a tile's cap:
   follows the edges near the tile, not the input.
 
 Both hand the tile :class:`Pieces`: chains of arcs with the region on their left.
-:func:`gloffset.mvt.vector_tile` uses the resolved boundary for now: resolving the
-offset of many lines at once can lose parts of it (Russia's edges near Chukotka at
-200 km; ``tests/test_mvt.py`` holds the case), which the local one depends on.
+:func:`gloffset.mvt.vector_tile` uses the resolved boundary for now; the local one gives
+the same tiles (``tests/test_mvt.py``) and is what tiles at a new distance are to use next.
 """
 
 from __future__ import annotations
