@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import gzip
 import json
-import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,6 +25,7 @@ from .._version import __version__
 from ..grids.mercator import check_zoom
 from ..shape import read
 from ..tiles.store.tilestore import INPUT_KEY, input_digest, open_store
+from ..tiles.tiling.metadata import final_bounds
 from ..units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, distance_properties, offset_angle
 from .boundary import ResolvedBoundary
 from .geometry import TileFrame, to_polygons
@@ -133,7 +133,7 @@ def mvt_pyramid(
     store = open_store(out, meta, overwrite=overwrite)
     try:
         walk.run(store, zlo, zhi)
-        store.set_metadata(_bounds(store, (zlo, zhi)))
+        store.set_metadata(final_bounds(store, (zlo, zhi)))
         store.finish()
     finally:
         store.close()
@@ -251,25 +251,3 @@ class _Walk:
 
 def _children(x: int, y: int):
     return [(2 * x, 2 * y), (2 * x + 1, 2 * y), (2 * x, 2 * y + 1), (2 * x + 1, 2 * y + 1)]
-
-
-def _bounds(store, zooms) -> dict:
-    """The box of the tiles written at the deepest zoom that has some."""
-    for z in range(zooms[1], zooms[0] - 1, -1):
-        ext = store.extent(z)
-        if ext is not None:
-            x0, y0, x1, y1 = ext
-            n = 1 << z
-
-            def lat(v, n=n):
-                return math.degrees(math.atan(math.sinh(math.pi * (1 - 2 * v / n))))
-
-            w, e = x0 * 360.0 / n - 180.0, (x1 + 1) * 360.0 / n - 180.0
-            s, nn = lat(y1 + 1), lat(y0)
-            b = (round(w, 6), round(s, 6), round(e, 6), round(nn, 6))
-            cz = min(zooms[1], max(zooms[0], z - 2))
-            return {
-                "bounds": ",".join(repr(v) for v in b),
-                "center": f"{round((w + e) / 2, 6)},{round((s + nn) / 2, 6)},{cz}",
-            }
-    return {}
