@@ -278,3 +278,50 @@ def test_local_boundary_matches_the_resolved_one(world):
     b = tile_geometry(ResolvedBoundary(shape, d), 2, 0, 0)
     assert a is not None and b is not None
     assert a.symmetric_difference(b).area < 1e-3 * b.area
+
+
+@pytest.mark.parametrize(
+    "name,d,zxy",
+    [
+        (None, 127e3, (7, 28, 54)),  # Mexico's Pacific coast
+        (None, -21e3, (9, 110, 220)),
+        ("Russia", 200e3, (3, 0, 1)),  # Chukotka, east of 180 deg
+        ("Russia", 200e3, (3, 7, 1)),  # west of 180 deg
+        ("Greenland", 300e3, (6, 27, 3)),  # 80 deg north
+    ],
+)
+def test_tile_at_a_new_distance_resolves_only_the_edges_near_it(
+    monkeypatch, mexico_path, world, name, d, zxy
+):
+    """A tile at a distance not yet resolved does not resolve the whole offset, and equals
+    (byte for byte) the tile cut from the whole resolved boundary."""
+    from gloffset.mvt.boundary import ResolvedBoundary
+    from gloffset.mvt.tile import encode, tile_geometry
+    from gloffset.units import distance_properties
+    from gloffset.vector.offset import Offset
+
+    shape = gloffset.read(mexico_path) if name is None else feature_shape(world, name)
+    real = Offset.resolve
+
+    def resolve(self, *args, **kwargs):
+        assert self.shape is not shape, "the whole offset was resolved"
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(Offset, "resolve", resolve)
+    tile = vector_tile(shape, d, *zxy)
+    assert len(shape.derived.mvt_boundaries) == 0
+    monkeypatch.setattr(Offset, "resolve", real)
+    whole = tile_geometry(ResolvedBoundary(shape, d / R), *zxy)
+    assert whole is not None
+    assert tile == encode(whole, "offset", distance_properties(d, R), 4096)
+    check_tile(shape, d, *zxy, samples=100, tile=tile)
+
+
+def test_a_kept_distance_uses_its_resolved_boundary(monkeypatch, mexico):
+    """Once the whole offset is resolved and kept (a pyramid, a low zoom), tiles at that
+    distance are cut from it."""
+    from gloffset.mvt import boundary
+
+    vector_tile(mexico, 45e3, 0, 0, 0)  # zoom 0: the whole offset, kept
+    monkeypatch.setattr(boundary.LocalBoundary, "pieces", None)
+    check_tile(mexico, 45e3, 7, 28, 54, samples=50)

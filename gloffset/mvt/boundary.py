@@ -15,9 +15,10 @@ Two sources give the same curves inside a tile's cap:
   is dropped by the tile (``keep``). What a tile at a new distance uses: its cost
   follows the edges near the tile, not the input.
 
-Both hand the tile :class:`Pieces`: chains of arcs with the region on their left.
-:func:`gloffset.mvt.vector_tile` uses the resolved boundary for now; the local one gives
-the same tiles (``tests/test_mvt.py``) and is what tiles at a new distance are to use next.
+Both hand the tile :class:`Pieces`: chains of arcs with the region on their left, and
+give the same tiles (``tests/test_mvt.py``). :func:`gloffset.mvt.vector_tile` uses the
+resolved boundary where it is kept on the shape or where the tile reaches much of the
+input (a low zoom), the local one otherwise (:func:`gloffset.mvt.tile.boundary_for`).
 """
 
 from __future__ import annotations
@@ -151,7 +152,9 @@ class LocalBoundary:
         self.distance = d
         self.arcs = CurveArcs.from_shape(shape)
 
-    def pieces(self, cap) -> Pieces:
+    def edges_near(self, cap) -> np.ndarray:
+        """The indices (ascending) of the input's edges that bound the region near ``cap``:
+        those within ``|d|`` of it."""
         d = self.distance
         c, r = cap
         arcs = self.arcs
@@ -160,7 +163,16 @@ class LocalBoundary:
         ok = arcs.boundary[items]
         if d < 0.0:
             ok &= arcs.group[items] >= 0
-        items = items[ok]
+        return items[ok]
+
+    def pieces(self, cap, items=None) -> Pieces:
+        """The boundary's pieces near ``cap``; ``items`` the :meth:`edges_near` it when
+        already found."""
+        d = self.distance
+        c, r = cap
+        arcs = self.arcs
+        if items is None:
+            items = self.edges_near(cap)
         if len(items) == 0:
             return Pieces([], None)
         a, b = arcs.a[items], arcs.b[items]

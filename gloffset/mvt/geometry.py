@@ -340,6 +340,18 @@ def _signed_area(ring: np.ndarray) -> float:
     return 0.5 * float(np.sum(u[:-1] * v[1:] - u[1:] * v[:-1]))
 
 
+def _least_first(ring: np.ndarray) -> np.ndarray:
+    """The closed ring ``ring`` (first vertex repeated last) started at its least vertex:
+    least rounded ``u``, then least rounded ``v``, then the first of those."""
+    body = ring[:-1] if np.array_equal(ring[0], ring[-1]) else ring
+    key = np.rint(body)
+    k = int(np.lexsort((key[:, 1], key[:, 0]))[0])
+    if k == 0:
+        return ring
+    body = np.roll(body, -k, axis=0)
+    return np.vstack([body, body[:1]])
+
+
 def to_polygons(rings, rect=None):
     """Rings (region on their left, float tile units) to a valid shapely (Multi)Polygon
     with integer coordinates (``v`` down), or None when nothing is left.
@@ -347,7 +359,10 @@ def to_polygons(rings, rect=None):
     Exteriors run counter-clockwise on the map, holes clockwise; each hole goes to the
     smallest exterior that holds it. Vertices a straight segment can skip within
     :data:`SIMPLIFY` units are dropped, the rest rounded; what rounding makes invalid is
-    repaired by :func:`shapely.make_valid`, and zero-area parts are dropped.
+    repaired by :func:`shapely.make_valid`, and zero-area parts are dropped. Each ring
+    starts at its least vertex (rounded ``u``, then ``v``) and the polygons come in the
+    order of their exteriors' first vertices, so the same rings found from other arcs or
+    in another order give the same polygons.
     """
     import shapely
     from shapely.geometry import LinearRing, MultiPolygon, Polygon
@@ -356,6 +371,7 @@ def to_polygons(rings, rect=None):
     for r in rings:
         if len(r) < 4:
             continue
+        r = _least_first(np.asarray(r, dtype=np.float64))
         simple = shapely.simplify(LinearRing(r), SIMPLIFY, preserve_topology=False)
         c = np.asarray(simple.coords) if not simple.is_empty else np.zeros((0, 2))
         if len(c) < 4:
@@ -365,6 +381,7 @@ def to_polygons(rings, rect=None):
         c = c[keep]
         if len(c) < 4:
             continue
+        c = _least_first(c)
         a = _signed_area(c)
         if a > 0:
             ext.append(c)
@@ -372,6 +389,8 @@ def to_polygons(rings, rect=None):
             holes.append(c)
     if not ext:
         return None
+    ext.sort(key=lambda e: (e[0, 0], e[0, 1]))
+    holes.sort(key=lambda h: (h[0, 0], h[0, 1]))
     polys = [Polygon(e) for e in ext]
     areas = [p.area for p in polys]
     assigned: list[list] = [[] for _ in ext]

@@ -13,13 +13,25 @@ from ..errors import InvalidGridError, OptionError
 from ..grids.mercator import check_zoom
 from ..shape import read
 from ..units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, distance_properties, offset_angle
-from .boundary import ResolvedBoundary
+from .boundary import LocalBoundary, ResolvedBoundary
 from .geometry import TileFrame, clip_rings, densify, to_polygons
 
-__all__ = ["vector_tile", "check_mvt_options", "tile_geometry", "encode", "DEFAULT_LAYER"]
+__all__ = [
+    "vector_tile",
+    "check_mvt_options",
+    "tile_geometry",
+    "boundary_for",
+    "encode",
+    "DEFAULT_LAYER",
+]
 
 #: The layer's name when the input has none.
 DEFAULT_LAYER = "offset"
+
+#: A tile at a distance not kept on the shape resolves only the edges near it
+#: (:class:`~gloffset.mvt.boundary.LocalBoundary`) when they are at most this share of the
+#: input's edges; past it, the whole offset once (kept for the next tiles).
+LOCAL_SHARE = 0.25
 
 
 def check_mvt_options(extent, buffer) -> tuple[int, int]:
@@ -134,6 +146,24 @@ def tile_geometry(
     return to_polygons(_frame_geometry(boundary, frame, pieces))
 
 
+def boundary_for(shape, d: float, z: int, x: int, y: int, extent: int, buffer: int):
+    """Return ``(boundary, pieces)`` for one tile at angle ``d``.
+
+    The resolved boundary where it is kept on the shape, at zoom 0, or where the edges
+    near the tile exceed :data:`LOCAL_SHARE` of the input's (``pieces`` None then);
+    otherwise the local boundary and its pieces for the tile. Both give the same tile.
+    """
+    kept = shape.derived.mvt_boundaries
+    if d in kept or z == 0:
+        return ResolvedBoundary.of(shape, d), None
+    local = LocalBoundary(shape, d)
+    cap = TileFrame.of(z, x, y, extent, buffer).cap()
+    items = local.edges_near(cap)
+    if len(items) > LOCAL_SHARE * max(len(local.arcs.a), 1):
+        return ResolvedBoundary.of(shape, d), None
+    return local, local.pieces(cap, items)
+
+
 def encode(geom, layer: str, properties: dict, extent: int) -> bytes:
     """Return one MVT tile with one layer holding ``geom`` as one feature.
 
@@ -200,10 +230,13 @@ def vector_tile(
     point 2 units or more from the boundary lies on its right side. No vertex is kept
     where a straight segment would stay within half a unit. Rings follow the MVT 2.1
     rules after rounding: exteriors clockwise, holes counter-clockwise (``y`` down), no
-    self-intersection, no zero area. The tile is cut from the region's resolved
-    boundary (:meth:`gloffset.Offset.resolve`), kept on the shape for the last few
-    distances (:class:`gloffset.mvt.boundary.ResolvedBoundary`), so further tiles at a
-    distance cost only their own arcs.
+    self-intersection, no zero area. At a distance whose resolved boundary is kept
+    on the shape (:class:`gloffset.mvt.boundary.ResolvedBoundary`, the last few) the tile
+    is cut from it; otherwise, where the tile reaches a small share of the input's
+    edges, only those edges are offset and resolved
+    (:class:`gloffset.mvt.boundary.LocalBoundary`), so its cost follows the edges near
+    the tile; otherwise the whole offset is resolved (:meth:`gloffset.Offset.resolve`)
+    and kept. Both give the same tile.
     """
     if tms not in (None, "WebMercatorQuad"):
         raise OptionError(
@@ -214,6 +247,6 @@ def vector_tile(
     shape = read(shape)
     r = check_radius(radius)
     d = offset_angle(shape, distance, r, limit=VECTOR_LIMIT)
-    boundary = ResolvedBoundary.of(shape, d)
-    geom = tile_geometry(boundary, z, x, y, extent, buffer)
+    boundary, pieces = boundary_for(shape, d, z, x, y, extent, buffer)
+    geom = tile_geometry(boundary, z, x, y, extent, buffer, pieces=pieces)
     return encode(geom, layer or DEFAULT_LAYER, distance_properties(distance, r), extent)
