@@ -10,7 +10,8 @@ For Mexico (data/mexico_10m.geojson) and a fjord coast (Greenland of
 data/countries_10m.geojson: Norway is not in that file) this takes seeded random tiles
 that the region's boundary crosses, zooms 4 to 11, each at a new distance (20-200 km;
 nothing of an earlier distance can be reused), and times one tile of each tool:
-``gloffset.vector_tile`` (its offset resolved at that distance, then the tile cut) and
+``gloffset.vector_tile`` (the input's edges near the tile offset and resolved, or the
+whole offset resolved where the tile reaches much of the input, then the tile cut) and
 the PostGIS query above (timed inside the database by ``clock_timestamp()``). It reports
 per-tile times (p50, p90), mean tile bytes and each tool's boundary error: the exact
 distance (float64, :func:`gloffset.distance`) of every vertex of the tile that is not
