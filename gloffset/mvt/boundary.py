@@ -186,8 +186,8 @@ class LocalBoundary:
             else:
                 line = np.vstack([a[lo:hi], b[hi - 1 : hi]])
                 if len(line) > 3 and np.array_equal(line[0], line[-1]):
-                    # a whole ring: two open halves (the offset of a line that closes on
-                    # itself is not resolved right)
+                    # a whole ring: two open halves sharing their ends (a line closing on
+                    # itself was once not resolved right; the halves are what is tested)
                     h = len(line) // 2
                     lines.extend([line[: h + 1], line[h:]])
                 else:
