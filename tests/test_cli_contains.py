@@ -105,6 +105,7 @@ def test_no_partial_output_file_on_error(tmp_path, square):
         ("lon,lat\n1,2\n", ["--level", "-1"], "level must be >= 0"),
     ],
 )
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_errors_are_one_line(square, points, args, words):
     proc = subprocess.run(
         [sys.executable, "-m", "gloffset", "contains", square, "-", *args],

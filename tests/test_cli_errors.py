@@ -197,6 +197,7 @@ def test_tiff_output(tmp_path, square):
 
 
 @pytest.mark.parametrize("command", ["offset", "contains", "render", "render-cube"])
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_missing_folder(tmp_path, square, points, command):
     out = tmp_path / "nope" / "out"
     args = {
@@ -265,6 +266,7 @@ def device(tmp_path):
 
 
 @pytest.mark.parametrize("command", ["offset", "contains", "render"])
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_device_full(square, points, device, command):
     full = device("full")
     args = {
@@ -369,6 +371,7 @@ def read_fifo(path):
 
 
 @pytest.mark.parametrize("command", ["contains", "render"])
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_writes_through_a_fifo(tmp_path, square, points, command):
     fifo = tmp_path / "fifo"
     os.mkfifo(fifo)
@@ -397,6 +400,7 @@ def stdout_name(request, tmp_path):
     return name
 
 
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_png_to_stdout_in_a_pipe(square, stdout_name):
     target = stdout_name
     proc = cli("render", square, "-d", "300km", "--size", "64x32", "-o", target)
@@ -407,6 +411,7 @@ def test_png_to_stdout_in_a_pipe(square, stdout_name):
         np.testing.assert_array_equal(np.asarray(img), want)
 
 
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_text_to_stdout_in_a_pipe(square, points, stdout_name):
     target = stdout_name
     proc = cli("contains", square, points, "-o", target)
@@ -453,6 +458,7 @@ def test_dev_stdout_redirected_to_a_file_is_appended_to(tmp_path, square, points
         ),
     ],
 )
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_limits_of_the_region(tmp_path, geometry, args, words):
     src = tmp_path / "in.geojson"
     src.write_text(json.dumps(geometry))
@@ -494,6 +500,7 @@ def test_offset_distance_errors_quote_the_distance_as_given(tmp_path, dist, each
         ("10km,10000m", ["10000m twice", "as 10km before"]),
     ],
 )
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_bad_distance_lists(tmp_path, square, command, dlist, words):
     """A -d list with a bad unit, an empty item or a distance twice: one line, exit 2,
     nothing written."""

@@ -28,6 +28,7 @@ def _tiles(folder):
 
 
 @pytest.mark.parametrize("d", [300e3, -100e3])
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_pyramid_equals_render(tmp_path, d):
     st = gloffset.tiles.pyramid(SQUARE, d, "0-6", tmp_path / "t", size=16, ellipsoid="WGS84")
     got = _tiles(tmp_path / "t")

@@ -89,6 +89,7 @@ def test_the_ellipsoid_differs_from_the_sphere():
 
 
 @pytest.mark.parametrize("d", [10.0, 1000.0, 100e3, 1000e3, 0.0, -30.0, -20e3])
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_mexico(mexico, d):
     lon, lat = _near_offset(mexico, d if d else 50.0, 40, seed=int(abs(d)) % 1000)
     _check(mexico, lon, lat, d)
@@ -128,6 +129,7 @@ def test_neighbours_of_countries_10m():
 
 
 @pytest.mark.parametrize("name", ["fiji", "russia", "antarctica"])
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_antimeridian_and_pole(world_parts, name):
     shape = world_parts[name]
     for d in (20e3, -10e3, 500e3):
@@ -217,6 +219,7 @@ def _check_render(shape, grid, d, pixel_m):
     return mask
 
 
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_render_equirect_on_the_ellipsoid(mexico):
     from gloffset.grids import Equirect
 

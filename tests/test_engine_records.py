@@ -257,6 +257,7 @@ def all_levels(shape, d, grid):
         ("points", 0.2, Equirect(400, 200)),
     ],
 )
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_cluster_culling_changes_no_class(monkeypatch, world, mexico_path, what, d, grid):
     shape = {
         "mexico": lambda: gloffset.read(mexico_path),

@@ -148,6 +148,7 @@ def brute_field(shape, p, radius):
 @pytest.mark.parametrize(
     "grid", [Tile(5, 6, 13), Tile(6, 13, 28), Tile(8, 57, 113), Equirect(512, 256)]
 )
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_values_are_the_nearest_arcs_bit_for_bit(mexico, grid):
     """Each value is the least exact float64 distance over all the boundary arcs, bit for
     bit, whatever pruning found it: on the tiles the tile server asks for (Mexico's west
@@ -400,6 +401,7 @@ def test_cli_geotiff_without_rasterio_refused_first(mexico_path, tmp_path, monke
     "grid, max_distance",
     [(Equirect(1024, 512), None), (Cube(64), 300e3), (Tile(4, 3, 6), 1.0)],
 )
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_progress_rises_to_the_total(mexico, grid, max_distance):
     """``progress(done, total)`` follows the pixels: rising, many steps on a large grid,
     ending at the total (the pixels, twice for a shape with polygons: the distance walk,
@@ -465,6 +467,7 @@ def test_cli_bad_input(mexico_path, tmp_path, args, words):
 
 
 @pytest.mark.parametrize("grid", [Equirect(512, 256, (-120, 10, -80, 30)), Cube(32)])
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_thresholds_at_a_pixels_own_value(mexico, grid):
     """At ``d`` equal to a pixel's float32 value the float32 values cannot tell: those
     pixels are decided in float64. The mask is then the float64 render's byte for byte;

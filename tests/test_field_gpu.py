@@ -53,6 +53,7 @@ def assert_same_bits(shape, grid, **kw):
     ],
     ids=["z3", "z5", "z8", "global", "clamped"],
 )
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_mexico_bit_for_bit(mexico, grid, kw):
     field = assert_same_bits(mexico, grid, **kw)
     assert len(np.unique(field.values)) > 1000
@@ -111,6 +112,7 @@ def _answers(monkeypatch):
     return seen
 
 
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_the_finishing_needs_the_features_within_reach(mexico, monkeypatch):
     """Pixels whose float32 chords cannot tell the nearest feature are common (on the
     medial axis, and seen from afar along a coast: the Mexico 1:10m tile of z3): some

@@ -76,6 +76,7 @@ def check_offset(shape, d, *, tol=1.0, n=300, seed=0):
     return off
 
 
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_line_and_point():
     line = gloffset.read({"type": "LineString", "coordinates": [[0, 0], [1, 0.5], [2, 0]]})
     check_offset(line, 1000.0, n=100)
@@ -84,6 +85,7 @@ def test_line_and_point():
     assert len(off.rings) == 1
 
 
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_square_in_and_out():
     ring = [[0, 0], [3, 0], [3, 3], [0, 3], [0, 0]]
     sq = gloffset.read({"type": "Polygon", "coordinates": [ring]})
@@ -117,6 +119,7 @@ def test_hairpin_far_from_the_median_latitude(tip, d):
     check_offset(shape, d, n=100)
 
 
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_fiji_antimeridian():
     fiji = _features(DATA / "world_110m.geojson", ["Fiji"])
     off = check_offset(fiji, 10e3, tol=5.0, n=100)

@@ -167,12 +167,14 @@ def read_or_gloffset_error(obj):
 
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(documents)
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_objects_give_gloffset_errors_only(doc):
     read_or_gloffset_error(doc)
 
 
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(documents, st.integers(0, 3), st.booleans())
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_text_gives_gloffset_errors_only(doc, cut, huge):
     text = json.dumps(doc)  # NaN and Infinity literals included
     if huge:  # a number (or a digit in a string) of 5000 digits, beyond Python's int parsing

@@ -100,6 +100,7 @@ def _on_boundary_tile(shape, d, z):
 
 @pytest.mark.parametrize("z", [16, 19, 22])
 @pytest.mark.parametrize("metres", [1.0, 1e3, 1e6])
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_deep_zoom(mexico_path, z, metres):
     shape = gloffset.read(mexico_path)
     d = metres / gloffset.EARTH_RADIUS

@@ -69,6 +69,7 @@ def test_judge_and_production_agree_on_real_borders(world, mexico_path):
         assert want.any() and not want.all(), name
 
 
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_judge_and_production_agree_with_spherely(world, mexico_path):
     """Distances within 1e-12 rad of S2's; inside answers equal to S2's off the boundary
     (1e-9 rad, S2's own rounding)."""

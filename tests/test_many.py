@@ -33,6 +33,7 @@ def fiji(world):
     [Equirect(512, 256), Equirect(300, 200, (-120, 10, -80, 35)), Cube(64)],
     ids=["globe", "box", "cube"],
 )
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_render_many_equals_single_renders(mexico, grid):
     distances = [127e3, -20e3, 0.0, 10e3, 500e3]
     masks = gloffset.render_many(mexico, distances, grid)

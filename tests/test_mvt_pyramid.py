@@ -87,6 +87,7 @@ def test_pmtiles_stores_the_inside_square_once(pyramid_pmtiles):
     assert h["tile_contents_count"] < h["addressed_tiles_count"]
 
 
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_mbtiles_and_folder_with_several_distances(tmp_path, mexico_path, mexico):
     out = tmp_path / "m.mbtiles"
     proc = run_cli(mexico_path, "-d", "50km,-20km", "-z", "3-4", "--format", "mvt", "-o", out)

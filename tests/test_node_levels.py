@@ -64,6 +64,7 @@ def _levels(cells, stop):
 
 
 @pytest.mark.parametrize("name, d", CASES)
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_node_levels_decide_as_the_original_arcs(shapes, name, d):
     """Down to the hand-over, every cell the node lists decide has the class the
     original arcs give it, and every status is the exact one (crossings to the

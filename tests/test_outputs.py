@@ -83,6 +83,7 @@ KINDS = {
 
 
 @pytest.mark.parametrize("kind", list(KINDS))
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_outputs_get_the_umasks_mode(tmp_path, umask002, kind):
     if kind in ("tif", "cog.tif", "from-raster"):
         pytest.importorskip("rasterio")

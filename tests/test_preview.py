@@ -36,6 +36,7 @@ def directions(size: int, frame: np.ndarray):
     "source, d, center",
     [("mexico_10m.geojson", 300e3, (-100.0, 20.0)), ("world_110m.geojson", 200e3, (170.0, -60.0))],
 )
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_globe_pixels_agree_with_contains(source, d, center):
     size, n = 256, 192
     shape = gloffset.read(DATA / source)

@@ -82,6 +82,7 @@ def assert_truth(shape, classes, d, grid, s):
         ("Chile", 512, 0.06),  # fjords: the region growing regrows where it breaks down
     ],
 )
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_world_borders_gpu_equals_cpu_and_truth(world, name, size, d):
     grid = Equirect(size, size // 2)
     shape = gloffset.read(world[name])
@@ -272,6 +273,7 @@ def corner_circle(radius_deg=6.0, corner=(1.0, 1.0, 1.0), k=72):
         ("Iraq", 90, 0.05),  # 90 = 23 * 4: faces padded to 92 rows inside
     ],
 )
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_cube_world_borders_gpu_equals_cpu_and_truth(world, name, size, d):
     grid = Cube(size)
     shape = gloffset.read(world[name])
@@ -307,6 +309,7 @@ def test_cube_corner_circle_and_pole_line(size):
     assert_cube_truth(line, classes, 0.1, size, gi.s)
 
 
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_cube_1024_gpu_equals_cpu_and_sampled_truth(world):
     """Deeper GPU levels (bins of 16 pixels below level 1) on six 1024 faces; the
     containment contract on a sample of the cells near the curve."""

@@ -374,6 +374,7 @@ NEIGHBOURS = [
 
 
 @pytest.mark.parametrize("names", NEIGHBOURS, ids=lambda n: "-".join(n))
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_neighbours_against_shapely_union(countries, names):
     feats = [countries[n] for n in names]
     ours = check_against_shapely(feats, (0.0, 20e3, -20e3), n=3000, offsets=False)
@@ -546,6 +547,7 @@ def _random_polygons(rng, cx, cy):
     return out
 
 
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_random_overlapping_polygons_against_spherely():
     """Unions of random overlapping polygons, and a triangle sharing an edge with one of
     them, against S2's union (spherely), on points farther than 1e-8 rad from any edge."""

@@ -613,6 +613,7 @@ def _children(pid: int) -> int:
 
 
 @pytest.mark.parametrize("workers", [1, 2])
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_cli_serves_and_stops_on_ctrl_c(tmp_path, workers):
     src = tmp_path / "tri.geojson"
     src.write_text(json.dumps(TRI))

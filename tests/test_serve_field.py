@@ -117,6 +117,7 @@ def test_field_tiles_bad_requests(client):
 
 
 @pytest.mark.parametrize("z, x, y", TILES)
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_tiles_from_kept_fields_are_the_rendered_tiles(client, shape, z, x, y):
     """Byte-identical to the rendered tile (render_tiles: the GPU render of the tile) at
     positive, zero and negative distances, in two styles, at 256 and 512 px."""

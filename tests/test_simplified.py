@@ -38,6 +38,7 @@ def _near_points(shape, n, spread, seed=0):
 
 
 @pytest.mark.parametrize("eps", [2e-5, 3e-4, 3e-3])
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_cut_is_within_eps_both_ways(arctic, eps):
     """|D(p) - D_S(p)| <= eps for points near the curves (D to the original boundary
     arcs, D_S to the simplified ones), and the simplified curve is much shorter."""
@@ -191,6 +192,7 @@ def test_lines_equal_reference_renderer(monkeypatch):
         (Tile(2, 2, 1), 0.01),
     ],
 )
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_neighbours_sharing_borders(monkeypatch, grid, d):
     """Nine western European countries of countries_10m united: their shared borders
     cancel, so the simplified curve is the union's coast and outer border only."""

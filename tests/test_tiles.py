@@ -353,6 +353,7 @@ def test_tile_png_shows_the_mask_and_outline_pillow_draws(outline):
         ("Mexico", 50e3, "6", dict(size=64)),  # one zoom
     ],
 )
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_progress_events(tmp_path, world, mexico_path, name, d, zooms, kw):
     """The total is known before the first tile, never below the tiles done, and equal
     to them at the last event only; before three quarters of the tiles are done the

@@ -72,6 +72,7 @@ def assert_holds_the_vertices(a: gloffset.Shape, b: gloffset.Shape, atol: float)
 
 
 @pytest.mark.parametrize("fmt", FORMATS)
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_each_format_gives_the_shape_of_the_geojson(tmp_path, world, fmt):
     path = write(world, tmp_path / f"world.{fmt}")
     assert_same_shape(gloffset.read(path), gloffset.read(WORLD))
@@ -91,6 +92,7 @@ def test_where_selects_features(tmp_path, world, fmt):
 
 
 @pytest.mark.parametrize("epsg", [3857, 32614, 4269])
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_another_crs_is_transformed_to_lonlat(tmp_path, epsg):
     mexico = pyogrio.read_dataframe(MEXICO)
     path = write(mexico.to_crs(epsg), tmp_path / f"mexico_{epsg}.gpkg")
@@ -150,6 +152,7 @@ def test_a_missing_extra_is_named(tmp_path, world, monkeypatch):
 
 
 @pytest.mark.parametrize("fmt", FORMATS)
+@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
 def test_offset_writes_vector_files_with_a_distance_field(tmp_path, fmt):
     out = tmp_path / f"out.{fmt}"
     r = run("offset", MEXICO, "-d", "127km", "-o", out)
