@@ -41,8 +41,10 @@ __all__ = ["Pieces", "ResolvedBoundary", "LocalBoundary"]
 
 @dataclass
 class Pieces:
-    """Chains of arcs near a tile: ``chains`` a list of ``(centers, starts, ends, closed)``
-    (region on their left), ``keep`` which points of them are boundary (None: all)."""
+    """Chains of arcs near a tile: ``chains`` a list of ``(centers, starts, ends, closed,
+    ids)`` (region on their left; ``ids`` the arcs' indices in
+    :attr:`ResolvedBoundary.arcs`, or None), ``keep`` which points of them are boundary
+    (None: all)."""
 
     chains: list
     keep: Callable[[np.ndarray], np.ndarray] | None
@@ -69,8 +71,11 @@ def _arc_caps(q, s, e):
     return mid, pad(r) + 1e-12
 
 
-def _chains(rings, selected_by_ring):
-    """Maximal runs of selected consecutive arcs of each ring (cyclically)."""
+def _chains(rings, selected_by_ring, first=None):
+    """Maximal runs of selected consecutive arcs of each ring (cyclically), as
+    ``(centers, starts, ends, closed, ids)``: ``ids`` the arcs' indices in the table of
+    all the rings' arcs (``first[k]`` that of ring ``k``'s first arc), None without
+    ``first``."""
     out = []
     for k, sel in selected_by_ring.items():
         ring = rings[k]
@@ -78,8 +83,10 @@ def _chains(rings, selected_by_ring):
         start = np.roll(ring.junctions, 1, axis=0)
         mask = np.zeros(m, dtype=bool)
         mask[sel] = True
+        base = None if first is None else int(first[k])
         if mask.all():
-            out.append((ring.centers, start, ring.junctions, True))
+            ids = None if base is None else base + np.arange(m)
+            out.append((ring.centers, start, ring.junctions, True, ids))
             continue
         # rotate so that arc 0 is unselected, then split runs
         first_off = int(np.flatnonzero(~mask)[0])
@@ -88,7 +95,8 @@ def _chains(rings, selected_by_ring):
         edges = np.diff(np.concatenate([[0], mk.astype(np.int8), [0]]))
         for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
             idx = order[a:b]
-            out.append((ring.centers[idx], start[idx], ring.junctions[idx], False))
+            ids = None if base is None else base + idx
+            out.append((ring.centers[idx], start[idx], ring.junctions[idx], False, ids))
     return out
 
 
@@ -128,6 +136,7 @@ class ResolvedBoundary:
         res = Offset(shape, d).resolve()
         self.rings = res.rings
         q, s, e, rid = _arc_table(self.rings)
+        self.arcs = (q, s, e)  # every arc of the rings, ring after ring
         self._rid = rid
         first = np.concatenate([[0], np.cumsum([len(r.centers) for r in self.rings])])
         self._first = first
@@ -138,7 +147,7 @@ class ResolvedBoundary:
     def pieces(self, cap) -> Pieces:
         by_ring = _select(self._tree, self._mid, self._rad, self._rid, cap)
         local = {k: v - self._first[k] for k, v in by_ring.items()}
-        return Pieces(_chains(self.rings, local), None)
+        return Pieces(_chains(self.rings, local, self._first), None)
 
     def contains(self, p: np.ndarray) -> np.ndarray:
         return contains_xyz(self.shape, p, self.distance)

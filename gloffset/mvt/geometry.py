@@ -28,9 +28,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry.sphere import angle
-from ..vector.arcrings import sample_arc
 
-__all__ = ["DENSIFY", "TileFrame", "densify", "clip_rings", "to_polygons", "SIMPLIFY"]
+__all__ = [
+    "DENSIFY",
+    "TileFrame",
+    "ArcFrames",
+    "world_uv",
+    "subdivide",
+    "densify",
+    "clip_rings",
+    "to_polygons",
+    "SIMPLIFY",
+]
 
 #: Largest distance (tile units) of a densified segment's middle from its arc.
 DENSIFY = 0.125
@@ -72,17 +81,24 @@ class TileFrame:
         """Tile units per radian of longitude."""
         return (1 << self.z) * self.extent / (2.0 * math.pi)
 
+    @property
+    def world(self) -> float:
+        """Tile units around the world."""
+        return float((1 << self.z) * self.extent)
+
     def project(self, p: np.ndarray) -> np.ndarray:
         """Unit vectors (n, 3) to tile coordinates (n, 2), ``u`` unwrapped about ``lon0``."""
-        lon = np.arctan2(p[:, 1], p[:, 0])
-        dl = np.remainder(lon - self.lon0 + math.pi, 2.0 * math.pi) - math.pi
-        s = np.clip(p[:, 2], -_SIN_MAX, _SIN_MAX)
-        k = self.scale
-        n = 1 << self.z
-        u = (self.lon0 + math.pi + dl) * k - self.x * self.extent
-        v = (math.pi - np.arctanh(s)) * k - self.y * self.extent
-        del n
-        return np.column_stack([u, v])
+        return self.local(world_uv(p, self.z, self.extent))
+
+    def local(self, uv: np.ndarray) -> np.ndarray:
+        """World coordinates (:func:`world_uv`) to the tile's, ``u`` unwrapped about the
+        rectangle's middle (within half the world of it)."""
+        world = self.world
+        u = uv[:, 0] - self.x * self.extent
+        umid = 0.5 * (self.rect[0] + self.rect[2])
+        u = np.where(u - umid > 0.5 * world, u - world, u)
+        u = np.where(u - umid < -0.5 * world, u + world, u)
+        return np.column_stack([u, uv[:, 1] - self.y * self.extent])
 
     def unproject(self, uv) -> np.ndarray:
         """Tile coordinates (n, 2) to unit vectors (n, 3)."""
@@ -117,41 +133,100 @@ class TileFrame:
         return c, min(math.pi, 1.1 * r + 1e-9)
 
 
-def densify(frame: TileFrame, centers, starts, ends) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Each arc's points as ``(xyz (k, 3), uv (k, 2))``, from its start to its end.
+def world_uv(p: np.ndarray, z: int, extent: int) -> np.ndarray:
+    """Unit vectors (n, 3) to world coordinates at zoom ``z``: ``u`` from 0 at -180 deg
+    east to ``2**z * extent`` at 180 deg, ``v`` from 0 at the top (85.05 deg) down.
+    Tile ``x, y``'s coordinates are these less ``(x, y) * extent``."""
+    k = (1 << z) * extent / (2.0 * math.pi)
+    lon = np.arctan2(p[:, 1], p[:, 0])
+    s = np.clip(p[:, 2], -_SIN_MAX, _SIN_MAX)
+    return np.column_stack([(lon + math.pi) * k, (math.pi - np.arctanh(s)) * k])
 
-    Segments are split at their middle (in the arc's parameter) until the projected
-    middle lies within :data:`DENSIFY` units of the straight segment, or the segment is
-    far outside the clip rectangle, or it crosses the unwrapping seam (the meridian
-    opposite the tile, outside every clip rectangle).
+
+@dataclass(frozen=True)
+class ArcFrames:
+    """Small-circle arcs (each turning less than pi) ready for evaluation: the point at
+    turn fraction ``t`` of arc ``k`` is ``q + cos(t theta) u + sin(t theta) w``, normalised
+    (on the arc to about 1e-16)."""
+
+    q: np.ndarray
+    u: np.ndarray
+    w: np.ndarray
+    theta: np.ndarray
+    starts: np.ndarray
+    ends: np.ndarray
+
+    @classmethod
+    def of(cls, centers, starts, ends) -> ArcFrames:
+        centers = np.asarray(centers, dtype=np.float64).reshape(-1, 3)
+        starts = np.asarray(starts, dtype=np.float64).reshape(-1, 3)
+        ends = np.asarray(ends, dtype=np.float64).reshape(-1, 3)
+        u = starts - centers
+        e = ends - centers
+        rad = np.linalg.norm(u, axis=1, keepdims=True)
+        theta = angle(_safe_unit(u), _safe_unit(e))
+        w = e - (np.sum(e * u, axis=1, keepdims=True) / np.maximum(rad * rad, 1e-300)) * u
+        w = _safe_unit(w) * rad
+        return cls(centers, u, w, theta, starts, ends)
+
+    def __len__(self) -> int:
+        return len(self.q)
+
+    def at(self, arc: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Unit vectors of the arcs ``arc`` at fractions ``t``; exactly their ends at 0
+        and 1."""
+        a = t * self.theta[arc]
+        p = self.q[arc] + np.cos(a)[:, None] * self.u[arc] + np.sin(a)[:, None] * self.w[arc]
+        p = _unit(p)
+        p[t == 0.0] = self.starts[arc[t == 0.0]]
+        p[t == 1.0] = self.ends[arc[t == 1.0]]
+        return p
+
+
+def _safe_unit(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=1, keepdims=True)
+    return np.where(n > 0.0, v / np.where(n > 0.0, n, 1.0), 0.0)
+
+
+def subdivide(arcs: ArcFrames, z: int, extent: int, near: TileFrame | None = None):
+    """Each arc's turn fractions ``(t, arc)`` (sorted by arc, then ``t``; 0 and 1 included)
+    at zoom ``z``: the same for every tile of that zoom.
+
+    Each arc starts as ``ceil(8 theta / pi)`` equal pieces (at most pi / 8 each); a piece
+    is halved until its projected middle lies within :data:`DENSIFY` world units of its
+    straight chord (longitudes compared the short way round). With ``near`` (a tile's
+    frame) a piece that lies far outside its clip rectangle is not halved: the points
+    that remain near the rectangle are those of the whole subdivision.
     """
-    m = len(centers)
-    if m == 0:
-        return []
-    u0, v0, u1, v1 = frame.rect
-    # initial parameters: 8 segments an arc
-    k0 = 8
-    t0 = np.arange(k0 + 1) / k0
-    arc = np.repeat(np.arange(m), k0 + 1)
-    tt = np.tile(t0, m)
-    q = frame.project(_unit(sample_arc(centers[arc], starts[arc], ends[arc], tt)))
-    q = q.reshape(m, k0 + 1, 2)
+    m = len(arcs)
+    world = float((1 << z) * extent)
+    k0 = np.clip(np.ceil(arcs.theta * (8.0 / math.pi)), 1, 8).astype(np.int64)
     arc = np.repeat(np.arange(m), k0)
-    ta = np.tile(t0[:-1], m)
-    tb = ta + 1.0 / k0
-    qa = q[:, :-1].reshape(-1, 2)
-    qb = q[:, 1:].reshape(-1, 2)
-    world = (1 << frame.z) * frame.extent
+    first = np.cumsum(k0) - k0
+    j = np.arange(len(arc)) - first[arc]
+    ta = j / k0[arc]
+    tb = (j + 1) / k0[arc]
+    qa = world_uv(arcs.at(arc, ta), z, extent)
+    qb = world_uv(arcs.at(arc, tb), z, extent)
     done_a, done_arc = [], []
     for _ in range(60):
         tm = 0.5 * (ta + tb)
-        qm = frame.project(_unit(sample_arc(centers[arc], starts[arc], ends[arc], tm)))
-        dev = np.hypot(*(qm - 0.5 * (qa + qb)).T)
-        lo = np.minimum(qa, qb) - 2.0 * dev[:, None] - 1.0
-        hi = np.maximum(qa, qb) + 2.0 * dev[:, None] + 1.0
-        far = (hi[:, 0] < u0) | (lo[:, 0] > u1) | (hi[:, 1] < v0) | (lo[:, 1] > v1)
-        seam = np.abs(qb[:, 0] - qa[:, 0]) > 0.5 * world
-        split = (dev > DENSIFY) & ~far & ~seam & (tb - ta > 1e-12)
+        qm = world_uv(arcs.at(arc, tm), z, extent)
+        # b and the middle taken the short way round from a (no seam)
+        qb_ = qb.copy()
+        qm_ = qm.copy()
+        qb_[:, 0] = qa[:, 0] + np.remainder(qb[:, 0] - qa[:, 0] + 0.5 * world, world) - 0.5 * world
+        qm_[:, 0] = qa[:, 0] + np.remainder(qm[:, 0] - qa[:, 0] + 0.5 * world, world) - 0.5 * world
+        dev = np.hypot(*(qm_ - 0.5 * (qa + qb_)).T)
+        split = (dev > DENSIFY) & (tb - ta > 1e-12)
+        if near is not None:
+            la = near.local(qa)
+            la_b = la + (qb_ - qa)  # b next to a in the tile's coordinates
+            lo = np.minimum(la, la_b) - 2.0 * dev[:, None] - 1.0
+            hi = np.maximum(la, la_b) + 2.0 * dev[:, None] + 1.0
+            u0, v0, u1, v1 = near.rect
+            far = (hi[:, 0] < u0) | (lo[:, 0] > u1) | (hi[:, 1] < v0) | (lo[:, 1] > v1)
+            split &= ~far
         keep = ~split
         done_a.append(ta[keep])
         done_arc.append(arc[keep])
@@ -170,14 +245,45 @@ def densify(frame: TileFrame, centers, starts, ends) -> list[tuple[np.ndarray, n
     t_all = np.concatenate(done_a + [np.ones(m)])
     a_all = np.concatenate(done_arc + [np.arange(m)])
     order = np.lexsort((t_all, a_all))
-    t_all, a_all = t_all[order], a_all[order]
-    pts = sample_arc(centers[a_all], starts[a_all], ends[a_all], t_all)
-    pts[t_all == 0.0] = starts[a_all[t_all == 0.0]]
-    pts[t_all == 1.0] = ends[a_all[t_all == 1.0]]
-    pts /= np.linalg.norm(pts, axis=1, keepdims=True)
-    uv = frame.project(pts)
+    return t_all[order], a_all[order]
+
+
+def densify(frame: TileFrame, centers, starts, ends) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Each arc's points as ``(xyz (k, 3), uv (k, 2))``, from its start to its end, in the
+    frame's coordinates: the points of :func:`subdivide` near the frame's rectangle."""
+    m = len(centers)
+    if m == 0:
+        return []
+    arcs = ArcFrames.of(centers, starts, ends)
+    t_all, a_all = subdivide(arcs, frame.z, frame.extent, near=frame)
+    pts = arcs.at(a_all, t_all)
+    uv = frame.local(world_uv(pts, frame.z, frame.extent))
     bounds = np.searchsorted(a_all, np.arange(1, m))
     return list(zip(np.split(pts, bounds), np.split(uv, bounds)))
+
+
+class ZoomPoints:
+    """The points of :func:`subdivide` of many arcs at one zoom, computed once for every
+    tile of the zoom (a pyramid's): :meth:`chain` gives a chain of them as :func:`densify`
+    gives it near each tile's rectangle."""
+
+    def __init__(self, centers, starts, ends, z: int, extent: int):
+        arcs = ArcFrames.of(centers, starts, ends)
+        self.z, self.extent = z, extent
+        t, a = subdivide(arcs, z, extent)
+        self.xyz = arcs.at(a, t)
+        self.uv = world_uv(self.xyz, z, extent)
+        self.first = np.searchsorted(a, np.arange(len(arcs) + 1))
+
+    def chain(self, ids: np.ndarray, frame: TileFrame) -> tuple[np.ndarray, np.ndarray]:
+        """The points ``(xyz, uv)`` of consecutive arcs ``ids``, each arc's end being the
+        next one's start (kept once), in ``frame``'s coordinates."""
+        lo, hi = self.first[ids], self.first[ids + 1] - 1  # each arc less its end
+        hi = hi.copy()
+        hi[-1] += 1
+        counts = hi - lo
+        idx = np.repeat(lo - np.cumsum(counts) + counts, counts) + np.arange(int(counts.sum()))
+        return self.xyz[idx], frame.local(self.uv[idx])
 
 
 def _unit(p: np.ndarray) -> np.ndarray:

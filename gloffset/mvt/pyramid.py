@@ -28,7 +28,7 @@ from ..tiles.store.tilestore import INPUT_KEY, input_digest, open_store
 from ..tiles.tiling.metadata import final_bounds
 from ..units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, distance_properties, offset_angle
 from .boundary import ResolvedBoundary
-from .geometry import TileFrame, to_polygons
+from .geometry import TileFrame, ZoomPoints, to_polygons
 from .tile import (
     DEFAULT_LAYER,
     boxed,
@@ -202,6 +202,9 @@ class _Walk:
         """Write the tiles that arcs reach; return their children and the others. The
         tiles that no boundary crosses are decided by one membership test together."""
         next_open, uniform, undecided = [], [], []
+        points = None
+        if zlo <= z and len(open_tiles) > 1:  # the arcs' points once for the zoom's tiles
+            points = ZoomPoints(*self.boundary.arcs, z, self.extent)
         for x, y in open_tiles:
             frame = TileFrame.of(z, x, y, self.extent, self.buffer)
             pieces = self.boundary.pieces(frame.cap()) if z > 0 else None
@@ -215,7 +218,7 @@ class _Walk:
             if z == 0:
                 self.put(store, z, x, y, self.tile(z, x, y))
                 continue
-            rings, crossed = frame_rings(self.boundary, frame, pieces)
+            rings, crossed = frame_rings(self.boundary, frame, pieces, points)
             if crossed:
                 self.put(store, z, x, y, self.encoded(to_polygons(rings)))
             else:

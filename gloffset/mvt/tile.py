@@ -64,19 +64,24 @@ def _check_tile(z, x, y) -> tuple[int, int, int]:
     return z, int(x), int(y)
 
 
-def frame_rings(boundary, frame: TileFrame, pieces=None):
+def frame_rings(boundary, frame: TileFrame, pieces=None, points=None):
     """Return the region's rings inside one frame's rectangle and whether any crossed it.
 
-    Where none crossed, the rectangle's status decides (:func:`boxed`).
+    Where none crossed, the rectangle's status decides (:func:`boxed`). ``points``: the
+    :class:`~gloffset.mvt.geometry.ZoomPoints` of the boundary's arcs at the frame's
+    zoom when a pyramid has them (the same points near the rectangle).
     """
     if pieces is None:
         pieces = boundary.pieces(frame.cap())
     polylines = []
     world = (1 << frame.z) * frame.extent
-    for q, s, e, closed in pieces.chains:
-        arcs = densify(frame, q, s, e)
-        xyz = np.vstack([a[0][:-1] for a in arcs] + [arcs[-1][0][-1:]])
-        uv = np.vstack([a[1][:-1] for a in arcs] + [arcs[-1][1][-1:]])
+    for q, s, e, closed, ids in pieces.chains:
+        if points is not None and ids is not None:
+            xyz, uv = points.chain(ids, frame)
+        else:
+            arcs = densify(frame, q, s, e)
+            xyz = np.vstack([a[0][:-1] for a in arcs] + [arcs[-1][0][-1:]])
+            uv = np.vstack([a[1][:-1] for a in arcs] + [arcs[-1][1][-1:]])
         if closed:
             xyz, uv = xyz[:-1], uv[:-1]
         jump = np.flatnonzero(np.abs(np.diff(uv[:, 0])) > 0.5 * world)

@@ -13,10 +13,11 @@ area (Gauss-Bonnet on the arcs) and densified rings, which
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..memo import once_attr
 from .arcrings import DEFAULT_TOLERANCE, ArcRings, sample_rings
 from .rings import RingParity, holes_and_polygons, left_areas, ring_table
 
@@ -38,9 +39,10 @@ class ResolvedOffset(ArcRings):
         ``junctions[k-1]`` to ``junctions[k]`` about ``centers[k]`` (Eq. 1), and
         ``kind``/``sources`` name the vertex or edge it keeps its distance from.
     holes : (len(rings),) bool
-        True for rings that bound a hole (seen from a point outside the region).
+        True for rings that bound a hole (seen from a point outside the region); found
+        on first use (the rings alone need none of it).
     polygons : list of (int, list of int)
-        Exterior ring index and the indices of its holes.
+        Exterior ring index and the indices of its holes (found with ``holes``).
     unlinked : int
         Pieces of boundary that could not be closed into rings (0 unless arcs are
         tangent to within ~1e-12 rad); always 0 for ``method="paper"``.
@@ -62,25 +64,40 @@ class ResolvedOffset(ArcRings):
     distance: float
     method: str
     rings: list
-    holes: np.ndarray
-    polygons: list
+    given_holes: np.ndarray | None = field(default=None, repr=False)
+    given_polygons: list | None = field(default=None, repr=False)
     unlinked: int = 0
     shape: object = None
-
-    def __post_init__(self):
-        self._parity = None
 
     @classmethod
     def from_rings(cls, distance, method, rings, shape, unlinked: int = 0) -> ResolvedOffset:
         """Return the region bounded by ``rings`` (region on their left).
 
-        Its holes and polygons found by :func:`gloffset.vector.rings.holes_and_polygons`,
-        whose parity it keeps.
+        Its holes and polygons are found on first use, by
+        :func:`gloffset.vector.rings.holes_and_polygons`, whose parity it keeps.
         """
-        holes, polygons, parity = holes_and_polygons(rings, shape, distance)
-        res = cls(distance, method, rings, holes, polygons, unlinked, shape)
-        res._parity = parity
-        return res
+        return cls(distance, method, rings, None, None, unlinked, shape)
+
+    @property
+    def holes(self) -> np.ndarray:
+        """Whether each ring bounds a hole (see the class's attributes)."""
+        return self._classes()[0]
+
+    @property
+    def polygons(self) -> list:
+        """Exterior ring index and the indices of its holes, per polygon."""
+        return self._classes()[1]
+
+    def _classes(self) -> tuple:
+        if self.given_holes is not None and self.given_polygons is not None:
+            return self.given_holes, self.given_polygons
+
+        def build():
+            parity = self._parity_index()
+            holes, polygons, _ = holes_and_polygons(self.rings, self.shape, self.distance, parity)
+            return holes, polygons
+
+        return once_attr(self, "_classified", build)
 
     def sample(self, tolerance: float = DEFAULT_TOLERANCE) -> list[np.ndarray]:
         """Densified rings (see :meth:`gloffset.Offset.sample`)."""
@@ -133,9 +150,9 @@ class ResolvedOffset(ArcRings):
 
     def _parity_index(self) -> RingParity:
         """Crossing parity against the rings (built on first use)."""
-        if self._parity is None:
-            self._parity = RingParity(self.rings, self.shape, self.distance)
-        return self._parity
+        return once_attr(
+            self, "_parity", lambda: RingParity(self.rings, self.shape, self.distance)
+        )
 
     def __repr__(self) -> str:
         nh = int(np.count_nonzero(self.holes))

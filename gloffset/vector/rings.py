@@ -70,14 +70,15 @@ def _probes(arcs: CircleArcs, ring_id: np.ndarray, n: int) -> tuple[np.ndarray, 
     return rotate(m, side, -arcs.sign[k] * eps), k
 
 
-def holes_and_polygons(rings, shape, d):
+def holes_and_polygons(rings, shape, d, parity=None):
     """Holes and polygons: a ring bounds a hole when a point outside the region lies on its left.
 
     Returns ``(holes, polygons, parity)``: a bool per ring, ``(exterior, [holes])``
-    per polygon, and the :class:`RingParity` that decided them (kept for later
-    queries); each hole goes to the smallest exterior whose left side holds it.
+    per polygon, and the :class:`RingParity` that decided them (``parity`` when given,
+    the rings' own; kept for later queries); each hole goes to the smallest exterior
+    whose left side holds it.
     """
-    par = RingParity(rings, shape, d)
+    par = RingParity(rings, shape, d) if parity is None else parity
     n = len(rings)
     if n == 0:
         return np.zeros(0, bool), [], par
