@@ -9,6 +9,7 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 from conftest import assert_one_line_error, read_mbtiles
 
@@ -137,3 +138,38 @@ def test_cli_refusals(tmp_path, mexico_path, args, words):
     proc = run_cli(mexico_path, "-d", "127km", "-z", "0-3", "--format", "mvt", *args)
     assert_one_line_error(proc, *words)
     assert not any(tmp_path.iterdir())
+
+
+def _pyramid_tiles(tmp_path, shape, distance, zooms, name):
+    from gloffset.tiles.store.pmtiles import read_pmtiles
+
+    out = tmp_path / f"{name}.pmtiles"
+    mvt_pyramid(shape, distance, zooms, out, layer=name)
+    return read_pmtiles(out)[1]
+
+
+@pytest.mark.parametrize(
+    "name,distance,zooms",
+    [("Fiji", "127km", (0, 5)), ("Russia", "-150km", (0, 3))],
+)
+def test_pyramid_equals_on_demand_across_the_antimeridian(tmp_path, world, name, distance, zooms):
+    # the pyramid finds each tile's arcs from the zoom's points (round the world's seam);
+    # the on-demand tile from the arcs' caps
+    shape = gloffset.read(world[name])
+    tiles = _pyramid_tiles(tmp_path, shape, distance, zooms, name)
+    assert {x for z, x, _ in tiles if z == zooms[1]} >= {0, (1 << zooms[1]) - 1}
+    for (z, x, y), data in tiles.items():
+        shape.derived.mvt_boundaries.clear()
+        assert data == vector_tile(shape, distance, z, x, y, layer=name), (z, x, y)
+
+
+@pytest.mark.slow  # deeper zooms of the check above
+def test_pyramid_equals_on_demand_at_deep_zooms(tmp_path, mexico):
+    tiles = _pyramid_tiles(tmp_path, mexico, "60km", (9, 10), "m")
+    deep = sorted(k for k, v in tiles.items() if k[0] == 10)
+    assert len(deep) > 100
+    rng = np.random.default_rng(3)
+    for i in rng.choice(len(deep), 80, replace=False):
+        z, x, y = deep[i]
+        mexico.derived.mvt_boundaries.clear()
+        assert tiles[(z, x, y)] == vector_tile(mexico, "60km", z, x, y, layer="m"), (z, x, y)

@@ -104,19 +104,14 @@ def _chains(rings, selected_by_ring, first=None):
 _BRUTE = 20000
 
 
-def _select(tree: CapTree, mid, rad, rid, cap):
+def _select(tree: CapTree, mid, rad, cap) -> np.ndarray:
+    """The arcs (ascending) whose caps reach ``cap``."""
     c, r = cap
     if len(mid) <= _BRUTE:
         items = np.flatnonzero(angle(mid, np.broadcast_to(c, mid.shape)) <= rad + r + 1e-12)
     else:
         _, items, _ = tree.near(c[None, :], r)
-    by_ring: dict = {}
-    if len(items):
-        items = np.unique(items)
-        rings_of = rid[items]
-        for k in np.unique(rings_of):
-            by_ring[int(k)] = np.sort(items[rings_of == k]) - 0
-    return by_ring
+    return np.unique(items)
 
 
 class ResolvedBoundary:
@@ -145,9 +140,19 @@ class ResolvedBoundary:
         self._tree = CapTree(mid, rad)
 
     def pieces(self, cap) -> Pieces:
-        by_ring = _select(self._tree, self._mid, self._rad, self._rid, cap)
-        local = {k: v - self._first[k] for k, v in by_ring.items()}
-        return Pieces(_chains(self.rings, local, self._first), None)
+        """The chains of the arcs whose caps reach ``cap``."""
+        return self.pieces_of(_select(self._tree, self._mid, self._rad, cap))
+
+    def pieces_of(self, items: np.ndarray) -> Pieces:
+        """The chains of the arcs ``items`` (ascending indices of :attr:`arcs`)."""
+        by_ring: dict = {}
+        if len(items):
+            rings_of = self._rid[items]
+            cuts = np.flatnonzero(np.diff(rings_of)) + 1
+            for part in np.split(items, cuts):
+                k = int(self._rid[part[0]])
+                by_ring[k] = part - self._first[k]
+        return Pieces(_chains(self.rings, by_ring, self._first), None)
 
     def contains(self, p: np.ndarray) -> np.ndarray:
         return contains_xyz(self.shape, p, self.distance)

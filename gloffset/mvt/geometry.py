@@ -6,7 +6,8 @@ The boundary comes as rings of small-circle arcs (region on their left, as
 1. projects points of the arcs to the tile's coordinates (``0 .. extent`` across the
    tile, ``v`` down), longitudes unwrapped about the tile's centre (:class:`TileFrame`);
 2. densifies the arcs there adaptively, until each straight segment's middle lies within
-   :data:`DENSIFY` units of the arc's (:func:`densify`); every vertex lies on an arc;
+   :data:`DENSIFY` units of the arc's (:mod:`gloffset.mvt.densify`); every vertex lies
+   on an arc;
 3. clips the polylines to the tile grown by its buffer, and joins the pieces along the
    clip rectangle into closed rings with the region on their left (:func:`clip_rings`,
    the stitching of a convex clip);
@@ -32,10 +33,7 @@ from ..geometry.sphere import angle
 __all__ = [
     "DENSIFY",
     "TileFrame",
-    "ArcFrames",
     "world_uv",
-    "subdivide",
-    "densify",
     "clip_rings",
     "to_polygons",
     "SIMPLIFY",
@@ -141,153 +139,6 @@ def world_uv(p: np.ndarray, z: int, extent: int) -> np.ndarray:
     lon = np.arctan2(p[:, 1], p[:, 0])
     s = np.clip(p[:, 2], -_SIN_MAX, _SIN_MAX)
     return np.column_stack([(lon + math.pi) * k, (math.pi - np.arctanh(s)) * k])
-
-
-@dataclass(frozen=True)
-class ArcFrames:
-    """Small-circle arcs (each turning less than pi) ready for evaluation: the point at
-    turn fraction ``t`` of arc ``k`` is ``q + cos(t theta) u + sin(t theta) w``, normalised
-    (on the arc to about 1e-16)."""
-
-    q: np.ndarray
-    u: np.ndarray
-    w: np.ndarray
-    theta: np.ndarray
-    starts: np.ndarray
-    ends: np.ndarray
-
-    @classmethod
-    def of(cls, centers, starts, ends) -> ArcFrames:
-        centers = np.asarray(centers, dtype=np.float64).reshape(-1, 3)
-        starts = np.asarray(starts, dtype=np.float64).reshape(-1, 3)
-        ends = np.asarray(ends, dtype=np.float64).reshape(-1, 3)
-        u = starts - centers
-        e = ends - centers
-        rad = np.linalg.norm(u, axis=1, keepdims=True)
-        theta = angle(_safe_unit(u), _safe_unit(e))
-        w = e - (np.sum(e * u, axis=1, keepdims=True) / np.maximum(rad * rad, 1e-300)) * u
-        w = _safe_unit(w) * rad
-        return cls(centers, u, w, theta, starts, ends)
-
-    def __len__(self) -> int:
-        return len(self.q)
-
-    def at(self, arc: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Unit vectors of the arcs ``arc`` at fractions ``t``; exactly their ends at 0
-        and 1."""
-        a = t * self.theta[arc]
-        p = self.q[arc] + np.cos(a)[:, None] * self.u[arc] + np.sin(a)[:, None] * self.w[arc]
-        p = _unit(p)
-        p[t == 0.0] = self.starts[arc[t == 0.0]]
-        p[t == 1.0] = self.ends[arc[t == 1.0]]
-        return p
-
-
-def _safe_unit(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=1, keepdims=True)
-    return np.where(n > 0.0, v / np.where(n > 0.0, n, 1.0), 0.0)
-
-
-def subdivide(arcs: ArcFrames, z: int, extent: int, near: TileFrame | None = None):
-    """Each arc's turn fractions ``(t, arc)`` (sorted by arc, then ``t``; 0 and 1 included)
-    at zoom ``z``: the same for every tile of that zoom.
-
-    Each arc starts as ``ceil(8 theta / pi)`` equal pieces (at most pi / 8 each); a piece
-    is halved until its projected middle lies within :data:`DENSIFY` world units of its
-    straight chord (longitudes compared the short way round). With ``near`` (a tile's
-    frame) a piece that lies far outside its clip rectangle is not halved: the points
-    that remain near the rectangle are those of the whole subdivision.
-    """
-    m = len(arcs)
-    world = float((1 << z) * extent)
-    k0 = np.clip(np.ceil(arcs.theta * (8.0 / math.pi)), 1, 8).astype(np.int64)
-    arc = np.repeat(np.arange(m), k0)
-    first = np.cumsum(k0) - k0
-    j = np.arange(len(arc)) - first[arc]
-    ta = j / k0[arc]
-    tb = (j + 1) / k0[arc]
-    qa = world_uv(arcs.at(arc, ta), z, extent)
-    qb = world_uv(arcs.at(arc, tb), z, extent)
-    done_a, done_arc = [], []
-    for _ in range(60):
-        tm = 0.5 * (ta + tb)
-        qm = world_uv(arcs.at(arc, tm), z, extent)
-        # b and the middle taken the short way round from a (no seam)
-        qb_ = qb.copy()
-        qm_ = qm.copy()
-        qb_[:, 0] = qa[:, 0] + np.remainder(qb[:, 0] - qa[:, 0] + 0.5 * world, world) - 0.5 * world
-        qm_[:, 0] = qa[:, 0] + np.remainder(qm[:, 0] - qa[:, 0] + 0.5 * world, world) - 0.5 * world
-        dev = np.hypot(*(qm_ - 0.5 * (qa + qb_)).T)
-        split = (dev > DENSIFY) & (tb - ta > 1e-12)
-        if near is not None:
-            la = near.local(qa)
-            la_b = la + (qb_ - qa)  # b next to a in the tile's coordinates
-            lo = np.minimum(la, la_b) - 2.0 * dev[:, None] - 1.0
-            hi = np.maximum(la, la_b) + 2.0 * dev[:, None] + 1.0
-            u0, v0, u1, v1 = near.rect
-            far = (hi[:, 0] < u0) | (lo[:, 0] > u1) | (hi[:, 1] < v0) | (lo[:, 1] > v1)
-            split &= ~far
-        keep = ~split
-        done_a.append(ta[keep])
-        done_arc.append(arc[keep])
-        if not split.any():
-            break
-        sa, sb, sarc, sm = ta[split], tb[split], arc[split], tm[split]
-        sqa, sqb, sqm = qa[split], qb[split], qm[split]
-        arc = np.repeat(sarc, 2)
-        ta = np.column_stack([sa, sm]).ravel()
-        tb = np.column_stack([sm, sb]).ravel()
-        qa = np.stack([sqa, sqm], axis=1).reshape(-1, 2)
-        qb = np.stack([sqm, sqb], axis=1).reshape(-1, 2)
-    else:
-        done_a.append(ta)
-        done_arc.append(arc)
-    t_all = np.concatenate(done_a + [np.ones(m)])
-    a_all = np.concatenate(done_arc + [np.arange(m)])
-    order = np.lexsort((t_all, a_all))
-    return t_all[order], a_all[order]
-
-
-def densify(frame: TileFrame, centers, starts, ends) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Each arc's points as ``(xyz (k, 3), uv (k, 2))``, from its start to its end, in the
-    frame's coordinates: the points of :func:`subdivide` near the frame's rectangle."""
-    m = len(centers)
-    if m == 0:
-        return []
-    arcs = ArcFrames.of(centers, starts, ends)
-    t_all, a_all = subdivide(arcs, frame.z, frame.extent, near=frame)
-    pts = arcs.at(a_all, t_all)
-    uv = frame.local(world_uv(pts, frame.z, frame.extent))
-    bounds = np.searchsorted(a_all, np.arange(1, m))
-    return list(zip(np.split(pts, bounds), np.split(uv, bounds)))
-
-
-class ZoomPoints:
-    """The points of :func:`subdivide` of many arcs at one zoom, computed once for every
-    tile of the zoom (a pyramid's): :meth:`chain` gives a chain of them as :func:`densify`
-    gives it near each tile's rectangle."""
-
-    def __init__(self, centers, starts, ends, z: int, extent: int):
-        arcs = ArcFrames.of(centers, starts, ends)
-        self.z, self.extent = z, extent
-        t, a = subdivide(arcs, z, extent)
-        self.xyz = arcs.at(a, t)
-        self.uv = world_uv(self.xyz, z, extent)
-        self.first = np.searchsorted(a, np.arange(len(arcs) + 1))
-
-    def chain(self, ids: np.ndarray, frame: TileFrame) -> tuple[np.ndarray, np.ndarray]:
-        """The points ``(xyz, uv)`` of consecutive arcs ``ids``, each arc's end being the
-        next one's start (kept once), in ``frame``'s coordinates."""
-        lo, hi = self.first[ids], self.first[ids + 1] - 1  # each arc less its end
-        hi = hi.copy()
-        hi[-1] += 1
-        counts = hi - lo
-        idx = np.repeat(lo - np.cumsum(counts) + counts, counts) + np.arange(int(counts.sum()))
-        return self.xyz[idx], frame.local(self.uv[idx])
-
-
-def _unit(p: np.ndarray) -> np.ndarray:
-    return p / np.linalg.norm(p, axis=1, keepdims=True)
 
 
 def _liang_barsky(p0: np.ndarray, p1: np.ndarray, rect) -> tuple[np.ndarray, np.ndarray]:

@@ -28,7 +28,8 @@ from ..tiles.store.tilestore import INPUT_KEY, input_digest, open_store
 from ..tiles.tiling.metadata import final_bounds
 from ..units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, distance_properties, offset_angle
 from .boundary import ResolvedBoundary
-from .geometry import TileFrame, ZoomPoints, to_polygons
+from .densify import ZoomPoints
+from .geometry import TileFrame, to_polygons
 from .tile import (
     DEFAULT_LAYER,
     boxed,
@@ -202,12 +203,16 @@ class _Walk:
         """Write the tiles that arcs reach; return their children and the others. The
         tiles that no boundary crosses are decided by one membership test together."""
         next_open, uniform, undecided = [], [], []
-        points = None
-        if zlo <= z and len(open_tiles) > 1:  # the arcs' points once for the zoom's tiles
+        points = near = None
+        if z > 0:  # the arcs' points once for the zoom's tiles, and the arcs near each
             points = ZoomPoints(*self.boundary.arcs, z, self.extent)
+            near = points.tiles(self.buffer)
         for x, y in open_tiles:
             frame = TileFrame.of(z, x, y, self.extent, self.buffer)
-            pieces = self.boundary.pieces(frame.cap()) if z > 0 else None
+            pieces = None
+            if near is not None:
+                items = near.get((x, y))
+                pieces = self.boundary.pieces_of(items if items is not None else [])
             if pieces is not None and not pieces.chains:
                 u0, v0, u1, v1 = frame.rect
                 uniform.append((x, y, frame.unproject([[0.5 * (u0 + u1), 0.5 * (v0 + v1)]])))

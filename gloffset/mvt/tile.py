@@ -14,7 +14,8 @@ from ..grids.mercator import check_zoom
 from ..shape import read
 from ..units import EARTH_RADIUS, VECTOR_LIMIT, check_radius, distance_properties, offset_angle
 from .boundary import LocalBoundary, ResolvedBoundary
-from .geometry import TileFrame, clip_rings, densify, to_polygons
+from .densify import densify
+from .geometry import TileFrame, clip_rings, to_polygons
 
 __all__ = [
     "vector_tile",
