@@ -69,7 +69,7 @@ def frame_rings(boundary, frame: TileFrame, pieces=None, points=None):
     """Return the region's rings inside one frame's rectangle and whether any crossed it.
 
     Where none crossed, the rectangle's status decides (:func:`boxed`). ``points``: the
-    :class:`~gloffset.mvt.geometry.ZoomPoints` of the boundary's arcs at the frame's
+    :class:`~gloffset.mvt.densify.ZoomPoints` of the boundary's arcs at the frame's
     zoom when a pyramid has them (the same points near the rectangle).
     """
     if pieces is None:
