@@ -3,7 +3,9 @@
 A tile draws each small-circle arc as straight segments whose middles lie within
 :data:`~gloffset.mvt.geometry.DENSIFY` units of the arc. The points are chosen on the
 arc's whole circle, not on the arc: the circle's turn from a reference direction of its
-own (:class:`Circles`) is cut into 16 equal parts, and each part is halved until its
+own (:class:`Circles`) is cut into ``2**L`` equal parts (at least 16, about
+:data:`PART0` world units each at the equator's scale: ``L`` depends on the circle's
+radius and the zoom alone), and each part is halved until its
 projected middle lies within ``DENSIFY`` of its chord (world coordinates of the zoom,
 longitudes compared the short way round). The same part of the same circle is cut the
 same way whatever arc it is met on, so an arc gets its ends and the circle's points
@@ -27,8 +29,10 @@ from .geometry import DENSIFY, TileFrame, world_uv
 
 __all__ = ["Circles", "arc_points", "densify", "ZoomPoints"]
 
-#: The first cut of every circle: 2**LEVEL0 equal parts.
+#: The first cut of a circle: 2**L equal parts, L at least LEVEL0 and such that the parts
+#: are about PART0 world units long (at the equator's scale).
 LEVEL0 = 4
+PART0 = 2048.0
 #: Parts are not halved past this level (2 pi / 2**40 rad, 6e-12 rad).
 LEVEL_MAX = 40
 _TWO_PI = 2.0 * math.pi
@@ -96,14 +100,18 @@ def arc_points(centers, starts, ends, z: int, extent: int, near: TileFrame | Non
     ccw = np.einsum("ij,ij->i", np.cross(starts - centers, ends - centers), circles.n) >= 0.0
     lo = np.where(ccw, a_s, a_s - sweep)  # the arc is [lo, lo + sweep] (unwrapped turn)
     hi = lo + sweep
-    step0 = _TWO_PI / (1 << LEVEL0)
+    world = float((1 << z) * extent)
+    # the first cut: parts of about PART0 world units at the equator's scale
+    span = _TWO_PI * circles.rho * (world / _TWO_PI) / PART0
+    lv = np.floor(np.log2(np.maximum(span, 1.0)))
+    lv0 = np.clip(lv, LEVEL0, LEVEL_MAX - 1).astype(np.int64)
+    step0 = _TWO_PI / np.left_shift(1, lv0).astype(np.float64)
     j0 = np.floor(lo / step0).astype(np.int64)
     j1 = np.floor(hi / step0).astype(np.int64)
     cnt = j1 - j0 + 1
     arc = np.repeat(idx, cnt)
     j = np.repeat(j0, cnt) + np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    level = np.full(len(arc), LEVEL0, dtype=np.int64)
-    world = float((1 << z) * extent)
+    level = lv0[arc]
     qa = world_uv(circles.node(arc, level, j), z, extent)
     qb = world_uv(circles.node(arc, level, j + 1), z, extent)
     done_arc, done_level, done_j = [], [], []
