@@ -264,8 +264,10 @@ class CapTree:
         lq, ld = qt.depth - 1, self.depth - 1
         # per query node: chord of its cap plus chord of its reach, and what is left of
         # its smallest stop once its own cap is taken off (chords are subadditive)
+        q_chords = [pad(chord(r)) for r in qt.radii]  # the query tree is used once
+        d_chords = [self._chords(k) for k in range(self.depth)]
         q_lim = [
-            qt._chords(k) + np.where(q_reach[k] > 0.0, pad(chord(q_reach[k])), 0.0)
+            q_chords[k] + np.where(q_reach[k] > 0.0, pad(chord(q_reach[k])), 0.0)
             for k in range(qt.depth)
         ]
         if use_stop:
@@ -273,7 +275,7 @@ class CapTree:
             for k in range(qt.depth):
                 st_k = q_stop[k]
                 s_ch = chord(np.maximum(st_k, 0.0)) * (1.0 - 1e-12)  # rounded down
-                q_left.append(np.where(st_k > 0.0, s_ch - qt._chords(k), -1.0))
+                q_left.append(np.where(st_k > 0.0, s_ch - q_chords[k], -1.0))
         q_size = [float(np.mean(qt.radii[k] + q_reach[k])) for k in range(qt.depth)]
         d_size = [float(np.mean(r)) for r in self.radii]
         qi = np.zeros(1, dtype=np.int64)
@@ -281,7 +283,7 @@ class CapTree:
         done = np.zeros(1, dtype=bool)  # per query node of level lq
         while True:
             cq, cd = qt.centers[lq][qi], self.centers[ld][di]
-            lim = q_lim[lq][qi] + self._chords(ld)[di]
+            lim = q_lim[lq][qi] + d_chords[ld][di]
             keep = _chord2(cq, cd) <= lim * lim
             qi, di = qi[keep], di[keep]
             if use_stop and len(qi):

@@ -7,7 +7,8 @@ Two sources give the same curves inside a tile's cap:
   caps reach its own. What a pyramid uses: one resolve serves every tile.
 * :class:`LocalBoundary`: nothing resolved beforehand. A tile takes the input's edges
   within ``|d|`` of its cap (the edge index :class:`gloffset.edges.CurveArcs` finds them),
-  offsets them as lines and resolves that small offset. Inside the cap the points at
+  offsets them as lines and resolves that small offset inside the tile's cap only
+  (:func:`gloffset.vector.window.boundary_within`). Inside the cap the points at
   distance ``|d|`` from those edges are exactly the points at distance ``|d|`` from all
   the curves (any nearer edge would lie within reach), so the resolved rings there are
   the region's boundary, or the boundary of the band around the curves: a piece that
@@ -35,6 +36,7 @@ from ..geometry.sphere import angle
 from ..shape import Shape
 from ..vector.arcrings import sample_arc
 from ..vector.offset import Offset
+from ..vector.window import boundary_within
 
 __all__ = ["Pieces", "ResolvedBoundary", "LocalBoundary"]
 
@@ -112,6 +114,11 @@ def _select(tree: CapTree, mid, rad, cap) -> np.ndarray:
     else:
         _, items, _ = tree.near(c[None, :], r)
     return np.unique(items)
+
+
+def _reversed(centers, starts, ends, closed):
+    """A chain run the other way (each arc from its end to its start)."""
+    return centers[::-1].copy(), ends[::-1].copy(), starts[::-1].copy(), closed
 
 
 class ResolvedBoundary:
@@ -207,17 +214,12 @@ class LocalBoundary:
                 else:
                     lines.append(line)
         local = Shape(lines=lines, labels=[f"edges near tile {k}" for k in range(len(lines))])
-        res = Offset(local, abs(d)).resolve()
-        rings = [ring.reversed() for ring in res.rings] if d < 0 else list(res.rings)
-        q, s, e, rid = _arc_table(rings)
-        if len(q) == 0:
-            return Pieces([], None)
-        mid, rad = _arc_caps(q, s, e)
-        near = np.flatnonzero(angle(mid, np.broadcast_to(c, mid.shape)) <= rad + r)
-        by_ring: dict = {}
-        first = np.concatenate([[0], np.cumsum([len(x.centers) for x in rings])])
-        for k in np.unique(rid[near]):
-            by_ring[int(k)] = near[rid[near] == k] - first[k]
+        # the boundary inside the cap (it holds the tile with a margin: chains end outside
+        # the tile)
+        chains = boundary_within(Offset(local, abs(d)), (c, r))
+        if d < 0:
+            chains = [_reversed(*ch) for ch in chains]
+        chains = [(*ch, None) for ch in chains]
         keep = None
         if self.shape.rings:
             shape = self.shape
@@ -231,7 +233,7 @@ class LocalBoundary:
                 def keep(p):
                     return points_inside(shape, p)
 
-        return Pieces(_chains(rings, by_ring), keep)
+        return Pieces(chains, keep)
 
     def contains(self, p: np.ndarray) -> np.ndarray:
         return contains_xyz(self.shape, p, self.distance)

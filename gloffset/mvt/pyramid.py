@@ -205,7 +205,8 @@ class _Walk:
         next_open, uniform, undecided = [], [], []
         points = near = None
         if z > 0:  # the arcs' points once for the zoom's tiles, and the arcs near each
-            points = ZoomPoints(*self.boundary.arcs, z, self.extent)
+            q, s, e = self.boundary.arcs
+            points = ZoomPoints(q, s, e, z, self.extent)
             near = points.tiles(self.buffer)
         for x, y in open_tiles:
             frame = TileFrame.of(z, x, y, self.extent, self.buffer)

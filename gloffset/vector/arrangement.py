@@ -165,15 +165,16 @@ class _Pieces:
 # ----------------------------------------------------------------------------- the steps
 
 
-def _prune(table: _RawArcs, gens, d: float) -> _LiveArcs | None:
+def _prune(table: _RawArcs, gens, d: float, among=None) -> _LiveArcs | None:
     """Step 1: drop arcs that lie wholly within ``|d| - PRUNE_MARGIN`` of the curves, and
     the joins of concave corners, which turn backwards and lie within ``|d|`` of the two
-    edges there. None when nothing is left."""
+    edges there (and, with ``among``, the arcs it leaves out). None when nothing is left."""
     arcs = table.arcs
     backward = (table.kind == 0) & (arcs.phi * d < 0.0)
     cm, cr = arcs.caps()
-    covered = backward.copy()
-    covered[~backward] = gens.closer_than(cm[~backward], abs(d) - cr[~backward] - PRUNE_MARGIN)
+    covered = backward.copy() if among is None else backward | ~among
+    test = ~covered
+    covered[test] = gens.closer_than(cm[test], abs(d) - cr[test] - PRUNE_MARGIN)
     alive = np.flatnonzero(~covered)
     if len(alive) == 0:
         return None
@@ -256,6 +257,7 @@ class _Events:
         lab = components(
             len(pts), np.concatenate(pi).astype(np.int64), np.concatenate(pj).astype(np.int64)
         )
+        self.labels = lab
         return pts, ev_arc, ev_t, lab[ev_node]
 
 
@@ -375,14 +377,16 @@ def _split(ev_arc, ev_t, ev_node, cut_start, cut_end) -> _Pieces:
     return p.take(real)
 
 
-def _boundary_pieces(pieces: _Pieces, live: _LiveArcs, gens, shape, d: float, from_line):
+def _boundary_pieces(
+    pieces: _Pieces, live: _LiveArcs, gens, shape, d: float, from_line, open_nodes=None
+):
     """Step 6: the pieces whose middle lies at ``|d|`` from the curves (nothing closer) and
     on the right side of the polygons, less duplicates and open chains.
 
     Returns ``(pieces, certain, unlinked)``: pieces a curve comes closer to than
     ``|d| - KEEP_EPS`` are in doubt (they lie within DOUBT_EPS of the boundary and stay
     only where they close up with certain pieces); ``unlinked`` counts the certain
-    pieces dropped with open chains.
+    pieces dropped with open chains (chains may end at ``open_nodes``).
     """
     A, sign = live.A, live.sign
     mid = point_at(
@@ -395,7 +399,7 @@ def _boundary_pieces(pieces: _Pieces, live: _LiveArcs, gens, shape, d: float, fr
     pieces, mid = pieces.take(k), mid[k]
     certain = deficit[k] <= KEEP_EPS
     keep = dedupe(pieces.n0, pieces.n1, mid)
-    linked = keep[prune_dangling(pieces.n0[keep], pieces.n1[keep])]
+    linked = keep[prune_dangling(pieces.n0[keep], pieces.n1[keep], open_nodes)]
     unlinked = int(np.count_nonzero(certain[keep])) - int(np.count_nonzero(certain[linked]))
     return pieces.take(linked), certain[linked], unlinked
 

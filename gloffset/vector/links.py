@@ -93,14 +93,19 @@ def link(live, pieces, pts):
     return nxt
 
 
-def prune_dangling(n0, n1):
+def prune_dangling(n0, n1, open_nodes=None):
     """Indices of the pieces left after repeatedly removing those that start where nothing
-    arrives or end where nothing leaves (open chains cannot bound a region)."""
+    arrives or end where nothing leaves (open chains cannot bound a region), except at
+    ``open_nodes`` (where a chain may start or end)."""
     idx = np.arange(len(n0))
     while len(idx):
         size = int(max(n0[idx].max(), n1[idx].max())) + 1
         indeg = np.bincount(n1[idx], minlength=size)
         outdeg = np.bincount(n0[idx], minlength=size)
+        if open_nodes is not None and len(open_nodes):
+            at = open_nodes[open_nodes < size]
+            indeg[at] += 1
+            outdeg[at] += 1
         ok = (indeg[n0[idx]] > 0) & (outdeg[n1[idx]] > 0)
         if ok.all():
             break

@@ -150,9 +150,7 @@ class ResolvedOffset(ArcRings):
 
     def _parity_index(self) -> RingParity:
         """Crossing parity against the rings (built on first use)."""
-        return once_attr(
-            self, "_parity", lambda: RingParity(self.rings, self.shape, self.distance)
-        )
+        return once_attr(self, "_parity", lambda: RingParity(self.rings, self.shape, self.distance))
 
     def __repr__(self) -> str:
         nh = int(np.count_nonzero(self.holes))
