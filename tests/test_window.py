@@ -61,7 +61,7 @@ def test_boundary_within_is_the_resolved_boundary_inside_the_cap(which, d_km, ca
     assert np.all(angle(got, np.broadcast_to(c, got.shape)) <= r + 1e-12)
     assert np.max(np.abs(distance_xyz(shape, got) - abs(d))) < 1e-9
     # open chains start and end on the cap's circle
-    for q, s, e, closed in chains:
+    for _q, s, e, closed in chains:
         if not closed:
             for p in (s[0], e[-1]):
                 assert abs(angle(p, c) - r) < 1e-9

@@ -100,18 +100,42 @@ def arc_points(centers, starts, ends, z: int, extent: int, near: TileFrame | Non
     ccw = np.einsum("ij,ij->i", np.cross(starts - centers, ends - centers), circles.n) >= 0.0
     lo = np.where(ccw, a_s, a_s - sweep)  # the arc is [lo, lo + sweep] (unwrapped turn)
     hi = lo + sweep
+    parts = _first_cut(circles, lo, hi, z, extent)
+    arc, level, j = _halve(circles, parts, lo, hi, z, extent, near)
+    n_arc, n_level, n_j, turn = _inner_nodes(arc, level, j, lo, hi)
+    pts = circles.node(n_arc, n_level, n_j)
+    # arc after arc, from its start: the turn up (counter-clockwise) or down
+    t = np.concatenate(
+        [np.zeros(m), np.where(ccw[n_arc], turn - lo[n_arc], hi[n_arc] - turn), sweep]
+    )
+    a_all = np.concatenate([idx, n_arc, idx])
+    order = np.lexsort((t, a_all))
+    xyz = np.concatenate([starts, pts, ends])[order]
+    return xyz, a_all[order]
+
+
+def _first_cut(circles: Circles, lo, hi, z: int, extent: int):
+    """The parts ``(arc, level, j)`` of each circle's first cut that meet its arc
+    ``[lo, hi]``: parts of about :data:`PART0` world units at the equator's scale."""
     world = float((1 << z) * extent)
-    # the first cut: parts of about PART0 world units at the equator's scale
-    span = _TWO_PI * circles.rho * (world / _TWO_PI) / PART0
+    span = circles.rho * world / PART0
     lv = np.floor(np.log2(np.maximum(span, 1.0)))
     lv0 = np.clip(lv, LEVEL0, LEVEL_MAX - 1).astype(np.int64)
     step0 = _TWO_PI / np.left_shift(1, lv0).astype(np.float64)
     j0 = np.floor(lo / step0).astype(np.int64)
     j1 = np.floor(hi / step0).astype(np.int64)
     cnt = j1 - j0 + 1
-    arc = np.repeat(idx, cnt)
+    arc = np.repeat(np.arange(len(lo)), cnt)
     j = np.repeat(j0, cnt) + np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    level = lv0[arc]
+    return arc, lv0[arc], j
+
+
+def _halve(circles: Circles, parts, lo, hi, z: int, extent: int, near):
+    """Halve the parts until their middles lie within :data:`DENSIFY` of their chords
+    (or, with ``near``, they lie far outside its rectangle); the final parts."""
+    arc, level, j = parts
+    world = float((1 << z) * extent)
+    half = 0.5 * world
     qa = world_uv(circles.node(arc, level, j), z, extent)
     qb = world_uv(circles.node(arc, level, j + 1), z, extent)
     done_arc, done_level, done_j = [], [], []
@@ -119,7 +143,6 @@ def arc_points(centers, starts, ends, z: int, extent: int, near: TileFrame | Non
         qm = world_uv(circles.node(arc, level + 1, 2 * j + 1), z, extent)
         qb_ = qb.copy()
         qm_ = qm.copy()
-        half = 0.5 * world
         qb_[:, 0] = qa[:, 0] + np.remainder(qb[:, 0] - qa[:, 0] + half, world) - half
         qm_[:, 0] = qa[:, 0] + np.remainder(qm[:, 0] - qa[:, 0] + half, world) - half
         dev = np.hypot(*(qm_ - 0.5 * (qa + qb_)).T)
@@ -148,29 +171,21 @@ def arc_points(centers, starts, ends, z: int, extent: int, near: TileFrame | Non
         j = np.concatenate([s_j[first], s_j[second] + 1])
         qa = np.concatenate([s_qa[first], s_qm[second]])
         qb = np.concatenate([s_qm[first], s_qb[second]])
-    # the circle's points strictly inside each arc: the parts' ends
-    f_arc = np.concatenate(done_arc)
-    f_level = np.concatenate(done_level)
-    f_j = np.concatenate(done_j)
-    n_arc = np.concatenate([f_arc, f_arc])
-    n_level = np.concatenate([f_level, f_level])
-    n_j = np.concatenate([f_j, f_j + 1])
+    return np.concatenate(done_arc), np.concatenate(done_level), np.concatenate(done_j)
+
+
+def _inner_nodes(arc, level, j, lo, hi):
+    """The parts' ends strictly inside their arcs, once each: ``(arc, level, j, turn)``."""
+    n_arc = np.concatenate([arc, arc])
+    n_level = np.concatenate([level, level])
+    n_j = np.concatenate([j, j + 1])
     # one key per point: its turn in the finest parts (2**LEVEL_MAX per circle turn)
     fine = np.left_shift(n_j, LEVEL_MAX - n_level)
     turn = fine * (_TWO_PI / float(1 << LEVEL_MAX))
     inner = (turn > lo[n_arc]) & (turn < hi[n_arc])
     n_arc, n_level, n_j, fine, turn = (x[inner] for x in (n_arc, n_level, n_j, fine, turn))
     key = np.unique(np.column_stack([n_arc, fine]), axis=0, return_index=True)[1]
-    n_arc, n_level, n_j, turn = n_arc[key], n_level[key], n_j[key], turn[key]
-    pts = circles.node(n_arc, n_level, n_j)
-    # arc after arc, from its start: the turn up (counter-clockwise) or down
-    t = np.concatenate(
-        [np.zeros(m), np.where(ccw[n_arc], turn - lo[n_arc], hi[n_arc] - turn), sweep]
-    )
-    a_all = np.concatenate([idx, n_arc, idx])
-    order = np.lexsort((t, a_all))
-    xyz = np.concatenate([starts, pts, ends])[order]
-    return xyz, a_all[order]
+    return n_arc[key], n_level[key], n_j[key], turn[key]
 
 
 def densify(frame: TileFrame, centers, starts, ends) -> list[tuple[np.ndarray, np.ndarray]]:

@@ -40,7 +40,23 @@ from .links import dedupe, link, prune_dangling
 from .resolved import ResolvedOffset
 from .smallcircle import MERGE_TOL, CircleArcs, circle_of, intersect, point_at, position
 
-__all__ = ["DOUBT_EPS", "KEEP_EPS", "PRUNE_MARGIN", "defects", "resolve_general"]
+__all__ = [
+    "DOUBT_EPS",
+    "KEEP_EPS",
+    "PRUNE_MARGIN",
+    "defects",
+    "resolve_general",
+    # the steps, which gloffset.vector.window runs inside one cap
+    "RawArcs",
+    "Generators",
+    "Events",
+    "prune_arcs",
+    "arc_pairs",
+    "corner_events",
+    "crossing_events",
+    "split_pieces",
+    "boundary_pieces",
+]
 
 #: A piece of arc is dropped when a curve is closer than ``|d| - DOUBT_EPS`` to its middle,
 #: and certain when none is closer than ``|d| - KEEP_EPS`` (in between: in doubt).
@@ -61,19 +77,19 @@ def resolve_general(off, raw, from_line) -> ResolvedOffset:
     shape = off.shape
     if not raw:
         return ResolvedOffset(d, "general", [], np.zeros(0, bool), [], 0, shape)
-    table = _RawArcs.of(raw)
-    gens = _Generators(shape)
-    live = _prune(table, gens, d)
+    table = RawArcs.of(raw)
+    gens = Generators(shape)
+    live = prune_arcs(table, gens, d)
     if live is None:
         return ResolvedOffset(d, "general", [], np.zeros(0, bool), [], 0, shape)
-    ia, ib, corners = _candidate_pairs(table, live, abs(d))
-    events = _Events(table, live)
-    cut_start, cut_end = _corner_events(events, table, live, corners)
-    _crossing_events(events, table, live, ia, ib)
+    ia, ib, corners = arc_pairs(table, live, abs(d))
+    events = Events(table, live)
+    cut_start, cut_end = corner_events(events, table, live, corners)
+    crossing_events(events, table, live, ia, ib)
     pts, ev_arc, ev_t, ev_node = events.merged()
-    pieces = _split(ev_arc, ev_t, ev_node, cut_start, cut_end)
+    pieces = split_pieces(ev_arc, ev_t, ev_node, cut_start, cut_end)
     from_line_piece = from_line[table.ring_of[live.alive[pieces.arc]]]
-    pieces, certain, unlinked = _boundary_pieces(pieces, live, gens, shape, d, from_line_piece)
+    pieces, certain, unlinked = boundary_pieces(pieces, live, gens, shape, d, from_line_piece)
     rings, open_certain = _close_rings(pieces, certain, table, live, pts)
     return ResolvedOffset.from_rings(d, "general", rings, shape, unlinked + open_certain)
 
@@ -82,7 +98,7 @@ def resolve_general(off, raw, from_line) -> ResolvedOffset:
 
 
 @dataclass
-class _RawArcs:
+class RawArcs:
     """Every arc of the raw rings in one table (global indices, ring after ring)."""
 
     arcs: CircleArcs  # arc k runs from junctions[prev[k]] to junctions[k]
@@ -94,7 +110,7 @@ class _RawArcs:
     ring_of: np.ndarray  # (n,) ring of each arc
 
     @classmethod
-    def of(cls, raw) -> _RawArcs:
+    def of(cls, raw) -> RawArcs:
         """The table of the rings ``raw`` (a list of OffsetRing)."""
         sizes = np.array([len(r.centers) for r in raw])
         first = np.concatenate([[0], np.cumsum(sizes)[:-1]])
@@ -165,7 +181,7 @@ class _Pieces:
 # ----------------------------------------------------------------------------- the steps
 
 
-def _prune(table: _RawArcs, gens, d: float, among=None) -> _LiveArcs | None:
+def prune_arcs(table: RawArcs, gens, d: float, among=None) -> _LiveArcs | None:
     """Step 1: drop arcs that lie wholly within ``|d| - PRUNE_MARGIN`` of the curves, and
     the joins of concave corners, which turn backwards and lie within ``|d|`` of the two
     edges there (and, with ``among``, the arcs it leaves out). None when nothing is left."""
@@ -183,10 +199,10 @@ def _prune(table: _RawArcs, gens, d: float, among=None) -> _LiveArcs | None:
     return _LiveArcs(alive, g2l, arcs.subset(alive), backward, cm, cr)
 
 
-def _candidate_pairs(table: _RawArcs, live: _LiveArcs, ad: float):
+def arc_pairs(table: RawArcs, live: _LiveArcs, ad: float):
     """Step 2: pairs of live arcs whose caps meet, without ring neighbours: arcs that share
     a junction only touch there, and the two edge arcs around a join are handled by
-    :func:`_corner_events`.
+    :func:`corner_events`.
 
     Returns ``(ia, ib, (before, after, corner))``: local indices of the pairs, and the
     corners of :func:`_corners`.
@@ -207,13 +223,13 @@ def _candidate_pairs(table: _RawArcs, live: _LiveArcs, ad: float):
     return ia[~neighbours], ib[~neighbours], (before, after, corner)
 
 
-class _Events:
+class Events:
     """Where the live arcs are to be split: ``(arc, turn from its start, node)`` triples,
     the nodes' points, and pairs of nodes that are one (an end point and a crossing
     within its error bound of it). Nodes ``0 .. n-1`` are the raw junctions (node ``k``
     ends global arc ``k``); every arc has an event at its start and at its end."""
 
-    def __init__(self, table: _RawArcs, live: _LiveArcs):
+    def __init__(self, table: RawArcs, live: _LiveArcs):
         n_arc = len(live.alive)
         self.points = [table.junctions]
         self.arc = [np.arange(n_arc), np.arange(n_arc)]
@@ -261,7 +277,7 @@ class _Events:
         return pts, ev_arc, ev_t, lab[ev_node]
 
 
-def _corner_events(events: _Events, table: _RawArcs, live: _LiveArcs, corners):
+def corner_events(events: Events, table: RawArcs, live: _LiveArcs, corners):
     """Step 3a: at a concave corner the two edge arcs cross near the vertex, where their
     circles are nearly the same: the point is found in closed form (:func:`_corner_point`),
     and what lies past it on either arc is covered.
@@ -290,7 +306,7 @@ def _corner_events(events: _Events, table: _RawArcs, live: _LiveArcs, corners):
     return cut_start, cut_end
 
 
-def _crossing_events(events: _Events, table: _RawArcs, live: _LiveArcs, ia, ib) -> None:
+def crossing_events(events: Events, table: RawArcs, live: _LiveArcs, ia, ib) -> None:
     """Step 3b: the crossings of the pairs ``(ia, ib)`` become nodes on both arcs; a crossing
     within its error bound of an arc's end is that end (the two nodes are one), and arcs on
     the same circle are split at each other's end points."""
@@ -369,7 +385,7 @@ def _snapped(A: CircleArcs, ia, ib, sa, ea, sb, eb):
     return j, x
 
 
-def _split(ev_arc, ev_t, ev_node, cut_start, cut_end) -> _Pieces:
+def split_pieces(ev_arc, ev_t, ev_node, cut_start, cut_end) -> _Pieces:
     """Step 5: the pieces of arcs between consecutive events, less those of zero length
     (both ends one node) and those past a concave corner's crossing."""
     p = _Pieces(*split(ev_arc, ev_t, ev_node))
@@ -377,7 +393,7 @@ def _split(ev_arc, ev_t, ev_node, cut_start, cut_end) -> _Pieces:
     return p.take(real)
 
 
-def _boundary_pieces(
+def boundary_pieces(
     pieces: _Pieces, live: _LiveArcs, gens, shape, d: float, from_line, open_nodes=None
 ):
     """Step 6: the pieces whose middle lies at ``|d|`` from the curves (nothing closer) and
@@ -404,7 +420,7 @@ def _boundary_pieces(
     return pieces.take(linked), certain[linked], unlinked
 
 
-def _close_rings(pieces: _Pieces, certain, table: _RawArcs, live: _LiveArcs, pts):
+def _close_rings(pieces: _Pieces, certain, table: RawArcs, live: _LiveArcs, pts):
     """Step 7: link the pieces into closed rings; a ring made only of doubtful pieces is a
     sliver and goes.
 
@@ -448,7 +464,7 @@ def _close_rings(pieces: _Pieces, certain, table: _RawArcs, live: _LiveArcs, pts
 # ----------------------------------------------------------------------------- helpers
 
 
-class _Generators:
+class Generators:
     """The shape's vertices and edges with a cap hierarchy, for "is a curve closer than t"."""
 
     def __init__(self, shape):
@@ -610,7 +626,7 @@ def _find_defects(shape) -> tuple[bool, bool]:
     return crossing, overlap
 
 
-def _ring_from_pieces(table: _RawArcs, alive, pts, pieces: _Pieces):
+def _ring_from_pieces(table: RawArcs, alive, pts, pieces: _Pieces):
     """An OffsetRing from its pieces (a closed cycle, in order), joining consecutive pieces
     of the same raw arc."""
     arc, t0, t1, n1 = pieces.arc, pieces.t0, pieces.t1, pieces.n1

@@ -24,15 +24,15 @@ import numpy as np
 from ..geometry.arrangement import cycles
 from ..geometry.sphere import angle
 from .arrangement import (
-    _boundary_pieces,
-    _candidate_pairs,
-    _corner_events,
-    _crossing_events,
-    _Events,
-    _Generators,
-    _prune,
-    _RawArcs,
-    _split,
+    Events,
+    Generators,
+    RawArcs,
+    arc_pairs,
+    boundary_pieces,
+    corner_events,
+    crossing_events,
+    prune_arcs,
+    split_pieces,
 )
 from .links import link
 from .selfintersect import MIN_DISTANCE, boundary_rings
@@ -58,30 +58,30 @@ def boundary_within(off, cap) -> list:
     if not raw:
         return []
     c, big_r = np.asarray(cap[0], dtype=np.float64), float(cap[1])
-    table = _RawArcs.of(raw)
+    table = RawArcs.of(raw)
     cm, cr = table.arcs.caps()
     among = angle(cm, np.broadcast_to(c, cm.shape)) <= cr + big_r + 1e-12
     if not among.any():
         return []
-    gens = _Generators(off.shape)
-    live = _prune(table, gens, d, among)
+    gens = Generators(off.shape)
+    live = prune_arcs(table, gens, d, among)
     if live is None:
         return []
-    ia, ib, corners = _candidate_pairs(table, live, abs(d))
-    events = _Events(table, live)
-    cut_start, cut_end = _corner_events(events, table, live, corners)
-    _crossing_events(events, table, live, ia, ib)
+    ia, ib, corners = arc_pairs(table, live, abs(d))
+    events = Events(table, live)
+    cut_start, cut_end = corner_events(events, table, live, corners)
+    crossing_events(events, table, live, ia, ib)
     cut_nodes = _window_events(events, live, c, big_r)
     pts, ev_arc, ev_t, ev_node = events.merged()
     open_nodes = np.unique(events.labels[cut_nodes]) if len(cut_nodes) else cut_nodes
-    pieces = _split(ev_arc, ev_t, ev_node, cut_start, cut_end)
+    pieces = split_pieces(ev_arc, ev_t, ev_node, cut_start, cut_end)
     A, sign = live.A, live.sign
     mid = point_at(
         A.axis[pieces.arc], A.start[pieces.arc], sign[pieces.arc] * 0.5 * (pieces.t0 + pieces.t1)
     )
     pieces = pieces.take(np.flatnonzero(angle(mid, np.broadcast_to(c, mid.shape)) < big_r))
     from_line_piece = from_line[table.ring_of[live.alive[pieces.arc]]]
-    pieces, certain, _ = _boundary_pieces(
+    pieces, certain, _ = boundary_pieces(
         pieces, live, gens, off.shape, d, from_line_piece, open_nodes
     )
     nxt = link(live, pieces, pts)
@@ -92,7 +92,7 @@ def boundary_within(off, cap) -> list:
     return out
 
 
-def _window_events(events: _Events, live, c, big_r) -> np.ndarray:
+def _window_events(events: Events, live, c, big_r) -> np.ndarray:
     """Cut the live arcs where they cross the circle of the cap ``(c, big_r)``; returns
     the new nodes."""
     A = live.A
