@@ -394,9 +394,9 @@ class Projected(LevelHierarchy):
 
     def glsl_centres(self) -> GlslCentres:
         """The cell centres as a GLSL function (``centres == "glsl"``: polar
-        stereographic CRSs, :func:`polar_glsl`): within 1e-15 rad of the exact inverse,
-        so within 2e-12 rad of pyproj's (which iterates to 1e-10 rad) and of the float64
-        twin (tested over many pixels)."""
+        stereographic CRSs, :func:`polar_glsl`): within 4e-15 rad of the exact inverse
+        (9e-16 measured), 1e-12 of pyproj's (7e-13 measured: PROJ's iteration stops at
+        steps of 1e-10 rad), and 1e-13 of the float64 twin (tested at many pixels)."""
         got = polar_glsl(self._crs, self._frame)
         if got is None:
             raise InvalidGridError(f"{self._crs.name!r} has no GLSL centres")
