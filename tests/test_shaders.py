@@ -71,7 +71,7 @@ def test_include_of_a_define():
     assert name not in files and "dvec3 grid_centre(" not in src
     with pytest.raises(ShaderError, match="must name a file in quotes"):
         load_source("classify.frag", {"GRID_GLSL": name})
-    assert GRID_FUNCTIONS == [name]
+    assert name in GRID_FUNCTIONS
 
 
 def test_includes_once_with_line_directives():
