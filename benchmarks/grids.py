@@ -1,8 +1,11 @@
 """Polar grids: a 4096 x 4096 EPSG:3031 render of Antarctica (1:110m, the pole inside) at
 50 km against the equirectangular 4096 x 2048 render of the same region, per boundary
-pixel of the mask, and against the usual recipe: an equirectangular render (8192 x 4096)
-warped to the same polar grid with rasterio's nearest-neighbour ``reproject`` (GDAL's
-warper, as ``gdalwarp -r near`` does), its time and how many pixels it gets wrong.
+pixel of the mask (the polar grid's pixel centres computed on the GPU by its GLSL
+function, and, in the same run, read from textures of the host's float64 centres as
+every CRS without a GLSL function does), and against the usual recipe: an
+equirectangular render (8192 x 4096) warped to the same polar grid with rasterio's
+nearest-neighbour ``reproject`` (GDAL's warper, as ``gdalwarp -r near`` does), its time
+and how many pixels it gets wrong.
 
 Run: python benchmarks/grids.py [--quick]
 Writes benchmarks/results/grids.json. Needs rasterio (the ``geo`` extra).
@@ -83,7 +86,13 @@ def main() -> None:
     polar = Projected(n, n, crs=CRS, bounds=BOUNDS)
     eq = Equirect(n, n // 2)
 
+    # the same grid with its centres from the host (the path of CRSs without a GLSL function)
+    textured = Projected(n, n, crs=CRS, bounds=BOUNDS)
+    textured.centres = "texture"
+    assert polar.centres == "glsl"
+
     t_polar, m_polar = timed_render(shape, polar, repeat)
+    t_tex, m_tex = timed_render(shape, textured, repeat)
     t_eq, m_eq = timed_render(shape, eq, repeat)
     b_polar, b_eq = boundary_pixels(m_polar), boundary_pixels(m_eq)
     per_polar, per_eq = t_polar / b_polar, t_eq / b_eq
@@ -95,6 +104,13 @@ def main() -> None:
             "s": t_polar,
             "boundary_pixels": b_polar,
             "us_per_boundary_pixel": 1e6 * per_polar,
+            "centres": "glsl",
+        },
+        "polar_texture": {
+            "grid": "the same, centres from textures of the host's float64 centres",
+            "s": t_tex,
+            "us_per_boundary_pixel": 1e6 * t_tex / b_polar,
+            "pixels_differing_from_glsl": int(np.count_nonzero(m_tex != m_polar)),
         },
         "equirect": {
             "grid": f"Equirect({n}, {n // 2})",
@@ -103,6 +119,7 @@ def main() -> None:
             "us_per_boundary_pixel": 1e6 * per_eq,
         },
         "ratio_per_boundary_pixel": per_polar / per_eq,
+        "ratio_per_boundary_pixel_texture": t_tex / b_polar / per_eq,
         "warps": [],
     }
     for size in ((2 * n, n), (n, n // 2)):

@@ -7,6 +7,7 @@
 #include "lib/lonlat.glsl"
 #include "lib/cube.glsl"
 #include "lib/arcs.glsl"
+#include GRID_GLSL
 
 const uint OUTSIDE = 0u;
 const uint FRONTIER = 1u;
@@ -28,6 +29,11 @@ uniform vec3 u_face_e;         // cube face axis; u_face_u, u_face_v: directions
 uniform vec3 u_face_u;
 uniform vec3 u_face_v;
 uniform float u_px;            // face coordinate (2 s - 1) per output pixel: 2 / size
+#elif defined(GRID_GLSL)
+// a grid's own GLSL function (GRID_GLSL names its file, lib/grids/): grid_centre(px),
+// the unit vector in double of output-pixel coordinates px, from u_grid
+uniform sampler2D u_bin_centre;    // per canvas bin: its centre c (unit vector), float32
+uniform sampler2D u_bin_centre_lo; // and the float64 centre less that (c = hi + lo to 48 bits)
 #elif defined(GRID_TEXTURE)
 uniform sampler2D u_bin_centre; // per canvas bin: its centre c (unit vector)
 uniform sampler2D u_cell_delta; // per canvas cell of level l: its centre minus c (float64-made)
@@ -80,6 +86,12 @@ void main() {
     vec3 c;
     vec3 delta = cube_offset(bpx.x * u_px - 1.0, bpx.y * u_px - 1.0, dpx.x * u_px, dpx.y * u_px,
                              u_face_e, u_face_u, u_face_v, c);
+#elif defined(GRID_GLSL)
+    // the cell's centre minus its bin's, in double, then cast: no cancellation
+    vec3 c = texelFetch(u_bin_centre, bin, 0).xyz;
+    dvec3 cd = dvec3(c) + dvec3(texelFetch(u_bin_centre_lo, bin, 0).xyz);
+    dvec2 px = (dvec2((geo << u_shift) + sub) + 0.5LF) * double(u_block);
+    vec3 delta = vec3(grid_centre(px) - cd);
 #elif defined(GRID_TEXTURE)
     vec3 c = texelFetch(u_bin_centre, bin, 0).xyz;
     vec3 delta = texelFetch(u_cell_delta, cell, 0).xyz;

@@ -49,6 +49,31 @@ def test_textured_centres_variant_compiles(ctx):
     assert ctx.error == "GL_NO_ERROR"
 
 
+GRID_FUNCTIONS = sorted(n for n in shader_files() if n.startswith("lib/grids/"))
+
+
+@pytest.mark.parametrize("name", GRID_FUNCTIONS)
+def test_grid_glsl_variants_compile(ctx, name):
+    # a grid's GLSL function of its centres (gloffset.grids.protocol.GlslCentres) in the
+    # level program: classify.frag with GRID_GLSL naming its file
+    prog = program(ctx, "bins.vert", "classify.frag", {"GRID_GLSL": f'"{name}"'})
+    assert "u_grid" in prog and "u_bin_centre_lo" in prog
+    assert ctx.error == "GL_NO_ERROR"
+
+
+def test_include_of_a_define():
+    # "#include NAME" takes the file NAME names; nothing where NAME is not defined
+    name = "lib/grids/polar_stereographic.glsl"
+    src, files = load_source("classify.frag", {"GRID_GLSL": f'"{name}"'})
+    assert name in files and "lib/fp64.glsl" in files
+    assert "#define GRID_GLSL 1" in src and "dvec3 grid_centre(dvec2 px)" in src
+    src, files = load_source("classify.frag")
+    assert name not in files and "dvec3 grid_centre(" not in src
+    with pytest.raises(ShaderError, match="must name a file in quotes"):
+        load_source("classify.frag", {"GRID_GLSL": name})
+    assert name in GRID_FUNCTIONS
+
+
 def test_includes_once_with_line_directives():
     src, files = load_source("classify.frag")
     assert src.startswith("#version 430\n")

@@ -2,7 +2,10 @@
 
 Rules: a top-level shader starts with ``#version`` on line 1; library files
 (``lib/*.glsl``) have no ``#version``; ``#include "lib/name.glsl"`` pulls a file in
-once (later includes of the same file are dropped), recursively; ``#line``
+once (later includes of the same file are dropped), recursively, and ``#include NAME``
+the file that the define ``NAME`` names (``{"GRID_GLSL": '"lib/grids/x.glsl"'}``: a
+grid's GLSL function; nothing where ``NAME`` is not defined; the shader sees ``NAME``
+defined as 1); ``#line``
 directives number every file so that compiler errors point at the file and line,
 and :func:`program` rewrites the driver's ``0:12(3)`` / ``0(12)`` locations into
 ``lib/arcs.glsl:12``.
@@ -28,6 +31,7 @@ def _find_dir() -> Path:
 
 SHADER_DIR = _find_dir()
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
+_INCLUDE_DEFINE = re.compile(r"^\s*#\s*include\s+([A-Za-z_][A-Za-z0-9_]*)\s*$")
 
 
 def shader_files() -> list[str]:
@@ -63,6 +67,17 @@ def load_source(name: str, defines: dict | None = None, *, root=None) -> tuple[s
         out = []
         for k, ln in enumerate(lines, start=1):
             m = _INCLUDE.match(ln)
+            named = _INCLUDE_DEFINE.match(ln)
+            if named:
+                value = str((defines or {}).get(named.group(1), "")).strip()
+                if value and not (len(value) > 2 and value[0] == value[-1] == '"'):
+                    raise ShaderError(
+                        f"{rel}:{k}: {named.group(1)} must name a file in quotes, got {value!r}"
+                    )
+                m = _INCLUDE.match(f"#include {value}") if value else None
+                if m is None:
+                    out.append(f"// {ln.strip()}: not defined")
+                    continue
             if m:
                 inc = m.group(1)
                 if inc not in seen:
@@ -72,6 +87,8 @@ def load_source(name: str, defines: dict | None = None, *, root=None) -> tuple[s
             elif top and k == 1:
                 out.append(ln)
                 for key, val in (defines or {}).items():
+                    # a file's name (for #include NAME) is defined as 1 for the #ifdefs
+                    val = 1 if str(val).startswith('"') else val
                     out.append(f"#define {key} {val}")
                 out.append(f"#line 2 {fid}")
             else:

@@ -31,11 +31,24 @@ from .shaders import program
 from .textures import class_target, pot_texture
 from .textures import set_uniform as _set
 
-__all__ = ["BinPlan", "VectorPasses", "vector_passes"]
+__all__ = ["BinPlan", "VectorPasses", "set_grid_constants", "vector_passes"]
 
 RECORD_TEXELS = 6  # vec4 texels per arc record (shaders/classify.frag)
 _CLUSTER_BYTES = 32  # two uvec4 per cluster header (CLUSTER_TEXELS in classify.frag)
 _MASK_FROM = 2  # the first shift with a prepass and depth mask
+_GRID_CONSTANTS = 16  # u_grid's length (a grid's GLSL function, lib/grids/)
+
+
+def set_grid_constants(prog, constants) -> None:
+    """Set ``u_grid`` (``double[16]``, a grid's GLSL function) of ``prog`` to
+    ``constants`` (zeros after them): as many as the compiled program keeps (a driver
+    trims the array after the last element read)."""
+    consts = [float(c) for c in constants]
+    if len(consts) > _GRID_CONSTANTS:
+        raise ValueError(f"a grid's GLSL function takes {_GRID_CONSTANTS} constants at most")
+    if "u_grid" in prog:
+        n = prog["u_grid"].array_length
+        prog["u_grid"].value = tuple((consts + [0.0] * n)[:n])
 
 
 @dataclass
@@ -61,6 +74,11 @@ class BinPlan:
     bin centres' latitude and longitude, ``dphi[s]`` (geo rows, 2^s) and ``dlam[s]`` (geo
     columns, 2^s) float32 the cell rows' latitude and columns' longitude minus their bin's.
     Cube faces: ``basis`` (3, 3) the face's axes and ``face_size`` its pixels per side.
+    Grids with a GLSL function of their centres: ``grid_source`` its file (defining
+    ``grid_centre``, :class:`gloffset.grids.protocol.GlslCentres`), ``grid_constants``
+    its ``u_grid``, ``bin_centre`` and ``bin_centre_lo`` (hb, wb, 3) float32 the bin
+    centres in two parts (their sum: the float64 centre to 48 bits); ``geo`` the bins'
+    rows and columns in the grid.
     Other grids (textured centres): ``bin_centre`` (hb, wb, 3) float32 the bin centres on
     the canvas, ``cell_delta(s, parent)`` (hb 2^s, wb 2^s, 3) float32 each cell's centre
     minus its bin's (made in float64) for the children of the frontier cells of
@@ -91,6 +109,9 @@ class BinPlan:
     face_size: int | None = None
     bin_centre: np.ndarray | None = None
     cell_delta: Callable[[int, np.ndarray], np.ndarray] | None = None
+    bin_centre_lo: np.ndarray | None = None
+    grid_source: str | None = None
+    grid_constants: tuple = ()
 
     @property
     def cube(self) -> bool:
@@ -98,9 +119,12 @@ class BinPlan:
 
     @property
     def kind(self) -> str:
-        """The program variant: ``"cube"``, ``"texture"`` or ``"lonlat"``."""
+        """The program variant: ``"cube"``, ``"texture"``, ``"lonlat"`` or, for a grid's
+        GLSL function, its file."""
         if self.basis is not None:
             return "cube"
+        if self.grid_source is not None:
+            return self.grid_source
         return "texture" if self.bin_centre is not None else "lonlat"
 
 
@@ -138,12 +162,12 @@ class VectorPasses:
         }
 
     def _program(self, kind: str):
-        """The level program of a grid kind (the textured one compiled on first use)."""
+        """The level program of a grid kind (the textured one, and that of each grid's
+        GLSL function, compiled on first use)."""
         p = self.progs.get(kind)
         if p is None:
-            p = self.progs[kind] = program(
-                self.ctx, "bins.vert", "classify.frag", {"GRID_TEXTURE": 1}
-            )
+            defines = {"GRID_TEXTURE": 1} if kind == "texture" else {"GRID_GLSL": f'"{kind}"'}
+            p = self.progs[kind] = program(self.ctx, "bins.vert", "classify.frag", defines)
         return p
 
     def _tex(self, array: np.ndarray, comps: int, dtype: str):
@@ -245,6 +269,17 @@ class VectorPasses:
             _set(p, "u_face_u", tuple(float(x) for x in u_))
             _set(p, "u_face_v", tuple(float(x) for x in v_))
             _set(p, "u_px", 2.0 / plan.face_size)
+        elif plan.grid_source is not None:
+            assert plan.bin_centre is not None and plan.bin_centre_lo is not None
+            textures += [
+                self._tex(plan.bin_centre, 3, "f4"),
+                self._tex(plan.bin_centre_lo, 3, "f4"),
+            ]
+            textures[-2].use(3)
+            textures[-1].use(4)
+            _set(p, "u_bin_centre", 3)
+            _set(p, "u_bin_centre_lo", 4)
+            set_grid_constants(p, plan.grid_constants)
         elif plan.kind == "texture":
             assert plan.bin_centre is not None  # a textured plan's
             textures.append(self._tex(plan.bin_centre, 3, "f4"))
@@ -318,7 +353,7 @@ class VectorPasses:
                 level_tex = [self._tex(delta, 3, "f4")]
                 level_tex[0].use(7)
                 _set(p, "u_cell_delta", 7)
-            elif not plan.cube:
+            elif not plan.cube and plan.grid_source is None:
                 assert plan.dphi is not None and plan.dlam is not None  # a lon/lat plan's
                 level_tex = [self._tex(plan.dphi[s], 1, "f4"), self._tex(plan.dlam[s], 1, "f4")]
                 level_tex[0].use(7)

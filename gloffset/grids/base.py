@@ -27,6 +27,7 @@ from ..errors import InvalidGridError
 from ..geometry.caps import pad
 from ..geometry.sphere import angle
 from ..memo import once_attr
+from .protocol import GlslCentres
 
 __all__ = [
     "InvalidGridError",
@@ -130,6 +131,11 @@ class LevelHierarchy:
         """The cell centres the GPU levels read from textures (``centres`` is
         ``"texture"``): :meth:`centers`, or a faster float64 twin of them."""
         return self.centers(level, j, i)  # type: ignore[attr-defined]
+
+    def glsl_centres(self) -> GlslCentres:
+        """The GLSL function of the cell centres, of grids whose ``centres`` is
+        ``"glsl"`` (:class:`~gloffset.grids.protocol.GlslCentres`); the others raise."""
+        raise InvalidGridError(f"a {type(self).__name__} has no GLSL function of its centres")
 
     def valid(self, level: int) -> np.ndarray | None:
         """Per cell of ``level``: whether a pixel of it has a place on the sphere; None

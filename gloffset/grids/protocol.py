@@ -30,11 +30,13 @@ The protocols, and the grids that answer them:
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
 __all__ = [
+    "GlslCentres",
     "Grid",
     "LonLatCells",
     "RegularLonLat",
@@ -150,6 +152,24 @@ class Image(Protocol):
         ...
 
 
+@dataclass(frozen=True)
+class GlslCentres:
+    """A grid's cell centres as a GLSL function: ``source`` (a file of ``shaders/``,
+    conventionally ``lib/grids/NAME.glsl``) defines ``dvec3 grid_centre(dvec2 px)``, the
+    unit vector (float64) of the point at output-pixel coordinates ``px`` of the grid
+    (``(i + 0.5, j + 0.5)`` the centre of pixel ``i, j``), from ``uniform double
+    u_grid[16]``, which the engine sets to ``constants`` (at most 16). The GPU levels
+    take each cell's centre minus its bin's (made on the host in float64) in double,
+    then cast it: the function must be within :meth:`centers` by less than the slack the
+    grid's bounds ``rho`` keep at the coarse levels and, at the output level, well
+    within 1e-3 of a pixel (:func:`gloffset.render`'s contract), with double add,
+    multiply and fma only
+    (``lib/fp64.glsl``: GLSL promises no precision for double division or sqrt)."""
+
+    source: str
+    constants: tuple[float, ...]
+
+
 @runtime_checkable
 class ImageGrid(Grid, Image, Protocol):
     """One face of an image: the output pixels a render draws, its levels and bins."""
@@ -158,7 +178,8 @@ class ImageGrid(Grid, Image, Protocol):
     subgrids: bool
     #: how the GPU levels get the cell centres: ``"lonlat"`` (rows and columns from
     #: their latitude and longitude, ``lib/lonlat.glsl``), ``"cube"`` (a cube face,
-    #: ``lib/cube.glsl``) or ``"texture"`` (each cell's centre minus its bin's, made on
+    #: ``lib/cube.glsl``), ``"glsl"`` (the grid's own GLSL function,
+    #: :meth:`glsl_centres`) or ``"texture"`` (each cell's centre minus its bin's, made on
     #: the host from :meth:`centers` in float64: any grid)
     centres: str
 
@@ -194,6 +215,11 @@ class ImageGrid(Grid, Image, Protocol):
     def valid(self, level: int) -> np.ndarray | None:
         """Per cell of ``level``: whether a pixel of it has a place on the sphere (a
         projection's domain); None when all have. Pixels without one are outside."""
+        ...
+
+    def glsl_centres(self) -> GlslCentres:
+        """The GLSL function of the cell centres (grids whose ``centres`` is
+        ``"glsl"``)."""
         ...
 
 

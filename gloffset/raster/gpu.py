@@ -108,6 +108,14 @@ def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs) -> BinPl
     )
     if layout.basis is not None:
         plan.basis, plan.face_size = layout.basis, layout.face_size
+    elif layout.glsl is not None:
+        assert layout.centre is not None  # a GLSL layout's
+        # the bin centres in two float32 parts: their sum has 48 bits of the float64
+        hi = layout.centre.astype(np.float32)
+        lo = (layout.centre - hi).astype(np.float32)
+        plan.bin_centre = layout.canvas_of(hi[:, None, None, :], 0)
+        plan.bin_centre_lo = layout.canvas_of(lo[:, None, None, :], 0)
+        plan.grid_source, plan.grid_constants = layout.glsl.source, layout.glsl.constants
     elif layout.centre is not None:
         plan.bin_centre = layout.canvas_of(layout.centre[:, None, None, :], 0).astype(np.float32)
         plan.cell_delta = layout.delta_canvas

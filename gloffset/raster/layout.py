@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry.classes import FRONTIER
+from ..grids.protocol import GlslCentres
 from .vector.levels import Frontier
 
 __all__ = ["BinLayout"]
@@ -36,6 +37,10 @@ class BinLayout:
     * lon/lat grids: ``lat[g]``, the latitude of the bin centres, and ``dphi[s][g, q]``,
       the cell row's latitude minus it; per geo column ``lon`` and ``dlam`` the same;
     * cube faces (``basis`` set): geo rows and columns are the bin's own on the face;
+    * grids with a GLSL function (``glsl`` set, the grid's ``centres`` is ``"glsl"``):
+      geo rows and columns are the bins' own in the grid (the function places the cells
+      by them); ``centre`` (k, 3) the bin centres (float64: the shader takes each cell's
+      centre minus its bin's in double);
     * any other grid (``centre`` set, the grid's ``centres`` is ``"texture"``):
       ``centre`` (k, 3) the bin centres; :meth:`delta_canvas` each cell's centre minus its
       bin's, from the grid's float64 centres (``texture_centers``), a level at a time.
@@ -58,6 +63,7 @@ class BinLayout:
     centre: np.ndarray | None = None
     bins: np.ndarray | None = None
     centres_at: Callable | None = None
+    glsl: GlslCentres | None = None
 
     @classmethod
     def build(
@@ -121,6 +127,19 @@ class BinLayout:
         out.bins, out.centres_at = bins, centres_at
         return out
 
+    @classmethod
+    def _glsl(cls, f: Frontier, last, stop, rho_at, glsl: GlslCentres) -> BinLayout:
+        """The layout of a grid whose cell centres a GLSL function gives: the geo rows and
+        columns are the bins' own (as a cube face's), the bin centres the frontier's."""
+        bins = np.asarray(f.cells).reshape(-1, 2)
+        g = np.arange(int(bins[:, 0].max(initial=0)) + 1)
+        rho = {}
+        for s in range(1, stop + 1):
+            rows = (g[:, None] << s) + np.arange(1 << s)[None, :]
+            rho[s] = np.zeros(rows.shape) if s == last else rho_at(s, rows)
+        centre = np.asarray(f.centers, dtype=np.float64).reshape(-1, 3)
+        return cls(bins, last, stop, rho, centre=centre, glsl=glsl)
+
     def delta_canvas(self, s: int, parent: np.ndarray) -> np.ndarray:
         """(hb 2^s, wb 2^s, 3) float32: on the canvas of shift ``s``, each child of a
         frontier cell of ``parent`` (the canvas classes of shift ``s - 1``) gets its
@@ -172,6 +191,10 @@ class BinLayout:
 
             return cls.build(
                 f.cells, grid.n_levels - 1 - bl, stop_level - bl, rho_at, centres_at=centres_at
+            )
+        if grid.centres == "glsl":
+            return cls._glsl(
+                f, grid.n_levels - 1 - bl, stop_level - bl, rho_at, grid.glsl_centres()
             )
         if grid.centres == "cube":
             return cls.build(
