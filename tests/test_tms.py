@@ -444,3 +444,25 @@ def test_a_custom_polar_tms(tmp_path, world, shapes):
                 mask = gloffset.render(shapes["Antarctica"], "200km", TmsTile(tms, z, x, y))
                 assert _tile_bytes(out, z, x, y) == TileStyle().encode(mask > 0)
     assert json.loads((out / "tileMatrixSet.json").read_text())["id"] == "Antarctic3031"
+
+
+@pytest.mark.parametrize(
+    "tms, zooms", [(None, (0, 3)), ("WorldCRS84Quad", (0, 3)), ("WorldCRS84Quad", (2, 4))]
+)
+def test_field_progress_shows_the_zoom_of_the_tms_tiles(tms, zooms):
+    """`gloffset tiles --field --tms`'s bar: the zoom shown after tile k is the zoom of
+    the k-th tile the field pyramid writes, and the total its tiles (WorldCRS84Quad has
+    2 x 1 tiles at zoom 0, not web mercator's 1)."""
+    from gloffset.cli.tiles import _field_progress
+    from gloffset.tiles.tiling.fieldtiles import _tiles, matrix_shapes
+
+    quad = None if tms is None else tms_quad(tms)
+    zlo, zhi = zooms
+    order = [z for z, _, _ in _tiles(matrix_shapes(quad, zhi), zlo, zhi)]
+    shown = []
+    progress = _field_progress(shown.append, zooms, quad)
+    assert shown[0].total == len(order) and shown[0].done == 0 and shown[0].zoom == zlo
+    for k in range(1, len(order) + 1):
+        progress(k, len(order))
+    assert [p.zoom for p in shown[1:]] == order
+    assert shown[-1].done == shown[-1].total == len(order)
