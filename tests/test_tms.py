@@ -466,3 +466,20 @@ def test_field_progress_shows_the_zoom_of_the_tms_tiles(tms, zooms):
         progress(k, len(order))
     assert [p.zoom for p in shown[1:]] == order
     assert shown[-1].done == shown[-1].total == len(order)
+
+
+def test_projected_check_domain_switch():
+    """A UPS quad's corner tile lies outside UPS's area of use: ``Projected`` refuses its
+    bounds by default, takes them with ``check_domain=False`` (as ``TmsTile`` makes its
+    tiles), and its pixels are the TMS's there too."""
+    b = morecantile.tms.get("UPSArcticWGS84Quad").xy_bounds(0, 0, 2)
+    bounds = (b.left, b.bottom, b.right, b.top)
+    with pytest.raises(InvalidGridError, match="outside the domain"):
+        gloffset.grids.Projected(256, 256, crs="EPSG:5041", bounds=bounds)
+    g = gloffset.grids.Projected(256, 256, crs="EPSG:5041", bounds=bounds, check_domain=False)
+    t = TmsTile("UPSArcticWGS84Quad", 2, 0, 0)
+    assert g == t and type(t) is gloffset.grids.Projected
+    lon, lat, _ = tms_centres("UPSArcticWGS84Quad", 2, 0, 0, step=51)
+    jj, ii = np.meshgrid(np.arange(0, 256, 51), np.arange(0, 256, 51), indexing="ij")
+    got = g.centers(g.n_levels - 1, jj, ii)
+    assert angle(got.reshape(-1, 3), lonlat_to_xyz(lon.ravel(), lat.ravel())).max() < 1e-12

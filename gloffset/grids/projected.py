@@ -249,12 +249,19 @@ class Projected(LevelHierarchy):
     width, height : int
     crs : anything ``pyproj.CRS.from_user_input`` takes ("EPSG:3031", WKT, a PROJ string)
     bounds : (xmin, ymin, xmax, ymax), optional
+    check_domain : bool, default True
+        Refuse bounds that miss the CRS's area of use or where no point has an inverse
+        (see Raises). False takes the bounds as given, for grids that something else
+        places (a TileMatrixSet's tiles: the UPS quads reach far beyond the 60th
+        parallel that bounds UPS's area of use). Either way a pixel without an inverse
+        is outside every region.
 
     Raises
     ------
     InvalidGridError
         An unknown or non-projected CRS, bounds that are not four finite numbers with
-        ``xmin < xmax`` and ``ymin < ymax``, or bounds where no pixel has an inverse.
+        ``xmin < xmax`` and ``ymin < ymax``, or (with ``check_domain``) bounds that miss
+        the CRS's area of use or where no point of a 9 x 9 sample has an inverse.
 
     Examples
     --------
@@ -271,7 +278,7 @@ class Projected(LevelHierarchy):
     #: the GPU levels get the cell centres from a texture made on the host
     centres = "texture"
 
-    def __init__(self, width: int, height: int, *, crs, bounds=None):
+    def __init__(self, width: int, height: int, *, crs, bounds=None, check_domain: bool = True):
         w, h = check_size(width, height)
         self._crs = _as_crs(crs)
         self.width, self.height = w, h
@@ -292,7 +299,8 @@ class Projected(LevelHierarchy):
         # the pixel frame: this grid's pixels are columns x0.. and rows y0.. of a
         # full_w x full_h grid over full (a subgrid keeps its parent's pixel centres)
         self._frame = (0, 0, w, h, b)
-        self._check_domain()
+        if check_domain:
+            self._check_domain()
 
     # ------------------------------------------------------------------ identity
     @property

@@ -179,20 +179,11 @@ class TmsQuad:
         return self.tms().model_dump_json(exclude_none=True, indent=2)
 
 
-class TmsProjected(Projected):
-    """A :class:`~gloffset.grids.Projected` tile or zoom of a TMS: where the TMS puts it,
-    in the CRS's area of use or not (the UPS quads' tiles reach far beyond the 60th
-    parallel that bounds UPS's area of use); its pixels without an inverse are outside,
-    as on every ``Projected``."""
-
-    def _check_domain(self) -> None:
-        """No check: the TMS defines the tile."""
-
-
 def _projected_tile(quad: TmsQuad, z: int, x: int, y: int) -> Projected:
     b = quad.tms().xy_bounds(x, y, z)
     bounds = (b.left, b.bottom, b.right, b.top)
-    return TmsProjected(quad.size, quad.size, crs=quad.crs, bounds=bounds)
+    # the TMS places the tile, in the CRS's area of use or not
+    return Projected(quad.size, quad.size, crs=quad.crs, bounds=bounds, check_domain=False)
 
 
 @functools.lru_cache(maxsize=64)
@@ -394,11 +385,11 @@ class ProjectedQuadLevels:
             a, b = tms.xy_bounds(0, 0, z), tms.xy_bounds(cols - 1, rows - 1, z)
             ext = (a.left, b.bottom, b.right, a.top)
             gap = max(gap, *(abs(u - v) for u, v in zip(ext, quad.bounds)))
-            self._zooms.append(TmsProjected(cols, rows, crs=quad.crs, bounds=ext))
+            self._zooms.append(Projected(cols, rows, crs=quad.crs, bounds=ext, check_domain=False))
         # one level below the deepest tiles (never walked): the driver decides the cells
         # of a grid's last level at their centres, as pixels, and tiles are not pixels
         rows, cols = quad.matrix_shape(self.maxzoom + 1)
-        self._zooms.append(TmsProjected(cols, rows, crs=quad.crs, bounds=ext))
+        self._zooms.append(Projected(cols, rows, crs=quad.crs, bounds=ext, check_domain=False))
         lip = self._zooms[0]._lipschitz()
         if lip is None:
             raise InvalidGridError(
