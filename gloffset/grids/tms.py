@@ -38,7 +38,7 @@ import numpy as np
 from ..geometry.caps import pad
 from .base import InvalidGridError, LonLatGrid, check_size
 from .mercator import MAX_ZOOM, Tile
-from .projected import Projected
+from .projected import Projected, azimuthal_lipschitz
 
 __all__ = [
     "TmsTile",
@@ -359,7 +359,9 @@ class ProjectedQuadLevels:
     morecantile's); a tile's centre is pyproj's inverse of its centre in the CRS, as for
     :class:`~gloffset.grids.Projected` (a zoom is a ``Projected`` grid of one pixel a
     tile). Bounds: the inverse is ``K``-Lipschitz from the plane to the unit sphere where
-    the projection gives ``K`` (polar stereographic: the UPS quads), so every point of a
+    the projection gives ``K`` over the TMS's extent (polar stereographic: the UPS quads;
+    Lambert azimuthal equal-area, :func:`~gloffset.grids.projected.azimuthal_lipschitz`:
+    ``EuropeanETRS89_LAEAQuad``), so every point of a
     tile lies within ``K h`` of its centre (``h`` the tile's half-diagonal), plus the
     inverse's error and ``K`` times the largest gap between a zoom's extent and zoom
     0's (the matrices' cell sizes are rounded: a tile's children may stick out of it by
@@ -390,13 +392,18 @@ class ProjectedQuadLevels:
         # of a grid's last level at their centres, as pixels, and tiles are not pixels
         rows, cols = quad.matrix_shape(self.maxzoom + 1)
         self._zooms.append(Projected(cols, rows, crs=quad.crs, bounds=ext, check_domain=False))
+        xmin, ymin, xmax, ymax = quad.bounds
         lip = self._zooms[0]._lipschitz()
+        if lip is None:  # every tile lies in the extent grown by the gap
+            box = (xmin - gap, ymin - gap, xmax + gap, ymax + gap)
+            lip = azimuthal_lipschitz(self._zooms[0].crs, box)
         if lip is None:
             raise InvalidGridError(
                 f"pyramids of {quad.id} need a bound of its projection ({quad.crs}) that "
-                "gloffset does not have (it has one for polar stereographic CRSs)"
+                "gloffset does not have (it has one for polar stereographic, Lambert "
+                "azimuthal equal-area and, within 3900 km of the central meridian, "
+                "transverse Mercator CRSs)"
             )
-        xmin, ymin, xmax, ymax = quad.bounds
         self._decision = []
         for z in range(self.maxzoom + 2):
             rows, cols = quad.matrix_shape(z)
