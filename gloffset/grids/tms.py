@@ -36,9 +36,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..geometry.caps import pad
+from .azimuthal import azimuthal_lipschitz
 from .base import InvalidGridError, LonLatGrid, check_size
 from .mercator import MAX_ZOOM, Tile
-from .projected import Projected, azimuthal_lipschitz
+from .projected import Projected
 
 __all__ = [
     "TmsTile",
@@ -360,7 +361,7 @@ class ProjectedQuadLevels:
     :class:`~gloffset.grids.Projected` (a zoom is a ``Projected`` grid of one pixel a
     tile). Bounds: the inverse is ``K``-Lipschitz from the plane to the unit sphere where
     the projection gives ``K`` over the TMS's extent (polar stereographic: the UPS quads;
-    Lambert azimuthal equal-area, :func:`~gloffset.grids.projected.azimuthal_lipschitz`:
+    Lambert azimuthal equal-area, :func:`~gloffset.grids.azimuthal.azimuthal_lipschitz`:
     ``EuropeanETRS89_LAEAQuad``), so every point of a
     tile lies within ``K h`` of its centre (``h`` the tile's half-diagonal), plus the
     inverse's error and ``K`` times the largest gap between a zoom's extent and zoom
