@@ -17,7 +17,8 @@ ways (derivation: docs/design.md, "gloffset.grids.projected"):
   cell's half-diagonal) plus 3e-9 rad per level for the inverse's own error. Polar
   stereographic (variants A and B: EPSG:3031, 3413, 3976, UPS): ``k_min`` is the scale
   at the pole, and the whole plane is the domain; Transverse Mercator (UTM, national
-  grids) within 3900 km of the central meridian: ``k_0``;
+  grids) within 3900 km of the central meridian: ``k_0``; Lambert azimuthal equal-area,
+  conformal conic and Albers: :mod:`gloffset.grids.stretch`;
 * otherwise from the pixel centres themselves (every one computed by pyproj, about
   0.5-0.7 us each): exact for the pixels, correct for any CRS, slower.
 
@@ -36,6 +37,8 @@ from ..errors import InvalidGridError
 from ..geometry.caps import pad
 from ..geometry.sphere import angle, lonlat_to_xyz
 from .base import LevelHierarchy, check_size
+from .stretch import eccentricity_squared as _eccentricity_squared
+from .stretch import inverse_lipschitz
 
 __all__ = ["Projected", "polar_scale_min"]
 
@@ -216,18 +219,6 @@ def transverse_scale_min(crs, box) -> float | None:
     unit = crs.axis_info[0].unit_conversion_factor or 1.0
     reach = max(abs(box[0] - fe), abs(box[2] - fe)) * unit / k0
     return k0 if reach <= _TM_REACH else None
-
-
-def _eccentricity_squared(crs) -> float:
-    inv_f = crs.ellipsoid.inverse_flattening
-    f = 1.0 / inv_f if inv_f else 0.0
-    return f * (2.0 - f)
-
-
-def eccentricity_squared(crs) -> float:
-    """The first eccentricity squared ``f (2 - f)`` of the ellipsoid of ``crs`` (0 on a
-    sphere)."""
-    return _eccentricity_squared(crs)
 
 
 def _projected_area(crs) -> tuple[float, float, float, float]:
@@ -434,10 +425,12 @@ class Projected(LevelHierarchy):
         """Radians on the unit sphere per CRS unit, an upper bound (formula grids), or None."""
         if "_lip" in self.__dict__:
             return self.__dict__["_lip"]
-        # every cell centre lies in the grid's bounds grown by their size on each side
-        fx0, fy0, fw, fh, (xmin, ymin, xmax, ymax) = self._frame
-        w, h = xmax - xmin, ymax - ymin
-        box = (xmin - w, ymin - h, xmax + w, ymax + h)
+        # every cell of every level (with the segments from its centre to its pixels)
+        # lies in the blocks of level 0 that hold the grid's pixels
+        rows, cols = self.level_shape(0)
+        b = self.block(0)
+        (xa, xb), (ya, yb) = self.pixel_xy(np.array([0.0, cols * b]), np.array([0.0, rows * b]))
+        box = (float(xa), float(yb), float(xb), float(ya))
         k = polar_scale_min(self._crs)
         if k is None:
             k = transverse_scale_min(self._crs, box)
@@ -448,6 +441,8 @@ class Projected(LevelHierarchy):
             unit = self._crs.axis_info[0].unit_conversion_factor or 1.0
             # rounded up by a relative 1e-9 (the scale formula's and the constants' roundings)
             lip = unit / (k * a * (1.0 - es)) * (1.0 + 1e-9)
+        if lip is None:  # LAEA, the conics (gloffset.grids.stretch)
+            lip = inverse_lipschitz(self._crs, box)
         self.__dict__["_lip"] = lip
         return lip
 

@@ -36,10 +36,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..geometry.caps import pad
-from .azimuthal import azimuthal_lipschitz
 from .base import InvalidGridError, LonLatGrid, check_size
 from .mercator import MAX_ZOOM, Tile
 from .projected import Projected
+from .stretch import inverse_lipschitz
 
 __all__ = [
     "TmsTile",
@@ -361,7 +361,7 @@ class ProjectedQuadLevels:
     :class:`~gloffset.grids.Projected` (a zoom is a ``Projected`` grid of one pixel a
     tile). Bounds: the inverse is ``K``-Lipschitz from the plane to the unit sphere where
     the projection gives ``K`` over the TMS's extent (polar stereographic: the UPS quads;
-    Lambert azimuthal equal-area, :func:`~gloffset.grids.azimuthal.azimuthal_lipschitz`:
+    Lambert azimuthal equal-area, :func:`~gloffset.grids.stretch.inverse_lipschitz`:
     ``EuropeanETRS89_LAEAQuad``), so every point of a
     tile lies within ``K h`` of its centre (``h`` the tile's half-diagonal), plus the
     inverse's error and ``K`` times the largest gap between a zoom's extent and zoom
@@ -394,10 +394,12 @@ class ProjectedQuadLevels:
         rows, cols = quad.matrix_shape(self.maxzoom + 1)
         self._zooms.append(Projected(cols, rows, crs=quad.crs, bounds=ext, check_domain=False))
         xmin, ymin, xmax, ymax = quad.bounds
-        lip = self._zooms[0]._lipschitz()
-        if lip is None:  # every tile lies in the extent grown by the gap
-            box = (xmin - gap, ymin - gap, xmax + gap, ymax + gap)
-            lip = azimuthal_lipschitz(self._zooms[0].crs, box)
+        # over the extent grown by the gap, where every tile lies (tighter than the
+        # zoom grid's own, over its bounds grown by their size)
+        box = (xmin - gap, ymin - gap, xmax + gap, ymax + gap)
+        lip = inverse_lipschitz(self._zooms[0].crs, box)
+        if lip is None:
+            lip = self._zooms[0]._lipschitz()
         if lip is None:
             raise InvalidGridError(
                 f"pyramids of {quad.id} need a bound of its projection ({quad.crs}) that "
