@@ -59,6 +59,8 @@ def test_conic_bound_refused_where_it_cannot_hold():
     assert conic_lipschitz(crs, north) is None
     aea = pyproj.CRS("EPSG:5070")
     assert conic_lipschitz(aea, (-1e5, 8e6, 1e5, 9e6)) is None  # round the pole's image
+    flat = pyproj.CRS("+proj=aea +lat_1=20 +lat_2=-19.9 +lon_0=0 +ellps=WGS84")  # n ~ 1e-3
+    assert conic_lipschitz(flat, (-1e6, -1e6, 1e6, 1e6)) is None
     assert conic_lipschitz(pyproj.CRS("EPSG:3031"), (0, 0, 1, 1)) is None
     assert inverse_lipschitz(pyproj.CRS("EPSG:32633"), (0, 0, 1, 1)) is None
 

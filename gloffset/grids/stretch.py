@@ -232,27 +232,22 @@ def _ray_meets_box(p, u, box) -> bool:
 
 def _cone(fwd, lon0: float, unit: float):
     """The apex (metres), the cone constant ``n`` and the unit vector from the apex along
-    the central meridian, from the images of three points of the 45th parallel north;
-    (None, 0, None) where they do not make a circle."""
-    lat = 45.0
-    pts = [fwd.transform(lon0 + dl, lat) for dl in (-20.0, 0.0, 20.0)]
-    (ax, ay), (bx, by), (cx, cy) = ((x * unit, y * unit) for x, y in pts)
-    d = 2.0 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by))
+    the central meridian, from the images of three points of the 45th parallel north (a
+    fourth checks the circle); (None, 0, None) where they do not make one about an apex
+    with ``|n| >= 0.01`` (a cone that is nearly a cylinder has no bound here)."""
+    pts = [fwd.transform(lon0 + dl, 45.0) for dl in (-20.0, 0.0, 20.0, 10.0)]
+    (bx, by) = (pts[1][0] * unit, pts[1][1] * unit)
+    # relative to the middle point, for the roundings
+    (ax, ay), (cx, cy), (qx, qy) = ((x * unit - bx, y * unit - by) for x, y in pts[::2] + pts[3:])
+    d = 2.0 * (ax * cy - cx * ay)
     if not (math.isfinite(d) and abs(d) > 0.0):
         return None, 0.0, None
-    ux = (
-        (ax * ax + ay * ay) * (by - cy)
-        + (bx * bx + by * by) * (cy - ay)
-        + (cx * cx + cy * cy) * (ay - by)
-    ) / d
-    uy = (
-        (ax * ax + ay * ay) * (cx - bx)
-        + (bx * bx + by * by) * (ax - cx)
-        + (cx * cx + cy * cy) * (bx - ax)
-    ) / d
-    t_a = math.atan2(ay - uy, ax - ux)
-    t_c = math.atan2(cy - uy, cx - ux)
-    dt = math.remainder(t_c - t_a, 2.0 * math.pi)
-    n = dt / math.radians(40.0)
-    r = math.hypot(bx - ux, by - uy)
-    return (ux, uy), n, ((bx - ux) / r, (by - uy) / r)
+    a2, c2 = ax * ax + ay * ay, cx * cx + cy * cy
+    ux, uy = (a2 * cy - c2 * ay) / d, (c2 * ax - a2 * cx) / d
+    r = math.hypot(ux, uy)
+    t_a, t_c = math.atan2(ay - uy, ax - ux), math.atan2(cy - uy, cx - ux)
+    n = math.remainder(t_c - t_a, 2.0 * math.pi) / math.radians(40.0)
+    on_circle = abs(math.hypot(qx - ux, qy - uy) - r) <= 1e-9 * r
+    if not (math.isfinite(r) and on_circle and abs(n) >= 0.01):
+        return None, 0.0, None
+    return (bx + ux, by + uy), n, (-ux / r, -uy / r)
