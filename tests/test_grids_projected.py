@@ -105,7 +105,7 @@ def test_polar_scale_is_the_smallest_scale():
         ("EPSG:3031", (-3.3e6, -3.1e6, 3.5e6, 3.0e6), (150, 120)),  # the formula
         ("EPSG:32633", (1.0e5, 4.0e6, 9.0e5, 5.3e6), (110, 150)),  # the formula (k0)
         ("EPSG:32633", (-6e6, 4.0e6, 6e6, 5.3e6), (110, 60)),  # too wide: the pixels
-        ("EPSG:3035", (2.5e6, 1.4e6, 6.5e6, 5.5e6), (120, 130)),  # from the pixel centres
+        ("EPSG:3035", (2.5e6, 1.4e6, 6.5e6, 5.5e6), (120, 130)),  # the formula (LAEA)
         (ORTHO, (-8e6, -7e6, 8e6, 8e6), (130, 110)),  # pixels outside the domain
     ],
 )

@@ -236,7 +236,7 @@ def test_centres_measured_together_as_alone():
         for k in keys:
             assert together.triage(k, measure=False) is not UNKNOWN
             alone.triage(k)
-            where = ("m", k.z, k.x, k.y)
+            where = k.where()
             for a, b in zip(
                 vars(alone.centres[where]).values(), vars(together.centres[where]).values()
             ):

@@ -328,7 +328,7 @@ def test_projected_quad_bounds_cover_the_tiles(z, x, y):
         ("t.pmtiles", "UPSAntarcticWGS84Quad", r"\.pmtiles holds web-mercator tiles only"),
         ("t", "Nope", "unknown TileMatrixSet 'Nope'"),
         ("t", "CanadianNAD83_LCC", "not a quadtree"),
-        ("t", "EuropeanETRS89_LAEAQuad", "need a bound of its projection"),
+        ("t", "NZTM2000Quad", "need a bound of its projection"),
     ],
 )
 def test_pyramid_tms_refused_before_any_output(tmp_path, out, tms, match):
@@ -444,3 +444,226 @@ def test_a_custom_polar_tms(tmp_path, world, shapes):
                 mask = gloffset.render(shapes["Antarctica"], "200km", TmsTile(tms, z, x, y))
                 assert _tile_bytes(out, z, x, y) == TileStyle().encode(mask > 0)
     assert json.loads((out / "tileMatrixSet.json").read_text())["id"] == "Antarctic3031"
+
+
+@pytest.mark.parametrize(
+    "tms, zooms", [(None, (0, 3)), ("WorldCRS84Quad", (0, 3)), ("WorldCRS84Quad", (2, 4))]
+)
+def test_field_progress_shows_the_zoom_of_the_tms_tiles(tms, zooms):
+    """`gloffset tiles --field --tms`'s bar: the zoom shown after tile k is the zoom of
+    the k-th tile the field pyramid writes, and the total its tiles (WorldCRS84Quad has
+    2 x 1 tiles at zoom 0, not web mercator's 1)."""
+    from gloffset.cli.tiles import _field_progress
+    from gloffset.tiles.tiling.fieldtiles import _tiles, matrix_shapes
+
+    quad = None if tms is None else tms_quad(tms)
+    zlo, zhi = zooms
+    order = [z for z, _, _ in _tiles(matrix_shapes(quad, zhi), zlo, zhi)]
+    shown = []
+    progress = _field_progress(shown.append, zooms, quad)
+    assert shown[0].total == len(order) and shown[0].done == 0 and shown[0].zoom == zlo
+    for k in range(1, len(order) + 1):
+        progress(k, len(order))
+    assert [p.zoom for p in shown[1:]] == order
+    assert shown[-1].done == shown[-1].total == len(order)
+
+
+def test_projected_check_domain_switch():
+    """A UPS quad's corner tile lies outside UPS's area of use: ``Projected`` refuses its
+    bounds by default, takes them with ``check_domain=False`` (as ``TmsTile`` makes its
+    tiles), and its pixels are the TMS's there too."""
+    b = morecantile.tms.get("UPSArcticWGS84Quad").xy_bounds(0, 0, 2)
+    bounds = (b.left, b.bottom, b.right, b.top)
+    with pytest.raises(InvalidGridError, match="outside the domain"):
+        gloffset.grids.Projected(256, 256, crs="EPSG:5041", bounds=bounds)
+    g = gloffset.grids.Projected(256, 256, crs="EPSG:5041", bounds=bounds, check_domain=False)
+    t = TmsTile("UPSArcticWGS84Quad", 2, 0, 0)
+    assert g == t and type(t) is gloffset.grids.Projected
+    lon, lat, _ = tms_centres("UPSArcticWGS84Quad", 2, 0, 0, step=51)
+    jj, ii = np.meshgrid(np.arange(0, 256, 51), np.arange(0, 256, 51), indexing="ij")
+    got = g.centers(g.n_levels - 1, jj, ii)
+    assert angle(got.reshape(-1, 3), lonlat_to_xyz(lon.ravel(), lat.ravel())).max() < 1e-12
+
+
+# ------------------------------------------------- Lambert azimuthal equal-area pyramids
+LAEA = "EuropeanETRS89_LAEAQuad"
+
+
+def _max_secant_stretch(crs, box, n=201):
+    """The largest angle per CRS unit between neighbouring points (rows, columns and
+    diagonals) of an n x n sample of ``box``: what a bound of the inverse's stretch
+    must reach."""
+    import pyproj
+
+    crs = pyproj.CRS(crs)
+    tr = pyproj.Transformer.from_crs(crs, crs.geodetic_crs, always_xy=True)
+    xs, ys = np.linspace(box[0], box[2], n), np.linspace(box[1], box[3], n)
+    lon, lat = tr.transform(*np.meshgrid(xs, ys))
+    p = lonlat_to_xyz(lon, lat)
+    h, v = xs[1] - xs[0], ys[1] - ys[0]
+    return max(
+        (angle(p[:, 1:], p[:, :-1]) / h).max(),
+        (angle(p[1:], p[:-1]) / v).max(),
+        (angle(p[1:, 1:], p[:-1, :-1]) / np.hypot(h, v)).max(),
+        (angle(p[1:, :-1], p[:-1, 1:]) / np.hypot(h, v)).max(),
+    )
+
+
+@pytest.mark.parametrize(
+    "crs, box",
+    [
+        ("EPSG:3035", (2.0e6, 1.0e6, 6.5e6, 5.5e6)),  # the quad's extent
+        ("EPSG:3035", (4.3e6, 3.2e6, 4.4e6, 3.3e6)),  # at the centre
+        ("+proj=laea +lat_0=90 +lon_0=0 +ellps=WGS84", (-4e6, -4e6, 4e6, 4e6)),  # polar
+        ("+proj=laea +lat_0=0 +lon_0=20 +ellps=WGS84", (-5e6, -5e6, 5e6, 5e6)),  # equatorial
+        ("+proj=laea +lat_0=-40 +lon_0=20 +ellps=clrk66 +x_0=1e5", (-5e6, -4e6, 6e6, 5e6)),
+        ("+proj=laea +lat_0=45 +lon_0=0 +R=6371000 +units=km", (-5e3, -5e3, 5e3, 5e3)),
+    ],
+)
+def test_laea_bound_covers_the_stretch(crs, box):
+    """The LAEA bound is above every secant slope of pyproj's inverse over the box, and
+    within 1 % of the largest (the formula is tight)."""
+    import pyproj
+
+    from gloffset.grids.stretch import azimuthal_lipschitz
+
+    k = azimuthal_lipschitz(pyproj.CRS(crs), box)
+    m = _max_secant_stretch(crs, box)
+    assert m <= k <= 1.01 * m
+
+
+def test_laea_bound_authalic_facts_and_refusals():
+    """The authalic latitude's two facts the LAEA bound rests on, at every latitude (GRS80):
+    dphi/dbeta is largest at the equator, q_p / (2 (1 - e^2)), and |beta| <= |phi|;
+    no bound for other CRSs, or a box reaching too near the antipode."""
+    import pyproj
+
+    from gloffset.grids.stretch import _authalic_q, azimuthal_lipschitz, eccentricity_squared
+
+    crs = pyproj.CRS("EPSG:3035")
+    es = eccentricity_squared(crs)
+    qp = _authalic_q(1.0, es)
+    phi = np.radians(np.linspace(0.0, 89.99, 20001))
+    s = np.sin(phi)
+    e = np.sqrt(es)
+    q = (1 - es) * (s / (1 - es * s * s) - np.log((1 - e * s) / (1 + e * s)) / (2 * e))
+    sb = q / qp
+    cb = np.sqrt((1 - sb) * (1 + sb))
+    dbeta = 2 * (1 - es) * np.cos(phi) / ((1 - es * s * s) ** 2 * qp * cb)
+    assert (1.0 / dbeta).max() <= qp / (2 * (1 - es)) * (1 + 1e-12)
+    assert np.all(np.arcsin(sb) <= phi + 1e-15)
+    assert azimuthal_lipschitz(pyproj.CRS("EPSG:3031"), (-1e6, -1e6, 1e6, 1e6)) is None
+    assert azimuthal_lipschitz(crs, (-9e6, -9e6, 1.6e7, 1.6e7)) is None  # near the antipode
+
+
+@pytest.mark.parametrize("z, x, y", [(0, 0, 0), (2, 3, 0), (3, 0, 7), (5, 31, 31), (9, 300, 200)])
+def test_laea_quad_bounds_cover_the_tiles(z, x, y):
+    """EuropeanETRS89_LAEAQuad's tile bound covers every pixel centre of the tile (corner
+    tiles, where the stretch is largest, included), and its list bound the children's."""
+    from gloffset.grids.tms import ProjectedQuadLevels
+
+    quad = tms_quad(LAEA)
+    levels = ProjectedQuadLevels(quad, z + 1)
+    t = TmsTile(LAEA, z, x, y)
+    jj, ii = np.meshgrid(np.arange(0, 256, 5), np.arange(0, 256, 5), indexing="ij")
+    pix = t.centers(t.n_levels - 1, jj, ii)
+    c = levels.centers(z, y, x)
+    got = angle(c, pix).max()
+    assert got <= levels.decision_rho(z, y, x) and got > 0.9 * levels.decision_rho(z, y, x)
+    for dj in (0, 1):
+        for di in (0, 1):
+            cj, ci = 2 * y + dj, 2 * x + di
+            far = angle(c, levels.centers(z + 1, cj, ci)) + levels.rho_at(z + 1, cj, ci)
+            assert far <= levels.rho_at(z, y, x)
+
+
+def _europe(path, names):
+    fc = json.loads(path.read_text())
+    feats = [f for f in fc["features"] if f["properties"]["name"] in names]
+    assert len(feats) == len(names)
+    return gloffset.read({"type": "FeatureCollection", "features": feats})
+
+
+@pytest.mark.slow
+def test_laea_pyramid_every_tile_is_a_single_render(tmp_path):
+    """Every tile of a LAEA Europe pyramid (z0-3, all 85) equals the render of its
+    TmsTile: the tiles decided inside (written without rendering) and outside (skipped)
+    at zoom 3 too."""
+    from conftest import DATA
+
+    from gloffset.tiles.tiling.tilepaint import TileStyle
+
+    shape = _europe(DATA / "world_110m.geojson", ["France", "Germany", "Italy", "Spain"])
+    out = tmp_path / "eu"
+    st = gloffset.tiles.pyramid(shape, "700km", "0-3", out, tms=LAEA)
+    style = TileStyle()
+    for z in range(4):
+        for x in range(1 << z):
+            for y in range(1 << z):
+                mask = gloffset.render(shape, "700km", TmsTile(LAEA, z, x, y))
+                assert _tile_bytes(out, z, x, y) == style.encode(mask > 0), (z, x, y)
+    assert st.zooms[3]["contained"] > 5 and st.zooms[3]["outside"] > 5 and st.inside > 5
+    assert json.loads((out / "tileMatrixSet.json").read_text())["id"] == LAEA
+
+
+@pytest.mark.slow
+def test_laea_pyramid_real_border_10m(tmp_path):
+    """France, Spain and Germany at 1:10m, 300 km, z3-4: every tile written equals its
+    single render (frontier tiles and inside ones), and tiles not written render empty
+    (a sample of them)."""
+    from conftest import DATA
+
+    from gloffset.tiles.tiling.tilepaint import TileStyle
+
+    shape = _europe(DATA / "countries_10m.geojson", ["France", "Spain", "Germany"])
+    out = tmp_path / "eu"
+    st = gloffset.tiles.pyramid(shape, "300km", "3-4", out, tms=LAEA)
+    assert st.rendered > 10 and st.inside > 0, st
+    style = TileStyle()
+    written = set()
+    for z in range(3, 5):
+        for xdir in (out / str(z)).iterdir():
+            for f in xdir.iterdir():
+                x, y = int(xdir.name), int(f.stem)
+                written.add((z, x, y))
+                mask = gloffset.render(shape, "300km", TmsTile(LAEA, z, x, y))
+                assert f.read_bytes() == style.encode(mask > 0), (z, x, y)
+    rng = np.random.default_rng(3)
+    absent = [
+        (z, x, y)
+        for z in range(3, 5)
+        for x in range(1 << z)
+        for y in range(1 << z)
+        if (z, x, y) not in written
+    ]
+    # the absent tiles nearest the written ones first: those are the ones at risk
+    near = [
+        t
+        for t in absent
+        if any((t[0], t[1] + a, t[2] + b) in written for a in (-1, 1) for b in (-1, 0, 1))
+    ]
+    for k in rng.choice(len(near), size=min(12, len(near)), replace=False):
+        z, x, y = near[k]
+        assert not gloffset.render(shape, "300km", TmsTile(LAEA, z, x, y)).any(), (z, x, y)
+
+
+@pytest.mark.slow
+def test_cli_laea_tiles_and_field(tmp_path, world):
+    """``gloffset tiles --tms EuropeanETRS89_LAEAQuad``, raster and --field, z0-1."""
+    from gloffset.tiles.tiling.fieldtiles import decode_field
+    from gloffset.tiles.tiling.tilepaint import TileStyle
+
+    src = tmp_path / "fr.geojson"
+    src.write_text(json.dumps(world["France"]))
+    shape = gloffset.read(world["France"])
+    out, fout = tmp_path / "t", tmp_path / "f"
+    proc = _cli("tiles", src, "-d", "300km", "-z", "0-1", "--tms", LAEA, "-o", out)
+    assert proc.returncode == 0, proc.stderr.decode()
+    proc = _cli("tiles", src, "--field", "-z", "0-1", "--tms", LAEA, "-o", fout)
+    assert proc.returncode == 0, proc.stderr.decode()
+    for z, x, y in [(0, 0, 0), (1, 0, 0), (1, 0, 1), (1, 1, 1)]:
+        mask = gloffset.render(shape, "300km", TmsTile(LAEA, z, x, y))
+        assert _tile_bytes(out, z, x, y) == TileStyle().encode(mask > 0)
+        f = gloffset.distance_field(shape, TmsTile(LAEA, z, x, y))
+        assert np.abs(decode_field(_tile_bytes(fout, z, x, y)) - f.values).max() <= 1.0
+    assert json.loads((fout / "tileMatrixSet.json").read_text())["id"] == LAEA

@@ -218,13 +218,18 @@ def _tile_bar():
     return bar, progress
 
 
-def _field_progress(show, zooms: tuple[int, int]):
+def _field_progress(show, zooms: tuple[int, int], quad=None):
     """A field pyramid's ``progress(done, total)`` (its tiles zoom by zoom) as the
     :class:`~gloffset.tiles.tiling.TileProgress` that ``show`` draws: the zoom of
-    tile ``done``, and the time left at the pace of the tiles so far (every tile of a
-    zoom is computed alike); told once at the start."""
+    tile ``done`` (from the tiles of each zoom of ``quad``, the TileMatrixSet's
+    :class:`~gloffset.grids.tms.TmsQuad`, None for web mercator), and the time left at
+    the pace of the tiles so far (every tile of a zoom is computed alike); told once at
+    the start."""
+    from ..tiles.tiling.fieldtiles import matrix_shapes
+
     zlo, zhi = zooms
-    ends = list(itertools.accumulate(4**z for z in range(zlo, zhi + 1)))
+    counts = [rows * cols for rows, cols in matrix_shapes(quad, zhi)[zlo:]]
+    ends = list(itertools.accumulate(counts))
     t0 = time.perf_counter()
 
     def progress(done: int, total: int) -> None:
@@ -288,7 +293,9 @@ def _field_tiles(given: dict) -> None:
     refuse_stdout(output, "field tiles are an .mbtiles or .pmtiles file or a folder")
     check_tile_output(output)
     zrange = parse_zooms(given["zooms"])
-    pyramid_quad(PyramidOptions(size=given["tile_size"], tms=given["tms"]), output, zrange[1])
+    quad = pyramid_quad(
+        PyramidOptions(size=given["tile_size"], tms=given["tms"]), output, zrange[1]
+    )
     shape = read(
         given["input"], layer=given["layer"], where=given["where"], densify=given["densify"]
     )
@@ -304,7 +311,7 @@ def _field_tiles(given: dict) -> None:
         source="stdin" if given["input"] == "-" else Path(given["input"]).stem,
         overwrite=given["force"],
         resume=given["resume"],
-        progress=None if show is None else _field_progress(show, zrange),
+        progress=None if show is None else _field_progress(show, zrange, quad),
         tms=given["tms"],
     )
     if bar is not None:

@@ -13,22 +13,15 @@ import numpy as np
 
 from ..ellipsoid import Ellipsoid
 from .protocol import GlslCentres
+from .stretch import eccentricity_squared
 
 __all__ = [
-    "eccentricity_squared",
     "polar_scale_min",
     "polar_params",
     "polar_inverse",
     "polar_glsl",
     "POLAR_GLSL",
 ]
-
-
-def eccentricity_squared(crs) -> float:
-    """``e^2 = f (2 - f)`` of the ellipsoid of ``crs`` (0 on a sphere)."""
-    inv_f = crs.ellipsoid.inverse_flattening
-    f = 1.0 / inv_f if inv_f else 0.0
-    return f * (2.0 - f)
 
 
 def polar_scale_min(crs) -> float | None:

@@ -17,7 +17,8 @@ ways (derivation: docs/design.md, "gloffset.grids.projected"):
   cell's half-diagonal) plus 3e-9 rad per level for the inverse's own error. Polar
   stereographic (variants A and B: EPSG:3031, 3413, 3976, UPS): ``k_min`` is the scale
   at the pole, and the whole plane is the domain; Transverse Mercator (UTM, national
-  grids) within 3900 km of the central meridian: ``k_0``;
+  grids) within 3900 km of the central meridian: ``k_0``; Lambert azimuthal equal-area,
+  conformal conic and Albers: :mod:`gloffset.grids.stretch`;
 * otherwise from the pixel centres themselves (every one computed by pyproj, about
   0.5-0.7 us each): exact for the pixels, correct for any CRS, slower.
 
@@ -39,8 +40,9 @@ from ..errors import InvalidGridError
 from ..geometry.caps import pad
 from ..geometry.sphere import angle, lonlat_to_xyz
 from .base import LevelHierarchy, check_size
-from .polar import eccentricity_squared, polar_glsl, polar_inverse, polar_params, polar_scale_min
+from .polar import polar_glsl, polar_inverse, polar_params, polar_scale_min
 from .protocol import GlslCentres
+from .stretch import eccentricity_squared, inverse_lipschitz
 
 __all__ = ["Projected", "polar_scale_min", "polar_inverse"]
 
@@ -156,12 +158,19 @@ class Projected(LevelHierarchy):
     width, height : int
     crs : anything ``pyproj.CRS.from_user_input`` takes ("EPSG:3031", WKT, a PROJ string)
     bounds : (xmin, ymin, xmax, ymax), optional
+    check_domain : bool, default True
+        Refuse bounds that miss the CRS's area of use or where no point has an inverse
+        (see Raises). False takes the bounds as given, for grids that something else
+        places (a TileMatrixSet's tiles: the UPS quads reach far beyond the 60th
+        parallel that bounds UPS's area of use). Either way a pixel without an inverse
+        is outside every region.
 
     Raises
     ------
     InvalidGridError
         An unknown or non-projected CRS, bounds that are not four finite numbers with
-        ``xmin < xmax`` and ``ymin < ymax``, or bounds where no pixel has an inverse.
+        ``xmin < xmax`` and ``ymin < ymax``, or (with ``check_domain``) bounds that miss
+        the CRS's area of use or where no point of a 9 x 9 sample has an inverse.
 
     Examples
     --------
@@ -179,7 +188,7 @@ class Projected(LevelHierarchy):
     #: GLSL function of polar stereographic CRSs (set per grid, :meth:`glsl_centres`)
     centres = "texture"
 
-    def __init__(self, width: int, height: int, *, crs, bounds=None):
+    def __init__(self, width: int, height: int, *, crs, bounds=None, check_domain: bool = True):
         w, h = check_size(width, height)
         self._crs = _as_crs(crs)
         self.width, self.height = w, h
@@ -200,7 +209,8 @@ class Projected(LevelHierarchy):
         # the pixel frame: this grid's pixels are columns x0.. and rows y0.. of a
         # full_w x full_h grid over full (a subgrid keeps its parent's pixel centres)
         self._frame = (0, 0, w, h, b)
-        self._check_domain()
+        if check_domain:
+            self._check_domain()
         if polar_params(self._crs) is not None:
             self.centres = "glsl"
 
@@ -330,10 +340,12 @@ class Projected(LevelHierarchy):
         """Radians on the unit sphere per CRS unit, an upper bound (formula grids), or None."""
         if "_lip" in self.__dict__:
             return self.__dict__["_lip"]
-        # every cell centre lies in the grid's bounds grown by their size on each side
-        fx0, fy0, fw, fh, (xmin, ymin, xmax, ymax) = self._frame
-        w, h = xmax - xmin, ymax - ymin
-        box = (xmin - w, ymin - h, xmax + w, ymax + h)
+        # every cell of every level (with the segments from its centre to its pixels)
+        # lies in the blocks of level 0 that hold the grid's pixels
+        rows, cols = self.level_shape(0)
+        b = self.block(0)
+        (xa, xb), (ya, yb) = self.pixel_xy(np.array([0.0, cols * b]), np.array([0.0, rows * b]))
+        box = (float(xa), float(yb), float(xb), float(ya))
         k = polar_scale_min(self._crs)
         if k is None:
             k = transverse_scale_min(self._crs, box)
@@ -344,6 +356,8 @@ class Projected(LevelHierarchy):
             unit = self._crs.axis_info[0].unit_conversion_factor or 1.0
             # rounded up by a relative 1e-9 (the scale formula's and the constants' roundings)
             lip = unit / (k * a * (1.0 - es)) * (1.0 + 1e-9)
+        if lip is None:  # LAEA, the conics (gloffset.grids.stretch)
+            lip = inverse_lipschitz(self._crs, box)
         self.__dict__["_lip"] = lip
         return lip
 

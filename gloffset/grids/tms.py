@@ -39,6 +39,7 @@ from ..geometry.caps import pad
 from .base import InvalidGridError, LonLatGrid, check_size
 from .mercator import MAX_ZOOM, Tile
 from .projected import Projected
+from .stretch import inverse_lipschitz
 
 __all__ = [
     "TmsTile",
@@ -179,20 +180,11 @@ class TmsQuad:
         return self.tms().model_dump_json(exclude_none=True, indent=2)
 
 
-class TmsProjected(Projected):
-    """A :class:`~gloffset.grids.Projected` tile or zoom of a TMS: where the TMS puts it,
-    in the CRS's area of use or not (the UPS quads' tiles reach far beyond the 60th
-    parallel that bounds UPS's area of use); its pixels without an inverse are outside,
-    as on every ``Projected``."""
-
-    def _check_domain(self) -> None:
-        """No check: the TMS defines the tile."""
-
-
 def _projected_tile(quad: TmsQuad, z: int, x: int, y: int) -> Projected:
     b = quad.tms().xy_bounds(x, y, z)
     bounds = (b.left, b.bottom, b.right, b.top)
-    return TmsProjected(quad.size, quad.size, crs=quad.crs, bounds=bounds)
+    # the TMS places the tile, in the CRS's area of use or not
+    return Projected(quad.size, quad.size, crs=quad.crs, bounds=bounds, check_domain=False)
 
 
 @functools.lru_cache(maxsize=64)
@@ -368,7 +360,9 @@ class ProjectedQuadLevels:
     morecantile's); a tile's centre is pyproj's inverse of its centre in the CRS, as for
     :class:`~gloffset.grids.Projected` (a zoom is a ``Projected`` grid of one pixel a
     tile). Bounds: the inverse is ``K``-Lipschitz from the plane to the unit sphere where
-    the projection gives ``K`` (polar stereographic: the UPS quads), so every point of a
+    the projection gives ``K`` over the TMS's extent (polar stereographic: the UPS quads;
+    Lambert azimuthal equal-area, :func:`~gloffset.grids.stretch.inverse_lipschitz`:
+    ``EuropeanETRS89_LAEAQuad``), so every point of a
     tile lies within ``K h`` of its centre (``h`` the tile's half-diagonal), plus the
     inverse's error and ``K`` times the largest gap between a zoom's extent and zoom
     0's (the matrices' cell sizes are rounded: a tile's children may stick out of it by
@@ -394,18 +388,25 @@ class ProjectedQuadLevels:
             a, b = tms.xy_bounds(0, 0, z), tms.xy_bounds(cols - 1, rows - 1, z)
             ext = (a.left, b.bottom, b.right, a.top)
             gap = max(gap, *(abs(u - v) for u, v in zip(ext, quad.bounds)))
-            self._zooms.append(TmsProjected(cols, rows, crs=quad.crs, bounds=ext))
+            self._zooms.append(Projected(cols, rows, crs=quad.crs, bounds=ext, check_domain=False))
         # one level below the deepest tiles (never walked): the driver decides the cells
         # of a grid's last level at their centres, as pixels, and tiles are not pixels
         rows, cols = quad.matrix_shape(self.maxzoom + 1)
-        self._zooms.append(TmsProjected(cols, rows, crs=quad.crs, bounds=ext))
-        lip = self._zooms[0]._lipschitz()
+        self._zooms.append(Projected(cols, rows, crs=quad.crs, bounds=ext, check_domain=False))
+        xmin, ymin, xmax, ymax = quad.bounds
+        # over the extent grown by the gap, where every tile lies (tighter than the
+        # zoom grid's own, over its bounds grown by their size)
+        box = (xmin - gap, ymin - gap, xmax + gap, ymax + gap)
+        lip = inverse_lipschitz(self._zooms[0].crs, box)
+        if lip is None:
+            lip = self._zooms[0]._lipschitz()
         if lip is None:
             raise InvalidGridError(
                 f"pyramids of {quad.id} need a bound of its projection ({quad.crs}) that "
-                "gloffset does not have (it has one for polar stereographic CRSs)"
+                "gloffset does not have (it has one for polar stereographic, Lambert "
+                "azimuthal equal-area and, within 3900 km of the central meridian, "
+                "transverse Mercator CRSs)"
             )
-        xmin, ymin, xmax, ymax = quad.bounds
         self._decision = []
         for z in range(self.maxzoom + 2):
             rows, cols = quad.matrix_shape(z)

@@ -15,7 +15,8 @@ Endpoints (each input is a layer named after its file stem):
   ``GET /field/{layer}.json``: TileJSON 3.0.0 for them, with that ``encoding``;
 - ``GET /mvt/{layer}/{z}/{x}/{y}.pbf?d=127km`` (:func:`gloffset.vector_tile`), its TileJSON;
   ``/offset/{layer}.geojson?distance=``, ``/shape/{layer}.geojson``, ``/layers``,
-  ``/distance/{layer}?lon=..&lat=..`` (metres);
+  ``/distance/{layer}?lon=..&lat=..`` (metres); ``/tiles/{tms}/...``, ``/field/{tms}/...``:
+  another TileMatrixSet's tiles, their TileJSON (:mod:`gloffset.serve.tmsdocs`);
 - ``GET /``: the page (``static/``, MapLibre GL JS vendored): a map, a globe, a slider.
 
 HEAD works wherever GET does. Bad input is 400 with ``{"detail": ...}`` naming the
@@ -26,8 +27,7 @@ the configured ``Cache-Control``, and ``X-Gloffset-Tile``: how the tile was foun
 (``cached``, ``inside``, ``outside``, ``field``: the threshold of the tile's kept field,
 or ``rendered``; field tiles say ``cached`` or ``computed``). With ``access_log``, a line
 per request (:mod:`gloffset.serve.accesslog`). CORS headers (``cors``, :func:`cors_origins`)
-let maps of other origins use the tiles: MapLibre fetches them, WebGL needs CORS for images.
-"""
+let maps of other origins use the tiles: MapLibre fetches them, WebGL needs CORS for images."""
 
 from __future__ import annotations
 
@@ -56,15 +56,14 @@ from ..ellipsoidal import distance as distance_to
 from ..errors import GloffsetError, OptionError
 from ..geometry.sphere import lonlat_to_xyz
 from ..grids.mercator import MAX_ZOOM
-from ..grids.tms import WEB_MERCATOR, TmsQuad, as_tms, tms_ids, tms_quad
+from ..grids.tms import WEB_MERCATOR, TmsQuad, tms_quad
 from ..io.geojson import offset_feature
 from ..mvt.boundary import ResolvedBoundary
 from ..mvt.pyramid import vector_layers
 from ..mvt.tile import encode as encode_mvt
 from ..mvt.tile import tile_geometry
-from ..raster.render import render_angle
 from ..shape import read
-from ..tiles.tiling.fieldtiles import FIELD_ENCODING, encode_field, field_tile
+from ..tiles.tiling.fieldtiles import FIELD_ENCODING
 from ..tiles.tiling.tilepaint import TileStyle
 from ..units import (
     EARTH_RADIUS,
@@ -78,15 +77,14 @@ from ..vector.offset import offset
 from .accesslog import AccessLog, open_log
 from .bounds import region_bounds
 from .service import (
-    EMPTY_PNG,
     UNKNOWN,
     FieldKey,
     QueueFull,
     TileKey,
     TileService,
-    empty_png,
     etag,
 )
+from .tmsdocs import tms_list, tms_tilejson
 
 __all__ = ["create_app", "app_from_environment", "cors_origins", "ENVIRONMENT", "STATIC"]
 
@@ -182,6 +180,11 @@ class _Server:
         d = self.angle(shape, p["distance"])
         z, x, y, size = _zxy(p["z"], p["x"], p["y"])
         key = TileKey(p["layer"], d, z, x, y, size, _style(request.query_params))
+        return await self._tile_answer(request, key)
+
+    async def _tile_answer(self, request: Request, key: TileKey) -> Response:
+        """The tile ``key`` (web mercator's or another TileMatrixSet's): cached, decided
+        from its centre, the threshold of its kept field, or rendered."""
         found = self.tiles.answer(key, measure=False)  # the cache, a known centre
         if found is UNKNOWN:
             await self._measured(key)
@@ -216,7 +219,10 @@ class _Server:
         p = request.path_params
         self.layer(p["layer"])
         z, x, y, size = _zxy(p["z"], p["x"], p["y"])
-        fkey = FieldKey(p["layer"], z, x, y, size)
+        return await self._field_answer(request, FieldKey(p["layer"], z, x, y, size))
+
+    async def _field_answer(self, request: Request, fkey: FieldKey) -> Response:
+        """The field tile ``fkey``: cached, or computed on the render thread and kept."""
         kept = self.tiles.cached(fkey)
         if kept is not None:
             return self._png(request, kept, "cached")
@@ -425,8 +431,9 @@ class _Server:
         return zi, xi, yi
 
     async def tms_tile(self, request: Request) -> Response:
-        """A tile of a TileMatrixSet: web mercator's as :meth:`tile`, another's rendered
-        on its own grid (:func:`gloffset.grids.TmsTile`) on the render thread."""
+        """A tile of a TileMatrixSet: web mercator's as :meth:`tile`, another's by the
+        same route (the cache, its centre, its kept field), rendered on its own grid
+        (:func:`gloffset.grids.TmsTile`) on the render thread; keys carry the TMS's id."""
         p = request.path_params
         if p["tms"] == WEB_MERCATOR:
             return await self.tile(request)
@@ -437,48 +444,64 @@ class _Server:
         style = _style(request.query_params)
         if style.outline is not None:
             _bad(f"tiles of {quad.id} take no outline")
-
-        def render() -> bytes:
-            png = style.encode(render_angle(shape, d, quad.tile(z, x, y)) > 0)
-            return png if png is not None else EMPTY_PNG.get(quad.size) or empty_png(quad.size)
-
-        made = await self._wait(lambda: self.tiles.call(render), "tile")
-        if isinstance(made, Response):
-            return made
-        return self._png(request, made, "rendered")
+        key = TileKey(p["layer"], d, z, x, y, quad.size, style, quad.id)
+        return await self._tile_answer(request, key)
 
     async def tms_field_tile(self, request: Request) -> Response:
-        """A distance-field tile of a TileMatrixSet (web mercator's as :meth:`field_tile`)."""
+        """A distance-field tile of a TileMatrixSet (web mercator's as :meth:`field_tile`),
+        cached as web mercator's are."""
         p = request.path_params
         if p["tms"] == WEB_MERCATOR:
             return await self.field_tile(request)
         quad = self.tms(p["tms"])
-        shape = self.layer(p["layer"])
+        self.layer(p["layer"])
         z, x, y = self.tms_tile_at(quad, p["z"], p["x"], p["y"])
+        return await self._field_answer(request, FieldKey(p["layer"], z, x, y, quad.size, quad.id))
 
-        def compute() -> bytes:
-            f = field_tile(shape, z, x, y, quad.size, quad)
-            return encode_field(f.values, EARTH_RADIUS)
+    async def tms_tilejson(self, request: Request) -> Response:
+        """TileJSON 3.0.0 of a layer's tiles in a TileMatrixSet at ``?distance=`` (as
+        TiTiler's ``/{tms}/tilejson.json``): the ``tiles`` template of
+        ``/tiles/{tms}/...``, the TMS's zooms and tile size, ``bounds`` (lon/lat) a box
+        that holds the region at that distance within the TMS's extent, and the TMS's id
+        and the link to its definition (``tileMatrixSet``, ``tileMatrixSetURI``)."""
+        p = request.path_params
+        quad = self.tms(p["tms"])
+        name = p["layer"]
+        shape = self.layer(name)
+        text = request.query_params.get("distance")
+        d = self.angle(shape, text)
+        _style(request.query_params)
+        base = str(request.base_url).rstrip("/")
+        rest = [(k, v) for k, v in request.query_params.multi_items() if k != "distance"]
+        query = urlencode(rest)
+        tiles = f"{base}/tiles/{quad.id}/{name}/{text}/{{z}}/{{x}}/{{y}}.png"
+        doc = await asyncio.to_thread(tms_tilejson, quad, shape, d, base)
+        doc |= {"name": f"{name} within {text}", "tiles": [tiles + (f"?{query}" if query else "")]}
+        return JSONResponse(doc)
 
-        made = await self._wait(lambda: self.tiles.call(compute), "field")
-        if isinstance(made, Response):
-            return made
-        return self._png(request, made, "computed")
+    async def tms_field_tilejson(self, request: Request) -> Response:
+        """TileJSON 3.0.0 of a layer's field tiles in a TileMatrixSet (as
+        :meth:`tms_tilejson`; every tile has a field: ``bounds`` the TMS's extent), with
+        the field's ``encoding``."""
+        p = request.path_params
+        quad = self.tms(p["tms"])
+        name = p["layer"]
+        shape = self.layer(name)
+        base = str(request.base_url).rstrip("/")
+        doc = await asyncio.to_thread(tms_tilejson, quad, shape, None, base)
+        doc |= {
+            "name": f"{name} signed distance (m)",
+            "description": "signed distance to the curves in metres, negative inside the "
+            "polygons: metres = R * redFactor + G * greenFactor + B * blueFactor - baseShift",
+            "tiles": [f"{base}/field/{quad.id}/{name}/{{z}}/{{x}}/{{y}}.png"],
+            "encoding": dict(FIELD_ENCODING),
+        }
+        return JSONResponse(doc)
 
     async def tile_matrix_sets(self, request: Request) -> Response:
         """The TileMatrixSets served (OGC API - Tiles, as TiTiler lists them)."""
         base = str(request.base_url).rstrip("/")
-        items = []
-        for name in await asyncio.to_thread(_served_tms):
-            t = as_tms(name)
-            link = {
-                "href": f"{base}/tileMatrixSets/{name}",
-                "rel": "http://www.opengis.net/def/rel/ogc/1.0/tiling-scheme",
-                "type": "application/json",
-                "title": f"Definition of {name}",
-            }
-            items.append({"id": name, "title": t.title or name, "links": [link]})
-        return JSONResponse({"tileMatrixSets": items})
+        return JSONResponse(await asyncio.to_thread(tms_list, base))
 
     async def tile_matrix_set(self, request: Request) -> Response:
         quad = self.tms(request.path_params["tms"])
@@ -510,18 +533,6 @@ def _zxy(z: str, x: str, y: str) -> tuple[int, int, int, int]:
     if not (0 <= xi < n and 0 <= yi < n):
         _bad(f"tile {zi}/{xi}/{yi} does not exist: x and y must be in 0..{n - 1}")
     return zi, xi, yi, size
-
-
-def _served_tms() -> list[str]:
-    """The TileMatrixSets whose tiles the server makes (the quadtrees of morecantile's)."""
-    out = []
-    for name in tms_ids():
-        try:
-            tms_quad(name)
-        except GloffsetError:
-            continue
-        out.append(name)
-    return out
 
 
 def not_modified(header: str | None, tag: str) -> bool:
@@ -615,6 +626,8 @@ def create_app(
         Route("/tiles/{layer}/{distance}/{z}/{x}/{y}.png", srv.tile, methods=get),
         Route("/tiles/{tms}/{layer}/{distance}/{z}/{x}/{y}.png", srv.tms_tile, methods=get),
         Route("/field/{tms}/{layer}/{z}/{x}/{y}.png", srv.tms_field_tile, methods=get),
+        Route("/tiles/{tms}/{layer}/tilejson.json", srv.tms_tilejson, methods=get),
+        Route("/field/{tms}/{layer}/tilejson.json", srv.tms_field_tilejson, methods=get),
         Route("/tileMatrixSets", srv.tile_matrix_sets, methods=get),
         Route("/tileMatrixSets/{tms}", srv.tile_matrix_set, methods=get),
         Route("/tilejson/{layer}.json", srv.tilejson, methods=get),

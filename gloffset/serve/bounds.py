@@ -24,7 +24,9 @@ _KEPT = 256
 _POLES = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
 
 
-def region_bounds(shape, d: float) -> tuple[float, float, float, float]:
+def region_bounds(
+    shape, d: float, lat_limit: float = MERCATOR_LAT
+) -> tuple[float, float, float, float]:
     """West, south, east, north (degrees) of a box that holds the region within ``d``
     (radians; ``d < 0``: inside the polygons and farther than ``|d|`` from their
     boundary) of ``shape``.
@@ -39,7 +41,8 @@ def region_bounds(shape, d: float) -> tuple[float, float, float, float]:
     boundary's box; a pole inside a polygon, or within ``d`` of an arc, is reached. The
     box is the whole range of longitudes where a pole is reached or any arc's box
     crosses the antimeridian (a box with ``west > east`` is not read by every client),
-    latitudes clipped to web mercator's.
+    latitudes clipped to ``+-lat_limit`` (default web mercator's; 90 for the tiles of
+    other TileMatrixSets).
 
     Accuracy: the box holds the region. Every angle is widened by 1e-9 rad (far more
     than its rounding) and the degrees rounded outward to 1e-6; in latitude the box is
@@ -61,7 +64,8 @@ def region_bounds(shape, d: float) -> tuple[float, float, float, float]:
     True
     """
     key = max(float(d), 0.0)
-    return shape.derived.serve_bounds.once(key, lambda: _grown_box(shape, key), keep=_KEPT)
+    w, s, e, n = shape.derived.serve_bounds.once(key, lambda: _grown_box(shape, key), keep=_KEPT)
+    return w, min(max(s, -lat_limit), lat_limit), e, max(min(n, lat_limit), -lat_limit)
 
 
 #: the widening of every angle of :func:`region_bounds`, radians
@@ -72,7 +76,7 @@ def _grown_box(shape, d: float) -> tuple[float, float, float, float]:
     arcs = CurveArcs.from_shape(shape)
     bd = arcs.boundary
     if not bd.any():
-        return WORLD
+        return (-180.0, -90.0, 180.0, 90.0)
     a, b, nrm = arcs.a[bd], arcs.b[bd], arcs.n[bd]
     lune1, lune2 = (v[bd] for v in arcs.lunes)
     lat_a, lat_b = (np.arcsin(np.clip(p[:, 2], -1.0, 1.0)) for p in (a, b))
@@ -108,8 +112,8 @@ def _grown_box(shape, d: float) -> tuple[float, float, float, float]:
         east = lon_m + np.maximum(np.maximum(da, db), 0.0) + reach
         if west.min() > -math.pi and east.max() < math.pi:  # else it wraps: the whole range
             w, e = math.degrees(float(west.min())), math.degrees(float(east.max()))
-    s = min(max(math.floor(s * 1e6) / 1e6, -MERCATOR_LAT), MERCATOR_LAT)
-    n = max(min(math.ceil(n * 1e6) / 1e6, MERCATOR_LAT), -MERCATOR_LAT)
+    s = max(math.floor(s * 1e6) / 1e6, -90.0)
+    n = min(math.ceil(n * 1e6) / 1e6, 90.0)
     return max(math.floor(w * 1e6) / 1e6, -180.0), s, min(math.ceil(e * 1e6) / 1e6, 180.0), n
 
 

@@ -47,9 +47,12 @@ from PIL import Image
 
 from ..errors import QueueFullError as QueueFull
 from ..geometry.classes import CONTAINED, OUTSIDE
+from ..grids.tms import tms_quad
+from ..raster.render import render_angle
 from ..tiles.tiling import measure_tiles, render_tiles
 from ..tiles.tiling.fieldtiles import encode_field, field_tile
 from ..tiles.tiling.malloc import give_back_freed_memory
+from ..tiles.tiling.ondemand import tms_levels
 from ..tiles.tiling.tilepaint import TileStyle
 from ..units import EARTH_RADIUS
 
@@ -61,6 +64,7 @@ __all__ = [
     "EMPTY_PNG",
     "UNKNOWN",
     "full_png",
+    "empty_tile",
     "etag",
 ]
 
@@ -115,7 +119,8 @@ def full_png(size: int, style: TileStyle) -> bytes:
 
 @dataclass(frozen=True)
 class TileKey:
-    """What a tile is: layer, distance (radians), z/x/y, pixel size and style."""
+    """What a tile is: layer, distance (radians), z/x/y, pixel size, style and
+    TileMatrixSet (``tms``: its id, None for web mercator)."""
 
     layer: str
     d: float
@@ -124,24 +129,45 @@ class TileKey:
     y: int
     size: int
     style: TileStyle
+    tms: str | None = None
 
     def group(self) -> tuple:
-        return (self.layer, self.d, self.z, self.size, self.style)
+        return (self.layer, self.d, self.z, self.size, self.style, self.tms)
+
+    def where(self) -> tuple:
+        """The tile's place, whose centre decides it at any distance (any size, style)."""
+        return (self.layer, self.z, self.x, self.y, self.tms)
 
     def field(self) -> FieldKey:
         """The key of the tile's distance field."""
-        return FieldKey(self.layer, self.z, self.x, self.y, self.size)
+        return FieldKey(self.layer, self.z, self.x, self.y, self.size, self.tms)
 
 
 @dataclass(frozen=True)
 class FieldKey:
-    """A tile's distance field: layer, z/x/y and pixel size (any distance, any style)."""
+    """A tile's distance field: layer, z/x/y, pixel size and TileMatrixSet (any
+    distance, any style)."""
 
     layer: str
     z: int
     x: int
     y: int
     size: int
+    tms: str | None = None
+
+    def grid_quad(self):
+        """The :class:`~gloffset.grids.tms.TmsQuad` of the tile's TMS (None: web mercator)."""
+        return _quad(self.tms)
+
+
+def _quad(tms: str | None):
+    return None if tms is None else tms_quad(tms)
+
+
+@functools.lru_cache(maxsize=16)
+def empty_tile(size: int) -> bytes:
+    """The fully transparent tile of ``size`` pixels (:data:`EMPTY_PNG`'s where it has one)."""
+    return EMPTY_PNG.get(size) or empty_png(size)
 
 
 class TileService:
@@ -212,7 +238,7 @@ class TileService:
         if cls == CONTAINED:
             return full_png(key.size, key.style), "inside"
         if cls == OUTSIDE:
-            return EMPTY_PNG[key.size], "outside"
+            return empty_tile(key.size), "outside"
         return None
 
     def triage(self, key: TileKey, *, measure: bool = True):
@@ -222,10 +248,13 @@ class TileService:
         measured yet and ``measure`` is False). What the decision needs (the exact
         distances from the tile's centre to the nearest boundary arc and ring edge, and
         whether it is inside) does not depend on the offset distance: it is measured once
-        per tile and kept. Tiles with an outline of the input are left to the renderer."""
+        per tile and kept. Tiles with an outline of the input are left to the renderer, and
+        those of a TileMatrixSet without a bound of its tiles (:func:`tms_levels`)."""
         if key.style.outline is not None:
             return None
-        where = (key.layer, key.z, key.x, key.y)
+        if key.tms is not None and tms_levels(_quad(key.tms), key.z) is None:
+            return None
+        where = key.where()
         with self.lock:
             geo = self.centres.get(where)
         if geo is None:
@@ -243,7 +272,8 @@ class TileService:
         with every arc that can be its centre's nearest as candidates (no distance
         limit): the exact distances to the nearest boundary arc and ring edge, the
         centre's inside status and the tile's decision bound (1-element arrays)."""
-        return measure_tiles(self.layers[key.layer], key.z, [(key.x, key.y)])[(key.x, key.y)]
+        shape, quad = self.layers[key.layer], _quad(key.tms)
+        return measure_tiles(shape, key.z, [(key.x, key.y)], quad)[(key.x, key.y)]
 
     def measure(self, keys) -> None:
         """Measure the centres of the tiles ``keys`` not known yet, those of one layer and
@@ -252,13 +282,15 @@ class TileService:
         groups: dict = {}
         with self.lock:
             for k in keys:
-                if (k.layer, k.z, k.x, k.y) not in self.centres:
-                    groups.setdefault((k.layer, k.z), set()).add((k.x, k.y))
-        for (layer, z), tiles in groups.items():
-            got = measure_tiles(self.layers[layer], z, sorted(tiles))
+                if k.where() not in self.centres:
+                    groups.setdefault((k.layer, k.z, k.tms), set()).add((k.x, k.y))
+        for (layer, z, tms), tiles in groups.items():
+            if tms is not None and tms_levels(_quad(tms), z) is None:
+                continue  # rendered, never decided (triage)
+            got = measure_tiles(self.layers[layer], z, sorted(tiles), _quad(tms))
             with self.lock:
                 for (x, y), geo in got.items():
-                    self.centres[(layer, z, x, y)] = geo
+                    self.centres[(layer, z, x, y, tms)] = geo
                 while len(self.centres) > CENTRES:
                     self.centres.popitem(last=False)
 
@@ -295,7 +327,7 @@ class TileService:
     def _threshold(self, key: TileKey, f) -> bytes:
         """The tile's bytes from its field ``f``, kept in the tile LRU."""
         data = key.style.encode(f.threshold(key.d) > 0)
-        data = EMPTY_PNG[key.size] if data is None else data
+        data = empty_tile(key.size) if data is None else data
         self._keep(key, data)
         return data
 
@@ -380,7 +412,8 @@ class TileService:
         f = self.field(fkey)
         if f is None:
             t0 = time.perf_counter()
-            f = field_tile(self.layers[fkey.layer], fkey.z, fkey.x, fkey.y, fkey.size)
+            shape = self.layers[fkey.layer]
+            f = field_tile(shape, fkey.z, fkey.x, fkey.y, fkey.size, fkey.grid_quad())
             took = time.perf_counter() - t0
             with self.lock:
                 self.computed += 1
@@ -566,12 +599,15 @@ class TileService:
         key0 = items[0][0]
         shape, tiles = self.layers[key0.layer], {(k.x, k.y) for k, _ in items}
         with self.lock:  # the centres measured already: their statuses spare the crossings
-            centres = {t: self.centres.get((key0.layer, key0.z, *t)) for t in tiles}
+            centres = {t: self.centres.get((key0.layer, key0.z, *t, None)) for t in tiles}
         t0 = time.perf_counter()
         try:
-            got = render_tiles(
-                shape, key0.d, key0.z, tiles, size=key0.size, style=key0.style, centres=centres
-            )
+            if key0.tms is not None:  # each tile on its own grid
+                got = _tms_tiles(shape, key0, tiles)
+            else:
+                got = render_tiles(
+                    shape, key0.d, key0.z, tiles, size=key0.size, style=key0.style, centres=centres
+                )
         except Exception as exc:  # noqa: BLE001 - every waiting request hears of it
             for _, fut in items:
                 fut.set_exception(exc)
@@ -583,7 +619,7 @@ class TileService:
                 self.render_cost[key0.layer] = old + COST_WEIGHT * (share - old)
         for key, fut in items:
             data = got[(key.x, key.y)]
-            data = EMPTY_PNG[key.size] if data is None else data
+            data = empty_tile(key.size) if data is None else data
             self._keep(key, data)
             self.rendered += 1
             fut.set_result(data)
@@ -616,6 +652,16 @@ class _FromField:
     """A render-queue item: the tile ``key`` answered from its field (made if need be)."""
 
     key: TileKey
+
+
+def _tms_tiles(shape, key: TileKey, tiles) -> dict:
+    """The styled PNG bytes (None: nothing to draw) of tiles ``(x, y)`` of ``key``'s zoom
+    of its TileMatrixSet, each rendered on its own grid (:func:`gloffset.grids.TmsTile`)."""
+    quad = tms_quad(key.tms)
+    return {
+        (x, y): key.style.encode(render_angle(shape, key.d, quad.tile(key.z, x, y)) > 0)
+        for x, y in sorted(tiles)
+    }
 
 
 def _run_call(fn, fut: Future) -> None:

@@ -42,6 +42,7 @@ __all__ = [
     "decode_field",
     "field_tile",
     "field_pyramid",
+    "matrix_shapes",
 ]
 
 #: The four numbers of the ``custom`` encoding of MapLibre's ``raster-dem`` sources:
@@ -147,7 +148,7 @@ def field_pyramid(shape, zooms, out, **options) -> int:
         overwrite=overwrite,
     )
     present = store.existing() if resume else set()
-    shapes = [(1 << z, 1 << z) if quad is None else quad.matrix_shape(z) for z in range(zhi + 1)]
+    shapes = matrix_shapes(quad, zhi)
     total = sum(rows * cols for rows, cols in shapes[zlo:])
     done, written, saved = 0, 0, time.monotonic()
     try:
@@ -174,6 +175,13 @@ def field_pyramid(shape, zooms, out, **options) -> int:
 #: A field pyramid commits its tiles at least this often (seconds), so that a killed run
 #: loses at most the tiles of the last few seconds and ``resume`` continues from there.
 COMMIT_SECONDS = 2.0
+
+
+def matrix_shapes(quad, zhi: int) -> list[tuple[int, int]]:
+    """``(rows, columns)`` of tiles of zooms ``0..zhi``: web mercator's ``2^z x 2^z``
+    (``quad`` None), else the matrices of ``quad`` (a :class:`~gloffset.grids.tms.TmsQuad`:
+    ``WorldCRS84Quad`` has ``1 x 2`` at zoom 0)."""
+    return [(1 << z, 1 << z) if quad is None else quad.matrix_shape(z) for z in range(zhi + 1)]
 
 
 def _tiles(shapes, zlo: int, zhi: int):

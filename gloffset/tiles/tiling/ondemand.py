@@ -12,8 +12,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...edges import CurveArcs, inside_any
+from ...errors import InvalidGridError
 from ...grids.conformal import ConformalRows
 from ...grids.mercator import Tile, TilePyramid
+from ...grids.tms import ProjectedQuadLevels
 from ...raster.driver import CONTAINED, FRONTIER, OUTSIDE
 from ...raster.render import render_angle, render_grid
 from ...raster.vector.curves import CurveCells
@@ -30,7 +32,14 @@ from .walk import (
     tile_grid,
 )
 
-__all__ = ["ALONE_ZOOM", "TileCentre", "measure_tiles", "render_tiles", "tile_masks"]
+__all__ = [
+    "ALONE_ZOOM",
+    "TileCentre",
+    "measure_tiles",
+    "render_tiles",
+    "tile_masks",
+    "tms_levels",
+]
 
 
 @functools.lru_cache(maxsize=64)
@@ -72,11 +81,33 @@ class TileCentre:
         return cls if cls in (CONTAINED, OUTSIDE) else None
 
 
-def measure_tiles(shape, z: int, tiles) -> dict:
-    """The :class:`TileCentre` of each tile ``(x, y)`` of zoom ``z``, measured together:
-    the tiles entered directly at their zoom (:func:`gloffset.raster.vector.levels.at_cells`)
-    with every arc that can be a centre's nearest as candidates (no distance limit)."""
-    grid = _pyramid(z)
+@functools.lru_cache(maxsize=256)
+def tms_levels(quad, z: int):
+    """The tile levels of the TileMatrixSet ``quad`` (a
+    :class:`~gloffset.grids.tms.TmsQuad`; None: web mercator) down to zoom ``z``, whose
+    centres and rigorous bounds decide its tiles (the levels its pyramids walk), made
+    once; None for a projected TMS that gloffset has no bound of (its tiles are
+    rendered, never decided from their centres)."""
+    if quad is None:
+        return _pyramid(z)
+    if quad.kind == "lonlat":
+        return TilePyramid(z, quad=quad)
+    if quad.kind == "projected":
+        try:
+            return ProjectedQuadLevels(quad, z)
+        except InvalidGridError:
+            return None
+    return _pyramid(z)  # web mercator's own quad
+
+
+def measure_tiles(shape, z: int, tiles, quad=None) -> dict:
+    """The :class:`TileCentre` of each tile ``(x, y)`` of zoom ``z`` (of the TileMatrixSet
+    ``quad``, :func:`tms_levels`; default web mercator), measured together: the tiles
+    entered directly at their zoom (:func:`gloffset.raster.vector.levels.at_cells`) with
+    every arc that can be a centre's nearest as candidates (no distance limit)."""
+    grid = tms_levels(quad, z)
+    if grid is None:
+        raise InvalidGridError(f"{quad.id}'s tiles have no bound to be decided from their centres")
     arcs = CurveArcs.from_shape(shape)
     f = at_cells(shape, arcs, grid, math.pi, z, [(y, x) for x, y in tiles])
     dist, dring = cell_distances(f, arcs)
