@@ -325,3 +325,45 @@ def test_a_kept_distance_uses_its_resolved_boundary(monkeypatch, mexico):
     vector_tile(mexico, 45e3, 0, 0, 0)  # zoom 0: the whole offset, kept
     monkeypatch.setattr(boundary.LocalBoundary, "pieces", None)
     check_tile(mexico, 45e3, 7, 28, 54, samples=50)
+
+
+@pytest.mark.slow  # many tiles of the check above
+@pytest.mark.parametrize("name", ["Greenland", "Iceland", "islands: Croatia", "Mexico inward"])
+def test_new_distance_tiles_equal_the_resolved_ones_at_random(mexico_path, name):
+    """Seeded random frontier tiles z5-z11 at new distances: the tile from the edges near it
+    (resolved inside its cap) equals the one cut from the whole resolved boundary, byte for
+    byte, on fjord coasts and inward."""
+    import json
+    import math
+
+    import mercantile
+
+    from gloffset.mvt.boundary import ResolvedBoundary
+    from gloffset.mvt.tile import encode, tile_geometry
+    from gloffset.units import distance_properties
+
+    if name == "Mexico inward":
+        shape, lo, hi = gloffset.read(mexico_path), -60e3, -10e3
+    else:
+        fc = json.loads((mexico_path.parent / "countries_10m.geojson").read_text())
+        want = name.split(": ")[-1]
+        (feat,) = [f for f in fc["features"] if f["properties"]["name"] == want]
+        shape, lo, hi = gloffset.read(feat), 20e3, 150e3
+    rng = np.random.default_rng(7)
+    local = 0
+    for _ in range(10):
+        d = float(rng.uniform(lo, hi))
+        z = int(rng.integers(5, 12))
+        whole = ResolvedBoundary(shape, d / R)
+        pts = np.concatenate(gloffset.offset(shape, d).resolve().sample(1e-4))
+        p = pts[rng.integers(len(pts))]
+        lon = math.degrees(math.atan2(p[1], p[0]))
+        lat = math.degrees(math.asin(max(-1.0, min(1.0, p[2]))))
+        t = mercantile.tile(lon, lat, z)
+        shape.derived.mvt_boundaries.clear()
+        tile = vector_tile(shape, d, z, t.x, t.y)
+        local += len(shape.derived.mvt_boundaries) == 0
+        g = tile_geometry(whole, z, t.x, t.y)
+        assert tile == encode(g, "offset", distance_properties(d, R), 4096), (name, d, z, t)
+    if name in ("Greenland", "Mexico inward"):
+        assert local >= 5  # most from the edges near them (small inputs: the whole offset)
