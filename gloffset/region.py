@@ -36,6 +36,7 @@ import numpy as np
 from .errors import InvalidGeometryError
 from .geometry.arrangement import candidate_pairs, components, cycles, split
 from .geometry.caps import arc_cap, cap_threshold, pad
+from .geometry.captree import CapTree
 from .geometry.sphere import (
     angle,
     arc_distance,
@@ -43,6 +44,7 @@ from .geometry.sphere import (
     cross,
     crossing_rule,
     normalize,
+    pair_dots,
     robust_cross,
 )
 
@@ -415,22 +417,30 @@ class _Union:
 
     def _inside_other(self, p, own, excl):
         """For points ``p``: inside any input polygon other than ``own``/``excl``?"""
-        cand = self._near_caps(p)  # (points, comps)
-        cand[np.arange(len(p)), own] = False
-        for k, cs in excl.items():
-            cand[k, list(cs)] = False
-        pi, ci = np.nonzero(cand)
+        pi, ci = self._near_caps(p)
+        mine = ci == own[pi]
+        if excl:
+            ex = np.flatnonzero(np.isin(pi, np.fromiter(excl, np.int64, len(excl))))
+            mine[ex] |= [c in excl[k] for k, c in zip(pi[ex].tolist(), ci[ex].tolist())]
+        pi, ci = pi[~mine], ci[~mine]
         out = np.zeros(len(p), bool)
         np.logical_or.at(out, pi, self._inside(p[pi], ci))
         return out
 
     def _near_caps(self, p):
-        """(points, polygons) bool: the point lies within the polygon's cap
-        (:func:`~gloffset.geometry.caps.cap_within`, its threshold once per polygon; the
-        products ``c.m`` by a matrix product, within 1e-15 of exact, far below the test's
-        slack)."""
+        """(point, polygon) pairs, the point within the polygon's cap, sorted by point
+        then polygon: :func:`~gloffset.geometry.caps.cap_within`'s test, its threshold
+        once per polygon, on the pairs that a cap tree over the polygons' caps finds
+        within 3e-6 rad of each point (the test's slack of 1e-12 on the cosine reaches
+        at most 1.5e-6 rad beyond the cap). A point far outside a polygon's padded cap
+        (1e-9) is outside it by crossing parity too, so the pairs a rounding of the
+        product moves across the threshold change no answer."""
         caps_c, caps_r = self.caps
-        return (p @ caps_c.T) >= cap_threshold(caps_r)[None, :]
+        qi, ci, _ = self.caps_tree.near(p, 3e-6)
+        ok = pair_dots(p, qi, caps_c, ci) >= cap_threshold(caps_r)[ci]
+        qi, ci = qi[ok], ci[ok]
+        order = np.lexsort((ci, qi))
+        return qi[order], ci[order]
 
     def _inside(self, p, ci):
         """Whether each point ``p[k]`` lies inside input polygon ``ci[k]``: parity of the
@@ -508,6 +518,7 @@ class _Union:
         if len(todo):
             self._inner_points()
             self.caps = self._comp_caps()
+            self.caps_tree = CapTree(*self.caps)
             tw = self.twisted[self.comp[edge[todo]]] | self.side_test[todo]
             plain, twisted = todo[~tw], todo[tw]
             p = normalize(self.v[pieces["start"][plain]] + self.v[pieces["end"][plain]])
@@ -545,7 +556,7 @@ class _Union:
 
     def _in_union(self, p):
         """Whether points ``p`` lie inside any input polygon."""
-        pi, ci = np.nonzero(self._near_caps(p))
+        pi, ci = self._near_caps(p)
         out = np.zeros(len(p), bool)
         np.logical_or.at(out, pi, self._inside(p[pi], ci))
         return out

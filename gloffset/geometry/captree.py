@@ -24,8 +24,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..memo import Memo, once_attr
-from .caps import chord, pad
-from .sphere import angle, arc_distance, normalize, robust_cross, slerp
+from .caps import arc_cap, chord, pad
+from .sphere import angle, arc_distance, dot, normalize, pair_dots, robust_cross, slerp
 
 __all__ = ["CapTree"]
 
@@ -330,15 +330,19 @@ class CapTree:
         """Items whose cap meets the short great-circle arc ``a[i] -> b[i]``.
 
         Returns ``(segment, item)`` int64 arrays, a superset of the true answer (caps
-        are padded). The test per node is the exact distance from the cap centre to
-        the segment, so long segments only visit the nodes along their way.
-        ``lo``, ``hi`` (per segment, optional): only items ``lo[i] <= item < hi[i]``.
+        are padded). The test per item is the exact distance from the cap centre to
+        the segment; per node above the items, two necessary conditions without
+        trigonometry (:meth:`_meets_segment`), so long segments only visit the nodes
+        along their way. ``lo``, ``hi`` (per segment, optional): only items
+        ``lo[i] <= item < hi[i]``.
         """
         a = np.asarray(a, dtype=np.float64).reshape(-1, 3)
         b = np.asarray(b, dtype=np.float64).reshape(-1, 3)
         if self.n == 0 or len(a) == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         n = normalize(robust_cross(a, b))
+        mid, half = arc_cap(a, b)
+        seg_chord = pad(chord(half), abs_=1e-14)  # the arc lies within half + 2e-15 of mid
         si = np.arange(len(a), dtype=np.int64)
         ni = np.zeros(len(a), dtype=np.int64)
         ranged = lo is not None
@@ -347,8 +351,11 @@ class CapTree:
             if ranged:  # node ni of level k holds items ni 2^k .. (ni+1) 2^k - 1
                 inr = (ni << k < hi[si]) & ((ni + 1) << k > lo[si])
                 si, ni = si[inr], ni[inr]
-            dist = arc_distance(c[ni], a[si], b[si], n[si])
-            keep = dist <= pad(r[ni], abs_=_PAD)
+            if k > 0:
+                keep = self._meets_segment(k, ni, n, mid, seg_chord, si)
+            else:
+                dist = arc_distance(c[ni], a[si], b[si], n[si])
+                keep = dist <= pad(r[ni], abs_=_PAD)
             si, ni = si[keep], ni[keep]
             if k > 0:
                 nk = len(self.centers[k - 1])
@@ -359,3 +366,26 @@ class CapTree:
                 if not ok.all():
                     si, ni = si[ok], ni[ok]
         return si, ni
+
+    def _meets_segment(self, k, ni, n, mid, seg_chord, si) -> np.ndarray:
+        """Whether the caps ``ni`` of level ``k`` may meet the arcs ``si`` (unit normals
+        ``n``, bounding caps of centre ``mid`` and chord ``seg_chord``): the cap meets
+        the arc's great circle (``|c.n| <= sin R``) and the arc's bounding cap (``|c -
+        mid| <= chord R + seg_chord``), ``R`` the radius padded as :meth:`along`'s item
+        test pads it. Both hold wherever the cap meets the arc, so no pair that the
+        exact distance would keep is dropped (the bounds are padded well above their
+        rounding, 1e-12 relative)."""
+        bounds: Memo[tuple[np.ndarray, np.ndarray]] = once_attr(self, "_segment_bounds", Memo)
+        sin_r, chord_r = bounds.once(k, lambda: self._segment_bounds_of(k))
+        c = self.centers[k]
+        cn = pair_dots(c, ni, n, si)
+        lim = chord_r[ni] + seg_chord[si]
+        d = c[ni] - mid[si]
+        return (np.abs(cn) <= sin_r[ni]) & (dot(d, d) <= lim * lim)
+
+    def _segment_bounds_of(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """``pad(sin R)`` (2 from R >= pi/2 on: every great circle) and ``pad(chord R)``
+        of the padded radii ``R`` of level ``k``."""
+        r = pad(self.radii[k], abs_=_PAD)
+        sin_r = np.where(r >= 0.5 * np.pi, 2.0, pad(np.sin(np.minimum(r, 0.5 * np.pi))))
+        return sin_r, pad(chord(r))
