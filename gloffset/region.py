@@ -104,10 +104,22 @@ def _proper_crossings(a, b, n, i, j) -> np.ndarray:
     """Whether edges ``i[k]`` and ``j[k]`` cross properly: the ends of each lie farther
     than :data:`TOL` from the other's great circle (``n``: the edges' unit normals), on
     both sides of it, and the crossing is not the antipodal one."""
-    o1 = np.einsum("ij,ij->i", a[j], n[i])
-    o2 = np.einsum("ij,ij->i", b[j], n[i])
-    o3 = np.einsum("ij,ij->i", a[i], n[j])
-    o4 = np.einsum("ij,ij->i", b[i], n[j])
+    return _proper(*_sides(a[i], b[i], n[i], a[j], b[j], n[j]))
+
+
+def _sides(ai, bi, ni, aj, bj, nj):
+    """The four side values of edge pairs: ``aj.ni``, ``bj.ni``, ``ai.nj``, ``bi.nj``
+    (einsum's sums, so the same bits wherever they are computed)."""
+    return (
+        np.einsum("ij,ij->i", aj, ni),
+        np.einsum("ij,ij->i", bj, ni),
+        np.einsum("ij,ij->i", ai, nj),
+        np.einsum("ij,ij->i", bi, nj),
+    )
+
+
+def _proper(o1, o2, o3, o4) -> np.ndarray:
+    """:func:`_proper_crossings` from the side values of :func:`_sides`."""
     clear = np.minimum.reduce([np.abs(o1), np.abs(o2), np.abs(o3), np.abs(o4)]) > TOL
     return clear & crossing_rule(o1 >= 0, o2 >= 0, o3 >= 0, o4 >= 0)
 
@@ -133,6 +145,36 @@ def _keys(v: np.ndarray) -> np.ndarray:
     """Exact row keys of unit vectors (``-0.0`` made ``0.0``), as a void view."""
     v = np.ascontiguousarray(v + 0.0)
     return v.view(np.dtype((np.void, v.dtype.itemsize * v.shape[1]))).ravel()
+
+
+def _row_groups(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of ``v`` that are equal (``-0.0`` equal to ``0.0``): a label per row and the
+    size of each label's group (``np.unique``'s ``inverse`` and ``counts`` of
+    :func:`_keys`, up to the numbering of the groups).
+
+    The rows are sorted by a 64-bit hash of their bits (one sort of integers, several
+    times faster than sorting the rows' bytes); rows with equal hashes must be equal,
+    which is checked: where two are not (a collision) the bytes are sorted instead.
+    """
+    bits = np.ascontiguousarray(v + 0.0).view(np.uint64)
+    h = np.zeros(len(bits), np.uint64)
+    with np.errstate(over="ignore"):
+        for col in range(bits.shape[1]):
+            h = (h ^ bits[:, col]) * np.uint64(0x9E3779B97F4A7C15)
+            h ^= h >> np.uint64(29)
+    order = np.argsort(h)
+    hs, rows = h[order], bits[order]
+    same_h = hs[1:] == hs[:-1]
+    same_row = (rows[1:] == rows[:-1]).all(axis=1)
+    if np.any(same_h & ~same_row):  # a collision
+        _, inv, counts = np.unique(_keys(v), return_inverse=True, return_counts=True)
+        return inv.reshape(-1), counts
+    new = np.ones(len(hs), bool)
+    new[1:] = ~same_h
+    ids = np.cumsum(new) - 1
+    inv = np.empty(len(hs), np.int64)
+    inv[order] = ids
+    return inv, np.diff(np.append(np.flatnonzero(new), len(hs)))
 
 
 def unite(rings, seams, comps, holes, labels) -> Boundary:
@@ -247,12 +289,15 @@ class _Union:
         n = normalize(robust_cross(a, b))
         self.n = n
         out_e, out_p, meet_a, meet_b = [], [], [], []
+        # the pairs' ends and normals, gathered once: the sides of each end against the
+        # other edge's great circle serve the end-on-edge tests and the crossings
+        ai, bi, aj, bj = a[i], b[i], a[j], b[j]
+        sides = _sides(ai, bi, n[i], aj, bj, n[j])
         # an end of one edge on the other (T-junctions, collinear overlaps); the tests
         # after the first only for the ends within TOL of the other's great circle
-        for e, f in ((i, j), (j, i)):
-            for end in (f, nx[f]):
-                off = np.abs(np.einsum("ij,ij->i", v[end], n[e]))
-                near = np.flatnonzero(off <= TOL)
+        for (e, f), ends in zip(((i, j), (j, i)), ((sides[0], sides[1]), (sides[2], sides[3]))):
+            for end, side in zip((f, nx[f]), ends):
+                near = np.flatnonzero(np.abs(side) <= TOL)
                 e_, f_, end_ = e[near], f[near], end[near]
                 p = v[end_]
                 between = (np.einsum("ij,ij->i", p, cross(n[e_], a[e_])) > 0.0) & (
@@ -267,7 +312,7 @@ class _Union:
                 meet_a.append(e_[on])
                 meet_b.append(f_[on])
         # proper crossings: each edge's ends clearly on both sides of the other
-        hit = _proper_crossings(a, b, n, i, j)
+        hit = _proper(*sides)
         ci, cj = i[hit], j[hit]
         x = normalize(cross(n[ci], n[cj]))
         flip = np.einsum("ij,ij->i", x, a[ci] + b[ci]) < 0
@@ -283,9 +328,8 @@ class _Union:
         meet_a.append(ci)
         meet_b.append(cj)
         # shared vertices
-        va = v[i]
-        shared = (va == v[j]).all(axis=1) | (va == v[nx[j]]).all(axis=1)
-        shared |= (v[nx[i]] == v[j]).all(axis=1) | (v[nx[i]] == v[nx[j]]).all(axis=1)
+        shared = (ai == aj).all(axis=1) | (ai == bj).all(axis=1)
+        shared |= (bi == aj).all(axis=1) | (bi == bj).all(axis=1)
         meet_a.append(i[shared])
         meet_b.append(j[shared])
         ca = self.comp[np.concatenate(meet_a)]
@@ -336,8 +380,7 @@ class _Union:
         )  # a canonical order of the two ends
         lo = np.where(fwd[:, None], s, e)
         hi = np.where(fwd[:, None], e, s)
-        key = _keys(np.concatenate([lo, hi], axis=1))
-        _, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
+        inv, counts = _row_groups(np.concatenate([lo, hi], axis=1))
         keep = counts[inv] == 1
         excl: dict[int, set[int]] = {}
         self.side_test = np.zeros(len(keep), bool)
@@ -567,7 +610,7 @@ class _Union:
         idx = np.flatnonzero(keep)
         start, end, edge = pieces["start"][idx], pieces["end"][idx], pieces["edge"][idx]
         v = self.v
-        _, vid = np.unique(_keys(v), return_inverse=True)
+        vid, _ = _row_groups(v)
         s_id, e_id = vid[start], vid[end]
         k = len(idx)
         order = np.argsort(s_id, kind="stable")
@@ -578,6 +621,11 @@ class _Union:
         if len(bad):
             from .geometry.sphere import xyz_to_lonlat
 
+            # named as by the groups in the order of the rows' bytes
+            _, vid = np.unique(_keys(v), return_inverse=True)
+            vid = vid.reshape(-1)
+            n_out = np.bincount(vid[start], minlength=len(v))
+            bad = np.flatnonzero(n_out != np.bincount(vid[end], minlength=len(v)))
             lon, lat = xyz_to_lonlat(v[np.flatnonzero(vid == bad[0])[0]])
             raise InvalidGeometryError(
                 "cannot unite the polygons: their borders meet at angles too small to "

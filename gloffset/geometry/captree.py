@@ -111,13 +111,13 @@ def _grid_pairs(c: np.ndarray, ext: np.ndarray) -> tuple[np.ndarray, np.ndarray]
         ut = (c[t] + 1.0) / h
         cell_t = np.floor(ut).astype(np.int64)
         key_t = (cell_t[:, 0] * m + cell_t[:, 1]) * m + cell_t[:, 2]
-        by_key = np.argsort(key_t, kind="stable")
+        by_key = np.argsort(key_t)  # any order of equal keys: the pairs are a set
         key_sorted = key_t[by_key]
         t_sorted = t[by_key]
         uq = (c[q] + 1.0) / h
         cell_q = np.floor(uq).astype(np.int64)
         key_q = (cell_q[:, 0] * m + cell_q[:, 1]) * m + cell_q[:, 2]
-        by_q = np.argsort(key_q, kind="stable")  # sorted needles: searchsorted's fast path
+        by_q = np.argsort(key_q)  # sorted needles: searchsorted's fast path
         q, uq, cell_q, key_q = q[by_q], uq[by_q], cell_q[by_q], key_q[by_q]
         frac = uq - cell_q
         reach = (ext[q] + float(ext[t].max())) / h * (1.0 + 1e-6) + 1e-7

@@ -172,8 +172,10 @@ def _coords(obj, depth: int, label: str) -> list:
             f"{label}: 'coordinates' are not nested as the geometry type requires: expected "
             f"{_NESTING[depth]}, got {_short(obj)}"
         )
-    if depth == 1 and not any(o is None or isinstance(o, np.ndarray) for o in obj):
-        return list(obj)  # the positions as they are (what the call per position returns)
+    if depth == 1:
+        kinds = set(map(type, obj))  # at C speed: no call per position
+        if type(None) not in kinds and not any(issubclass(k, np.ndarray) for k in kinds):
+            return list(obj)  # the positions as they are (what the call per position returns)
     return [_coords(o, depth - 1, label) for o in obj]
 
 
