@@ -69,10 +69,15 @@ def _merge_caps(c1, r1, c2, r2):
     return c, np.minimum(pad(r, abs_=_PAD), np.pi)
 
 
-def _grid_pairs(c: np.ndarray, ext: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _grid_pairs(
+    c: np.ndarray, ext: np.ndarray, radii: np.ndarray | None = None, slack: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """Pairs ``i < j`` of balls (centres ``c`` on the unit sphere, radii ``ext`` in
     chord units) whose boxes may meet: a superset of those with
-    ``|c_i - c_j| <= ext_i + ext_j``.
+    ``|c_i - c_j| <= ext_i + ext_j``. With ``radii`` (the caps' angular radii, padded),
+    only the pairs that pass the chord test of :meth:`CapTree.self_pairs`,
+    ``|c_i - c_j| <= pad(chord(r_i + r_j + slack))``, taken block by block on the
+    centres as the grid holds them (gathered in order, not at random).
 
     Cells are cubes of side ``h_k = h_0 2^k``; a ball goes to the first level whose
     side is at least its diameter, and into the cell of its centre. A ball of level
@@ -81,7 +86,9 @@ def _grid_pairs(c: np.ndarray, ext: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     levels, at most ``h_k``) touches, so two balls that meet are compared once, at the
     level of the larger. Rounding: the scaled coordinates ``(c + 1) / h`` are good to
     ``4e-16 / h`` cell widths (``h >= 1e-5``), and the reach is widened by ``1e-6``
-    relative and ``1e-7`` cell widths absolute, far above that.
+    relative and ``1e-7`` cell widths absolute, far above that. The cells of level
+    ``k`` are those of level 0 shifted by ``k`` bits: ``(c + 1) / h_k`` is
+    ``(c + 1) / h_0`` scaled by a power of 2, exactly, so its floor is the same.
     """
     n = len(c)
     diam = 2.0 * ext * (1.0 + 1e-6) + 1e-12  # two diameters of a level fit a cell
@@ -99,6 +106,7 @@ def _grid_pairs(c: np.ndarray, ext: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     lev = np.minimum(lev, top)  # cells of side >= 4 hold the whole sphere
     order = np.argsort(lev, kind="stable")
     bounds = np.searchsorted(lev[order], np.arange(top + 2))
+    cell0 = np.floor((c + 1.0) / h0).astype(np.int64)
     out_i, out_j = [], []
     offsets = [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
     for k in range(top + 1):
@@ -108,17 +116,19 @@ def _grid_pairs(c: np.ndarray, ext: np.ndarray) -> tuple[np.ndarray, np.ndarray]
         t = order[: bounds[k + 1]]  # the balls of levels <= k
         h = h0 * 2.0**k
         m = int(np.floor(2.0 / h)) + 3
-        ut = (c[t] + 1.0) / h
-        cell_t = np.floor(ut).astype(np.int64)
+        cell_t = cell0[t] >> k
         key_t = (cell_t[:, 0] * m + cell_t[:, 1]) * m + cell_t[:, 2]
         by_key = np.argsort(key_t)  # any order of equal keys: the pairs are a set
         key_sorted = key_t[by_key]
         t_sorted = t[by_key]
+        lev_sorted = lev[t_sorted]
         uq = (c[q] + 1.0) / h
         cell_q = np.floor(uq).astype(np.int64)
         key_q = (cell_q[:, 0] * m + cell_q[:, 1]) * m + cell_q[:, 2]
         by_q = np.argsort(key_q)  # sorted needles: searchsorted's fast path
         q, uq, cell_q, key_q = q[by_q], uq[by_q], cell_q[by_q], key_q[by_q]
+        if radii is not None:  # the chord test's operands, in the grid's order
+            c_t, r_t, c_q, r_q = c[t_sorted], radii[t_sorted], c[q], radii[q]
         frac = uq - cell_q
         reach = (ext[q] + float(ext[t].max())) / h * (1.0 + 1e-6) + 1e-7
         lo_need = frac < reach[:, None]  # the cell below along each axis
@@ -144,10 +154,16 @@ def _grid_pairs(c: np.ndarray, ext: np.ndarray) -> tuple[np.ndarray, np.ndarray]
             total = int(cnt.sum())
             start = np.repeat(lo - np.cumsum(cnt) + cnt, cnt)
             pos = start + np.arange(total)
-            ii = np.repeat(q[qs], cnt)
+            qq = np.repeat(qs, cnt)
+            ii = q[qq]
             jj = t_sorted[pos]
             # a pair of one level is met from both sides: kept once
-            keep = (lev[jj] < k) | (jj > ii)
+            keep = (lev_sorted[pos] < k) | (jj > ii)
+            if radii is not None:
+                qq, pos = qq[keep], pos[keep]
+                keep[keep] = _chord2(c_q[qq], c_t[pos]) <= (
+                    pad(chord(r_q[qq] + r_t[pos] + slack)) ** 2
+                )
             out_i.append(ii[keep])
             out_j.append(jj[keep])
     if not out_i:
@@ -216,9 +232,7 @@ class CapTree:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         c, r = self.centers[0], self.radii[0]
         ext = chord(r) + 0.5 * chord(min(max(slack, 0.0), np.pi))
-        ci, cj = _grid_pairs(c, ext)
-        near = _chord2(c[ci], c[cj]) <= pad(chord(r[ci] + r[cj] + slack)) ** 2
-        ci, cj = ci[near], cj[near]
+        ci, cj = _grid_pairs(c, ext, r, slack)  # the chord test taken in the grid
         order = np.argsort(ci * self.n + cj)  # by i, then j (n^2 < 2^63)
         return ci[order], cj[order]
 
