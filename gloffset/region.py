@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InvalidGeometryError
-from .geometry.arrangement import candidate_pairs, components, cycles, split
+from .geometry.arrangement import candidate_pairs, components, permutation_cycles, split
 from .geometry.caps import arc_cap, cap_threshold, pad
 from .geometry.captree import CapTree
 from .geometry.sphere import (
@@ -43,6 +43,7 @@ from .geometry.sphere import (
     arcs_cross,
     cross,
     crossing_rule,
+    dot,
     normalize,
     pair_dots,
     robust_cross,
@@ -237,19 +238,35 @@ class _Union:
         self.comp_end = np.searchsorted(self.comp, np.arange(self.n_comp), side="right")
         self.seam = np.concatenate(seams).astype(bool)
 
-    def _snap_vertices(self, i, j) -> bool:
-        """Merge vertices of candidate edge pairs that lie within TOL (not identical)."""
+    def _ends(self, i, j):
+        """The ends ``a``, ``b`` of the edges ``i`` and ``j`` of the candidate pairs,
+        gathered once for the tests of the pairs."""
         v, nx = self.v, self.nxt
-        ends_i = np.stack([i, nx[i]], axis=1)
-        ends_j = np.stack([j, nx[j]], axis=1)
-        pa = np.repeat(ends_i, 2, axis=1).ravel()
-        pb = np.tile(ends_j, (1, 2)).ravel()
-        d = np.linalg.norm(v[pa] - v[pb], axis=1)
-        close = (d > 0.0) & (d <= TOL)
-        if not close.any():
+        return v[i], v[nx[i]], v[j], v[nx[j]]
+
+    def _snap_vertices(self, i, j, ends) -> bool:
+        """Merge vertices of candidate edge pairs that lie within TOL (not identical)."""
+        nx = self.nxt
+        ai, bi, aj, bj = ends
+        pa, pb = [], []
+        for p, q, x, y in (
+            (i, j, ai, aj),
+            (i, None, ai, bj),
+            (None, j, bi, aj),
+            (None, None, bi, bj),
+        ):
+            diff = x - y
+            # the ends within 2 TOL by a cheap square, then the distance as it was taken
+            near = np.flatnonzero(dot(diff, diff) <= (2.0 * TOL) ** 2)
+            d = np.linalg.norm(diff[near], axis=1)
+            near = near[(d > 0.0) & (d <= TOL)]
+            pa.append(i[near] if p is not None else nx[i[near]])
+            pb.append(j[near] if q is not None else nx[j[near]])
+        pa_c, pb_c = np.concatenate(pa), np.concatenate(pb)
+        if len(pa_c) == 0:
             return False
-        root = components(len(v), pa[close], pb[close])
-        moved = np.unique(np.concatenate([pa[close], pb[close]]))
+        root = components(len(self.v), pa_c, pb_c)
+        moved = np.unique(np.concatenate([pa_c, pb_c]))
         self.v[moved] = self.v[root[moved]]
         return True
 
@@ -261,13 +278,15 @@ class _Union:
     # ------------------------------------------------------------------ run
     def run(self) -> Boundary:
         i, j = self._pairs()
-        if self._snap_vertices(i, j):
+        ends = self._ends(i, j)
+        if self._snap_vertices(i, j, ends):
             i, j = self._pairs()
+            ends = self._ends(i, j)
         other = self.comp[i] != self.comp[j]
         self._pairs_other = (i[other], j[other])
         # pairs of polygons that touch, joined into one component
         self.meets: list[tuple[np.ndarray, np.ndarray]] = []
-        splits = self._intersections(i, j)
+        splits = self._intersections(i, j, ends)
         pieces = self._split(splits)
         keep, excl = self._cancel(pieces)
         keep, flip = self._classify(pieces, keep, excl)
@@ -278,7 +297,7 @@ class _Union:
         )
         return self._link(pieces, keep)
 
-    def _intersections(self, i, j):
+    def _intersections(self, i, j, ends):
         """Split points per edge, ``(edge, vertex index)``: T-junctions and crossings.
 
         Polygons whose edges meet (a shared vertex, a split) are joined into one
@@ -291,7 +310,7 @@ class _Union:
         out_e, out_p, meet_a, meet_b = [], [], [], []
         # the pairs' ends and normals, gathered once: the sides of each end against the
         # other edge's great circle serve the end-on-edge tests and the crossings
-        ai, bi, aj, bj = a[i], b[i], a[j], b[j]
+        ai, bi, aj, bj = ends
         sides = _sides(ai, bi, n[i], aj, bj, n[j])
         # an end of one edge on the other (T-junctions, collinear overlaps); the tests
         # after the first only for the ends within TOL of the other's great circle
@@ -644,16 +663,16 @@ class _Union:
                 cw = np.mod(-ccw, 2.0 * np.pi)
                 cw[cw <= 0.0] = 2.0 * np.pi
                 nxt[p] = cand[int(np.argmin(cw))]
-            if len(np.unique(nxt)) != k:
+            if (np.bincount(nxt, minlength=k) != 1).any():  # not a permutation
                 raise InvalidGeometryError(
                     "cannot unite the polygons: their borders touch in a way that leaves "
                     "the union's boundary ambiguous"
                 )
         # every piece is on one cycle (nxt is a permutation); the rings' arrays at once
-        cyc_all = [cyc for cyc in cycles(nxt)[0] if len(cyc) >= 3]
-        sizes = np.array([len(c) for c in cyc_all], dtype=np.int64)
+        flat, sizes = permutation_cycles(nxt)
+        ring3 = sizes >= 3
+        flat, sizes = flat[np.repeat(ring3, sizes)], sizes[ring3]
         at = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
-        flat = np.concatenate(cyc_all) if cyc_all else np.zeros(0, np.int64)
         e_flat = edge[flat]
         c_flat = self.comp[e_flat]
         ring_id = np.repeat(np.arange(len(sizes)), sizes)

@@ -28,7 +28,7 @@ import numpy as np
 
 from .captree import CapTree
 
-__all__ = ["candidate_pairs", "components", "split", "cycles"]
+__all__ = ["candidate_pairs", "components", "split", "cycles", "permutation_cycles"]
 
 
 def candidate_pairs(mid, half, slack: float = 0.0) -> tuple[CapTree, np.ndarray, np.ndarray]:
@@ -125,3 +125,39 @@ def cycles(nxt) -> tuple[list[np.ndarray], np.ndarray]:
         else:
             unlinked.extend(path)
     return out, np.array(unlinked, dtype=np.int64)
+
+
+def permutation_cycles(nxt) -> tuple[np.ndarray, np.ndarray]:
+    """The cycles of a permutation ``nxt`` (every item on one cycle), all at once.
+
+    Returns ``(items, sizes)``: the items of the cycles one after another, and the
+    length of each; the cycles and their items in the order of :func:`cycles` (each
+    cycle from its smallest item on, the cycles in the order of those). Pointer
+    doubling, ``log2(len(nxt))`` numpy passes: each item's smallest item along the
+    next ``2^k``, then its distance from its cycle's smallest item.
+    """
+    nxt = np.asarray(nxt, dtype=np.int64)
+    n = len(nxt)
+    items = np.arange(n, dtype=np.int64)
+    lab, p, span = items.copy(), nxt, 1
+    while span < n:  # lab: the smallest item of the next 2 span (all of the cycle at the end)
+        lab = np.minimum(lab, lab[p])
+        p = p[p]
+        span *= 2
+    start = lab == items
+    prev = np.empty(n, np.int64)
+    prev[nxt] = items
+    q = np.where(start, items, prev)
+    d = (~start).astype(np.int64)  # d: the steps from q to the item
+    span = 1
+    while span < n:
+        d = d + d[q]
+        q = q[q]
+        span *= 2
+    firsts = np.flatnonzero(start)
+    sizes = np.bincount(lab, minlength=n)[firsts]
+    offset = np.zeros(n, np.int64)
+    offset[firsts] = np.cumsum(sizes) - sizes
+    out = np.empty(n, np.int64)
+    out[offset[lab] + d] = items
+    return out, sizes
