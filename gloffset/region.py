@@ -452,8 +452,9 @@ class _Union:
         score = length * np.where(self.seam, 1e-3, 1.0)
         lo = self.comp_start
         # the longest edge of each polygon: the last of its edges in the order of score
-        order = np.lexsort((score, self.comp))
-        k = order[np.append(lo[1:], m) - 1]
+        # (the greatest score, the last edge of those that have it)
+        best = np.maximum.reduceat(score, lo)
+        k = np.maximum.reduceat(np.where(score == best[self.comp], np.arange(m), -1), lo)
         mid = normalize(a[k] + b[k])
         left = normalize(robust_cross(a[k], b[k]))
         qi, di, _ = self.tree.near(mid, 1e-3)

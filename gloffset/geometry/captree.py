@@ -25,7 +25,7 @@ import numpy as np
 
 from ..memo import Memo, once_attr
 from .caps import arc_cap, chord, pad
-from .sphere import angle, arc_distance, dot, normalize, pair_dots, robust_cross, slerp
+from .sphere import angle, arc_distance, dot, normalize, robust_cross, slerp
 
 __all__ = ["CapTree"]
 
@@ -391,11 +391,10 @@ class CapTree:
         rounding, 1e-12 relative)."""
         bounds: Memo[tuple[np.ndarray, np.ndarray]] = once_attr(self, "_segment_bounds", Memo)
         sin_r, chord_r = bounds.once(k, lambda: self._segment_bounds_of(k))
-        c = self.centers[k]
-        cn = pair_dots(c, ni, n, si)
+        c = self.centers[k][ni]
         lim = chord_r[ni] + seg_chord[si]
-        d = c[ni] - mid[si]
-        return (np.abs(cn) <= sin_r[ni]) & (dot(d, d) <= lim * lim)
+        d = c - mid[si]
+        return (np.abs(dot(c, n[si])) <= sin_r[ni]) & (dot(d, d) <= lim * lim)
 
     def _segment_bounds_of(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """``pad(sin R)`` (2 from R >= pi/2 on: every great circle) and ``pad(chord R)``
