@@ -81,13 +81,15 @@ def _grid_pairs(
 
     Cells are cubes of side ``h_k = h_0 2^k``; a ball goes to the first level whose
     side is at least its diameter, and into the cell of its centre. A ball of level
-    ``k`` is compared with the balls of levels up to ``k`` in the cells of level ``k``
-    next to its own that its reach (its radius plus the largest radius of those
-    levels, at most ``h_k``) touches, so two balls that meet are compared once, at the
-    level of the larger. Rounding: the scaled coordinates ``(c + 1) / h`` are good to
-    ``4e-16 / h`` cell widths (``h >= 1e-5``), and the reach is widened by ``1e-6``
-    relative and ``1e-7`` cell widths absolute, far above that. The cells of level
-    ``k`` are those of level 0 shifted by ``k`` bits: ``(c + 1) / h_k`` is
+    ``k`` is compared with the balls of lower levels in the cells of level ``k`` next to
+    its own that its reach (its radius plus the largest radius of those levels, at
+    most ``h_k``) touches, and with the balls of its own level in the cells that come
+    after its own in the order of the keys (and in its own cell those of greater
+    index): a pair that meets lies within the reach of each of its two balls, so it is
+    met from the first of them, once. Rounding: the scaled coordinates ``(c + 1) / h``
+    are good to ``4e-16 / h`` cell widths (``h >= 1e-5``), and the reach is widened by
+    ``1e-6`` relative and ``1e-7`` cell widths absolute, far above that. The cells of
+    level ``k`` are those of level 0 shifted by ``k`` bits: ``(c + 1) / h_k`` is
     ``(c + 1) / h_0`` scaled by a power of 2, exactly, so its floor is the same.
     """
     n = len(c)
@@ -107,65 +109,72 @@ def _grid_pairs(
     order = np.argsort(lev, kind="stable")
     bounds = np.searchsorted(lev[order], np.arange(top + 2))
     cell0 = np.floor((c + 1.0) / h0).astype(np.int64)
-    out_i, out_j = [], []
-    offsets = [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
+    out_i: list[np.ndarray] = []
+    out_j: list[np.ndarray] = []
+    # (dx, dy) columns of cells: all nine below, the four after (0, 0) and (0, 0) itself
+    # within the level
+    every = [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
+    after = [(0, 0), (0, 1), (1, -1), (1, 0), (1, 1)]
     for k in range(top + 1):
         q = order[bounds[k] : bounds[k + 1]]  # the balls of level k
         if len(q) == 0:
             continue
-        t = order[: bounds[k + 1]]  # the balls of levels <= k
         h = h0 * 2.0**k
         m = int(np.floor(2.0 / h)) + 3
-        cell_t = cell0[t] >> k
-        key_t = (cell_t[:, 0] * m + cell_t[:, 1]) * m + cell_t[:, 2]
-        by_key = np.argsort(key_t)  # any order of equal keys: the pairs are a set
-        key_sorted = key_t[by_key]
-        t_sorted = t[by_key]
-        lev_sorted = lev[t_sorted]
         uq = (c[q] + 1.0) / h
         cell_q = np.floor(uq).astype(np.int64)
         key_q = (cell_q[:, 0] * m + cell_q[:, 1]) * m + cell_q[:, 2]
         by_q = np.argsort(key_q)  # sorted needles: searchsorted's fast path
         q, uq, cell_q, key_q = q[by_q], uq[by_q], cell_q[by_q], key_q[by_q]
-        if radii is not None:  # the chord test's operands, in the grid's order
-            c_t, r_t, c_q, r_q = c[t_sorted], radii[t_sorted], c[q], radii[q]
         frac = uq - cell_q
-        reach = (ext[q] + float(ext[t].max())) / h * (1.0 + 1e-6) + 1e-7
-        lo_need = frac < reach[:, None]  # the cell below along each axis
-        hi_need = 1.0 - frac < reach[:, None]
-        for dx, dy in offsets:
-            sel = np.ones(len(q), bool)
-            for ax, d in ((0, dx), (1, dy)):
-                if d < 0:
-                    sel &= lo_need[:, ax]
-                elif d > 0:
-                    sel &= hi_need[:, ax]
-            qs = np.flatnonzero(sel)
-            if len(qs) == 0:
-                continue
-            # the cells z - 1, z, z + 1 of a column are consecutive keys: one range
-            kq = key_q[qs] + (dx * m + dy) * m
-            lo = np.searchsorted(key_sorted, kq - lo_need[qs, 2], side="left")
-            cnt = np.searchsorted(key_sorted, kq + hi_need[qs, 2], side="right") - lo
-            has = cnt > 0
-            qs, lo, cnt = qs[has], lo[has], cnt[has]
-            if len(qs) == 0:
-                continue
-            total = int(cnt.sum())
-            start = np.repeat(lo - np.cumsum(cnt) + cnt, cnt)
-            pos = start + np.arange(total)
-            qq = np.repeat(qs, cnt)
-            ii = q[qq]
-            jj = t_sorted[pos]
-            # a pair of one level is met from both sides: kept once
-            keep = (lev_sorted[pos] < k) | (jj > ii)
+        targets = [(q, key_q, after, float(ext[q].max()))]
+        if bounds[k] > 0:
+            t = order[: bounds[k]]  # the balls of lower levels
+            cell_t = cell0[t] >> k
+            key_t = (cell_t[:, 0] * m + cell_t[:, 1]) * m + cell_t[:, 2]
+            by_key = np.argsort(key_t)  # any order of equal keys: the pairs are a set
+            targets.append((t[by_key], key_t[by_key], every, float(ext[t].max())))
+        if radii is not None:  # the chord test's operands, in the grid's order
+            c_q, r_q = c[q], radii[q]
+        for t_sorted, key_sorted, columns, ext_max in targets:
+            same = t_sorted is q
             if radii is not None:
-                qq, pos = qq[keep], pos[keep]
-                keep[keep] = _chord2(c_q[qq], c_t[pos]) <= (
-                    pad(chord(r_q[qq] + r_t[pos] + slack)) ** 2
-                )
-            out_i.append(ii[keep])
-            out_j.append(jj[keep])
+                c_t, r_t = (c_q, r_q) if same else (c[t_sorted], radii[t_sorted])
+            reach = (ext[q] + ext_max) / h * (1.0 + 1e-6) + 1e-7
+            lo_need = frac < reach[:, None]  # the cell below along each axis
+            hi_need = 1.0 - frac < reach[:, None]
+            for dx, dy in columns:
+                sel = np.ones(len(q), bool)
+                for ax, d in ((0, dx), (1, dy)):
+                    if d < 0:
+                        sel &= lo_need[:, ax]
+                    elif d > 0:
+                        sel &= hi_need[:, ax]
+                qs = np.flatnonzero(sel)
+                if len(qs) == 0:
+                    continue
+                # the cells z - 1, z, z + 1 of a column are consecutive keys: one range
+                # (from z itself in the ball's own column of its own level)
+                kq = key_q[qs] + (dx * m + dy) * m
+                below = 0 if same and dx == dy == 0 else lo_need[qs, 2]
+                lo = np.searchsorted(key_sorted, kq - below, side="left")
+                cnt = np.searchsorted(key_sorted, kq + hi_need[qs, 2], side="right") - lo
+                has = cnt > 0
+                qs, lo, cnt = qs[has], lo[has], cnt[has]
+                if len(qs) == 0:
+                    continue
+                total = int(cnt.sum())
+                start = np.repeat(lo - np.cumsum(cnt) + cnt, cnt)
+                pos = start + np.arange(total)
+                qq = np.repeat(qs, cnt)
+                if same and dx == dy == 0:  # its own cell: each pair from one side
+                    keep = (key_sorted[pos] != key_q[qq]) | (t_sorted[pos] > q[qq])
+                    qq, pos = qq[keep], pos[keep]
+                if radii is not None:
+                    keep = _chord2(c_q[qq], c_t[pos]) <= pad(chord(r_q[qq] + r_t[pos] + slack)) ** 2
+                    qq, pos = qq[keep], pos[keep]
+                out_i.append(q[qq])
+                out_j.append(t_sorted[pos])
     if not out_i:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     ii = np.concatenate(out_i)
