@@ -121,7 +121,7 @@ def _sides(ai, bi, ni, aj, bj, nj):
 
 def _proper(o1, o2, o3, o4) -> np.ndarray:
     """:func:`_proper_crossings` from the side values of :func:`_sides`."""
-    clear = np.minimum.reduce([np.abs(o1), np.abs(o2), np.abs(o3), np.abs(o4)]) > TOL
+    clear = np.minimum(np.minimum(np.abs(o1), np.abs(o2)), np.minimum(np.abs(o3), np.abs(o4))) > TOL
     return clear & crossing_rule(o1 >= 0, o2 >= 0, o3 >= 0, o4 >= 0)
 
 
@@ -314,8 +314,8 @@ class _Union:
         sides = _sides(ai, bi, n[i], aj, bj, n[j])
         # an end of one edge on the other (T-junctions, collinear overlaps); the tests
         # after the first only for the ends within TOL of the other's great circle
-        for (e, f), ends in zip(((i, j), (j, i)), ((sides[0], sides[1]), (sides[2], sides[3]))):
-            for end, side in zip((f, nx[f]), ends):
+        for (e, f), e_sides in zip(((i, j), (j, i)), (sides[:2], sides[2:])):
+            for end, side in zip((f, nx[f]), e_sides):
                 near = np.flatnonzero(np.abs(side) <= TOL)
                 e_, f_, end_ = e[near], f[near], end[near]
                 p = v[end_]
@@ -346,11 +346,13 @@ class _Union:
         out_p += [new, new]
         meet_a.append(ci)
         meet_b.append(cj)
-        # shared vertices
+        # shared vertices (of pairs of two polygons: only those join components)
+        o = np.flatnonzero(self.comp[i] != self.comp[j])
+        ai, bi, aj, bj = ai[o], bi[o], aj[o], bj[o]
         shared = (ai == aj).all(axis=1) | (ai == bj).all(axis=1)
         shared |= (bi == aj).all(axis=1) | (bi == bj).all(axis=1)
-        meet_a.append(i[shared])
-        meet_b.append(j[shared])
+        meet_a.append(i[o[shared]])
+        meet_b.append(j[o[shared]])
         ca = self.comp[np.concatenate(meet_a)]
         cb = self.comp[np.concatenate(meet_b)]
         diff = ca != cb

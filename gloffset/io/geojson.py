@@ -193,6 +193,9 @@ def _position_array(coords, label: str) -> np.ndarray:
         return np.zeros((0, 2))
     try:  # the usual case, fast: positions of plain numbers, all of one length
         if set(map(type, itertools.chain.from_iterable(coords))) <= _PLAIN:
+            if set(map(len, coords)) == {2}:  # lon/lat pairs: no nesting for numpy to find
+                flat = itertools.chain.from_iterable(coords)
+                return np.fromiter(flat, np.float64, 2 * len(coords)).reshape(-1, 2)
             arr = np.array(coords, dtype=np.float64)
             if arr.ndim == 2 and arr.shape[1] >= 2:
                 return np.ascontiguousarray(arr[:, :2])
