@@ -138,6 +138,12 @@ def _grid_pairs(
             c_q, r_q = c[q], radii[q]
         for t_sorted, key_sorted, columns, ext_max in targets:
             same = t_sorted is q
+            # the distinct keys and where each starts (with sentinels after the last)
+            first = np.ones(len(key_sorted), bool)
+            first[1:] = key_sorted[1:] != key_sorted[:-1]
+            at = np.flatnonzero(first)
+            keys = np.append(key_sorted[at], np.full(3, np.iinfo(np.int64).max))
+            at = np.append(at, len(key_sorted))
             if radii is not None:
                 c_t, r_t = (c_q, r_q) if same else (c[t_sorted], radii[t_sorted])
             reach = (ext[q] + ext_max) / h * (1.0 + 1e-6) + 1e-7
@@ -157,8 +163,14 @@ def _grid_pairs(
                 # (from z itself in the ball's own column of its own level)
                 kq = key_q[qs] + (dx * m + dy) * m
                 below = 0 if same and dx == dy == 0 else lo_need[qs, 2]
-                lo = np.searchsorted(key_sorted, kq - below, side="left")
-                cnt = np.searchsorted(key_sorted, kq + hi_need[qs, 2], side="right") - lo
+                # the first distinct key >= kq - below, and those up to kq + above (at
+                # most 3 consecutive keys: counted by comparison, no second search)
+                u = np.searchsorted(keys[:-3], kq - below, side="left")
+                top_key = kq + hi_need[qs, 2]
+                u_end = u + (keys[u] <= top_key) + (keys[u + 1] <= top_key)
+                u_end += keys[u + 2] <= top_key
+                lo = at[u]
+                cnt = at[u_end] - lo
                 has = cnt > 0
                 qs, lo, cnt = qs[has], lo[has], cnt[has]
                 if len(qs) == 0:
