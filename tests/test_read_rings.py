@@ -110,3 +110,21 @@ def test_row_groups_are_the_groups_of_equal_rows():
         pairs = set(zip(inv.tolist(), want_inv.reshape(-1).tolist()))
         assert len(pairs) == len(counts) == len(want_counts)  # the same partition
         assert np.array_equal(counts[inv], want_counts[want_inv.reshape(-1)])
+
+
+def test_json_reading_leaves_the_garbage_collector_as_it_was():
+    import gc
+
+    from gloffset.errors import InputFormatError
+
+    was = gc.isenabled()
+    try:
+        for enabled in (True, False):
+            (gc.enable if enabled else gc.disable)()
+            gj.load('{"type": "Point", "coordinates": [1, 2]}')
+            assert gc.isenabled() == enabled
+            with pytest.raises(InputFormatError):
+                gj.load('{"type": "Point", "coordinates": [1, 2')
+            assert gc.isenabled() == enabled
+    finally:
+        (gc.enable if was else gc.disable)()

@@ -15,6 +15,7 @@ here: :mod:`gloffset.vector` makes rings and knows no file format.
 
 from __future__ import annotations
 
+import gc
 import itertools
 import json
 import numbers
@@ -120,6 +121,10 @@ def _loads(text: str, where: str):
             long.append(number)
             raise
 
+    # the collector paused while the document is built: its hundreds of thousands of
+    # lists make no cycle, and passes over them would cost a third of the parse
+    collecting = gc.isenabled()
+    gc.disable()
     try:
         return json.loads(text, parse_int=_int)
     except json.JSONDecodeError as exc:
@@ -139,6 +144,9 @@ def _loads(text: str, where: str):
         ) from None
     except RecursionError:
         raise InputFormatError(f"{where}: JSON nested too deeply to read") from None
+    finally:
+        if collecting:
+            gc.enable()
 
 
 def _max_digits() -> int:
