@@ -263,8 +263,9 @@ class Shape:
     @classmethod
     def from_geojson(cls, obj, *, layer=None, where: str | None = None, densify=None) -> Shape:
         """Build a shape from a GeoJSON object (dict) or anything :func:`read` accepts."""
-        obj = _features.load(obj, layer=layer, where=where, densify=densify)
-        return _from_parts(_gj.parse(obj))
+        with _gj.collector_paused():  # the document freed before the collector runs
+            parts = _gj.parse(_features.load(obj, layer=layer, where=where, densify=densify))
+        return _from_parts(parts)
 
     @classmethod
     def from_lonlat(cls, lon, lat, *, closed: bool = False) -> Shape:

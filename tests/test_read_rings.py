@@ -112,7 +112,7 @@ def test_row_groups_are_the_groups_of_equal_rows():
         assert np.array_equal(counts[inv], want_counts[want_inv.reshape(-1)])
 
 
-def test_json_reading_leaves_the_garbage_collector_as_it_was():
+def test_reading_leaves_the_garbage_collector_as_it_was():
     import gc
 
     from gloffset.errors import InputFormatError
@@ -125,6 +125,11 @@ def test_json_reading_leaves_the_garbage_collector_as_it_was():
             assert gc.isenabled() == enabled
             with pytest.raises(InputFormatError):
                 gj.load('{"type": "Point", "coordinates": [1, 2')
+            assert gc.isenabled() == enabled
+            gloffset.read(DATA / "mexico_10m.geojson")
+            assert gc.isenabled() == enabled
+            with pytest.raises(InputFormatError):
+                gloffset.read({"type": "Polygon", "coordinates": [[[0, 0], [1, "x"]]]})
             assert gc.isenabled() == enabled
     finally:
         (gc.enable if was else gc.disable)()

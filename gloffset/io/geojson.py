@@ -15,6 +15,7 @@ here: :mod:`gloffset.vector` makes rings and knows no file format.
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import itertools
 import json
@@ -121,12 +122,9 @@ def _loads(text: str, where: str):
             long.append(number)
             raise
 
-    # the collector paused while the document is built: its hundreds of thousands of
-    # lists make no cycle, and passes over them would cost a third of the parse
-    collecting = gc.isenabled()
-    gc.disable()
     try:
-        return json.loads(text, parse_int=_int)
+        with collector_paused():
+            return json.loads(text, parse_int=_int)
     except json.JSONDecodeError as exc:
         raise InputFormatError(
             f"{where} is not valid JSON (line {exc.lineno}, column {exc.colno}): {exc.msg}"
@@ -144,6 +142,18 @@ def _loads(text: str, where: str):
         ) from None
     except RecursionError:
         raise InputFormatError(f"{where}: JSON nested too deeply to read") from None
+
+
+@contextlib.contextmanager
+def collector_paused():
+    """The garbage collector paused (and restored as it was) while a GeoJSON document is
+    built and read: its hundreds of thousands of lists make no cycle, and the collector's
+    passes over them (each time they come of age) cost about a third of the parse. The
+    document is freed by reference counting once read, before the collector runs again."""
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        yield
     finally:
         if collecting:
             gc.enable()
