@@ -314,18 +314,24 @@ class _Union:
         sides = _sides(ai, bi, n[i], aj, bj, n[j])
         # an end of one edge on the other (T-junctions, collinear overlaps); the tests
         # after the first only for the ends within TOL of the other's great circle
+        # (most such ends are a vertex the two edges share: an end that is one of the
+        # edge's own vertices is not on it, and the rest are tested far from its ends
+        # before between them)
         for (e, f), e_sides in zip(((i, j), (j, i)), (sides[:2], sides[2:])):
-            for end, side in zip((f, nx[f]), e_sides):
+            for head, side in zip((True, False), e_sides):
                 near = np.flatnonzero(np.abs(side) <= TOL)
-                e_, f_, end_ = e[near], f[near], end[near]
+                e_, f_ = e[near], f[near]
+                end_ = f_ if head else nx[f_]
+                other = (end_ != e_) & (end_ != nx[e_])
+                e_, f_, end_ = e_[other], f_[other], end_[other]
                 p = v[end_]
-                between = (np.einsum("ij,ij->i", p, cross(n[e_], a[e_])) > 0.0) & (
-                    np.einsum("ij,ij->i", p, cross(b[e_], n[e_])) > 0.0
-                )
                 far = (np.linalg.norm(p - a[e_], axis=1) > TOL) & (
                     np.linalg.norm(p - b[e_], axis=1) > TOL
                 )
-                on = between & far
+                e_, f_, end_, p = e_[far], f_[far], end_[far], p[far]
+                on = (np.einsum("ij,ij->i", p, cross(n[e_], a[e_])) > 0.0) & (
+                    np.einsum("ij,ij->i", p, cross(b[e_], n[e_])) > 0.0
+                )
                 out_e.append(e_[on])
                 out_p.append(end_[on])
                 meet_a.append(e_[on])
