@@ -405,9 +405,12 @@ class _Union:
         fwd = (d[:, 0] < 0) | (
             (d[:, 0] == 0) & ((d[:, 1] < 0) | ((d[:, 1] == 0) & (d[:, 2] < 0)))
         )  # a canonical order of the two ends
-        lo = np.where(fwd[:, None], s, e)
-        hi = np.where(fwd[:, None], e, s)
-        inv, counts = _row_groups(np.concatenate([lo, hi], axis=1))
+        # the pieces with the same two ends, by the ends' vertex groups (equal rows)
+        self.vid, _ = _row_groups(v)
+        s_id, e_id = self.vid[pieces["start"]], self.vid[pieces["end"]]
+        lo = np.where(fwd, s_id, e_id)
+        hi = np.where(fwd, e_id, s_id)
+        _, inv, counts = np.unique(lo * len(v) + hi, return_inverse=True, return_counts=True)
         keep = counts[inv] == 1
         excl: dict[int, set[int]] = {}
         self.side_test = np.zeros(len(keep), bool)
@@ -638,7 +641,7 @@ class _Union:
         idx = np.flatnonzero(keep)
         start, end, edge = pieces["start"][idx], pieces["end"][idx], pieces["edge"][idx]
         v = self.v
-        vid, _ = _row_groups(v)
+        vid = self.vid  # the vertex groups of _cancel
         s_id, e_id = vid[start], vid[end]
         k = len(idx)
         order = np.argsort(s_id, kind="stable")
