@@ -645,8 +645,9 @@ class _Union:
         s_id, e_id = vid[start], vid[end]
         k = len(idx)
         order = np.argsort(s_id, kind="stable")
-        first = np.searchsorted(s_id[order], e_id)
         n_out = np.bincount(s_id, minlength=len(v))
+        # where each vertex's pieces start in that order (a search of e_id, by counting)
+        first = (np.cumsum(n_out) - n_out)[e_id]
         n_in = np.bincount(e_id, minlength=len(v))
         bad = np.flatnonzero(n_out != n_in)
         if len(bad):
