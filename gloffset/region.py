@@ -34,7 +34,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InvalidGeometryError
-from .geometry.arrangement import candidate_pairs, components, permutation_cycles, split
+from .geometry.arrangement import (
+    candidate_pairs,
+    components,
+    equal_rows,
+    permutation_cycles,
+    row_keys,
+    split,
+)
 from .geometry.caps import arc_cap, cap_threshold, pad
 from .geometry.captree import CapTree
 from .geometry.sphere import (
@@ -140,42 +147,6 @@ def _crosses_itself(rings) -> bool:
     if len(i) == 0:
         return False
     return bool(_proper_crossings(a, b, normalize(robust_cross(a, b)), i, j).any())
-
-
-def _keys(v: np.ndarray) -> np.ndarray:
-    """Exact row keys of unit vectors (``-0.0`` made ``0.0``), as a void view."""
-    v = np.ascontiguousarray(v + 0.0)
-    return v.view(np.dtype((np.void, v.dtype.itemsize * v.shape[1]))).ravel()
-
-
-def _row_groups(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rows of ``v`` that are equal (``-0.0`` equal to ``0.0``): a label per row and the
-    size of each label's group (``np.unique``'s ``inverse`` and ``counts`` of
-    :func:`_keys`, up to the numbering of the groups).
-
-    The rows are sorted by a 64-bit hash of their bits (one sort of integers, several
-    times faster than sorting the rows' bytes); rows with equal hashes must be equal,
-    which is checked: where two are not (a collision) the bytes are sorted instead.
-    """
-    bits = np.ascontiguousarray(v + 0.0).view(np.uint64)
-    h = np.zeros(len(bits), np.uint64)
-    with np.errstate(over="ignore"):
-        for col in range(bits.shape[1]):
-            h = (h ^ bits[:, col]) * np.uint64(0x9E3779B97F4A7C15)
-            h ^= h >> np.uint64(29)
-    order = np.argsort(h)
-    hs, rows = h[order], bits[order]
-    same_h = hs[1:] == hs[:-1]
-    same_row = (rows[1:] == rows[:-1]).all(axis=1)
-    if np.any(same_h & ~same_row):  # a collision
-        _, inv, counts = np.unique(_keys(v), return_inverse=True, return_counts=True)
-        return inv.reshape(-1), counts
-    new = np.ones(len(hs), bool)
-    new[1:] = ~same_h
-    ids = np.cumsum(new) - 1
-    inv = np.empty(len(hs), np.int64)
-    inv[order] = ids
-    return inv, np.diff(np.append(np.flatnonzero(new), len(hs)))
 
 
 def unite(rings, seams, comps, holes, labels) -> Boundary:
@@ -406,7 +377,7 @@ class _Union:
             (d[:, 0] == 0) & ((d[:, 1] < 0) | ((d[:, 1] == 0) & (d[:, 2] < 0)))
         )  # a canonical order of the two ends
         # the pieces with the same two ends, by the ends' vertex groups (equal rows)
-        self.vid, _ = _row_groups(v)
+        self.vid, _ = equal_rows(v)
         s_id, e_id = self.vid[pieces["start"]], self.vid[pieces["end"]]
         lo = np.where(fwd, s_id, e_id)
         hi = np.where(fwd, e_id, s_id)
@@ -654,7 +625,7 @@ class _Union:
             from .geometry.sphere import xyz_to_lonlat
 
             # named as by the groups in the order of the rows' bytes
-            _, vid = np.unique(_keys(v), return_inverse=True)
+            _, vid = np.unique(row_keys(v), return_inverse=True)
             vid = vid.reshape(-1)
             n_out = np.bincount(vid[start], minlength=len(v))
             bad = np.flatnonzero(n_out != np.bincount(vid[end], minlength=len(v)))

@@ -95,8 +95,8 @@ def test_read_names_the_bad_vertex():
         gloffset.read(doc)
 
 
-def test_row_groups_are_the_groups_of_equal_rows():
-    from gloffset.region import _keys, _row_groups
+def test_equal_rows_are_the_groups_of_equal_rows():
+    from gloffset.geometry.arrangement import equal_rows, row_keys
 
     rng = np.random.default_rng(0)
     base = rng.normal(size=(300, 6))
@@ -105,8 +105,8 @@ def test_row_groups_are_the_groups_of_equal_rows():
     rows[::3, 2] *= -1.0  # -0.0 where the value is 0.0: the same row
     rows[1::5, 4] = np.nextafter(rows[1::5, 4], np.inf)  # 1 ulp apart: another row
     for v in (rows, rows[:, :3]):
-        inv, counts = _row_groups(v)
-        _, want_inv, want_counts = np.unique(_keys(v), return_inverse=True, return_counts=True)
+        inv, counts = equal_rows(v)
+        _, want_inv, want_counts = np.unique(row_keys(v), return_inverse=True, return_counts=True)
         pairs = set(zip(inv.tolist(), want_inv.reshape(-1).tolist()))
         assert len(pairs) == len(counts) == len(want_counts)  # the same partition
         assert np.array_equal(counts[inv], want_counts[want_inv.reshape(-1)])

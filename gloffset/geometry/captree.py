@@ -21,6 +21,8 @@ the query's cap touches on each level. The pairs of items among themselves
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..memo import Memo, once_attr
@@ -92,7 +94,46 @@ def _grid_pairs(
     level ``k`` are those of level 0 shifted by ``k`` bits: ``(c + 1) / h_k`` is
     ``(c + 1) / h_0`` scaled by a power of 2, exactly, so its floor is the same.
     """
-    n = len(c)
+    h0, order, bounds = _grid_levels(ext)
+    cell0 = np.floor((c + 1.0) / h0).astype(np.int64)
+    out_i: list[np.ndarray] = []
+    out_j: list[np.ndarray] = []
+    # (dx, dy) columns of cells: all nine below, the four after (0, 0) and (0, 0) itself
+    # within the level
+    every = [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
+    after = [(0, 0), (0, 1), (1, -1), (1, 0), (1, 1)]
+    for k in range(len(bounds) - 1):
+        q = order[bounds[k] : bounds[k + 1]]  # the balls of level k
+        if len(q) == 0:
+            continue
+        h = h0 * 2.0**k
+        m = int(np.floor(2.0 / h)) + 3
+        uq = (c[q] + 1.0) / h
+        cell_q = np.floor(uq).astype(np.int64)
+        key_q = (cell_q[:, 0] * m + cell_q[:, 1]) * m + cell_q[:, 2]
+        by_q = np.argsort(key_q)  # sorted needles: searchsorted's fast path
+        q, key_q, frac = q[by_q], key_q[by_q], (uq - cell_q)[by_q]
+        level = _Level(q, key_q, frac, h, m)
+        _column_pairs(level, q, key_q, after, c, ext, radii, slack, out_i, out_j)
+        if bounds[k] > 0:
+            t = order[: bounds[k]]  # the balls of lower levels
+            cell_t = cell0[t] >> k
+            key_t = (cell_t[:, 0] * m + cell_t[:, 1]) * m + cell_t[:, 2]
+            by_key = np.argsort(key_t)  # any order of equal keys: the pairs are a set
+            _column_pairs(
+                level, t[by_key], key_t[by_key], every, c, ext, radii, slack, out_i, out_j
+            )
+    if not out_i:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    ii = np.concatenate(out_i)
+    jj = np.concatenate(out_j)
+    return np.minimum(ii, jj), np.maximum(ii, jj)
+
+
+def _grid_levels(ext: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """The grid's levels (:func:`_grid_pairs`): the cell side ``h_0`` of level 0, the
+    balls in the order of their levels and where each level starts in it."""
+    n = len(ext)
     diam = 2.0 * ext * (1.0 + 1e-6) + 1e-12  # two diameters of a level fit a cell
     # the median diameter (any size works, this one makes few levels; np.median would
     # import numpy.ma, 12 ms, at a first read)
@@ -109,91 +150,76 @@ def _grid_pairs(
     top = int(min(lev.max(), np.ceil(np.log2(4.0 / h0)) + 1))
     lev = np.minimum(lev, top)  # cells of side >= 4 hold the whole sphere
     order = np.argsort(lev, kind="stable")
-    bounds = np.searchsorted(lev[order], np.arange(top + 2))
-    cell0 = np.floor((c + 1.0) / h0).astype(np.int64)
-    out_i: list[np.ndarray] = []
-    out_j: list[np.ndarray] = []
-    # (dx, dy) columns of cells: all nine below, the four after (0, 0) and (0, 0) itself
-    # within the level
-    every = [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
-    after = [(0, 0), (0, 1), (1, -1), (1, 0), (1, 1)]
-    for k in range(top + 1):
-        q = order[bounds[k] : bounds[k + 1]]  # the balls of level k
-        if len(q) == 0:
+    return h0, order, np.searchsorted(lev[order], np.arange(top + 2))
+
+
+@dataclass
+class _Level:
+    """The balls of one level of the grid, sorted by their cells' keys: their cells'
+    keys, their places in their cells (``frac``, in cell widths), the cells' side and
+    the keys' base."""
+
+    q: np.ndarray
+    key_q: np.ndarray
+    frac: np.ndarray
+    h: float
+    m: int
+
+
+def _column_pairs(lv, t_sorted, key_sorted, columns, c, ext, radii, slack, out_i, out_j):
+    """The pairs of the balls of level ``lv`` with the balls ``t_sorted`` (sorted by
+    their cells' keys ``key_sorted``: the level's own, or those of lower levels) in the
+    columns of cells ``columns`` around each ball's own (:func:`_grid_pairs`),
+    appended to ``out_i``, ``out_j``."""
+    q, key_q, frac, h, m = lv.q, lv.key_q, lv.frac, lv.h, lv.m
+    same = t_sorted is q
+    # the distinct keys and where each starts (with sentinels after the last)
+    first = np.ones(len(key_sorted), bool)
+    first[1:] = key_sorted[1:] != key_sorted[:-1]
+    at = np.flatnonzero(first)
+    keys = np.append(key_sorted[at], np.full(3, np.iinfo(np.int64).max))
+    at = np.append(at, len(key_sorted))
+    if radii is not None:  # the chord test's operands, in the grid's order
+        c_q, r_q, c_t, r_t = c[q], radii[q], c[t_sorted], radii[t_sorted]
+    reach = (ext[q] + float(ext[t_sorted].max())) / h * (1.0 + 1e-6) + 1e-7
+    lo_need = frac < reach[:, None]  # the cell below along each axis
+    hi_need = 1.0 - frac < reach[:, None]
+    for dx, dy in columns:
+        sel = np.ones(len(q), bool)
+        for ax, d in ((0, dx), (1, dy)):
+            if d < 0:
+                sel &= lo_need[:, ax]
+            elif d > 0:
+                sel &= hi_need[:, ax]
+        qs = np.flatnonzero(sel)
+        if len(qs) == 0:
             continue
-        h = h0 * 2.0**k
-        m = int(np.floor(2.0 / h)) + 3
-        uq = (c[q] + 1.0) / h
-        cell_q = np.floor(uq).astype(np.int64)
-        key_q = (cell_q[:, 0] * m + cell_q[:, 1]) * m + cell_q[:, 2]
-        by_q = np.argsort(key_q)  # sorted needles: searchsorted's fast path
-        q, uq, cell_q, key_q = q[by_q], uq[by_q], cell_q[by_q], key_q[by_q]
-        frac = uq - cell_q
-        targets = [(q, key_q, after, float(ext[q].max()))]
-        if bounds[k] > 0:
-            t = order[: bounds[k]]  # the balls of lower levels
-            cell_t = cell0[t] >> k
-            key_t = (cell_t[:, 0] * m + cell_t[:, 1]) * m + cell_t[:, 2]
-            by_key = np.argsort(key_t)  # any order of equal keys: the pairs are a set
-            targets.append((t[by_key], key_t[by_key], every, float(ext[t].max())))
-        if radii is not None:  # the chord test's operands, in the grid's order
-            c_q, r_q = c[q], radii[q]
-        for t_sorted, key_sorted, columns, ext_max in targets:
-            same = t_sorted is q
-            # the distinct keys and where each starts (with sentinels after the last)
-            first = np.ones(len(key_sorted), bool)
-            first[1:] = key_sorted[1:] != key_sorted[:-1]
-            at = np.flatnonzero(first)
-            keys = np.append(key_sorted[at], np.full(3, np.iinfo(np.int64).max))
-            at = np.append(at, len(key_sorted))
-            if radii is not None:
-                c_t, r_t = (c_q, r_q) if same else (c[t_sorted], radii[t_sorted])
-            reach = (ext[q] + ext_max) / h * (1.0 + 1e-6) + 1e-7
-            lo_need = frac < reach[:, None]  # the cell below along each axis
-            hi_need = 1.0 - frac < reach[:, None]
-            for dx, dy in columns:
-                sel = np.ones(len(q), bool)
-                for ax, d in ((0, dx), (1, dy)):
-                    if d < 0:
-                        sel &= lo_need[:, ax]
-                    elif d > 0:
-                        sel &= hi_need[:, ax]
-                qs = np.flatnonzero(sel)
-                if len(qs) == 0:
-                    continue
-                # the cells z - 1, z, z + 1 of a column are consecutive keys: one range
-                # (from z itself in the ball's own column of its own level)
-                kq = key_q[qs] + (dx * m + dy) * m
-                below = 0 if same and dx == dy == 0 else lo_need[qs, 2]
-                # the first distinct key >= kq - below, and those up to kq + above (at
-                # most 3 consecutive keys: counted by comparison, no second search)
-                u = np.searchsorted(keys[:-3], kq - below, side="left")
-                top_key = kq + hi_need[qs, 2]
-                u_end = u + (keys[u] <= top_key) + (keys[u + 1] <= top_key)
-                u_end += keys[u + 2] <= top_key
-                lo = at[u]
-                cnt = at[u_end] - lo
-                has = cnt > 0
-                qs, lo, cnt = qs[has], lo[has], cnt[has]
-                if len(qs) == 0:
-                    continue
-                total = int(cnt.sum())
-                start = np.repeat(lo - np.cumsum(cnt) + cnt, cnt)
-                pos = start + np.arange(total)
-                qq = np.repeat(qs, cnt)
-                if same and dx == dy == 0:  # its own cell: each pair from one side
-                    keep = (key_sorted[pos] != key_q[qq]) | (t_sorted[pos] > q[qq])
-                    qq, pos = qq[keep], pos[keep]
-                if radii is not None:
-                    keep = _chord2(c_q[qq], c_t[pos]) <= pad(chord(r_q[qq] + r_t[pos] + slack)) ** 2
-                    qq, pos = qq[keep], pos[keep]
-                out_i.append(q[qq])
-                out_j.append(t_sorted[pos])
-    if not out_i:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    ii = np.concatenate(out_i)
-    jj = np.concatenate(out_j)
-    return np.minimum(ii, jj), np.maximum(ii, jj)
+        # the cells z - 1, z, z + 1 of a column are consecutive keys: one range (from z
+        # itself in the ball's own column of its own level); the first distinct key >=
+        # its start, and those up to its end (at most 3: counted, no second search)
+        kq = key_q[qs] + (dx * m + dy) * m
+        below = 0 if same and dx == dy == 0 else lo_need[qs, 2]
+        u = np.searchsorted(keys[:-3], kq - below, side="left")
+        top_key = kq + hi_need[qs, 2]
+        u_end = u + (keys[u] <= top_key) + (keys[u + 1] <= top_key)
+        u_end += keys[u + 2] <= top_key
+        lo = at[u]
+        cnt = at[u_end] - lo
+        has = cnt > 0
+        qs, lo, cnt = qs[has], lo[has], cnt[has]
+        if len(qs) == 0:
+            continue
+        total = int(cnt.sum())
+        pos = np.repeat(lo - np.cumsum(cnt) + cnt, cnt) + np.arange(total)
+        qq = np.repeat(qs, cnt)
+        if same and dx == dy == 0:  # its own cell: each pair from one side
+            keep = (key_sorted[pos] != key_q[qq]) | (t_sorted[pos] > q[qq])
+            qq, pos = qq[keep], pos[keep]
+        if radii is not None:
+            keep = _chord2(c_q[qq], c_t[pos]) <= pad(chord(r_q[qq] + r_t[pos] + slack)) ** 2
+            qq, pos = qq[keep], pos[keep]
+        out_i.append(q[qq])
+        out_j.append(t_sorted[pos])
 
 
 class CapTree:
