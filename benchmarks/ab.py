@@ -98,7 +98,12 @@ def time_in(tree: Path, code: str) -> tuple[float, float]:
     src = SETUP.format(data=str(DATA), countries="countries" in code) + TIMER.format(code=code)
     env = dict(os.environ, PYTHONPATH=str(tree))
     out = subprocess.run(
-        [sys.executable, "-c", src], env=env, capture_output=True, text=True, check=True
+        [sys.executable, "-c", src],
+        cwd=tree,  # "python -c" puts the working directory first on sys.path
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
     )
     wall, host = out.stdout.strip().splitlines()[-1].split()
     return float(wall), float(host)

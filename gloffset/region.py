@@ -34,15 +34,25 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InvalidGeometryError
-from .geometry.arrangement import candidate_pairs, components, cycles, split
+from .geometry.arrangement import (
+    candidate_pairs,
+    components,
+    equal_rows,
+    permutation_cycles,
+    row_keys,
+    split,
+)
 from .geometry.caps import arc_cap, cap_threshold, pad
+from .geometry.captree import CapTree
 from .geometry.sphere import (
     angle,
     arc_distance,
     arcs_cross,
     cross,
     crossing_rule,
+    dot,
     normalize,
+    pair_dots,
     robust_cross,
 )
 
@@ -102,11 +112,23 @@ def _proper_crossings(a, b, n, i, j) -> np.ndarray:
     """Whether edges ``i[k]`` and ``j[k]`` cross properly: the ends of each lie farther
     than :data:`TOL` from the other's great circle (``n``: the edges' unit normals), on
     both sides of it, and the crossing is not the antipodal one."""
-    o1 = np.einsum("ij,ij->i", a[j], n[i])
-    o2 = np.einsum("ij,ij->i", b[j], n[i])
-    o3 = np.einsum("ij,ij->i", a[i], n[j])
-    o4 = np.einsum("ij,ij->i", b[i], n[j])
-    clear = np.minimum.reduce([np.abs(o1), np.abs(o2), np.abs(o3), np.abs(o4)]) > TOL
+    return _proper(*_sides(a[i], b[i], n[i], a[j], b[j], n[j]))
+
+
+def _sides(ai, bi, ni, aj, bj, nj):
+    """The four side values of edge pairs: ``aj.ni``, ``bj.ni``, ``ai.nj``, ``bi.nj``
+    (einsum's sums, so the same bits wherever they are computed)."""
+    return (
+        np.einsum("ij,ij->i", aj, ni),
+        np.einsum("ij,ij->i", bj, ni),
+        np.einsum("ij,ij->i", ai, nj),
+        np.einsum("ij,ij->i", bi, nj),
+    )
+
+
+def _proper(o1, o2, o3, o4) -> np.ndarray:
+    """:func:`_proper_crossings` from the side values of :func:`_sides`."""
+    clear = np.minimum(np.minimum(np.abs(o1), np.abs(o2)), np.minimum(np.abs(o3), np.abs(o4))) > TOL
     return clear & crossing_rule(o1 >= 0, o2 >= 0, o3 >= 0, o4 >= 0)
 
 
@@ -125,12 +147,6 @@ def _crosses_itself(rings) -> bool:
     if len(i) == 0:
         return False
     return bool(_proper_crossings(a, b, normalize(robust_cross(a, b)), i, j).any())
-
-
-def _keys(v: np.ndarray) -> np.ndarray:
-    """Exact row keys of unit vectors (``-0.0`` made ``0.0``), as a void view."""
-    v = np.ascontiguousarray(v + 0.0)
-    return v.view(np.dtype((np.void, v.dtype.itemsize * v.shape[1]))).ravel()
 
 
 def unite(rings, seams, comps, holes, labels) -> Boundary:
@@ -193,19 +209,35 @@ class _Union:
         self.comp_end = np.searchsorted(self.comp, np.arange(self.n_comp), side="right")
         self.seam = np.concatenate(seams).astype(bool)
 
-    def _snap_vertices(self, i, j) -> bool:
-        """Merge vertices of candidate edge pairs that lie within TOL (not identical)."""
+    def _ends(self, i, j):
+        """The ends ``a``, ``b`` of the edges ``i`` and ``j`` of the candidate pairs,
+        gathered once for the tests of the pairs."""
         v, nx = self.v, self.nxt
-        ends_i = np.stack([i, nx[i]], axis=1)
-        ends_j = np.stack([j, nx[j]], axis=1)
-        pa = np.repeat(ends_i, 2, axis=1).ravel()
-        pb = np.tile(ends_j, (1, 2)).ravel()
-        d = np.linalg.norm(v[pa] - v[pb], axis=1)
-        close = (d > 0.0) & (d <= TOL)
-        if not close.any():
+        return v[i], v[nx[i]], v[j], v[nx[j]]
+
+    def _snap_vertices(self, i, j, ends) -> bool:
+        """Merge vertices of candidate edge pairs that lie within TOL (not identical)."""
+        nx = self.nxt
+        ai, bi, aj, bj = ends
+        pa, pb = [], []
+        for p, q, x, y in (
+            (i, j, ai, aj),
+            (i, None, ai, bj),
+            (None, j, bi, aj),
+            (None, None, bi, bj),
+        ):
+            diff = x - y
+            # the ends within 2 TOL by a cheap square, then the distance as it was taken
+            near = np.flatnonzero(dot(diff, diff) <= (2.0 * TOL) ** 2)
+            d = np.linalg.norm(diff[near], axis=1)
+            near = near[(d > 0.0) & (d <= TOL)]
+            pa.append(i[near] if p is not None else nx[i[near]])
+            pb.append(j[near] if q is not None else nx[j[near]])
+        pa_c, pb_c = np.concatenate(pa), np.concatenate(pb)
+        if len(pa_c) == 0:
             return False
-        root = components(len(v), pa[close], pb[close])
-        moved = np.unique(np.concatenate([pa[close], pb[close]]))
+        root = components(len(self.v), pa_c, pb_c)
+        moved = np.unique(np.concatenate([pa_c, pb_c]))
         self.v[moved] = self.v[root[moved]]
         return True
 
@@ -217,13 +249,15 @@ class _Union:
     # ------------------------------------------------------------------ run
     def run(self) -> Boundary:
         i, j = self._pairs()
-        if self._snap_vertices(i, j):
+        ends = self._ends(i, j)
+        if self._snap_vertices(i, j, ends):
             i, j = self._pairs()
+            ends = self._ends(i, j)
         other = self.comp[i] != self.comp[j]
         self._pairs_other = (i[other], j[other])
         # pairs of polygons that touch, joined into one component
         self.meets: list[tuple[np.ndarray, np.ndarray]] = []
-        splits = self._intersections(i, j)
+        splits = self._intersections(i, j, ends)
         pieces = self._split(splits)
         keep, excl = self._cancel(pieces)
         keep, flip = self._classify(pieces, keep, excl)
@@ -234,7 +268,7 @@ class _Union:
         )
         return self._link(pieces, keep)
 
-    def _intersections(self, i, j):
+    def _intersections(self, i, j, ends):
         """Split points per edge, ``(edge, vertex index)``: T-junctions and crossings.
 
         Polygons whose edges meet (a shared vertex, a split) are joined into one
@@ -245,27 +279,36 @@ class _Union:
         n = normalize(robust_cross(a, b))
         self.n = n
         out_e, out_p, meet_a, meet_b = [], [], [], []
+        # the pairs' ends and normals, gathered once: the sides of each end against the
+        # other edge's great circle serve the end-on-edge tests and the crossings
+        ai, bi, aj, bj = ends
+        sides = _sides(ai, bi, n[i], aj, bj, n[j])
         # an end of one edge on the other (T-junctions, collinear overlaps); the tests
         # after the first only for the ends within TOL of the other's great circle
-        for e, f in ((i, j), (j, i)):
-            for end in (f, nx[f]):
-                off = np.abs(np.einsum("ij,ij->i", v[end], n[e]))
-                near = np.flatnonzero(off <= TOL)
-                e_, f_, end_ = e[near], f[near], end[near]
+        # (most such ends are a vertex the two edges share: an end that is one of the
+        # edge's own vertices is not on it, and the rest are tested far from its ends
+        # before between them)
+        for (e, f), e_sides in zip(((i, j), (j, i)), (sides[:2], sides[2:])):
+            for head, side in zip((True, False), e_sides):
+                near = np.flatnonzero(np.abs(side) <= TOL)
+                e_, f_ = e[near], f[near]
+                end_ = f_ if head else nx[f_]
+                other = (end_ != e_) & (end_ != nx[e_])
+                e_, f_, end_ = e_[other], f_[other], end_[other]
                 p = v[end_]
-                between = (np.einsum("ij,ij->i", p, cross(n[e_], a[e_])) > 0.0) & (
-                    np.einsum("ij,ij->i", p, cross(b[e_], n[e_])) > 0.0
-                )
                 far = (np.linalg.norm(p - a[e_], axis=1) > TOL) & (
                     np.linalg.norm(p - b[e_], axis=1) > TOL
                 )
-                on = between & far
+                e_, f_, end_, p = e_[far], f_[far], end_[far], p[far]
+                on = (np.einsum("ij,ij->i", p, cross(n[e_], a[e_])) > 0.0) & (
+                    np.einsum("ij,ij->i", p, cross(b[e_], n[e_])) > 0.0
+                )
                 out_e.append(e_[on])
                 out_p.append(end_[on])
                 meet_a.append(e_[on])
                 meet_b.append(f_[on])
         # proper crossings: each edge's ends clearly on both sides of the other
-        hit = _proper_crossings(a, b, n, i, j)
+        hit = _proper(*sides)
         ci, cj = i[hit], j[hit]
         x = normalize(cross(n[ci], n[cj]))
         flip = np.einsum("ij,ij->i", x, a[ci] + b[ci]) < 0
@@ -280,12 +323,13 @@ class _Union:
         out_p += [new, new]
         meet_a.append(ci)
         meet_b.append(cj)
-        # shared vertices
-        va = v[i]
-        shared = (va == v[j]).all(axis=1) | (va == v[nx[j]]).all(axis=1)
-        shared |= (v[nx[i]] == v[j]).all(axis=1) | (v[nx[i]] == v[nx[j]]).all(axis=1)
-        meet_a.append(i[shared])
-        meet_b.append(j[shared])
+        # shared vertices (of pairs of two polygons: only those join components)
+        o = np.flatnonzero(self.comp[i] != self.comp[j])
+        ai, bi, aj, bj = ai[o], bi[o], aj[o], bj[o]
+        shared = (ai == aj).all(axis=1) | (ai == bj).all(axis=1)
+        shared |= (bi == aj).all(axis=1) | (bi == bj).all(axis=1)
+        meet_a.append(i[o[shared]])
+        meet_b.append(j[o[shared]])
         ca = self.comp[np.concatenate(meet_a)]
         cb = self.comp[np.concatenate(meet_b)]
         diff = ca != cb
@@ -332,10 +376,12 @@ class _Union:
         fwd = (d[:, 0] < 0) | (
             (d[:, 0] == 0) & ((d[:, 1] < 0) | ((d[:, 1] == 0) & (d[:, 2] < 0)))
         )  # a canonical order of the two ends
-        lo = np.where(fwd[:, None], s, e)
-        hi = np.where(fwd[:, None], e, s)
-        key = _keys(np.concatenate([lo, hi], axis=1))
-        _, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
+        # the pieces with the same two ends, by the ends' vertex groups (equal rows)
+        self.vid, _ = equal_rows(v)
+        s_id, e_id = self.vid[pieces["start"]], self.vid[pieces["end"]]
+        lo = np.where(fwd, s_id, e_id)
+        hi = np.where(fwd, e_id, s_id)
+        _, inv, counts = np.unique(lo * len(v) + hi, return_inverse=True, return_counts=True)
         keep = counts[inv] == 1
         excl: dict[int, set[int]] = {}
         self.side_test = np.zeros(len(keep), bool)
@@ -388,8 +434,9 @@ class _Union:
         score = length * np.where(self.seam, 1e-3, 1.0)
         lo = self.comp_start
         # the longest edge of each polygon: the last of its edges in the order of score
-        order = np.lexsort((score, self.comp))
-        k = order[np.append(lo[1:], m) - 1]
+        # (the greatest score, the last edge of those that have it)
+        best = np.maximum.reduceat(score, lo)
+        k = np.maximum.reduceat(np.where(score == best[self.comp], np.arange(m), -1), lo)
         mid = normalize(a[k] + b[k])
         left = normalize(robust_cross(a[k], b[k]))
         qi, di, _ = self.tree.near(mid, 1e-3)
@@ -415,22 +462,30 @@ class _Union:
 
     def _inside_other(self, p, own, excl):
         """For points ``p``: inside any input polygon other than ``own``/``excl``?"""
-        cand = self._near_caps(p)  # (points, comps)
-        cand[np.arange(len(p)), own] = False
-        for k, cs in excl.items():
-            cand[k, list(cs)] = False
-        pi, ci = np.nonzero(cand)
+        pi, ci = self._near_caps(p)
+        mine = ci == own[pi]
+        if excl:
+            ex = np.flatnonzero(np.isin(pi, np.fromiter(excl, np.int64, len(excl))))
+            mine[ex] |= [c in excl[k] for k, c in zip(pi[ex].tolist(), ci[ex].tolist())]
+        pi, ci = pi[~mine], ci[~mine]
         out = np.zeros(len(p), bool)
         np.logical_or.at(out, pi, self._inside(p[pi], ci))
         return out
 
     def _near_caps(self, p):
-        """(points, polygons) bool: the point lies within the polygon's cap
-        (:func:`~gloffset.geometry.caps.cap_within`, its threshold once per polygon; the
-        products ``c.m`` by a matrix product, within 1e-15 of exact, far below the test's
-        slack)."""
+        """(point, polygon) pairs, the point within the polygon's cap, sorted by point
+        then polygon: :func:`~gloffset.geometry.caps.cap_within`'s test, its threshold
+        once per polygon, on the pairs that a cap tree over the polygons' caps finds
+        within 3e-6 rad of each point (the test's slack of 1e-12 on the cosine reaches
+        at most 1.5e-6 rad beyond the cap). A point far outside a polygon's padded cap
+        (1e-9) is outside it by crossing parity too, so the pairs a rounding of the
+        product moves across the threshold change no answer."""
         caps_c, caps_r = self.caps
-        return (p @ caps_c.T) >= cap_threshold(caps_r)[None, :]
+        qi, ci, _ = self.caps_tree.near(p, 3e-6)
+        ok = pair_dots(p, qi, caps_c, ci) >= cap_threshold(caps_r)[ci]
+        qi, ci = qi[ok], ci[ok]
+        order = np.lexsort((ci, qi))
+        return qi[order], ci[order]
 
     def _inside(self, p, ci):
         """Whether each point ``p[k]`` lies inside input polygon ``ci[k]``: parity of the
@@ -508,6 +563,7 @@ class _Union:
         if len(todo):
             self._inner_points()
             self.caps = self._comp_caps()
+            self.caps_tree = CapTree(*self.caps)
             tw = self.twisted[self.comp[edge[todo]]] | self.side_test[todo]
             plain, twisted = todo[~tw], todo[tw]
             p = normalize(self.v[pieces["start"][plain]] + self.v[pieces["end"][plain]])
@@ -545,7 +601,7 @@ class _Union:
 
     def _in_union(self, p):
         """Whether points ``p`` lie inside any input polygon."""
-        pi, ci = np.nonzero(self._near_caps(p))
+        pi, ci = self._near_caps(p)
         out = np.zeros(len(p), bool)
         np.logical_or.at(out, pi, self._inside(p[pi], ci))
         return out
@@ -556,17 +612,23 @@ class _Union:
         idx = np.flatnonzero(keep)
         start, end, edge = pieces["start"][idx], pieces["end"][idx], pieces["edge"][idx]
         v = self.v
-        _, vid = np.unique(_keys(v), return_inverse=True)
+        vid = self.vid  # the vertex groups of _cancel
         s_id, e_id = vid[start], vid[end]
         k = len(idx)
         order = np.argsort(s_id, kind="stable")
-        first = np.searchsorted(s_id[order], e_id)
         n_out = np.bincount(s_id, minlength=len(v))
+        # where each vertex's pieces start in that order (a search of e_id, by counting)
+        first = (np.cumsum(n_out) - n_out)[e_id]
         n_in = np.bincount(e_id, minlength=len(v))
         bad = np.flatnonzero(n_out != n_in)
         if len(bad):
             from .geometry.sphere import xyz_to_lonlat
 
+            # named as by the groups in the order of the rows' bytes
+            _, vid = np.unique(row_keys(v), return_inverse=True)
+            vid = vid.reshape(-1)
+            n_out = np.bincount(vid[start], minlength=len(v))
+            bad = np.flatnonzero(n_out != np.bincount(vid[end], minlength=len(v)))
             lon, lat = xyz_to_lonlat(v[np.flatnonzero(vid == bad[0])[0]])
             raise InvalidGeometryError(
                 "cannot unite the polygons: their borders meet at angles too small to "
@@ -585,16 +647,16 @@ class _Union:
                 cw = np.mod(-ccw, 2.0 * np.pi)
                 cw[cw <= 0.0] = 2.0 * np.pi
                 nxt[p] = cand[int(np.argmin(cw))]
-            if len(np.unique(nxt)) != k:
+            if (np.bincount(nxt, minlength=k) != 1).any():  # not a permutation
                 raise InvalidGeometryError(
                     "cannot unite the polygons: their borders touch in a way that leaves "
                     "the union's boundary ambiguous"
                 )
         # every piece is on one cycle (nxt is a permutation); the rings' arrays at once
-        cyc_all = [cyc for cyc in cycles(nxt)[0] if len(cyc) >= 3]
-        sizes = np.array([len(c) for c in cyc_all], dtype=np.int64)
+        flat, sizes = permutation_cycles(nxt)
+        ring3 = sizes >= 3
+        flat, sizes = flat[np.repeat(ring3, sizes)], sizes[ring3]
         at = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
-        flat = np.concatenate(cyc_all) if cyc_all else np.zeros(0, np.int64)
         e_flat = edge[flat]
         c_flat = self.comp[e_flat]
         ring_id = np.repeat(np.arange(len(sizes)), sizes)

@@ -38,7 +38,7 @@ import numpy as np
 
 from .errors import InputFormatError, InvalidGeometryError
 from .geometry.caps import arc_cap, pad
-from .geometry.lonlat import is_ccw, on_seam, split_meridian_edges, validate
+from .geometry.lonlat import prepare_rings, validate
 from .geometry.sphere import (
     angle,
     arc_distance,
@@ -263,8 +263,9 @@ class Shape:
     @classmethod
     def from_geojson(cls, obj, *, layer=None, where: str | None = None, densify=None) -> Shape:
         """Build a shape from a GeoJSON object (dict) or anything :func:`read` accepts."""
-        obj = _features.load(obj, layer=layer, where=where, densify=densify)
-        return _from_parts(_gj.parse(obj))
+        with _gj.collector_paused():  # the document freed before the collector runs
+            parts = _gj.parse(_features.load(obj, layer=layer, where=where, densify=densify))
+        return _from_parts(parts)
 
     @classmethod
     def from_lonlat(cls, lon, lat, *, closed: bool = False) -> Shape:
@@ -474,29 +475,24 @@ def read(source, *, layer=None, where: str | None = None, densify=None) -> Shape
 def _from_parts(parts: _gj.Parts) -> Shape:
     if len(parts) == 0:
         raise InvalidGeometryError("empty geometry: no polygon, line or point to offset")
-    rings, seams, comps, holes, labels = [], [], [], [], []
+    comps: list[int] = []
+    holes: list[bool] = []
+    labels: list[str] = []
     src = _gj.Parts()
+    all_ll = []
     for c, (poly, plabel) in enumerate(zip(parts.polygons, parts.polygon_labels)):
-        kept = []
         for k, ll in enumerate(poly):
-            label = f"{plabel} ring {k}"
-            if len(ll) > 1 and np.array_equal(ll[0], ll[-1]):
-                ll = ll[:-1]
-            ll = split_meridian_edges(ll)
-            v, idx = validate(ll, label, min_points=3)
-            ll_v = ll[idx]
-            on = on_seam(ll_v)
-            seam = on & np.roll(on, -1)
-            if is_ccw(ll_v) != (k == 0):  # exterior CCW, holes CW
-                v, seam, ll_v = v[::-1].copy(), np.roll(seam[::-1], -1), ll_v[::-1]
-            rings.append(v)
-            seams.append(seam)
+            all_ll.append(ll)
+            labels.append(f"{plabel} ring {k}")
             comps.append(c)
             holes.append(k > 0)
-            labels.append(label)
-            kept.append(np.vstack([ll_v, ll_v[:1]]))
-        src.polygons.append(kept)
+    # each ring checked, made unit vectors and oriented: exterior CCW, holes CW
+    rings, seams, closed = prepare_rings(all_ll, labels, [not h for h in holes])
+    at = 0
+    for poly, plabel in zip(parts.polygons, parts.polygon_labels):
+        src.polygons.append(closed[at : at + len(poly)])
         src.polygon_labels.append(plabel)
+        at += len(poly)
     region = unite(rings, seams, comps, holes, labels)
     if rings and not region.rings:
         raise InvalidGeometryError(

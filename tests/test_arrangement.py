@@ -2,7 +2,13 @@
 
 import numpy as np
 
-from gloffset.geometry.arrangement import candidate_pairs, components, cycles, split
+from gloffset.geometry.arrangement import (
+    candidate_pairs,
+    components,
+    cycles,
+    permutation_cycles,
+    split,
+)
 from gloffset.geometry.caps import arc_cap
 from gloffset.shape import read
 
@@ -40,3 +46,15 @@ def test_candidate_pairs_hold_every_touching_border():
     pairs = set(zip(i.tolist(), j.tolist()))
     touch = np.flatnonzero((b[:-1] == a[1:]).all(axis=1))
     assert all((k, k + 1) in pairs for k in touch.tolist())
+
+
+def test_permutation_cycles_are_those_of_cycles():
+    rng = np.random.default_rng(0)
+    perms = [rng.permutation(n) for n in (1, 2, 3, 50, 5000) for _ in range(3)]
+    perms.append(np.roll(np.arange(4097), -1))  # one long cycle
+    perms.append(np.arange(7))  # fixed points
+    for nxt in perms:
+        want = cycles(nxt)[0]
+        items, sizes = permutation_cycles(nxt)
+        assert sizes.tolist() == [len(c) for c in want]
+        assert np.array_equal(items, np.concatenate(want))

@@ -85,3 +85,40 @@ def test_self_pairs_of_real_borders_hold_every_crossing_and_shared_vertex():
     meet |= arcs_cross(a[ii], b[ii], a[jj], b[jj])
     assert set(zip(ii[meet].tolist(), jj[meet].tolist())) <= got
     assert meet.sum() > len(a) // 2
+
+
+def brute_along(tree, a, b, lo=None, hi=None):
+    """Every (segment, item) pair that along's item test keeps (all pairs)."""
+    from gloffset.geometry.captree import _PAD
+    from gloffset.geometry.sphere import arc_distance, robust_cross
+
+    n = normalize(robust_cross(a, b))
+    si, ni = np.divmod(np.arange(len(a) * tree.n), tree.n)
+    if lo is not None:
+        inr = (ni >= lo[si]) & (ni < hi[si])
+        si, ni = si[inr], ni[inr]
+    c, r = tree.centers[0], tree.radii[0]
+    keep = arc_distance(c[ni], a[si], b[si], n[si]) <= pad(r[ni], abs_=_PAD)
+    return set(zip(si[keep].tolist(), ni[keep].tolist()))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_along_returns_exactly_the_items_its_distance_test_keeps(seed):
+    # the nodes above the items are pruned by cheaper necessary conditions; the answer
+    # is still every item whose exact distance to the segment is within its radius
+    c, r = mixed_caps(1500, seed)
+    tree = CapTree(c, r)
+    rng = np.random.default_rng(seed)
+    a = normalize(rng.normal(size=(60, 3)))
+    b = normalize(a + rng.normal(size=(60, 3)) * 10.0 ** rng.uniform(-6, 0.2, (60, 1)))
+    a[:10] = c[rng.integers(0, len(c), 10)]  # segments from item centres
+    b[10:15] = a[10:15]  # points
+    si, ni = tree.along(a, b)
+    got = set(zip(si.tolist(), ni.tolist()))
+    assert len(got) == len(si)
+    want = brute_along(tree, a, b)
+    assert got == want and len(want) > 20
+    lo = rng.integers(0, 1000, len(a))
+    hi = lo + rng.integers(1, 600, len(a))
+    si, ni = tree.along(a, b, lo=lo, hi=hi)
+    assert set(zip(si.tolist(), ni.tolist())) == brute_along(tree, a, b, lo, hi)

@@ -819,9 +819,11 @@ def _union(which):
 
     def run():
         feats = countries_10m()
-        if which == "europe":
+        if which == "world_110m":  # all 110m countries: the seams of Russia, Fiji, Antarctica
+            feats = json.loads((DATA / "world_110m.geojson").read_text())["features"]
+        elif which == "europe":
             feats = [f for f in feats if _bench_common().in_box(f, (-25, 34, 45, 72))]
-        elif which != "all":
+        elif which not in ("all", "world_110m"):
             by_name = {f["properties"]["name"]: f for f in feats}
             feats = [by_name[n] for n in which]
         shape = gloffset.read({"type": "FeatureCollection", "features": feats})
@@ -844,6 +846,7 @@ def _union(which):
 
 case("union/france_spain_andorra_10m")(_union(("France", "Spain", "Andorra")))
 case("union/europe_10m")(_union("europe"))
+case("union/world_110m")(_union("world_110m"))
 case("union/planet_10m", slow=True)(_union("all"))
 
 

@@ -12,10 +12,12 @@ go through the same steps, and those steps live here, once:
    circles with the union's tolerance, small circles with their error bounds): they
    become *events*, ``(arc, position along it, node)``;
 3. :func:`components`: nodes (or vertices, or polygons) that are one, labelled by the
-   smallest member of each connected set;
+   smallest member of each connected set; :func:`equal_rows`: the vertices that are one
+   point (equal coordinates);
 4. :func:`split`: the arcs cut into pieces between consecutive events;
 5. :func:`cycles`: the pieces, once each is given its successor (the callers' rule at a
-   node where several meet), followed into closed rings.
+   node where several meet), followed into closed rings (:func:`permutation_cycles`, all
+   at once, where every piece has one successor and one predecessor).
 
 Everything here is combinatorial (sorting and labelling) or a conservative cap test, so
 it decides nothing by rounding: the answers are exactly those of the callers'
@@ -28,7 +30,15 @@ import numpy as np
 
 from .captree import CapTree
 
-__all__ = ["candidate_pairs", "components", "split", "cycles"]
+__all__ = [
+    "candidate_pairs",
+    "components",
+    "equal_rows",
+    "row_keys",
+    "split",
+    "cycles",
+    "permutation_cycles",
+]
 
 
 def candidate_pairs(mid, half, slack: float = 0.0) -> tuple[CapTree, np.ndarray, np.ndarray]:
@@ -125,3 +135,75 @@ def cycles(nxt) -> tuple[list[np.ndarray], np.ndarray]:
         else:
             unlinked.extend(path)
     return out, np.array(unlinked, dtype=np.int64)
+
+
+def permutation_cycles(nxt) -> tuple[np.ndarray, np.ndarray]:
+    """The cycles of a permutation ``nxt`` (every item on one cycle), all at once.
+
+    Returns ``(items, sizes)``: the items of the cycles one after another, and the
+    length of each; the cycles and their items in the order of :func:`cycles` (each
+    cycle from its smallest item on, the cycles in the order of those). Pointer
+    doubling, ``log2(len(nxt))`` numpy passes: each item's smallest item along the
+    next ``2^k``, then its distance from its cycle's smallest item.
+    """
+    nxt = np.asarray(nxt, dtype=np.int64)
+    n = len(nxt)
+    items = np.arange(n, dtype=np.int64)
+    lab, p, span = items.copy(), nxt, 1
+    while span < n:  # lab: the smallest item of the next 2 span (all of the cycle at the end)
+        lab = np.minimum(lab, lab[p])
+        p = p[p]
+        span *= 2
+    start = lab == items
+    prev = np.empty(n, np.int64)
+    prev[nxt] = items
+    q = np.where(start, items, prev)
+    d = (~start).astype(np.int64)  # d: the steps from q to the item
+    span = 1
+    while span < n:
+        d = d + d[q]
+        q = q[q]
+        span *= 2
+    firsts = np.flatnonzero(start)
+    sizes = np.bincount(lab, minlength=n)[firsts]
+    offset = np.zeros(n, np.int64)
+    offset[firsts] = np.cumsum(sizes) - sizes
+    out = np.empty(n, np.int64)
+    out[offset[lab] + d] = items
+    return out, sizes
+
+
+def row_keys(v: np.ndarray) -> np.ndarray:
+    """Exact row keys of unit vectors (``-0.0`` made ``0.0``), as a void view."""
+    v = np.ascontiguousarray(v + 0.0)
+    return v.view(np.dtype((np.void, v.dtype.itemsize * v.shape[1]))).ravel()
+
+
+def equal_rows(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of ``v`` that are equal (``-0.0`` equal to ``0.0``): a label per row and the
+    size of each label's group (``np.unique``'s ``inverse`` and ``counts`` of
+    :func:`row_keys`, up to the numbering of the groups).
+
+    The rows are sorted by a 64-bit hash of their bits (one sort of integers, several
+    times faster than sorting the rows' bytes); rows with equal hashes must be equal,
+    which is checked: where two are not (a collision) the bytes are sorted instead.
+    """
+    bits = np.ascontiguousarray(v + 0.0).view(np.uint64)
+    h = np.zeros(len(bits), np.uint64)
+    with np.errstate(over="ignore"):
+        for col in range(bits.shape[1]):
+            h = (h ^ bits[:, col]) * np.uint64(0x9E3779B97F4A7C15)
+            h ^= h >> np.uint64(29)
+    order = np.argsort(h)
+    hs, rows = h[order], bits[order]
+    same_h = hs[1:] == hs[:-1]
+    same_row = (rows[1:] == rows[:-1]).all(axis=1)
+    if np.any(same_h & ~same_row):  # a collision
+        _, inv, counts = np.unique(row_keys(v), return_inverse=True, return_counts=True)
+        return inv.reshape(-1), counts
+    new = np.ones(len(hs), bool)
+    new[1:] = ~same_h
+    ids = np.cumsum(new) - 1
+    inv = np.empty(len(hs), np.int64)
+    inv[order] = ids
+    return inv, np.diff(np.append(np.flatnonzero(new), len(hs)))

@@ -21,11 +21,13 @@ the query's cap touches on each level. The pairs of items among themselves
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..memo import Memo, once_attr
-from .caps import chord, pad
-from .sphere import angle, arc_distance, normalize, robust_cross, slerp
+from .caps import arc_cap, chord, pad
+from .sphere import angle, arc_distance, dot, normalize, robust_cross, slerp
 
 __all__ = ["CapTree"]
 
@@ -69,23 +71,73 @@ def _merge_caps(c1, r1, c2, r2):
     return c, np.minimum(pad(r, abs_=_PAD), np.pi)
 
 
-def _grid_pairs(c: np.ndarray, ext: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _grid_pairs(
+    c: np.ndarray, ext: np.ndarray, radii: np.ndarray | None = None, slack: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """Pairs ``i < j`` of balls (centres ``c`` on the unit sphere, radii ``ext`` in
     chord units) whose boxes may meet: a superset of those with
-    ``|c_i - c_j| <= ext_i + ext_j``.
+    ``|c_i - c_j| <= ext_i + ext_j``. With ``radii`` (the caps' angular radii, padded),
+    only the pairs that pass the chord test of :meth:`CapTree.self_pairs`,
+    ``|c_i - c_j| <= pad(chord(r_i + r_j + slack))``, taken block by block on the
+    centres as the grid holds them (gathered in order, not at random).
 
     Cells are cubes of side ``h_k = h_0 2^k``; a ball goes to the first level whose
     side is at least its diameter, and into the cell of its centre. A ball of level
-    ``k`` is compared with the balls of levels up to ``k`` in the cells of level ``k``
-    next to its own that its reach (its radius plus the largest radius of those
-    levels, at most ``h_k``) touches, so two balls that meet are compared once, at the
-    level of the larger. Rounding: the scaled coordinates ``(c + 1) / h`` are good to
-    ``4e-16 / h`` cell widths (``h >= 1e-5``), and the reach is widened by ``1e-6``
-    relative and ``1e-7`` cell widths absolute, far above that.
+    ``k`` is compared with the balls of lower levels in the cells of level ``k`` next to
+    its own that its reach (its radius plus the largest radius of those levels, at
+    most ``h_k``) touches, and with the balls of its own level in the cells that come
+    after its own in the order of the keys (and in its own cell those of greater
+    index): a pair that meets lies within the reach of each of its two balls, so it is
+    met from the first of them, once. Rounding: the scaled coordinates ``(c + 1) / h``
+    are good to ``4e-16 / h`` cell widths (``h >= 1e-5``), and the reach is widened by
+    ``1e-6`` relative and ``1e-7`` cell widths absolute, far above that. The cells of
+    level ``k`` are those of level 0 shifted by ``k`` bits: ``(c + 1) / h_k`` is
+    ``(c + 1) / h_0`` scaled by a power of 2, exactly, so its floor is the same.
     """
-    n = len(c)
+    h0, order, bounds = _grid_levels(ext)
+    cell0 = np.floor((c + 1.0) / h0).astype(np.int64)
+    out_i: list[np.ndarray] = []
+    out_j: list[np.ndarray] = []
+    # (dx, dy) columns of cells: all nine below, the four after (0, 0) and (0, 0) itself
+    # within the level
+    every = [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
+    after = [(0, 0), (0, 1), (1, -1), (1, 0), (1, 1)]
+    for k in range(len(bounds) - 1):
+        q = order[bounds[k] : bounds[k + 1]]  # the balls of level k
+        if len(q) == 0:
+            continue
+        h = h0 * 2.0**k
+        m = int(np.floor(2.0 / h)) + 3
+        uq = (c[q] + 1.0) / h
+        cell_q = np.floor(uq).astype(np.int64)
+        key_q = (cell_q[:, 0] * m + cell_q[:, 1]) * m + cell_q[:, 2]
+        by_q = np.argsort(key_q)  # sorted needles: searchsorted's fast path
+        q, key_q, frac = q[by_q], key_q[by_q], (uq - cell_q)[by_q]
+        level = _Level(q, key_q, frac, h, m)
+        _column_pairs(level, q, key_q, after, c, ext, radii, slack, out_i, out_j)
+        if bounds[k] > 0:
+            t = order[: bounds[k]]  # the balls of lower levels
+            cell_t = cell0[t] >> k
+            key_t = (cell_t[:, 0] * m + cell_t[:, 1]) * m + cell_t[:, 2]
+            by_key = np.argsort(key_t)  # any order of equal keys: the pairs are a set
+            _column_pairs(
+                level, t[by_key], key_t[by_key], every, c, ext, radii, slack, out_i, out_j
+            )
+    if not out_i:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    ii = np.concatenate(out_i)
+    jj = np.concatenate(out_j)
+    return np.minimum(ii, jj), np.maximum(ii, jj)
+
+
+def _grid_levels(ext: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """The grid's levels (:func:`_grid_pairs`): the cell side ``h_0`` of level 0, the
+    balls in the order of their levels and where each level starts in it."""
+    n = len(ext)
     diam = 2.0 * ext * (1.0 + 1e-6) + 1e-12  # two diameters of a level fit a cell
-    h0 = max(float(np.median(diam)), 1e-5)
+    # the median diameter (any size works, this one makes few levels; np.median would
+    # import numpy.ma, 12 ms, at a first read)
+    h0 = max(float(np.partition(diam, n // 2)[n // 2]), 1e-5)
     lev = np.zeros(n, np.int64)
     big = diam > h0
     if big.any():
@@ -98,63 +150,76 @@ def _grid_pairs(c: np.ndarray, ext: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     top = int(min(lev.max(), np.ceil(np.log2(4.0 / h0)) + 1))
     lev = np.minimum(lev, top)  # cells of side >= 4 hold the whole sphere
     order = np.argsort(lev, kind="stable")
-    bounds = np.searchsorted(lev[order], np.arange(top + 2))
-    out_i, out_j = [], []
-    offsets = [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
-    for k in range(top + 1):
-        q = order[bounds[k] : bounds[k + 1]]  # the balls of level k
-        if len(q) == 0:
+    return h0, order, np.searchsorted(lev[order], np.arange(top + 2))
+
+
+@dataclass
+class _Level:
+    """The balls of one level of the grid, sorted by their cells' keys: their cells'
+    keys, their places in their cells (``frac``, in cell widths), the cells' side and
+    the keys' base."""
+
+    q: np.ndarray
+    key_q: np.ndarray
+    frac: np.ndarray
+    h: float
+    m: int
+
+
+def _column_pairs(lv, t_sorted, key_sorted, columns, c, ext, radii, slack, out_i, out_j):
+    """The pairs of the balls of level ``lv`` with the balls ``t_sorted`` (sorted by
+    their cells' keys ``key_sorted``: the level's own, or those of lower levels) in the
+    columns of cells ``columns`` around each ball's own (:func:`_grid_pairs`),
+    appended to ``out_i``, ``out_j``."""
+    q, key_q, frac, h, m = lv.q, lv.key_q, lv.frac, lv.h, lv.m
+    same = t_sorted is q
+    # the distinct keys and where each starts (with sentinels after the last)
+    first = np.ones(len(key_sorted), bool)
+    first[1:] = key_sorted[1:] != key_sorted[:-1]
+    at = np.flatnonzero(first)
+    keys = np.append(key_sorted[at], np.full(3, np.iinfo(np.int64).max))
+    at = np.append(at, len(key_sorted))
+    if radii is not None:  # the chord test's operands, in the grid's order
+        c_q, r_q, c_t, r_t = c[q], radii[q], c[t_sorted], radii[t_sorted]
+    reach = (ext[q] + float(ext[t_sorted].max())) / h * (1.0 + 1e-6) + 1e-7
+    lo_need = frac < reach[:, None]  # the cell below along each axis
+    hi_need = 1.0 - frac < reach[:, None]
+    for dx, dy in columns:
+        sel = np.ones(len(q), bool)
+        for ax, d in ((0, dx), (1, dy)):
+            if d < 0:
+                sel &= lo_need[:, ax]
+            elif d > 0:
+                sel &= hi_need[:, ax]
+        qs = np.flatnonzero(sel)
+        if len(qs) == 0:
             continue
-        t = order[: bounds[k + 1]]  # the balls of levels <= k
-        h = h0 * 2.0**k
-        m = int(np.floor(2.0 / h)) + 3
-        ut = (c[t] + 1.0) / h
-        cell_t = np.floor(ut).astype(np.int64)
-        key_t = (cell_t[:, 0] * m + cell_t[:, 1]) * m + cell_t[:, 2]
-        by_key = np.argsort(key_t, kind="stable")
-        key_sorted = key_t[by_key]
-        t_sorted = t[by_key]
-        uq = (c[q] + 1.0) / h
-        cell_q = np.floor(uq).astype(np.int64)
-        key_q = (cell_q[:, 0] * m + cell_q[:, 1]) * m + cell_q[:, 2]
-        by_q = np.argsort(key_q, kind="stable")  # sorted needles: searchsorted's fast path
-        q, uq, cell_q, key_q = q[by_q], uq[by_q], cell_q[by_q], key_q[by_q]
-        frac = uq - cell_q
-        reach = (ext[q] + float(ext[t].max())) / h * (1.0 + 1e-6) + 1e-7
-        lo_need = frac < reach[:, None]  # the cell below along each axis
-        hi_need = 1.0 - frac < reach[:, None]
-        for dx, dy in offsets:
-            sel = np.ones(len(q), bool)
-            for ax, d in ((0, dx), (1, dy)):
-                if d < 0:
-                    sel &= lo_need[:, ax]
-                elif d > 0:
-                    sel &= hi_need[:, ax]
-            qs = np.flatnonzero(sel)
-            if len(qs) == 0:
-                continue
-            # the cells z - 1, z, z + 1 of a column are consecutive keys: one range
-            kq = key_q[qs] + (dx * m + dy) * m
-            lo = np.searchsorted(key_sorted, kq - lo_need[qs, 2], side="left")
-            cnt = np.searchsorted(key_sorted, kq + hi_need[qs, 2], side="right") - lo
-            has = cnt > 0
-            qs, lo, cnt = qs[has], lo[has], cnt[has]
-            if len(qs) == 0:
-                continue
-            total = int(cnt.sum())
-            start = np.repeat(lo - np.cumsum(cnt) + cnt, cnt)
-            pos = start + np.arange(total)
-            ii = np.repeat(q[qs], cnt)
-            jj = t_sorted[pos]
-            # a pair of one level is met from both sides: kept once
-            keep = (lev[jj] < k) | (jj > ii)
-            out_i.append(ii[keep])
-            out_j.append(jj[keep])
-    if not out_i:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    ii = np.concatenate(out_i)
-    jj = np.concatenate(out_j)
-    return np.minimum(ii, jj), np.maximum(ii, jj)
+        # the cells z - 1, z, z + 1 of a column are consecutive keys: one range (from z
+        # itself in the ball's own column of its own level); the first distinct key >=
+        # its start, and those up to its end (at most 3: counted, no second search)
+        kq = key_q[qs] + (dx * m + dy) * m
+        below = 0 if same and dx == dy == 0 else lo_need[qs, 2]
+        u = np.searchsorted(keys[:-3], kq - below, side="left")
+        top_key = kq + hi_need[qs, 2]
+        u_end = u + (keys[u] <= top_key) + (keys[u + 1] <= top_key)
+        u_end += keys[u + 2] <= top_key
+        lo = at[u]
+        cnt = at[u_end] - lo
+        has = cnt > 0
+        qs, lo, cnt = qs[has], lo[has], cnt[has]
+        if len(qs) == 0:
+            continue
+        total = int(cnt.sum())
+        pos = np.repeat(lo - np.cumsum(cnt) + cnt, cnt) + np.arange(total)
+        qq = np.repeat(qs, cnt)
+        if same and dx == dy == 0:  # its own cell: each pair from one side
+            keep = (key_sorted[pos] != key_q[qq]) | (t_sorted[pos] > q[qq])
+            qq, pos = qq[keep], pos[keep]
+        if radii is not None:
+            keep = _chord2(c_q[qq], c_t[pos]) <= pad(chord(r_q[qq] + r_t[pos] + slack)) ** 2
+            qq, pos = qq[keep], pos[keep]
+        out_i.append(q[qq])
+        out_j.append(t_sorted[pos])
 
 
 class CapTree:
@@ -216,9 +281,7 @@ class CapTree:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         c, r = self.centers[0], self.radii[0]
         ext = chord(r) + 0.5 * chord(min(max(slack, 0.0), np.pi))
-        ci, cj = _grid_pairs(c, ext)
-        near = _chord2(c[ci], c[cj]) <= pad(chord(r[ci] + r[cj] + slack)) ** 2
-        ci, cj = ci[near], cj[near]
+        ci, cj = _grid_pairs(c, ext, r, slack)  # the chord test taken in the grid
         order = np.argsort(ci * self.n + cj)  # by i, then j (n^2 < 2^63)
         return ci[order], cj[order]
 
@@ -332,15 +395,19 @@ class CapTree:
         """Items whose cap meets the short great-circle arc ``a[i] -> b[i]``.
 
         Returns ``(segment, item)`` int64 arrays, a superset of the true answer (caps
-        are padded). The test per node is the exact distance from the cap centre to
-        the segment, so long segments only visit the nodes along their way.
-        ``lo``, ``hi`` (per segment, optional): only items ``lo[i] <= item < hi[i]``.
+        are padded). The test per item is the exact distance from the cap centre to
+        the segment; per node above the items, two necessary conditions without
+        trigonometry (:meth:`_meets_segment`), so long segments only visit the nodes
+        along their way. ``lo``, ``hi`` (per segment, optional): only items
+        ``lo[i] <= item < hi[i]``.
         """
         a = np.asarray(a, dtype=np.float64).reshape(-1, 3)
         b = np.asarray(b, dtype=np.float64).reshape(-1, 3)
         if self.n == 0 or len(a) == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         n = normalize(robust_cross(a, b))
+        mid, half = arc_cap(a, b)
+        seg_chord = pad(chord(half), abs_=1e-14)  # the arc lies within half + 2e-15 of mid
         si = np.arange(len(a), dtype=np.int64)
         ni = np.zeros(len(a), dtype=np.int64)
         ranged = lo is not None
@@ -349,8 +416,11 @@ class CapTree:
             if ranged:  # node ni of level k holds items ni 2^k .. (ni+1) 2^k - 1
                 inr = (ni << k < hi[si]) & ((ni + 1) << k > lo[si])
                 si, ni = si[inr], ni[inr]
-            dist = arc_distance(c[ni], a[si], b[si], n[si])
-            keep = dist <= pad(r[ni], abs_=_PAD)
+            if k > 0:
+                keep = self._meets_segment(k, ni, n, mid, seg_chord, si)
+            else:
+                dist = arc_distance(c[ni], a[si], b[si], n[si])
+                keep = dist <= pad(r[ni], abs_=_PAD)
             si, ni = si[keep], ni[keep]
             if k > 0:
                 nk = len(self.centers[k - 1])
@@ -361,3 +431,25 @@ class CapTree:
                 if not ok.all():
                     si, ni = si[ok], ni[ok]
         return si, ni
+
+    def _meets_segment(self, k, ni, n, mid, seg_chord, si) -> np.ndarray:
+        """Whether the caps ``ni`` of level ``k`` may meet the arcs ``si`` (unit normals
+        ``n``, bounding caps of centre ``mid`` and chord ``seg_chord``): the cap meets
+        the arc's great circle (``|c.n| <= sin R``) and the arc's bounding cap (``|c -
+        mid| <= chord R + seg_chord``), ``R`` the radius padded as :meth:`along`'s item
+        test pads it. Both hold wherever the cap meets the arc, so no pair that the
+        exact distance would keep is dropped (the bounds are padded well above their
+        rounding, 1e-12 relative)."""
+        bounds: Memo[tuple[np.ndarray, np.ndarray]] = once_attr(self, "_segment_bounds", Memo)
+        sin_r, chord_r = bounds.once(k, lambda: self._segment_bounds_of(k))
+        c = self.centers[k][ni]
+        lim = chord_r[ni] + seg_chord[si]
+        d = c - mid[si]
+        return (np.abs(dot(c, n[si])) <= sin_r[ni]) & (dot(d, d) <= lim * lim)
+
+    def _segment_bounds_of(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """``pad(sin R)`` (2 from R >= pi/2 on: every great circle) and ``pad(chord R)``
+        of the padded radii ``R`` of level ``k``."""
+        r = pad(self.radii[k], abs_=_PAD)
+        sin_r = np.where(r >= 0.5 * np.pi, 2.0, pad(np.sin(np.minimum(r, 0.5 * np.pi))))
+        return sin_r, pad(chord(r))

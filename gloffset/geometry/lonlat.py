@@ -205,3 +205,144 @@ def split_meridian_edges(ll: np.ndarray) -> np.ndarray:
             for t in (0.25, 0.5, 0.75):
                 out.append(ll[k] + t * (nxt[k] - ll[k]))
     return np.asarray(out)
+
+
+def prepare_rings(
+    rings: list[np.ndarray], labels: list[str], exterior: list[bool]
+) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
+    """Each lon/lat ring checked, made unit vectors and oriented, all rings at once.
+
+    Per ring, what :func:`prepare_ring` gives (the same arrays, the same errors, raised
+    for the first bad ring in order): its vertices, its seam edges and its lon/lat
+    closed, with its interior on the left (``exterior[k]``: counter-clockwise, else
+    clockwise). The rings are checked, converted and oriented in a few numpy passes over
+    all their vertices; a ring that any check refuses or that needs more than that (an
+    edge along a meridian over 90 deg, a vertex at a pole, an edge through one, a turn
+    round a pole, an area too close to 0 for its sum's rounding) goes through
+    :func:`prepare_ring`.
+    """
+    n = len(rings)
+    if n == 0:
+        return [], [], []
+    # rings of fewer than 4 rows take prepare_ring (a square stands in for them here)
+    tiny = np.array([r.ndim != 2 or r.shape[1] != 2 or len(r) < 4 for r in rings])
+    stand = [_SQUARE if t else r for r, t in zip(rings, tiny.tolist())]
+    sizes = np.fromiter((len(r) for r in stand), np.int64, n)
+    ll = np.concatenate(stand).astype(np.float64, copy=False)
+    ends = np.cumsum(sizes)
+    starts = ends - sizes
+    # the closing vertex, where the ring repeats its first
+    closed = (ll[starts] == ll[ends - 1]).all(axis=1)
+    keep = np.ones(len(ll), bool)
+    keep[ends[closed] - 1] = False
+    ll = ll[keep]
+    sizes = sizes - closed
+    ends = np.cumsum(sizes)
+    starts = ends - sizes
+    ring = np.repeat(np.arange(n), sizes)
+    nxt = np.arange(len(ll)) + 1
+    nxt[ends - 1] = starts
+    slow = tiny.copy()
+    lon, lat = ll[:, 0], ll[:, 1]
+    with np.errstate(invalid="ignore"):
+        bad = ~np.isfinite(ll).all(axis=1)
+        bad |= np.abs(lat) > 90.0 + SEAM_EPS_DEG
+        bad |= np.abs(lon) > 180.0 + SEAM_EPS_DEG
+        # edges along a meridian over 90 deg (split_meridian_edges)
+        bad |= (np.abs(lon - lon[nxt]) <= SEAM_EPS_DEG) & (np.abs(lat - lat[nxt]) >= 90.0)
+        slow[ring[bad]] = True
+        v = lonlat_to_xyz(lon, lat)
+        # repeated consecutive points dropped, then a last one equal to the first
+        keep = np.ones(len(v), bool)
+        keep[1:] = angle(v[1:], v[:-1]) > MIN_EDGE
+        keep[starts] = True
+        count = np.add.reduceat(keep.astype(np.int64), starts)
+        pos = np.arange(len(v))
+        last = np.maximum.reduceat(np.where(keep, pos, -1), starts)
+        drop = (count > 1) & (angle(v[starts], v[last]) <= MIN_EDGE)
+        keep[last[drop]] = False
+        count -= drop
+        slow |= count < 3
+    k = np.flatnonzero(keep)
+    v, ll, ring = v[k], ll[k], ring[k]
+    ends = np.cumsum(count)
+    starts = ends - count
+    nxt = np.arange(len(v)) + 1
+    nxt[ends - 1] = starts
+    with np.errstate(invalid="ignore"):
+        anti = np.linalg.norm(v + v[nxt], axis=1) < 2.0 * np.sin(ANTIPODAL_EPS / 2) + 1e-300
+    slow[ring[anti]] = True
+    with np.errstate(invalid="ignore"):
+        ccw = _ccw_many(ll, nxt, starts)  # None where the ring takes is_ccw itself
+    # every ring in its final order: reversed where its orientation is not the one asked
+    s_, e_ = starts.tolist(), ends.tolist()
+    flip = np.zeros(n, bool)
+    for r in np.flatnonzero(~slow).tolist():
+        c = ccw[r]
+        if c is None:
+            c = is_ccw(ll[s_[r] : e_[r]])
+        flip[r] = c != exterior[r]
+    pos = np.arange(len(v))
+    rev = flip[ring]
+    base = np.repeat(starts + ends - 1, count)
+    order = np.where(rev, base - pos, pos)
+    v, ll = v[order], ll[order]
+    on = on_seam(ll)
+    seam = on & on[nxt]
+    # each ring's lon/lat closed: its first vertex again after its last
+    first_again = np.insert(np.arange(len(ll)), ends, starts)
+    ll_closed = ll[first_again]
+    vs = [v[a:b] for a, b in zip(s_, e_)]
+    seams = [seam[a:b] for a, b in zip(s_, e_)]
+    lls = [ll_closed[a + r : b + r + 1] for r, (a, b) in enumerate(zip(s_, e_))]
+    for r in np.flatnonzero(slow).tolist():
+        vs[r], seams[r], lls[r] = prepare_ring(rings[r], labels[r], exterior[r])
+    return vs, seams, lls
+
+
+_SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+
+
+def prepare_ring(
+    ll: np.ndarray, label: str, exterior: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One lon/lat ring (closed or not) checked, made unit vectors and oriented.
+
+    Returns its vertices (unit vectors, repeated points dropped), its seam edges and its
+    lon/lat closed, interior on the left: counter-clockwise when ``exterior``, else
+    clockwise (:func:`is_ccw`). Errors as :func:`validate`'s, naming ``label``.
+    """
+    if len(ll) > 1 and np.array_equal(ll[0], ll[-1]):
+        ll = ll[:-1]
+    ll = split_meridian_edges(ll)
+    v, idx = validate(ll, label, min_points=3)
+    ll_v = ll[idx]
+    on = on_seam(ll_v)
+    seam = on & np.roll(on, -1)
+    if is_ccw(ll_v) != exterior:  # exterior CCW, holes CW
+        v, seam, ll_v = v[::-1].copy(), np.roll(seam[::-1], -1), ll_v[::-1]
+    return v, seam, np.vstack([ll_v, ll_v[:1]])
+
+
+def _ccw_many(ll: np.ndarray, nxt: np.ndarray, starts: np.ndarray) -> list:
+    """:func:`is_ccw` of the rings ``ll[starts[r]:starts[r + 1]]`` (``nxt``: each vertex's
+    successor in its ring) where its answer is the sign of the ring's area with no pole
+    on it or round it; None for the others (a vertex at a pole, an edge through one, a
+    turn of 90 deg or more, an area whose sign the rounding of its sum leaves open)."""
+    lon, lat = ll[:, 0], ll[:, 1]
+    jump = lon[nxt] - lon
+    step = jump - 360.0 * np.round(jump / 360.0)
+    pole = np.abs(np.abs(lat) - 90.0) <= SEAM_EPS_DEG
+    through = np.abs(np.abs(step) - 180.0) <= SEAM_EPS_DEG
+    odd = np.add.reduceat((pole | through).astype(np.int64), starts) > 0
+    turn = np.add.reduceat(step, starts)
+    # the terms of _sphere_area, with no pole
+    t = np.tan(np.radians(lat) / 2.0)
+    rad = np.radians(step)
+    e = 2.0 * np.arctan2(np.tan(rad / 2.0) * (t + t[nxt]), 1.0 + t * t[nxt])
+    total = np.add.reduceat(e, starts)
+    size = np.diff(np.append(starts, len(ll)))
+    # a sum of m terms in order is within (m - 1) u sum|e| of the exact one (fsum's)
+    err = 4.0 * size * np.finfo(np.float64).eps * np.add.reduceat(np.abs(e), starts)
+    sure = (~odd & (np.abs(turn) < 90.0) & (np.abs(total) > err)).tolist()
+    return [c if s else None for c, s in zip((total < 0.0).tolist(), sure)]
