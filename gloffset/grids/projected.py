@@ -23,8 +23,11 @@ ways (derivation: docs/design.md, "gloffset.grids.projected"):
 
 The GPU levels compute a polar stereographic grid's cell centres in a GLSL function
 (``centres = "glsl"``, :meth:`Projected.glsl_centres`, :mod:`gloffset.grids.polar`), in
-double: within 1e-15 rad of the exact inverse, 7e-13 of pyproj's; every other CRS's come
-from a texture made here in float64 from pyproj's (``centres = "texture"``,
+double: within 1e-15 rad of the exact inverse, 7e-13 of pyproj's; so do LAEA grids
+(:mod:`gloffset.grids.laea`: pyproj's own inverse, within 1e-12 rad of pyproj's at every
+cell centre, whose bounds from the pixel centres grow by twice that a level) whose cell
+centres stay 0.01 rad from the poles and the antipode; every other CRS's come from a
+texture made here in float64 from pyproj's (``centres = "texture"``,
 :mod:`gloffset.raster.layout`): correct, slower.
 """
 
@@ -39,6 +42,7 @@ from ..errors import InvalidGridError
 from ..geometry.caps import pad
 from ..geometry.sphere import angle, lonlat_to_xyz
 from .base import LevelHierarchy, check_size
+from .laea import LAEA_PYPROJ_BOUND, laea_clear, laea_glsl, laea_params
 from .polar import eccentricity_squared, polar_glsl, polar_inverse, polar_params, polar_scale_min
 from .protocol import GlslCentres
 
@@ -176,7 +180,8 @@ class Projected(LevelHierarchy):
     subgrids = True
     curve_masks = False
     #: how the GPU levels get the cell centres: a texture made on the host, or the
-    #: GLSL function of polar stereographic CRSs (set per grid, :meth:`glsl_centres`)
+    #: GLSL function of polar stereographic and LAEA CRSs (set per grid,
+    #: :meth:`glsl_centres`)
     centres = "texture"
 
     def __init__(self, width: int, height: int, *, crs, bounds=None):
@@ -202,6 +207,8 @@ class Projected(LevelHierarchy):
         self._frame = (0, 0, w, h, b)
         self._check_domain()
         if polar_params(self._crs) is not None:
+            self.centres = "glsl"
+        elif laea_params(self._crs) is not None and laea_clear(self._crs, self._centre_box()):
             self.centres = "glsl"
 
     # ------------------------------------------------------------------ identity
@@ -347,6 +354,26 @@ class Projected(LevelHierarchy):
         self.__dict__["_lip"] = lip
         return lip
 
+    def _centre_box(self) -> tuple[float, float, float, float]:
+        """The box (CRS units) of every level's cell centres (blocks at the east and south
+        edges reach past the grid)."""
+        fx, fy = [0.5], [0.5]
+        for lev in range(self.n_levels):
+            b = self.block(lev)
+            h, w = self.level_shape(lev)
+            fx.append((w - 0.5) * b)
+            fy.append((h - 0.5) * b)
+        x, y = self.pixel_xy(np.array([0.5, max(fx)]), np.array([0.5, max(fy)]))
+        return (float(x.min()), float(y.min()), float(x.max()), float(y.max()))
+
+    def _glsl_slack(self, level: int) -> float:
+        """What the bounds made from pyproj's pixel centres gain for a GLSL function's
+        centres (LAEA grids): each of a cell's and its child's centres moves by at most
+        :data:`~gloffset.grids.laea.LAEA_PYPROJ_BOUND`, so twice that a level."""
+        if self.centres != "glsl":
+            return 0.0
+        return 2.0 * LAEA_PYPROJ_BOUND * (self.n_levels - 1 - level)
+
     def _half_diagonal(self, level: int) -> float:
         xmin, ymin, xmax, ymax = self._frame[4]
         fw, fh = self._frame[2], self._frame[3]
@@ -393,11 +420,14 @@ class Projected(LevelHierarchy):
         return inv(*self.pixel_xy(x, y))
 
     def glsl_centres(self) -> GlslCentres:
-        """The cell centres as a GLSL function (``centres == "glsl"``: polar
-        stereographic CRSs, :func:`polar_glsl`): within 4e-15 rad of the exact inverse
+        """The cell centres as a GLSL function (``centres == "glsl"``). Polar
+        stereographic CRSs (:func:`polar_glsl`): within 4e-15 rad of the exact inverse
         (9e-16 measured), 1e-12 of pyproj's (7e-13 measured: PROJ's iteration stops at
-        steps of 1e-10 rad), and 1e-13 of the float64 twin (tested at many pixels)."""
-        got = polar_glsl(self._crs, self._frame)
+        steps of 1e-10 rad), and 1e-13 of the float64 twin (tested at many pixels).
+        LAEA CRSs (:func:`~gloffset.grids.laea.laea_glsl`, grids that
+        :func:`~gloffset.grids.laea.laea_clear` admits): pyproj's inverse, within
+        :data:`~gloffset.grids.laea.LAEA_PYPROJ_BOUND` (1e-12 rad) of pyproj's."""
+        got = polar_glsl(self._crs, self._frame) or laea_glsl(self._crs, self._frame)
         if got is None:
             raise InvalidGridError(f"{self._crs.name!r} has no GLSL centres")
         return got
@@ -517,7 +547,7 @@ class Projected(LevelHierarchy):
             return np.full(j.shape, r)
         r = self._tree()["rho"][level]
         h, w = r.shape
-        return r[np.minimum(j, h - 1), np.minimum(i, w - 1)]
+        return r[np.minimum(j, h - 1), np.minimum(i, w - 1)] + self._glsl_slack(level)
 
     def rho(self, level: int) -> np.ndarray:
         """Per row of ``level``: the largest bound of its cells."""
@@ -526,7 +556,7 @@ class Projected(LevelHierarchy):
             return np.zeros(h)
         if self._lipschitz() is not None:
             return self.rho_at(level, np.arange(h), 0)
-        return self._tree()["rho"][level].max(axis=1)
+        return self._tree()["rho"][level].max(axis=1) + self._glsl_slack(level)
 
     def area_rho_at(self, level: int, j, i) -> np.ndarray:
         """A bound on the distance from the centres of cells (``j``, ``i``) to their
@@ -569,4 +599,8 @@ class Projected(LevelHierarchy):
             xmin + (fx0 + x0 + w) * (xmax - xmin) / fw,
             ymax - (fy0 + y0) * (ymax - ymin) / fh,
         )
+        # a part's coarse cells reach past its own east and south edges
+        if out.centres == "glsl" and polar_params(out._crs) is None:
+            if not laea_clear(out._crs, out._centre_box()):
+                out.centres = "texture"
         return out

@@ -9,3 +9,17 @@ double fp64_recip(double x) {
     r = fma(r, fma(-x, r, 1.0LF), r);
     return fma(r, fma(-x, r, 1.0LF), r);
 }
+// fp64_sqrt(x): sqrt(x) for x >= 0 (0 for x <= 0), within 2 ulp for x above 1e-30: the
+// float32 inverse square root as a seed (relative error below 1e-6), two Newton steps
+// y + y (1 - x y^2) / 2 (1e-12, then below the rounding), then s = x y and one step
+// s + y (x - s^2) / 2 on the square root itself.
+double fp64_sqrt(double x) {
+    if (x <= 0.0LF) {
+        return 0.0LF;
+    }
+    double y = double(inversesqrt(float(x)));
+    y = fma(0.5LF * y, fma(-x * y, y, 1.0LF), y);
+    y = fma(0.5LF * y, fma(-x * y, y, 1.0LF), y);
+    double s = x * y;
+    return fma(0.5LF * y, fma(-s, s, x), s);
+}
