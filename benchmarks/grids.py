@@ -5,7 +5,10 @@ function, and, in the same run, read from textures of the host's float64 centres
 every CRS without a GLSL function does), and against the usual recipe: an
 equirectangular render (8192 x 4096) warped to the same polar grid with rasterio's
 nearest-neighbour ``reproject`` (GDAL's warper, as ``gdalwarp -r near`` does), its time
-and how many pixels it gets wrong.
+and how many pixels it gets wrong. Then Europe (1:110m, the countries of the continent) at
+50 km on a 4096 x 4096 EPSG:3035 (LAEA Europe) grid, its centres in GLSL and from
+textures in the same run, and the first render's time (the grid's bounds made from every
+pixel centre by pyproj, once per grid).
 
 Run: python benchmarks/grids.py [--quick]
 Writes benchmarks/results/grids.json. Needs rasterio (the ``geo`` extra).
@@ -26,11 +29,42 @@ from gloffset.grids import Equirect, Projected
 D = 50e3  # metres
 CRS = "EPSG:3031"
 BOUNDS = (-3.4e6, -3.4e6, 3.4e6, 3.4e6)  # the continent and 50 km round it, the pole inside
+LAEA, LAEA_BOUNDS = "EPSG:3035", (2.5e6, 1.4e6, 6.5e6, 5.5e6)  # the Canaries to the North Cape
 
 
 def antarctica():
     fc = json.loads((DATA / "world_110m.geojson").read_text())
     return gloffset.read(next(f for f in fc["features"] if f["properties"]["name"] == "Antarctica"))
+
+
+def europe():
+    fc = json.loads((DATA / "world_110m.geojson").read_text())
+    feats = [f for f in fc["features"] if f["properties"]["continent"] == "Europe"]
+    return gloffset.read({"type": "FeatureCollection", "features": feats})
+
+
+def laea_record(n: int, repeat: int) -> dict:
+    """Europe on an n x n EPSG:3035 grid: GLSL centres against textures, same run."""
+    shape = europe()
+    grid = Projected(n, n, crs=LAEA, bounds=LAEA_BOUNDS)
+    textured = Projected(n, n, crs=LAEA, bounds=LAEA_BOUNDS)
+    textured.centres = "texture"
+    assert grid.centres == "glsl"
+    t_first, _ = best_of(lambda: gloffset.render(shape, D, grid), 1)
+    t_glsl, m_glsl = timed_render(shape, grid, repeat)
+    t_tex, m_tex = timed_render(shape, textured, repeat)
+    b = boundary_pixels(m_glsl)
+    return {
+        "input": "Natural Earth 1:110m, the countries of Europe",
+        "grid": f"Projected({n}, {n}, crs={LAEA!r}, bounds={LAEA_BOUNDS})",
+        "first_render_s": t_first,
+        "glsl_s": t_glsl,
+        "texture_s": t_tex,
+        "boundary_pixels": b,
+        "us_per_boundary_pixel_glsl": 1e6 * t_glsl / b,
+        "us_per_boundary_pixel_texture": 1e6 * t_tex / b,
+        "pixels_differing": int(np.count_nonzero(m_tex != m_glsl)),
+    }
 
 
 def boundary_pixels(mask: np.ndarray) -> int:
@@ -135,6 +169,7 @@ def main() -> None:
                 "wrong_per_boundary_pixel": wrong / b_polar,
             }
         )
+    record["laea"] = laea_record(n, repeat)
     print(json.dumps(record, indent=2))
     if not args.quick:
         print("wrote", write("grids", record))
