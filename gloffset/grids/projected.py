@@ -21,14 +21,10 @@ ways (derivation: docs/design.md, "gloffset.grids.projected"):
 * otherwise from the pixel centres themselves (every one computed by pyproj, about
   0.5-0.7 us each): exact for the pixels, correct for any CRS, slower.
 
-The GPU levels compute a polar stereographic grid's cell centres in a GLSL function
-(``centres = "glsl"``, :meth:`Projected.glsl_centres`, :mod:`gloffset.grids.polar`), in
-double: within 1e-15 rad of the exact inverse, 7e-13 of pyproj's; so do LAEA grids
-(:mod:`gloffset.grids.laea`: pyproj's own inverse, within 1e-12 rad of pyproj's at every
-cell centre, whose bounds from the pixel centres grow by twice that a level) whose cell
-centres stay 0.01 rad from the poles and the antipode; every other CRS's come from a
-texture made here in float64 from pyproj's (``centres = "texture"``,
-:mod:`gloffset.raster.layout`): correct, slower.
+The GPU levels compute polar stereographic and LAEA grids' cell centres in a GLSL
+function (``centres = "glsl"``, :meth:`Projected.glsl_centres`; LAEA's bounds grow by
+twice its 1e-12 rad from pyproj's a level); every other CRS's come from a texture made
+here in float64 from pyproj's (``centres = "texture"``): correct, slower.
 """
 
 from __future__ import annotations
