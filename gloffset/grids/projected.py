@@ -41,6 +41,7 @@ from .base import LevelHierarchy, check_size
 from .laea import LAEA_PYPROJ_BOUND, laea_clear, laea_glsl, laea_params
 from .polar import eccentricity_squared, polar_glsl, polar_inverse, polar_params, polar_scale_min
 from .protocol import GlslCentres
+from .transverse import tm_clear, tm_glsl, tm_params
 
 __all__ = ["Projected", "polar_scale_min", "polar_inverse"]
 
@@ -202,9 +203,7 @@ class Projected(LevelHierarchy):
         # full_w x full_h grid over full (a subgrid keeps its parent's pixel centres)
         self._frame = (0, 0, w, h, b)
         self._check_domain()
-        if polar_params(self._crs) is not None:
-            self.centres = "glsl"
-        elif laea_params(self._crs) is not None and laea_clear(self._crs, self._centre_box()):
+        if self._takes_glsl():
             self.centres = "glsl"
 
     # ------------------------------------------------------------------ identity
@@ -350,6 +349,20 @@ class Projected(LevelHierarchy):
         self.__dict__["_lip"] = lip
         return lip
 
+    def _takes_glsl(self) -> bool:
+        """Whether the GPU levels may compute this grid's centres in GLSL: polar
+        stereographic grids; LAEA grids whose cell centres keep clear of the poles and
+        the antipode (:func:`~gloffset.grids.laea.laea_clear`); transverse Mercator grids
+        with the formula bound (its slack covers the function) within the function's
+        range (:func:`~gloffset.grids.transverse.tm_clear`)."""
+        if polar_params(self._crs) is not None:
+            return True
+        if laea_params(self._crs) is not None:
+            return laea_clear(self._crs, self._centre_box())
+        if tm_params(self._crs) is not None:
+            return self._lipschitz() is not None and tm_clear(self._crs, self._centre_box())
+        return False
+
     def _centre_box(self) -> tuple[float, float, float, float]:
         """The box (CRS units) of every level's cell centres (blocks at the east and south
         edges reach past the grid)."""
@@ -422,8 +435,15 @@ class Projected(LevelHierarchy):
         steps of 1e-10 rad), and 1e-13 of the float64 twin (tested at many pixels).
         LAEA CRSs (:func:`~gloffset.grids.laea.laea_glsl`, grids that
         :func:`~gloffset.grids.laea.laea_clear` admits): pyproj's inverse, within
-        :data:`~gloffset.grids.laea.LAEA_PYPROJ_BOUND` (1e-12 rad) of pyproj's."""
-        got = polar_glsl(self._crs, self._frame) or laea_glsl(self._crs, self._frame)
+        :data:`~gloffset.grids.laea.LAEA_PYPROJ_BOUND` (1e-12 rad) of pyproj's.
+        Transverse Mercator CRSs (:func:`~gloffset.grids.transverse.tm_glsl`, grids with
+        the formula bound): pyproj's inverse, within 1e-12 rad of pyproj's (4e-15
+        measured), covered by the bound's 3e-9 rad a level."""
+        got = (
+            polar_glsl(self._crs, self._frame)
+            or laea_glsl(self._crs, self._frame)
+            or tm_glsl(self._crs, self._frame)
+        )
         if got is None:
             raise InvalidGridError(f"{self._crs.name!r} has no GLSL centres")
         return got
@@ -596,7 +616,6 @@ class Projected(LevelHierarchy):
             ymax - (fy0 + y0) * (ymax - ymin) / fh,
         )
         # a part's coarse cells reach past its own east and south edges
-        if out.centres == "glsl" and polar_params(out._crs) is None:
-            if not laea_clear(out._crs, out._centre_box()):
-                out.centres = "texture"
+        if out.centres == "glsl" and not out._takes_glsl():
+            out.centres = "texture"
         return out
