@@ -8,7 +8,7 @@ nearest-neighbour ``reproject`` (GDAL's warper, as ``gdalwarp -r near`` does), i
 and how many pixels it gets wrong. Then Europe (1:110m, the countries of the continent) at
 50 km on a 4096 x 4096 EPSG:3035 (LAEA Europe) grid, its centres in GLSL and from
 textures in the same run, and the first render's time (the grid's bounds made from every
-pixel centre by pyproj, once per grid).
+pixel centre by pyproj, once per grid); and Italy on a UTM 33N grid the same way.
 
 Run: python benchmarks/grids.py [--quick]
 Writes benchmarks/results/grids.json. Needs rasterio (the ``geo`` extra).
@@ -30,6 +30,7 @@ D = 50e3  # metres
 CRS = "EPSG:3031"
 BOUNDS = (-3.4e6, -3.4e6, 3.4e6, 3.4e6)  # the continent and 50 km round it, the pole inside
 LAEA, LAEA_BOUNDS = "EPSG:3035", (2.5e6, 1.4e6, 6.5e6, 5.5e6)  # the Canaries to the North Cape
+UTM, UTM_BOUNDS = "EPSG:32633", (0.0, 4.0e6, 1.2e6, 5.3e6)  # UTM 33N: Sicily to the Alps
 
 
 def antarctica():
@@ -37,17 +38,16 @@ def antarctica():
     return gloffset.read(next(f for f in fc["features"] if f["properties"]["name"] == "Antarctica"))
 
 
-def europe():
+def countries(key: str, value: str):
     fc = json.loads((DATA / "world_110m.geojson").read_text())
-    feats = [f for f in fc["features"] if f["properties"]["continent"] == "Europe"]
+    feats = [f for f in fc["features"] if f["properties"][key] == value]
     return gloffset.read({"type": "FeatureCollection", "features": feats})
 
 
-def laea_record(n: int, repeat: int) -> dict:
-    """Europe on an n x n EPSG:3035 grid: GLSL centres against textures, same run."""
-    shape = europe()
-    grid = Projected(n, n, crs=LAEA, bounds=LAEA_BOUNDS)
-    textured = Projected(n, n, crs=LAEA, bounds=LAEA_BOUNDS)
+def crs_record(shape, label: str, n: int, crs: str, bounds, repeat: int) -> dict:
+    """``shape`` on an n x n grid of ``crs``: GLSL centres against textures, same run."""
+    grid = Projected(n, n, crs=crs, bounds=bounds)
+    textured = Projected(n, n, crs=crs, bounds=bounds)
     textured.centres = "texture"
     assert grid.centres == "glsl"
     t_first, _ = best_of(lambda: gloffset.render(shape, D, grid), 1)
@@ -55,8 +55,8 @@ def laea_record(n: int, repeat: int) -> dict:
     t_tex, m_tex = timed_render(shape, textured, repeat)
     b = boundary_pixels(m_glsl)
     return {
-        "input": "Natural Earth 1:110m, the countries of Europe",
-        "grid": f"Projected({n}, {n}, crs={LAEA!r}, bounds={LAEA_BOUNDS})",
+        "input": f"Natural Earth 1:110m, {label}",
+        "grid": f"Projected({n}, {n}, crs={crs!r}, bounds={bounds})",
         "first_render_s": t_first,
         "glsl_s": t_glsl,
         "texture_s": t_tex,
@@ -169,7 +169,10 @@ def main() -> None:
                 "wrong_per_boundary_pixel": wrong / b_polar,
             }
         )
-    record["laea"] = laea_record(n, repeat)
+    europe = countries("continent", "Europe")
+    record["laea"] = crs_record(europe, "the countries of Europe", n, LAEA, LAEA_BOUNDS, repeat)
+    italy = countries("name", "Italy")
+    record["utm"] = crs_record(italy, "Italy", n, UTM, UTM_BOUNDS, repeat)
     print(json.dumps(record, indent=2))
     if not args.quick:
         print("wrote", write("grids", record))
