@@ -1,8 +1,8 @@
 """Lambert azimuthal equal-area projections (EPSG:3035 LAEA Europe, the
-``EuropeanETRS89_LAEAQuad`` tiles, EASE-Grid 2.0, spherical LAEA CRSs: every aspect) as
-:class:`~gloffset.grids.Projected` grids use them: pyproj's parameters, where the GLSL
-function (``shaders/lib/grids/lambert_azimuthal.glsl``) may stand for pyproj's inverse,
-and its constants.
+``EuropeanETRS89_LAEAQuad`` tiles, EASE-Grid 2.0 away from its pole, spherical LAEA
+CRSs: every aspect) as :class:`~gloffset.grids.Projected` grids use them: pyproj's
+parameters, where the GLSL function (``shaders/lib/grids/lambert_azimuthal.glsl``) may
+stand for pyproj's inverse, and its constants.
 
 PROJ's ellipsoidal inverse goes through the authalic sphere: the plane to the authalic
 latitude ``beta`` and the longitude (a sphere's LAEA inverse), then ``beta`` to the
