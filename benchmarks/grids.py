@@ -5,7 +5,10 @@ function, and, in the same run, read from textures of the host's float64 centres
 every CRS without a GLSL function does), and against the usual recipe: an
 equirectangular render (8192 x 4096) warped to the same polar grid with rasterio's
 nearest-neighbour ``reproject`` (GDAL's warper, as ``gdalwarp -r near`` does), its time
-and how many pixels it gets wrong.
+and how many pixels it gets wrong. Then Europe (1:110m, the countries of the continent) at
+50 km on a 4096 x 4096 EPSG:3035 (LAEA Europe) grid, its centres in GLSL and from
+textures in the same run, and the first render's time (the grid's bounds made from every
+pixel centre by pyproj, once per grid); and Italy on a UTM 33N grid the same way.
 
 Run: python benchmarks/grids.py [--quick]
 Writes benchmarks/results/grids.json. Needs rasterio (the ``geo`` extra).
@@ -26,11 +29,42 @@ from gloffset.grids import Equirect, Projected
 D = 50e3  # metres
 CRS = "EPSG:3031"
 BOUNDS = (-3.4e6, -3.4e6, 3.4e6, 3.4e6)  # the continent and 50 km round it, the pole inside
+LAEA, LAEA_BOUNDS = "EPSG:3035", (2.5e6, 1.4e6, 6.5e6, 5.5e6)  # the Canaries to the North Cape
+UTM, UTM_BOUNDS = "EPSG:32633", (0.0, 4.0e6, 1.2e6, 5.3e6)  # UTM 33N: Sicily to the Alps
 
 
 def antarctica():
     fc = json.loads((DATA / "world_110m.geojson").read_text())
     return gloffset.read(next(f for f in fc["features"] if f["properties"]["name"] == "Antarctica"))
+
+
+def countries(key: str, value: str):
+    fc = json.loads((DATA / "world_110m.geojson").read_text())
+    feats = [f for f in fc["features"] if f["properties"][key] == value]
+    return gloffset.read({"type": "FeatureCollection", "features": feats})
+
+
+def crs_record(shape, label: str, n: int, crs: str, bounds, repeat: int) -> dict:
+    """``shape`` on an n x n grid of ``crs``: GLSL centres against textures, same run."""
+    grid = Projected(n, n, crs=crs, bounds=bounds)
+    textured = Projected(n, n, crs=crs, bounds=bounds)
+    textured.centres = "texture"
+    assert grid.centres == "glsl"
+    t_first, _ = best_of(lambda: gloffset.render(shape, D, grid), 1)
+    t_glsl, m_glsl = timed_render(shape, grid, repeat)
+    t_tex, m_tex = timed_render(shape, textured, repeat)
+    b = boundary_pixels(m_glsl)
+    return {
+        "input": f"Natural Earth 1:110m, {label}",
+        "grid": f"Projected({n}, {n}, crs={crs!r}, bounds={bounds})",
+        "first_render_s": t_first,
+        "glsl_s": t_glsl,
+        "texture_s": t_tex,
+        "boundary_pixels": b,
+        "us_per_boundary_pixel_glsl": 1e6 * t_glsl / b,
+        "us_per_boundary_pixel_texture": 1e6 * t_tex / b,
+        "pixels_differing": int(np.count_nonzero(m_tex != m_glsl)),
+    }
 
 
 def boundary_pixels(mask: np.ndarray) -> int:
@@ -135,6 +169,10 @@ def main() -> None:
                 "wrong_per_boundary_pixel": wrong / b_polar,
             }
         )
+    europe = countries("continent", "Europe")
+    record["laea"] = crs_record(europe, "the countries of Europe", n, LAEA, LAEA_BOUNDS, repeat)
+    italy = countries("name", "Italy")
+    record["utm"] = crs_record(italy, "Italy", n, UTM, UTM_BOUNDS, repeat)
     print(json.dumps(record, indent=2))
     if not args.quick:
         print("wrote", write("grids", record))

@@ -3,7 +3,8 @@
 or a sphere). The function against pyproj and the exact inverse at many pixels, in
 double, through a compute shader; masks of the GLSL path against the float64 reference
 at pyproj's pixel centres, a broken function caught by them; the texture path kept for
-the other CRSs."""
+the other CRSs. LAEA grids: tests/test_grids_laea.py; transverse Mercator:
+tests/test_grids_tm.py."""
 
 import json
 import math
@@ -126,8 +127,10 @@ def test_glsl_centres_against_pyproj(ctx, crs):
 
 
 def test_which_grids_compute_their_centres_in_glsl():
-    """Polar stereographic grids and UPS tiles (subgrids too) take the GLSL function;
-    the others (LAEA, UTM, orthographic) the texture of pyproj's centres."""
+    """Polar stereographic grids and UPS tiles (subgrids too) take the GLSL function,
+    and so do LAEA grids clear of the poles (tests/test_grids_laea.py) and UTM grids
+    with the formula bound (tests/test_grids_tm.py); the others (orthographic) the
+    texture of pyproj's centres."""
     box = (-3e6, -3e6, 3e6, 3e6)
     for crs in ("EPSG:3031", "EPSG:3413", "EPSG:3976", SPHERE_3031):
         g = Projected(64, 64, crs=crs, bounds=box)
@@ -136,12 +139,12 @@ def test_which_grids_compute_their_centres_in_glsl():
         t = TmsTile(tms, 3, 2, 5)
         assert t.centres == "glsl"
         assert t.glsl_centres().source == "lib/grids/polar_stereographic.glsl"
-    for crs, bounds in (
-        ("EPSG:3035", (2.5e6, 1.4e6, 6.5e6, 5.5e6)),
-        ("EPSG:32633", (1.0e5, 4.0e6, 9.0e5, 5.3e6)),
-        (ORTHO, (-8e6, -7e6, 8e6, 8e6)),
-    ):
-        assert Projected(64, 64, crs=crs, bounds=bounds).centres == "texture"
+    g = Projected(64, 64, crs="EPSG:3035", bounds=(2.5e6, 1.4e6, 6.5e6, 5.5e6))
+    assert g.centres == "glsl"
+    assert g.glsl_centres().source == "lib/grids/lambert_azimuthal.glsl"
+    g = Projected(64, 64, crs="EPSG:32633", bounds=(1.0e5, 4.0e6, 9.0e5, 5.3e6))
+    assert g.glsl_centres().source == "lib/grids/transverse_mercator.glsl"
+    assert Projected(64, 64, crs=ORTHO, bounds=(-8e6, -7e6, 8e6, 8e6)).centres == "texture"
 
 
 @pytest.mark.slow

@@ -138,27 +138,40 @@ def polar_inverse(crs):
 POLAR_GLSL, _SERIES_TERMS = "lib/grids/polar_stereographic.glsl", 6
 
 
-@functools.lru_cache(maxsize=16)
-def _latitude_series(es: float) -> tuple[float, ...]:
-    """The coefficients ``g_0..g_5`` (of powers of ``cos^2 chi``) with ``phi - chi = cos
-    chi sin chi G(cos^2 chi)``: the Fourier series ``sum a_2k sin(2k chi)`` of the
-    geodetic latitude ``phi`` less the conformal one ``chi`` (its coefficients from 64
-    samples of :meth:`~gloffset.ellipsoid.Ellipsoid.geodetic`, exact to the sum's
-    rounding, since ``a_2k`` falls as ``n^k``), each ``sin(2k chi) = sin chi U_2k-1(cos
-    chi)`` written in powers of ``cos^2 chi`` (``U`` Chebyshev's of the second kind)."""
-    out = np.zeros(_SERIES_TERMS)
-    if es == 0.0:
-        return tuple(out)
-    m = 64
-    chi = np.pi * (np.arange(m) / m - 0.5)
-    delta = np.radians(Ellipsoid(1.0, 1.0 - math.sqrt(1.0 - es)).geodetic(np.degrees(chi))) - chi
+def latitude_powers(chi: np.ndarray, delta: np.ndarray, terms: int) -> tuple[float, ...]:
+    """The coefficients ``g_0..g_terms-1`` (of powers of ``cos^2 chi``) of ``delta =
+    cos chi sin chi G(cos^2 chi)`` from ``m`` samples ``delta`` at ``chi = pi (k / m -
+    1/2)``, ``k < m``, of an odd function of period ``pi`` (a latitude less an auxiliary
+    one): its Fourier series ``sum a_2k sin(2k chi)`` (a discrete sine transform, exact
+    but for the terms from ``m / 2`` on), each ``sin(2k chi) = sin chi U_2k-1(cos chi)``
+    written in powers of ``cos^2 chi`` (``U`` Chebyshev's of the second kind)."""
+    m = len(chi)
+    out = np.zeros(terms)
     u = [np.array([1.0]), np.array([0.0, 2.0])]  # U_n by its recurrence, low powers first
-    while len(u) < 2 * _SERIES_TERMS:
+    while len(u) < 2 * terms:
         u.append(np.concatenate([[0.0], 2.0 * u[-1]]) - np.pad(u[-2], (0, 2)))
-    for k in range(1, _SERIES_TERMS + 1):
+    for k in range(1, terms + 1):
         a_k = 2.0 / m * float(np.dot(delta, np.sin(2 * k * chi)))
         out[:k] += a_k * u[2 * k - 1][1::2]  # U_2k-1(x) / x in powers of x^2
     return tuple(float(g) for g in out)
+
+
+def sample_latitudes(m: int = 64) -> np.ndarray:
+    """The ``m`` latitudes (rad) :func:`latitude_powers` samples at."""
+    return np.pi * (np.arange(m) / m - 0.5)
+
+
+@functools.lru_cache(maxsize=16)
+def _latitude_series(es: float) -> tuple[float, ...]:
+    """The coefficients ``g_0..g_5`` of the geodetic latitude ``phi`` less the conformal
+    one ``chi`` (:func:`latitude_powers`; 64 samples of
+    :meth:`~gloffset.ellipsoid.Ellipsoid.geodetic`, exact to the sum's rounding, since
+    ``a_2k`` falls as ``n^k``)."""
+    if es == 0.0:
+        return (0.0,) * _SERIES_TERMS
+    chi = sample_latitudes()
+    delta = np.radians(Ellipsoid(1.0, 1.0 - math.sqrt(1.0 - es)).geodetic(np.degrees(chi))) - chi
+    return latitude_powers(chi, delta, _SERIES_TERMS)
 
 
 def polar_glsl(crs, frame) -> GlslCentres | None:

@@ -22,11 +22,11 @@ ways (derivation: docs/design.md, "gloffset.grids.projected"):
 * otherwise from the pixel centres themselves (every one computed by pyproj, about
   0.5-0.7 us each): exact for the pixels, correct for any CRS, slower.
 
-The GPU levels compute a polar stereographic grid's cell centres in a GLSL function
-(``centres = "glsl"``, :meth:`Projected.glsl_centres`, :mod:`gloffset.grids.polar`), in
-double: within 1e-15 rad of the exact inverse, 7e-13 of pyproj's; every other CRS's come
-from a texture made here in float64 from pyproj's (``centres = "texture"``,
-:mod:`gloffset.raster.layout`): correct, slower.
+The GPU levels compute polar stereographic, LAEA and (ellipsoidal, formula-bound)
+transverse Mercator grids' cell centres in a GLSL function (``centres = "glsl"``,
+:meth:`Projected.glsl_centres`; LAEA's bounds grow by twice its 1e-12 rad from pyproj's
+a level); every other CRS's come from a texture made here in float64 from pyproj's
+(``centres = "texture"``): correct, slower.
 """
 
 from __future__ import annotations
@@ -40,9 +40,11 @@ from ..errors import InvalidGridError
 from ..geometry.caps import pad
 from ..geometry.sphere import angle, lonlat_to_xyz
 from .base import LevelHierarchy, check_size
+from .laea import LAEA_PYPROJ_BOUND, laea_clear, laea_glsl, laea_params
 from .polar import polar_glsl, polar_inverse, polar_params, polar_scale_min
 from .protocol import GlslCentres
 from .stretch import eccentricity_squared, inverse_lipschitz
+from .transverse import tm_clear, tm_glsl, tm_params
 
 __all__ = ["Projected", "polar_scale_min", "polar_inverse"]
 
@@ -185,7 +187,8 @@ class Projected(LevelHierarchy):
     subgrids = True
     curve_masks = False
     #: how the GPU levels get the cell centres: a texture made on the host, or the
-    #: GLSL function of polar stereographic CRSs (set per grid, :meth:`glsl_centres`)
+    #: GLSL function of polar stereographic and LAEA CRSs (set per grid,
+    #: :meth:`glsl_centres`)
     centres = "texture"
 
     def __init__(self, width: int, height: int, *, crs, bounds=None, check_domain: bool = True):
@@ -211,7 +214,7 @@ class Projected(LevelHierarchy):
         self._frame = (0, 0, w, h, b)
         if check_domain:
             self._check_domain()
-        if polar_params(self._crs) is not None:
+        if self._takes_glsl():
             self.centres = "glsl"
 
     # ------------------------------------------------------------------ identity
@@ -361,6 +364,40 @@ class Projected(LevelHierarchy):
         self.__dict__["_lip"] = lip
         return lip
 
+    def _takes_glsl(self) -> bool:
+        """Whether the GPU levels may compute this grid's centres in GLSL: polar
+        stereographic grids; LAEA grids whose cell centres keep clear of the poles and
+        the antipode (:func:`~gloffset.grids.laea.laea_clear`); transverse Mercator grids
+        with the formula bound (its slack covers the function) within the function's
+        range (:func:`~gloffset.grids.transverse.tm_clear`)."""
+        if polar_params(self._crs) is not None:
+            return True
+        if laea_params(self._crs) is not None:
+            return laea_clear(self._crs, self._centre_box())
+        if tm_params(self._crs) is not None:
+            return self._lipschitz() is not None and tm_clear(self._crs, self._centre_box())
+        return False
+
+    def _centre_box(self) -> tuple[float, float, float, float]:
+        """The box (CRS units) of every level's cell centres (blocks at the east and south
+        edges reach past the grid)."""
+        fx, fy = [0.5], [0.5]
+        for lev in range(self.n_levels):
+            b = self.block(lev)
+            h, w = self.level_shape(lev)
+            fx.append((w - 0.5) * b)
+            fy.append((h - 0.5) * b)
+        x, y = self.pixel_xy(np.array([0.5, max(fx)]), np.array([0.5, max(fy)]))
+        return (float(x.min()), float(y.min()), float(x.max()), float(y.max()))
+
+    def _glsl_slack(self, level: int) -> float:
+        """What the bounds made from pyproj's pixel centres gain for a GLSL function's
+        centres (LAEA grids): each of a cell's and its child's centres moves by at most
+        :data:`~gloffset.grids.laea.LAEA_PYPROJ_BOUND`, so twice that a level."""
+        if self.centres != "glsl":
+            return 0.0
+        return 2.0 * LAEA_PYPROJ_BOUND * (self.n_levels - 1 - level)
+
     def _half_diagonal(self, level: int) -> float:
         xmin, ymin, xmax, ymax = self._frame[4]
         fw, fh = self._frame[2], self._frame[3]
@@ -407,11 +444,21 @@ class Projected(LevelHierarchy):
         return inv(*self.pixel_xy(x, y))
 
     def glsl_centres(self) -> GlslCentres:
-        """The cell centres as a GLSL function (``centres == "glsl"``: polar
-        stereographic CRSs, :func:`polar_glsl`): within 4e-15 rad of the exact inverse
+        """The cell centres as a GLSL function (``centres == "glsl"``). Polar
+        stereographic CRSs (:func:`polar_glsl`): within 4e-15 rad of the exact inverse
         (9e-16 measured), 1e-12 of pyproj's (7e-13 measured: PROJ's iteration stops at
-        steps of 1e-10 rad), and 1e-13 of the float64 twin (tested at many pixels)."""
-        got = polar_glsl(self._crs, self._frame)
+        steps of 1e-10 rad), and 1e-13 of the float64 twin (tested at many pixels).
+        LAEA CRSs (:func:`~gloffset.grids.laea.laea_glsl`, grids that
+        :func:`~gloffset.grids.laea.laea_clear` admits): pyproj's inverse, within
+        :data:`~gloffset.grids.laea.LAEA_PYPROJ_BOUND` (1e-12 rad) of pyproj's.
+        Transverse Mercator CRSs (:func:`~gloffset.grids.transverse.tm_glsl`, grids with
+        the formula bound): pyproj's inverse, within 1e-12 rad of pyproj's (4e-15
+        measured), covered by the bound's 3e-9 rad a level."""
+        got = (
+            polar_glsl(self._crs, self._frame)
+            or laea_glsl(self._crs, self._frame)
+            or tm_glsl(self._crs, self._frame)
+        )
         if got is None:
             raise InvalidGridError(f"{self._crs.name!r} has no GLSL centres")
         return got
@@ -531,7 +578,7 @@ class Projected(LevelHierarchy):
             return np.full(j.shape, r)
         r = self._tree()["rho"][level]
         h, w = r.shape
-        return r[np.minimum(j, h - 1), np.minimum(i, w - 1)]
+        return r[np.minimum(j, h - 1), np.minimum(i, w - 1)] + self._glsl_slack(level)
 
     def rho(self, level: int) -> np.ndarray:
         """Per row of ``level``: the largest bound of its cells."""
@@ -540,7 +587,7 @@ class Projected(LevelHierarchy):
             return np.zeros(h)
         if self._lipschitz() is not None:
             return self.rho_at(level, np.arange(h), 0)
-        return self._tree()["rho"][level].max(axis=1)
+        return self._tree()["rho"][level].max(axis=1) + self._glsl_slack(level)
 
     def area_rho_at(self, level: int, j, i) -> np.ndarray:
         """A bound on the distance from the centres of cells (``j``, ``i``) to their
@@ -583,4 +630,7 @@ class Projected(LevelHierarchy):
             xmin + (fx0 + x0 + w) * (xmax - xmin) / fw,
             ymax - (fy0 + y0) * (ymax - ymin) / fh,
         )
+        # a part's coarse cells reach past its own east and south edges
+        if out.centres == "glsl" and not out._takes_glsl():
+            out.centres = "texture"
         return out
