@@ -154,11 +154,16 @@ def test_which_laea_grids_take_the_glsl_function():
 
 
 def test_the_bounds_keep_the_slack():
-    """EPSG:3035's bounds from the pixel centres grow by 2 LAEA_PYPROJ_BOUND a level on
-    the GLSL path (each of a cell's and its child's centres may move by that much), not
-    on the texture path."""
-    g = Projected(300, 200, crs="EPSG:3035", bounds=EUROPE)
-    tex = Projected(300, 200, crs="EPSG:3035", bounds=EUROPE)
+    """Bounds made from pyproj's pixel centres (LAEA beyond the reach of the formula bound:
+    here 150 deg from the centre) grow by 2 LAEA_PYPROJ_BOUND a level on the GLSL path (each
+    of a cell's and its child's centres may move by that much), not on the texture path;
+    the formula bound's own slack a level (EPSG:3035's grids) covers it already."""
+    from gloffset.grids.projected import _LEVEL_SLACK
+
+    far = "+proj=laea +lat_0=0 +lon_0=0 +R=6371000"
+    g = Projected(64, 64, crs=far, bounds=(1.222e7, -1e5, 1.24e7, 1e5))
+    assert g.centres == "glsl" and g._lipschitz() is None
+    tex = Projected(64, 64, crs=far, bounds=(1.222e7, -1e5, 1.24e7, 1e5))
     tex.centres = "texture"
     last = g.n_levels - 1
     for lev in range(last):
@@ -166,6 +171,9 @@ def test_the_bounds_keep_the_slack():
         assert np.all(g.rho(lev) - tex.rho(lev) == pytest.approx(slack, rel=1e-3))
         assert np.all(g.rho_at(lev, 0, 1) - tex.rho_at(lev, 0, 1) == pytest.approx(slack, rel=1e-3))
     assert np.all(g.rho(last) == 0.0)
+    europe = Projected(300, 200, crs="EPSG:3035", bounds=EUROPE)
+    assert europe.centres == "glsl" and europe._lipschitz() is not None
+    assert _LEVEL_SLACK >= 2.0 * LAEA_PYPROJ_BOUND
 
 
 @pytest.mark.slow
