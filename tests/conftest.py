@@ -111,3 +111,64 @@ def assert_options_refused(call, func, what):
                 break
             names += [n.strip() for n in line.split(" : ")[0].split(",")]
     assert msg[len(head) :].split(", ") == names
+
+
+#: Cases that repeat a quicker case's ground (another distance, format, option or error of
+#: the same check): marked slow here, so that the README's test command stays within 5
+#: minutes on 2 cores; ``.ci/run`` runs them with ``-m slow``. Prefixes of node ids.
+REPEATS = (
+    "tests/test_golden.py::test_golden[contains/table1_10000]",
+    "tests/test_golden.py::test_golden[raster_input/world_borders_cube_6x128_127km_levels]",
+    "tests/test_golden.py::test_golden[raster_input/world_borders_cube_6x128_250km_cpu]",
+    "tests/test_golden.py::test_golden[raster_input/world_borders_cube_6x128_250km_levels]",
+    "tests/test_golden.py::test_golden[selfintersect/mexico_d+0.02_paper]",
+    "tests/test_cli_errors.py::test_a_geotiff_is_written_through_a_symlink[args1]",
+    "tests/test_cli_errors.py::test_a_geotiff_is_written_through_a_symlink[args2]",
+    "tests/test_cli_errors.py::test_dev_stdout_redirected_to_a_file_is_appended_to[/dev/fd/1]",
+    "tests/test_cli_errors.py::test_missing_distance[offset]",
+    "tests/test_cli_errors.py::test_missing_distance[render]",
+    "tests/test_cli_errors.py::test_offset_distance_errors_quote_the_distance_as_given[40000km-True",
+    "tests/test_cli_errors.py::test_offset_distance_errors_quote_the_distance_as_given[-1km-True",
+    "tests/test_cli_errors.py::test_unsupported_image_formats[out.JPEG",
+    "tests/test_field.py::test_cli_bad_input[args1-",
+    "tests/test_field.py::test_cli_bad_input[args2-",
+    "tests/test_field.py::test_cli_bad_input[args5-",
+    "tests/test_field.py::test_cli_bad_input[args7-",
+    "tests/test_tiles_checks.py::test_a_refused_resume_of_a_pmtiles_archive_leaves_nothing_behind[other",
+    "tests/test_tiles_checks.py::test_an_existing_output_of_a_later_distance_is_refused_first[x]",
+    "tests/test_tiles_checks.py::test_field_tiles_refuse_the_options_of_raster_tiles[option1]",
+    "tests/test_tiles_checks.py::test_field_tiles_refuse_the_options_of_raster_tiles[option2]",
+    "tests/test_tiles_checks.py::test_field_tiles_refuse_the_options_of_raster_tiles[option3]",
+    "tests/test_tiles_checks.py::test_field_tiles_refuse_the_options_of_raster_tiles[option5]",
+    "tests/test_tiles_checks.py::test_field_tiles_refuse_the_options_of_raster_tiles[option6]",
+    "tests/test_tiles_checks.py::test_field_tiles_refuse_the_options_of_raster_tiles[option7]",
+    "tests/test_tiles_checks.py::test_render_of_several_distances_names_the_output_as_typed[out.txt]",
+    "tests/test_cli.py::test_errors_are_one_line[args2-",
+    "tests/test_cli.py::test_errors_are_one_line[args3-",
+    "tests/test_cli.py::test_render_errors[args2-",
+    "tests/test_cli.py::test_render_errors[args3-",
+    "tests/test_cli.py::test_render_errors[args4-",
+    "tests/test_tiles_resume.py::test_an_interrupted_field_pyramid_resumes_to_the_uninterrupted_one[f.pmtiles]",
+    "tests/test_tiles_resume.py::test_an_interrupted_field_pyramid_resumes_to_the_uninterrupted_one[fxyz]",
+    "tests/test_tiles_resume.py::test_resume_over_another_inputs_archive_is_refused[t.mbtiles]",
+    "tests/test_tiles_resume.py::test_resume_over_another_inputs_archive_is_refused[xyz]",
+    "tests/test_grids_projected.py::test_cli_bad_crs_or_bounds[args1-",
+    "tests/test_grids_projected.py::test_cli_bad_crs_or_bounds[args2-",
+    "tests/test_grids_projected.py::test_cli_bad_crs_or_bounds[args3-",
+    "tests/test_grids_projected.py::test_cli_bad_crs_or_bounds[args5-",
+    "tests/test_simplified.py::test_simplified_render_equals_reference[grid2-",
+    "tests/test_simplified.py::test_simplified_render_equals_reference[grid6-",
+    "tests/test_simplified.py::test_simplified_render_equals_reference[grid8-",
+    "tests/test_tiles.py::test_split_pyramid_tasks_make_the_same_tiles[Mexico--60000.0-3-6-1-kw2]",
+    "tests/test_tms.py::test_world_crs84_pyramid_tiles_are_single_renders[400km]",
+    "tests/test_ellipsoidal.py::test_gpu_screen_equals_the_cpu_path[russia]",
+    "tests/test_mvt_pyramid.py::test_cli_refusals[args1-",
+    "tests/test_mvt_pyramid.py::test_cli_refusals[args3-",
+)
+
+
+def pytest_collection_modifyitems(config, items):
+    """Mark the :data:`REPEATS` slow."""
+    for item in items:
+        if item.nodeid.startswith(REPEATS):
+            item.add_marker(pytest.mark.slow)
