@@ -70,3 +70,19 @@ void fp64_sin_cos(double x, out double s, out double c) {
         c = fma(-x2 * FP64_INV2[n - 1], c, 1.0LF);
     }
 }
+
+// The point of the ellipsoid's geodetic latitude from a point of an auxiliary sphere
+// (conformal or authalic latitude aux): (qx, qy) its horizontal components, s = sin(aux),
+// c2 = qx^2 + qy^2 = cos^2(aux), g the latitude series in c2 (phi - aux = cos(aux) s g).
+// Adds and multiplies only; the difference phi - aux is small (sin and cos of it to
+// the seventh and sixth order).
+dvec3 fp64_geodetic(double qx, double qy, double s, double c2, double g) {
+    double S = s * g;
+    double d2 = c2 * S * S;  // delta^2
+    double cosd = 1.0LF + d2 * (-0.5LF + d2 * (0.041666666666666666667LF
+                                             + d2 * -0.0013888888888888888889LF));
+    double sincd = 1.0LF + d2 * (-0.16666666666666666667LF + d2 * (0.0083333333333333333333LF
+                                             + d2 * -0.00019841269841269841270LF));
+    double f = cosd - s * S * sincd;  // cos(phi) / cos(aux)
+    return dvec3(qx * f, qy * f, fma(s, cosd, c2 * S * sincd));
+}

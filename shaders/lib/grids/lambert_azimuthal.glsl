@@ -41,12 +41,5 @@ dvec3 grid_centre(dvec2 px) {
     g = fma(g, c2, u_grid[10]);
     g = fma(g, c2, u_grid[9]);
     g = fma(g, c2, u_grid[8]);
-    double S = s * g;
-    double d2 = c2 * S * S;  // delta^2
-    double cosd = 1.0LF + d2 * (-0.5LF + d2 * (0.041666666666666666667LF
-                                             + d2 * -0.0013888888888888888889LF));
-    double sincd = 1.0LF + d2 * (-0.16666666666666666667LF + d2 * (0.0083333333333333333333LF
-                                             + d2 * -0.00019841269841269841270LF));
-    double f = cosd - s * S * sincd;  // cos(phi) / cos(beta)
-    return dvec3(qx * f, qy * f, fma(s, cosd, c2 * S * sincd));
+    return fp64_geodetic(qx, qy, s, c2, g);
 }

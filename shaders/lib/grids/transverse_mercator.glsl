@@ -59,12 +59,5 @@ dvec3 grid_centre(dvec2 px) {
     g = fma(g, c2c, u_grid[13]);
     g = fma(g, c2c, u_grid[12]);
     g = fma(g, c2c, u_grid[11]);
-    double S = sz * g;
-    double d2 = c2c * S * S;  // delta^2
-    double cosd = 1.0LF + d2 * (-0.5LF + d2 * (0.041666666666666666667LF
-                                             + d2 * -0.0013888888888888888889LF));
-    double sincd = 1.0LF + d2 * (-0.16666666666666666667LF + d2 * (0.0083333333333333333333LF
-                                             + d2 * -0.00019841269841269841270LF));
-    double f = cosd - sz * S * sincd;  // cos(phi) / cos(chi)
-    return dvec3(qx * f, qy * f, fma(sz, cosd, c2c * S * sincd));
+    return fp64_geodetic(qx, qy, sz, c2c, g);
 }
