@@ -17,7 +17,7 @@ from gloffset.geometry.sphere import angle, lonlat_to_xyz
 
 pyproj = pytest.importorskip("pyproj")
 from test_grids_glsl import glsl_points  # noqa: E402
-from test_grids_projected import assert_reference  # noqa: E402
+from test_grids_projected import assert_glsl_and_texture_masks, assert_reference  # noqa: E402
 
 from gloffset.grids import Projected, TmsTile  # noqa: E402
 from gloffset.grids.laea import LAEA_PYPROJ_BOUND, laea_clear, laea_params  # noqa: E402
@@ -181,17 +181,11 @@ def test_glsl_masks_of_europe_are_the_reference(europe):
     """Europe (world_110m, Russia included) at -50 km, 0 and 50 km on a 400 x 400
     EPSG:3035 grid: the GLSL path's masks are the float64 reference at pyproj's pixel
     centres, and so are the texture path's."""
-    g = Projected(400, 400, crs="EPSG:3035", bounds=EUROPE)
-    tex = Projected(400, 400, crs="EPSG:3035", bounds=EUROPE)
-    tex.centres = "texture"
-    assert g.centres == "glsl"
-    for d in (-50e3, 0.0, 50e3):
-        mask = gloffset.render(europe, d, g)
-        want = assert_reference(europe, d, g, mask)
-        assert want.any() and not want.all()
-        other = gloffset.render(europe, d, tex)
-        if not np.array_equal(other, mask):
-            assert_reference(europe, d, tex, other)
+    assert_glsl_and_texture_masks(
+        europe,
+        Projected(400, 400, crs="EPSG:3035", bounds=EUROPE),
+        Projected(400, 400, crs="EPSG:3035", bounds=EUROPE),
+    )
 
 
 def test_a_broken_function_is_caught(europe, monkeypatch):

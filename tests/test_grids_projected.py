@@ -86,6 +86,21 @@ def assert_reference(shape, d, grid, mask):
     return want
 
 
+def assert_glsl_and_texture_masks(shape, grid, texture, distances=(-50e3, 0.0, 50e3)):
+    """At each distance: ``grid`` takes its GLSL function and its masks are the float64
+    reference at pyproj's pixel centres; so are those of ``texture`` (the same grid on the
+    texture path) where they differ from the GLSL path's."""
+    texture.centres = "texture"
+    assert grid.centres == "glsl"
+    for d in distances:
+        mask = gloffset.render(shape, d, grid)
+        want = assert_reference(shape, d, grid, mask)
+        assert want.any() and not want.all()
+        other = gloffset.render(shape, d, texture)
+        if not np.array_equal(other, mask):
+            assert_reference(shape, d, texture, other)
+
+
 def test_polar_scale_is_the_smallest_scale():
     """The formula's k_min (EPSG:3031, 3413, UPS north) is pyproj's scale at the pole and
     at most the scale anywhere else."""

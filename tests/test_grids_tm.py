@@ -17,7 +17,7 @@ from gloffset.geometry.sphere import angle, lonlat_to_xyz
 
 pyproj = pytest.importorskip("pyproj")
 from test_grids_glsl import glsl_points  # noqa: E402
-from test_grids_projected import assert_reference  # noqa: E402
+from test_grids_projected import assert_glsl_and_texture_masks, assert_reference  # noqa: E402
 
 from gloffset.grids import Projected  # noqa: E402
 from gloffset.grids.protocol import GlslCentres  # noqa: E402
@@ -127,17 +127,11 @@ def test_which_tm_grids_take_the_glsl_function():
 def test_glsl_masks_of_italy_are_the_reference(italy):
     """Italy at -50 km, 0 and 50 km on a 300 x 325 UTM 33N grid: the GLSL path's masks
     are the float64 reference at pyproj's pixel centres, and so are the texture's."""
-    g = Projected(300, 325, crs="EPSG:32633", bounds=ITALY)
-    tex = Projected(300, 325, crs="EPSG:32633", bounds=ITALY)
-    tex.centres = "texture"
-    assert g.centres == "glsl"
-    for d in (-50e3, 0.0, 50e3):
-        mask = gloffset.render(italy, d, g)
-        want = assert_reference(italy, d, g, mask)
-        assert want.any() and not want.all()
-        other = gloffset.render(italy, d, tex)
-        if not np.array_equal(other, mask):
-            assert_reference(italy, d, tex, other)
+    assert_glsl_and_texture_masks(
+        italy,
+        Projected(300, 325, crs="EPSG:32633", bounds=ITALY),
+        Projected(300, 325, crs="EPSG:32633", bounds=ITALY),
+    )
 
 
 def test_a_broken_function_is_caught(italy, monkeypatch):
