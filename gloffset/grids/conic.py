@@ -52,6 +52,16 @@ def lcc_params(crs) -> dict | None:
     ):
         return None
     p = {q.name: q.value for q in op.params}
+    need = ("Latitude of natural origin", "Longitude of natural origin")
+    if op.method_name.endswith("(2SP)"):
+        need = (
+            "Latitude of false origin",
+            "Longitude of false origin",
+            "Latitude of 1st standard parallel",
+            "Latitude of 2nd standard parallel",
+        )
+    if any(p.get(k) is None for k in need):
+        return None
     es = eccentricity_squared(crs)
     a = crs.ellipsoid.semi_major_metre
     if op.method_name.endswith("(1SP)"):
