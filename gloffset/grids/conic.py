@@ -52,7 +52,7 @@ def lcc_params(crs) -> dict | None:
     ):
         return None
     p = {q.name: q.value for q in op.params}
-    need = ("Latitude of natural origin", "Longitude of natural origin")
+    need: tuple[str, ...] = ("Latitude of natural origin", "Longitude of natural origin")
     if op.method_name.endswith("(2SP)"):
         need = (
             "Latitude of false origin",
