@@ -8,7 +8,8 @@ nearest-neighbour ``reproject`` (GDAL's warper, as ``gdalwarp -r near`` does), i
 and how many pixels it gets wrong. Then Europe (1:110m, the countries of the continent) at
 50 km on a 4096 x 4096 EPSG:3035 (LAEA Europe) grid, its centres in GLSL and from
 textures in the same run, and the first render's time (the grid's bounds made from every
-pixel centre by pyproj, once per grid); and Italy on a UTM 33N grid the same way.
+pixel centre by pyproj, once per grid); Italy on a UTM 33N grid and Canada on an
+EPSG:3978 (Lambert conformal conic) grid the same way.
 
 Run: python benchmarks/grids.py [--quick]
 Writes benchmarks/results/grids.json. Needs rasterio (the ``geo`` extra).
@@ -31,6 +32,7 @@ CRS = "EPSG:3031"
 BOUNDS = (-3.4e6, -3.4e6, 3.4e6, 3.4e6)  # the continent and 50 km round it, the pole inside
 LAEA, LAEA_BOUNDS = "EPSG:3035", (2.5e6, 1.4e6, 6.5e6, 5.5e6)  # the Canaries to the North Cape
 UTM, UTM_BOUNDS = "EPSG:32633", (0.0, 4.0e6, 1.2e6, 5.3e6)  # UTM 33N: Sicily to the Alps
+LCC, LCC_BOUNDS = "EPSG:3978", (-2.5e6, -1.0e6, 3.0e6, 4.0e6)  # Canada Atlas Lambert
 
 
 def antarctica():
@@ -173,6 +175,8 @@ def main() -> None:
     record["laea"] = crs_record(europe, "the countries of Europe", n, LAEA, LAEA_BOUNDS, repeat)
     italy = countries("name", "Italy")
     record["utm"] = crs_record(italy, "Italy", n, UTM, UTM_BOUNDS, repeat)
+    canada = countries("name", "Canada")
+    record["lcc"] = crs_record(canada, "Canada", n, LCC, LCC_BOUNDS, repeat)
     print(json.dumps(record, indent=2))
     if not args.quick:
         print("wrote", write("grids", record))

@@ -128,9 +128,10 @@ def test_glsl_centres_against_pyproj(ctx, crs):
 
 def test_which_grids_compute_their_centres_in_glsl():
     """Polar stereographic grids and UPS tiles (subgrids too) take the GLSL function,
-    and so do LAEA grids clear of the poles (tests/test_grids_laea.py) and UTM grids
-    with the formula bound (tests/test_grids_tm.py); the others (orthographic) the
-    texture of pyproj's centres."""
+    and so do LAEA grids clear of the poles (tests/test_grids_laea.py), UTM grids
+    with the formula bound (tests/test_grids_tm.py) and LCC grids with it below the
+    cone's apex (tests/test_grids_lcc.py); the others (orthographic, Albers) the texture
+    of pyproj's centres."""
     box = (-3e6, -3e6, 3e6, 3e6)
     for crs in ("EPSG:3031", "EPSG:3413", "EPSG:3976", SPHERE_3031):
         g = Projected(64, 64, crs=crs, bounds=box)
@@ -144,6 +145,11 @@ def test_which_grids_compute_their_centres_in_glsl():
     assert g.glsl_centres().source == "lib/grids/lambert_azimuthal.glsl"
     g = Projected(64, 64, crs="EPSG:32633", bounds=(1.0e5, 4.0e6, 9.0e5, 5.3e6))
     assert g.glsl_centres().source == "lib/grids/transverse_mercator.glsl"
+    g = Projected(64, 64, crs="EPSG:3978", bounds=(-2.5e6, -1.0e6, 3.0e6, 4.0e6))
+    assert g.glsl_centres().source == "lib/grids/lambert_conformal_conic.glsl"
+    g = Projected(64, 64, crs="EPSG:2154", bounds=(1e5, 6.0e6, 1.2e6, 7.2e6))
+    assert g.centres == "glsl" and g.subgrid(3, 4, 20, 30).centres == "glsl"
+    assert Projected(64, 64, crs="EPSG:5070", bounds=(-2e6, 3e5, 2e6, 3e6)).centres == "texture"
     assert Projected(64, 64, crs=ORTHO, bounds=(-8e6, -7e6, 8e6, 8e6)).centres == "texture"
 
 

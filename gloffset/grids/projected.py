@@ -22,8 +22,9 @@ ways (derivation: docs/design.md, "gloffset.grids.projected"):
 * otherwise from the pixel centres themselves (every one computed by pyproj, about
   0.5-0.7 us each): exact for the pixels, correct for any CRS, slower.
 
-The GPU levels compute polar stereographic, LAEA and (ellipsoidal, formula-bound)
-transverse Mercator grids' cell centres in a GLSL function (``centres = "glsl"``,
+The GPU levels compute polar stereographic, LAEA, (ellipsoidal, formula-bound)
+transverse Mercator and (formula-bound) Lambert conformal conic grids' cell centres in a
+GLSL function (``centres = "glsl"``,
 :meth:`Projected.glsl_centres`; LAEA's bounds grow by twice its 1e-12 rad from pyproj's
 a level); every other CRS's come from a texture made here in float64 from pyproj's
 (``centres = "texture"``): correct, slower.
@@ -40,6 +41,7 @@ from ..errors import InvalidGridError
 from ..geometry.caps import pad
 from ..geometry.sphere import angle, lonlat_to_xyz
 from .base import LevelHierarchy, check_size
+from .conic import lcc_clear, lcc_glsl, lcc_params
 from .laea import LAEA_PYPROJ_BOUND, laea_clear, laea_glsl, laea_params
 from .polar import polar_glsl, polar_inverse, polar_params, polar_scale_min
 from .protocol import GlslCentres
@@ -369,13 +371,16 @@ class Projected(LevelHierarchy):
         stereographic grids; LAEA grids whose cell centres keep clear of the poles and
         the antipode (:func:`~gloffset.grids.laea.laea_clear`); transverse Mercator grids
         with the formula bound (its slack covers the function) within the function's
-        range (:func:`~gloffset.grids.transverse.tm_clear`)."""
+        range (:func:`~gloffset.grids.transverse.tm_clear`); Lambert conformal conic grids
+        likewise (:func:`~gloffset.grids.conic.lcc_clear`)."""
         if polar_params(self._crs) is not None:
             return True
         if laea_params(self._crs) is not None:
             return laea_clear(self._crs, self._centre_box())
         if tm_params(self._crs) is not None:
             return self._lipschitz() is not None and tm_clear(self._crs, self._centre_box())
+        if lcc_params(self._crs) is not None:
+            return self._lipschitz() is not None and lcc_clear(self._crs, self._centre_box())
         return False
 
     def _centre_box(self) -> tuple[float, float, float, float]:
@@ -453,11 +458,15 @@ class Projected(LevelHierarchy):
         :data:`~gloffset.grids.laea.LAEA_PYPROJ_BOUND` (1e-12 rad) of pyproj's.
         Transverse Mercator CRSs (:func:`~gloffset.grids.transverse.tm_glsl`, grids with
         the formula bound): pyproj's inverse, within 1e-12 rad of pyproj's (4e-15
-        measured), covered by the bound's 3e-9 rad a level."""
+        measured), covered by the bound's 3e-9 rad a level. Lambert conformal conic CRSs
+        (:func:`~gloffset.grids.conic.lcc_glsl`, grids with the formula bound that
+        :func:`~gloffset.grids.conic.lcc_clear` admits): pyproj's inverse, within 1e-12
+        rad of pyproj's, covered by the same slack."""
         got = (
             polar_glsl(self._crs, self._frame)
             or laea_glsl(self._crs, self._frame)
             or tm_glsl(self._crs, self._frame)
+            or lcc_glsl(self._crs, self._frame)
         )
         if got is None:
             raise InvalidGridError(f"{self._crs.name!r} has no GLSL centres")

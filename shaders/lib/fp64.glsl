@@ -86,3 +86,48 @@ dvec3 fp64_geodetic(double qx, double qy, double s, double c2, double g) {
     double f = cosd - s * S * sincd;  // cos(phi) / cos(aux)
     return dvec3(qx * f, qy * f, fma(s, cosd, c2 * S * sincd));
 }
+
+// ln 2 in two parts (fdlibm's): FP64_LN2_HI has its last 32 bits zero, so that k
+// FP64_LN2_HI is exact for |k| < 2^20 whether or not fma is fused; FP64_LN2_LO the rest
+const double FP64_LN2_HI = 6.93147180369123816490e-01LF;
+const double FP64_LN2_LO = 1.90821492927058770002e-10LF;
+
+// fp64_log(x): ln(x) for x > 0 (normal doubles), within 1e-16 + 2 ulp of it (absolute
+// plus relative): x = m 2^k (frexp) with m in [sqrt(1/2), sqrt(2)), then ln(m) = 2
+// atanh(s), s = (m - 1) / (m + 1) (|s| <= 0.172, s^2 <= 0.0295: the odd series of
+// atanh to s^25, the rest below 1e-20 of it), and k ln 2 from its two parts.
+double fp64_log(double x) {
+    int k;
+    double m = frexp(x, k);
+    if (m < 0.70710678118654752LF) {
+        m *= 2.0LF;
+        k -= 1;
+    }
+    double s = (m - 1.0LF) * fp64_recip(m + 1.0LF);
+    double s2 = s * s;
+    double p = FP64_INV[24];
+    for (int n = 23; n >= 1; n -= 2) {
+        p = fma(p, s2, FP64_INV[n - 1]);
+    }
+    double dk = double(k);
+    return dk * FP64_LN2_HI + fma(2.0LF * s, p, dk * FP64_LN2_LO);
+}
+
+// fp64_exp_wide(x): e^x for |x| <= 700, within 5 ulp (relative): k = round(x / ln 2),
+// r = (x - k FP64_LN2_HI) - k FP64_LN2_LO (the first difference exact: |r| <= 0.35,
+// within 1e-16 of r), e^r by fp64_exp, then ldexp by k.
+double fp64_exp_wide(double x) {
+    double k = floor(x * 1.4426950408889634LF + 0.5LF);
+    double r = (x - k * FP64_LN2_HI) - k * FP64_LN2_LO;
+    return ldexp(fp64_exp(r), int(k));
+}
+
+// fp64_atan2(y, x): the angle of (x, y) for x > 0, within 3e-16 (absolute): the float32
+// angle as a seed (within 1e-6) and one Newton step on f(t) = y cos(t) - x sin(t), whose
+// f'' = -f is zero at the root, so the step is cubic (1e-18), then the roundings.
+double fp64_atan2(double y, double x) {
+    double t = double(atan(float(y), float(x)));
+    double s, c;
+    fp64_sin_cos(t, s, c);
+    return t + fma(y, c, -x * s) * fp64_recip(fma(x, c, y * s));
+}
