@@ -18,7 +18,7 @@ from gloffset.geometry.sphere import angle, lonlat_to_xyz
 
 pyproj = pytest.importorskip("pyproj")
 from test_grids_glsl import glsl_points  # noqa: E402
-from test_grids_projected import assert_reference  # noqa: E402
+from test_grids_projected import assert_glsl_and_texture_masks, assert_reference  # noqa: E402
 
 from gloffset.grids import Projected  # noqa: E402
 from gloffset.grids.conic import lcc_clear  # noqa: E402
@@ -129,26 +129,16 @@ def test_which_lcc_grids_take_the_glsl_function():
     assert lcc_clear(crs, BORDER) and not lcc_clear(pyproj.CRS("EPSG:5070"), BORDER)
 
 
-def _render_border(canada, g, d):
-    mask = gloffset.render(canada, d, g)
-    return mask, assert_reference(canada, d, g, mask)
-
-
 @pytest.mark.slow
 def test_glsl_masks_of_the_border_are_the_reference(canada):
     """Canada at -50 km, 0 and 50 km on a 300 x 140 EPSG:3978 grid over its border with
     the United States: the GLSL path's masks are the float64 reference at pyproj's pixel
     centres, and so are the texture's."""
-    g = Projected(300, 140, crs="EPSG:3978", bounds=BORDER)
-    tex = Projected(300, 140, crs="EPSG:3978", bounds=BORDER)
-    tex.centres = "texture"
-    assert g.centres == "glsl"
-    for d in (-50e3, 0.0, 50e3):
-        mask, want = _render_border(canada, g, d)
-        assert want.any() and not want.all()
-        other = gloffset.render(canada, d, tex)
-        if not np.array_equal(other, mask):
-            assert_reference(canada, d, tex, other)
+    assert_glsl_and_texture_masks(
+        canada,
+        Projected(300, 140, crs="EPSG:3978", bounds=BORDER),
+        Projected(300, 140, crs="EPSG:3978", bounds=BORDER),
+    )
 
 
 def test_a_broken_function_is_caught(canada, monkeypatch):

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 
-from .polar import _latitude_series
+from .polar import conformal_series
 from .protocol import GlslCentres
 from .stretch import eccentricity_squared
 
@@ -135,4 +135,4 @@ def lcc_glsl(crs, frame) -> GlslCentres | None:
     r0 = pp["rho0"] / pp["c"]
     plane = ((xmin - pp["fe"] + x0 * dx) * k, dx * k, r0 - (ymax - pp["fn"] - y0 * dy) * k, dy * k)
     turn = (0.5 / pp["n"], math.cos(pp["lon0"]), math.sin(pp["lon0"]))
-    return GlslCentres(LCC_GLSL, plane + turn + _latitude_series(pp["es"]))
+    return GlslCentres(LCC_GLSL, plane + turn + conformal_series(pp["es"]))

@@ -16,6 +16,7 @@ from .protocol import GlslCentres
 from .stretch import eccentricity_squared
 
 __all__ = [
+    "conformal_series",
     "polar_scale_min",
     "polar_params",
     "polar_inverse",
@@ -162,7 +163,7 @@ def sample_latitudes(m: int = 64) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=16)
-def _latitude_series(es: float) -> tuple[float, ...]:
+def conformal_series(es: float) -> tuple[float, ...]:
     """The coefficients ``g_0..g_5`` of the geodetic latitude ``phi`` less the conformal
     one ``chi`` (:func:`latitude_powers`; 64 samples of
     :meth:`~gloffset.ellipsoid.Ellipsoid.geodetic`, exact to the sum's rounding, since
@@ -189,4 +190,4 @@ def polar_glsl(crs, frame) -> GlslCentres | None:
     cl, sl = math.cos(pp["lon0"]), math.sin(pp["lon0"])
     plane = ((xmin - pp["fe"] + x0 * dx) * k, dx * k, (ymax - pp["fn"] - y0 * dy) * k, -dy * k)
     turn = (-2.0 * sl, -2.0 * sg * cl, 2.0 * cl, -2.0 * sg * sl)
-    return GlslCentres(POLAR_GLSL, plane + turn + (sg,) + _latitude_series(pp["es"]))
+    return GlslCentres(POLAR_GLSL, plane + turn + (sg,) + conformal_series(pp["es"]))

@@ -22,12 +22,10 @@ ways (derivation: docs/design.md, "gloffset.grids.projected"):
 * otherwise from the pixel centres themselves (every one computed by pyproj, about
   0.5-0.7 us each): exact for the pixels, correct for any CRS, slower.
 
-The GPU levels compute polar stereographic, LAEA, (ellipsoidal, formula-bound)
-transverse Mercator and (formula-bound) Lambert conformal conic grids' cell centres in a
-GLSL function (``centres = "glsl"``,
-:meth:`Projected.glsl_centres`; LAEA's bounds grow by twice its 1e-12 rad from pyproj's
-a level); every other CRS's come from a texture made here in float64 from pyproj's
-(``centres = "texture"``): correct, slower.
+The GPU levels compute polar stereographic, LAEA, transverse Mercator and conformal conic
+grids' cell centres in a GLSL function where it holds (``centres = "glsl"``,
+:meth:`Projected.glsl_centres`); every other grid's come from a texture made here in
+float64 from pyproj's (``centres = "texture"``): correct, slower.
 """
 
 from __future__ import annotations

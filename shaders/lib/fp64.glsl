@@ -1,6 +1,7 @@
 // Double-precision helpers for the grids' GLSL functions (lib/grids/). GLSL promises
-// correctly rounded double add, multiply and fma, but not double division or sqrt:
-// these helpers use only the former.
+// correctly rounded double add and multiply, but not double division or sqrt: these
+// helpers use only add, multiply and fma, and their stated errors hold whether fma is
+// fused or not (Mesa's llvmpipe was measured not to fuse it; the tests probe there).
 // fp64_recip(x): 1 / x for x > 0, within 2 ulp: a float32 seed (relative error below
 // 1e-6) and two Newton steps r + r (1 - x r), each squaring the relative error
 // (1e-12, then below the rounding of the last step).
