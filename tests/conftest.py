@@ -164,6 +164,21 @@ REPEATS = (
     "tests/test_ellipsoidal.py::test_gpu_screen_equals_the_cpu_path[russia]",
     "tests/test_mvt_pyramid.py::test_cli_refusals[args1-",
     "tests/test_mvt_pyramid.py::test_cli_refusals[args3-",
+    "tests/test_tiles.py::test_split_pyramid_tasks_make_the_same_tiles[Mexico-127000.0-0-6-1-kw0]",
+    "tests/test_serve_cors.py::test_a_page_of_another_origin_draws_the_tiles_with_cors_only",
+    "tests/test_simplified.py::test_simplified_render_equals_reference[grid3-",
+    "tests/test_golden.py::test_golden[vector/mexico_raw_offset_d+0.02]",
+    "tests/test_tiles_checks.py::test_a_refused_resume_of_a_pmtiles_archive_leaves_nothing_behind[another",
+    "tests/test_tms.py::test_world_crs84_tiles_against_reference[Mexico-0.0002-12]",
+    "tests/test_tms.py::test_world_crs84_tiles_against_reference[Mexico--0.001-9]",
+    "tests/test_tms.py::test_world_crs84_pyramid_real_border",
+    "tests/test_render.py::test_small_regional_bounds[0.0001]",
+    "tests/test_ring_rules.py::test_random_pole_rings_enclose_their_pole",
+    "tests/test_grids_lcc.py::test_a_broken_function_is_caught",
+    "tests/test_grids_laea.py::test_a_broken_function_is_caught",
+    "tests/test_cli_errors.py::test_render_bands_refuse_styles_and_raster_input",
+    "tests/test_golden.py::test_golden[raster_input/world_borders_cube_6x128_50km_levels]",
+    "tests/test_field.py::test_cli_geotiff_npy_and_cube",
 )
 
 
