@@ -78,6 +78,29 @@ def glsl_points(ctx, glsl: GlslCentres, px: np.ndarray) -> np.ndarray:
     return out
 
 
+def probe_grid(ctx, g, px, bound, *, sub_at, sub_tol=1e-15, unit_tol=1e-15):
+    """The checks every grid's GLSL function passes at the output-pixel coordinates
+    ``px`` (``px[1:100]`` pixel centres): ``g`` takes it; within ``bound`` of pyproj's
+    points and of the grid's float64 pixel centres; unit vectors to ``unit_tol``; the
+    subgrid ``sub_at`` (x0, y0, x1, y1) gives the same points to ``sub_tol``.
+
+    Returns ``(got, x, y)``: the GLSL points and the CRS coordinates of ``px``."""
+    assert g.centres == "glsl"
+    got = glsl_points(ctx, g.glsl_centres(), px)
+    x, y = g.pixel_xy(px[:, 0], px[:, 1])
+    lon, lat = g.transformer.transform(x, y)
+    err = angle(got, lonlat_to_xyz(lon, lat))
+    assert np.max(err) <= bound, np.max(err)
+    assert np.max(np.abs(np.linalg.norm(got, axis=1) - 1.0)) <= unit_tol
+    jj, ii = (px[1:100, 1] - 0.5).astype(int), (px[1:100, 0] - 0.5).astype(int)
+    assert np.max(angle(got[1:100], g.centers(g.n_levels - 1, jj, ii))) <= bound
+    sub = g.subgrid(*sub_at)
+    assert sub.centres == "glsl"
+    got_sub = glsl_points(ctx, sub.glsl_centres(), px[:2000] - sub_at[:2])
+    assert np.max(angle(got_sub, got[:2000])) <= sub_tol
+    return got, x, y
+
+
 def exact_inverse(crs, x, y) -> np.ndarray:
     """The polar stereographic inverse in float64 to a few ulp: the conformal latitude
     from the plane, the geodetic one by Newton's method
@@ -105,25 +128,15 @@ def test_glsl_centres_against_pyproj(ctx, crs):
     rng = np.random.default_rng(7)
     b = (-9e6, -9e6, 9e6, 9e6) if "+units=km" not in crs else (-9e3, -9e3, 9e3, 9e3)
     g = Projected(4097, 4097, crs=crs, bounds=b)
-    assert g.centres == "glsl"
     px = rng.uniform(0.0, 4097.0, (40000, 2))
     pp = polar_params(g.crs)  # the pole: the false origin
     px[0] = ((pp["fe"] - b[0]) * 4097 / (b[2] - b[0]), (b[3] - pp["fn"]) * 4097 / (b[3] - b[1]))
     px[1:100] = np.floor(px[1:100]) + 0.5  # pixel centres
-    got = glsl_points(ctx, g.glsl_centres(), px)
-    x, y = g.pixel_xy(px[:, 0], px[:, 1])
-    lon, lat = g.transformer.transform(x, y)
-    assert np.max(angle(got, lonlat_to_xyz(lon, lat))) <= PYPROJ_BOUND
+    got, x, y = probe_grid(ctx, g, px, PYPROJ_BOUND, sub_at=(1000, 300, 2000, 3000), unit_tol=2e-15)
     assert np.max(angle(got, exact_inverse(g.crs, x, y))) <= EXACT_BOUND
-    assert np.max(np.abs(np.linalg.norm(got, axis=1) - 1.0)) <= 2e-15
     assert abs(abs(got[0, 2]) - 1.0) <= 1e-15
-    # pixel centres: the float64 centres (pyproj's at the output level, the twin's above)
-    jj, ii = (px[1:100, 1] - 0.5).astype(int), (px[1:100, 0] - 0.5).astype(int)
-    assert np.max(angle(got[1:100], g.centers(g.n_levels - 1, jj, ii))) <= PYPROJ_BOUND
+    # pixel centres above the output level: the float64 twin's
     assert np.max(angle(got[1:100], polar_inverse(g.crs)(x[1:100], y[1:100]))) <= 1e-13
-    sub = g.subgrid(1000, 300, 2000, 3000)
-    got_sub = glsl_points(ctx, sub.glsl_centres(), px[:2000] - (1000.0, 300.0))
-    assert np.max(angle(got_sub, got[:2000])) <= 1e-15
 
 
 def test_which_grids_compute_their_centres_in_glsl():

@@ -16,7 +16,7 @@ import gloffset
 from gloffset.geometry.sphere import angle, lonlat_to_xyz
 
 pyproj = pytest.importorskip("pyproj")
-from test_grids_glsl import glsl_points  # noqa: E402
+from test_grids_glsl import probe_grid  # noqa: E402
 from test_grids_projected import assert_glsl_and_texture_masks, assert_reference  # noqa: E402
 
 from gloffset.grids import Projected, TmsTile  # noqa: E402
@@ -97,27 +97,17 @@ def test_glsl_centres_against_pyproj(ctx, crs, box):
     measured with PROJ 9.5.1); a subgrid's function gives the same points (to the
     roundings)."""
     g = Projected(4097, 4097, crs=crs, bounds=box)
-    assert g.centres == "glsl"
     rng = np.random.default_rng(5)
     px = rng.uniform(0.0, 4097.0, (40000, 2))
     px[1:100] = np.floor(px[1:100]) + 0.5  # pixel centres
     # the corners of the box of every level's cell centres
     px[100:104] = [(0.5, 0.5), (4224.0, 0.5), (0.5, 4224.0), (4224.0, 4224.0)]
-    got = glsl_points(ctx, g.glsl_centres(), px)
-    x, y = g.pixel_xy(px[:, 0], px[:, 1])
+    # a subgrid: the same to the roundings of the plane coordinates (grown near the antipode)
+    _, x, y = probe_grid(
+        ctx, g, px, LAEA_PYPROJ_BOUND, sub_at=(1000, 300, 2000, 3000), sub_tol=1e-13, unit_tol=2e-15
+    )
     lon, lat = g.transformer.transform(x, y)
-    want = lonlat_to_xyz(lon, lat)
-    err = angle(got, want)
-    assert np.max(err) <= LAEA_PYPROJ_BOUND, np.max(err)
-    assert np.max(angle(want, exact_inverse(g.crs, x, y))) <= 1e-9
-    assert np.max(np.abs(np.linalg.norm(got, axis=1) - 1.0)) <= 2e-15
-    jj, ii = (px[1:100, 1] - 0.5).astype(int), (px[1:100, 0] - 0.5).astype(int)
-    assert np.max(angle(got[1:100], g.centers(g.n_levels - 1, jj, ii))) <= LAEA_PYPROJ_BOUND
-    sub = g.subgrid(1000, 300, 2000, 3000)
-    assert sub.centres == "glsl"
-    got_sub = glsl_points(ctx, sub.glsl_centres(), px[:2000] - (1000.0, 300.0))
-    # the same to the roundings of the plane coordinates (grown near the antipode)
-    assert np.max(angle(got_sub, got[:2000])) <= 1e-13
+    assert np.max(angle(lonlat_to_xyz(lon, lat), exact_inverse(g.crs, x, y))) <= 1e-9
 
 
 def test_which_laea_grids_take_the_glsl_function():

@@ -14,10 +14,9 @@ import pytest
 from conftest import DATA
 
 import gloffset
-from gloffset.geometry.sphere import angle, lonlat_to_xyz
 
 pyproj = pytest.importorskip("pyproj")
-from test_grids_glsl import glsl_points  # noqa: E402
+from test_grids_glsl import probe_grid  # noqa: E402
 from test_grids_projected import assert_glsl_and_texture_masks, assert_reference  # noqa: E402
 
 from gloffset.grids import Projected  # noqa: E402
@@ -93,22 +92,11 @@ def test_glsl_centres_against_pyproj(ctx, crs, box):
     corners of its cell centres' box) the GLSL centre is within PYPROJ_BOUND of
     pyproj's, a unit vector to 1e-15; a subgrid's function gives the same points."""
     g = Projected(1025, 1025, crs=crs, bounds=box)
-    assert g.centres == "glsl"
     rng = np.random.default_rng(9)
     px = rng.uniform(0.0, 1025.0, (40000, 2))
     px[1:100] = np.floor(px[1:100]) + 0.5
     px[100:104] = [(0.5, 0.5), (1088.0, 0.5), (0.5, 1088.0), (1088.0, 1088.0)]
-    got = glsl_points(ctx, g.glsl_centres(), px)
-    x, y = g.pixel_xy(px[:, 0], px[:, 1])
-    lon, lat = g.transformer.transform(x, y)
-    assert np.max(angle(got, lonlat_to_xyz(lon, lat))) <= PYPROJ_BOUND
-    assert np.max(np.abs(np.linalg.norm(got, axis=1) - 1.0)) <= 1e-15
-    jj, ii = (px[1:100, 1] - 0.5).astype(int), (px[1:100, 0] - 0.5).astype(int)
-    assert np.max(angle(got[1:100], g.centers(g.n_levels - 1, jj, ii))) <= PYPROJ_BOUND
-    sub = g.subgrid(100, 30, 500, 700)
-    assert sub.centres == "glsl"
-    got_sub = glsl_points(ctx, sub.glsl_centres(), px[:2000] - (100.0, 30.0))
-    assert np.max(angle(got_sub, got[:2000])) <= 1e-15
+    probe_grid(ctx, g, px, PYPROJ_BOUND, sub_at=(100, 30, 500, 700))
 
 
 def test_which_lcc_grids_take_the_glsl_function():
