@@ -181,14 +181,18 @@ class _Pieces:
 # ----------------------------------------------------------------------------- the steps
 
 
-def prune_arcs(table: RawArcs, gens, d: float, among=None) -> _LiveArcs | None:
+def prune_arcs(table: RawArcs, gens, d: float, within=None) -> _LiveArcs | None:
     """Step 1: drop arcs that lie wholly within ``|d| - PRUNE_MARGIN`` of the curves, and
     the joins of concave corners, which turn backwards and lie within ``|d|`` of the two
-    edges there (and, with ``among``, the arcs it leaves out). None when nothing is left."""
+    edges there (and, with a cap ``within = (centre, radius)``, the arcs whose caps miss
+    it). None when nothing is left."""
     arcs = table.arcs
     backward = (table.kind == 0) & (arcs.phi * d < 0.0)
     cm, cr = arcs.caps()
-    covered = backward.copy() if among is None else backward | ~among
+    covered = backward.copy()
+    if within is not None:
+        c, r = within
+        covered |= angle(cm, np.broadcast_to(c, cm.shape)) > cr + r + 1e-12
     test = ~covered
     covered[test] = gens.closer_than(cm[test], abs(d) - cr[test] - PRUNE_MARGIN)
     alive = np.flatnonzero(~covered)

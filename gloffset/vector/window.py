@@ -59,12 +59,8 @@ def boundary_within(off, cap) -> list:
         return []
     c, big_r = np.asarray(cap[0], dtype=np.float64), float(cap[1])
     table = RawArcs.of(raw)
-    cm, cr = table.arcs.caps()
-    among = angle(cm, np.broadcast_to(c, cm.shape)) <= cr + big_r + 1e-12
-    if not among.any():
-        return []
     gens = Generators(off.shape)
-    live = prune_arcs(table, gens, d, among)
+    live = prune_arcs(table, gens, d, (c, big_r))
     if live is None:
         return []
     ia, ib, corners = arc_pairs(table, live, abs(d))
