@@ -1,0 +1,86 @@
+"""A 256 px tile's distance field against a render of the same tile, zooms 3 to 10.
+
+The tile server answers a seen tile at a new distance from the tile's field (a
+threshold) once it has one; it computes fields at once where a field costs at most
+``AT_ONCE`` renders (``gloffset/serve/service.py``). This measures that price: per
+input (Mexico and all the countries of 1:10m) and zoom, the tiles of ``--tiles``
+seeded boundary vertices of Mexico, each timed warm (best of ``--repeat``):
+``gloffset.distance_field(shape, Tile(z, x, y))`` (default backend) and
+``gloffset.render(shape, d, Tile(z, x, y))`` at ``d`` = 20 km (the offset's boundary
+crosses such a tile at every zoom). Printed and recorded: both times and their ratio,
+per tile, and the largest ratio per input.
+
+Run: python benchmarks/tile_field.py [--tiles 3] [--repeat 5] [-k mexico]
+Writes benchmarks/results/tile_field.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+from common import DATA, best_of, write
+
+import gloffset
+from gloffset.grids import Tile
+
+D = 20e3  # metres
+
+
+def tile_of(lon: float, lat: float, z: int) -> tuple[int, int]:
+    """The web mercator tile (x, y) of zoom ``z`` that holds ``(lon, lat)``."""
+    n = 1 << z
+    x = int((lon + 180.0) / 360.0 * n)
+    y = int((1.0 - math.asinh(math.tan(math.radians(lat))) / math.pi) / 2.0 * n)
+    return min(x, n - 1), min(y, n - 1)
+
+
+def boundary_points(k: int, seed: int = 0) -> np.ndarray:
+    """``k`` seeded vertices (lon, lat) of Mexico's boundary."""
+    mexico = gloffset.read(DATA / "mexico_10m.geojson")
+    xyz = np.concatenate(mexico.rings)
+    rng = np.random.default_rng(seed)
+    x, y, z = xyz[rng.choice(len(xyz), k, replace=False)].T
+    return np.column_stack([np.degrees(np.arctan2(y, x)), np.degrees(np.arcsin(z))])
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--tiles", type=int, default=3, help="boundary vertices (tiles) per zoom")
+    ap.add_argument("--repeat", type=int, default=5, help="warm runs, the best kept")
+    ap.add_argument("-k", default="", help="only the inputs whose name contains this")
+    args = ap.parse_args(argv)
+    points = boundary_points(args.tiles)
+    record: dict = {"distance_m": D, "repeat": args.repeat, "inputs": {}}
+    for name in ("mexico_10m", "countries_10m"):
+        if args.k not in name:
+            continue
+        shape = gloffset.read(DATA / f"{name}.geojson")
+        rows = []
+        for z in range(3, 11):
+            for lon, lat in points:
+                x, y = tile_of(float(lon), float(lat), z)
+                grid = Tile(z, x, y)
+                gloffset.distance_field(shape, grid)  # warm: caches, GL, shaders
+                gloffset.render(shape, D, grid)
+                field, _ = best_of(
+                    lambda s=shape, g=grid: gloffset.distance_field(s, g), args.repeat
+                )
+                render, _ = best_of(lambda s=shape, g=grid: gloffset.render(s, D, g), args.repeat)
+                ratio = field / render
+                rows.append({"tile": [z, x, y], "field_s": field, "render_s": render})
+                rows[-1]["ratio"] = ratio
+                print(
+                    f"{name:14s} {z:2d}/{x}/{y:<6d} field {field * 1e3:7.1f} ms  "
+                    f"render {render * 1e3:6.1f} ms  ratio {ratio:5.1f}",
+                    flush=True,
+                )
+        worst = max(r["ratio"] for r in rows)
+        print(f"{name}: largest field / render ratio {worst:.1f}", flush=True)
+        record["inputs"][name] = {"tiles": rows, "largest_ratio": worst}
+    write("tile_field", record)
+
+
+if __name__ == "__main__":
+    main()
