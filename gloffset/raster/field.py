@@ -31,6 +31,7 @@ import math
 
 import numpy as np
 
+from ..edges import CurveArcs
 from ..errors import OptionError
 from ..geometry.classes import CONTAINED
 from ..grids.protocol import Image
@@ -44,6 +45,7 @@ from ..units import (
     to_angle,
 )
 from .field_gpu import gpu_distances
+from .field_sign import Corners, block_signs, levels_inside
 from .field_walk import walk_levels
 from .render import MAX_PIXELS
 from .simplified import band_members
@@ -361,16 +363,17 @@ def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str)
     render at distance 0 (:func:`gloffset.raster.vector.curves.classify_curves`) has the
     pixel inside (a pixel on the curves has the value 0 either way).
     """
+    signed = bool(shape.rings)
     if backend == "gpu" and grid.n_levels > 1:
         dist = gpu_distances(shape, grid, m, count.add)
+        inside = np.zeros(dist.shape, dtype=bool)
+        if signed:
+            before = count.done
+            classes = curves.classify_curves(shape, 0.0, grid, callback=count.levels(grid))[0]
+            inside = classes == CONTAINED
+            count.add(before + dist.size - count.done)  # the levels reported, all of them
     else:
-        dist = _distances(shape, grid, m, count)
-    inside = np.zeros(dist.shape, dtype=bool)
-    if shape.rings:
-        before = count.done
-        classes = curves.classify_curves(shape, 0.0, grid, callback=count.levels(grid))[0]
-        inside = classes == CONTAINED
-        count.add(before + dist.size - count.done)  # the levels reported, all of them
+        dist, inside = _distances(shape, grid, m, count, signed)
     v = np.minimum(dist, m) * radius
     out = np.where(inside, -v, v).astype(np.float32)
     valid = grid.valid(grid.n_levels - 1)
@@ -379,18 +382,40 @@ def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str)
     return out
 
 
-def _distances(shape, grid, m: float, count: _Progress) -> np.ndarray:
-    """Return the distance (rad, float64) from each pixel centre to the nearest arc.
+def _distances(shape, grid, m: float, count: _Progress, signed: bool):
+    """Return each pixel centre's distance (rad, float64) to the nearest arc, and status.
 
-    Exact where it is at most ``m`` (larger than ``m`` elsewhere): the levels walked
+    The status: whether the pixel is inside (all False unless ``signed``). The distance
+    is exact where it is at most ``m`` (larger than ``m`` elsewhere): the levels walked
     depth first with lists of nodes of the multiresolution tree
-    (:func:`~gloffset.raster.field_walk.walk_levels`) down to the output pixels.
+    (:func:`~gloffset.raster.field_walk.walk_levels`) down to the output pixels. The
+    inside status is read from each pixel's nearest features
+    (:func:`~gloffset.raster.field_sign.block_signs`); the pixels that rule leaves undecided
+    get the float64 levels' test at distance 0
+    (:func:`~gloffset.raster.field_sign.levels_inside`): the inside status of
+    ``classify_curves(shape, 0.0, grid)``, bit for bit.
     """
     nodes = NodeArcs.from_shape(shape)
     last = grid.n_levels - 1
     h, w = grid.level_shape(last)
     out = np.full((h, w), np.inf)
-    for f, dist in walk_levels(nodes, grid, m, last):
-        out[f.cells[:, 0], f.cells[:, 1]] = dist
+    inside = np.zeros((h, w), dtype=bool)
+    if not signed:
+        for f, dist in walk_levels(nodes, grid, m, last):
+            out[f.cells[:, 0], f.cells[:, 1]] = dist
+            count.add(len(f.cells))
+        return out, inside
+    corners, arcs = Corners.from_shape(shape), CurveArcs.from_shape(shape)
+    undecided = []
+    for f, dist, pairs in walk_levels(nodes, grid, m, last, pairs=True):
+        j, i = f.cells[:, 0], f.cells[:, 1]
+        out[j, i] = dist
+        known = np.where(dist <= m, dist, np.inf)  # beyond m: no nearest arc known
+        ins, und = block_signs(corners, arcs, grid, f, known, pairs)
+        inside[j, i] = ins
+        undecided.append(f.cells[und])
         count.add(len(f.cells))
-    return out
+    cells = np.concatenate(undecided)
+    inside[cells[:, 0], cells[:, 1]] = levels_inside(shape, grid, cells[:, 0], cells[:, 1])
+    count.add(h * w)
+    return out, inside

@@ -1,0 +1,377 @@
+"""The sign of a distance field from each pixel's nearest boundary features.
+
+:func:`gloffset.distance_field` negates a pixel's distance where the pixel is inside
+the union of the polygons. That inside status follows from the nearest boundary
+feature the distance walk finds anyway, with no crossing count:
+
+A pixel centre ``p`` at distance ``delta > 0`` from the boundary ``B`` (the ring edges
+that have distance) has an open disc of radius ``delta`` that holds no point of ``B``,
+so its inside status is that of every point of the disc, in particular of the points
+next to a nearest point ``x`` of ``B``. The rings of a region have their interior on
+the left (:mod:`gloffset.region`, :class:`gloffset.shape.Shape`), and ``n``, the unit
+normal ``normalize(a x b)`` of a ring edge ``a -> b``, points to its left:
+
+* ``x`` inside the edge ``a -> b`` (the foot of ``p`` on its great circle falls on the
+  arc) and no other edge through ``x``: the disc lies on ``p``'s side of the edge
+  next to ``x``, so ``p`` is inside iff ``p . n > 0``;
+* ``x`` a vertex ``v`` where the edges ``u -> v`` and ``v -> w`` of one ring meet and
+  no other edge: the disc avoids both edges, so the direction from ``v`` to ``p`` makes
+  at least a right angle with both edges' directions at ``v``. Those directions lie in
+  the exterior sector at a convex corner (interior angle below pi) and in the
+  interior sector at a reflex one, so ``p`` is inside iff the corner is reflex: iff
+  ``w`` lies on the right of ``u -> v`` (``w . n_uv < 0``).
+
+Both rules hold for every nearest point, so each pixel asks every feature whose
+exact distance is within :data:`ETA` of its least (the true nearest among them, the
+float64 distances being good to 1e-15 rad) and is decided only when they agree.
+Undecided, and left to the exact fallback: pixels nearer than :data:`NEAR` to the
+boundary (the side tests are then within reach of their rounding), a vertex shared
+by more than one corner (rings touching, pinch points), a corner next to a seam or a
+degenerate edge, or whose turn is within :data:`TURN` of straight, a feature on a
+line or a point (no side), pixels whose disc may hold a seam (a seam closes a ring
+but has no distance), and pixels with no nearest arc (beyond ``max_distance``).
+A foot within :data:`LUNE` of an end also asks that end's corner, so a nearest point
+at a vertex is never judged by an edge's side alone.
+
+Where the rule needs the rings' orientation to be the crossing parity's (every
+shape :func:`gloffset.read` makes whose rings went through the union: several
+components or seams; a single component whose rings are disjoint simple curves,
+checked once, each ring's left side inside by the levels' own test), it is used;
+any other shape (components that may overlap, made by hand) has every pixel
+undecided.
+
+The fallback (:func:`levels_inside`) is the float64 levels' test at distance 0
+(:func:`gloffset.raster.vector.curves.classify_curves`) walked down only over the
+ancestors of the undecided pixels: the same classes, bit for bit (a cell's status
+and list depend on its parent's alone), for the work of those few cells. So the sign
+equals today's contract exactly: ``classify_curves(shape, 0, grid)`` contained (a
+pixel at distance exactly 0 counts as inside, as there).
+
+:class:`Corners` is made once per shape (kept on its derived cache) and
+:func:`signs` is the rule on numpy arrays; ``shaders/lib/field_sign.glsl`` is the
+same rule in GLSL (float32 records: its thresholds are those of float32).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..edges import CurveArcs, points_inside
+from ..geometry.classes import CONTAINED, FRONTIER
+from ..geometry.sphere import angle, arc_distance, dot, normalize
+from . import driver
+from .vector.curves import CurveCells
+
+__all__ = [
+    "ETA",
+    "INSIDE",
+    "LUNE",
+    "NEAR",
+    "OUTSIDE",
+    "TURN",
+    "UNDECIDED",
+    "BLOCK_SHIFT",
+    "Corners",
+    "block_signs",
+    "levels_inside",
+    "signs",
+]
+
+#: The answers of the rule per feature and corner.
+OUTSIDE, INSIDE, UNDECIDED = 0, 1, 2
+
+#: Pixels at most this far (rad) from the boundary are undecided. The side values
+#: ``p . n`` are good to a few 1e-16 (unit normals of ``robust_cross``, their direction
+#: good to 1e-15 rad), and ``|p . n| = sin(delta)`` at a foot; the levels' crossing
+#: tests are exact for points farther than 1e-15 rad from the edges.
+NEAR = 1e-12
+#: Features whose exact distance exceeds the least by at most this (rad) are asked too
+#: (float64 distances are good to 1e-15 rad, so the true nearest is among them).
+ETA = 1e-13
+#: A corner whose turn ``|w . n_uv|`` is at most this is undecided (the value is good
+#: to 2e-15: normals to 1e-15 rad, a unit dot product to 3e-16).
+TURN = 1e-14
+#: A foot whose lune values ``p . (n x a)``, ``p . (b x n)`` are at most this near an
+#: end also asks that end's corner (the lune tests are good to a few 1e-16).
+LUNE = 1e-14
+#: A single component's vertex within this (rad) of another ring edge counts as touching.
+TOUCH = 1e-9
+#: Most seams a shape may have for the rule (each pixel is tested against each).
+_MAX_SEAMS = 64
+#: Most rings a single component may have for its check (one crossing count each).
+_MAX_CHECKED = 4096
+
+
+class Corners:
+    """What the sign rule reads of a shape's arcs (the rows of
+    :class:`~gloffset.edges.CurveArcs`, so of the leaves of
+    :class:`~gloffset.raster.vector.node_levels.NodeArcs`).
+
+    Attributes
+    ----------
+    trusted : bool
+        Whether the rings' left sides are the crossing parity's inside (see the module
+        notes); without it ``ok`` is all False.
+    ok : (arcs,) bool
+        Ring edges with distance and a direction, of rings of three edges or more.
+    corner : (arcs, 2) uint8
+        The rule at each edge's start ``a`` and end ``b``: :data:`INSIDE` (reflex
+        corner), :data:`OUTSIDE` (convex) or :data:`UNDECIDED` (a pinch, a seam or a
+        degenerate edge next to it, nearly straight).
+    seam_mid, seam_half : the bounding caps of the seams (a pixel's disc that may hold
+        one is undecided).
+    """
+
+    def __init__(self, shape):
+        arcs = CurveArcs.from_shape(shape)
+        m = len(arcs.a)
+        self.ok = np.zeros(m, dtype=bool)
+        self.corner = np.full((m, 2), UNDECIDED, dtype=np.uint8)
+        seam = (arcs.group >= 0) & ~arcs.boundary
+        self.seam_mid, self.seam_half = arcs.mid[seam], arcs.half[seam]
+        self.trusted = bool(shape.rings) and int(seam.sum()) <= _MAX_SEAMS
+        if self.trusted:
+            self.trusted = _trusted(shape, arcs)
+        if self.trusted:
+            self._corners(shape, arcs)
+        na, bn = arcs.lunes
+        vecs = (arcs.n, na, bn, arcs.a - arcs.b)
+        #: ``n``, ``n x a``, ``b x n`` and ``a - b`` of each arc, 12 contiguous columns
+        self.columns = [np.ascontiguousarray(v[:, x]) for v in vecs for x in range(3)]
+
+    @classmethod
+    def from_shape(cls, shape) -> Corners:
+        """The shape's corner data (made once per shape and kept on it)."""
+        return shape.derived.once("field_sign", lambda: cls(shape))
+
+    def _corners(self, shape, arcs: CurveArcs) -> None:
+        sizes = np.array([len(r) for r in shape.rings], dtype=np.int64)
+        r = int(sizes.sum())  # ring edges come first, ring by ring (Shape.edges)
+        start = np.repeat(np.cumsum(sizes) - sizes, sizes)
+        size = np.repeat(sizes, sizes)
+        j = np.arange(r)
+        nxt = start + (j - start + 1) % size
+        good = arcs.boundary[:r] & (dot(arcs.n[:r], arcs.n[:r]) > 0.5) & (size >= 3)
+        self.ok[:r] = good
+        # the corner at the end v of edge j (the start of edge nxt): w = b[nxt]
+        turn = dot(arcs.n[:r], arcs.b[nxt])
+        rule = np.where(turn < 0.0, INSIDE, OUTSIDE).astype(np.uint8)
+        rule[~(np.abs(turn) > TURN) | ~good | ~good[nxt]] = UNDECIDED
+        v = np.ascontiguousarray(arcs.b[:r]).view(np.dtype((np.void, 24))).ravel()
+        _, inv, count = np.unique(v, return_inverse=True, return_counts=True)
+        rule[count[inv.ravel()] > 1] = UNDECIDED  # a vertex of more than one corner
+        self.corner[:r, 1] = rule
+        self.corner[nxt, 0] = rule
+
+
+def _trusted(shape, arcs: CurveArcs) -> bool:
+    """Whether the rings' left sides are the crossing parity's inside (module notes)."""
+    if shape.source is None:  # made by hand: components may overlap, rings cross
+        return False
+    if shape.n_groups > 1 or any(s.any() for s in shape.ring_seams):
+        return True  # the union's rings (gloffset.region): interior on the left
+    return _simple_and_oriented(shape, arcs)
+
+
+def _simple_and_oriented(shape, arcs: CurveArcs) -> bool:
+    """Whether one component's rings are disjoint simple curves, each with its left
+    side inside by the levels' test (:func:`gloffset.edges.points_inside`).
+
+    Its rings cross nowhere (:mod:`gloffset.region` checks that, or unites them); no
+    vertex repeated and none within :data:`TOUCH` of another edge makes them disjoint
+    simple closed curves, whose left sides are the same face all along each.
+    """
+    sizes = np.array([len(r) for r in shape.rings], dtype=np.int64)
+    if len(sizes) > _MAX_CHECKED or (sizes < 3).any():
+        return False
+    r = int(sizes.sum())
+    a, b, n = arcs.a[:r], arcs.b[:r], arcs.n[:r]
+    v = np.ascontiguousarray(a).view(np.dtype((np.void, 24))).ravel()
+    if len(np.unique(v)) < r:
+        return False
+    start = np.repeat(np.cumsum(sizes) - sizes, sizes)
+    size = np.repeat(sizes, sizes)
+    j = np.arange(r)
+    prv = start + (j - start - 1) % size
+    # a vertex near an edge other than its two
+    qi, item, _ = arcs.ring_tree.near(a, TOUCH)
+    e = arcs.ring[item]
+    far = (e != qi) & (e != prv[qi])
+    qi, e = qi[far], e[far]
+    if len(qi) and (arc_distance(a[qi], a[e], b[e], n[e]) <= TOUCH).any():
+        return False
+    # a point just left of each ring's longest edge, nearer to it than to any other
+    length = angle(a, b)
+    first = np.cumsum(sizes) - sizes
+    pick = first + np.array(
+        [np.argmax(length[s : s + z]) for s, z in zip(first, sizes)], dtype=np.int64
+    )
+    mid = normalize(a[pick] + b[pick])
+    reach = length[pick]
+    qi, item, _ = arcs.ring_tree.near(mid, reach)
+    e = arcs.ring[item]
+    other = e != pick[qi]
+    clear = reach.copy()
+    np.minimum.at(clear, qi[other], arc_distance(mid[qi[other]], a[e[other]], b[e[other]]))
+    eps = np.minimum(0.25 * clear, 1e-6)
+    if not (eps > 1e-10).all():
+        return False
+    q = normalize(np.cos(eps)[:, None] * mid + np.sin(eps)[:, None] * n[pick])
+    return bool(points_inside(shape, q).all())
+
+
+def signs(corners: Corners, arcs: CurveArcs, c, dist, pairs) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``(inside, undecided)`` of pixel centres ``c`` from their nearest features.
+
+    Parameters
+    ----------
+    corners : the shape's :class:`Corners`
+    arcs : the shape's :class:`~gloffset.edges.CurveArcs`
+    c : (k, 3) float64 pixel centres
+    dist : (k,) float64 each pixel's exact distance to the boundary (``inf`` where it
+        has none or it is not known: such pixels come back undecided)
+    pairs : ``(pixel, arc, d)``: candidate features (arc rows; rows past the arcs',
+        merged nodes of the multiresolution tree, count as undecided) with their exact
+        distances, the true nearest among them; those within :data:`ETA` of the
+        pixel's least are read.
+
+    Returns
+    -------
+    inside, undecided : (k,) bool
+        ``inside`` is exact where ``undecided`` is False: the float64 levels' inside
+        status at distance 0 (a pixel at distance 0 is inside, as there).
+
+    Accuracy: see the module notes (the thresholds :data:`NEAR`, :data:`ETA`,
+    :data:`TURN`, :data:`LUNE`). An arc's nearer end is the one with the greater
+    ``p . a`` (``|p - a|^2 = 2 - 2 p . a``); the two are within ``ETA`` of each other
+    only where ``|p . (a - b)| <= ETA`` (a chord squared changes by at most twice its
+    angle's change), and both are asked where ``|p . (a - b)| <= 2 ETA``.
+    """
+    pix, arc, d = pairs
+    k = len(c)
+    zero = dist == 0.0
+    und = ~(dist > NEAR) & ~zero
+    und |= ~np.isfinite(dist)
+    if not corners.trusted:
+        return zero.copy(), ~zero
+    sel = np.flatnonzero((d <= dist[pix] + ETA) & ~und[pix] & ~zero[pix])
+    pix, arc = pix[sel], arc[sel]
+    ok = arc < len(corners.ok)
+    ai = np.where(ok, arc, 0)
+    ok &= corners.ok[ai]
+    col = corners.columns
+    p = [np.ascontiguousarray(c[:, x])[pix] for x in range(3)]
+    la, lb = _dot3(p, col[3:6], ai), _dot3(p, col[6:9], ai)
+    foot = ok & (la >= 0.0) & (lb >= 0.0)
+    ans = np.where(_dot3(p, col[0:3], ai) > 0.0, INSIDE, OUTSIDE).astype(np.uint8)
+    pab = _dot3(p, col[9:12], ai)  # > 0: a is the nearer end
+    end = ok & ~foot
+    ans[end] = 3  # no answer yet
+    ask_a = np.where(foot, la <= LUNE, end & (pab >= -2.0 * ETA))
+    ask_b = np.where(foot, lb <= LUNE, end & (pab <= 2.0 * ETA))
+    for ask, at in ((ask_a, 0), (ask_b, 1)):
+        rule = corners.corner[ai[ask], at]
+        now = ans[ask]
+        ans[ask] = np.where((now == 3) | (now == rule), rule, UNDECIDED)
+    ans[~ok | (ans == 3)] = UNDECIDED
+    seen = np.zeros(k, dtype=np.uint8)
+    np.bitwise_or.at(seen, pix, (1 << ans).astype(np.uint8))
+    inside = (seen == 1 << INSIDE) | zero
+    und |= ~zero & (seen != 1 << INSIDE) & (seen != 1 << OUTSIDE)
+    if len(corners.seam_half):
+        todo = np.flatnonzero(~und)
+        for mid, half in zip(corners.seam_mid, corners.seam_half):
+            near = angle(c[todo], mid[None, :]) - half <= dist[todo] + ETA
+            und[todo[near]] = True
+    return inside & ~und, und
+
+
+def _dot3(p, v, i) -> np.ndarray:
+    """``p . v[i]`` for columns ``p`` and columns ``v`` gathered at ``i``."""
+    out = p[0] * v[0][i]
+    out += p[1] * v[1][i]
+    out += p[2] * v[2][i]
+    return out
+
+
+#: Output pixels per side of a block whose status one sample pixel may give (a power of two).
+BLOCK_SHIFT = 3
+
+
+def block_signs(corners: Corners, arcs: CurveArcs, grid, f, dist, pairs):
+    """:func:`signs` of the output pixels ``f.cells`` (centres ``f.centers``), blocks at a time.
+
+    The pixels are grouped in blocks of ``2^BLOCK_SHIFT`` pixels a side (the cells of
+    the level :data:`BLOCK_SHIFT` above the output); each block's first pixel here is
+    its sample. A pixel ``q`` of a block whose sample ``s`` is decided and lies farther
+    than ``2 rho + NEAR`` from the boundary (``rho`` the block cell's rigorous bound
+    from its centre to its pixels' centres, so ``|q - s| <= 2 rho``) lies in the open
+    disc about ``s`` that holds no boundary point: it has ``s``'s status, at more than
+    ``NEAR`` from the boundary. The others are asked one by one. The same answers as
+    :func:`signs` of every pixel, for about one evaluation per block away from the
+    boundary.
+    """
+    cells = f.cells
+    k = len(cells)
+    last = grid.n_levels - 1
+    b = min(BLOCK_SHIFT, last)
+    if b == 0 or k == 0:
+        return signs(corners, arcs, f.centers, dist, pairs)
+    wide = grid.level_shape(last - b)[1]
+    key = (cells[:, 0] >> b) * wide + (cells[:, 1] >> b)
+    blocks, first, inv = np.unique(key, return_index=True, return_inverse=True)
+    inv = inv.ravel()
+    ins_s, und_s = signs(corners, arcs, f.centers[first], dist[first], _pairs_of(pairs, first, k))
+    rho = grid.rho_at(last - b, blocks // wide, blocks % wide)
+    share = ~und_s & (dist[first] > 2.0 * rho + NEAR)
+    inside = ins_s[inv]
+    und = und_s[inv]
+    sample = np.zeros(k, dtype=bool)
+    sample[first] = True
+    rest = np.flatnonzero(~share[inv] & ~sample)
+    if len(rest):
+        ins_r, und_r = signs(corners, arcs, f.centers[rest], dist[rest], _pairs_of(pairs, rest, k))
+        inside[rest], und[rest] = ins_r, und_r
+    return inside, und
+
+
+def _pairs_of(pairs, which, k: int):
+    """The pairs of the pixels ``which`` (of ``k``), their pixels renumbered ``0 ..``."""
+    pix, arc, d = pairs
+    at = np.full(k, -1, dtype=np.int64)
+    at[which] = np.arange(len(which))
+    new = at[pix]
+    keep = np.flatnonzero(new >= 0)
+    return new[keep], arc[keep], d[keep]
+
+
+def levels_inside(shape, grid, rows, cols) -> np.ndarray:
+    """Return the float64 levels' inside status at distance 0 of output pixels.
+
+    ``classify_curves(shape, 0.0, grid)[0][rows, cols] == CONTAINED``, bit for bit: the
+    same levels (:class:`~gloffset.raster.vector.curves.CurveCells`, entered at level 0),
+    each refining only the frontier cells that are ancestors of the pixels (a cell's
+    status, list and class depend on its parent's alone). Cost: the level 0 and about
+    ``levels x pixels`` cells.
+    """
+    rows = np.asarray(rows, dtype=np.int64)
+    cols = np.asarray(cols, dtype=np.int64)
+    out = np.zeros(len(rows), dtype=bool)
+    if not len(rows):
+        return out
+    last = grid.n_levels - 1
+    pending = np.arange(len(rows))
+    for lev in driver.walk(CurveCells(shape, 0.0, grid), last):
+        shift = last - lev.level
+        want = ((rows[pending] >> shift) << 32) | (cols[pending] >> shift)
+        have = (lev.cells[:, 0].astype(np.int64) << 32) | lev.cells[:, 1]
+        order = np.argsort(have, kind="stable")
+        at = order[np.searchsorted(have[order], want)]
+        cls = lev.cls[at]
+        done = cls != FRONTIER
+        out[pending[done]] = cls[done] == CONTAINED
+        pending = pending[~done]
+        if not len(pending):
+            break
+        lev.keep = np.unique(at[~done])
+    return out
