@@ -139,6 +139,13 @@ class Corners:
         #: ``n``, ``n x a``, ``b x n`` and ``a - b`` of each arc, 12 contiguous columns
         self.columns = [np.ascontiguousarray(v[:, x]) for v in vecs for x in range(3)]
 
+    @property
+    def flags(self) -> np.ndarray:
+        """(arcs,) uint32, what ``shaders/lib/field_sign.glsl`` reads per arc: bits 0-1
+        the corner at ``a``, bits 2-3 at ``b``, bit 4 :attr:`ok`."""
+        c = self.corner.astype(np.uint32)
+        return c[:, 0] | (c[:, 1] << 2) | (self.ok.astype(np.uint32) << 4)
+
     @classmethod
     def from_shape(cls, shape) -> Corners:
         """The shape's corner data (made once per shape and kept on it)."""
