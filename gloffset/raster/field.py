@@ -13,8 +13,10 @@ each pixel ending with the exact float64 distance of its nearest arc
 (:mod:`gloffset.raster.field_walk`). With ``backend="gpu"`` the walk stops at cells of
 8 x 8 pixels and a fragment shader ranks each pixel's candidates in float32, the
 pixels finished in float64 to the same bits (:mod:`gloffset.raster.field_gpu`). The
-sign is the inside status of the float64 render at distance 0. The derivation is in
-the design notes (``docs/design.md``).
+sign is the inside status of the float64 render at distance 0: on the CPU read from each
+pixel's nearest boundary features (:mod:`gloffset.raster.field_sign`; the levels' test
+on the few pixels that leaves undecided), on the GPU backend that test itself. The
+derivation is in the design notes (``docs/design.md``).
 
 Accuracy: each value is the float64 distance (exact to 1e-15 rad) times ``radius``,
 clamped to ``[-max_distance, max_distance]`` and rounded to float32 once: within 1
@@ -270,8 +272,9 @@ def distance_field(
     backend : {"gpu", "cpu"}
         Where the pixels' nearest arcs are found: ``"gpu"`` (the GL context's fragment
         shaders, in float32, finished in float64) or ``"cpu"`` (in float64). The values
-        are the same, bit for bit; the walk above the pixels and the inside test run on
-        the CPU either way.
+        are the same, bit for bit; the walk above the pixels and the sign run on the
+        CPU either way (``"cpu"`` reads the sign from the pixels' nearest features,
+        ``"gpu"`` runs the levels' inside test; the same signs).
 
     Raises
     ------
@@ -297,7 +300,8 @@ def distance_field(
     :meth:`DistanceField.threshold`). Both backends give the same values, bit for bit.
     Cost: the output pixels, each against the few arcs that can be its nearest (see the
     module notes). ``"cpu"``: the walk to the pixels in float64, 3 to 4 times the floor
-    of the same walk with one candidate arc per cell plus the inside test.
+    of the same walk with one candidate arc per cell, plus the sign from the nearest
+    features.
     ``"gpu"``: the walk stops at cells of 8 x 8 pixels, the GPU ranks each pixel's
     candidates in float32 and the CPU computes one exact distance per pixel (a few, or
     the cell's list, where the float32 values cannot rank them): about half the CPU
@@ -359,9 +363,10 @@ class _Progress:
 def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str) -> np.ndarray:
     """Return the float32 field of one grid (clamped to ``+-m`` rad, ``m`` may be inf).
 
-    The unsigned distances of :func:`_distances`, negated where the levels' float64
-    render at distance 0 (:func:`gloffset.raster.vector.curves.classify_curves`) has the
-    pixel inside (a pixel on the curves has the value 0 either way).
+    The unsigned distances, negated where the levels' float64 render at distance 0
+    (:func:`gloffset.raster.vector.curves.classify_curves`) has the pixel inside (a pixel
+    on the curves has the value 0 either way): the GPU backend runs those levels, the CPU
+    backend reads the same status from the pixels' nearest features (:func:`_distances`).
     """
     signed = bool(shape.rings)
     if backend == "gpu" and grid.n_levels > 1:

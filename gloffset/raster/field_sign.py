@@ -1,55 +1,28 @@
 """The sign of a distance field from each pixel's nearest boundary features.
 
-:func:`gloffset.distance_field` negates a pixel's distance where the pixel is inside
-the union of the polygons. That inside status follows from the nearest boundary
-feature the distance walk finds anyway, with no crossing count:
+A pixel centre ``p`` at distance ``delta > 0`` from the boundary has an open disc of
+radius ``delta`` with no boundary point, so its inside status is that of the points next
+to a nearest point ``x``. Rings have their interior on the left and ``n``, the unit
+normal ``normalize(a x b)`` of an edge ``a -> b``, points left. So: ``x`` the foot on an
+edge (and on no other): inside iff ``p . n > 0``; ``x`` a vertex ``v`` of the edges ``u
+-> v -> w`` (and of no other): inside iff the corner is reflex, ``w . n_uv < 0`` (the
+direction from ``v`` to ``p`` makes at least a right angle with both edges: in the
+exterior sector of a convex corner, the interior one of a reflex corner).
 
-A pixel centre ``p`` at distance ``delta > 0`` from the boundary ``B`` (the ring edges
-that have distance) has an open disc of radius ``delta`` that holds no point of ``B``,
-so its inside status is that of every point of the disc, in particular of the points
-next to a nearest point ``x`` of ``B``. The rings of a region have their interior on
-the left (:mod:`gloffset.region`, :class:`gloffset.shape.Shape`), and ``n``, the unit
-normal ``normalize(a x b)`` of a ring edge ``a -> b``, points to its left:
+Every feature within :data:`ETA` of a pixel's least distance is asked, and the pixel is
+decided only where they agree. Left undecided: pixels within :data:`NEAR` of the
+boundary, pinch vertices, corners next to a seam or a degenerate edge or within
+:data:`TURN` of straight, features of lines and points, pixels whose disc may hold a
+seam, pixels with no nearest arc; a foot within :data:`LUNE` of an end also asks that
+end's corner. The rule is used where the rings' left sides are the crossing parity's
+inside (the union's rings; a single component's rings checked once), else every pixel
+is undecided. :func:`levels_inside`, the float64 levels' test at distance 0 walked
+over the undecided pixels' ancestors alone, settles them: the sign is
+``classify_curves(shape, 0, grid)``'s, bit for bit (a pixel at distance 0 is inside).
 
-* ``x`` inside the edge ``a -> b`` (the foot of ``p`` on its great circle falls on the
-  arc) and no other edge through ``x``: the disc lies on ``p``'s side of the edge
-  next to ``x``, so ``p`` is inside iff ``p . n > 0``;
-* ``x`` a vertex ``v`` where the edges ``u -> v`` and ``v -> w`` of one ring meet and
-  no other edge: the disc avoids both edges, so the direction from ``v`` to ``p`` makes
-  at least a right angle with both edges' directions at ``v``. Those directions lie in
-  the exterior sector at a convex corner (interior angle below pi) and in the
-  interior sector at a reflex one, so ``p`` is inside iff the corner is reflex: iff
-  ``w`` lies on the right of ``u -> v`` (``w . n_uv < 0``).
-
-Both rules hold for every nearest point, so each pixel asks every feature whose
-exact distance is within :data:`ETA` of its least (the true nearest among them, the
-float64 distances being good to 1e-15 rad) and is decided only when they agree.
-Undecided, and left to the exact fallback: pixels nearer than :data:`NEAR` to the
-boundary (the side tests are then within reach of their rounding), a vertex shared
-by more than one corner (rings touching, pinch points), a corner next to a seam or a
-degenerate edge, or whose turn is within :data:`TURN` of straight, a feature on a
-line or a point (no side), pixels whose disc may hold a seam (a seam closes a ring
-but has no distance), and pixels with no nearest arc (beyond ``max_distance``).
-A foot within :data:`LUNE` of an end also asks that end's corner, so a nearest point
-at a vertex is never judged by an edge's side alone.
-
-Where the rule needs the rings' orientation to be the crossing parity's (every
-shape :func:`gloffset.read` makes whose rings went through the union: several
-components or seams; a single component whose rings are disjoint simple curves,
-checked once, each ring's left side inside by the levels' own test), it is used;
-any other shape (components that may overlap, made by hand) has every pixel
-undecided.
-
-The fallback (:func:`levels_inside`) is the float64 levels' test at distance 0
-(:func:`gloffset.raster.vector.curves.classify_curves`) walked down only over the
-ancestors of the undecided pixels: the same classes, bit for bit (a cell's status
-and list depend on its parent's alone), for the work of those few cells. So the sign
-equals today's contract exactly: ``classify_curves(shape, 0, grid)`` contained (a
-pixel at distance exactly 0 counts as inside, as there).
-
-:class:`Corners` is made once per shape (kept on its derived cache) and
-:func:`signs` is the rule on numpy arrays; ``shaders/lib/field_sign.glsl`` is the
-same rule in GLSL (float32 records: its thresholds are those of float32).
+:class:`Corners` is made once per shape (on its derived cache), :func:`signs` and
+:func:`block_signs` are the rule on numpy arrays, ``shaders/lib/field_sign.glsl`` the
+same rule in float32. The derivation and the measurements: ``docs/design.md``.
 """
 
 from __future__ import annotations
