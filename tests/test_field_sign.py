@@ -221,7 +221,9 @@ def test_signs_per_pixel_equals_blocks(mexico):
     for f, dist, pairs in walk_levels(NodeArcs.from_shape(mexico), grid, np.inf, last, pairs=True):
         a, ua = signs(corners, arcs, f.centers, dist, pairs)
         b, ub = block_signs(corners, arcs, grid, f, dist, pairs)
-        assert np.array_equal(ua, ub) and np.array_equal(a, b)
+        both = ~ua & ~ub
+        assert np.array_equal(a[both], b[both]) and not (ub & ~ua).any()
+        assert both.mean() > 0.99
 
 
 def nearest_features(shape, grid):

@@ -27,13 +27,15 @@ same rule in float32. The derivation and the measurements: ``docs/design.md``.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..edges import CurveArcs, points_inside
 from ..geometry.classes import CONTAINED, FRONTIER
 from ..geometry.sphere import angle, arc_distance, dot, normalize
 from . import driver
-from .vector.curves import CurveCells
+from .vector.curves import CurveCells, classify_curves
 
 __all__ = [
     "ETA",
@@ -43,7 +45,7 @@ __all__ = [
     "OUTSIDE",
     "TURN",
     "UNDECIDED",
-    "BLOCK_SHIFT",
+    "BLOCK_SHIFTS",
     "Corners",
     "block_signs",
     "levels_inside",
@@ -73,6 +75,8 @@ TOUCH = 1e-9
 _MAX_SEAMS = 64
 #: Most rings a single component may have for its check (one crossing count each).
 _MAX_CHECKED = 4096
+#: :func:`levels_inside` runs the whole grid's levels for more than 1 / _WHOLE of its pixels.
+_WHOLE = 8
 
 
 class Corners:
@@ -274,55 +278,77 @@ def _dot3(p, v, i) -> np.ndarray:
     return out
 
 
-#: Output pixels per side of a block whose status one sample pixel may give (a power of two).
-BLOCK_SHIFT = 3
+#: The blocks' sizes, largest first: ``2^shift`` output pixels a side.
+BLOCK_SHIFTS = (3,)
 
 
 def block_signs(corners: Corners, arcs: CurveArcs, grid, f, dist, pairs):
-    """:func:`signs` of the output pixels ``f.cells`` (centres ``f.centers``), blocks at a time.
+    """:func:`signs` of the output pixels ``f.cells`` (centres ``f.centers``), by blocks.
 
-    The pixels are grouped in blocks of ``2^BLOCK_SHIFT`` pixels a side (the cells of
-    the level :data:`BLOCK_SHIFT` above the output); each block's first pixel here is
-    its sample. A pixel ``q`` of a block whose sample ``s`` is decided and lies farther
-    than ``2 rho + NEAR`` from the boundary (``rho`` the block cell's rigorous bound
-    from its centre to its pixels' centres, so ``|q - s| <= 2 rho``) lies in the open
-    disc about ``s`` that holds no boundary point: it has ``s``'s status, at more than
-    ``NEAR`` from the boundary. The others are asked one by one. The same answers as
-    :func:`signs` of every pixel, for about one evaluation per block away from the
-    boundary.
+    ``pairs`` sorted by pixel. The pixels are grouped in blocks of ``2^shift`` pixels a
+    side (the cells of the level ``shift`` above the output, :data:`BLOCK_SHIFTS`), each
+    with one of its pixels as its sample ``s``. A pixel ``q`` of the block nearer to a
+    decided ``s`` than ``s``'s distance to the boundary less ``2 NEAR`` (chords
+    compared, rounded the safe way) lies in the open disc about ``s`` that holds no
+    boundary point: it has ``s``'s status, at more than ``NEAR`` from the boundary. The
+    pixels left go to the next blocks, then one by one. Exact as :func:`signs` (the
+    answers it gives where both decide; a pixel in a sample's disc is decided even
+    where its own features would leave it open), for about one evaluation per block
+    away from the boundary.
     """
     cells = f.cells
     k = len(cells)
     last = grid.n_levels - 1
-    b = min(BLOCK_SHIFT, last)
-    if b == 0 or k == 0:
+    if not corners.trusted or k == 0:
         return signs(corners, arcs, f.centers, dist, pairs)
-    wide = grid.level_shape(last - b)[1]
-    key = (cells[:, 0] >> b) * wide + (cells[:, 1] >> b)
-    blocks, first, inv = np.unique(key, return_index=True, return_inverse=True)
-    inv = inv.ravel()
-    ins_s, und_s = signs(corners, arcs, f.centers[first], dist[first], _pairs_of(pairs, first, k))
-    rho = grid.rho_at(last - b, blocks // wide, blocks % wide)
-    share = ~und_s & (dist[first] > 2.0 * rho + NEAR)
-    inside = ins_s[inv]
-    und = und_s[inv]
-    sample = np.zeros(k, dtype=bool)
-    sample[first] = True
-    rest = np.flatnonzero(~share[inv] & ~sample)
-    if len(rest):
-        ins_r, und_r = signs(corners, arcs, f.centers[rest], dist[rest], _pairs_of(pairs, rest, k))
-        inside[rest], und[rest] = ins_r, und_r
+    start = np.r_[0, np.cumsum(np.bincount(pairs[0], minlength=k))]
+    inside = np.zeros(k, dtype=bool)
+    und = np.ones(k, dtype=bool)
+    c = f.centers
+    todo = None  # every pixel
+    for b in BLOCK_SHIFTS:
+        b = min(b, last)
+        n = k if todo is None else len(todo)
+        if b == 0 or n < 4 << (2 * b):
+            continue
+        cj, ci = (cells[:, 0], cells[:, 1]) if todo is None else (cells[todo, 0], cells[todo, 1])
+        j, i = cj >> b, ci >> b
+        j0, i0 = j.min(), i.min()
+        key = (j - j0) * (int(i.max() - i0) + 1) + (i - i0)
+        rep = np.full(int(key.max()) + 1, -1, dtype=np.int64)
+        rep[key] = np.arange(n)  # one pixel of each block (any)
+        has = rep >= 0
+        local = rep[has]
+        s = local if todo is None else todo[local]
+        ins_s, und_s = signs(corners, arcs, c[s], dist[s], _pairs_of(pairs, start, s))
+        inside[s], und[s] = ins_s, und_s
+        # the chord of (dist - 2 NEAR), rounded down; an undecided sample reaches nothing
+        reach = 2.0 * np.sin(0.5 * np.clip(dist[s] - 2.0 * NEAR, 0.0, np.pi))
+        reach = np.where(und_s, -1.0, reach * reach * (1.0 - 1e-12))
+        at = (np.cumsum(has) - 1)[key]  # each pixel's sample
+        cq = c if todo is None else c[todo]
+        dq = cq - c[s[at]]
+        got = np.einsum("ij,ij->i", dq, dq) < reach[at]
+        hit = np.flatnonzero(got) if todo is None else todo[got]
+        inside[hit], und[hit] = ins_s[at[got]], False
+        got[local] = True  # the samples are done either way
+        todo = np.flatnonzero(~got) if todo is None else todo[~got]
+    if todo is None:
+        return signs(corners, arcs, c, dist, pairs)
+    if len(todo):
+        ins_r, und_r = signs(corners, arcs, c[todo], dist[todo], _pairs_of(pairs, start, todo))
+        inside[todo], und[todo] = ins_r, und_r
     return inside, und
 
 
-def _pairs_of(pairs, which, k: int):
-    """The pairs of the pixels ``which`` (of ``k``), their pixels renumbered ``0 ..``."""
+def _pairs_of(pairs, start, which):
+    """The pairs (sorted by pixel, pixel ``p``'s at ``start[p]:start[p + 1]``) of the
+    pixels ``which``, their pixels renumbered ``0 ..``."""
     pix, arc, d = pairs
-    at = np.full(k, -1, dtype=np.int64)
-    at[which] = np.arange(len(which))
-    new = at[pix]
-    keep = np.flatnonzero(new >= 0)
-    return new[keep], arc[keep], d[keep]
+    count = start[which + 1] - start[which]
+    first = np.cumsum(count) - count
+    at = np.repeat(start[which] - first, count) + np.arange(int(count.sum()))
+    return np.repeat(np.arange(len(which)), count), arc[at], d[at]
 
 
 def levels_inside(shape, grid, rows, cols) -> np.ndarray:
@@ -332,7 +358,8 @@ def levels_inside(shape, grid, rows, cols) -> np.ndarray:
     same levels (:class:`~gloffset.raster.vector.curves.CurveCells`, entered at level 0),
     each refining only the frontier cells that are ancestors of the pixels (a cell's
     status, list and class depend on its parent's alone). Cost: the level 0 and about
-    ``levels x pixels`` cells.
+    ``levels x pixels`` cells; for more than ``1 / _WHOLE`` of the grid's pixels
+    (``max_distance`` leaves those beyond it undecided) the whole grid's levels.
     """
     rows = np.asarray(rows, dtype=np.int64)
     cols = np.asarray(cols, dtype=np.int64)
@@ -340,6 +367,8 @@ def levels_inside(shape, grid, rows, cols) -> np.ndarray:
     if not len(rows):
         return out
     last = grid.n_levels - 1
+    if len(rows) * _WHOLE > math.prod(grid.level_shape(last)):  # the whole grid's levels
+        return classify_curves(shape, 0.0, grid)[0][rows, cols] == CONTAINED
     pending = np.arange(len(rows))
     for lev in driver.walk(CurveCells(shape, 0.0, grid), last):
         shift = last - lev.level

@@ -43,7 +43,7 @@ def walk_levels(nodes: NodeArcs, grid, m: float, stop: int, *, pairs: bool = Fal
     first, in parts of contiguous cells.
 
     With ``pairs`` (the output level only), each as ``(f, dist, (cell, node, d))``: the
-    pairs whose exact distance ``d`` was computed (every pair that can be a pixel's
+    pairs whose exact distance ``d`` was computed, sorted by cell (every pair that can be a pixel's
     nearest is among them, the least of their ``d`` being ``dist``, bit for bit): what
     each pixel's nearest features are read from (:mod:`gloffset.raster.field_sign`).
     The distances are the same bits either way.
@@ -237,7 +237,10 @@ def _bound(
     dist = np.full(k, np.inf)
     np.minimum.at(dist, cell, exact)
     if final:  # the distances are all that is asked for (no list goes further down)
-        return (f, dist, (cell, node, exact)) if pairs else (f, dist)
+        if not pairs:
+            return f, dist
+        order = np.argsort(cell, kind="stable")
+        return f, dist, (cell[order], node[order], exact[order])
     # the rounds' pairs against the least upper bounds of all rounds, sorted by cell
     keep = lo <= np.minimum(best + slack, far)[cell] + _TINY
     cell, node = cell[keep], node[keep]
