@@ -268,7 +268,8 @@ def distance_field(
     progress : callable, optional
         Called as ``progress(done, total)`` as the work goes on: ``done`` rises to
         ``total``, in pixels (those whose distances are final, then, for a shape with
-        polygons, those of each level of the inside test, in output pixels).
+        polygons, those whose sign is: each level of the inside test, in output pixels,
+        on the GPU backend; all at once on the CPU one).
     backend : {"gpu", "cpu"}
         Where the pixels' nearest arcs are found: ``"gpu"`` (the GL context's fragment
         shaders, in float32, finished in float64) or ``"cpu"`` (in float64). The values
