@@ -288,9 +288,11 @@ def block_signs(corners: Corners, arcs: CurveArcs, grid, f, dist, pairs):
     ``pairs`` sorted by pixel. The pixels are grouped in blocks of ``2^shift`` pixels a
     side (the cells of the level ``shift`` above the output, :data:`BLOCK_SHIFTS`), each
     with one of its pixels as its sample ``s``. A pixel ``q`` of the block nearer to a
-    decided ``s`` than ``s``'s distance to the boundary less ``2 NEAR`` (chords
-    compared, rounded the safe way) lies in the open disc about ``s`` that holds no
-    boundary point: it has ``s``'s status, at more than ``NEAR`` from the boundary. The
+    decided ``s`` than ``s``'s distance to the boundary less ``2 NEAR`` (the whole block
+    where that distance exceeds ``2 rho``, ``rho`` the block cell's rigorous bound from
+    its centre to its pixels' centres; else chords compared, rounded the safe way) lies
+    in the open disc about ``s`` that holds no boundary point: it has ``s``'s status, at
+    more than ``NEAR`` from the boundary. The
     pixels left go to the next blocks, then one by one. Exact as :func:`signs` (the
     answers it gives where both decide; a pixel in a sample's disc is decided even
     where its own features would leave it open), for about one evaluation per block
@@ -326,9 +328,13 @@ def block_signs(corners: Corners, arcs: CurveArcs, grid, f, dist, pairs):
         reach = 2.0 * np.sin(0.5 * np.clip(dist[s] - 2.0 * NEAR, 0.0, np.pi))
         reach = np.where(und_s, -1.0, reach * reach * (1.0 - 1e-12))
         at = (np.cumsum(has) - 1)[key]  # each pixel's sample
-        cq = c if todo is None else c[todo]
-        dq = cq - c[s[at]]
-        got = np.einsum("ij,ij->i", dq, dq) < reach[at]
+        # a whole block within the sample's disc: |q - s| <= 2 rho of the block's cell
+        rho = grid.rho_at(last - b, cells[s, 0] >> b, cells[s, 1] >> b)
+        got = (~und_s & (dist[s] > 2.0 * rho + 2.0 * NEAR))[at]
+        part = np.flatnonzero(~got)  # else pixel by pixel: the chord to the sample
+        cq = c[part] if todo is None else c[todo[part]]
+        dq = cq - c[s[at[part]]]
+        got[part] = np.einsum("ij,ij->i", dq, dq) < reach[at[part]]
         hit = np.flatnonzero(got) if todo is None else todo[got]
         inside[hit], und[hit] = ins_s[at[got]], False
         got[local] = True  # the samples are done either way
