@@ -115,7 +115,8 @@ class Derived:
     #: (:mod:`gloffset.index.arcs`); the multiresolution arcs of a pyramid's coarse levels
     #: (:mod:`gloffset.raster.vector.node_levels`); the least distance from the reference
     #: points to the ring edges (:mod:`gloffset.raster.simplified`); the shape as GeoJSON
-    #: bytes, for the tile server's page (:mod:`gloffset.serve.app`).
+    #: bytes, for the tile server's page (:mod:`gloffset.serve.app`); the corners of the
+    #: rings that a distance field's sign reads (:mod:`gloffset.raster.field_sign`).
     SINGLE = (
         "edges",
         "ref_status",
@@ -130,6 +131,7 @@ class Derived:
         "node_arcs",
         "ref_clearance",
         "serve_geojson",
+        "field_sign",
     )
     #: The slots of values by key (:class:`~gloffset.memo.Memo`): anchor points and their
     #: component statuses, by count (:func:`gloffset.geometry.crossings.inside_indexed`);
@@ -165,6 +167,7 @@ class Derived:
     node_arcs: Any
     ref_clearance: float | None
     serve_geojson: bytes | None
+    field_sign: Any
     anchors: Memo
     reference_geodesic: Memo
     contains_indexes: Memo

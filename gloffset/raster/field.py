@@ -13,8 +13,10 @@ each pixel ending with the exact float64 distance of its nearest arc
 (:mod:`gloffset.raster.field_walk`). With ``backend="gpu"`` the walk stops at cells of
 8 x 8 pixels and a fragment shader ranks each pixel's candidates in float32, the
 pixels finished in float64 to the same bits (:mod:`gloffset.raster.field_gpu`). The
-sign is the inside status of the float64 render at distance 0. The derivation is in
-the design notes (``docs/design.md``).
+sign is the inside status of the float64 render at distance 0: on the CPU read from each
+pixel's nearest boundary features (:mod:`gloffset.raster.field_sign`; the levels' test
+on the few pixels that leaves undecided), on the GPU backend that test itself. The
+derivation is in the design notes (``docs/design.md``).
 
 Accuracy: each value is the float64 distance (exact to 1e-15 rad) times ``radius``,
 clamped to ``[-max_distance, max_distance]`` and rounded to float32 once: within 1
@@ -31,6 +33,7 @@ import math
 
 import numpy as np
 
+from ..edges import CurveArcs
 from ..errors import OptionError
 from ..geometry.classes import CONTAINED
 from ..grids.protocol import Image
@@ -44,6 +47,7 @@ from ..units import (
     to_angle,
 )
 from .field_gpu import gpu_distances
+from .field_sign import Corners, block_signs, levels_inside
 from .field_walk import walk_levels
 from .render import MAX_PIXELS
 from .simplified import band_members
@@ -264,12 +268,14 @@ def distance_field(
     progress : callable, optional
         Called as ``progress(done, total)`` as the work goes on: ``done`` rises to
         ``total``, in pixels (those whose distances are final, then, for a shape with
-        polygons, those of each level of the inside test, in output pixels).
+        polygons, those whose sign is: each level of the inside test, in output pixels,
+        on the GPU backend; all at once on the CPU one).
     backend : {"gpu", "cpu"}
         Where the pixels' nearest arcs are found: ``"gpu"`` (the GL context's fragment
         shaders, in float32, finished in float64) or ``"cpu"`` (in float64). The values
-        are the same, bit for bit; the walk above the pixels and the inside test run on
-        the CPU either way.
+        are the same, bit for bit; the walk above the pixels and the sign run on the
+        CPU either way (``"cpu"`` reads the sign from the pixels' nearest features,
+        ``"gpu"`` runs the levels' inside test; the same signs).
 
     Raises
     ------
@@ -295,7 +301,8 @@ def distance_field(
     :meth:`DistanceField.threshold`). Both backends give the same values, bit for bit.
     Cost: the output pixels, each against the few arcs that can be its nearest (see the
     module notes). ``"cpu"``: the walk to the pixels in float64, 3 to 4 times the floor
-    of the same walk with one candidate arc per cell plus the inside test.
+    of the same walk with one candidate arc per cell, plus the sign from the nearest
+    features.
     ``"gpu"``: the walk stops at cells of 8 x 8 pixels, the GPU ranks each pixel's
     candidates in float32 and the CPU computes one exact distance per pixel (a few, or
     the cell's list, where the float32 values cannot rank them): about half the CPU
@@ -357,20 +364,22 @@ class _Progress:
 def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str) -> np.ndarray:
     """Return the float32 field of one grid (clamped to ``+-m`` rad, ``m`` may be inf).
 
-    The unsigned distances of :func:`_distances`, negated where the levels' float64
-    render at distance 0 (:func:`gloffset.raster.vector.curves.classify_curves`) has the
-    pixel inside (a pixel on the curves has the value 0 either way).
+    The unsigned distances, negated where the levels' float64 render at distance 0
+    (:func:`gloffset.raster.vector.curves.classify_curves`) has the pixel inside (a pixel
+    on the curves has the value 0 either way): the GPU backend runs those levels, the CPU
+    backend reads the same status from the pixels' nearest features (:func:`_distances`).
     """
+    signed = bool(shape.rings)
     if backend == "gpu" and grid.n_levels > 1:
         dist = gpu_distances(shape, grid, m, count.add)
+        inside = np.zeros(dist.shape, dtype=bool)
+        if signed:
+            before = count.done
+            classes = curves.classify_curves(shape, 0.0, grid, callback=count.levels(grid))[0]
+            inside = classes == CONTAINED
+            count.add(before + dist.size - count.done)  # the levels reported, all of them
     else:
-        dist = _distances(shape, grid, m, count)
-    inside = np.zeros(dist.shape, dtype=bool)
-    if shape.rings:
-        before = count.done
-        classes = curves.classify_curves(shape, 0.0, grid, callback=count.levels(grid))[0]
-        inside = classes == CONTAINED
-        count.add(before + dist.size - count.done)  # the levels reported, all of them
+        dist, inside = _distances(shape, grid, m, count, signed)
     v = np.minimum(dist, m) * radius
     out = np.where(inside, -v, v).astype(np.float32)
     valid = grid.valid(grid.n_levels - 1)
@@ -379,18 +388,40 @@ def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str)
     return out
 
 
-def _distances(shape, grid, m: float, count: _Progress) -> np.ndarray:
-    """Return the distance (rad, float64) from each pixel centre to the nearest arc.
+def _distances(shape, grid, m: float, count: _Progress, signed: bool):
+    """Return each pixel centre's distance (rad, float64) to the nearest arc, and status.
 
-    Exact where it is at most ``m`` (larger than ``m`` elsewhere): the levels walked
+    The status: whether the pixel is inside (all False unless ``signed``). The distance
+    is exact where it is at most ``m`` (larger than ``m`` elsewhere): the levels walked
     depth first with lists of nodes of the multiresolution tree
-    (:func:`~gloffset.raster.field_walk.walk_levels`) down to the output pixels.
+    (:func:`~gloffset.raster.field_walk.walk_levels`) down to the output pixels. The
+    inside status is read from each pixel's nearest features
+    (:func:`~gloffset.raster.field_sign.block_signs`); the pixels that rule leaves undecided
+    get the float64 levels' test at distance 0
+    (:func:`~gloffset.raster.field_sign.levels_inside`): the inside status of
+    ``classify_curves(shape, 0.0, grid)``, bit for bit.
     """
     nodes = NodeArcs.from_shape(shape)
     last = grid.n_levels - 1
     h, w = grid.level_shape(last)
     out = np.full((h, w), np.inf)
-    for f, dist in walk_levels(nodes, grid, m, last):
-        out[f.cells[:, 0], f.cells[:, 1]] = dist
+    inside = np.zeros((h, w), dtype=bool)
+    if not signed:
+        for f, dist in walk_levels(nodes, grid, m, last):
+            out[f.cells[:, 0], f.cells[:, 1]] = dist
+            count.add(len(f.cells))
+        return out, inside
+    corners, arcs = Corners.from_shape(shape), CurveArcs.from_shape(shape)
+    undecided = []
+    for f, dist, pairs in walk_levels(nodes, grid, m, last, pairs=True):
+        j, i = f.cells[:, 0], f.cells[:, 1]
+        out[j, i] = dist
+        known = np.where(dist <= m, dist, np.inf)  # beyond m: no nearest arc known
+        ins, und = block_signs(corners, arcs, grid, f, known, pairs)
+        inside[j, i] = ins
+        undecided.append(f.cells[und])
         count.add(len(f.cells))
-    return out
+    cells = np.concatenate(undecided)
+    inside[cells[:, 0], cells[:, 1]] = levels_inside(shape, grid, cells[:, 0], cells[:, 1])
+    count.add(h * w)
+    return out, inside

@@ -31,7 +31,7 @@ __all__ = ["end_distances", "exact_distances", "walk_levels"]
 _PART_CELLS, _PART_PAIRS = 1 << 16, 1 << 20
 
 
-def walk_levels(nodes: NodeArcs, grid, m: float, stop: int):
+def walk_levels(nodes: NodeArcs, grid, m: float, stop: int, *, pairs: bool = False):
     """Yield the parts of level ``stop`` with their lists, and their cells' distances.
 
     Each as ``(f, dist)``: the frontier ``f`` (its cells, centres and candidate pairs,
@@ -41,6 +41,12 @@ def walk_levels(nodes: NodeArcs, grid, m: float, stop: int):
     to the arcs) that can be the nearest arc within ``m`` of a point within ``rho`` of
     the cell's centre (so of any of its pixels' centres). The levels are walked depth
     first, in parts of contiguous cells.
+
+    With ``pairs`` (the output level only), each as ``(f, dist, (cell, node, d))``: the
+    pairs whose exact distance ``d`` was computed, sorted by cell (every pair that can be a pixel's
+    nearest is among them, the least of their ``d`` being ``dist``, bit for bit): what
+    each pixel's nearest features are read from (:mod:`gloffset.raster.field_sign`).
+    The distances are the same bits either way.
     """
     trig = np.cos(nodes.reach), np.sin(nodes.reach)
     last = grid.n_levels - 1
@@ -61,9 +67,11 @@ def walk_levels(nodes: NodeArcs, grid, m: float, stop: int):
             cells, _, c, rho, pc, pn = children(f, grid)
             f = Frontier(f.level + 1, cells, c, rho, pc, pn, np.zeros((len(cells), 0), np.uint8))
         reach = _kids_reach(f, grid) if f.level == last - 1 else f.rho
-        f, dist = _bound(f, nodes, trig, m, reach, final=f.level == last, leaves=f.level == leaves)
+        final = f.level == last
+        got = _bound(f, nodes, trig, m, reach, final=final, leaves=f.level == leaves, pairs=pairs)
+        f, dist = got[0], got[1]
         if f.level == stop:
-            yield f, dist
+            yield (f, dist, got[2]) if pairs and final else (f, dist)
             continue
         stack.extend((part, True) for part in reversed(list(_parts(f))))
 
@@ -129,7 +137,16 @@ def _kids_reach(f: Frontier, grid) -> np.ndarray:
     return pad(out)
 
 
-def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, leaves: bool = False):
+def _bound(
+    f: Frontier,
+    nodes: NodeArcs,
+    trig,
+    m: float,
+    reach,
+    final: bool,
+    leaves: bool = False,
+    pairs: bool = False,
+):
     """Return the pairs (cells, nodes) that can hold a nearest arc, and the distances.
 
     The pairs of ``f`` that can hold the nearest boundary arc of some point within
@@ -154,10 +171,14 @@ def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, lea
     (:func:`_maybe_nearer`). Each pair's bounds are computed once: a round computes
     those of the halves of the nodes split in the round before, the least upper bounds
     carried over. At the output level with arcs only (as the level above leaves its
-    lists), every pair's exact distance instead (:func:`_nearest`).
+    lists), every pair's exact distance instead (:func:`_least`). With ``pairs`` at the
+    output level, also the pairs measured, ``(cell, node, exact)`` (see
+    :func:`walk_levels`).
     """
     if final and nodes.leaf[f.pair_arc].all():
-        return f, _nearest(f, nodes)
+        d = exact_distances(f.centers, f.pair_cell, nodes, f.pair_arc)
+        dist = _least(len(f.cells), f.pair_cell, d)
+        return (f, dist, (f.pair_cell, f.pair_arc, d)) if pairs else (f, dist)
     c, rho = f.centers, f.rho
     k = len(f.cells)
     bound = np.where(leaves, 0.0, _KAPPA * rho)  # read above the output level only
@@ -216,7 +237,10 @@ def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, lea
     dist = np.full(k, np.inf)
     np.minimum.at(dist, cell, exact)
     if final:  # the distances are all that is asked for (no list goes further down)
-        return f, dist
+        if not pairs:
+            return f, dist
+        order = np.argsort(cell, kind="stable")
+        return f, dist, (cell[order], node[order], exact[order])
     # the rounds' pairs against the least upper bounds of all rounds, sorted by cell
     keep = lo <= np.minimum(best + slack, far)[cell] + _TINY
     cell, node = cell[keep], node[keep]
@@ -225,16 +249,16 @@ def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, lea
     return g, dist
 
 
-def _nearest(f: Frontier, nodes: NodeArcs) -> np.ndarray:
-    """Return each cell's distance to its nearest pair, all of whose nodes are arcs.
+def _least(k: int, cell, d) -> np.ndarray:
+    """Return each of ``k`` cells' least ``d`` of its pairs (``inf`` where it has none).
 
-    Every pair's exact distance, with no bound computed first: at the output level
-    nearly every pair needs its exact distance (the lists hold the arcs that can be
-    nearest to the pixel's centre), and the least of them is the least of those a
-    pruning would leave, bit for bit (a pair pruned is never the nearest one).
+    At the output level every pair gets its exact distance, with no bound computed
+    first: nearly every pair needs it (the lists hold the arcs that can be nearest to
+    the pixel's centre), and the least of them is the least of those a pruning would
+    leave, bit for bit (a pair pruned is never the nearest one).
     """
-    dist = np.full(len(f.cells), np.inf)
-    np.minimum.at(dist, f.pair_cell, exact_distances(f.centers, f.pair_cell, nodes, f.pair_arc))
+    dist = np.full(k, np.inf)
+    np.minimum.at(dist, cell, d)
     return dist
 
 
