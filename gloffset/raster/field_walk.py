@@ -24,7 +24,7 @@ from ..geometry.sphere import angle, cross, dot, pair_dots
 from .vector.levels import Frontier, children
 from .vector.node_levels import NodeArcs
 
-__all__ = ["end_distances", "exact_distances", "walk_levels"]
+__all__ = ["end_distances", "exact_distances", "kids_reach", "root_list", "walk_levels"]
 
 #: Cells and candidate pairs of one part of a level (a larger level is walked in parts
 #: of contiguous cells: the next level has about four times as many of each).
@@ -51,7 +51,7 @@ def walk_levels(nodes: NodeArcs, grid, m: float, stop: int):
     k = len(cells)
     c = grid.centers(0, cells[:, 0], cells[:, 1])
     rho = grid.rho_at(0, cells[:, 0], cells[:, 1])
-    top = _root_list(nodes, trig, m, c, rho, top)
+    top = root_list(nodes, trig, m, c, rho, top)
     pc, pn = np.repeat(np.arange(k), len(top)), np.tile(top, k)
     stack = [(Frontier(0, cells, c, rho, pc, pn, np.zeros((k, 0), np.uint8)), False)]
     leaves = min(stop, last - 1)  # the level whose nodes are split down to the arcs
@@ -60,7 +60,7 @@ def walk_levels(nodes: NodeArcs, grid, m: float, stop: int):
         if parent:
             cells, _, c, rho, pc, pn = children(f, grid)
             f = Frontier(f.level + 1, cells, c, rho, pc, pn, np.zeros((len(cells), 0), np.uint8))
-        reach = _kids_reach(f, grid) if f.level == last - 1 else f.rho
+        reach = kids_reach(f, grid) if f.level == last - 1 else f.rho
         f, dist = _bound(f, nodes, trig, m, reach, final=f.level == last, leaves=f.level == leaves)
         if f.level == stop:
             yield f, dist
@@ -69,11 +69,11 @@ def walk_levels(nodes: NodeArcs, grid, m: float, stop: int):
 
 
 #: A grid whose level 0 lies within this angle (rad) of its centre is first walked as one
-#: cell (:func:`_root_list`): a tile, a regional box.
+#: cell (:func:`root_list`): a tile, a regional box.
 _ROOT_REACH = 1.0
 
 
-def _root_list(nodes: NodeArcs, trig, m: float, c: np.ndarray, rho: np.ndarray, top):
+def root_list(nodes: NodeArcs, trig, m: float, c: np.ndarray, rho: np.ndarray, top):
     """Return the nodes every cell of level 0 starts with.
 
     For a small grid (its level-0 cells within :data:`_ROOT_REACH` of their mean
@@ -112,7 +112,7 @@ _KAPPA = 0.0625
 _TINY = 1e-14
 
 
-def _kids_reach(f: Frontier, grid) -> np.ndarray:
+def kids_reach(f: Frontier, grid) -> np.ndarray:
     """Return the farthest child centre (output level) from each cell's centre, rounded up.
 
     These are the only points of the next level whose distances are asked for, so the
@@ -133,7 +133,7 @@ def _bound(f: Frontier, nodes: NodeArcs, trig, m: float, reach, final: bool, lea
     """Return the pairs (cells, nodes) that can hold a nearest arc, and the distances.
 
     The pairs of ``f`` that can hold the nearest boundary arc of some point within
-    ``reach`` (``rho``, or less: :func:`_kids_reach`) of a cell's centre,
+    ``reach`` (``rho``, or less: :func:`kids_reach`) of a cell's centre,
     every node split until its error bound is at most :data:`_KAPPA` ``rho``; and each
     cell's distance to its nearest pair (``inf`` where it has none). At the output level
     (``final``) only the pixel centre is asked for (``reach`` is not read): nodes are
