@@ -9,10 +9,10 @@
 //   upper bound:           min(angle(c, mid) + reach, distance to its arc + err),
 // kept where lo <= min(best + 2 reach_c, m + reach_c) + u_sum_err (best: the least upper
 // bound of the cell), split (depth first, a stack) where err > the cell's bound.
-// Pass 0 finds best (pruning against the best found so far), pass 1 counts the nodes kept
-// against it, the cell reserves that many slots with atomicAdd and pass 2 writes them. A
-// full pool (the host retries with a larger one), a full stack or a loop too long raise a
-// flag.
+// Pass 1 counts the nodes kept against the least upper bound found so far (from the
+// parent's nodes on), the cell reserves that many slots with atomicAdd and pass 2 writes
+// those kept against the final one (a subset). A full pool (the host retries with a larger
+// one), a full stack or a loop too long raise a flag.
 layout(local_size_x = 64) in;
 
 struct Node {
@@ -31,6 +31,7 @@ layout(std430, binding = 5) writeonly buffer Out { uvec2 o_cell[]; };  // start,
 layout(std430, binding = 6) writeonly buffer Pool { uint o_pool[]; };
 layout(std430, binding = 7) buffer Count { uint o_total; uint o_flags; };
 
+uniform uint u_first;  // the cells u_first .. u_cells - 1, written from o_cell[0]
 uniform uint u_cells;
 uniform int u_width;
 uniform int u_pwidth;  // the parent level's width (0: every cell takes parent 0)
@@ -104,10 +105,11 @@ vec2 bounds(vec3 c, int k) {
 }
 
 void main() {
-    uint k = gl_GlobalInvocationID.x;
+    uint k = gl_GlobalInvocationID.x + u_first;
     if (k >= u_cells) {
         return;
     }
+    uint o = k - u_first;
     int j = int(k) / u_width;
     int i = int(k) - j * u_width;
     uint p = u_pwidth > 0 ? uint((j >> 1) * u_pwidth + (i >> 1)) : 0u;
@@ -119,7 +121,7 @@ void main() {
     float bound = u_cell[2u * k + 1u].x;
     if (par.y > uint(MAX_LOOP)) {
         atomicOr(o_flags, FLAG_LIMIT);
-        o_cell[k] = uvec2(0u);
+        o_cell[o] = uvec2(0u);
         return;
     }
     uint base = gl_LocalInvocationIndex * uint(STACK);
@@ -129,7 +131,7 @@ void main() {
     }
     uint at = 0u;
     uint kept = 0u;
-    for (int pass = 0; pass < 3; ++pass) {
+    for (int pass = 1; pass < 3; ++pass) {
         kept = 0u;
         for (uint e = 0u; e < par.y; ++e) {
             int sp = 1;
@@ -138,20 +140,20 @@ void main() {
             while (sp > 0) {
                 if (++steps > MAX_LOOP) {
                     atomicOr(o_flags, FLAG_LIMIT);
-                    o_cell[k] = uvec2(0u);
+                    o_cell[o] = uvec2(0u);
                     return;
                 }
                 sp -= 1;
                 int nd = stack[base + uint(sp)];
                 vec2 b = bounds(c, nd);
-                if (pass == 0) {
+                if (pass == 1) {
                     best = min(best, b.y);
                 }
                 if (b.x <= min(best + slack, far) + u_sum_err) {
                     if (mod(u_node[nd].b.w, 2.0) < 1.0 && u_node[nd].a.w > bound) {  // split
                         if (sp + 2 > STACK) {
                             atomicOr(o_flags, FLAG_LIMIT);
-                            o_cell[k] = uvec2(0u);
+                            o_cell[o] = uvec2(0u);
                             return;
                         }
                         ivec2 ch = u_child[nd];
@@ -174,10 +176,10 @@ void main() {
             at = atomicAdd(o_total, kept);
             if (at + kept > u_capacity) {
                 atomicOr(o_flags, FLAG_POOL);
-                o_cell[k] = uvec2(0u);
+                o_cell[o] = uvec2(0u);
                 return;
             }
         }
     }
-    o_cell[k] = uvec2(at, kept);
+    o_cell[o] = uvec2(at, kept);
 }

@@ -134,6 +134,30 @@ def test_fields_with_the_gpu_walk_have_the_cpu_bits(request, which, grid, kw, mo
     assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
 
 
+def test_small_pools_split_the_last_level(mexico, monkeypatch):
+    """Pools too small for the last level: it runs in parts of cells, retried with
+    larger pools, the same lists; a pool too small for one cell's list: the float64
+    walk's lists."""
+    nodes = NodeArcs.from_shape(mexico)
+    grid = Tile(5, 6, 13)
+    want = _Lists(nodes, grid, math.inf, 0, walk="gpu")
+    eng = walk_pass.walk_pass()
+    runs = []
+    real = walk_pass.WalkPass._run
+    monkeypatch.setattr(walk_pass.WalkPass, "_run", lambda *a: runs.append(1) or real(*a))
+    monkeypatch.setattr(eng, "max_pool", 20000)
+    got = _Lists(nodes, grid, math.inf, 0, walk="gpu")
+    assert len(runs) > 8
+    assert np.array_equal(got.count, want.count)
+    cell = np.repeat(np.arange(len(got.count)), got.count)
+    key = cell * len(nodes.a)
+    assert np.array_equal(np.sort(got.node + key), np.sort(want.node + key))
+    monkeypatch.setattr(eng, "max_pool", 50)
+    cpu = _Lists(nodes, grid, math.inf, 0, walk="cpu")
+    got = _Lists(nodes, grid, math.inf, 0, walk="gpu")
+    assert np.array_equal(got.count, cpu.count) and np.array_equal(got.node, cpu.node)
+
+
 def test_one_level_grids_walk_in_float64(mexico):
     from gloffset.raster.field_lists import gpu_lists
 

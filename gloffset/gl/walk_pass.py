@@ -32,7 +32,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import GLContextError
 from .context import context_info, get_context, shared
 from .shaders import load_source
 
@@ -64,23 +63,27 @@ class WalkPass:
     def __init__(self):
         self.ctx = get_context()
         self.max_bytes = context_info()["max_storage_block_size"]
+        self.max_pool = self.max_bytes // 4  # node ids in a pool
         src, _ = load_source("field_walk.comp")
         self.prog = self.ctx.compute_shader(src)
 
-    def run(self, table, root: np.ndarray, levels, m: float):
-        """Walk ``levels`` from the ``root`` list (node ids); return the last level's
-        per-cell ``(start, count)`` (k, 2) and its pool, or None where a limit is hit.
+    def run(self, table, parents, levels, m: float):
+        """Walk ``levels`` from the ``parents``' lists; return the last level's count per
+        cell and its lists' node ids, by cell (row-major), or None where a limit is hit.
 
         ``table``: ``(nodes (n, 4, 4) float32, child (n, 2) int32)`` as
-        ``shaders/field_walk.comp`` reads them; ``m`` rounded up, at most 4.
+        ``shaders/field_walk.comp`` reads them; ``parents``: ``(start, count)`` (k, 2)
+        of the cells above the first level (one row: the root list of every cell of
+        level 0) and their pool of node ids; ``m`` rounded up, at most 4.
         """
         ctx = self.ctx
         nodes, child = table
-        if nodes.nbytes > self.max_bytes:
+        sc, ids = parents
+        if max(nodes.nbytes, ids.nbytes, sc.nbytes) > self.max_bytes:
             return None
         bufs = [ctx.buffer(nodes.tobytes()), ctx.buffer(child.tobytes())]
-        par = ctx.buffer(np.array([0, len(root)], np.uint32).tobytes())
-        pool = ctx.buffer(np.asarray(root, np.uint32).tobytes() or bytes(4))
+        par = ctx.buffer(np.ascontiguousarray(sc, np.uint32).tobytes())
+        pool = ctx.buffer(np.ascontiguousarray(ids, np.uint32).tobytes() or bytes(4))
         try:
             for k, b in enumerate(bufs):
                 b.bind_to_storage_buffer(k)
@@ -93,8 +96,8 @@ class WalkPass:
                 ("u_sum_err", SUM_ERR),
             ):
                 self.prog[name] = v
-            cap = 4 * max(len(root), 1)
-            for lev in levels:
+            cap = 4 * max(len(ids), 1)
+            for lev in levels[:-1]:
                 got = self._level(lev, par, pool, cap)
                 if got is None:
                     return None
@@ -102,34 +105,23 @@ class WalkPass:
                 par.release()
                 pool.release()
                 par, pool = out, new
-            sc = np.frombuffer(par.read(), np.uint32).reshape(-1, 2)
-            return sc, np.frombuffer(pool.read(), np.uint32)
+            return self._last(levels[-1], par, pool, cap)
         finally:
             for b in bufs + [par, pool]:
                 b.release()
 
     def _level(self, lev: WalkLevel, par, pool, cap: int):
-        ctx = self.ctx
+        """Run a level above the last: its ``(start, count)`` and pool buffers, and a
+        capacity for the next level's pool (None where a limit is hit)."""
         k = len(lev.cells)
-        cells = ctx.buffer(np.ascontiguousarray(lev.cells, np.float32).tobytes())
-        out = ctx.buffer(reserve=8 * k)
+        cells = self.ctx.buffer(np.ascontiguousarray(lev.cells, np.float32).tobytes())
+        out = self.ctx.buffer(reserve=8 * k)
         try:
             while True:
-                if 4 * cap > self.max_bytes or 32 * k > self.max_bytes:
+                if cap > self.max_pool or 32 * k > self.max_bytes:
                     out.release()
                     return None
-                new = ctx.buffer(reserve=4 * cap)
-                count = ctx.buffer(bytes(8))
-                for b, at in ((cells, 2), (par, 3), (pool, 4), (out, 5), (new, 6), (count, 7)):
-                    b.bind_to_storage_buffer(at)
-                self.prog["u_cells"] = k
-                self.prog["u_width"] = lev.width
-                self.prog["u_pwidth"] = lev.pwidth
-                self.prog["u_capacity"] = cap
-                self.prog.run(group_x=max(1, -(-k // _LOCAL)))
-                ctx.memory_barrier()
-                total, flags = (int(x) for x in np.frombuffer(count.read(), np.uint32))
-                count.release()
+                new, total, flags = self._run(lev, (cells, par, pool, out), (0, k), cap)
                 if flags & FLAG_LIMIT:
                     new.release()
                     out.release()
@@ -137,11 +129,71 @@ class WalkPass:
                 if not flags & FLAG_POOL:
                     return out, new, max(cap, 4 * total)
                 new.release()
-                if total < cap:  # cannot happen: a full pool counts past its capacity
-                    raise GLContextError("field walk: the pool was full below its capacity")
                 cap = total + total // 4
         finally:
             cells.release()
+
+    def _last(self, lev: WalkLevel, par, pool, cap: int):
+        """Run the last level in runs of cells whose pools fit: each cell's count and
+        the arcs by cell (row-major), or None where a limit is hit."""
+        k = len(lev.cells)
+        most = self.max_pool
+        if 32 * k > self.max_bytes:
+            return None
+        cells = self.ctx.buffer(np.ascontiguousarray(lev.cells, np.float32).tobytes())
+        out = self.ctx.buffer(reserve=8 * k)
+        counts, arcs = [], []
+        try:
+            k0, step = 0, k
+            while k0 < k:
+                k1 = min(k, k0 + step)
+                want = min(most, max(1024, cap * (k1 - k0) // k))
+                new, total, flags = self._run(lev, (cells, par, pool, out), (k0, k1), want)
+                if flags & FLAG_LIMIT:
+                    new.release()
+                    return None
+                if flags & FLAG_POOL:
+                    new.release()
+                    if total <= most:
+                        cap = max(cap, total * k // (k1 - k0) + 1)
+                    elif step > 1:
+                        step = (step + 1) // 2
+                    else:
+                        return None
+                    continue
+                sc = np.frombuffer(out.read(size=8 * (k1 - k0)), np.uint32).reshape(-1, 2)
+                ids = np.frombuffer(new.read(size=4 * max(total, 1)), np.uint32)
+                new.release()
+                start, count = sc[:, 0].astype(np.int64), sc[:, 1].astype(np.int64)
+                lead = np.cumsum(count) - count
+                counts.append(count)
+                arcs.append(ids[np.repeat(start - lead, count) + np.arange(int(count.sum()))])
+                k0 = k1
+            return np.concatenate(counts), np.concatenate(arcs)
+        finally:
+            cells.release()
+            out.release()
+
+    def _run(self, lev: WalkLevel, bound, span, cap: int):
+        """One dispatch over cells ``span`` of ``lev`` with a new pool of ``cap`` ids:
+        the pool, the ids asked for and the flags."""
+        k0, k1 = span
+        new = self.ctx.buffer(reserve=4 * cap)
+        count = self.ctx.buffer(bytes(8))
+        try:
+            for b, at in zip((*bound, new, count), range(2, 8)):
+                b.bind_to_storage_buffer(at)
+            self.prog["u_first"] = k0
+            self.prog["u_cells"] = k1
+            self.prog["u_width"] = lev.width
+            self.prog["u_pwidth"] = lev.pwidth
+            self.prog["u_capacity"] = cap
+            self.prog.run(group_x=max(1, -(-(k1 - k0) // _LOCAL)))
+            self.ctx.memory_barrier()
+            total, flags = (int(x) for x in np.frombuffer(count.read(), np.uint32))
+        finally:
+            count.release()
+        return new, total, flags
 
 
 def walk_pass() -> WalkPass:

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..geometry.sphere import dot
 from ..gl.walk_pass import WalkLevel, walk_pass
-from .field_walk import kids_reach, root_list
+from .field_walk import kids_reach, root_list, walk_levels
 from .vector.levels import Frontier
 from .vector.node_levels import KAPPA, NodeArcs
 
@@ -69,22 +69,47 @@ def gpu_lists(nodes: NodeArcs, grid, m: float, stop: int):
     last = grid.n_levels - 1
     if not 0 <= stop < last:
         return None
-    trig = np.cos(nodes.reach), np.sin(nodes.reach)
-    h0, w0 = grid.level_shape(0)
-    jj, ii = np.meshgrid(np.arange(h0), np.arange(w0), indexing="ij")
-    c0 = grid.centers(0, jj.ravel(), ii.ravel())
-    rho0 = grid.rho_at(0, jj.ravel(), ii.ravel())
-    root = root_list(nodes, trig, m, c0, rho0, nodes.top[nodes.boundary[nodes.top]])
-    levels = [_level(grid, lev, stop, last) for lev in range(stop + 1)]
+    first = next((lev for lev in range(stop) if _cells(grid, lev) >= GPU_CELLS), stop)
+    parents = _parents(nodes, grid, m, first)
+    levels = [_level(grid, lev, stop, last) for lev in range(first, stop + 1)]
     mm = float(up32(min(m, 4.0))) if math.isfinite(m) else 4.0
-    got = walk_pass().run(_table(nodes), np.asarray(root), levels, mm)
+    got = walk_pass().run(_table(nodes), parents, levels, mm)
     if got is None:
         return None
-    sc, pool = got
-    start, count = sc[:, 0].astype(np.int64), sc[:, 1].astype(np.int64)
-    first = np.cumsum(count) - count
-    at = np.repeat(start - first, count) + np.arange(int(count.sum()))
-    return count, pool[at].astype(np.int64)
+    return got[0], got[1].astype(np.int64)
+
+
+#: The GPU walks the levels from the first with at least this many cells (the float64
+#: walk the coarser ones: a few cells with long lists are a poor fit for the GPU).
+GPU_CELLS = 4096
+
+
+def _cells(grid, lev: int) -> int:
+    h, w = grid.level_shape(lev)
+    return h * w
+
+
+def _parents(nodes: NodeArcs, grid, m: float, first: int):
+    """The lists the GPU walk starts from: level 0's root list (one row, every cell's),
+    or those of level ``first - 1`` from the float64 walk, by cell (row-major)."""
+    if first == 0:
+        h0, w0 = grid.level_shape(0)
+        jj, ii = np.meshgrid(np.arange(h0), np.arange(w0), indexing="ij")
+        c0 = grid.centers(0, jj.ravel(), ii.ravel())
+        rho0 = grid.rho_at(0, jj.ravel(), ii.ravel())
+        trig = np.cos(nodes.reach), np.sin(nodes.reach)
+        root = root_list(nodes, trig, m, c0, rho0, nodes.top[nodes.boundary[nodes.top]])
+        return np.array([[0, len(root)]], np.uint32), np.asarray(root, np.uint32)
+    wc = grid.level_shape(first - 1)[1]
+    keys, vals = [], []
+    for f, _ in walk_levels(nodes, grid, m, first - 1, split=False):
+        keys.append((f.cells[:, 0].astype(np.int64) * wc + f.cells[:, 1])[f.pair_cell])
+        vals.append(f.pair_arc)
+    key, val = np.concatenate(keys), np.concatenate(vals)
+    order = np.argsort(key, kind="stable")
+    count = np.bincount(key, minlength=_cells(grid, first - 1))
+    sc = np.column_stack([np.cumsum(count) - count, count]).astype(np.uint32)
+    return sc, val[order].astype(np.uint32)
 
 
 def _level(grid, lev: int, stop: int, last: int) -> WalkLevel:

@@ -31,7 +31,7 @@ __all__ = ["end_distances", "exact_distances", "kids_reach", "root_list", "walk_
 _PART_CELLS, _PART_PAIRS = 1 << 16, 1 << 20
 
 
-def walk_levels(nodes: NodeArcs, grid, m: float, stop: int):
+def walk_levels(nodes: NodeArcs, grid, m: float, stop: int, split: bool = True):
     """Yield the parts of level ``stop`` with their lists, and their cells' distances.
 
     Each as ``(f, dist)``: the frontier ``f`` (its cells, centres and candidate pairs,
@@ -40,7 +40,9 @@ def walk_levels(nodes: NodeArcs, grid, m: float, stop: int):
     where at most ``m``; above it, the lists hold every original arc (nodes split down
     to the arcs) that can be the nearest arc within ``m`` of a point within ``rho`` of
     the cell's centre (so of any of its pixels' centres). The levels are walked depth
-    first, in parts of contiguous cells.
+    first, in parts of contiguous cells. Without ``split``, the nodes of level ``stop``
+    above the output are split as those of the levels above it (to ``KAPPA rho``): lists
+    that a walk further down can start from.
     """
     trig = np.cos(nodes.reach), np.sin(nodes.reach)
     last = grid.n_levels - 1
@@ -54,7 +56,7 @@ def walk_levels(nodes: NodeArcs, grid, m: float, stop: int):
     top = root_list(nodes, trig, m, c, rho, top)
     pc, pn = np.repeat(np.arange(k), len(top)), np.tile(top, k)
     stack = [(Frontier(0, cells, c, rho, pc, pn, np.zeros((k, 0), np.uint8)), False)]
-    leaves = min(stop, last - 1)  # the level whose nodes are split down to the arcs
+    leaves = min(stop if split else last, last - 1)  # the level whose nodes are split to the arcs
     while stack:  # depth first: one part of each level at a time
         f, parent = stack.pop()
         if parent:
