@@ -8,7 +8,8 @@
 //   lower bound of a node: max(angle(c, mid) - reach, distance to its arc - err),
 //   upper bound:           min(angle(c, mid) + reach, distance to its arc + err),
 // kept where lo <= min(best + 2 reach_c, m + reach_c) + u_sum_err (best: the least upper
-// bound of the cell), split (depth first, a stack) where err > the cell's bound.
+// bound of the cell) and, kept for the slack alone, where maybe_nearer (the bisector test
+// against the nearest end of the parent's nodes), split (depth first) where err > bound.
 // Pass 1 counts the nodes kept against the least upper bound found so far (from the
 // parent's nodes on), the cell reserves that many slots with atomicAdd and pass 2 writes
 // those kept against the final one (a subset). A full pool (the host retries with a larger
@@ -20,11 +21,12 @@ struct Node {
     vec4 a;    // a.xyz, err (rounded up)
     vec4 b;    // b.xyz, flags: 1 leaf, 2 the arc has a normal
     vec4 n;    // n.xyz
+    vec4 r;    // 1 - cos(reach), sin(reach) (rounded up)
 };
 
 layout(std430, binding = 0) readonly buffer Nodes { Node u_node[]; };
 layout(std430, binding = 1) readonly buffer Child { ivec2 u_child[]; };
-layout(std430, binding = 2) readonly buffer Cells { vec4 u_cell[]; };  // c.xyz, reach; bound
+layout(std430, binding = 2) readonly buffer Cells { vec4 u_cell[]; };  // c, reach; bound, cos, sin reach
 layout(std430, binding = 3) readonly buffer Parents { uvec2 u_parent[]; };  // start, count
 layout(std430, binding = 4) readonly buffer ParentPool { uint u_ppool[]; };
 layout(std430, binding = 5) writeonly buffer Out { uvec2 o_cell[]; };  // start, count
@@ -36,12 +38,15 @@ uniform uint u_cells;
 uniform int u_width;
 uniform int u_pwidth;  // the parent level's width (0: every cell takes parent 0)
 uniform uint u_capacity;
+uniform int u_bisector;  // 0: no bisector test
 uniform float u_m;         // max_distance, rounded up (at most 4)
 uniform float u_ch_rel;    // chord error: relative ...
 uniform float u_ch_abs;    // ... and absolute
 uniform float u_asin_rel;  // relative error of asin_f
 uniform float u_dot_err;   // error of c.n, c.(n x a), c.(b x n)
 uniform float u_sum_err;   // the roundings of the sums compared
+uniform float u_bis_abs;   // error of the bisector test's least q.v: absolute ...
+uniform float u_bis_rel;   // ... and relative to |vtx - mid| + 1 - cos r
 
 const uint FLAG_POOL = 1u;   // the pool was too small (the host retries with o_total)
 const uint FLAG_LIMIT = 2u;  // a stack or loop limit (the host walks in float64)
@@ -104,6 +109,35 @@ vec2 bounds(vec3 c, int k) {
     return vec2(max(lo, dlo - nd.a.w), min(hi, dhi + nd.a.w));
 }
 
+// Whether node k's run can be as near as the vertex v to some point within the cell's
+// reach of c (gloffset/raster/field_walk.py's _maybe_nearer, in float32 with its error
+// bound: false only where every such point is surely nearer to v than to the node's cap).
+// cs: cos and sin of the cell's reach, R its reach.
+bool maybe_nearer(vec3 c, float R, vec2 cs, vec3 v, int k) {
+    Node nd = u_node[k];
+    if (nd.cap.w >= 1.0 || R >= 1.0) {
+        return true;
+    }
+    vec3 mid = nd.cap.xyz;
+    float kk = nd.r.x;
+    vec3 w = v - mid;
+    // q.(v - cos r mid) = q.w + (1 - cos r) q.mid: least over the disc
+    float cv = dot(c, w) + kk * dot(c, mid);
+    float sx = length(cross(c, w) + kk * cross(c, mid));
+    float least = cv * cs.x - sx * cs.y;
+    float err = u_bis_abs + u_bis_rel * (length(w) + kk);
+    // S >= sin(min(t + R, pi / 2)), t the angle to the cap's centre (from a chord rounded up)
+    float ch = min(length(c - mid) * (1.0 + u_ch_rel) + u_ch_abs, 2.0);
+    float ct = 1.0 - 0.5 * ch * ch;
+    float st = ch * sqrt(max(1.0 - 0.25 * ch * ch, 0.0));
+    float s = 1.0;
+    if (ct * cs.x - st * cs.y > u_bis_abs) {  // t + R surely below pi / 2
+        s = min(st * cs.x + ct * cs.y + u_bis_abs, 1.0);
+    }
+    float sr = nd.r.y;
+    return least - err <= sr * max(s, sr) * (1.0 + u_bis_abs);
+}
+
 void main() {
     uint k = gl_GlobalInvocationID.x + u_first;
     if (k >= u_cells) {
@@ -118,7 +152,8 @@ void main() {
     vec3 c = cr.xyz;
     float slack = 2.0 * cr.w;
     float far = u_m + cr.w;
-    float bound = u_cell[2u * k + 1u].x;
+    vec4 cb = u_cell[2u * k + 1u];
+    float bound = cb.x;
     if (par.y > uint(MAX_LOOP)) {
         atomicOr(o_flags, FLAG_LIMIT);
         o_cell[o] = uvec2(0u);
@@ -126,9 +161,25 @@ void main() {
     }
     uint base = gl_LocalInvocationIndex * uint(STACK);
     float best = 1e30;
+    float vch = 4.0;  // the chord to the nearest vertex vtx (an end of the parent's nodes)
+    vec3 vtx = c;
     for (uint e = 0u; e < par.y; ++e) {  // the parent's nodes first: a tight start
-        best = min(best, bounds(c, int(u_ppool[par.x + e])).y);
+        int nd = int(u_ppool[par.x + e]);
+        best = min(best, bounds(c, nd).y);
+        vec3 a = u_node[nd].a.xyz;
+        vec3 b = u_node[nd].b.xyz;
+        float ca = length(c - a);
+        float cb2 = length(c - b);
+        if (ca < vch) {
+            vch = ca;
+            vtx = a;
+        }
+        if (cb2 < vch) {
+            vch = cb2;
+            vtx = b;
+        }
     }
+    bool test = u_bisector != 0 && vch < 4.0;
     uint at = 0u;
     uint kept = 0u;
     for (int pass = 1; pass < 3; ++pass) {
@@ -149,7 +200,10 @@ void main() {
                 if (pass == 1) {
                     best = min(best, b.y);
                 }
-                if (b.x <= min(best + slack, far) + u_sum_err) {
+                // kept for the slack alone: the bisector test against vtx too
+                if (b.x <= min(best + slack, far) + u_sum_err
+                    && (b.x <= best + u_sum_err || !test
+                        || maybe_nearer(c, cr.w, cb.yz, vtx, nd))) {
                     if (mod(u_node[nd].b.w, 2.0) < 1.0 && u_node[nd].a.w > bound) {  // split
                         if (sp + 2 > STACK) {
                             atomicOr(o_flags, FLAG_LIMIT);

@@ -134,6 +134,25 @@ def test_fields_with_the_gpu_walk_have_the_cpu_bits(request, which, grid, kw, mo
     assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
 
 
+def test_a_broken_bisector_test_loses_nearest_arcs(mexico, monkeypatch):
+    """The bisector test's error bound turned against the lists: arcs go missing."""
+    monkeypatch.setattr(walk_pass, "BIS_ABS", -1e-4)
+    missing, _, _ = _check(mexico, Tile(5, 6, 13))
+    assert len(missing) > 10
+
+
+def test_the_bisector_test_shortens_the_lists(world, monkeypatch):
+    """As the float64 walk's: about half as long without it on the countries."""
+    nodes = NodeArcs.from_shape(world)
+    grid = Equirect(512, 256)
+    level = grid.n_levels - 1 - SHIFT
+    cpu = _Lists(nodes, grid, math.inf, level, walk="cpu").count.sum()
+    with_it = _Lists(nodes, grid, math.inf, level, walk="gpu").count.sum()
+    monkeypatch.setattr(walk_pass, "BISECTOR", False)
+    without = _Lists(nodes, grid, math.inf, level, walk="gpu").count.sum()
+    assert with_it < 0.7 * without and with_it < 1.5 * cpu
+
+
 def test_small_pools_split_the_last_level(mexico, monkeypatch):
     """Pools too small for the last level: it runs in parts of cells, retried with
     larger pools, the same lists; a pool too small for one cell's list: the float64

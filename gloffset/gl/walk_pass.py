@@ -1,8 +1,9 @@
 """A distance field's walk on the GL context, level by level (``shaders/field_walk.comp``).
 
 Each cell's list of multiresolution nodes is its parent's pruned and split in float32 by
-the rule of :func:`gloffset.raster.field_walk._bound` (no bisector test), every bound
-widened so that each list is a superset of the float64 rule's. Inputs are float64 unit
+the rule of :func:`gloffset.raster.field_walk._bound` (the bisector test against the
+nearest end of the parent's nodes), every bound widened: each list is a superset of
+the float64 rule's. Inputs are float64 unit
 vectors rounded once to float32 (off by at most u = 2^-24 in norm); radii (``reach``,
 ``err``, the cells' reach, ``m``) are rounded up. The bounds:
 
@@ -20,7 +21,8 @@ vectors rounded once to float32 (off by at most u = 2^-24 in norm); radii (``rea
   nearest) where one is below ``-DOT_ERR``; else the distance to the arc lies between
   that to its great circle and that to its nearest end;
 * the bounds, ``best + 2 reach`` and ``m + reach`` are one float32 sum each of values
-  below 16 (half an ulp: 9.5e-7): :data:`SUM_ERR` (4e-6) covers the four.
+  below 16 (half an ulp: 9.5e-7): :data:`SUM_ERR` (4e-6) covers the four;
+* the bisector test: see :data:`BIS_ABS`.
 
 The float64 rule's own rounding (1e-14) is far below these margins. The slack is about
 4e-6 rad (25 m) absolute: cells much smaller get longer lists, never shorter.
@@ -35,12 +37,37 @@ import numpy as np
 from .context import context_info, get_context, shared
 from .shaders import load_source
 
-__all__ = ["ASIN_REL", "CH_ABS", "CH_REL", "DOT_ERR", "SUM_ERR", "WalkPass", "walk_pass"]
+__all__ = [
+    "ASIN_REL",
+    "BISECTOR",
+    "BIS_ABS",
+    "BIS_REL",
+    "CH_ABS",
+    "CH_REL",
+    "DOT_ERR",
+    "SUM_ERR",
+    "WalkPass",
+    "walk_pass",
+]
 
 CH_REL, CH_ABS = 1e-6, 2.5e-7
 ASIN_REL = 4e-6
 DOT_ERR = 2e-6
 SUM_ERR = 4e-6
+#: The bisector test's bounds. Its least ``q.v`` over the disc, ``v = vtx - cos r mid``,
+#: is computed as ``(c.v) cos R - |c x v| sin R`` with ``v = w + k mid``, ``w = vtx - mid``
+#: (float32), ``k = 1 - cos r`` (from float64): no cancellation of nearly equal cosines.
+#: ``c.v`` is off by 2u (inputs) + 6u |w| + 8u k, ``|c x v|`` by 2u + 16u |w| + 14u k, the
+#: products with ``cos R``, ``sin R`` and the difference add 10u (|w| + k): at most
+#: 4u + 32u (|w| + k) = 2.4e-7 + 1.9e-6 (|w| + k), against BIS_ABS + BIS_REL (|w| + k)
+#: (margins 8 and 5). ``S >= sin(min(t + R, pi/2))`` from the chord to ``mid`` rounded up
+#: (``sin t = ch sqrt(1 - ch^2 / 4)``, ``cos t = 1 - ch^2 / 2``, the sum formulas: off by
+#: 1e-6 at most) is raised by BIS_ABS, 1 unless ``cos(t + R)`` exceeds BIS_ABS; the right
+#: side, ``sin r`` rounded up, by the factor ``1 + BIS_ABS``. Below 1e-6 or so (cells of a
+#: few hundred metres) the test can prune nothing: the lists are then the rule's without it.
+BIS_ABS, BIS_REL = 2e-6, 1e-5
+#: Whether the lists are shortened by the bisector test (as the float64 walk's are).
+BISECTOR = True
 _LOCAL = 64
 #: Bits of the shader's flags: the pool was too small; a stack or loop limit was hit.
 FLAG_POOL, FLAG_LIMIT = 1, 2
@@ -88,12 +115,15 @@ class WalkPass:
             for k, b in enumerate(bufs):
                 b.bind_to_storage_buffer(k)
             self.prog["u_m"] = float(m)
+            self.prog["u_bisector"] = int(BISECTOR)
             for name, v in (
                 ("u_ch_rel", CH_REL),
                 ("u_ch_abs", CH_ABS),
                 ("u_asin_rel", ASIN_REL),
                 ("u_dot_err", DOT_ERR),
                 ("u_sum_err", SUM_ERR),
+                ("u_bis_abs", BIS_ABS),
+                ("u_bis_rel", BIS_REL),
             ):
                 self.prog[name] = v
             cap = 4 * max(len(ids), 1)

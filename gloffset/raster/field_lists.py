@@ -2,9 +2,10 @@
 
 The cells of a level (``SHIFT`` above the output) with every original arc that can be the
 nearest of one of their pixels (within ``max_distance``): the walk of
-:func:`~gloffset.raster.field_walk.walk_levels` (its branch and bound, without the
-bisector test), level by level from the root list on the GL context
-(:mod:`gloffset.gl.walk_pass`, ``shaders/field_walk.comp``), in float32 with every bound
+:func:`~gloffset.raster.field_walk.walk_levels` (its branch and bound; the bisector test
+against the nearest end of the parent cell's nodes), level by level on the GL context
+(:mod:`gloffset.gl.walk_pass`, ``shaders/field_walk.comp``) from the first level of
+:data:`GPU_CELLS` cells (the float64 walk the coarser ones), in float32 with every bound
 widened by its float32 error bound, so that each list is a superset of what can be
 nearest: a longer list costs time, never a value (the finishing is exact). The cells'
 centres and bounds come from the grid in float64, rounded once (radii up).
@@ -43,17 +44,20 @@ def up32(x) -> np.ndarray:
 
 
 def _table(nodes: NodeArcs):
-    """Every node as ``shaders/field_walk.comp`` reads it: (n, 4, 4) float32 records
-    (``mid, reach``; ``a, err``; ``b, flags``; ``n``) and (n, 2) int32 children."""
+    """Every node as ``shaders/field_walk.comp`` reads it: (n, 5, 4) float32 records
+    (``mid, reach``; ``a, err``; ``b, flags``; ``n``; ``1 - cos reach, sin reach``) and
+    (n, 2) int32 children."""
     got = _TABLES.get(nodes)
     if got is None:
         k = len(nodes.a)
-        rec = np.zeros((k, 4, 4), np.float32)
+        rec = np.zeros((k, 5, 4), np.float32)
         rec[:, 0, :3], rec[:, 0, 3] = nodes.mid, up32(nodes.reach)
         rec[:, 1, :3], rec[:, 1, 3] = nodes.a, up32(nodes.err)
         ok = dot(nodes.n, nodes.n) > 0.5  # a unit normal (else none)
         rec[:, 2, :3], rec[:, 2, 3] = nodes.b, nodes.leaf + 2.0 * ok
         rec[:, 3, :3] = nodes.n
+        r = np.minimum(nodes.reach, np.pi)
+        rec[:, 4, 0], rec[:, 4, 1] = 2.0 * np.sin(0.5 * r) ** 2, up32(np.sin(r))
         got = _TABLES[nodes] = (rec, nodes.child.astype(np.int32))
     return got
 
@@ -128,4 +132,5 @@ def _level(grid, lev: int, stop: int, last: int) -> WalkLevel:
     cells = np.zeros((len(j), 2, 4), np.float32)
     cells[:, 0, :3], cells[:, 0, 3] = c, up32(reach)
     cells[:, 1, 0] = 0.0 if lev == min(stop, last - 1) else KAPPA * rho
+    cells[:, 1, 1], cells[:, 1, 2] = np.cos(reach), np.sin(np.minimum(reach, 0.5 * np.pi))
     return WalkLevel(cells, w, grid.level_shape(lev - 1)[1] if lev else 0)
