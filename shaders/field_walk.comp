@@ -83,11 +83,15 @@ float ang_hi(float ch) {
     return 2.0 * asin_f(0.5 * c) * (1.0 + u_asin_rel) + u_ch_abs;
 }
 
-// lower and upper bounds on the distance from c to the run of node k
-vec2 bounds(vec3 c, int k) {
+// lower and upper bounds on the distance from c to the run of node k (the cap's lower
+// bound alone, and 1e30, where that exceeds lim: the node is pruned whatever its arc)
+vec2 bounds(vec3 c, int k, float lim) {
     Node nd = u_node[k];
     float ch = length(c - nd.cap.xyz);
     float lo = ang_lo(ch) - nd.cap.w;
+    if (lo > lim) {
+        return vec2(lo, 1e30);
+    }
     float hi = ang_hi(ch) + nd.cap.w;
     float ce = min(length(c - nd.a.xyz), length(c - nd.b.xyz));
     float dhi = ang_hi(ce);
@@ -165,7 +169,7 @@ void main() {
     vec3 vtx = c;
     for (uint e = 0u; e < par.y; ++e) {  // the parent's nodes first: a tight start
         int nd = int(u_ppool[par.x + e]);
-        best = min(best, bounds(c, nd).y);
+        best = min(best, bounds(c, nd, 1e30).y);
         vec3 a = u_node[nd].a.xyz;
         vec3 b = u_node[nd].b.xyz;
         float ca = length(c - a);
@@ -196,7 +200,7 @@ void main() {
                 }
                 sp -= 1;
                 int nd = stack[base + uint(sp)];
-                vec2 b = bounds(c, nd);
+                vec2 b = bounds(c, nd, min(best + slack, far) + u_sum_err);
                 if (pass == 1) {
                     best = min(best, b.y);
                 }
