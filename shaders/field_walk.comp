@@ -39,6 +39,9 @@ uniform int u_width;
 uniform int u_pwidth;  // the parent level's width (0: every cell takes parent 0)
 uniform uint u_capacity;
 uniform int u_bisector;  // 0: no bisector test
+// Most steps of an invocation (llvmpipe silently ends the loops of a shader once they have
+// run 65535 iterations in all, counted per SIMD vector)
+uniform int u_max_steps;
 uniform float u_m;         // max_distance, rounded up (at most 4)
 uniform float u_ch_rel;    // chord error: relative ...
 uniform float u_ch_abs;    // ... and absolute
@@ -53,7 +56,6 @@ const uint FLAG_LIMIT = 2u;  // a stack or loop limit (the host walks in float64
 const int STACK = 64;
 // each invocation's stack (local arrays indexed at run time miscompile on llvmpipe 15)
 shared int stack[64 * STACK];
-const int MAX_LOOP = 60000;  // llvmpipe ends a loop after 65535 iterations
 const float HALF_PI = 1.57079632679489662;
 
 // asin of x in [0, 1] (Cephes' asinf: a polynomial on [0, 1/2], the half-angle formula above)
@@ -158,77 +160,59 @@ void main() {
     float far = u_m + cr.w;
     vec4 cb = u_cell[2u * k + 1u];
     float bound = cb.x;
-    if (par.y > uint(MAX_LOOP)) {
-        atomicOr(o_flags, FLAG_LIMIT);
-        o_cell[o] = uvec2(0u);
-        return;
-    }
     uint base = gl_LocalInvocationIndex * uint(STACK);
     float best = 1e30;
     float vch = 4.0;  // the chord to the nearest vertex vtx (an end of the parent's nodes)
     vec3 vtx = c;
-    for (uint e = 0u; e < par.y; ++e) {  // the parent's nodes first: a tight start
-        int nd = int(u_ppool[par.x + e]);
-        best = min(best, bounds(c, nd, 1e30).y);
-        vec3 a = u_node[nd].a.xyz;
-        vec3 b = u_node[nd].b.xyz;
-        float ca = length(c - a);
-        float cb2 = length(c - b);
-        if (ca < vch) {
-            vch = ca;
-            vtx = a;
-        }
-        if (cb2 < vch) {
-            vch = cb2;
-            vtx = b;
-        }
-    }
-    bool test = u_bisector != 0 && vch < 4.0;
+    bool test = false;
     uint at = 0u;
     uint kept = 0u;
-    for (int pass = 1; pass < 3; ++pass) {
-        kept = 0u;
-        for (uint e = 0u; e < par.y; ++e) {
-            int sp = 1;
-            stack[base] = int(u_ppool[par.x + e]);
-            int steps = 0;
-            while (sp > 0) {
-                if (++steps > MAX_LOOP) {
-                    atomicOr(o_flags, FLAG_LIMIT);
-                    o_cell[o] = uvec2(0u);
-                    return;
-                }
-                sp -= 1;
-                int nd = stack[base + uint(sp)];
-                vec2 b = bounds(c, nd, min(best + slack, far) + u_sum_err);
-                if (pass == 1) {
-                    best = min(best, b.y);
-                }
-                // kept for the slack alone: the bisector test against vtx too
-                if (b.x <= min(best + slack, far) + u_sum_err
-                    && (b.x <= best + u_sum_err || !test
-                        || maybe_nearer(c, cr.w, cb.yz, vtx, nd))) {
-                    if (mod(u_node[nd].b.w, 2.0) < 1.0 && u_node[nd].a.w > bound) {  // split
-                        if (sp + 2 > STACK) {
-                            atomicOr(o_flags, FLAG_LIMIT);
-                            o_cell[o] = uvec2(0u);
-                            return;
-                        }
-                        ivec2 ch = u_child[nd];
-                        stack[base + uint(sp)] = ch.y;
-                        stack[base + uint(sp) + 1u] = ch.x;
-                        sp += 2;
-                    } else {
-                        if (pass == 2) {
-                            o_pool[at + kept] = uint(nd);
-                        }
-                        ++kept;
-                    }
-                }
-            }
+    // One loop, a step each (llvmpipe counts the iterations of all loops together; one
+    // loop's, the most steps of a lane of the SIMD vector, stays within u_max_steps):
+    // phase 0 the parent's nodes (a first least upper bound, the nearest vertex), phase 1
+    // the count, phase 2 the write; in phases 1 and 2 a step takes the next parent node
+    // onto the stack where it is empty, else pops and measures a node.
+    int phase = 0;
+    uint e = 0u;
+    int sp = 0;
+    for (int steps = 0;; ++steps) {
+        if (steps > u_max_steps) {
+            atomicOr(o_flags, FLAG_LIMIT);
+            o_cell[o] = uvec2(0u);
+            return;
         }
-        if (pass == 1) {
-            if (kept == 0u) {
+        if (phase == 0) {
+            if (e < par.y) {
+                int nd = int(u_ppool[par.x + e]);
+                best = min(best, bounds(c, nd, 1e30).y);
+                vec3 a = u_node[nd].a.xyz;
+                vec3 b = u_node[nd].b.xyz;
+                float ca = length(c - a);
+                float cb2 = length(c - b);
+                if (ca < vch) {
+                    vch = ca;
+                    vtx = a;
+                }
+                if (cb2 < vch) {
+                    vch = cb2;
+                    vtx = b;
+                }
+                ++e;
+            } else {
+                test = u_bisector != 0 && vch < 4.0;
+                phase = 1;
+                e = 0u;
+            }
+            continue;
+        }
+        if (sp == 0) {
+            if (e < par.y) {  // the next parent node
+                stack[base] = int(u_ppool[par.x + e]);
+                sp = 1;
+                ++e;
+                continue;
+            }
+            if (phase == 2 || kept == 0u) {
                 break;
             }
             at = atomicAdd(o_total, kept);
@@ -236,6 +220,36 @@ void main() {
                 atomicOr(o_flags, FLAG_POOL);
                 o_cell[o] = uvec2(0u);
                 return;
+            }
+            phase = 2;
+            e = 0u;
+            kept = 0u;
+            continue;
+        }
+        sp -= 1;
+        int nd = stack[base + uint(sp)];
+        vec2 b = bounds(c, nd, min(best + slack, far) + u_sum_err);
+        if (phase == 1) {
+            best = min(best, b.y);
+        }
+        // kept for the slack alone: the bisector test against vtx too
+        if (b.x <= min(best + slack, far) + u_sum_err
+            && (b.x <= best + u_sum_err || !test || maybe_nearer(c, cr.w, cb.yz, vtx, nd))) {
+            if (mod(u_node[nd].b.w, 2.0) < 1.0 && u_node[nd].a.w > bound) {  // split
+                if (sp + 2 > STACK) {
+                    atomicOr(o_flags, FLAG_LIMIT);
+                    o_cell[o] = uvec2(0u);
+                    return;
+                }
+                ivec2 ch = u_child[nd];
+                stack[base + uint(sp)] = ch.y;
+                stack[base + uint(sp) + 1u] = ch.x;
+                sp += 2;
+            } else {
+                if (phase == 2) {
+                    o_pool[at + kept] = uint(nd);
+                }
+                ++kept;
             }
         }
     }

@@ -13,7 +13,7 @@ from conftest import DATA
 
 import gloffset
 from gloffset.gl import walk_pass
-from gloffset.grids import Equirect, Tile
+from gloffset.grids import Cube, Equirect, Tile
 from gloffset.raster import field_gpu
 from gloffset.raster.field_gpu import SHIFT, _Lists
 from gloffset.raster.field_walk import exact_distances
@@ -102,6 +102,29 @@ CASES = [
 def test_every_nearest_arc_is_in_its_cells_gpu_list(request, which, grid, m):
     missing, _, _ = _check(request.getfixturevalue(which), grid, m)
     assert not missing, f"{len(missing)} pixels' nearest arcs missing, e.g. {missing[:3]}"
+
+
+@pytest.mark.slow  # the 1:10m countries' node table alone takes a while
+def test_cells_with_thousands_of_arcs():
+    """Cells of a cube face of 96 pixels (0.05 rad) over 1:10m coasts, thousands of arcs
+    each: the walk's steps far beyond 65535 (llvmpipe silently ends longer loops; the
+    shader counts its steps and hands such levels to the float64 walk)."""
+    shape = gloffset.read(DATA / "countries_10m.geojson")
+    face = Cube(96).faces[4]
+    missing, _, gpu = _check(shape, face, 300e3 / gloffset.EARTH_RADIUS)
+    assert not missing and gpu.count.max() > 2000
+
+
+def test_a_step_limit_hands_the_level_to_the_float64_walk(mexico, monkeypatch):
+    nodes = NodeArcs.from_shape(mexico)
+    grid = Tile(5, 6, 13)
+    monkeypatch.setattr(walk_pass.walk_pass(), "max_steps", 100)
+    from gloffset.raster.field_lists import gpu_lists
+
+    assert gpu_lists(nodes, grid, math.inf, 0) is None
+    got = _Lists(nodes, grid, math.inf, 0, walk="gpu")
+    want = _Lists(nodes, grid, math.inf, 0, walk="cpu")
+    assert np.array_equal(got.node, want.node)
 
 
 def test_a_broken_bound_loses_nearest_arcs(mexico, monkeypatch):

@@ -75,8 +75,9 @@ FLAG_POOL, FLAG_LIMIT = 1, 2
 
 @dataclass
 class WalkLevel:
-    """One level for :meth:`WalkPass.level`: ``cells`` (k, 2, 4) float32 (centre and
-    reach rounded up; the split bound), row-major, ``width`` cells a row;
+    """One level for :meth:`WalkPass.run`: ``cells`` (k, 2, 4) float32 (centre and
+    reach rounded up; the split bound, cos and sin of the reach), row-major, ``width``
+    cells a row;
     ``pwidth`` the parent level's width (0: every cell's parent is parent 0)."""
 
     cells: np.ndarray
@@ -91,6 +92,8 @@ class WalkPass:
         self.ctx = get_context()
         self.max_bytes = context_info()["max_storage_block_size"]
         self.max_pool = self.max_bytes // 4  # node ids in a pool
+        # llvmpipe ends all loops of an invocation after 65535 iterations in all, silently
+        self.max_steps = 60000 if context_info()["software"] else 1 << 30
         src, _ = load_source("field_walk.comp")
         self.prog = self.ctx.compute_shader(src)
 
@@ -116,6 +119,7 @@ class WalkPass:
                 b.bind_to_storage_buffer(k)
             self.prog["u_m"] = float(m)
             self.prog["u_bisector"] = int(BISECTOR)
+            self.prog["u_max_steps"] = self.max_steps
             for name, v in (
                 ("u_ch_rel", CH_REL),
                 ("u_ch_abs", CH_ABS),
