@@ -6,8 +6,9 @@ On whatever device EGL gives (``GLOFFSET_DEVICE=N`` picks one: :mod:`gloffset.gl
 it prints the device, then
 
 1. runs the GL test modules (``tests/test_shaders.py``, ``test_render.py``,
-   ``test_tiles.py``, ``test_field.py``) with pytest in a child process (on a hardware
-   device with ``-m "not slow"``, so that the tests marked ``gpu`` run too; on llvmpipe
+   ``test_tiles.py``, ``test_field.py``, ``test_field_walk_gpu.py``) with pytest in a
+   child process (on a hardware device with ``-m "not slow"``, so that the tests marked
+   ``gpu`` run too; on llvmpipe
    the default selection), and records their counts and time;
 2. times, in this process, each once after a warm-up (so the GL context and the
    compiled shaders are not counted):
@@ -47,6 +48,7 @@ GL_TESTS = [
     "tests/test_render.py",
     "tests/test_tiles.py",
     "tests/test_field.py",
+    "tests/test_field_walk_gpu.py",
 ]
 DISTANCE = 127e3
 FIVE = [10e3, 50e3, 127e3, 250e3, 500e3]

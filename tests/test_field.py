@@ -602,13 +602,13 @@ def test_a_small_grid_starts_from_its_own_list(which, grid, request, monkeypatch
     h, w = grid.level_shape(0)
     j, i = np.divmod(np.arange(h * w), w)
     c, rho = grid.centers(0, j, i), grid.rho_at(0, j, i)
-    own = field_walk._root_list(nodes, trig, np.inf, c, rho, top)
+    own = field_walk.root_list(nodes, trig, np.inf, c, rho, top)
     assert not np.array_equal(np.sort(own), np.sort(top))
     world = Equirect(64, 32)
     h, w = world.level_shape(0)
     j, i = np.divmod(np.arange(h * w), w)
     c, rho = world.centers(0, j, i), world.rho_at(0, j, i)
-    assert field_walk._root_list(nodes, trig, np.inf, c, rho, top) is top
+    assert field_walk.root_list(nodes, trig, np.inf, c, rho, top) is top
     got = gloffset.distance_field(shape, grid, radius=1.0).values
     monkeypatch.setattr(field_walk, "_ROOT_REACH", 0.0)  # every grid from the top
     want = gloffset.distance_field(shape, grid, radius=1.0).values

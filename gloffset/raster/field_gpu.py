@@ -31,7 +31,9 @@ import numpy as np
 
 from ..geometry.caps import chord, pad
 from ..geometry.sphere import cross, dot
+from ..gl.context import context_info
 from ..gl.nearest_pass import EVERY, FEATURES, NONE, NearestPlan, nearest_pass
+from .field_lists import gpu_lists
 from .field_walk import end_distances, exact_distances, walk_levels
 from .vector.node_levels import NodeArcs
 
@@ -62,12 +64,28 @@ def _records(nodes: NodeArcs) -> np.ndarray:
     return got
 
 
+#: Which walk makes the lists: ``"gpu"`` (:func:`~gloffset.raster.field_lists.gpu_lists`,
+#: the float64 walk where it does not apply), ``"cpu"`` (the float64 walk), or ``"auto"``:
+#: the GPU's on a hardware GL, the float64 walk on a software one (Mesa's llvmpipe runs
+#: the GPU walk's divergent loops slower than numpy runs the float64 walk).
+WALK = "auto"
+
+
 class _Lists:
     """The cells of one level and their lists, by cell (row-major): ``start``, ``count``
-    (per cell) into ``node`` (the pairs' nodes)."""
+    (per cell) into ``node`` (the pairs' nodes). Walked as :data:`WALK` says (or as
+    ``walk`` says)."""
 
-    def __init__(self, nodes: NodeArcs, grid, m: float, level: int):
+    def __init__(self, nodes: NodeArcs, grid, m: float, level: int, walk: str | None = None):
         self.shape = hc, wc = grid.level_shape(level)
+        walk = WALK if walk is None else walk
+        if walk == "auto":
+            walk = "cpu" if context_info()["software"] else "gpu"
+        got = gpu_lists(nodes, grid, m, level) if walk == "gpu" else None
+        if got is not None:
+            self.count, self.node = got
+            self.start = np.cumsum(self.count) - self.count
+            return
         keys, vals = [], []
         for f, _ in walk_levels(nodes, grid, m, level):
             flat = f.cells[:, 0].astype(np.int64) * wc + f.cells[:, 1]

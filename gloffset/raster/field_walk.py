@@ -24,14 +24,16 @@ from ..geometry.sphere import angle, cross, dot, pair_dots
 from .vector.levels import Frontier, children
 from .vector.node_levels import NodeArcs
 
-__all__ = ["end_distances", "exact_distances", "walk_levels"]
+__all__ = ["end_distances", "exact_distances", "kids_reach", "root_list", "walk_levels"]
 
 #: Cells and candidate pairs of one part of a level (a larger level is walked in parts
 #: of contiguous cells: the next level has about four times as many of each).
 _PART_CELLS, _PART_PAIRS = 1 << 16, 1 << 20
 
 
-def walk_levels(nodes: NodeArcs, grid, m: float, stop: int, *, pairs: bool = False):
+def walk_levels(
+    nodes: NodeArcs, grid, m: float, stop: int, split: bool = True, *, pairs: bool = False
+):
     """Yield the parts of level ``stop`` with their lists, and their cells' distances.
 
     Each as ``(f, dist)``: the frontier ``f`` (its cells, centres and candidate pairs,
@@ -40,8 +42,9 @@ def walk_levels(nodes: NodeArcs, grid, m: float, stop: int, *, pairs: bool = Fal
     where at most ``m``; above it, the lists hold every original arc (nodes split down
     to the arcs) that can be the nearest arc within ``m`` of a point within ``rho`` of
     the cell's centre (so of any of its pixels' centres). The levels are walked depth
-    first, in parts of contiguous cells.
-
+    first, in parts of contiguous cells. Without ``split``, the nodes of level ``stop``
+    above the output are split as those of the levels above it (to ``KAPPA rho``): lists
+    that a walk further down can start from.
     With ``pairs`` (the output level only), each as ``(f, dist, (cell, node, d))``: the
     pairs whose exact distance ``d`` was computed, sorted by cell (every pair that can be a pixel's
     nearest is among them, the least of their ``d`` being ``dist``, bit for bit): what
@@ -57,16 +60,16 @@ def walk_levels(nodes: NodeArcs, grid, m: float, stop: int, *, pairs: bool = Fal
     k = len(cells)
     c = grid.centers(0, cells[:, 0], cells[:, 1])
     rho = grid.rho_at(0, cells[:, 0], cells[:, 1])
-    top = _root_list(nodes, trig, m, c, rho, top)
+    top = root_list(nodes, trig, m, c, rho, top)
     pc, pn = np.repeat(np.arange(k), len(top)), np.tile(top, k)
     stack = [(Frontier(0, cells, c, rho, pc, pn, np.zeros((k, 0), np.uint8)), False)]
-    leaves = min(stop, last - 1)  # the level whose nodes are split down to the arcs
+    leaves = min(stop if split else last, last - 1)  # the level whose nodes are split to the arcs
     while stack:  # depth first: one part of each level at a time
         f, parent = stack.pop()
         if parent:
             cells, _, c, rho, pc, pn = children(f, grid)
             f = Frontier(f.level + 1, cells, c, rho, pc, pn, np.zeros((len(cells), 0), np.uint8))
-        reach = _kids_reach(f, grid) if f.level == last - 1 else f.rho
+        reach = kids_reach(f, grid) if f.level == last - 1 else f.rho
         final = f.level == last
         got = _bound(f, nodes, trig, m, reach, final=final, leaves=f.level == leaves, pairs=pairs)
         f, dist = got[0], got[1]
@@ -77,11 +80,11 @@ def walk_levels(nodes: NodeArcs, grid, m: float, stop: int, *, pairs: bool = Fal
 
 
 #: A grid whose level 0 lies within this angle (rad) of its centre is first walked as one
-#: cell (:func:`_root_list`): a tile, a regional box.
+#: cell (:func:`root_list`): a tile, a regional box.
 _ROOT_REACH = 1.0
 
 
-def _root_list(nodes: NodeArcs, trig, m: float, c: np.ndarray, rho: np.ndarray, top):
+def root_list(nodes: NodeArcs, trig, m: float, c: np.ndarray, rho: np.ndarray, top):
     """Return the nodes every cell of level 0 starts with.
 
     For a small grid (its level-0 cells within :data:`_ROOT_REACH` of their mean
@@ -120,7 +123,7 @@ _KAPPA = 0.0625
 _TINY = 1e-14
 
 
-def _kids_reach(f: Frontier, grid) -> np.ndarray:
+def kids_reach(f: Frontier, grid) -> np.ndarray:
     """Return the farthest child centre (output level) from each cell's centre, rounded up.
 
     These are the only points of the next level whose distances are asked for, so the
@@ -150,7 +153,7 @@ def _bound(
     """Return the pairs (cells, nodes) that can hold a nearest arc, and the distances.
 
     The pairs of ``f`` that can hold the nearest boundary arc of some point within
-    ``reach`` (``rho``, or less: :func:`_kids_reach`) of a cell's centre,
+    ``reach`` (``rho``, or less: :func:`kids_reach`) of a cell's centre,
     every node split until its error bound is at most :data:`_KAPPA` ``rho``; and each
     cell's distance to its nearest pair (``inf`` where it has none). At the output level
     (``final``) only the pixel centre is asked for (``reach`` is not read): nodes are

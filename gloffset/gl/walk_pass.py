@@ -1,0 +1,235 @@
+"""A distance field's walk on the GL context, level by level (``shaders/field_walk.comp``).
+
+Each cell's list of multiresolution nodes is its parent's pruned and split in float32 by
+the rule of :func:`gloffset.raster.field_walk._bound` (the bisector test against the
+nearest end of the parent's nodes), every bound widened: each list is a superset of
+the float64 rule's. Inputs are float64 unit
+vectors rounded once to float32 (off by at most u = 2^-24 in norm); radii (``reach``,
+``err``, the cells' reach, ``m``) are rounded up. The bounds:
+
+* a chord ``|c - p|`` is off by 2u from its inputs and 8u relative from its rounding
+  (differences, squares, sum: 4u; a square root two ulp off: 4u): :data:`CH_ABS` +
+  :data:`CH_REL` times the chord (margins 2 and 8); ``2 asin(ch / 2)`` is monotone, so
+  the chord is moved by that bound first (never ``acos`` of a dot near 1);
+* ``asin_f`` (Cephes' ``asinf``: a minimax polynomial on [0, 1/2], the half-angle formula
+  above, whose float32 square root GLSL allows 4.5 ulp) is within 5e-7 relative of
+  ``asin`` (measured on every scale by ``tests/test_field_walk_gpu.py``); the angles are
+  moved by :data:`ASIN_REL` (4e-6, a margin of 8) and up by ``CH_ABS``;
+* ``c.n`` and ``c.(n x a)``, ``c.(b x n)`` (the cross products in float32) are off by 2u
+  (inputs), 6u (the cross product) and 3u (the sum): 11u = 6.6e-7 < :data:`DOT_ERR`
+  (2e-6). A foot is on the arc where both tests exceed ``DOT_ERR``, off it (an end is
+  nearest) where one is below ``-DOT_ERR``; else the distance to the arc lies between
+  that to its great circle and that to its nearest end;
+* the bounds, ``best + 2 reach`` and ``m + reach`` are one float32 sum each of values
+  below 16 (half an ulp: 9.5e-7): :data:`SUM_ERR` (4e-6) covers the four;
+* the bisector test: see :data:`BIS_ABS`.
+
+The float64 rule's own rounding (1e-14) is far below these margins. The slack is about
+4e-6 rad (25 m) absolute: cells much smaller get longer lists, never shorter.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .context import context_info, get_context, shared
+from .shaders import load_source
+
+__all__ = [
+    "ASIN_REL",
+    "BISECTOR",
+    "BIS_ABS",
+    "BIS_REL",
+    "CH_ABS",
+    "CH_REL",
+    "DOT_ERR",
+    "SUM_ERR",
+    "WalkPass",
+    "walk_pass",
+]
+
+CH_REL, CH_ABS = 1e-6, 2.5e-7
+ASIN_REL = 4e-6
+DOT_ERR = 2e-6
+SUM_ERR = 4e-6
+#: The bisector test's bounds. Its least ``q.v`` over the disc, ``v = vtx - cos r mid``,
+#: is computed as ``(c.v) cos R - |c x v| sin R`` with ``v = w + k mid``, ``w = vtx - mid``
+#: (float32), ``k = 1 - cos r`` (from float64): no cancellation of nearly equal cosines.
+#: ``c.v`` is off by 2u (inputs) + 6u |w| + 8u k, ``|c x v|`` by 2u + 16u |w| + 14u k, the
+#: products with ``cos R``, ``sin R`` and the difference add 10u (|w| + k): at most
+#: 4u + 32u (|w| + k) = 2.4e-7 + 1.9e-6 (|w| + k), against BIS_ABS + BIS_REL (|w| + k)
+#: (margins 8 and 5). ``S >= sin(min(t + R, pi/2))`` from the chord to ``mid`` rounded up
+#: (``sin t = ch sqrt(1 - ch^2 / 4)``, ``cos t = 1 - ch^2 / 2``, the sum formulas: off by
+#: 1e-6 at most) is raised by BIS_ABS, 1 unless ``cos(t + R)`` exceeds BIS_ABS; the right
+#: side, ``sin r`` rounded up, by the factor ``1 + BIS_ABS``. Below 1e-6 or so (cells of a
+#: few hundred metres) the test can prune nothing: the lists are then the rule's without it.
+BIS_ABS, BIS_REL = 2e-6, 1e-5
+#: Whether the lists are shortened by the bisector test (as the float64 walk's are).
+BISECTOR = True
+_LOCAL = 64
+#: Bits of the shader's flags: the pool was too small; a stack or loop limit was hit.
+FLAG_POOL, FLAG_LIMIT = 1, 2
+
+
+@dataclass
+class WalkLevel:
+    """One level for :meth:`WalkPass.run`: ``cells`` (k, 2, 4) float32 (centre and
+    reach rounded up; the split bound, cos and sin of the reach), row-major, ``width``
+    cells a row;
+    ``pwidth`` the parent level's width (0: every cell's parent is parent 0)."""
+
+    cells: np.ndarray
+    width: int
+    pwidth: int
+
+
+class WalkPass:
+    """The compiled program and its runs (one per GL thread)."""
+
+    def __init__(self):
+        self.ctx = get_context()
+        self.max_bytes = context_info()["max_storage_block_size"]
+        self.max_pool = self.max_bytes // 4  # node ids in a pool
+        # llvmpipe ends all loops of an invocation after 65535 iterations in all, silently
+        self.max_steps = 60000 if context_info()["software"] else 1 << 30
+        src, _ = load_source("field_walk.comp")
+        self.prog = self.ctx.compute_shader(src)
+
+    def run(self, table, parents, levels, m: float):
+        """Walk ``levels`` from the ``parents``' lists; return the last level's count per
+        cell and its lists' node ids, by cell (row-major), or None where a limit is hit.
+
+        ``table``: ``(nodes (n, 4, 4) float32, child (n, 2) int32)`` as
+        ``shaders/field_walk.comp`` reads them; ``parents``: ``(start, count)`` (k, 2)
+        of the cells above the first level (one row: the root list of every cell of
+        level 0) and their pool of node ids; ``m`` rounded up, at most 4.
+        """
+        ctx = self.ctx
+        nodes, child = table
+        sc, ids = parents
+        if max(nodes.nbytes, ids.nbytes, sc.nbytes) > self.max_bytes:
+            return None
+        bufs = [ctx.buffer(nodes.tobytes()), ctx.buffer(child.tobytes())]
+        par = ctx.buffer(np.ascontiguousarray(sc, np.uint32).tobytes())
+        pool = ctx.buffer(np.ascontiguousarray(ids, np.uint32).tobytes() or bytes(4))
+        try:
+            for k, b in enumerate(bufs):
+                b.bind_to_storage_buffer(k)
+            self.prog["u_m"] = float(m)
+            self.prog["u_bisector"] = int(BISECTOR)
+            self.prog["u_max_steps"] = self.max_steps
+            for name, v in (
+                ("u_ch_rel", CH_REL),
+                ("u_ch_abs", CH_ABS),
+                ("u_asin_rel", ASIN_REL),
+                ("u_dot_err", DOT_ERR),
+                ("u_sum_err", SUM_ERR),
+                ("u_bis_abs", BIS_ABS),
+                ("u_bis_rel", BIS_REL),
+            ):
+                self.prog[name] = v
+            cap = 4 * max(len(ids), 1)
+            for lev in levels[:-1]:
+                got = self._level(lev, par, pool, cap)
+                if got is None:
+                    return None
+                out, new, cap = got
+                par.release()
+                pool.release()
+                par, pool = out, new
+            return self._last(levels[-1], par, pool, cap)
+        finally:
+            for b in bufs + [par, pool]:
+                b.release()
+
+    def _level(self, lev: WalkLevel, par, pool, cap: int):
+        """Run a level above the last: its ``(start, count)`` and pool buffers, and a
+        capacity for the next level's pool (None where a limit is hit)."""
+        k = len(lev.cells)
+        cells = self.ctx.buffer(np.ascontiguousarray(lev.cells, np.float32).tobytes())
+        out = self.ctx.buffer(reserve=8 * k)
+        try:
+            while True:
+                if cap > self.max_pool or 32 * k > self.max_bytes:
+                    out.release()
+                    return None
+                new, total, flags = self._run(lev, (cells, par, pool, out), (0, k), cap)
+                if flags & FLAG_LIMIT:
+                    new.release()
+                    out.release()
+                    return None
+                if not flags & FLAG_POOL:
+                    return out, new, max(cap, 4 * total)
+                new.release()
+                cap = total + total // 4
+        finally:
+            cells.release()
+
+    def _last(self, lev: WalkLevel, par, pool, cap: int):
+        """Run the last level in runs of cells whose pools fit: each cell's count and
+        the arcs by cell (row-major), or None where a limit is hit."""
+        k = len(lev.cells)
+        most = self.max_pool
+        if 32 * k > self.max_bytes:
+            return None
+        cells = self.ctx.buffer(np.ascontiguousarray(lev.cells, np.float32).tobytes())
+        out = self.ctx.buffer(reserve=8 * k)
+        counts, arcs = [], []
+        try:
+            k0, step = 0, k
+            while k0 < k:
+                k1 = min(k, k0 + step)
+                want = min(most, max(1024, cap * (k1 - k0) // k))
+                new, total, flags = self._run(lev, (cells, par, pool, out), (k0, k1), want)
+                if flags & FLAG_LIMIT:
+                    new.release()
+                    return None
+                if flags & FLAG_POOL:
+                    new.release()
+                    if total <= most:
+                        cap = max(cap, total * k // (k1 - k0) + 1)
+                    elif step > 1:
+                        step = (step + 1) // 2
+                    else:
+                        return None
+                    continue
+                sc = np.frombuffer(out.read(size=8 * (k1 - k0)), np.uint32).reshape(-1, 2)
+                ids = np.frombuffer(new.read(size=4 * max(total, 1)), np.uint32)
+                new.release()
+                start, count = sc[:, 0].astype(np.int64), sc[:, 1].astype(np.int64)
+                lead = np.cumsum(count) - count
+                counts.append(count)
+                arcs.append(ids[np.repeat(start - lead, count) + np.arange(int(count.sum()))])
+                k0 = k1
+            return np.concatenate(counts), np.concatenate(arcs)
+        finally:
+            cells.release()
+            out.release()
+
+    def _run(self, lev: WalkLevel, bound, span, cap: int):
+        """One dispatch over cells ``span`` of ``lev`` with a new pool of ``cap`` ids:
+        the pool, the ids asked for and the flags."""
+        k0, k1 = span
+        new = self.ctx.buffer(reserve=4 * cap)
+        count = self.ctx.buffer(bytes(8))
+        try:
+            for b, at in zip((*bound, new, count), range(2, 8)):
+                b.bind_to_storage_buffer(at)
+            self.prog["u_first"] = k0
+            self.prog["u_cells"] = k1
+            self.prog["u_width"] = lev.width
+            self.prog["u_pwidth"] = lev.pwidth
+            self.prog["u_capacity"] = cap
+            self.prog.run(group_x=max(1, -(-(k1 - k0) // _LOCAL)))
+            self.ctx.memory_barrier()
+            total, flags = (int(x) for x in np.frombuffer(count.read(), np.uint32))
+        finally:
+            count.release()
+        return new, total, flags
+
+
+def walk_pass() -> WalkPass:
+    """This thread's :class:`WalkPass` (made on first use, with the GL context)."""
+    return shared(WalkPass)
