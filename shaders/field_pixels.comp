@@ -36,8 +36,8 @@ layout(std430, binding = 3) readonly buffer Ends {
     uvec2 ends[];             // per arc: the ids of its ends (one per distinct vertex)
 };
 layout(std430, binding = 4) readonly buffer Exact {
-    double exact[];           // 16 per arc: a, b, n, n x a, b x n (float64), ok (1 or 0)
-};
+    dvec4 exact[];            // 4 per arc (float64): (a, ok), (b, bn.x), (n, bn.y),
+};                            // (n x a, bn.z), with bn = b x n and ok 1 or 0
 layout(std430, binding = 5) writeonly buffer Out {
     double dist[];            // per pixel of the block (row-major): the distance (rad)
 };
@@ -203,30 +203,43 @@ double dot3(dvec3 u, dvec3 v) {
     return s;
 }
 
-dvec3 exact_vec(uint k, uint at) {
-    uint o = 16u * k + at;
-    return dvec3(exact[o], exact[o + 1u], exact[o + 2u]);
+// The angle from p to the point v, 2 atan2(|p - v|, |p + v|), from the squared lengths
+// A = |p - v|^2 and B = |p + v|^2 as 2 atan2(sqrt(A B), B) (one square root).
+double end_angle(double A, double B) {
+    return 2.0LF * fp64_atan2(fp64_sqrt(A * B), B);
 }
 
-// The angle from p to the point v: 2 atan2(|p - v|, |p + v|).
-double end_distance(dvec3 p, dvec3 v) {
+// The squared lengths (|p - v|^2, |p + v|^2) of end_angle.
+dvec2 end_lengths(dvec3 p, dvec3 v) {
     precise dvec3 dm = p - v;
     precise dvec3 dp = p + v;
-    return 2.0LF * fp64_atan2(fp64_sqrt(dot3(dm, dm)), fp64_sqrt(dot3(dp, dp)));
+    return dvec2(dot3(dm, dm), dot3(dp, dp));
+}
+
+double end_distance(dvec3 p, dvec3 v) {
+    dvec2 ab = end_lengths(p, v);
+    return end_angle(ab.x, ab.y);
 }
 
 // The angle from p to arc k (arc_distance): to its great circle, atan2(|p.n|, |p -
 // (p.n) n|), where the foot falls on the arc (p.(n x a) >= 0, p.(b x n) >= 0, n a
-// normal), else to the nearer end.
+// normal), else to the nearer end (the one of lesser tan^2 of half its angle, A / B,
+// compared as A_a B_b < A_b B_a: where the roundings could swap them, their angles
+// agree to a few ulp).
 double arc_distance(dvec3 p, uint k) {
-    bool ok = exact[16u * k + 15u] > 0.5LF;
-    if (ok && dot3(p, exact_vec(k, 9u)) >= 0.0LF && dot3(p, exact_vec(k, 12u)) >= 0.0LF) {
-        dvec3 n = exact_vec(k, 6u);
+    dvec4 r0 = exact[4u * k];
+    dvec4 r1 = exact[4u * k + 1u];
+    dvec4 r2 = exact[4u * k + 2u];
+    dvec4 r3 = exact[4u * k + 3u];
+    if (r0.w > 0.5LF && dot3(p, r3.xyz) >= 0.0LF && dot3(p, dvec3(r1.w, r2.w, r3.w)) >= 0.0LF) {
+        dvec3 n = r2.xyz;
         double pn = dot3(p, n);
         precise dvec3 foot = p - pn * n;
         return fp64_atan2(abs(pn), fp64_sqrt(dot3(foot, foot)));
     }
-    return min(end_distance(p, exact_vec(k, 0u)), end_distance(p, exact_vec(k, 3u)));
+    dvec2 ea = end_lengths(p, r0.xyz);
+    dvec2 eb = end_lengths(p, r1.xyz);
+    return ea.x * eb.y <= eb.x * ea.y ? end_angle(ea.x, ea.y) : end_angle(eb.x, eb.y);
 }
 
 // The exact distance of a feature ((pair << 2) | kind) as the ranking names it.
@@ -236,7 +249,7 @@ double feature(dvec3 p, uint w) {
     if (kind == 0u) {
         return arc_distance(p, k);
     }
-    return end_distance(p, exact_vec(k, kind == 1u ? 0u : 3u));
+    return end_distance(p, exact[4u * k + (kind == 1u ? 0u : 1u)].xyz);
 }
 
 void main() {
@@ -264,6 +277,12 @@ void main() {
     }
     // the features within reach of the least, in double (the least first)
     float reach = m0 + u_gap;
+#ifdef PROBE_RANKING
+    // the ranking alone (tests/test_field_gpu.py): the least chord, negated where the
+    // pixel would take its cell's whole list
+    dist[at] = dropped <= reach || unsure <= reach ? -double(m0) : double(m0);
+    return;
+#endif
     double d = feature(pd, w0);
     if (m1 <= reach) {
         d = min(d, feature(pd, w1));

@@ -56,7 +56,7 @@ NEAREST_ERR = 4e-6
 #: small angles (its float32 seed off by 1e-7 relative, one cubic Newton step, the
 #: residual ``y cos t - x sin t`` rounded to an ulp of ``y``) and 3e-16 absolute at
 #: worst: at most 1.5e-15 relative, 4e-16 absolute. Measured: ``tests/test_field_gpu.py``
-#: (the largest relative error over a million real pixel/arc pairs, 5e-16 on llvmpipe).
+#: (the largest relative error over a million real pixel/arc pairs: 6.7e-16 on llvmpipe).
 #: A float32 ulp is 6e-8 relative: the float64 values round to the CPU's float32 values
 #: or to a neighbour where the CPU's lies within 1.5e-15 of a rounding boundary.
 FIELD_ERR = 1.5e-15
@@ -79,8 +79,8 @@ class FieldPlan:
     n_x), (b, n_y), (n x a, n_z), (b x n, ok)``, ``(mid, r)`` with ``ok`` 1 where the arc
     has a normal (0: its ends only), ``mid`` and ``r`` the centre and chord radius
     (rounded up) of a cap that holds it; ``ends`` (m, 2) uint32 the ids of the arcs' ends
-    (equal for the same vertex, below 2^31); ``exact`` (m, 16) float64 ``a, b, n, n x a,
-    b x n, ok`` (the host's float64 values).
+    (equal for the same vertex, below 2^31); ``exact`` (m, 16) float64 ``(a, ok), (b,
+    bn_x), (n, bn_y), (n x a, bn_z)`` with ``bn = b x n`` (the host's float64 values).
 
     The centres, by ``kind``: ``"lonlat"`` ``rows`` (h, 2) the cosine and sine of each
     row's latitude, ``cols`` (w, 2) of each column's longitude; ``"cube"`` ``rows`` (h,)
@@ -115,10 +115,14 @@ class FieldPass:
         info = context_info()
         self.max_bytes = info["max_storage_block_size"]
         self._progs: dict = {}
+        #: where ``field_pixels.comp`` is read from (None: the shader folder)
+        self.root = None
 
-    def program(self, kind: str, source: str | None = None):
-        """The compiled program of a kind of centres (a grid's GLSL file for ``"glsl"``)."""
-        key = (kind, source)
+    def program(self, kind: str, source: str | None = None, probe: bool = False):
+        """The compiled program of a kind of centres (a grid's GLSL file for ``"glsl"``);
+        with ``probe``, its variant that writes the ranking's least chord instead of the
+        distance (negated where the pixel takes its cell's whole list)."""
+        key = (kind, source, probe, self.root)
         prog = self._progs.get(key)
         if prog is None:
             defines = {
@@ -126,7 +130,9 @@ class FieldPass:
                 "texture": {"GRID_TEXTURE": 1},
                 "glsl": {"GRID_GLSL": f'"{source}"'},
             }.get(kind, {})
-            src, _ = load_source("field_pixels.comp", defines)
+            if probe:
+                defines = {**defines, "PROBE_RANKING": 1}
+            src, _ = load_source("field_pixels.comp", defines, root=self.root)
             prog = self._progs[key] = self.ctx.compute_shader(src)
         return prog
 
@@ -140,9 +146,11 @@ class FieldPass:
             and 4 * pairs < 1 << 30
         )
 
-    def run(self, plan: FieldPlan) -> np.ndarray:
+    def run(self, plan: FieldPlan, probe: bool = False) -> np.ndarray:
         """Return (h, w) float64: each pixel's distance (rad) to the nearest arc of its
-        cell's list, ``inf`` where the list is empty (see the module notes)."""
+        cell's list, ``inf`` where the list is empty (see the module notes); with
+        ``probe`` (the tests' measure of :data:`NEAREST_ERR`), the ranking's least
+        float32 chord instead, negated where the pixel takes its cell's whole list."""
         h, w = plan.size
         hc, wc = plan.cells.shape[:2]
         if not self.fits(h, w, len(plan.pairs), len(plan.arcs), plan.kind == "texture"):
@@ -153,7 +161,7 @@ class FieldPass:
             )
         if (hc, wc) != (-(-h >> plan.shift), -(-w >> plan.shift)):
             raise ValueError(f"cells {plan.cells.shape} do not cover {h} x {w} pixels")
-        prog = self.program(plan.kind, plan.source)
+        prog = self.program(plan.kind, plan.source, probe)
         ctx = self.ctx
 
         def buf(a, t):

@@ -54,8 +54,9 @@ _RECORDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 def _records(nodes: NodeArcs) -> tuple[np.ndarray, np.ndarray]:
     """Every node's arc as ``shaders/field_pixels.comp`` reads it: (nodes, 5, 4) float32
-    for the ranking, (nodes, 16) float64 for the finishing (``a, b, n, n x a, b x n,
-    ok``: the values of :func:`~gloffset.geometry.sphere.arc_distance`, bit for bit)."""
+    for the ranking, (nodes, 16) float64 for the finishing (``(a, ok), (b, bn_x), (n,
+    bn_y), (n x a, bn_z)`` with ``bn = b x n``: the values of
+    :func:`~gloffset.geometry.sphere.arc_distance`, bit for bit)."""
     got = _RECORDS.get(nodes)
     if got is None:
         n = nodes.n
@@ -68,10 +69,11 @@ def _records(nodes: NodeArcs) -> tuple[np.ndarray, np.ndarray]:
         rec[:, 3, 3] = ok
         rec[:, 4, :3] = nodes.mid
         rec[:, 4, 3] = pad(chord(np.minimum(nodes.half, np.pi)))
-        exact = np.zeros((len(n), EXACT_DOUBLES))
-        for k, v in enumerate((nodes.a, nodes.b, n, na, bn)):
-            exact[:, 3 * k : 3 * k + 3] = v
-        exact[:, 15] = ok
+        exact = np.zeros((len(n), 4, 4))
+        exact[:, 0, :3], exact[:, 1, :3], exact[:, 2, :3], exact[:, 3, :3] = nodes.a, nodes.b, n, na
+        exact[:, 0, 3] = ok
+        exact[:, 1:, 3] = bn
+        exact = exact.reshape(len(n), EXACT_DOUBLES)
         got = _RECORDS[nodes] = (rec.astype(np.float32), exact)
     return got
 
