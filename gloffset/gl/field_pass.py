@@ -125,11 +125,12 @@ class FieldPass:
         key = (kind, source, probe, self.root)
         prog = self._progs.get(key)
         if prog is None:
-            defines = {
+            variants: dict[str, dict] = {
                 "cube": {"GRID_CUBE": 1},
                 "texture": {"GRID_TEXTURE": 1},
                 "glsl": {"GRID_GLSL": f'"{source}"'},
-            }.get(kind, {})
+            }
+            defines = variants.get(kind, {})
             if probe:
                 defines = {**defines, "PROBE_RANKING": 1}
             src, _ = load_source("field_pixels.comp", defines, root=self.root)

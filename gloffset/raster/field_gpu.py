@@ -69,12 +69,11 @@ def _records(nodes: NodeArcs) -> tuple[np.ndarray, np.ndarray]:
         rec[:, 3, 3] = ok
         rec[:, 4, :3] = nodes.mid
         rec[:, 4, 3] = pad(chord(np.minimum(nodes.half, np.pi)))
-        exact = np.zeros((len(n), 4, 4))
-        exact[:, 0, :3], exact[:, 1, :3], exact[:, 2, :3], exact[:, 3, :3] = nodes.a, nodes.b, n, na
-        exact[:, 0, 3] = ok
-        exact[:, 1:, 3] = bn
-        exact = exact.reshape(len(n), EXACT_DOUBLES)
-        got = _RECORDS[nodes] = (rec.astype(np.float32), exact)
+        ex = np.zeros((len(n), 4, 4))
+        ex[:, 0, :3], ex[:, 1, :3], ex[:, 2, :3], ex[:, 3, :3] = nodes.a, nodes.b, n, na
+        ex[:, 0, 3] = ok
+        ex[:, 1:, 3] = bn
+        got = _RECORDS[nodes] = (rec.astype(np.float32), ex.reshape(len(n), EXACT_DOUBLES))
     return got
 
 
