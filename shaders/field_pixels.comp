@@ -203,53 +203,54 @@ double dot3(dvec3 u, dvec3 v) {
     return s;
 }
 
-// The angle from p to the point v, 2 atan2(|p - v|, |p + v|), from the squared lengths
-// A = |p - v|^2 and B = |p + v|^2 as 2 atan2(sqrt(A B), B) (one square root).
-double end_angle(double A, double B) {
-    return 2.0LF * fp64_atan2(fp64_sqrt(A * B), B);
-}
-
-// The squared lengths (|p - v|^2, |p + v|^2) of end_angle.
+// The squared lengths (|p - v|^2, |p + v|^2) of the angle from p to the point v, 2
+// atan2(|p - v|, |p + v|) = 2 atan2(sqrt(A B), B) (one square root).
 dvec2 end_lengths(dvec3 p, dvec3 v) {
     precise dvec3 dm = p - v;
     precise dvec3 dp = p + v;
     return dvec2(dot3(dm, dm), dot3(dp, dp));
 }
 
-double end_distance(dvec3 p, dvec3 v) {
-    dvec2 ab = end_lengths(p, v);
-    return end_angle(ab.x, ab.y);
-}
-
-// The angle from p to arc k (arc_distance): to its great circle, atan2(|p.n|, |p -
-// (p.n) n|), where the foot falls on the arc (p.(n x a) >= 0, p.(b x n) >= 0, n a
-// normal), else to the nearer end (the one of lesser tan^2 of half its angle, A / B,
-// compared as A_a B_b < A_b B_a: where the roundings could swap them, their angles
-// agree to a few ulp).
-double arc_distance(dvec3 p, uint k) {
-    dvec4 r0 = exact[4u * k];
-    dvec4 r1 = exact[4u * k + 1u];
-    dvec4 r2 = exact[4u * k + 2u];
-    dvec4 r3 = exact[4u * k + 3u];
-    if (r0.w > 0.5LF && dot3(p, r3.xyz) >= 0.0LF && dot3(p, dvec3(r1.w, r2.w, r3.w)) >= 0.0LF) {
-        dvec3 n = r2.xyz;
-        double pn = dot3(p, n);
-        precise dvec3 foot = p - pn * n;
-        return fp64_atan2(abs(pn), fp64_sqrt(dot3(foot, foot)));
-    }
-    dvec2 ea = end_lengths(p, r0.xyz);
-    dvec2 eb = end_lengths(p, r1.xyz);
-    return ea.x * eb.y <= eb.x * ea.y ? end_angle(ea.x, ea.y) : end_angle(eb.x, eb.y);
-}
-
-// The exact distance of a feature ((pair << 2) | kind) as the ranking names it.
+// The exact distance of a feature ((pair << 2) | kind) as the ranking names it: kind 1
+// or 2 an end (2 atan2(|p - v|, |p + v|)), kind 0 the arc (arc_distance): to its great
+// circle, atan2(|p.n|, |p - (p.n) n|), where the foot falls on the arc (p.(n x a) >= 0,
+// p.(b x n) >= 0, n a normal), else to the nearer end (the one of lesser tan^2 of half
+// its angle, A / B, compared as A_a B_b < A_b B_a: where the roundings could swap them,
+// their angles agree to a few ulp). Every case ends in one square root and one
+// arctangent (no branch of the SIMD lanes runs them twice).
 double feature(dvec3 p, uint w) {
     uint k = pairs[w >> 2];
     uint kind = w & 3u;
+    dvec4 r0 = exact[4u * k];
+    dvec4 r1 = exact[4u * k + 1u];
+    bool foot = false;
+    double pn = 0.0LF;
+    double q;  // the square root's argument: |foot|^2, or A B
+    double x;  // atan2's x for an end: B
     if (kind == 0u) {
-        return arc_distance(p, k);
+        dvec4 r2 = exact[4u * k + 2u];
+        dvec4 r3 = exact[4u * k + 3u];
+        foot = r0.w > 0.5LF && dot3(p, r3.xyz) >= 0.0LF
+            && dot3(p, dvec3(r1.w, r2.w, r3.w)) >= 0.0LF;
+        if (foot) {
+            pn = dot3(p, r2.xyz);
+            precise dvec3 f = p - pn * r2.xyz;
+            q = dot3(f, f);
+        } else {
+            dvec2 ea = end_lengths(p, r0.xyz);
+            dvec2 eb = end_lengths(p, r1.xyz);
+            dvec2 e = ea.x * eb.y <= eb.x * ea.y ? ea : eb;
+            q = e.x * e.y;
+            x = e.y;
+        }
+    } else {
+        dvec2 e = end_lengths(p, kind == 1u ? r0.xyz : r1.xyz);
+        q = e.x * e.y;
+        x = e.y;
     }
-    return end_distance(p, exact[4u * k + (kind == 1u ? 0u : 1u)].xyz);
+    double r = fp64_sqrt(q);
+    double t = fp64_atan2(foot ? abs(pn) : r, foot ? r : x);
+    return foot ? t : 2.0LF * t;
 }
 
 void main() {
@@ -304,7 +305,7 @@ void main() {
         for (uint k = list.x; k < list.x + list.y; k++) {
             uint a = pairs[k];
             if (!far_cap(p, a)) {
-                d = min(d, arc_distance(pd, a));
+                d = min(d, feature(pd, k << 2));
             }
         }
     }
