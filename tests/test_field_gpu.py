@@ -94,6 +94,22 @@ def test_lines_and_points_within_an_ulp():
         assert_contract(shape, Cube(16), max_distance=1000e3)
 
 
+@pytest.mark.parametrize(
+    "crs, kind",
+    [("EPSG:3031", "glsl"), ("+proj=ortho +lat_0=-90 +lon_0=0", "texture")],
+    ids=["polar-glsl", "ortho-texture"],
+)
+def test_projected_grids_within_an_ulp(edges, crs, kind):
+    """Antarctica on a polar stereographic grid (the shader's centres from the grid's GLSL
+    function) and an orthographic one (the host's centres, pyproj's, handed over)."""
+    from gloffset.grids import Projected
+
+    g = Projected(140, 120, crs=crs, bounds=(-3.2e6, -2.8e6, 3.2e6, 3.2e6))
+    assert g.centres == kind
+    field = assert_contract(edges, g)
+    assert (field.values < 0).any() and (field.values > 0).any()
+
+
 def test_lonlat_centres_are_the_hosts(mexico):
     """On lon/lat grids the shader's centres are the host's bit for bit (its products of
     the rows' and columns' cosines and sines): on a Mexico tile every value has the
