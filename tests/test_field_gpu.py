@@ -99,15 +99,26 @@ def test_lines_and_points_within_an_ulp():
     [("EPSG:3031", "glsl"), ("+proj=ortho +lat_0=-90 +lon_0=0", "texture")],
     ids=["polar-glsl", "ortho-texture"],
 )
-def test_projected_grids_within_an_ulp(edges, crs, kind):
+def test_projected_grids_within_an_ulp(edges, crs, kind, monkeypatch):
     """Antarctica on a polar stereographic grid (the shader's centres from the grid's GLSL
-    function) and an orthographic one (the host's centres, pyproj's, handed over)."""
+    function) and an orthographic one (the host's centres, pyproj's, handed over); in
+    blocks of 32 pixels (each block's pixels from its own origin), the same values."""
     from gloffset.grids import Projected
 
     g = Projected(140, 120, crs=crs, bounds=(-3.2e6, -2.8e6, 3.2e6, 3.2e6))
     assert g.centres == kind
     field = assert_contract(edges, g)
     assert (field.values < 0).any() and (field.values > 0).any()
+    monkeypatch.setattr(field_gpu, "_BLOCK", 32)
+    assert gloffset.distance_field(edges, g).values.tobytes() == field.values.tobytes()
+
+
+def test_cube_faces_in_blocks(edges, monkeypatch):
+    """Cube faces in blocks of 16 pixels (each block's rows and columns of face
+    coordinates its own): the same values as in one block, within an ulp of the CPU's."""
+    whole = assert_contract(edges, Cube(48)).values
+    monkeypatch.setattr(field_gpu, "_BLOCK", 16)
+    assert gloffset.distance_field(edges, Cube(48)).values.tobytes() == whole.tobytes()
 
 
 def test_lonlat_centres_are_the_hosts(mexico):
