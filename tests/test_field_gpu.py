@@ -167,7 +167,12 @@ def _broken(monkeypatch, tmp_path, old: str, new: str) -> None:
         # a wrong candidate: the second feature in place of the least one
         ("double d = feature(pd, w0);", "double d = feature(pd, w1 != NONE ? w1 : w0);", 10000),
         # every pixel its cell's whole list: the same values
-        ("if (dropped <= reach || unsure <= reach) {", "if (true) {", 0),
+        pytest.param(
+            "if (dropped <= reach || unsure <= reach) {",
+            "if (true) {",
+            0,
+            marks=pytest.mark.slow,
+        ),
     ],
     ids=["least-only", "wrong-candidate", "whole-lists"],
 )
