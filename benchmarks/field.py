@@ -9,7 +9,8 @@ Europe's box, -26,35,46,71: square pixels, as GDAL's proximity in degrees needs)
 * gloffset: the exact signed distance field (float32, metres), timed once (the first
   case cold: the shape's multiresolution tree is built inside), with the default GPU
   backend (its stages timed again on their own: ``gpu_split``) and with
-  ``backend="cpu"`` (``gloffset_cpu``: its time and whether its values have the same bits);
+  ``backend="cpu"`` (``gloffset_cpu``: its time, whether its values have the same bits
+  and the largest difference in float32 ulps, at most 1);
 * scipy's ``distance_transform_edt`` on the land mask (the field's sign), the pixel
   spacing in degrees, converted to km as users do (1 degree = R pi / 180);
 * GDAL's ``ComputeProximity`` on the same mask (``DISTUNITS=GEO``: degrees, converted the
@@ -177,7 +178,8 @@ def floor(shape, grid: Equirect) -> dict:
 
 def gpu_split(shape, grid: Equirect) -> dict:
     """The GPU backend's stages, timed on their own: the walk to the lists' level, the
-    blocks' lists and centres, the GL pass, the float64 finishing, the inside test."""
+    blocks' lists, the GL pass (centres, float32 ranking, float64 finishing), the inside
+    test."""
     from gloffset.raster import field_gpu
     from gloffset.raster.vector import curves
 
@@ -219,6 +221,9 @@ def field_case(shape, name: str, args) -> dict:
         "gloffset_cpu": {
             "s": t_cpu,
             "same_bits": bool(np.array_equal(values.view(np.uint32), cpu.view(np.uint32))),
+            "max_ulps": float(
+                np.max(np.abs(values.astype(np.float64) - cpu) / np.spacing(np.abs(cpu)))
+            ),
         },
         "gpu_split": gpu_split(shape, grid),
         "reference_sample": {"pixels": args.sample, "s": t_ref},

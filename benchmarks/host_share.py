@@ -2,14 +2,15 @@
 
 gloffset draws with fragment shaders, but a run also spends time on the host: the
 float64 scatter into the bin level, the arc records, a field's float64 walk down to
-8 x 8 cells and its float64 finishing, the planning of the lists, the inside test. A
+8 x 8 cells, the planning of the lists, the inside test. A
 faster GPU only shortens the GL part. Per workload this prints the wall time (warm, no
 profiler), the time inside moderngl's calls (draws, uploads, read-backs, object
 creation), the host share ``1 - gl / wall`` and the host time, wall times that share:
 what no GPU can speed up.
 
 Method: every public method of moderngl's ``Context``, ``Program``, ``Buffer``,
-``Texture``, ``TextureCube``, ``Framebuffer``, ``Renderbuffer`` and ``VertexArray`` is
+``Texture``, ``TextureCube``, ``Framebuffer``, ``Renderbuffer``, ``VertexArray`` and
+``ComputeShader`` is
 wrapped, on the class, with a ``perf_counter`` pair (a call made inside another wrapped
 call is counted once, in the outer one). The wrapper costs about a microsecond a call;
 a run makes a few thousand GL calls, so the overhead is milliseconds. With Mesa's
@@ -57,6 +58,7 @@ class GLTimer:
         "Framebuffer",
         "Renderbuffer",
         "VertexArray",
+        "ComputeShader",
     )
 
     def __init__(self):

@@ -149,16 +149,20 @@ def brute_field(shape, p, radius):
     "grid", [Tile(5, 6, 13), Tile(6, 13, 28), Tile(8, 57, 113), Equirect(512, 256)]
 )
 @pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
-def test_values_are_the_nearest_arcs_bit_for_bit(mexico, grid):
-    """Each value is the least exact float64 distance over all the boundary arcs, bit for
-    bit, whatever pruning found it: on the tiles the tile server asks for (Mexico's west
-    coast at z5, its Pacific coast at z6, Mexico City at z8, radians) and a global grid
-    (metres, far pixels included)."""
+def test_values_are_the_nearest_arcs(mexico, grid):
+    """Each value is the least exact float64 distance over all the boundary arcs, whatever
+    pruning found it: bit for bit with the CPU backend, within 1 float32 ulp (its sign
+    the same) with the GPU's (its float64 finishing within FIELD_ERR); on the tiles the
+    tile server asks for (Mexico's west coast at z5, its Pacific coast at z6, Mexico City
+    at z8, radians) and a global grid (metres, far pixels included)."""
     radius = 1.0 if isinstance(grid, Tile) else R
-    field = gloffset.distance_field(mexico, grid, radius=radius)
     j, i, p = sample(grid, 300, seed=8)
-    got = field.values[j, i]
-    assert got.tobytes() == brute_field(mexico, p, radius).tobytes()
+    want = brute_field(mexico, p, radius)
+    cpu = gloffset.distance_field(mexico, grid, radius=radius, backend="cpu").values[j, i]
+    assert cpu.tobytes() == want.tobytes()
+    gpu = gloffset.distance_field(mexico, grid, radius=radius).values[j, i]
+    assert (np.signbit(gpu) == np.signbit(want)).all()
+    assert (np.abs(gpu.astype(np.float64) - want) <= np.spacing(np.abs(want))).all()
 
 
 def test_exact_is_arc_distance_bit_for_bit(mexico):
@@ -319,7 +323,9 @@ def test_cli_geotiff_npy_and_cube(mexico_path, mexico, tmp_path):
     full = gloffset.distance_field(mexico, grid).values
     assert np.array_equal(np.load(npy), full)
     assert cli("field", *common, "--backend", "cpu", "-o", npy).returncode == 0
-    assert np.load(npy).tobytes() == full.tobytes()
+    cpu = np.load(npy)  # the GPU's values within 1 float32 ulp of the CPU's, same signs
+    assert (np.signbit(cpu) == np.signbit(full)).all()
+    assert (np.abs(cpu.astype(np.float64) - full) <= np.spacing(np.abs(cpu))).all()
     bad = cli("field", *common, "--backend", "cuda", "-o", npy)
     assert bad.returncode == 2 and b"'cuda' is not one of 'gpu', 'cpu'" in bad.stderr
     folder = tmp_path / "faces"

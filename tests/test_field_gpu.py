@@ -1,5 +1,6 @@
-"""The GPU backend of ``gloffset.distance_field``: the CPU's values bit for bit on real
-borders, the float32 pass's error bound, and the finishing it cannot do without."""
+"""The GPU backend of ``gloffset.distance_field``: within 1 float32 ulp of the CPU's
+values (same signs) on real borders, the float32 ranking's and the float64 finishing's
+error bounds, and the finishing it cannot do without."""
 
 from __future__ import annotations
 
@@ -11,7 +12,8 @@ from conftest import DATA
 
 import gloffset
 from gloffset.geometry.sphere import normalize
-from gloffset.gl.nearest_pass import EVERY, NEAREST_ERR, NearestPass, NearestPlan, nearest_pass
+from gloffset.gl.field_pass import FIELD_ERR, NEAREST_ERR, FieldPass, FieldPlan, field_pass
+from gloffset.gl.shaders import SHADER_DIR
 from gloffset.grids import Cube, Equirect, Tile
 from gloffset.raster import field_gpu
 from gloffset.raster.field_walk import exact_distances
@@ -33,12 +35,24 @@ def edges():
     return gloffset.read({"type": "FeatureCollection", "features": feats})
 
 
-def assert_same_bits(shape, grid, **kw):
-    """The GPU field equals the CPU field bit for bit (signs of zeros included)."""
+def within_ulp(got: np.ndarray, want: np.ndarray) -> np.ndarray:
+    """Where float32 ``got`` is within 1 float32 ulp of ``want`` with its sign (signs
+    of zeros included; infinities equal)."""
+    g, w = got.astype(np.float64), want.astype(np.float64)
+    ulp = np.spacing(np.abs(want)).astype(np.float64)
+    close = np.abs(g - w) <= ulp
+    return (np.signbit(got) == np.signbit(want)) & (close | (g == w))
+
+
+def assert_contract(shape, grid, **kw):
+    """The GPU field is within 1 float32 ulp of the CPU field, with its signs; nearly
+    every value has the CPU's bits (the float64 values differ by a few 1e-16 relative)."""
     gpu = gloffset.distance_field(shape, grid, **kw)
     cpu = gloffset.distance_field(shape, grid, backend="cpu", **kw)
-    bad = np.argwhere(gpu.values.view(np.uint32) != cpu.values.view(np.uint32))
-    assert len(bad) == 0, f"{len(bad)} values differ from the CPU's, e.g. at {bad[:3]}"
+    bad = np.argwhere(~within_ulp(gpu.values, cpu.values))
+    assert len(bad) == 0, f"{len(bad)} values off the CPU's by more than 1 ulp, e.g. {bad[:3]}"
+    same = gpu.values.view(np.uint32) == cpu.values.view(np.uint32)
+    assert same.mean() > 0.999, f"{(~same).sum()} of {same.size} values differ"
     return gpu
 
 
@@ -54,20 +68,20 @@ def assert_same_bits(shape, grid, **kw):
     ids=["z3", "z5", "z8", "global", "clamped"],
 )
 @pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
-def test_mexico_bit_for_bit(mexico, grid, kw):
-    field = assert_same_bits(mexico, grid, **kw)
+def test_mexico_within_an_ulp(mexico, grid, kw):
+    field = assert_contract(mexico, grid, **kw)
     assert len(np.unique(field.values)) > 1000
 
 
 @pytest.mark.parametrize(
     "grid", [Equirect(360, 180), Cube(32), Equirect(256, 256, (150, -90, -150, -30))]
 )
-def test_seams_and_the_pole_bit_for_bit(edges, grid):
-    assert_same_bits(edges, grid)
-    assert_same_bits(edges, grid, max_distance=500e3)
+def test_seams_and_the_pole_within_an_ulp(edges, grid):
+    assert_contract(edges, grid)
+    assert_contract(edges, grid, max_distance=500e3)
 
 
-def test_lines_and_points_bit_for_bit():
+def test_lines_and_points_within_an_ulp():
     lines = {
         "type": "MultiLineString",
         "coordinates": [[[-10, 40], [20, 45], [35, 30]], [[170, -20], [-170, -25]]],
@@ -75,99 +89,177 @@ def test_lines_and_points_bit_for_bit():
     point = {"type": "MultiPoint", "coordinates": [[30, 60], [-100, -89.5]]}
     for geom in (lines, point):
         shape = gloffset.read(geom)
-        field = assert_same_bits(shape, Equirect(200, 100))
+        field = assert_contract(shape, Equirect(200, 100))
         assert (field.values >= 0).all()
-        assert_same_bits(shape, Cube(16), max_distance=1000e3)
+        assert_contract(shape, Cube(16), max_distance=1000e3)
+
+
+@pytest.mark.parametrize(
+    "crs, kind",
+    [("EPSG:3031", "glsl"), ("+proj=ortho +lat_0=-90 +lon_0=0", "texture")],
+    ids=["polar-glsl", "ortho-texture"],
+)
+def test_projected_grids_within_an_ulp(edges, crs, kind, monkeypatch):
+    """Antarctica on a polar stereographic grid (the shader's centres from the grid's GLSL
+    function) and an orthographic one (the host's centres, pyproj's, handed over); in
+    blocks of 32 pixels (each block's pixels from its own origin), the same values."""
+    from gloffset.grids import Projected
+
+    g = Projected(140, 120, crs=crs, bounds=(-3.2e6, -2.8e6, 3.2e6, 3.2e6))
+    assert g.centres == kind
+    field = assert_contract(edges, g)
+    assert (field.values < 0).any() and (field.values > 0).any()
+    monkeypatch.setattr(field_gpu, "_BLOCK", 32)
+    assert gloffset.distance_field(edges, g).values.tobytes() == field.values.tobytes()
+
+
+def test_cube_faces_in_blocks(edges, monkeypatch):
+    """Cube faces in blocks of 16 pixels (each block's rows and columns of face
+    coordinates its own): the same values as in one block, within an ulp of the CPU's."""
+    whole = assert_contract(edges, Cube(48)).values
+    monkeypatch.setattr(field_gpu, "_BLOCK", 16)
+    assert gloffset.distance_field(edges, Cube(48)).values.tobytes() == whole.tobytes()
+
+
+def test_lonlat_centres_are_the_hosts(mexico):
+    """On lon/lat grids the shader's centres are the host's bit for bit (its products of
+    the rows' and columns' cosines and sines): on a Mexico tile every value has the
+    CPU's bits but where the float64 values straddle a float32 rounding boundary."""
+    field = gloffset.distance_field(mexico, Tile(6, 13, 28), radius=1.0)
+    cpu = gloffset.distance_field(mexico, Tile(6, 13, 28), radius=1.0, backend="cpu")
+    differ = field.values.view(np.uint32) != cpu.values.view(np.uint32)
+    assert differ.sum() <= 3 and within_ulp(field.values, cpu.values).all()
 
 
 def test_blocks_and_their_halves(mexico, monkeypatch):
-    """Many blocks with partial cells at the edges, and blocks over the GL limits drawn
-    in halves of their rows: the same bits."""
+    """Many blocks with partial cells at the edges, and blocks over the GL limits run
+    in halves of their rows: within an ulp of the CPU's values."""
     grid = Equirect(300, 170, (-118, 14, -86, 33))
     want = gloffset.distance_field(mexico, grid, backend="cpu").values
+    whole = gloffset.distance_field(mexico, grid).values
+    assert within_ulp(whole, want).all()
     monkeypatch.setattr(field_gpu, "_BLOCK", 64)
-    assert np.array_equal(
-        gloffset.distance_field(mexico, grid).values.view(np.uint32), want.view(np.uint32)
-    )
-    eng = nearest_pass()
-    monkeypatch.setattr(eng, "max_bytes", 1 << 17)
+    assert gloffset.distance_field(mexico, grid).values.tobytes() == whole.tobytes()
+    eng = field_pass()
+    monkeypatch.setattr(eng, "fits", lambda h, w, *rest: h <= 16)  # two rows of cells
     runs = []
-    run = NearestPass.run
-    monkeypatch.setattr(NearestPass, "run", lambda self, plan: runs.append(1) or run(self, plan))
+    run = FieldPass.run
+    monkeypatch.setattr(FieldPass, "run", lambda self, plan: runs.append(1) or run(self, plan))
     got = gloffset.distance_field(mexico, grid).values
-    assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
-    assert len(runs) > 15  # 5 x 3 blocks of 64 pixels, some of them split
+    assert got.tobytes() == whole.tobytes()
+    # 5 columns of blocks of 8, 8 and 6 rows of cells, halved to 4 + 4 + 4 pieces
+    assert len(runs) == 5 * 12
 
 
-def _answers(monkeypatch):
-    """Record the GPU's answers (counts and flags) that the finishing reads."""
-    seen = []
-    finish = field_gpu.finish
-
-    def spy(c, got, *args):
-        seen.append(got[:, 3].copy())
-        return finish(c, got, *args)
-
-    monkeypatch.setattr(field_gpu, "finish", spy)
-    return seen
+def _broken(monkeypatch, tmp_path, old: str, new: str) -> None:
+    """Run the field's pass from a copy of ``field_pixels.comp`` with ``old`` made ``new``."""
+    src = (SHADER_DIR / "field_pixels.comp").read_text()
+    assert src.count(old) == 1, old
+    (tmp_path / "field_pixels.comp").write_text(src.replace(old, new))
+    monkeypatch.setattr(field_pass(), "root", tmp_path)
 
 
-@pytest.mark.slow  # a heavier repeat of quicker checks of the same ground
-def test_the_finishing_needs_the_features_within_reach(mexico, monkeypatch):
+@pytest.mark.parametrize(
+    "old, new, least",
+    [
+        # the least float32 feature alone, never those within reach nor the whole list
+        ("float reach = m0 + u_gap;", "float reach = m0 - 1.0;", 30),
+        # a wrong candidate: the second feature in place of the least one
+        ("double d = feature(pd, w0);", "double d = feature(pd, w1 != NONE ? w1 : w0);", 10000),
+        # every pixel its cell's whole list: the same values
+        pytest.param(
+            "if (dropped <= reach || unsure <= reach) {",
+            "if (true) {",
+            0,
+            marks=pytest.mark.slow,
+        ),
+    ],
+    ids=["least-only", "wrong-candidate", "whole-lists"],
+)
+def test_the_finishing_needs_the_features_within_reach(
+    mexico, monkeypatch, tmp_path, old, new, least
+):
     """Pixels whose float32 chords cannot tell the nearest feature are common (on the
-    medial axis, and seen from afar along a coast: the Mexico 1:10m tile of z3): some
-    need more features than the least, a few the cell's whole list; and each feature
-    within reach is needed: without them, values change."""
+    medial axis, and seen from afar along a coast: the Mexico 1:10m tile of z3): a
+    shader that finishes only the least feature, or a wrong one, is off the CPU's values
+    by more than an ulp; one that finishes every pixel's whole list is not."""
     grid = Tile(3, 1, 3)
     want = gloffset.distance_field(mexico, grid, radius=1.0, backend="cpu").values
-    seen = _answers(monkeypatch)
-    got = gloffset.distance_field(mexico, grid, radius=1.0).values
-    assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
-    flags = np.concatenate(seen)
-    assert (flags & 0xFF != 0).sum() > 1000 and (flags & EVERY != 0).sum() > 10
-
-    def corrupt(fn):
-        run = NearestPass.run
-
-        def wrong(self, plan):
-            return fn(run(self, plan).copy())
-
-        monkeypatch.setattr(NearestPass, "run", wrong)
-        return gloffset.distance_field(mexico, grid, radius=1.0).values
-
-    def least_only(got):
-        got[..., 3] = 0
-        return got
-
-    def second_first(got):  # the second feature as the least one
-        two = got[..., 1] != 0xFFFFFFFF
-        got[two, 0] = got[two, 1]
-        return got
-
-    def fewer(got):  # one feature fewer within reach
-        got[..., 3] = np.where(got[..., 3] & 0xFF != 0, got[..., 3] - 1, got[..., 3])
-        return got
-
-    for fn in (least_only, second_first, fewer):
-        bad = corrupt(fn)
-        assert (bad.view(np.uint32) != want.view(np.uint32)).sum() > 10, fn.__name__
-
-    def whole_lists(got):  # a wrong feature, but every pixel with its cell's whole list
-        second_first(got)
-        got[..., 3] = EVERY
-        return got
-
-    assert corrupt(whole_lists).tobytes() == want.tobytes()
+    good = gloffset.distance_field(mexico, grid, radius=1.0).values
+    assert within_ulp(good, want).all()
+    _broken(monkeypatch, tmp_path, old, new)
+    bad = gloffset.distance_field(mexico, grid, radius=1.0).values
+    off = (~within_ulp(bad, want)).sum()
+    if least:
+        assert off >= least, f"{off} values off"
+    else:
+        assert off == 0 and bad.tobytes() == good.tobytes()
 
 
-def test_float32_chords_within_their_bound(mexico):
-    """NEAREST_ERR bounds |float32 chord - chord of the float64 distance|: the shader's
-    least chord over lists of one arc, on a million pairs of Mexico's arcs and points
-    on and near its coast (at the arcs' ends, beside them, over them), far away and at
-    right angles: the largest error seen is well within it."""
+def test_the_whole_list_where_more_may_tie(monkeypatch, tmp_path):
+    """Polygons of 64 edges about pixel centres, their edges' distances from the centre
+    within 4 float32 ulps of each other (closer than float32 can rank them): more than
+    six features tie, and the centre's pixel takes its cell's whole list. A shader that
+    never does is off the CPU's values by more than an ulp there; this one is not."""
+    from gloffset.geometry.sphere import xyz_to_lonlat
+
+    rng = np.random.default_rng(5)
+    grid = Equirect(360, 180)
+    polys, centres = [], []
+    for lon in range(-150, 180, 40):
+        for lat in (-40, 0, 40):
+            c = grid.centers(grid.n_levels - 1, np.array([89 - lat]), np.array([180 + lon]))[0]
+            e1 = normalize(np.cross(c, [0.0, 0.0, 1.0]))
+            e2 = np.cross(c, e1)
+            theta = np.linspace(0, 2 * np.pi, 64, endpoint=False)
+            r = 0.005 * (1 + 4e-6 * rng.uniform(size=64))
+            v = np.cos(r)[:, None] * c + np.sin(r)[:, None] * (
+                np.cos(theta)[:, None] * e1 + np.sin(theta)[:, None] * e2
+            )
+            lo, la = xyz_to_lonlat(v)
+            ring = np.column_stack([lo, la]).tolist()
+            polys.append([ring + ring[:1]])
+            centres.append((89 - lat, 180 + lon))
+    shape = gloffset.read({"type": "MultiPolygon", "coordinates": polys})
+    j, i = np.array(centres).T
+    want = gloffset.distance_field(shape, grid, backend="cpu").values
+    got = gloffset.distance_field(shape, grid).values
+    assert within_ulp(got, want).all()
+    _broken(monkeypatch, tmp_path, "if (dropped <= reach || unsure <= reach) {", "if (false) {")
+    bad = gloffset.distance_field(shape, grid).values
+    assert within_ulp(bad[~np.isin(np.arange(180), j)], want[~np.isin(np.arange(180), j)]).all()
+    assert (~within_ulp(bad[j, i], want[j, i])).sum() >= 3
+
+
+def _single_arcs(nodes, p, arc):
+    """A plan of one pixel per point ``p`` (host centres), each with the one arc ``arc``."""
+    n = len(p)
+    side = int(np.sqrt(n))
+    arcs, local = np.unique(arc, return_inverse=True)
+    rec, exact = field_gpu._records(nodes)
+    return FieldPlan(
+        (side, side),
+        (0, 0),
+        0,
+        np.stack([np.arange(n), np.ones(n)], axis=-1).reshape(side, side, 2).astype(np.uint32),
+        local.astype(np.uint32),
+        rec[arcs],
+        np.stack([2 * np.arange(len(arcs)), 2 * np.arange(len(arcs)) + 1], axis=-1).astype(
+            np.uint32
+        ),
+        exact[arcs],
+        "texture",
+        p.reshape(side, side, 3),
+    )
+
+
+@pytest.fixture(scope="module")
+def pairs(mexico):
+    """A million pairs of Mexico's arcs and points on and near its coast (at the arcs'
+    ends, beside them, over them), far away and at right angles."""
     nodes = NodeArcs.from_shape(mexico)
     rng = np.random.default_rng(3)
-    n, side = 1 << 20, 1 << 10
+    n = 1 << 20
     arc = np.flatnonzero(nodes.leaf)[rng.integers(0, int(nodes.leaf.sum()), n)]
     t = rng.uniform(-0.2, 1.2, n)[:, None]
     along = normalize((1 - t) * nodes.a[arc] + t * nodes.b[arc])
@@ -178,31 +270,39 @@ def test_float32_chords_within_their_bound(mexico):
         nodes.n[arc[n // 8 : n // 4]] + 1e-4 * rng.normal(size=(n // 8, 3))
     )
     p[n // 4 : n // 4 + 1000] = nodes.a[arc[n // 4 : n // 4 + 1000]]  # on the ends
-    arcs, local = np.unique(arc, return_inverse=True)
-    plan = NearestPlan(
-        p.reshape(side, side, 3).astype(np.float32),
-        0,
-        np.stack([np.arange(n), np.ones(n)], axis=-1).reshape(side, side, 2).astype(np.uint32),
-        local.astype(np.uint32),
-        field_gpu._records(nodes)[arcs],
-        np.stack([2 * np.arange(len(arcs)), 2 * np.arange(len(arcs)) + 1], axis=-1).astype(
-            np.uint32
-        ),
-    )
-    got = nearest_pass().run(plan).reshape(-1, 8)
-    chord32 = got[:, 2].view(np.float32).astype(np.float64)
-    exact = exact_distances(p, np.arange(n), nodes, arc)
+    return nodes, p, arc, exact_distances(p, np.arange(n), nodes, arc)
+
+
+def test_float32_chords_within_their_bound(pairs):
+    """NEAREST_ERR bounds |float32 chord - chord of the float64 distance|: the ranking's
+    least chord over lists of one arc, on a million real pairs: the largest error seen
+    is well within it."""
+    nodes, p, arc, exact = pairs
+    got = field_pass().run(_single_arcs(nodes, p, arc), probe=True).ravel()
+    chord32 = np.abs(got)
     err = np.abs(chord32 - 2.0 * np.sin(0.5 * exact))
     # the far side of a short arc seen from near its circle's pole: float32 cannot tell
-    # the side, and such a pixel takes its whole list (flag 2)
-    whole = got[:, 3] & EVERY != 0
-    assert 0 < whole.sum() < n // 200
+    # the side, and such a pixel takes its whole list (a negative chord)
+    whole = np.signbit(got)
+    assert 0 < whole.sum() < len(p) // 200
     assert err[~whole].max() < NEAREST_ERR / 4, f"{err[~whole].max():.3g} of {NEAREST_ERR}"
 
 
+def test_float64_finishing_within_its_bound(pairs):
+    """FIELD_ERR bounds |shader's float64 distance - arc_distance| (relative) from the
+    same centre: on a million real pairs, distances from 1e-17 to pi, the largest error
+    seen (6.7e-16 on llvmpipe) is within it; most have arc_distance's bits."""
+    nodes, p, arc, exact = pairs
+    got = field_pass().run(_single_arcs(nodes, p, arc)).ravel()
+    assert (got[exact == 0] == 0).all()
+    rel = np.abs(got - exact) / np.where(exact > 0, exact, 1.0)
+    assert rel.max() <= FIELD_ERR, f"{rel.max():.3g} of {FIELD_ERR}"
+    assert (got == exact).mean() > 0.5
+
+
 @pytest.mark.slow
-def test_all_countries_bit_for_bit():
+def test_all_countries_within_an_ulp():
     """The 234 countries of 1:10m (307,857 vertices), on the globe and on a cube."""
     shape = gloffset.read(DATA / "countries_10m.geojson")
-    assert_same_bits(shape, Equirect(1024, 512))
-    assert_same_bits(shape, Cube(96), max_distance=300e3)
+    assert_contract(shape, Equirect(1024, 512))
+    assert_contract(shape, Cube(96), max_distance=300e3)

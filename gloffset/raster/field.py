@@ -11,16 +11,17 @@ list of candidate nodes of the multiresolution tree (paper Sec. 4.2, Eq. 9 bound
 pruned by bounds and by a bisector test, down to the original edges at the pixels,
 each pixel ending with the exact float64 distance of its nearest arc
 (:mod:`gloffset.raster.field_walk`). With ``backend="gpu"`` the walk stops at cells of
-8 x 8 pixels and a fragment shader ranks each pixel's candidates in float32, the
-pixels finished in float64 to the same bits (:mod:`gloffset.raster.field_gpu`). The
-sign is the inside status of the float64 render at distance 0: on the CPU read from each
+8 x 8 pixels and one compute shader does each pixel: its centre, its candidates ranked
+in float32 and the near-least finished in float64 (:mod:`gloffset.raster.field_gpu`).
+The sign is the inside status of the float64 render at distance 0: on the CPU read from each
 pixel's nearest boundary features (:mod:`gloffset.raster.field_sign`; the levels' test
 on the few pixels that leaves undecided), on the GPU backend that test itself. The
 derivation is in the design notes (``docs/design.md``).
 
-Accuracy: each value is the float64 distance (exact to 1e-15 rad) times ``radius``,
-clamped to ``[-max_distance, max_distance]`` and rounded to float32 once: within 1
-float32 ulp of the exact signed distance. A threshold compares the float32 values
+Accuracy: each value is the float64 distance (exact to 1e-15 rad; on the GPU within
+:data:`~gloffset.gl.field_pass.FIELD_ERR`, 1.5e-15, relative) times ``radius``, clamped
+to ``[-max_distance, max_distance]`` and rounded to float32 once: within 1 float32 ulp
+of the exact signed distance. A threshold compares the float32 values
 with ``d``; pixels whose value lies within two float32 spacings of ``d`` are decided
 again in float64 (their distance against the arcs whose caps reach, the predicate
 the renders settle their band with, :func:`gloffset.raster.simplified.band_members`;
@@ -271,11 +272,13 @@ def distance_field(
         polygons, those whose sign is: each level of the inside test, in output pixels,
         on the GPU backend; all at once on the CPU one).
     backend : {"gpu", "cpu"}
-        Where the pixels' nearest arcs are found: ``"gpu"`` (the GL context's fragment
-        shaders, in float32, finished in float64) or ``"cpu"`` (in float64). The values
-        are the same, bit for bit; the walk above the pixels and the sign run on the
-        CPU either way (``"cpu"`` reads the sign from the pixels' nearest features,
-        ``"gpu"`` runs the levels' inside test; the same signs).
+        Where the pixels' nearest arcs are found: ``"gpu"`` (the GL context's compute
+        shader, ranked in float32, finished in float64) or ``"cpu"`` (in float64). The
+        values agree within 1 float32 ulp, with the same signs (nearly all bit for bit:
+        the float64 distances differ by at most ``FIELD_ERR`` relative); the walk above
+        the pixels and the sign run on the CPU either way (``"cpu"`` reads the sign from
+        the pixels' nearest features, ``"gpu"`` runs the levels' inside test; the same
+        signs).
 
     Raises
     ------
@@ -298,15 +301,19 @@ def distance_field(
     times ``radius``) rounded once to float32, so within 1 float32 ulp of the exact
     value; its sign is the inside status of the levels' crossing parity, as in the
     float64 reference renderer. ``threshold(d)`` equals ``render(shape, d, grid)`` (see
-    :meth:`DistanceField.threshold`). Both backends give the same values, bit for bit.
+    :meth:`DistanceField.threshold`) with either backend. The backends' values agree
+    within 1 float32 ulp (the GPU's float64 distances within ``FIELD_ERR``, 1.5e-15,
+    relative of the CPU's from the same centre: bit for bit but where one lies that
+    near a float32 rounding boundary); on grids with a GLSL function of their centres
+    the GPU's centres are that function's, within its stated bound of the host's.
     Cost: the output pixels, each against the few arcs that can be its nearest (see the
     module notes). ``"cpu"``: the walk to the pixels in float64, 3 to 4 times the floor
     of the same walk with one candidate arc per cell, plus the sign from the nearest
     features.
-    ``"gpu"``: the walk stops at cells of 8 x 8 pixels, the GPU ranks each pixel's
-    candidates in float32 and the CPU computes one exact distance per pixel (a few, or
-    the cell's list, where the float32 values cannot rank them): about half the CPU
-    backend's time even on Mesa's llvmpipe (``benchmarks/field.py``).
+    ``"gpu"``: the walk stops at cells of 8 x 8 pixels; the GPU makes each pixel's
+    centre, ranks its candidates in float32 and finishes one float64 distance per
+    pixel (a few, or the cell's list, where the float32 values cannot rank them): the
+    host hands over the lists and reads back the distances (``benchmarks/field.py``).
     """
     if ellipsoid is not None:
         raise OptionError(ellipsoid_refusal(ellipsoid))

@@ -1,0 +1,215 @@
+"""The GL pass of a distance field: each pixel's distance to its nearest arc, float64
+(``shaders/field_pixels.comp``), run from a :class:`FieldPlan`.
+
+The planner (:mod:`gloffset.raster.field_gpu`) walks the levels in float64 down to cells
+of ``2^shift x 2^shift`` output pixels, each with the list of every arc that can be the
+nearest of one of its pixels, and hands a block of cells over as plain arrays: the
+cells' lists, the arcs (float32 records for the ranking, float64 ones for the
+finishing) and what the shader makes the pixel centres from. One compute dispatch
+makes each pixel's centre in double, ranks its cell's list in float32 and finishes the
+near-least features in double (the module notes of :mod:`gloffset.raster.field_gpu`);
+it reads back one float64 distance per pixel. It knows no shape. Storage buffers
+throughout: the float64 records read from a texture instead (RGBA32UI pairs) made the pass
+half as slow again on llvmpipe (measured).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import GLContextError
+from .context import context_info, get_context, shared
+from .shaders import load_source
+from .vector_pass import set_grid_constants
+
+__all__ = [
+    "FIELD_ERR",
+    "NEAREST_ERR",
+    "FieldPass",
+    "FieldPlan",
+    "field_pass",
+]
+
+#: Bound on |float32 chord - chord of the float64 distance| of the shader's ranking
+#: (the chord ``2 sin(t / 2)`` of an angle ``t``, at most 2), u = 2^-24. Every input
+#: (pixel centre, arc ends, normal n, n x a, b x n: unit vectors made in float64) is
+#: rounded once, off by at most u in norm, so a branch test p.(n x a) is off by at most
+#: 5u (inputs 2u, three products summed 3u) and one beyond TEST (1e-6 = 16u) is decided
+#: as float64 decides it. On the arc, s = p.n is off by 5u and |p - s n| = cos t by 12u;
+#: the chord |s| sqrt(2 / (1 + cos t)) has slopes at most sqrt(2) and 1 / sqrt(2) in
+#: them (15.6u) and its own rounding (1 + q, division, square root, product: 7u
+#: relative, the chord <= sqrt(2): 10u): 26u. To an end, |p - a| is off by 2u from the
+#: inputs and 8u from its rounding (4u relative, the chord <= 2): 10u. An arc whose test
+#: is undecided has the lesser of both chords where they differ by at most NEAREST_ERR
+#: / 8 (8u; else its pixel takes its whole list): 34u. The constant, 67u, leaves 33u for
+#: GPUs whose square roots and divisions round less well, the rounding of ``m1 + gap``
+#: (4u) and the float64 finishing's error (:data:`FIELD_ERR`), so that a feature whose
+#: float32 chord is more than 2 NEAREST_ERR above the least has a float64 distance
+#: greater than the least one's. ``tests/test_field_gpu.py`` measures the largest error
+#: on a million real pairs.
+NEAREST_ERR = 4e-6
+
+#: Bound on |shader's float64 distance - gloffset.geometry.sphere.arc_distance| (rad),
+#: relative, for the same pixel centre: the products and sums are the host's, rounded
+#: once (``precise``); ``fp64_sqrt`` is within 2 ulp of the square root (relative 2.2e-16
+#: each, half of that in the angle), ``fp64_atan2(y, x)`` within 3 ulp of its angle for
+#: small angles (its float32 seed off by 1e-7 relative, one cubic Newton step, the
+#: residual ``y cos t - x sin t`` rounded to an ulp of ``y``) and 3e-16 absolute at
+#: worst: at most 1.5e-15 relative, 4e-16 absolute. Measured: ``tests/test_field_gpu.py``
+#: (the largest relative error over a million real pixel/arc pairs: 6.7e-16 on llvmpipe).
+#: A float32 ulp is 6e-8 relative: the float64 values round to the CPU's float32 values
+#: or to a neighbour where the CPU's lies within 1.5e-15 of a rounding boundary.
+FIELD_ERR = 1.5e-15
+
+#: No feature (a cell with an empty list, or fewer features than asked for).
+NONE = 0xFFFFFFFF
+#: vec4 per arc record (``Arcs`` in ``shaders/field_pixels.comp``); doubles per exact one.
+ARC_TEXELS, EXACT_DOUBLES = 5, 16
+_LOCAL = 8  # the work group's side (pixels)
+
+
+@dataclass
+class FieldPlan:
+    """One block of pixels for :class:`FieldPass`, as plain arrays.
+
+    ``size`` (h, w) the block's pixels, ``origin`` (row, column) of its first pixel in
+    the grid; ``shift``: pixel ``(j, i)`` lies in cell ``(j >> shift, i >> shift)``;
+    ``cells`` (hc, wc, 2) uint32 each cell's first pair and pair count, ``pairs`` (n,)
+    uint32 the lists (rows of ``arcs``), ``arcs`` (m, 5, 4) float32 the arcs: ``(a,
+    n_x), (b, n_y), (n x a, n_z), (b x n, ok)``, ``(mid, r)`` with ``ok`` 1 where the arc
+    has a normal (0: its ends only), ``mid`` and ``r`` the centre and chord radius
+    (rounded up) of a cap that holds it; ``ends`` (m, 2) uint32 the ids of the arcs' ends
+    (equal for the same vertex, below 2^31); ``exact`` (m, 16) float64 ``(a, ok), (b,
+    bn_x), (n, bn_y), (n x a, bn_z)`` with ``bn = b x n`` (the host's float64 values).
+
+    The centres, by ``kind``: ``"lonlat"`` ``rows`` (h, 2) the cosine and sine of each
+    row's latitude, ``cols`` (w, 2) of each column's longitude; ``"cube"`` ``rows`` (h,)
+    and ``cols`` (w,) the face coordinates ``t`` and ``s``, ``basis`` (3, 3) the face's
+    axes; ``"glsl"`` ``source`` and ``constants`` (a grid's
+    :class:`~gloffset.grids.protocol.GlslCentres`) at output-pixel coordinates from
+    ``origin``; ``"texture"`` ``rows`` (h, w, 3) float64 the centres themselves.
+    """
+
+    size: tuple[int, int]
+    origin: tuple[int, int]
+    shift: int
+    cells: np.ndarray
+    pairs: np.ndarray
+    arcs: np.ndarray
+    ends: np.ndarray
+    exact: np.ndarray
+    kind: str
+    rows: np.ndarray
+    cols: np.ndarray | None = None
+    basis: np.ndarray | None = None
+    source: str | None = None
+    constants: tuple[float, ...] = ()
+
+
+class FieldPass:
+    """Runs :class:`FieldPlan` blocks: the programs (one per kind of centres, compiled
+    on first use) and :meth:`run`."""
+
+    def __init__(self):
+        self.ctx = get_context()
+        info = context_info()
+        self.max_bytes = info["max_storage_block_size"]
+        self._progs: dict = {}
+        #: where ``field_pixels.comp`` is read from (None: the shader folder)
+        self.root = None
+
+    def program(self, kind: str, source: str | None = None, probe: bool = False):
+        """The compiled program of a kind of centres (a grid's GLSL file for ``"glsl"``);
+        with ``probe``, its variant that writes the ranking's least chord instead of the
+        distance (negated where the pixel takes its cell's whole list)."""
+        key = (kind, source, probe, self.root)
+        prog = self._progs.get(key)
+        if prog is None:
+            variants: dict[str, dict] = {
+                "cube": {"GRID_CUBE": 1},
+                "texture": {"GRID_TEXTURE": 1},
+                "glsl": {"GRID_GLSL": f'"{source}"'},
+            }
+            defines = variants.get(kind, {})
+            if probe:
+                defines = {**defines, "PROBE_RANKING": 1}
+            src, _ = load_source("field_pixels.comp", defines, root=self.root)
+            prog = self._progs[key] = self.ctx.compute_shader(src)
+        return prog
+
+    def fits(self, h: int, w: int, pairs: int, arcs: int, texture: bool) -> bool:
+        """Whether a block of ``h x w`` pixels with these many pairs and arcs fits the
+        storage buffers."""
+        return (
+            8 * h * w * (4 if texture else 1) <= self.max_bytes
+            and 4 * pairs <= self.max_bytes
+            and 8 * EXACT_DOUBLES * arcs <= self.max_bytes
+            and 4 * pairs < 1 << 30
+        )
+
+    def run(self, plan: FieldPlan, probe: bool = False) -> np.ndarray:
+        """Return (h, w) float64: each pixel's distance (rad) to the nearest arc of its
+        cell's list, ``inf`` where the list is empty (see the module notes); with
+        ``probe`` (the tests' measure of :data:`NEAREST_ERR`), the ranking's least
+        float32 chord instead, negated where the pixel takes its cell's whole list."""
+        h, w = plan.size
+        hc, wc = plan.cells.shape[:2]
+        if not self.fits(h, w, len(plan.pairs), len(plan.arcs), plan.kind == "texture"):
+            raise GLContextError(
+                f"a distance-field block of {w} x {h} pixels, {len(plan.pairs)} pairs and "
+                f"{len(plan.arcs)} arcs exceeds this GL context's storage buffers "
+                f"({self.max_bytes} bytes)"
+            )
+        if (hc, wc) != (-(-h >> plan.shift), -(-w >> plan.shift)):
+            raise ValueError(f"cells {plan.cells.shape} do not cover {h} x {w} pixels")
+        prog = self.program(plan.kind, plan.source, probe)
+        ctx = self.ctx
+
+        def buf(a, t):
+            return ctx.buffer(np.ascontiguousarray(a, dtype=t).tobytes() or bytes(16))
+
+        cols = plan.cols if plan.cols is not None else np.zeros(1)
+        bufs = [
+            buf(plan.cells, np.uint32),
+            buf(plan.pairs, np.uint32),
+            buf(plan.arcs, np.float32),
+            buf(plan.ends, np.uint32),
+            buf(plan.exact, np.float64),
+            ctx.buffer(reserve=8 * h * w),
+            buf(plan.rows, np.float64),
+            buf(cols, np.float64),
+        ]
+        try:
+            for k, b in enumerate(bufs):
+                b.bind_to_storage_buffer(k)
+            _set(prog, "u_size", (int(w), int(h)))
+            _set(prog, "u_origin", (int(plan.origin[1]), int(plan.origin[0])))
+            _set(prog, "u_shift", int(plan.shift))
+            _set(prog, "u_cells_w", int(wc))
+            _set(prog, "u_gap", 2.0 * NEAREST_ERR)
+            _set(prog, "u_same", 0.125 * NEAREST_ERR)
+            if plan.kind == "cube":
+                assert plan.basis is not None  # a cube plan's
+                for name, row in zip(("u_face_e", "u_face_u", "u_face_v"), plan.basis):
+                    _set(prog, name, tuple(float(x) for x in row))
+            if plan.kind == "glsl":
+                set_grid_constants(prog, plan.constants)
+            prog.run(group_x=-(-w // _LOCAL), group_y=-(-h // _LOCAL))
+            ctx.memory_barrier()  # the shader's writes, before they are read back
+            out = np.frombuffer(bufs[5].read(), dtype=np.float64).reshape(h, w).copy()
+        finally:
+            for b in bufs:
+                b.release()
+        return out
+
+
+def _set(prog, name: str, value) -> None:
+    if name in prog:  # a driver drops a uniform the program does not read
+        prog[name].value = value
+
+
+def field_pass() -> FieldPass:
+    """This thread's :class:`FieldPass` (made on first use, with the GL context)."""
+    return shared(FieldPass)
