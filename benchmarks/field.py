@@ -180,7 +180,7 @@ def gpu_split(shape, grid: Equirect) -> dict:
     """The GPU backend's stages, timed on their own: the walk to the lists' level, the
     blocks' lists, the GL pass (centres, float32 ranking, float64 finishing), the inside
     test."""
-    from gloffset.raster import field_gpu
+    from gloffset.raster.fields import gpu as field_gpu
     from gloffset.raster.vector import curves
 
     split: dict = {}

@@ -3,7 +3,7 @@
 ``python benchmarks/field_sign.py [--input data/countries_10m.geojson] [--skip-global]``
 
 The CPU field (``distance_field(..., backend="cpu")``) reads each pixel's inside status
-from its nearest boundary features (:mod:`gloffset.raster.field_sign`); before, it ran
+from its nearest boundary features (:mod:`gloffset.raster.fields.sign`); before, it ran
 the float64 levels' inside test at distance 0 (``classify_curves(shape, 0.0, grid)``,
 still the GPU backend's). Per case, both timed on the same pixels (the walk to the
 pixels with its pairs, untimed, is shared): the rule (:func:`block_signs` over the walk's
@@ -27,8 +27,8 @@ import gloffset
 from gloffset.edges import CurveArcs
 from gloffset.geometry.classes import CONTAINED
 from gloffset.grids import Equirect, Tile
-from gloffset.raster.field_sign import Corners, block_signs, levels_inside
-from gloffset.raster.field_walk import walk_levels
+from gloffset.raster.fields.sign import Corners, block_signs, levels_inside
+from gloffset.raster.fields.walk import walk_levels
 from gloffset.raster.vector.curves import classify_curves
 from gloffset.raster.vector.node_levels import NodeArcs
 

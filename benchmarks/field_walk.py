@@ -24,7 +24,7 @@ from common import DATA, write
 import gloffset
 from gloffset.gl.context import context_info
 from gloffset.grids import Equirect, Tile
-from gloffset.raster.field_gpu import SHIFT, _Lists
+from gloffset.raster.fields.gpu import SHIFT, _Lists
 from gloffset.raster.vector.node_levels import NodeArcs
 
 CASES = {

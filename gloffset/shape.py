@@ -116,7 +116,7 @@ class Derived:
     #: (:mod:`gloffset.raster.vector.node_levels`); the least distance from the reference
     #: points to the ring edges (:mod:`gloffset.raster.simplified`); the shape as GeoJSON
     #: bytes, for the tile server's page (:mod:`gloffset.serve.app`); the corners of the
-    #: rings that a distance field's sign reads (:mod:`gloffset.raster.field_sign`).
+    #: rings that a distance field's sign reads (:mod:`gloffset.raster.fields.sign`).
     SINGLE = (
         "edges",
         "ref_status",

@@ -1,6 +1,6 @@
 #version 430
 // The per-pixel stage of a distance field (gloffset/gl/field_pass.py,
-// gloffset/raster/field_gpu.py): each pixel's distance (rad, float64) to its nearest arc.
+// gloffset/raster/fields/gpu.py): each pixel's distance (rad, float64) to its nearest arc.
 // One invocation per output pixel of a block, 8 x 8 to a work group; pixel (x, y) of the
 // block lies in cell (x, y) >> u_shift, whose list (made in float64 on the host) holds
 // every arc that can be its nearest.

@@ -1,9 +1,9 @@
 #version 430
-// One level of a distance field's walk (gloffset/gl/walk_pass.py, gloffset/raster/field_lists.py).
+// One level of a distance field's walk (gloffset/gl/walk_pass.py, gloffset/raster/fields/lists.py).
 //
 // One invocation per cell of the level (row-major, u_width cells a row): the cell's list
 // starts as its parent's (cell j >> 1, i >> 1 of the level above; the root list for every
-// cell at level 0) and is pruned and split as gloffset/raster/field_walk.py's _bound does,
+// cell at level 0) and is pruned and split as gloffset/raster/fields/walk.py's _bound does,
 // in float32 with every bound widened (the derivation: gloffset/gl/walk_pass.py):
 //   lower bound of a node: max(angle(c, mid) - reach, distance to its arc - err),
 //   upper bound:           min(angle(c, mid) + reach, distance to its arc + err),
@@ -116,7 +116,7 @@ vec2 bounds(vec3 c, int k, float lim) {
 }
 
 // Whether node k's run can be as near as the vertex v to some point within the cell's
-// reach of c (gloffset/raster/field_walk.py's _maybe_nearer, in float32 with its error
+// reach of c (gloffset/raster/fields/walk.py's _maybe_nearer, in float32 with its error
 // bound: false only where every such point is surely nearer to v than to the node's cap).
 // cs: cos and sin of the cell's reach, R its reach.
 bool maybe_nearer(vec3 c, float R, vec2 cs, vec3 v, int k) {

@@ -170,7 +170,7 @@ def test_exact_is_arc_distance_bit_for_bit(mexico):
     branch on its own pairs) has the bits of :func:`arc_distance`, on Mexico's nodes,
     merged ones included, from points on and near its coast and far away."""
     from gloffset.geometry.sphere import arc_distance, normalize
-    from gloffset.raster.field_walk import exact_distances
+    from gloffset.raster.fields.walk import exact_distances
     from gloffset.raster.vector.node_levels import NodeArcs
 
     nodes = NodeArcs.from_shape(mexico)
@@ -496,7 +496,7 @@ def test_the_lists_follow_the_pixels(mexico, monkeypatch):
     of its pixels, not every arc within a cell's width of its nearest distance: the
     output level gets a handful of candidates per pixel (27 with the plain ``2 rho``
     pruning of a nearest-neighbour search, here), and the values stay exact."""
-    from gloffset.raster import field_walk as walkmod
+    from gloffset.raster.fields import walk as walkmod
 
     seen = {}
     bound = walkmod._bound
@@ -524,7 +524,7 @@ def test_bisector_pruning_is_rigorous():
     from types import SimpleNamespace
 
     from gloffset.geometry.sphere import angle, normalize, rotate
-    from gloffset.raster.field_walk import _maybe_nearer
+    from gloffset.raster.fields.walk import _maybe_nearer
 
     rng = np.random.default_rng(11)
     n = 4000
@@ -595,7 +595,7 @@ def test_a_small_grid_starts_from_its_own_list(which, grid, request, monkeypatch
     the nodes that can be nearest to some point of the grid, not from the tree's top. The
     values are those of the walk from the top, bit for bit; a global grid starts from the
     top."""
-    from gloffset.raster import field_walk
+    from gloffset.raster.fields import walk as field_walk
     from gloffset.raster.vector.node_levels import NodeArcs
 
     if which == "mexico":

@@ -15,8 +15,8 @@ from gloffset.geometry.sphere import normalize
 from gloffset.gl.field_pass import FIELD_ERR, NEAREST_ERR, FieldPass, FieldPlan, field_pass
 from gloffset.gl.shaders import SHADER_DIR
 from gloffset.grids import Cube, Equirect, Tile
-from gloffset.raster import field_gpu
-from gloffset.raster.field_walk import exact_distances
+from gloffset.raster.fields import gpu as field_gpu
+from gloffset.raster.fields.walk import exact_distances
 from gloffset.raster.vector.node_levels import NodeArcs
 
 

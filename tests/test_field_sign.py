@@ -1,5 +1,5 @@
 """The distance field's sign from each pixel's nearest boundary features
-(``gloffset.raster.field_sign``): equal to the float64 levels' inside test at distance 0
+(``gloffset.raster.fields.sign``): equal to the float64 levels' inside test at distance 0
 at every pixel, on real borders and on pixels placed on vertices and edges; a broken
 rule is caught; the GLSL rule agrees where it decides."""
 
@@ -16,8 +16,8 @@ import gloffset
 from gloffset.edges import CurveArcs
 from gloffset.geometry.classes import CONTAINED
 from gloffset.grids import Cube, Equirect, Tile
-from gloffset.raster import field_sign
-from gloffset.raster.field_sign import (
+from gloffset.raster.fields import sign as field_sign
+from gloffset.raster.fields.sign import (
     INSIDE,
     OUTSIDE,
     UNDECIDED,
@@ -26,7 +26,7 @@ from gloffset.raster.field_sign import (
     levels_inside,
     signs,
 )
-from gloffset.raster.field_walk import walk_levels
+from gloffset.raster.fields.walk import walk_levels
 from gloffset.raster.vector.curves import classify_curves
 from gloffset.raster.vector.node_levels import NodeArcs
 from gloffset.shape import Shape
@@ -277,7 +277,7 @@ def test_glsl_rule_agrees_where_it_decides(mexico):
     """shaders/lib/field_sign.glsl on real pixels: every pixel it decides has the
     levels' sign, most pixels are decided, and flipped normals are caught."""
     from gloffset.gl.context import get_context
-    from gloffset.raster.field_gpu import _records
+    from gloffset.raster.fields.gpu import _records
 
     ctx = get_context()
     corners = Corners.from_shape(mexico)

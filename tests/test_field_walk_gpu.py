@@ -14,9 +14,9 @@ from conftest import DATA
 import gloffset
 from gloffset.gl import walk_pass
 from gloffset.grids import Cube, Equirect, Tile
-from gloffset.raster import field_gpu
-from gloffset.raster.field_gpu import SHIFT, _Lists
-from gloffset.raster.field_walk import exact_distances
+from gloffset.raster.fields import gpu as field_gpu
+from gloffset.raster.fields.gpu import SHIFT, _Lists
+from gloffset.raster.fields.walk import exact_distances
 from gloffset.raster.vector.node_levels import NodeArcs
 
 
@@ -119,7 +119,7 @@ def test_a_step_limit_hands_the_level_to_the_float64_walk(mexico, monkeypatch):
     nodes = NodeArcs.from_shape(mexico)
     grid = Tile(5, 6, 13)
     monkeypatch.setattr(walk_pass.walk_pass(), "max_steps", 100)
-    from gloffset.raster.field_lists import gpu_lists
+    from gloffset.raster.fields.lists import gpu_lists
 
     assert gpu_lists(nodes, grid, math.inf, 0) is None
     got = _Lists(nodes, grid, math.inf, 0, walk="gpu")
@@ -201,7 +201,7 @@ def test_small_pools_split_the_last_level(mexico, monkeypatch):
 
 
 def test_one_level_grids_walk_in_float64(mexico):
-    from gloffset.raster.field_lists import gpu_lists
+    from gloffset.raster.fields.lists import gpu_lists
 
     nodes = NodeArcs.from_shape(mexico)
     grid = Equirect(8, 4)

@@ -1,13 +1,13 @@
 """The GL pass of a distance field: each pixel's distance to its nearest arc, float64
 (``shaders/field_pixels.comp``), run from a :class:`FieldPlan`.
 
-The planner (:mod:`gloffset.raster.field_gpu`) walks the levels in float64 down to cells
+The planner (:mod:`gloffset.raster.fields.gpu`) walks the levels in float64 down to cells
 of ``2^shift x 2^shift`` output pixels, each with the list of every arc that can be the
 nearest of one of its pixels, and hands a block of cells over as plain arrays: the
 cells' lists, the arcs (float32 records for the ranking, float64 ones for the
 finishing) and what the shader makes the pixel centres from. One compute dispatch
 makes each pixel's centre in double, ranks its cell's list in float32 and finishes the
-near-least features in double (the module notes of :mod:`gloffset.raster.field_gpu`);
+near-least features in double (the module notes of :mod:`gloffset.raster.fields.gpu`);
 it reads back one float64 distance per pixel. It knows no shape. Storage buffers
 throughout: the float64 records read from a texture instead (RGBA32UI pairs) made the pass
 half as slow again on llvmpipe (measured).

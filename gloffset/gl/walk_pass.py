@@ -1,7 +1,7 @@
 """A distance field's walk on the GL context, level by level (``shaders/field_walk.comp``).
 
 Each cell's list of multiresolution nodes is its parent's pruned and split in float32 by
-the rule of :func:`gloffset.raster.field_walk._bound` (the bisector test against the
+the rule of :func:`gloffset.raster.fields.walk._bound` (the bisector test against the
 nearest end of the parent's nodes), every bound widened: each list is a superset of
 the float64 rule's. Inputs are float64 unit
 vectors rounded once to float32 (off by at most u = 2^-24 in norm); radii (``reach``,

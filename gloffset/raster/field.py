@@ -10,11 +10,11 @@ How it is computed: a walk over the grid's levels, coarse to fine, every cell wi
 list of candidate nodes of the multiresolution tree (paper Sec. 4.2, Eq. 9 bounds),
 pruned by bounds and by a bisector test, down to the original edges at the pixels,
 each pixel ending with the exact float64 distance of its nearest arc
-(:mod:`gloffset.raster.field_walk`). With ``backend="gpu"`` the walk stops at cells of
+(:mod:`gloffset.raster.fields.walk`). With ``backend="gpu"`` the walk stops at cells of
 8 x 8 pixels and one compute shader does each pixel: its centre, its candidates ranked
-in float32 and the near-least finished in float64 (:mod:`gloffset.raster.field_gpu`).
+in float32 and the near-least finished in float64 (:mod:`gloffset.raster.fields.gpu`).
 The sign is the inside status of the float64 render at distance 0: on the CPU read from each
-pixel's nearest boundary features (:mod:`gloffset.raster.field_sign`; the levels' test
+pixel's nearest boundary features (:mod:`gloffset.raster.fields.sign`; the levels' test
 on the few pixels that leaves undecided), on the GPU backend that test itself. The
 derivation is in the design notes (``docs/design.md``).
 
@@ -47,9 +47,9 @@ from ..units import (
     parse_length,
     to_angle,
 )
-from .field_gpu import gpu_distances
-from .field_sign import Corners, block_signs, levels_inside
-from .field_walk import walk_levels
+from .fields.gpu import gpu_distances
+from .fields.sign import Corners, block_signs, levels_inside
+from .fields.walk import walk_levels
 from .render import MAX_PIXELS
 from .simplified import band_members
 from .vector import curves
@@ -401,11 +401,11 @@ def _distances(shape, grid, m: float, count: _Progress, signed: bool):
     The status: whether the pixel is inside (all False unless ``signed``). The distance
     is exact where it is at most ``m`` (larger than ``m`` elsewhere): the levels walked
     depth first with lists of nodes of the multiresolution tree
-    (:func:`~gloffset.raster.field_walk.walk_levels`) down to the output pixels. The
+    (:func:`~gloffset.raster.fields.walk.walk_levels`) down to the output pixels. The
     inside status is read from each pixel's nearest features
-    (:func:`~gloffset.raster.field_sign.block_signs`); the pixels that rule leaves undecided
+    (:func:`~gloffset.raster.fields.sign.block_signs`); the pixels that rule leaves undecided
     get the float64 levels' test at distance 0
-    (:func:`~gloffset.raster.field_sign.levels_inside`): the inside status of
+    (:func:`~gloffset.raster.fields.sign.levels_inside`): the inside status of
     ``classify_curves(shape, 0.0, grid)``, bit for bit.
     """
     nodes = NodeArcs.from_shape(shape)

@@ -1,5 +1,5 @@
 // The sign of a distance field's pixel from its nearest boundary feature, in float32
-// (gloffset/raster/field_sign.py has the derivation and the float64 rule).
+// (gloffset/raster/fields/sign.py has the derivation and the float64 rule).
 //
 // A pixel p whose nearest boundary point is the foot on a ring edge a -> b is inside iff
 // p . n > 0 (n, the edge's unit left normal: rings have their interior on the left);
@@ -8,7 +8,7 @@
 // bits 0-1 the rule at its start a, bits 2-3 at its end b (FIELD_OUTSIDE,
 // FIELD_INSIDE or FIELD_UNDECIDED: a pinch, a seam or a degenerate edge next to it,
 // nearly straight), bit 4 set for a ring edge with distance and a direction
-// (gloffset.raster.field_sign.Corners.flags).
+// (gloffset.raster.fields.sign.Corners.flags).
 //
 // The arc comes as the records of shaders/nearest.frag: r0 = (a, n.x), r1 = (b, n.y),
 // r2 = (n x a, n.z), r3 = (b x n, ok). The pixel centre and the records are float64

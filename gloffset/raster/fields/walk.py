@@ -19,10 +19,10 @@ import weakref
 
 import numpy as np
 
-from ..geometry.caps import CAP_SLACK, cap_range, pad
-from ..geometry.sphere import angle, cross, dot, pair_dots
-from .vector.levels import Frontier, children
-from .vector.node_levels import NodeArcs
+from ...geometry.caps import CAP_SLACK, cap_range, pad
+from ...geometry.sphere import angle, cross, dot, pair_dots
+from ..vector.levels import Frontier, children
+from ..vector.node_levels import NodeArcs
 
 __all__ = ["end_distances", "exact_distances", "kids_reach", "root_list", "walk_levels"]
 
@@ -48,7 +48,7 @@ def walk_levels(
     With ``pairs`` (the output level only), each as ``(f, dist, (cell, node, d))``: the
     pairs whose exact distance ``d`` was computed, sorted by cell (every pair that can be a pixel's
     nearest is among them, the least of their ``d`` being ``dist``, bit for bit): what
-    each pixel's nearest features are read from (:mod:`gloffset.raster.field_sign`).
+    each pixel's nearest features are read from (:mod:`gloffset.raster.fields.sign`).
     The distances are the same bits either way.
     """
     trig = np.cos(nodes.reach), np.sin(nodes.reach)

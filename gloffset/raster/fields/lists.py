@@ -2,7 +2,7 @@
 
 The cells of a level (``SHIFT`` above the output) with every original arc that can be the
 nearest of one of their pixels (within ``max_distance``): the walk of
-:func:`~gloffset.raster.field_walk.walk_levels` (its branch and bound; the bisector test
+:func:`~gloffset.raster.fields.walk.walk_levels` (its branch and bound; the bisector test
 against the nearest end of the parent cell's nodes), level by level on the GL context
 (:mod:`gloffset.gl.walk_pass`, ``shaders/field_walk.comp``) from the first level of
 :data:`GPU_CELLS` cells (the float64 walk the coarser ones), in float32 with every bound
@@ -22,11 +22,11 @@ import weakref
 
 import numpy as np
 
-from ..geometry.sphere import dot
-from ..gl.walk_pass import WalkLevel, walk_pass
-from .field_walk import kids_reach, root_list, walk_levels
-from .vector.levels import Frontier
-from .vector.node_levels import KAPPA, NodeArcs
+from ...geometry.sphere import dot
+from ...gl.walk_pass import WalkLevel, walk_pass
+from ..vector.levels import Frontier
+from ..vector.node_levels import KAPPA, NodeArcs
+from .walk import kids_reach, root_list, walk_levels
 
 __all__ = ["gpu_lists", "up32"]
 
@@ -65,7 +65,7 @@ def _table(nodes: NodeArcs):
 def gpu_lists(nodes: NodeArcs, grid, m: float, stop: int):
     """Return each cell's count (row-major) and the pairs' arcs of level ``stop``, or None.
 
-    The lists of :func:`~gloffset.raster.field_walk.walk_levels` at ``stop`` (below the
+    The lists of :func:`~gloffset.raster.fields.walk.walk_levels` at ``stop`` (below the
     output level), as supersets (see the module notes): every original arc (node split
     down to the arcs) that can be the nearest arc within ``m`` of a point within ``rho``
     of a cell's centre. The arcs of a cell come in no set order.

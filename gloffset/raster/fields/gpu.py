@@ -1,7 +1,7 @@
 """The GPU backend of :func:`gloffset.distance_field`: the unsigned distances, each
 within :data:`~gloffset.gl.field_pass.FIELD_ERR` (relative) of the CPU walk's.
 
-1. The float64 walk (:func:`~gloffset.raster.field_walk.walk_levels`) stops at the level
+1. The float64 walk (:func:`~gloffset.raster.fields.walk.walk_levels`) stops at the level
    ``SHIFT`` above the output (cells of 8 x 8 pixels), its nodes split down to the
    original arcs: a cell's list holds every arc that can be the nearest (within
    ``max_distance``) of a point within the cell's ``rho``, so of each of its pixels.
@@ -35,13 +35,13 @@ import weakref
 
 import numpy as np
 
-from ..geometry.caps import chord, pad
-from ..geometry.sphere import cross, dot
-from ..gl.context import context_info
-from ..gl.field_pass import ARC_TEXELS, EXACT_DOUBLES, FieldPlan, field_pass
-from .field_lists import gpu_lists
-from .field_walk import walk_levels
-from .vector.node_levels import NodeArcs
+from ...geometry.caps import chord, pad
+from ...geometry.sphere import cross, dot
+from ...gl.context import context_info
+from ...gl.field_pass import ARC_TEXELS, EXACT_DOUBLES, FieldPlan, field_pass
+from ..vector.node_levels import NodeArcs
+from .lists import gpu_lists
+from .walk import walk_levels
 
 __all__ = ["SHIFT", "gpu_distances"]
 
@@ -79,7 +79,7 @@ def _records(nodes: NodeArcs) -> tuple[np.ndarray, np.ndarray]:
     return got
 
 
-#: Which walk makes the lists: ``"gpu"`` (:func:`~gloffset.raster.field_lists.gpu_lists`,
+#: Which walk makes the lists: ``"gpu"`` (:func:`~gloffset.raster.fields.lists.gpu_lists`,
 #: the float64 walk where it does not apply), ``"cpu"`` (the float64 walk), or ``"auto"``:
 #: the GPU's on a hardware GL, the float64 walk on a software one (Mesa's llvmpipe runs
 #: the GPU walk's divergent loops slower than numpy runs the float64 walk).

@@ -31,11 +31,11 @@ import math
 
 import numpy as np
 
-from ..edges import CurveArcs, points_inside
-from ..geometry.classes import CONTAINED, FRONTIER
-from ..geometry.sphere import angle, arc_distance, dot, normalize
-from . import driver
-from .vector.curves import CurveCells, classify_curves
+from ...edges import CurveArcs, points_inside
+from ...geometry.classes import CONTAINED, FRONTIER
+from ...geometry.sphere import angle, arc_distance, dot, normalize
+from .. import driver
+from ..vector.curves import CurveCells, classify_curves
 
 __all__ = [
     "ETA",
