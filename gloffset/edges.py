@@ -81,6 +81,14 @@ class CurveArcs:
         return np.ascontiguousarray(np.vstack([v.T for v in parts] + [self.half[None, :]]))
 
     @kept_property
+    def rows(self) -> np.ndarray:
+        """(n, 20) float64: :attr:`columns` arc by arc (a zero last), what the records'
+        compute shader reads per arc (``shaders/arc_records.comp``; made once)."""
+        out = np.zeros((len(self.half), 20))
+        out[:, :19] = self.columns.T
+        return out
+
+    @kept_property
     def tree(self):
         """The bounding-cap tree over the arcs (built once), each arc's start ``a`` its
         point for early answers (:meth:`gloffset.geometry.captree.CapTree.near` with ``stop``)."""

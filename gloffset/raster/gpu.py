@@ -11,23 +11,30 @@ frontier bins is its bin's class.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..edges import CurveArcs
-from ..geometry.caps import COS_SLACK, cap_within
+from ..geometry.caps import COS_SLACK, cap_within, chord2
+from ..gl.records_pass import DeviceRecords, records_pass
 from ..gl.scatter_pass import UNSURE, scatter_pass
 from ..gl.vector_pass import BinPlan, vector_passes
 from .layout import BinLayout
-from .records import margins, records
+from .records import ArcRecords, margins, record_inputs, records
 from .vector.levels import Frontier
 from .vector.scatter import box_pairs
 
-__all__ = ["BinPasses", "bin_plan", "bin_passes", "gpu_box_pairs"]
+__all__ = ["BinPasses", "bin_plan", "bin_passes", "device_records", "gpu_box_pairs"]
 
 #: Margin below the lowest exact threshold of an arc's cap test under which the compute
 #: shader drops a pair: far above the few ulp (1e-15) by which a device's float64 ``c.m``
 #: could differ from the host's, so no pair the exact test keeps is dropped.
 GPU_PAIR_MARGIN = 1e-9
+#: Fewest candidate pairs for which :func:`bin_plan` makes the records on the GL context
+#: (``shaders/arc_records.comp``) rather than in numpy: fewer cost less on the host than
+#: the shader's first compilation in a process.
+GPU_MIN_RECORDS = 50_000
 #: Fewest box cells for which :func:`gpu_box_pairs` runs the shader: below, the numpy path
 #: costs less than the shader's first run in a process (llvmpipe compiles it then: 0.15-0.2
 #: s measured; numpy took 0.3-0.5 us a box cell, the shader about half). See
@@ -80,11 +87,56 @@ def gpu_box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, min_pa
     return jj[keep], ii[keep], ai[keep], cm[keep]
 
 
-def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs) -> BinPlan:
+def device_records(
+    f: Frontier, arcs: CurveArcs, e: float, passes=None, *, min_pairs=None
+) -> tuple[ArcRecords, DeviceRecords] | None:
+    """The records of the frontier bins ``f`` at distance ``e`` made on the GL context
+    (:mod:`gloffset.gl.records_pass`): the per-bin arrays (records and clusters empty)
+    and the buffers; None where numpy makes them (fewer pairs than ``min_pairs``,
+    default :data:`GPU_MIN_RECORDS`, or more than one storage buffer of the level passes
+    ``passes`` holds)."""
+    npair = len(f.pair_cell)
+    least = GPU_MIN_RECORDS if min_pairs is None else min_pairs
+    limit = getattr(passes, "max_records", None)
+    if npair < least or (limit is not None and npair > limit):
+        return None
+    engine = records_pass()
+    inp = record_inputs(f, arcs)
+    most = int(inp.n_clusters.max(initial=0))
+    if not engine.fits(npair, len(arcs.a), len(inp.ranges), most):
+        return None
+    dev = engine.run(
+        inp.pairs,
+        inp.codes,
+        f.centers,
+        arcs.rows,
+        inp.ranges,
+        math.sin(e),
+        float(chord2(e)),
+    )
+    empty = ArcRecords(
+        np.zeros((0, 6, 4), dtype=np.float32),
+        inp.first,
+        inp.bits,
+        np.zeros((0, 2, 4), dtype=np.uint32),
+        inp.first_cluster,
+        inp.n_clusters,
+    )
+    return empty, dev
+
+
+def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs, passes=None) -> BinPlan:
     """What the GL passes draw for the frontier bins ``f`` placed by ``layout``, at the
-    signed distance ``d``: their records and every level's margins and geometry."""
+    signed distance ``d``: their records and every level's margins and geometry (the
+    records on the GL context where :func:`device_records` makes them, for the level
+    passes ``passes``; else in numpy)."""
     e = abs(d)
-    rec, first, bits, hdr, cfirst, ccount = records(f, arcs, e)
+    made = device_records(f, arcs, e, passes)
+    if made is None:
+        rec, first, bits, hdr, cfirst, ccount = records(f, arcs, e)
+        device = None
+    else:
+        (rec, first, bits, hdr, cfirst, ccount), device = made
     counts = np.bincount(f.pair_cell, minlength=len(f.cells)).astype(np.uint32)
     shifts = range(1, layout.stop + 1)
     rho = layout.rho
@@ -105,6 +157,7 @@ def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs) -> BinPl
         n_clusters=ccount,
         margins={s: margins(rho[s].ravel(), e).reshape(len(rho[s]), -1, 4) for s in shifts},
         rho_max={s: 0.0 if s == layout.last else float(rho[s].max()) for s in shifts},
+        device=device,
     )
     if layout.basis is not None:
         plan.basis, plan.face_size = layout.basis, layout.face_size
@@ -206,7 +259,7 @@ class BinPasses:
             for s in range(1, layout.stop + 1) if callback is not None else ():
                 callback(s, np.zeros((hb << s, wb << s), dtype=np.uint8))
             return np.zeros((hb << layout.stop, wb << layout.stop), dtype=np.uint8)
-        plan = bin_plan(layout, d, f, arcs)
+        plan = bin_plan(layout, d, f, arcs, self.passes)
         return self.passes.run(plan, callback=callback, timings=timings)
 
 

@@ -35,11 +35,13 @@ __all__ = [
     "ARC_IS_ARC",
     "ARC_RING",
     "ArcRecords",
+    "RecordInputs",
     "CLUSTER",
     "MAX_LOCAL",
     "OTHER_BIT",
     "RECORD_TEXELS",
     "margins",
+    "record_inputs",
     "records",
 ]
 
@@ -63,6 +65,48 @@ class ArcRecords(NamedTuple):
     clusters: np.ndarray  # (m, 2, 4) uint32: the cluster headers
     first_cluster: np.ndarray  # (k,) uint32: each bin's first cluster
     n_clusters: np.ndarray  # (k,) uint32: each bin's clusters
+
+
+class RecordInputs(NamedTuple):
+    """What the records' compute shader takes (:func:`record_inputs`), and the per-bin
+    arrays the level passes read beside its records."""
+
+    pairs: np.ndarray  # (pairs, 2) int64: bin, arc (by bin)
+    codes: np.ndarray  # (pairs,) int64: flags + 8 * local component id
+    first: np.ndarray  # (k,) uint32: each bin's first record
+    bits: np.ndarray  # (k,) uint32: the status bits at the bin centres
+    ranges: np.ndarray  # (m, 4) int64: per cluster its first record, records, its bin's clusters
+    first_cluster: np.ndarray  # (k,) uint32
+    n_clusters: np.ndarray  # (k,) uint32
+
+
+def record_inputs(f: Frontier, arcs: CurveArcs, cluster: int = CLUSTER) -> RecordInputs:
+    """The integer part of :func:`records`, for the records made on the GPU
+    (:mod:`gloffset.gl.records_pass`): the pairs by bin with their codes, the status bits,
+    and the clusters (the same runs as :func:`records`'s; their order within a bin, by
+    ``Dmin``, is the shader's to make)."""
+    if not 1 <= cluster <= 16:
+        raise ValueError(f"cluster must be 1..16, got {cluster}")
+    ci, ai = _pairs(f)
+    k = len(f.cells)
+    is_arc = dot(arcs.n, arcs.n) > 0.5  # n is a unit vector or zero
+    code = np.where(np.take(is_arc, ai), ARC_IS_ARC, 0)
+    _, bits = _components(f, arcs, ci, ai, code)
+    cfirst, csize = _cluster_starts(ci, ai, cluster)
+    cbin = ci[cfirst]
+    bins = np.arange(k)
+    first_cluster = np.searchsorted(cbin, bins)
+    end = np.searchsorted(cbin, bins, side="right")
+    ranges = np.column_stack([cfirst, csize, first_cluster[cbin], end[cbin]])
+    return RecordInputs(
+        np.column_stack([ci, ai]),
+        code,
+        np.searchsorted(ci, bins).astype(np.uint32),
+        bits.astype(np.uint32),
+        ranges,
+        first_cluster.astype(np.uint32),
+        (end - first_cluster).astype(np.uint32),
+    )
 
 
 def records(f: Frontier, arcs: CurveArcs, e: float, cluster: int = CLUSTER) -> ArcRecords:
@@ -227,13 +271,7 @@ def _clusters(cols: np.ndarray, ci, ai, ring, k: int, cluster: int):
 
     A cluster is a run of consecutive arcs of a bin, cut every ``cluster`` pairs.
     """
-    npair = len(ci)
-    start = np.ones(npair, dtype=bool)
-    start[1:] = (ci[1:] != ci[:-1]) | (ai[1:] != ai[:-1] + 1)
-    run_first = np.flatnonzero(start)
-    pos = np.arange(npair) - np.repeat(run_first, np.diff(np.append(run_first, npair)))
-    cfirst = np.flatnonzero(start | (pos % cluster == 0))
-    csize = np.diff(np.append(cfirst, npair))
+    cfirst, csize = _cluster_starts(ci, ai, cluster)
     q32, rho32, s32 = _balls(cols[2:5], cols[5:8], cfirst, csize)
     dmin = np.minimum.reduceat(cols[0], cfirst)  # the smallest t0.x, exactly
     hmin = np.minimum.reduceat(np.where(ring, np.abs(cols[1]), np.float32(np.inf)), cfirst)
@@ -256,6 +294,18 @@ def _clusters(cols: np.ndarray, ci, ai, ring, k: int, cluster: int):
     first_cluster = np.searchsorted(cb, bins)
     n_clusters = np.searchsorted(cb, bins, side="right") - first_cluster
     return hdr, first_cluster, n_clusters
+
+
+def _cluster_starts(ci, ai, cluster: int) -> tuple[np.ndarray, np.ndarray]:
+    """The first pair and the size of each cluster: runs of consecutive arcs of a bin,
+    cut every ``cluster`` pairs."""
+    npair = len(ci)
+    start = np.ones(npair, dtype=bool)
+    start[1:] = (ci[1:] != ci[:-1]) | (ai[1:] != ai[:-1] + 1)
+    run_first = np.flatnonzero(start)
+    pos = np.arange(npair) - np.repeat(run_first, np.diff(np.append(run_first, npair)))
+    cfirst = np.flatnonzero(start | (pos % cluster == 0))
+    return cfirst, np.diff(np.append(cfirst, npair))
 
 
 def _balls(t4: np.ndarray, t5: np.ndarray, cfirst: np.ndarray, csize: np.ndarray):
