@@ -106,8 +106,9 @@ class RecordsPass:
         """The records of ``pairs`` (n, 2) (bin, arc), ``codes`` (n,) their flags and local
         ids, ``centres`` (k, 3) float64 the bin centres, ``rows`` (arcs, 20) float64 the
         arcs' :attr:`~gloffset.edges.CurveArcs.rows`; the clusters of ``ranges`` (m, 4):
-        first record, records, the bin's first cluster and the end of its clusters. ``se`` and ``chord_e`` are
-        ``sin(e)`` and ``chord(e)^2`` as the host computes them (``e`` the distance)."""
+        first record, records, the bin's first cluster and the end of its clusters.
+        ``se`` and ``chord_e`` are ``sin(e)`` and ``chord(e)^2`` as the host computes
+        them (``e`` the distance)."""
         ctx = self.ctx
         n, m = len(pairs), len(ranges)
 
