@@ -82,10 +82,13 @@ class CurveArcs:
 
     @kept_property
     def rows(self) -> np.ndarray:
-        """(n, 20) float64: :attr:`columns` arc by arc (a zero last), what the records'
-        compute shader reads per arc (``shaders/arc_records.comp``; made once)."""
-        out = np.zeros((len(self.half), 20))
+        """(n, 20) float64, read-only: :attr:`columns` arc by arc, then 1 for a ring edge
+        (0 else): what the compute shaders read per arc (``shaders/arc_records.comp``,
+        ``shaders/scatter_pairs.comp``; made once)."""
+        out = np.empty((len(self.half), 20))
         out[:, :19] = self.columns.T
+        out[:, 19] = self.group >= 0
+        out.setflags(write=False)
         return out
 
     @kept_property

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from .arcs import arc_buffer
 from .context import context_info, get_context, shared
 from .shaders import load_source
 
@@ -117,17 +118,13 @@ class RecordsPass:
 
         cen = np.zeros((len(centres), 4))
         cen[:, :3] = centres
-        temp = [
-            buf(pairs, np.uint32),
-            buf(codes, np.uint32),
-            buf(cen, np.float64),
-            ctx.buffer(np.ascontiguousarray(rows, dtype=np.float64) if rows.size else bytes(16)),
-        ]
+        arcs = arc_buffer(rows)  # kept (arcs.py): not released here
+        temp = [buf(pairs, np.uint32), buf(codes, np.uint32), buf(cen, np.float64)]
         recs = ctx.buffer(reserve=max(96 * n, 96))
         sorted_ = None
         try:
             p = self.progs["records"]
-            for k, b in enumerate(temp):
+            for k, b in enumerate(temp + [arcs]):
                 b.bind_to_storage_buffer(k)
             recs.bind_to_storage_buffer(4)
             p["u_se"] = se

@@ -17,8 +17,9 @@ import numpy as np
 
 from ..edges import CurveArcs
 from ..geometry.caps import COS_SLACK, cap_within, chord2
+from ..gl.arcs import arc_buffer
 from ..gl.records_pass import DeviceRecords, records_pass
-from ..gl.scatter_pass import UNSURE, scatter_pass
+from ..gl.scatter_pass import CROSS, UNSURE, scatter_pass
 from ..gl.vector_pass import BinPlan, vector_passes
 from .layout import BinLayout
 from .records import ArcRecords, margins, record_inputs, records
@@ -42,7 +43,9 @@ GPU_MIN_RECORDS = 50_000
 GPU_MIN_PAIRS = 500_000
 
 
-def gpu_box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, min_pairs=None):
+def gpu_box_pairs(
+    arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, min_pairs=None, crossings=True
+):
     """:func:`gloffset.raster.vector.scatter.box_pairs` with the box cells enumerated and
     their ``c.m`` computed by the compute shader of :mod:`gloffset.gl.scatter_pass`: the
     same pairs and ``cm`` (in another order; the caller sorts them).
@@ -55,6 +58,12 @@ def gpu_box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, min_pa
     pairs above the highest threshold pass the exact test: the result is its booleans.
     Fewer box cells than ``min_pairs`` (default :data:`GPU_MIN_PAIRS`), or boxes beyond the
     GL limits, take the numpy path.
+
+    With ``crossings`` (the default), the shader also tells which ring edges cross the
+    short arc from each pair's cell centre to its predecessor's
+    (:func:`gloffset.geometry.sphere.arcs_cross`, the same booleans; for every pair of a
+    ring edge and a cell but the first): the result has a fifth array, those booleans,
+    where the shader ran.
     """
     a_idx, j0, j1, i0, i1 = boxes
     total = int(((j1 - j0) * (i1 - i0)).sum())
@@ -62,7 +71,11 @@ def gpu_box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, min_pa
     if total < least:
         return box_pairs(arcs, lat, lon, row_reach, boxes, w)
     engine = scatter_pass()
-    if not engine.fits(total, len(a_idx)) or len(lat) * w >= 1 << 31:
+    if (
+        not engine.fits(total, len(a_idx))
+        or not engine.fits_arcs(len(arcs.a))
+        or len(lat) * w >= 1 << 31
+    ):
         return box_pairs(arcs, lat, lon, row_reach, boxes, w)
     lo = np.cos(np.minimum(row_reach.max() + arcs.half, np.pi)) - COS_SLACK - GPU_PAIR_MARGIN
     hi = np.cos(np.minimum(row_reach.min() + arcs.half, np.pi)) - COS_SLACK + GPU_PAIR_MARGIN
@@ -75,16 +88,19 @@ def gpu_box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, min_pa
         np.column_stack([np.cos(lon), np.sin(lon)]),
         w,
         total,
+        ring_arcs=arc_buffer(arcs.rows) if crossings else None,
     )
     jj, ii = np.divmod(cell.astype(np.int64), w)
     unsure = np.flatnonzero(ai >= UNSURE)
-    ai = (ai & (UNSURE - 1)).astype(np.int64)
+    hit = (ai & CROSS) != 0
+    ai = (ai & (CROSS - 1)).astype(np.int64)
     keep = np.ones(len(ai), dtype=bool)
     u = ai[unsure]
     keep[unsure] = cap_within(cm[unsure], row_reach[jj[unsure]] + arcs.half[u])
+    out = (jj, ii, ai, cm, hit) if crossings else (jj, ii, ai, cm)
     if len(unsure) == 0 or keep.all():
-        return jj, ii, ai, cm
-    return jj[keep], ii[keep], ai[keep], cm[keep]
+        return out
+    return tuple(x[keep] for x in out)
 
 
 def device_records(

@@ -153,16 +153,23 @@ def scatter(
     ``final``: ``level`` is the output level (decided at the centres); ``plan``: what
     :func:`start_level` gave for this level and distance, if it chose it; ``pairs``: what
     finds the box pairs (:func:`box_pairs`, the default, or a function with its arguments
-    and results, such as :func:`gloffset.raster.gpu.gpu_box_pairs`).
+    and results, such as :func:`gloffset.raster.gpu.gpu_box_pairs`; a fifth result, where
+    given, tells which pairs' ring edges cross the short arc from the cell's centre to its
+    predecessor's: the crossings the inside statuses take, found there instead of here).
     """
     e = abs(d)
     h, w = grid.level_shape(level)
     (lat, lon, rho, spacing, row_reach), boxes = plan or _plan(arcs, grid, e, level)
 
     # every cell of every box within the exact cap test, sorted by cell, then arc
-    jj, ii, ai, cm = (pairs or box_pairs)(arcs, lat, lon, row_reach, boxes, w)
+    found = (pairs or box_pairs)(arcs, lat, lon, row_reach, boxes, w)
+    jj, ii, ai, cm = found[:4]
     half = arcs.half[ai]
     cell = jj * w + ii
+    crossing = None  # (cell, arc) of the crossings pred -> cell, if the finder gives them
+    if len(found) > 4:
+        hit = np.flatnonzero(found[4])
+        crossing = cell[hit], ai[hit]
     order = np.argsort(cell * len(arcs.a) + ai, kind="stable")
     jj, ii, ai, cm, half, cell = (x[order] for x in (jj, ii, ai, cm, half, cell))
     cphi, sphi = np.cos(lat), np.sin(lat)
@@ -173,7 +180,9 @@ def scatter(
 
     # inside statuses: predecessor's, toggled by crossings of pred -> cell
     status = status_bits(arcs.n_groups, h * w)
-    if arcs.n_groups:
+    if arcs.n_groups and crossing is not None:
+        status = row_statuses(shape, arcs, h, w, center(0, 0), *crossing)
+    elif arcs.n_groups:
         ring = (arcs.group[ai] >= 0) & (cell > 0)
         ring &= cap_within(cm, spacing[jj] + half)
         pj, pi_, pa = jj[ring], ii[ring], ai[ring]
