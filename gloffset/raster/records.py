@@ -227,15 +227,23 @@ def _components(f: Frontier, arcs: CurveArcs, ci, ai, code: np.ndarray):
     n_inside = _POPCOUNT[f.status & ((1 << width) - 1).astype(np.uint8)].sum(axis=1)
     if ring.any():
         key = ci[ring] * ng + group[ring]  # (bin, component); ranks among sorted keys
+        # runs of one key (a bin's pairs come by arc, and a ring's arcs follow each other):
+        # the keys of the runs are ranked, far fewer than those of the pairs
+        new = np.empty(len(key), dtype=bool)
+        new[:1] = True
+        np.not_equal(key[1:], key[:-1], out=new[1:])
+        run = np.cumsum(new) - 1
+        rkey = key[new]
         if k * ng <= _DENSE:
             present = np.zeros(k * ng, dtype=bool)
-            present[key] = True
+            present[rkey] = True
             ukey = np.flatnonzero(present)
             lut = np.empty(k * ng, dtype=np.int64)
             lut[ukey] = np.arange(len(ukey))
-            inv = lut[key]
+            inv = lut[rkey][run]
         else:
-            ukey, inv = _unique_inverse(key)
+            ukey, rinv = _unique_inverse(rkey)
+            inv = rinv[run]
         ubin, ugrp = ukey // ng, ukey % ng
         rank = np.minimum(np.arange(len(ukey)) - np.searchsorted(ubin, ubin), MAX_LOCAL)
         code[ring] += 8 * (rank[inv] - 31)
