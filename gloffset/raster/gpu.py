@@ -33,9 +33,10 @@ __all__ = ["BinPasses", "bin_plan", "bin_passes", "device_records", "gpu_box_pai
 #: could differ from the host's, so no pair the exact test keeps is dropped.
 GPU_PAIR_MARGIN = 1e-9
 #: Fewest candidate pairs for which :func:`bin_plan` makes the records on the GL context
-#: (``shaders/arc_records.comp``) rather than in numpy: fewer cost less on the host than
-#: the shader's first compilation in a process.
-GPU_MIN_RECORDS = 50_000
+#: (``shaders/arc_records.comp``) rather than in numpy: below, numpy (about 1 us a pair)
+#: costs less than the shaders' first run in a process (llvmpipe compiles them then: about
+#: 0.1 s measured) plus their own time (about a quarter of numpy's there).
+GPU_MIN_RECORDS = 100_000
 #: Fewest box cells for which :func:`gpu_box_pairs` runs the shader: below, the numpy path
 #: costs less than the shader's first run in a process (llvmpipe compiles it then: 0.15-0.2
 #: s measured; numpy took 0.3-0.5 us a box cell, the shader about half). See
@@ -110,11 +111,12 @@ def device_records(
     (:mod:`gloffset.gl.records_pass`): the per-bin arrays (records and clusters empty)
     and the buffers; None where numpy makes them (fewer pairs than ``min_pairs``,
     default :data:`GPU_MIN_RECORDS`, or more than one storage buffer of the level passes
-    ``passes`` holds)."""
+    ``passes``, default the process's, holds)."""
     npair = len(f.pair_cell)
     least = GPU_MIN_RECORDS if min_pairs is None else min_pairs
-    limit = getattr(passes, "max_records", None)
-    if npair < least or (limit is not None and npair > limit):
+    # the level passes bind the records as one storage buffer (those of vector_pass)
+    limit = getattr(vector_passes() if passes is None else passes, "max_records", None)
+    if npair < least or limit is None or npair > limit:
         return None
     engine = records_pass()
     inp = record_inputs(f, arcs)
