@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import LINES, SQUARE_WITH_HOLE
-from test_engine_records import POINTS, frontier, pair_distances
+from test_engine_records import POINTS, frontier, pair_distances, reference_records
 
 import gloffset
 from gloffset.geometry.sphere import slerp
@@ -17,6 +17,13 @@ from gloffset.raster import records as E
 from gloffset.raster.vector.levels import Frontier
 
 DATA = Path(__file__).resolve().parent.parent / "data"
+#: polygons and lines: ring edges and other arcs in the same bins
+MIXED = {
+    "type": "FeatureCollection",
+    "features": [
+        {"type": "Feature", "properties": {}, "geometry": g} for g in (SQUARE_WITH_HOLE, LINES)
+    ],
+}
 
 
 @pytest.fixture(scope="module")
@@ -29,6 +36,7 @@ def cases(world, mexico_path):
         (frontier(mexico, 2e-4, Tile(12, 775, 1731)), 2e-4),
         (frontier(SQUARE_WITH_HOLE, 0.0, Equirect(256, 128)), 0.0),
         (frontier(LINES, 0.04, Equirect(256, 128)), 0.04),
+        (frontier(MIXED, 0.03, Equirect(256, 128)), 0.03),
         (frontier(POINTS, 0.2, Equirect(200, 100)), 0.2),
     ]
 
@@ -55,6 +63,13 @@ def test_records_are_the_numpy_records(cases):
         for name in ("first", "bits", "first_cluster", "n_clusters"):
             assert np.array_equal(getattr(host, name), getattr(want, name)), name
         assert rec.shape == want.records.shape
+        # the codes and status bits of the direct computation (component ids per bin)
+        ref_rec, ref_first, ref_bits = reference_records(f, arcs, e)
+        assert np.array_equal(host.bits, ref_bits)
+        ends = np.append(ref_first[1:], len(ref_rec))
+        for b, (s0, s1) in enumerate(zip(ref_first, ends)):
+            g0, g1 = host.first[b], host.first[b] + (s1 - s0)
+            assert sorted(rec[g0:g1, 0, 1]) == sorted(ref_rec[s0:s1, 0, 1])
         got, ref = rec.reshape(-1, 24), want.records.reshape(-1, 24)
         assert np.array_equal(got[:, 1:], ref[:, 1:])  # values: +0 and -0 are alike
         d = rec[:, 0, 0].astype(np.float64)

@@ -226,7 +226,8 @@ def _components(f: Frontier, arcs: CurveArcs, ci, ai, code: np.ndarray):
     width = np.clip(max(ng, 1) - 8 * np.arange(f.status.shape[1]), 0, 8)
     n_inside = _POPCOUNT[f.status & ((1 << width) - 1).astype(np.uint8)].sum(axis=1)
     if ring.any():
-        key = ci[ring] * ng + group[ring]  # (bin, component); ranks among sorted keys
+        every = bool(ring.all())  # polygons only: no mask to apply
+        key = ci * ng + group if every else ci[ring] * ng + group[ring]  # (bin, component)
         # runs of one key (a bin's pairs come by arc, and a ring's arcs follow each other):
         # the keys of the runs are ranked, far fewer than those of the pairs
         new = np.empty(len(key), dtype=bool)
@@ -246,7 +247,10 @@ def _components(f: Frontier, arcs: CurveArcs, ci, ai, code: np.ndarray):
             inv = rinv[run]
         ubin, ugrp = ukey // ng, ukey % ng
         rank = np.minimum(np.arange(len(ukey)) - np.searchsorted(ubin, ubin), MAX_LOCAL)
-        code[ring] += 8 * (rank[inv] - 31)
+        if every:
+            code += 8 * (rank[inv] - 31)
+        else:
+            code[ring] += 8 * (rank[inv] - 31)
         inside_g = ((f.status[ubin, ugrp >> 3] >> (ugrp & 7).astype(np.uint8)) & 1) == 1
         np.bitwise_or.at(bits, ubin[inside_g], np.uint64(1) << rank[inside_g].astype(np.uint64))
         # inside a component that has no arc here: one shared bit
