@@ -161,29 +161,22 @@ def scatter(
     h, w = grid.level_shape(level)
     (lat, lon, rho, spacing, row_reach), boxes = plan or _plan(arcs, grid, e, level)
 
-    # every cell of every box within the exact cap test, sorted by cell, then arc
+    # every cell of every box within the exact cap test (in the finder's order)
     found = (pairs or box_pairs)(arcs, lat, lon, row_reach, boxes, w)
     jj, ii, ai, cm = found[:4]
     half = arcs.half[ai]
     cell = jj * w + ii
-    crossing = None  # (cell, arc) of the crossings pred -> cell, if the finder gives them
-    if len(found) > 4:
-        hit = np.flatnonzero(found[4])
-        crossing = cell[hit], ai[hit]
-    # the keys are unique (no two pairs share a cell and an arc), so any sort gives this
-    # order; the default one is several times faster than a stable sort on random keys
-    order = np.argsort(cell * len(arcs.a) + ai)
-    jj, ii, ai, cm, half, cell = (x[order] for x in (jj, ii, ai, cm, half, cell))
     cphi, sphi = np.cos(lat), np.sin(lat)
     clam, slam = np.cos(lon), np.sin(lon)
 
     def center(j, i):
         return np.stack([cphi[j] * clam[i], cphi[j] * slam[i], sphi[j]], axis=-1)
 
-    # inside statuses: predecessor's, toggled by crossings of pred -> cell
+    # inside statuses: predecessor's, toggled by crossings of pred -> cell (in any order)
     status = status_bits(arcs.n_groups, h * w)
-    if arcs.n_groups and crossing is not None:
-        status = row_statuses(shape, arcs, h, w, center(0, 0), *crossing)
+    if arcs.n_groups and len(found) > 4:  # the finder's crossings
+        hit = np.flatnonzero(found[4])
+        status = row_statuses(shape, arcs, h, w, center(0, 0), cell[hit], ai[hit])
     elif arcs.n_groups:
         ring = (arcs.group[ai] >= 0) & (cell > 0)
         ring &= cap_within(cm, spacing[jj] + half)
@@ -193,9 +186,12 @@ def scatter(
         hit = arcs_cross(center(pj, pi_), center(qj, qi), arcs.a[pa], arcs.b[pa], arcs.n[pa])
         status = row_statuses(shape, arcs, h, w, center(0, 0), cell[ring][hit], pa[hit])
 
-    # candidate lists (within e + rho), exact distances, classes
-    cand = cap_within(cm, e + rho[jj] + half)
-    jj, ii, ai, cell, cm = jj[cand], ii[cand], ai[cand], cell[cand], cm[cand]
+    # candidate lists (within e + rho), sorted by cell, then arc: the keys are unique (no
+    # two pairs share a cell and an arc), so any sort gives this order (the default one is
+    # several times faster than a stable sort on random keys)
+    cand = np.flatnonzero(cap_within(cm, e + rho[jj] + half))
+    order = cand[np.argsort(cell[cand] * len(arcs.a) + ai[cand])]
+    jj, ii, ai, cell, cm = (x[order] for x in (jj, ii, ai, cell, cm))
     dist = np.full(h * w, np.inf)
     dring = np.full(h * w, np.inf)
     low = nearest(arcs, cell, ai, cm, lambda k: center(jj[k], ii[k]), dist, dring)
