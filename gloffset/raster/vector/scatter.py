@@ -33,7 +33,7 @@ import math
 import numpy as np
 
 from ...edges import CurveArcs, status_bits
-from ...geometry.caps import cap_within, pad
+from ...geometry.caps import cap_within_pairs, pad
 from ...geometry.sphere import angle, arcs_cross
 from ...memo import Memo, once_attr
 from .levels import FRONTIER, Frontier, decide, nearest, prune, row_statuses
@@ -141,7 +141,7 @@ def box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int):
     clam, slam = np.cos(lon), np.sin(lon)
     m = arcs.mid[ai]
     cm = cphi[jj] * (clam[ii] * m[:, 0] + slam[ii] * m[:, 1]) + sphi[jj] * m[:, 2]
-    keep = cap_within(cm, row_reach[jj] + arcs.half[ai])
+    keep = cap_within_pairs(cm, row_reach, jj, arcs.half, ai)
     return jj[keep], ii[keep], ai[keep], cm[keep]
 
 
@@ -164,7 +164,6 @@ def scatter(
     # every cell of every box within the exact cap test (in the finder's order)
     found = (pairs or box_pairs)(arcs, lat, lon, row_reach, boxes, w)
     jj, ii, ai, cm = found[:4]
-    half = arcs.half[ai]
     cell = jj * w + ii
     cphi, sphi = np.cos(lat), np.sin(lat)
     clam, slam = np.cos(lon), np.sin(lon)
@@ -179,7 +178,7 @@ def scatter(
         status = row_statuses(shape, arcs, h, w, center(0, 0), cell[hit], ai[hit])
     elif arcs.n_groups:
         ring = (arcs.group[ai] >= 0) & (cell > 0)
-        ring &= cap_within(cm, spacing[jj] + half)
+        ring &= cap_within_pairs(cm, spacing, jj, arcs.half, ai)
         pj, pi_, pa = jj[ring], ii[ring], ai[ring]
         qj = np.where(pi_ > 0, pj, pj - 1)
         qi = np.where(pi_ > 0, pi_ - 1, 0)
@@ -189,7 +188,7 @@ def scatter(
     # candidate lists (within e + rho), sorted by cell, then arc: the keys are unique (no
     # two pairs share a cell and an arc), so any sort gives this order (the default one is
     # several times faster than a stable sort on random keys)
-    cand = np.flatnonzero(cap_within(cm, e + rho[jj] + half))
+    cand = np.flatnonzero(cap_within_pairs(cm, e + rho, jj, arcs.half, ai))
     order = cand[np.argsort(cell[cand] * len(arcs.a) + ai[cand])]
     jj, ii, ai, cell, cm = (x[order] for x in (jj, ii, ai, cell, cm))
     dist = np.full(h * w, np.inf)
