@@ -15,6 +15,11 @@ other along a ring, each with a header bounding them by a ball around the bin ce
 that a cell skips, with a handful of operations, the clusters that provably cannot change
 its class (``shaders/classify.frag``). The constants below are those of the shaders'
 record format (``tests/test_layers.py`` compares them).
+
+For many pairs a render makes the records on the GL context instead
+(:mod:`gloffset.gl.records_pass`, ``shaders/arc_records.comp``): the host keeps the integer
+part (:func:`record_inputs`: the pairs, the component ids and status bits, the clusters'
+runs), the shader the float words, with these functions' bits.
 """
 
 from __future__ import annotations
