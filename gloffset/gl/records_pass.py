@@ -14,7 +14,8 @@ IEEE and its cast to float rounds to nearest (llvmpipe, NVIDIA;
 ``tests/test_records_gpu.py`` checks them); ``t0.x``, ``rho`` and ``S`` are bounds of
 their own, as rigorous as the twin's (they only cull, so the classes are the same). A
 word that numpy makes a subnormal float (``h`` within 1e-38 of zero and positive) may come
-as +0 where a device flushes subnormals: the shaders' sign tests take both alike.
+as +0 where a device flushes subnormals (its sign, what ``orient(a, b, c)`` takes from it,
+is kept; no test here has met one).
 """
 
 from __future__ import annotations
