@@ -116,8 +116,9 @@ class RecordsPass:
         ctx = self.ctx
         n, m = len(pairs), len(ranges)
 
-        def buf(a, t):
-            return ctx.buffer(np.ascontiguousarray(a, dtype=t).tobytes() or bytes(16))
+        def buf(a, t):  # read in place where it is already contiguous and of type t
+            a = np.ascontiguousarray(a, dtype=t)
+            return ctx.buffer(a if a.size else bytes(16))
 
         cen = np.zeros((len(centres), 4))
         cen[:, :3] = centres

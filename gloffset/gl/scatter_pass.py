@@ -79,8 +79,9 @@ class ScatterPass:
         chunks = np.column_stack([box, start, np.minimum(count[box] - start, CHUNK), box])
         box_rows = np.column_stack([boxes[:, 0], boxes[:, 2], nc, box_arc])
 
-        def buf(a, t):
-            return ctx.buffer(np.ascontiguousarray(a, dtype=t).tobytes() or bytes(16))
+        def buf(a, t):  # read in place where it is already contiguous and of type t
+            a = np.ascontiguousarray(a, dtype=t)
+            return ctx.buffer(a if a.size else bytes(16))
 
         bufs = [
             buf(box_rows, np.int32),

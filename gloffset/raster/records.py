@@ -76,7 +76,7 @@ class RecordInputs(NamedTuple):
     """What the records' compute shader takes (:func:`record_inputs`), and the per-bin
     arrays the level passes read beside its records."""
 
-    pairs: np.ndarray  # (pairs, 2) int64: bin, arc (by bin)
+    pairs: np.ndarray  # (pairs, 2) uint32: bin, arc (by bin)
     codes: np.ndarray  # (pairs,) int64: flags + 8 * local component id
     first: np.ndarray  # (k,) uint32: each bin's first record
     bits: np.ndarray  # (k,) uint32: the status bits at the bin centres
@@ -103,8 +103,11 @@ def record_inputs(f: Frontier, arcs: CurveArcs, cluster: int = CLUSTER) -> Recor
     first_cluster = np.searchsorted(cbin, bins)
     end = np.searchsorted(cbin, bins, side="right")
     ranges = np.column_stack([cfirst, csize, first_cluster[cbin], end[cbin]])
+    pairs = np.empty((len(ci), 2), dtype=np.uint32)  # what the shader reads
+    pairs[:, 0] = ci
+    pairs[:, 1] = ai
     return RecordInputs(
-        np.column_stack([ci, ai]),
+        pairs,
         code,
         np.searchsorted(ci, bins).astype(np.uint32),
         bits.astype(np.uint32),

@@ -190,10 +190,10 @@ def scatter(
     # several times faster than a stable sort on random keys)
     cand = np.flatnonzero(cap_within_pairs(cm, e + rho, jj, arcs.half, ai))
     order = cand[np.argsort(cell[cand] * len(arcs.a) + ai[cand])]
-    jj, ii, ai, cell, cm = (x[order] for x in (jj, ii, ai, cell, cm))
+    ai, cell, cm = (x[order] for x in (ai, cell, cm))
     dist = np.full(h * w, np.inf)
     dring = np.full(h * w, np.inf)
-    low = nearest(arcs, cell, ai, cm, lambda k: center(jj[k], ii[k]), dist, dring)
+    low = nearest(arcs, cell, ai, cm, lambda k: center(*np.divmod(cell[k], w)), dist, dring)
     inside = status.any(axis=1)
     cls = decide(dist, dring, inside, np.repeat(rho, w), d, final)
     classes = cls.reshape(h, w)
