@@ -91,17 +91,19 @@ def gpu_box_pairs(
         total,
         ring_arcs=arc_buffer(arcs.rows) if crossings else None,
     )
-    jj, ii = np.divmod(cell.astype(np.int64), w)
+    # the exact test on the unsure pairs, those it fails dropped before decoding the rest
     unsure = np.flatnonzero(ai >= UNSURE)
+    if len(unsure):
+        u = (ai[unsure] & (CROSS - 1)).astype(np.int64)
+        ok = cap_within(cm[unsure], row_reach[cell[unsure] // w] + arcs.half[u])
+        if not ok.all():
+            keep = np.ones(len(ai), dtype=bool)
+            keep[unsure[~ok]] = False
+            cell, ai, cm = cell[keep], ai[keep], cm[keep]
+    jj, ii = np.divmod(cell.astype(np.int64), w)
     hit = (ai & CROSS) != 0
     ai = (ai & (CROSS - 1)).astype(np.int64)
-    keep = np.ones(len(ai), dtype=bool)
-    u = ai[unsure]
-    keep[unsure] = cap_within(cm[unsure], row_reach[jj[unsure]] + arcs.half[u])
-    out = (jj, ii, ai, cm, hit) if crossings else (jj, ii, ai, cm)
-    if len(unsure) == 0 or keep.all():
-        return out
-    return tuple(x[keep] for x in out)
+    return (jj, ii, ai, cm, hit) if crossings else (jj, ii, ai, cm)
 
 
 def device_records(
