@@ -81,6 +81,17 @@ class CurveArcs:
         return np.ascontiguousarray(np.vstack([v.T for v in parts] + [self.half[None, :]]))
 
     @kept_property
+    def rows(self) -> np.ndarray:
+        """(n, 20) float64, read-only: :attr:`columns` arc by arc, then 1 for a ring edge
+        (0 else): what the compute shaders read per arc (``shaders/arc_records.comp``,
+        ``shaders/scatter_pairs.comp``; made once)."""
+        out = np.empty((len(self.half), 20))
+        out[:, :19] = self.columns.T
+        out[:, 19] = self.group >= 0
+        out.setflags(write=False)
+        return out
+
+    @kept_property
     def tree(self):
         """The bounding-cap tree over the arcs (built once), each arc's start ``a`` its
         point for early answers (:meth:`gloffset.geometry.captree.CapTree.near` with ``stop``)."""

@@ -11,6 +11,11 @@
 // written (cell = j * width + i, arc, cm) when cm >= lo, the arc's lowest threshold of the
 // exact cap test (less a margin), with UNSURE set in arc when cm < hi, its highest threshold
 // (plus a margin): the host takes the exact test on those.
+// With u_cross, a kept pair of a ring edge (u_ring_arc[arc * 20 + 19] != 0: a, b and the
+// normal n at 0, 3, 6) and a cell other than the first also gets CROSS set in arc when the
+// edge crosses the short arc from the cell's centre to its predecessor's (left, or above
+// in the first column): gloffset.geometry.sphere.arcs_cross, its products and sums each
+// rounded once, in its order, so the same booleans where + and * are IEEE.
 layout(local_size_x = 64) in;
 
 layout(std430, binding = 0) readonly buffer Boxes { ivec4 u_box[]; };    // j0, i0, nc, arc
@@ -22,12 +27,44 @@ layout(std430, binding = 5) writeonly buffer Pairs { uvec2 o_pair[]; };  // cell
 layout(std430, binding = 6) writeonly buffer Cms { double o_cm[]; };
 layout(std430, binding = 7) buffer Count { uint o_count; };
 layout(std430, binding = 8) readonly buffer His { double u_hi[]; };
+layout(std430, binding = 9) readonly buffer RingArcs { double u_ring_arc[]; };  // (arcs, 20)
 
 uniform int u_chunks;
 uniform int u_width;
 uniform uint u_capacity;
+uniform bool u_cross;
 
 const uint UNSURE = 0x80000000u;
+const uint CROSS = 0x40000000u;
+
+dvec3 centre(int j, int i) {
+    dvec2 r = u_row[j];
+    dvec2 c = u_col[i];
+    precise dvec3 p = dvec3(r.x * c.x, r.x * c.y, r.y);
+    return p;
+}
+
+dvec3 arc_point(int arc, int at) {
+    int k = 20 * arc + at;
+    return dvec3(u_ring_arc[k], u_ring_arc[k + 1], u_ring_arc[k + 2]);
+}
+
+// arcs_cross(centre(j, i), its predecessor's, a, b, n) of the numpy path
+bool crosses(int arc, int j, int i) {
+    if (u_ring_arc[20 * arc + 19] == 0.0LF || (j == 0 && i == 0)) {
+        return false;
+    }
+    dvec3 p = centre(j, i);
+    dvec3 q = i > 0 ? centre(j, i - 1) : centre(j - 1, 0);
+    dvec3 a = arc_point(arc, 0), b = arc_point(arc, 3), n = arc_point(arc, 6);
+    precise dvec3 pq = dvec3(p.y * q.z - p.z * q.y, p.z * q.x - p.x * q.z, p.x * q.y - p.y * q.x);
+    precise double da = pq.x * a.x + pq.y * a.y + pq.z * a.z;
+    precise double db = pq.x * b.x + pq.y * b.y + pq.z * b.z;
+    precise double dp = n.x * p.x + n.y * p.y + n.z * p.z;
+    precise double dq = n.x * q.x + n.y * q.y + n.z * q.z;
+    bool sa = da >= 0.0LF, sb = db >= 0.0LF, sp = dp >= 0.0LF, sq = dq >= 0.0LF;
+    return (sa != sb) && (sp != sq) && (sp == sb);
+}
 
 double cell_cm(dvec4 a, int j, int i) {
     dvec2 r = u_row[j];
@@ -70,7 +107,8 @@ void main() {
         int i = b.y + o % b.z;
         double cm = cell_cm(a, j, i);
         if (cm >= a.w) {
-            o_pair[at] = uvec2(uint(j * u_width + i), uint(arc) | (cm < hi ? UNSURE : 0u));
+            uint flags = (cm < hi ? UNSURE : 0u) | (u_cross && crosses(arc, j, i) ? CROSS : 0u);
+            o_pair[at] = uvec2(uint(j * u_width + i), uint(arc) | flags);
             o_cm[at] = cm;
             ++at;
         }

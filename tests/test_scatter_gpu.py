@@ -9,6 +9,7 @@ import pytest
 
 import gloffset
 from gloffset.edges import CurveArcs
+from gloffset.geometry.sphere import arcs_cross
 from gloffset.gl.scatter_pass import UNSURE, scatter_pass
 from gloffset.grids import Equirect, Tile
 from gloffset.raster.gpu import GPU_MIN_PAIRS, gpu_box_pairs
@@ -29,7 +30,7 @@ CASES = [
 
 
 def _sorted(pairs, w, n):
-    jj, ii, ai, cm = pairs
+    jj, ii, ai, cm = pairs[:4]
     order = np.argsort((jj * w + ii) * n + ai)
     return [x[order] for x in (jj, ii, ai)], cm[order]
 
@@ -103,10 +104,58 @@ def test_no_pairs():
     arcs = CurveArcs.from_shape(shape)
     grid = Equirect(256, 128, (100, -40, 140, -10))  # far from the line
     (lat, lon, _, _, row_reach), boxes = _plan(arcs, grid, 0.001, 2)
-    jj, ii, ai, cm = gpu_box_pairs(
+    jj, ii, ai, cm, hit = gpu_box_pairs(
         arcs, lat, lon, row_reach, boxes, grid.level_shape(2)[1], min_pairs=0
     )
-    assert len(jj) == len(ii) == len(ai) == len(cm) == 0
+    assert len(jj) == len(ii) == len(ai) == len(cm) == len(hit) == 0
+
+
+def _same_crossings(arcs, grid, e, level):
+    """The shader's crossing flags are arcs_cross of every ring edge's pair (cell, arc),
+    the cell's centre to its predecessor's (but the first cell)."""
+    (lat, lon, _, _, row_reach), boxes = _plan(arcs, grid, e, level)
+    w = grid.level_shape(level)[1]
+    jj, ii, ai, cm, hit = gpu_box_pairs(arcs, lat, lon, row_reach, boxes, w, min_pairs=0)
+    ring = (arcs.group[ai] >= 0) & ((jj > 0) | (ii > 0))
+    assert not hit[~ring].any()
+    j, i, a = jj[ring], ii[ring], ai[ring]
+    qj, qi = np.where(i > 0, j, j - 1), np.where(i > 0, i - 1, 0)
+
+    def centre(j, i):
+        cphi, sphi, clam, slam = np.cos(lat[j]), np.sin(lat[j]), np.cos(lon[i]), np.sin(lon[i])
+        return np.stack([cphi * clam, cphi * slam, sphi], axis=-1)
+
+    want = arcs_cross(centre(j, i), centre(qj, qi), arcs.a[a], arcs.b[a], arcs.n[a])
+    np.testing.assert_array_equal(hit[ring], want)
+    return int(want.sum())
+
+
+def test_crossings_on_mexico_10m(mexico_path):
+    arcs = CurveArcs.from_shape(gloffset.read(mexico_path))
+    assert _same_crossings(arcs, Equirect(4096, 2048), 0.02, 4) > 100
+
+
+@pytest.mark.parametrize("what, d, grid, level", CASES)
+def test_crossings_on_borders(world, what, d, grid, level):
+    shape = gloffset.read(world[what] if isinstance(what, str) else what)
+    arcs = CurveArcs.from_shape(shape)
+    _same_crossings(arcs, grid, abs(d), min(level, grid.n_levels - 1))
+
+
+@pytest.mark.parametrize("what, d, grid, level", CASES)
+def test_scatter_gives_the_same_level_on_borders(world, what, d, grid, level):
+    shape = gloffset.read(world[what] if isinstance(what, str) else what)
+    arcs = CurveArcs.from_shape(shape)
+    level = min(level, grid.n_levels - 1)
+    ref_cls, ref = scatter(shape, arcs, grid, d, level, False)
+
+    def on_gpu(*args):
+        return gpu_box_pairs(*args, min_pairs=0)
+
+    cls, f = scatter(shape, arcs, grid, d, level, False, pairs=on_gpu)
+    np.testing.assert_array_equal(cls, ref_cls)
+    for name in ("cells", "centers", "rho", "pair_cell", "pair_arc", "status"):
+        np.testing.assert_array_equal(getattr(f, name), getattr(ref, name))
 
 
 def test_scatter_gives_the_same_level(mexico_path):

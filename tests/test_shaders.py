@@ -36,6 +36,13 @@ def test_every_shader_file_compiles(ctx, name):
     assert ctx.error == "GL_NO_ERROR"
 
 
+@pytest.mark.parametrize("define", ["CLUSTERS", "ORDER"])
+def test_arc_records_variants_compile(ctx, define):
+    prog = ctx.compute_shader(load_source("arc_records.comp", {define: 1})[0])
+    assert prog is not None
+    assert ctx.error == "GL_NO_ERROR"
+
+
 @pytest.mark.parametrize("name", ["classify.frag", "raster_classify.frag"])
 def test_grid_cube_variants_compile(ctx, name):
     # the files above compile without defines; these also have a GRID_CUBE variant

@@ -22,7 +22,7 @@ from ..errors import GLContextError
 from .context import context_info, get_context, shared
 from .shaders import load_source
 
-__all__ = ["UNSURE", "ScatterPass", "scatter_pass"]
+__all__ = ["CROSS", "UNSURE", "ScatterPass", "scatter_pass"]
 
 _LOCAL = 64
 #: Most box cells one invocation takes: llvmpipe ends a loop after 65535 iterations (and
@@ -30,6 +30,9 @@ _LOCAL = 64
 CHUNK = 4096
 #: The bit of a returned arc that marks ``lo <= cm < hi`` (the exact test is the host's).
 UNSURE = 1 << 31
+#: The bit of a returned arc that marks a ring edge crossing the short arc from the cell's
+#: centre to its predecessor's (with ``ring_arcs``).
+CROSS = 1 << 30
 
 
 class ScatterPass:
@@ -46,7 +49,11 @@ class ScatterPass:
         chunks = boxes + pairs // CHUNK
         return 8 * pairs <= self.max_bytes and 16 * chunks <= self.max_bytes and pairs < UNSURE
 
-    def run(self, boxes, box_arc, arcs, hi, rows, cols, width: int, pairs: int):
+    def fits_arcs(self, arcs: int) -> bool:
+        """Whether ``arcs`` arcs' rows fit a storage buffer and their indices the flags."""
+        return 160 * arcs <= self.max_bytes and arcs < CROSS
+
+    def run(self, boxes, box_arc, arcs, hi, rows, cols, width: int, pairs: int, ring_arcs=None):
         """``(cell, arc, cm)`` of the box cells whose ``cm >= lo`` (any order).
 
         ``boxes`` (n, 4) int ``j0, j1, i0, i1`` (non-empty); ``box_arc`` (n,) the arc of
@@ -55,6 +62,10 @@ class ScatterPass:
         cos and sin of the row latitudes, ``cols`` (w, 2) of the column longitudes;
         ``pairs`` the number of box cells (the output's capacity). Returns uint32 cells
         and arcs (with :data:`UNSURE` set where ``cm < hi``), float64 ``cm``.
+        ``ring_arcs``: the arcs' rows (:attr:`gloffset.edges.CurveArcs.rows`, the last
+        column nonzero for ring edges) as an array or a GL buffer; with them, a ring
+        edge's pair gets :data:`CROSS` where the edge crosses the short arc from the
+        cell's centre to its predecessor's (``arcs_cross``, the same booleans).
         """
         ctx = self.ctx
         cap = max(int(pairs), 1)
@@ -68,8 +79,9 @@ class ScatterPass:
         chunks = np.column_stack([box, start, np.minimum(count[box] - start, CHUNK), box])
         box_rows = np.column_stack([boxes[:, 0], boxes[:, 2], nc, box_arc])
 
-        def buf(a, t):
-            return ctx.buffer(np.ascontiguousarray(a, dtype=t).tobytes() or bytes(16))
+        def buf(a, t):  # read in place where it is already contiguous and of type t
+            a = np.ascontiguousarray(a, dtype=t)
+            return ctx.buffer(a if a.size else bytes(16))
 
         bufs = [
             buf(box_rows, np.int32),
@@ -82,7 +94,14 @@ class ScatterPass:
             ctx.buffer(bytes(4)),
             buf(hi, np.float64),
         ]
+        if ring_arcs is None or isinstance(ring_arcs, np.ndarray):
+            bufs.append(buf(np.zeros(20) if ring_arcs is None else ring_arcs, np.float64))
+            ring_buf = bufs[-1]
+        else:
+            ring_buf = ring_arcs  # the caller's
         try:
+            ring_buf.bind_to_storage_buffer(9)
+            self.prog["u_cross"] = ring_arcs is not None
             for k, b in enumerate(bufs):
                 b.bind_to_storage_buffer(k)
             self.prog["u_chunks"] = len(chunks)

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..errors import GLContextError
 from .context import context_info, get_context, shared
+from .records_pass import DeviceRecords
 from .shaders import program
 from .textures import class_target, pot_texture
 from .textures import set_uniform as _set
@@ -83,6 +84,9 @@ class BinPlan:
     the canvas, ``cell_delta(s, parent)`` (hb 2^s, wb 2^s, 3) float32 each cell's centre
     minus its bin's (made in float64) for the children of the frontier cells of
     ``parent``, the classes read back from shift ``s - 1`` (the canvas at shift 1).
+    Records made on the GL context (:mod:`gloffset.gl.records_pass`): ``device`` their
+    buffers, bound as they are in one draw (``records`` and ``clusters`` are then empty;
+    the run releases the buffers).
     """
 
     canvas: np.ndarray
@@ -112,6 +116,7 @@ class BinPlan:
     bin_centre_lo: np.ndarray | None = None
     grid_source: str | None = None
     grid_constants: tuple = ()
+    device: DeviceRecords | None = None
 
     @property
     def cube(self) -> bool:
@@ -180,8 +185,17 @@ class VectorPasses:
             raise ValueError(
                 f"records must be (pairs, {RECORD_TEXELS}, 4), got {plan.records.shape}"
             )
+        try:
+            return self._run(plan, callback, timings)
+        finally:
+            if plan.device is not None:
+                plan.device.release()
+
+    def _run(self, plan: BinPlan, callback, timings) -> np.ndarray:
         ctx = self.ctx
         groups = _groups(plan.first, plan.counts, self.max_records)
+        if plan.device is not None and len(groups) > 1:
+            raise GLContextError("records made on the GL context must fit one storage buffer")
         p = self._program(plan.kind)
         textures = self._bin_textures(p, plan, groups)
         parent = self._tex(plan.canvas, 1, "u1")
@@ -228,7 +242,7 @@ class VectorPasses:
             ctx.disable(moderngl.DEPTH_TEST)
             ctx.depth_func = "<"
             for objs in draws:
-                for o in objs[:4]:
+                for o in objs[:4] if plan.device is None else objs[2:4]:
                     o.release()
             pre_vao.release()
             everyone.release()
@@ -310,6 +324,10 @@ class VectorPasses:
         first, counts, hdr = plan.first, plan.counts, plan.clusters
         cfirst, ccount = plan.first_cluster, plan.n_clusters
         draws = []
+        if plan.device is not None:  # one group (run checks), the buffers as they are
+            inst = ctx.buffer(fb.tobytes())
+            vao = ctx.vertex_array(p, [(inst, "2i/i", "in_bin")])
+            return [(plan.device.records, plan.device.clusters, inst, vao, len(fb))]
         for g0, g1 in groups:
             r0, r1 = int(first[g0]), int(first[g1 - 1] + counts[g1 - 1])
             c0, c1 = int(cfirst[g0]), int(cfirst[g1 - 1] + ccount[g1 - 1])

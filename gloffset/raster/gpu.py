@@ -11,23 +11,32 @@ frontier bins is its bin's class.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..edges import CurveArcs
-from ..geometry.caps import COS_SLACK, cap_within
-from ..gl.scatter_pass import UNSURE, scatter_pass
+from ..geometry.caps import COS_SLACK, cap_within, chord2
+from ..gl.arcs import arc_buffer
+from ..gl.records_pass import DeviceRecords, records_pass
+from ..gl.scatter_pass import CROSS, UNSURE, scatter_pass
 from ..gl.vector_pass import BinPlan, vector_passes
 from .layout import BinLayout
-from .records import margins, records
+from .records import ArcRecords, margins, record_inputs, records
 from .vector.levels import Frontier
 from .vector.scatter import box_pairs
 
-__all__ = ["BinPasses", "bin_plan", "bin_passes", "gpu_box_pairs"]
+__all__ = ["BinPasses", "bin_plan", "bin_passes", "device_records", "gpu_box_pairs"]
 
 #: Margin below the lowest exact threshold of an arc's cap test under which the compute
 #: shader drops a pair: far above the few ulp (1e-15) by which a device's float64 ``c.m``
 #: could differ from the host's, so no pair the exact test keeps is dropped.
 GPU_PAIR_MARGIN = 1e-9
+#: Fewest candidate pairs for which :func:`bin_plan` makes the records on the GL context
+#: (``shaders/arc_records.comp``) rather than in numpy: below, numpy (about 1 us a pair)
+#: costs less than the shaders' first run in a process (llvmpipe compiles them then: about
+#: 0.1 s measured) plus their own time (about a quarter of numpy's there).
+GPU_MIN_RECORDS = 100_000
 #: Fewest box cells for which :func:`gpu_box_pairs` runs the shader: below, the numpy path
 #: costs less than the shader's first run in a process (llvmpipe compiles it then: 0.15-0.2
 #: s measured; numpy took 0.3-0.5 us a box cell, the shader about half). See
@@ -35,7 +44,9 @@ GPU_PAIR_MARGIN = 1e-9
 GPU_MIN_PAIRS = 500_000
 
 
-def gpu_box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, min_pairs=None):
+def gpu_box_pairs(
+    arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, min_pairs=None, crossings=True
+):
     """:func:`gloffset.raster.vector.scatter.box_pairs` with the box cells enumerated and
     their ``c.m`` computed by the compute shader of :mod:`gloffset.gl.scatter_pass`: the
     same pairs and ``cm`` (in another order; the caller sorts them).
@@ -48,6 +59,12 @@ def gpu_box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, min_pa
     pairs above the highest threshold pass the exact test: the result is its booleans.
     Fewer box cells than ``min_pairs`` (default :data:`GPU_MIN_PAIRS`), or boxes beyond the
     GL limits, take the numpy path.
+
+    With ``crossings`` (the default), the shader also tells which ring edges cross the
+    short arc from each pair's cell centre to its predecessor's
+    (:func:`gloffset.geometry.sphere.arcs_cross`, the same booleans; for every pair of a
+    ring edge and a cell but the first): the result has a fifth array, those booleans,
+    where the shader ran.
     """
     a_idx, j0, j1, i0, i1 = boxes
     total = int(((j1 - j0) * (i1 - i0)).sum())
@@ -55,7 +72,11 @@ def gpu_box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, min_pa
     if total < least:
         return box_pairs(arcs, lat, lon, row_reach, boxes, w)
     engine = scatter_pass()
-    if not engine.fits(total, len(a_idx)) or len(lat) * w >= 1 << 31:
+    if (
+        not engine.fits(total, len(a_idx))
+        or not engine.fits_arcs(len(arcs.a))
+        or len(lat) * w >= 1 << 31
+    ):
         return box_pairs(arcs, lat, lon, row_reach, boxes, w)
     lo = np.cos(np.minimum(row_reach.max() + arcs.half, np.pi)) - COS_SLACK - GPU_PAIR_MARGIN
     hi = np.cos(np.minimum(row_reach.min() + arcs.half, np.pi)) - COS_SLACK + GPU_PAIR_MARGIN
@@ -68,23 +89,74 @@ def gpu_box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, min_pa
         np.column_stack([np.cos(lon), np.sin(lon)]),
         w,
         total,
+        ring_arcs=arc_buffer(arcs.rows) if crossings else None,
     )
-    jj, ii = np.divmod(cell.astype(np.int64), w)
+    # the exact test on the unsure pairs, those it fails dropped before decoding the rest
     unsure = np.flatnonzero(ai >= UNSURE)
-    ai = (ai & (UNSURE - 1)).astype(np.int64)
-    keep = np.ones(len(ai), dtype=bool)
-    u = ai[unsure]
-    keep[unsure] = cap_within(cm[unsure], row_reach[jj[unsure]] + arcs.half[u])
-    if len(unsure) == 0 or keep.all():
-        return jj, ii, ai, cm
-    return jj[keep], ii[keep], ai[keep], cm[keep]
+    if len(unsure):
+        u = (ai[unsure] & (CROSS - 1)).astype(np.int64)
+        ok = cap_within(cm[unsure], row_reach[cell[unsure] // w] + arcs.half[u])
+        if not ok.all():
+            keep = np.ones(len(ai), dtype=bool)
+            keep[unsure[~ok]] = False
+            cell, ai, cm = cell[keep], ai[keep], cm[keep]
+    jj, ii = np.divmod(cell.astype(np.int64), w)
+    hit = (ai & CROSS) != 0
+    ai = (ai & (CROSS - 1)).astype(np.int64)
+    return (jj, ii, ai, cm, hit) if crossings else (jj, ii, ai, cm)
 
 
-def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs) -> BinPlan:
+def device_records(
+    f: Frontier, arcs: CurveArcs, e: float, passes=None, *, min_pairs=None
+) -> tuple[ArcRecords, DeviceRecords] | None:
+    """The records of the frontier bins ``f`` at distance ``e`` made on the GL context
+    (:mod:`gloffset.gl.records_pass`): the per-bin arrays (records and clusters empty)
+    and the buffers; None where numpy makes them (fewer pairs than ``min_pairs``,
+    default :data:`GPU_MIN_RECORDS`, or more than one storage buffer of the level passes
+    ``passes``, default the process's, holds)."""
+    npair = len(f.pair_cell)
+    least = GPU_MIN_RECORDS if min_pairs is None else min_pairs
+    # the level passes bind the records as one storage buffer (those of vector_pass)
+    limit = getattr(vector_passes() if passes is None else passes, "max_records", None)
+    if npair < least or limit is None or npair > limit:
+        return None
+    engine = records_pass()
+    inp = record_inputs(f, arcs)
+    most = int(inp.n_clusters.max(initial=0))
+    if not engine.fits(npair, len(arcs.a), len(inp.ranges), most):
+        return None
+    dev = engine.run(
+        inp.pairs,
+        inp.codes,
+        f.centers,
+        arcs.rows,
+        inp.ranges,
+        math.sin(e),
+        float(chord2(e)),
+    )
+    empty = ArcRecords(
+        np.zeros((0, 6, 4), dtype=np.float32),
+        inp.first,
+        inp.bits,
+        np.zeros((0, 2, 4), dtype=np.uint32),
+        inp.first_cluster,
+        inp.n_clusters,
+    )
+    return empty, dev
+
+
+def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs, passes=None) -> BinPlan:
     """What the GL passes draw for the frontier bins ``f`` placed by ``layout``, at the
-    signed distance ``d``: their records and every level's margins and geometry."""
+    signed distance ``d``: their records and every level's margins and geometry (the
+    records on the GL context where :func:`device_records` makes them, for the level
+    passes ``passes``; else in numpy)."""
     e = abs(d)
-    rec, first, bits, hdr, cfirst, ccount = records(f, arcs, e)
+    made = device_records(f, arcs, e, passes)
+    if made is None:
+        rec, first, bits, hdr, cfirst, ccount = records(f, arcs, e)
+        device = None
+    else:
+        (rec, first, bits, hdr, cfirst, ccount), device = made
     counts = np.bincount(f.pair_cell, minlength=len(f.cells)).astype(np.uint32)
     shifts = range(1, layout.stop + 1)
     rho = layout.rho
@@ -105,6 +177,7 @@ def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs) -> BinPl
         n_clusters=ccount,
         margins={s: margins(rho[s].ravel(), e).reshape(len(rho[s]), -1, 4) for s in shifts},
         rho_max={s: 0.0 if s == layout.last else float(rho[s].max()) for s in shifts},
+        device=device,
     )
     if layout.basis is not None:
         plan.basis, plan.face_size = layout.basis, layout.face_size
@@ -206,7 +279,7 @@ class BinPasses:
             for s in range(1, layout.stop + 1) if callback is not None else ():
                 callback(s, np.zeros((hb << s, wb << s), dtype=np.uint8))
             return np.zeros((hb << layout.stop, wb << layout.stop), dtype=np.uint8)
-        plan = bin_plan(layout, d, f, arcs)
+        plan = bin_plan(layout, d, f, arcs, self.passes)
         return self.passes.run(plan, callback=callback, timings=timings)
 
 

@@ -15,6 +15,11 @@ other along a ring, each with a header bounding them by a ball around the bin ce
 that a cell skips, with a handful of operations, the clusters that provably cannot change
 its class (``shaders/classify.frag``). The constants below are those of the shaders'
 record format (``tests/test_layers.py`` compares them).
+
+For many pairs a render makes the records on the GL context instead
+(:mod:`gloffset.gl.records_pass`, ``shaders/arc_records.comp``): the host keeps the integer
+part (:func:`record_inputs`: the pairs, the component ids and status bits, the clusters'
+runs), the shader the float words, with these functions' bits.
 """
 
 from __future__ import annotations
@@ -35,11 +40,13 @@ __all__ = [
     "ARC_IS_ARC",
     "ARC_RING",
     "ArcRecords",
+    "RecordInputs",
     "CLUSTER",
     "MAX_LOCAL",
     "OTHER_BIT",
     "RECORD_TEXELS",
     "margins",
+    "record_inputs",
     "records",
 ]
 
@@ -63,6 +70,51 @@ class ArcRecords(NamedTuple):
     clusters: np.ndarray  # (m, 2, 4) uint32: the cluster headers
     first_cluster: np.ndarray  # (k,) uint32: each bin's first cluster
     n_clusters: np.ndarray  # (k,) uint32: each bin's clusters
+
+
+class RecordInputs(NamedTuple):
+    """What the records' compute shader takes (:func:`record_inputs`), and the per-bin
+    arrays the level passes read beside its records."""
+
+    pairs: np.ndarray  # (pairs, 2) uint32: bin, arc (by bin)
+    codes: np.ndarray  # (pairs,) int64: flags + 8 * local component id
+    first: np.ndarray  # (k,) uint32: each bin's first record
+    bits: np.ndarray  # (k,) uint32: the status bits at the bin centres
+    ranges: np.ndarray  # (m, 4) int64: per cluster its first record, records, its bin's clusters
+    first_cluster: np.ndarray  # (k,) uint32
+    n_clusters: np.ndarray  # (k,) uint32
+
+
+def record_inputs(f: Frontier, arcs: CurveArcs, cluster: int = CLUSTER) -> RecordInputs:
+    """The integer part of :func:`records`, for the records made on the GPU
+    (:mod:`gloffset.gl.records_pass`): the pairs by bin with their codes, the status bits,
+    and the clusters (the same runs as :func:`records`'s; their order within a bin, by
+    ``Dmin``, is the shader's to make)."""
+    if not 1 <= cluster <= 16:
+        raise ValueError(f"cluster must be 1..16, got {cluster}")
+    ci, ai = _pairs(f)
+    k = len(f.cells)
+    is_arc = dot(arcs.n, arcs.n) > 0.5  # n is a unit vector or zero
+    code = np.where(np.take(is_arc, ai), ARC_IS_ARC, 0)
+    _, bits = _components(f, arcs, ci, ai, code)
+    cfirst, csize = _cluster_starts(ci, ai, cluster)
+    cbin = ci[cfirst]
+    bins = np.arange(k)
+    first_cluster = np.searchsorted(cbin, bins)
+    end = np.searchsorted(cbin, bins, side="right")
+    ranges = np.column_stack([cfirst, csize, first_cluster[cbin], end[cbin]])
+    pairs = np.empty((len(ci), 2), dtype=np.uint32)  # what the shader reads
+    pairs[:, 0] = ci
+    pairs[:, 1] = ai
+    return RecordInputs(
+        pairs,
+        code,
+        np.searchsorted(ci, bins).astype(np.uint32),
+        bits.astype(np.uint32),
+        ranges,
+        first_cluster.astype(np.uint32),
+        (end - first_cluster).astype(np.uint32),
+    )
 
 
 def records(f: Frontier, arcs: CurveArcs, e: float, cluster: int = CLUSTER) -> ArcRecords:
@@ -182,19 +234,31 @@ def _components(f: Frontier, arcs: CurveArcs, ci, ai, code: np.ndarray):
     width = np.clip(max(ng, 1) - 8 * np.arange(f.status.shape[1]), 0, 8)
     n_inside = _POPCOUNT[f.status & ((1 << width) - 1).astype(np.uint8)].sum(axis=1)
     if ring.any():
-        key = ci[ring] * ng + group[ring]  # (bin, component); ranks among sorted keys
+        every = bool(ring.all())  # polygons only: no mask to apply
+        key = ci * ng + group if every else ci[ring] * ng + group[ring]  # (bin, component)
+        # runs of one key (a bin's pairs come by arc, and a ring's arcs follow each other):
+        # the keys of the runs are ranked, far fewer than those of the pairs
+        new = np.empty(len(key), dtype=bool)
+        new[:1] = True
+        np.not_equal(key[1:], key[:-1], out=new[1:])
+        run = np.cumsum(new) - 1
+        rkey = key[new]
         if k * ng <= _DENSE:
             present = np.zeros(k * ng, dtype=bool)
-            present[key] = True
+            present[rkey] = True
             ukey = np.flatnonzero(present)
             lut = np.empty(k * ng, dtype=np.int64)
             lut[ukey] = np.arange(len(ukey))
-            inv = lut[key]
+            inv = lut[rkey][run]
         else:
-            ukey, inv = _unique_inverse(key)
+            ukey, rinv = _unique_inverse(rkey)
+            inv = rinv[run]
         ubin, ugrp = ukey // ng, ukey % ng
         rank = np.minimum(np.arange(len(ukey)) - np.searchsorted(ubin, ubin), MAX_LOCAL)
-        code[ring] += 8 * (rank[inv] - 31)
+        if every:
+            code += 8 * (rank[inv] - 31)
+        else:
+            code[ring] += 8 * (rank[inv] - 31)
         inside_g = ((f.status[ubin, ugrp >> 3] >> (ugrp & 7).astype(np.uint8)) & 1) == 1
         np.bitwise_or.at(bits, ubin[inside_g], np.uint64(1) << rank[inside_g].astype(np.uint64))
         # inside a component that has no arc here: one shared bit
@@ -227,13 +291,7 @@ def _clusters(cols: np.ndarray, ci, ai, ring, k: int, cluster: int):
 
     A cluster is a run of consecutive arcs of a bin, cut every ``cluster`` pairs.
     """
-    npair = len(ci)
-    start = np.ones(npair, dtype=bool)
-    start[1:] = (ci[1:] != ci[:-1]) | (ai[1:] != ai[:-1] + 1)
-    run_first = np.flatnonzero(start)
-    pos = np.arange(npair) - np.repeat(run_first, np.diff(np.append(run_first, npair)))
-    cfirst = np.flatnonzero(start | (pos % cluster == 0))
-    csize = np.diff(np.append(cfirst, npair))
+    cfirst, csize = _cluster_starts(ci, ai, cluster)
     q32, rho32, s32 = _balls(cols[2:5], cols[5:8], cfirst, csize)
     dmin = np.minimum.reduceat(cols[0], cfirst)  # the smallest t0.x, exactly
     hmin = np.minimum.reduceat(np.where(ring, np.abs(cols[1]), np.float32(np.inf)), cfirst)
@@ -256,6 +314,18 @@ def _clusters(cols: np.ndarray, ci, ai, ring, k: int, cluster: int):
     first_cluster = np.searchsorted(cb, bins)
     n_clusters = np.searchsorted(cb, bins, side="right") - first_cluster
     return hdr, first_cluster, n_clusters
+
+
+def _cluster_starts(ci, ai, cluster: int) -> tuple[np.ndarray, np.ndarray]:
+    """The first pair and the size of each cluster: runs of consecutive arcs of a bin,
+    cut every ``cluster`` pairs."""
+    npair = len(ci)
+    start = np.ones(npair, dtype=bool)
+    start[1:] = (ci[1:] != ci[:-1]) | (ai[1:] != ai[:-1] + 1)
+    run_first = np.flatnonzero(start)
+    pos = np.arange(npair) - np.repeat(run_first, np.diff(np.append(run_first, npair)))
+    cfirst = np.flatnonzero(start | (pos % cluster == 0))
+    return cfirst, np.diff(np.append(cfirst, npair))
 
 
 def _balls(t4: np.ndarray, t5: np.ndarray, cfirst: np.ndarray, csize: np.ndarray):

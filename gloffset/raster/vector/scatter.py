@@ -33,7 +33,7 @@ import math
 import numpy as np
 
 from ...edges import CurveArcs, status_bits
-from ...geometry.caps import cap_within, pad
+from ...geometry.caps import cap_within_pairs, pad
 from ...geometry.sphere import angle, arcs_cross
 from ...memo import Memo, once_attr
 from .levels import FRONTIER, Frontier, decide, nearest, prune, row_statuses
@@ -141,7 +141,7 @@ def box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int):
     clam, slam = np.cos(lon), np.sin(lon)
     m = arcs.mid[ai]
     cm = cphi[jj] * (clam[ii] * m[:, 0] + slam[ii] * m[:, 1]) + sphi[jj] * m[:, 2]
-    keep = cap_within(cm, row_reach[jj] + arcs.half[ai])
+    keep = cap_within_pairs(cm, row_reach, jj, arcs.half, ai)
     return jj[keep], ii[keep], ai[keep], cm[keep]
 
 
@@ -153,41 +153,47 @@ def scatter(
     ``final``: ``level`` is the output level (decided at the centres); ``plan``: what
     :func:`start_level` gave for this level and distance, if it chose it; ``pairs``: what
     finds the box pairs (:func:`box_pairs`, the default, or a function with its arguments
-    and results, such as :func:`gloffset.raster.gpu.gpu_box_pairs`).
+    and results, such as :func:`gloffset.raster.gpu.gpu_box_pairs`; a fifth result, where
+    given, tells which pairs' ring edges cross the short arc from the cell's centre to its
+    predecessor's: the crossings the inside statuses take, found there instead of here).
     """
     e = abs(d)
     h, w = grid.level_shape(level)
     (lat, lon, rho, spacing, row_reach), boxes = plan or _plan(arcs, grid, e, level)
 
-    # every cell of every box within the exact cap test, sorted by cell, then arc
-    jj, ii, ai, cm = (pairs or box_pairs)(arcs, lat, lon, row_reach, boxes, w)
-    half = arcs.half[ai]
+    # every cell of every box within the exact cap test (in the finder's order)
+    found = (pairs or box_pairs)(arcs, lat, lon, row_reach, boxes, w)
+    jj, ii, ai, cm = found[:4]
     cell = jj * w + ii
-    order = np.argsort(cell * len(arcs.a) + ai, kind="stable")
-    jj, ii, ai, cm, half, cell = (x[order] for x in (jj, ii, ai, cm, half, cell))
     cphi, sphi = np.cos(lat), np.sin(lat)
     clam, slam = np.cos(lon), np.sin(lon)
 
     def center(j, i):
         return np.stack([cphi[j] * clam[i], cphi[j] * slam[i], sphi[j]], axis=-1)
 
-    # inside statuses: predecessor's, toggled by crossings of pred -> cell
+    # inside statuses: predecessor's, toggled by crossings of pred -> cell (in any order)
     status = status_bits(arcs.n_groups, h * w)
-    if arcs.n_groups:
+    if arcs.n_groups and len(found) > 4:  # the finder's crossings
+        hit = np.flatnonzero(found[4])
+        status = row_statuses(shape, arcs, h, w, center(0, 0), cell[hit], ai[hit])
+    elif arcs.n_groups:
         ring = (arcs.group[ai] >= 0) & (cell > 0)
-        ring &= cap_within(cm, spacing[jj] + half)
+        ring &= cap_within_pairs(cm, spacing, jj, arcs.half, ai)
         pj, pi_, pa = jj[ring], ii[ring], ai[ring]
         qj = np.where(pi_ > 0, pj, pj - 1)
         qi = np.where(pi_ > 0, pi_ - 1, 0)
         hit = arcs_cross(center(pj, pi_), center(qj, qi), arcs.a[pa], arcs.b[pa], arcs.n[pa])
         status = row_statuses(shape, arcs, h, w, center(0, 0), cell[ring][hit], pa[hit])
 
-    # candidate lists (within e + rho), exact distances, classes
-    cand = cap_within(cm, e + rho[jj] + half)
-    jj, ii, ai, cell, cm = jj[cand], ii[cand], ai[cand], cell[cand], cm[cand]
+    # candidate lists (within e + rho), sorted by cell, then arc: the keys are unique (no
+    # two pairs share a cell and an arc), so any sort gives this order (the default one is
+    # several times faster than a stable sort on random keys)
+    cand = np.flatnonzero(cap_within_pairs(cm, e + rho, jj, arcs.half, ai))
+    order = cand[np.argsort(cell[cand] * len(arcs.a) + ai[cand])]
+    ai, cell, cm = (x[order] for x in (ai, cell, cm))
     dist = np.full(h * w, np.inf)
     dring = np.full(h * w, np.inf)
-    low = nearest(arcs, cell, ai, cm, lambda k: center(jj[k], ii[k]), dist, dring)
+    low = nearest(arcs, cell, ai, cm, lambda k: center(*np.divmod(cell[k], w)), dist, dring)
     inside = status.any(axis=1)
     cls = decide(dist, dring, inside, np.repeat(rho, w), d, final)
     classes = cls.reshape(h, w)
