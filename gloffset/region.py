@@ -439,8 +439,8 @@ class _Union:
         k = np.maximum.reduceat(np.where(score == best[self.comp], np.arange(m), -1), lo)
         mid = normalize(a[k] + b[k])
         left = normalize(robust_cross(a[k], b[k]))
-        qi, di, _ = self.tree.near(mid, 1e-3)
-        ok = (self.comp[di] == qi) & (di != k[qi])
+        qi, di, _ = self.tree.near(mid, 1e-3, lo=lo, hi=self.comp_end)
+        ok = di != k[qi]
         qi, di = qi[ok], di[ok]
         dmin = np.ones(self.n_comp)
         np.minimum.at(dmin, qi, arc_distance(mid[qi], a[di], b[di], self.n[di]))

@@ -122,3 +122,24 @@ def test_along_returns_exactly_the_items_its_distance_test_keeps(seed):
     hi = lo + rng.integers(1, 600, len(a))
     si, ni = tree.along(a, b, lo=lo, hi=hi)
     assert set(zip(si.tolist(), ni.tolist())) == brute_along(tree, a, b, lo, hi)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_near_with_item_ranges_returns_the_pairs_without_them_that_lie_in_range(seed):
+    # the union's inner points ask for the edges of their own polygon only: the walk
+    # drops the nodes outside every range of its queries, and no pair in range is lost
+    c, r = mixed_caps(1500, seed)
+    tree = CapTree(c, r)
+    rng = np.random.default_rng(seed)
+    p = normalize(rng.normal(size=(200, 3)))
+    p[:100] = c[rng.integers(0, len(c), 100)]  # points among the items
+    reach = 10.0 ** rng.uniform(-6, -0.5, len(p))
+    qi, di, _ = tree.near(p, reach)
+    lo = rng.integers(0, 1400, len(p))
+    hi = lo + rng.integers(0, 300, len(p))
+    inr = (di >= lo[qi]) & (di < hi[qi])
+    want = set(zip(qi[inr].tolist(), di[inr].tolist()))
+    assert len(want) > 50
+    qi, di, _ = tree.near(p, reach, lo=lo, hi=hi)
+    assert ((di >= lo[qi]) & (di < hi[qi])).all()
+    assert set(zip(qi.tolist(), di.tolist())) == want and len(want) == len(qi)

@@ -285,7 +285,7 @@ class CapTree:
         order = np.argsort(ci * self.n + cj)  # by i, then j (n^2 < 2^63)
         return ci[order], cj[order]
 
-    def near(self, points, reach, *, stop=None):
+    def near(self, points, reach, *, stop=None, lo=None, hi=None):
         """Items whose cap comes within ``reach`` of each point.
 
         Parameters
@@ -297,6 +297,11 @@ class CapTree:
             With ``reps``: a point ``p`` is *done* as soon as a visited node's
             representative point lies closer than ``stop[p]`` to it; its remaining
             pairs are dropped. Use it when any item within ``stop`` answers the query.
+        lo, hi : (m,) int arrays, optional
+            Only items ``lo[p] <= item < hi[p]`` for point ``p`` (the same pairs as
+            without them, less those outside the range: a node of the walk is dropped
+            when its items lie outside the ranges of all the queries of its pair).
+            Not with ``stop`` (an item out of a query's range would stop it).
 
         Returns
         -------
@@ -339,12 +344,21 @@ class CapTree:
                 st_k = q_stop[k]
                 s_ch = chord(np.maximum(st_k, 0.0)) * (1.0 - 1e-12)  # rounded down
                 q_left.append(np.where(st_k > 0.0, s_ch - q_chords[k], -1.0))
+        ranged = lo is not None
+        if ranged and stop is not None:
+            raise ValueError("CapTree.near: item ranges and stop distances do not combine")
+        if ranged:  # per query node: the least lo and the greatest hi of its queries
+            q_lo = _reduce_levels(np.asarray(lo, np.int64), np.minimum, qt.depth)
+            q_hi = _reduce_levels(np.asarray(hi, np.int64), np.maximum, qt.depth)
         q_size = [float(np.mean(qt.radii[k] + q_reach[k])) for k in range(qt.depth)]
         d_size = [float(np.mean(r)) for r in self.radii]
         qi = np.zeros(1, dtype=np.int64)
         di = np.zeros(1, dtype=np.int64)
         done = np.zeros(1, dtype=bool)  # per query node of level lq
         while True:
+            if ranged:  # node di of level ld holds items di 2^ld .. (di+1) 2^ld - 1
+                inr = (di << ld < q_hi[lq][qi]) & ((di + 1) << ld > q_lo[lq][qi])
+                qi, di = qi[inr], di[inr]
             cq, cd = qt.centers[lq][qi], self.centers[ld][di]
             lim = q_lim[lq][qi] + d_chords[ld][di]
             keep = _chord2(cq, cd) <= lim * lim
