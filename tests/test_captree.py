@@ -5,6 +5,7 @@ import pytest
 from conftest import DATA
 
 import gloffset
+from gloffset.geometry import captree
 from gloffset.geometry.caps import arc_cap, chord, pad
 from gloffset.geometry.captree import CapTree, _grid_pairs
 from gloffset.geometry.sphere import angle, arcs_cross, normalize
@@ -143,3 +144,21 @@ def test_near_with_item_ranges_returns_the_pairs_without_them_that_lie_in_range(
     qi, di, _ = tree.near(p, reach, lo=lo, hi=hi)
     assert ((di >= lo[qi]) & (di < hi[qi])).all()
     assert set(zip(qi.tolist(), di.tolist())) == want and len(want) == len(qi)
+
+
+def test_along_in_blocks_of_segments_returns_the_pairs_of_one_walk_in_its_order(monkeypatch):
+    c, r = mixed_caps(1500, 3)
+    tree = CapTree(c, r)
+    rng = np.random.default_rng(3)
+    a = normalize(rng.normal(size=(100, 3)))
+    b = normalize(a + rng.normal(size=(100, 3)) * 10.0 ** rng.uniform(-6, 0.2, (100, 1)))
+    lo = rng.integers(0, 1000, len(a))
+    hi = lo + rng.integers(1, 600, len(a))
+    one = tree.along(a, b), tree.along(a, b, lo=lo, hi=hi)
+    monkeypatch.setattr(captree, "_ALONG_BLOCK", 7)
+    blocks = tree.along(a, b), tree.along(a, b, lo=lo, hi=hi)
+    for (si, ni), (sj, nj) in zip(one, blocks):
+        assert len(si) > 50
+        assert np.array_equal(si, sj) and np.array_equal(ni, nj)
+        assert (np.diff(si) >= 0).all()
+    assert set(zip(*blocks[1])) == brute_along(tree, a, b, lo, hi)

@@ -34,6 +34,9 @@ __all__ = ["CapTree"]
 # Caps are padded by this (radians, absolute and relative) to stay conservative.
 _PAD = 1e-14
 
+# CapTree.along walks this many segments at a time (a few 100k pairs per level at most)
+_ALONG_BLOCK = 2048
+
 
 def _chord2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     diff = a - b
@@ -422,17 +425,36 @@ class CapTree:
         n = normalize(robust_cross(a, b))
         mid, half = arc_cap(a, b)
         seg_chord = pad(chord(half), abs_=1e-14)  # the arc lies within half + 2e-15 of mid
-        si = np.arange(len(a), dtype=np.int64)
-        ni = np.zeros(len(a), dtype=np.int64)
+        if lo is not None:
+            lo, hi = np.asarray(lo, np.int64), np.asarray(hi, np.int64)
+        # the walk a block of segments at a time: its pairs' arrays stay in the caches
+        # (the pairs come out by segment, then item, as from one walk)
+        out = [
+            self._along_walk(s, min(s + _ALONG_BLOCK, len(a)), a, b, n, mid, seg_chord, lo, hi)
+            for s in range(0, len(a), _ALONG_BLOCK)
+        ]
+        if len(out) == 1:
+            return out[0]
+        return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
+
+    def _along_walk(self, s0, s1, a, b, n, mid, seg_chord, lo, hi):
+        """:meth:`along`'s walk down the levels for the segments ``s0 .. s1 - 1``."""
+        si = np.arange(s1 - s0, dtype=np.int64)  # the segments from s0 on
+        ni = np.zeros(s1 - s0, dtype=np.int64)
+        a, b, n, seg_chord = a[s0:s1], b[s0:s1], n[s0:s1], seg_chord[s0:s1]
+        # the segments' normals and midpoints as rows of coordinates (gathered by row)
+        n_t, mid_t = n.T.copy(), mid[s0:s1].T.copy()
         ranged = lo is not None
+        if ranged:
+            lo, hi = lo[s0:s1], hi[s0:s1]
         for k in range(self.depth - 1, -1, -1):
-            c, r = self.centers[k], self.radii[k]
             if ranged:  # node ni of level k holds items ni 2^k .. (ni+1) 2^k - 1
                 inr = (ni << k < hi[si]) & ((ni + 1) << k > lo[si])
                 si, ni = si[inr], ni[inr]
             if k > 0:
-                keep = self._meets_segment(k, ni, n, mid, seg_chord, si)
+                keep = self._meets_segment(k, ni, n_t, mid_t, seg_chord, si)
             else:
+                c, r = self.centers[0], self.radii[0]
                 dist = arc_distance(c[ni], a[si], b[si], n[si])
                 keep = dist <= pad(r[ni], abs_=_PAD)
             si, ni = si[keep], ni[keep]
@@ -444,26 +466,28 @@ class CapTree:
                 ok = ni < nk
                 if not ok.all():
                     si, ni = si[ok], ni[ok]
-        return si, ni
+        return si + s0, ni
 
-    def _meets_segment(self, k, ni, n, mid, seg_chord, si) -> np.ndarray:
+    def _meets_segment(self, k, ni, n_t, mid_t, seg_chord, si) -> np.ndarray:
         """Whether the caps ``ni`` of level ``k`` may meet the arcs ``si`` (unit normals
-        ``n``, bounding caps of centre ``mid`` and chord ``seg_chord``): the cap meets
-        the arc's great circle (``|c.n| <= sin R``) and the arc's bounding cap (``|c -
-        mid| <= chord R + seg_chord``), ``R`` the radius padded as :meth:`along`'s item
-        test pads it. Both hold wherever the cap meets the arc, so no pair that the
-        exact distance would keep is dropped (the bounds are padded well above their
-        rounding, 1e-12 relative)."""
-        bounds: Memo[tuple[np.ndarray, np.ndarray]] = once_attr(self, "_segment_bounds", Memo)
-        sin_r, chord_r = bounds.once(k, lambda: self._segment_bounds_of(k))
-        c = self.centers[k][ni]
+        ``n_t``, bounding caps of centre ``mid_t`` and chord ``seg_chord``; the normals
+        and centres as (3, n) rows): the cap meets the arc's great circle (``|c.n| <=
+        sin R``) and the arc's bounding cap (``|c - mid| <= chord R + seg_chord``), ``R``
+        the radius padded as :meth:`along`'s item test pads it. Both hold wherever the
+        cap meets the arc, so no pair that the exact distance would keep is dropped (the
+        bounds are padded well above their rounding, 1e-12 relative)."""
+        bounds: Memo[tuple[np.ndarray, np.ndarray, np.ndarray]] = once_attr(
+            self, "_segment_bounds", Memo
+        )
+        c_t, sin_r, chord_r = bounds.once(k, lambda: self._segment_bounds_of(k))
+        c = c_t[:, ni]  # (3, pairs): one gather of rows, no (pairs, 3) copies
         lim = chord_r[ni] + seg_chord[si]
-        d = c - mid[si]
-        return (np.abs(dot(c, n[si])) <= sin_r[ni]) & (dot(d, d) <= lim * lim)
+        d = c - mid_t[:, si]
+        return (np.abs(dot(c.T, n_t[:, si].T)) <= sin_r[ni]) & (dot(d.T, d.T) <= lim * lim)
 
-    def _segment_bounds_of(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """``pad(sin R)`` (2 from R >= pi/2 on: every great circle) and ``pad(chord R)``
-        of the padded radii ``R`` of level ``k``."""
+    def _segment_bounds_of(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The centres of level ``k`` as (3, n) rows, ``pad(sin R)`` (2 from R >= pi/2
+        on: every great circle) and ``pad(chord R)`` of its padded radii ``R``."""
         r = pad(self.radii[k], abs_=_PAD)
         sin_r = np.where(r >= 0.5 * np.pi, 2.0, pad(np.sin(np.minimum(r, 0.5 * np.pi))))
-        return sin_r, pad(chord(r))
+        return self.centers[k].T.copy(), sin_r, pad(chord(r))
