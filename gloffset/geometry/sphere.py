@@ -27,6 +27,8 @@ __all__ = [
     "dot",
     "chord2_between",
     "pair_dots",
+    "pair_chord2",
+    "pair_equal",
     "cross",
     "norm",
     "robust_cross",
@@ -135,6 +137,27 @@ def pair_dots(u, ui, v, vi) -> np.ndarray:
     out = u[:, 0][ui] * v[:, 0][vi]
     out += u[:, 2][ui] * v[:, 2][vi]
     out += u[:, 1][ui] * v[:, 1][vi]
+    return out
+
+
+def pair_chord2(v, i, j) -> np.ndarray:
+    """``chord2_between(v[i], v[j])`` (the same bits: :func:`dot`'s sum of the squared
+    differences) for index arrays ``i``, ``j`` into an (n, 3) array, from gathers of
+    single coordinates (no (k, 3) copies)."""
+    v = np.asarray(v, dtype=np.float64)
+    d0 = v[:, 0][i] - v[:, 0][j]
+    d1 = v[:, 1][i] - v[:, 1][j]
+    d2 = v[:, 2][i] - v[:, 2][j]
+    return d0 * d0 + d1 * d1 + d2 * d2
+
+
+def pair_equal(v, i, j) -> np.ndarray:
+    """``(v[i] == v[j]).all(axis=1)`` for index arrays ``i``, ``j`` into an (n, 3) array
+    (``-0.0`` equal to ``0.0``), coordinate by coordinate."""
+    v = np.asarray(v)
+    out = v[:, 0][i] == v[:, 0][j]
+    out &= v[:, 1][i] == v[:, 1][j]
+    out &= v[:, 2][i] == v[:, 2][j]
     return out
 
 
