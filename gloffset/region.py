@@ -226,7 +226,10 @@ class _Union:
         pa, pb = [], []
         for x, y in ((ai, aj), (ai, bj), (bi, aj), (bi, bj)):
             # the ends within 2 TOL by a cheap square, then the distance as it was taken
-            near = np.flatnonzero(pair_chord2(v, x, y) <= (2.0 * TOL) ** 2)
+            # (of the ends apart: the square is 0 where the distance is, and most of the
+            # ends so near are one vertex)
+            c2 = pair_chord2(v, x, y)
+            near = np.flatnonzero((c2 <= (2.0 * TOL) ** 2) & (c2 > 0.0))
             x, y = x[near], y[near]
             d = np.linalg.norm(v[x] - v[y], axis=1)
             near = (d > 0.0) & (d <= TOL)
