@@ -245,7 +245,8 @@ class _Union:
 
     def _pairs(self):
         a, b = self.v, self.v[self.nxt]
-        self.tree, i, j = candidate_pairs(*arc_cap(a, b), slack=2 * TOL)
+        mid, self.half = arc_cap(a, b)  # the edges' half lengths, kept for later steps
+        self.tree, i, j = candidate_pairs(mid, self.half, slack=2 * TOL)
         return i, j
 
     # ------------------------------------------------------------------ run
@@ -432,7 +433,7 @@ class _Union:
         v, nx = self.v, self.nxt
         m = len(nx)
         a, b = v[:m], self.b
-        length = angle(a, b)
+        length = 2.0 * self.half  # angle(a, b), exactly (halving and doubling are)
         score = length * np.where(self.seam, 1e-3, 1.0)
         lo = self.comp_start
         # the longest edge of each polygon: the last of its edges in the order of score
@@ -519,14 +520,15 @@ class _Union:
         side: then the point opposite the cap's centre is inside, and the cap is the
         whole sphere.
         """
-        m = len(self.nxt)
-        a, b = self.v[:m], self.b
+        a = self.v[: len(self.nxt)]
         lo = self.comp_start
         s = np.add.reduceat(a, lo, axis=0)
         big = np.linalg.norm(s, axis=1) < 1e-9
         c = normalize(np.where(big[:, None], [0.0, 0.0, 1.0], s))
         cc = c[self.comp]
-        reach = np.maximum(angle(cc, a), angle(cc, b)) + 0.5 * angle(a, b)
+        # the angle to an edge's far end is the one to the next edge's start (one ring)
+        to_a = angle(cc, a)
+        reach = np.maximum(to_a, to_a[self.nxt]) + self.half
         r = pad(np.maximum.reduceat(reach, lo), abs_=1e-9)
         big |= r >= np.pi
         small = np.flatnonzero(~big)
