@@ -35,6 +35,7 @@ import numpy as np
 
 from .errors import InvalidGeometryError
 from .geometry.arrangement import (
+    bucket_order,
     candidate_pairs,
     components,
     equal_rows,
@@ -619,10 +620,9 @@ class _Union:
         vid = self.vid  # the vertex groups of _cancel
         s_id, e_id = vid[start], vid[end]
         k = len(idx)
-        order = np.argsort(s_id, kind="stable")
-        n_out = np.bincount(s_id, minlength=len(v))
+        order, n_out, out_at = bucket_order(s_id, len(v))  # the pieces by start vertex
         # where each vertex's pieces start in that order (a search of e_id, by counting)
-        first = (np.cumsum(n_out) - n_out)[e_id]
+        first = out_at[e_id]
         n_in = np.bincount(e_id, minlength=len(v))
         bad = np.flatnonzero(n_out != n_in)
         if len(bad):

@@ -1,6 +1,7 @@
 """The arrangement skeleton shared by the union and the offsets' self-intersections."""
 
 import numpy as np
+import pytest
 
 from gloffset.geometry.arrangement import (
     candidate_pairs,
@@ -58,3 +59,18 @@ def test_permutation_cycles_are_those_of_cycles():
         items, sizes = permutation_cycles(nxt)
         assert sizes.tolist() == [len(c) for c in want]
         assert np.array_equal(items, np.concatenate(want))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_bucket_order_is_the_stable_argsort(seed):
+    from gloffset.geometry.arrangement import bucket_order
+
+    rng = np.random.default_rng(seed)
+    n = 5000
+    ids = rng.permutation(n)[:4000]  # mostly unique ids, as a boundary's vertices
+    ids[rng.integers(0, 4000, 300)] = rng.integers(0, 50, 300)  # and some shared
+    order, counts, starts = bucket_order(ids, n)
+    assert np.array_equal(order, np.argsort(ids, kind="stable"))
+    assert np.array_equal(counts, np.bincount(ids, minlength=n))
+    assert np.array_equal(starts, np.searchsorted(ids[order], np.arange(n)))
+    assert (counts > 1).sum() > 20

@@ -38,6 +38,7 @@ __all__ = [
     "split",
     "cycles",
     "permutation_cycles",
+    "bucket_order",
 ]
 
 
@@ -173,6 +174,28 @@ def permutation_cycles(nxt) -> tuple[np.ndarray, np.ndarray]:
     return out, sizes
 
 
+def bucket_order(ids: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``np.argsort(ids, kind="stable")`` of integers ``0 <= ids < n``, by counting.
+
+    Returns ``(order, counts, starts)``: the order, how many items each id has and where
+    its items start in the order. Items alone with their id are placed by their id's
+    start; those that share an id (few, where pieces of a boundary meet) by a stable
+    sort of their own. Linear in ``len(ids) + n`` where most ids are unique.
+    """
+    ids = np.asarray(ids, dtype=np.int64)
+    counts = np.bincount(ids, minlength=n)
+    starts = np.cumsum(counts) - counts
+    pos = starts[ids]
+    shared = np.flatnonzero(counts[ids] > 1)
+    if len(shared):
+        shared = shared[np.argsort(ids[shared], kind="stable")]
+        sid = ids[shared]
+        pos[shared] += np.arange(len(shared)) - np.searchsorted(sid, sid)
+    order = np.empty(len(ids), np.int64)
+    order[pos] = np.arange(len(ids))
+    return order, counts, starts
+
+
 def row_keys(v: np.ndarray) -> np.ndarray:
     """Exact row keys of unit vectors (``-0.0`` made ``0.0``), as a void view."""
     v = np.ascontiguousarray(v + 0.0)
@@ -195,9 +218,12 @@ def equal_rows(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             h = (h ^ bits[:, col]) * np.uint64(0x9E3779B97F4A7C15)
             h ^= h >> np.uint64(29)
     order = np.argsort(h)
-    hs, rows = h[order], bits[order]
+    hs = h[order]
     same_h = hs[1:] == hs[:-1]
-    same_row = (rows[1:] == rows[:-1]).all(axis=1)
+    same_row = np.ones(len(hs) - 1 if len(hs) else 0, bool)
+    for col in range(bits.shape[1]):  # the rows in that order, a coordinate at a time
+        b = bits[:, col][order]
+        same_row &= b[1:] == b[:-1]
     if np.any(same_h & ~same_row):  # a collision
         _, inv, counts = np.unique(row_keys(v), return_inverse=True, return_counts=True)
         return inv.reshape(-1), counts
