@@ -132,3 +132,14 @@ def test_pair_chord2_and_pair_equal_are_the_row_by_row_answers():
     same = pair_equal(v, i, j)
     assert np.array_equal(same, (v[i] == v[j]).all(axis=1))
     assert same.sum() > 50 and same[260 - 250]
+
+
+def test_slerp_with_the_callers_angle_is_the_same_bits():
+    from gloffset.geometry.sphere import angle, slerp
+
+    rng = np.random.default_rng(5)
+    a, b = normalize(rng.normal(size=(2000, 3))), normalize(rng.normal(size=(2000, 3)))
+    b[:100] = normalize(a[:100] + rng.normal(size=(100, 3)) * 1e-9)
+    t = rng.uniform(size=2000)
+    want = slerp(a, b, t)
+    assert np.array_equal(slerp(a, b, t, angle(a, b)).view(np.int64), want.view(np.int64))

@@ -75,7 +75,12 @@ def _merge_caps(c1, r1, c2, r2):
         t = np.where(theta > 0.0, (r - r1) / np.where(theta > 0.0, theta, 1.0), 0.0)
     t = np.clip(t, 0.0, 1.0)
     far = theta > np.pi - 1e-6  # nearly antipodal centres: SLERP is undefined
-    c = slerp(c1, np.where(far[:, None], c1, c2), np.where(far, 0.0, t))
+    if far.any():  # from c1 to itself there (an angle of 0, exactly)
+        c = slerp(
+            c1, np.where(far[:, None], c1, c2), np.where(far, 0.0, t), np.where(far, 0.0, theta)
+        )
+    else:
+        c = slerp(c1, c2, t, theta)
     r = np.where(far, np.pi, r)
     first = theta + r2 <= r1  # one cap already holds the other
     second = theta + r1 <= r2

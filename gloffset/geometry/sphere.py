@@ -204,17 +204,18 @@ def angle(a, b) -> np.ndarray:
     return 2.0 * np.arctan2(norm(a - b), norm(a + b))
 
 
-def slerp(a, b, t) -> np.ndarray:
+def slerp(a, b, t, theta=None) -> np.ndarray:
     """Spherical linear interpolation from ``a`` (t=0) to ``b`` (t=1) along the short arc.
 
     ``t`` broadcasts against the leading dimensions of ``a`` and ``b`` (use
     ``t[..., None]`` shapes as needed). Undefined for antipodal ``a``, ``b``.
-    Points lie on the unit sphere to 1 ulp and on the arc to 1e-15 rad.
+    Points lie on the unit sphere to 1 ulp and on the arc to 1e-15 rad. ``theta``: the
+    angle ``angle(a, b)`` where the caller has it (the same bits).
     """
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
     t = np.asarray(t, dtype=np.float64)[..., None]
-    theta = angle(a, b)[..., None]
+    theta = (angle(a, b) if theta is None else np.asarray(theta, dtype=np.float64))[..., None]
     s = np.sin(theta)
     small = s < 1e-300
     s_safe = np.where(small, 1.0, s)
