@@ -94,14 +94,18 @@ def left_areas(v: np.ndarray, at: np.ndarray) -> np.ndarray:
     sizes = np.diff(at)
     if len(sizes) == 0:
         return np.zeros(0)
-    base = np.repeat(at[:-1], sizes)
-    pos = np.arange(len(v)) - base
-    size = np.repeat(sizes, sizes)
-    nxt = base + (pos + 1) % size
-    prv = base + (pos - 1) % size
-    n = normalize(robust_cross(v, v[nxt]))  # edge i: v[i] -> v[i+1]
+    # each ring's next vertices and previous edges: the arrays shifted by one, a ring's
+    # last vertex followed by its first
+    first, last = at[:-1][sizes > 0], at[1:][sizes > 0] - 1
+    w = np.empty_like(v)
+    w[:-1] = v[1:]
+    w[last] = v[first]
+    n = normalize(robust_cross(v, w))  # edge i: v[i] -> v[i+1]
+    n_in = np.empty_like(n)
+    n_in[1:] = n[:-1]
+    n_in[first] = n[last]
     t_out = cross(n, v)  # direction of travel leaving v[i]
-    t_in = cross(n[prv], v)  # arriving at v[i] along edge i-1
+    t_in = cross(n_in, v)  # arriving at v[i] along edge i-1
     turn = np.arctan2(
         np.einsum("ij,ij->i", cross(t_in, t_out), v), np.einsum("ij,ij->i", t_in, t_out)
     )

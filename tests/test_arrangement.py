@@ -54,6 +54,17 @@ def test_permutation_cycles_are_those_of_cycles():
     perms = [rng.permutation(n) for n in (1, 2, 3, 50, 5000) for _ in range(3)]
     perms.append(np.roll(np.arange(4097), -1))  # one long cycle
     perms.append(np.arange(7))  # fixed points
+    for n in (10, 3000):  # rings of consecutive items (a boundary's pieces), some spliced
+        sizes = rng.integers(1, min(40, n // 2), n)
+        ends = np.cumsum(sizes)[np.cumsum(sizes) <= n]
+        starts = np.concatenate([[0], ends[:-1]])
+        ring = np.arange(n) + 1  # each item to the next, the last of a ring to its first
+        ring[ends - 1] = starts
+        ring[ends[-1] :] = np.arange(ends[-1], n)
+        spliced = ring.copy()
+        a, b = rng.permutation(n)[:10].reshape(2, 5)  # successors swapped: a permutation still
+        spliced[a], spliced[b] = ring[b], ring[a]
+        perms += [ring, spliced]
     for nxt in perms:
         want = cycles(nxt)[0]
         items, sizes = permutation_cycles(nxt)

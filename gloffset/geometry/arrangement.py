@@ -150,6 +150,20 @@ def permutation_cycles(nxt) -> tuple[np.ndarray, np.ndarray]:
     nxt = np.asarray(nxt, dtype=np.int64)
     n = len(nxt)
     items = np.arange(n, dtype=np.int64)
+    # runs of consecutive items (k -> k + 1), as a ring's pieces mostly come, are
+    # followed as one: a cycle's smallest item starts a run, so the cycles of the runs'
+    # successor map, each run expanded in place, are the cycles in the same order
+    last = np.flatnonzero(nxt != items + 1)  # the last item of each run
+    if 0 < len(last) < n // 2:
+        first = np.concatenate([[0], last[:-1] + 1])
+        run_of = np.repeat(np.arange(len(last)), last - first + 1)
+        runs, run_sizes = permutation_cycles(run_of[nxt[last]])
+        length = (last - first + 1)[runs]
+        out = np.repeat(first[runs] - np.cumsum(length) + length, length) + np.arange(n)
+        cycle_of_run = np.repeat(np.arange(len(run_sizes)), run_sizes)
+        return out, np.bincount(cycle_of_run, weights=length, minlength=len(run_sizes)).astype(
+            np.int64
+        )
     lab, p, span = items.copy(), nxt, 1
     while span < n:  # lab: the smallest item of the next 2 span (all of the cycle at the end)
         lab = np.minimum(lab, lab[p])
