@@ -113,8 +113,11 @@ def _grid_pairs(
     ``(c + 1) / h_0`` scaled by a power of 2, exactly, so its floor is the same.
     """
     h0, order, bounds = _grid_levels(ext)
-    cell0 = np.floor((c + 1.0) / h0).astype(np.int64)
     c_rows = c.T.copy()
+    # the centres and their cells of level 0 in the order of the levels, by coordinate:
+    # the balls of level k and those below it are slices
+    c_o = [x[order] for x in c_rows]
+    cell_o = [np.floor((x + 1.0) / h0).astype(np.int64) for x in c_o]
     out_i: list[np.ndarray] = []
     out_j: list[np.ndarray] = []
     # (dx, dy) columns of cells: all nine below, the four after (0, 0) and (0, 0) itself
@@ -127,17 +130,18 @@ def _grid_pairs(
             continue
         h = h0 * 2.0**k
         m = int(np.floor(2.0 / h)) + 3
-        uq = (c[q] + 1.0) / h
-        cell_q = np.floor(uq).astype(np.int64)
-        key_q = (cell_q[:, 0] * m + cell_q[:, 1]) * m + cell_q[:, 2]
+        uq = [(x[bounds[k] : bounds[k + 1]] + 1.0) / h for x in c_o]
+        cell_q = [np.floor(u).astype(np.int64) for u in uq]
+        key_q = (cell_q[0] * m + cell_q[1]) * m + cell_q[2]
         by_q = np.argsort(key_q)  # sorted needles: searchsorted's fast path
-        q, key_q, frac = q[by_q], key_q[by_q], (uq - cell_q)[by_q]
+        q, key_q = q[by_q], key_q[by_q]
+        frac = np.stack([(u - cq)[by_q] for u, cq in zip(uq, cell_q)], axis=1)
         level = _Level(q, key_q, frac, h, m)
         _column_pairs(level, q, key_q, after, c_rows, ext, radii, slack, out_i, out_j)
         if bounds[k] > 0:
             t = order[: bounds[k]]  # the balls of lower levels
-            cell_t = cell0[t] >> k
-            key_t = (cell_t[:, 0] * m + cell_t[:, 1]) * m + cell_t[:, 2]
+            cell_t = [x[: bounds[k]] >> k for x in cell_o]
+            key_t = (cell_t[0] * m + cell_t[1]) * m + cell_t[2]
             by_key = np.argsort(key_t)  # any order of equal keys: the pairs are a set
             _column_pairs(
                 level, t[by_key], key_t[by_key], every, c_rows, ext, radii, slack, out_i, out_j
