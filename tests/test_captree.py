@@ -154,6 +154,7 @@ def test_along_in_blocks_of_segments_returns_the_pairs_of_one_walk_in_its_order(
     b = normalize(a + rng.normal(size=(100, 3)) * 10.0 ** rng.uniform(-6, 0.2, (100, 1)))
     lo = rng.integers(0, 1000, len(a))
     hi = lo + rng.integers(1, 600, len(a))
+    hi[:30:3], hi[1:30:3] = lo[:30:3], lo[1:30:3] + rng.integers(1, 3, 10)  # empty, 1 or 2
     one = tree.along(a, b), tree.along(a, b, lo=lo, hi=hi)
     monkeypatch.setattr(captree, "_ALONG_BLOCK", 7)
     blocks = tree.along(a, b), tree.along(a, b, lo=lo, hi=hi)

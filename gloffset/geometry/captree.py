@@ -476,9 +476,25 @@ class CapTree:
         n_t, mid_t = n.T.copy(), mid[s0:s1].T.copy()
         ranged = lo is not None
         if ranged:
+            # a segment enters the walk on the highest level whose nodes hold its items
+            # in at most two (its nodes' ancestors only hold them too, and their caps
+            # hold those nodes' caps: their tests would drop nothing more)
             lo, hi = lo[s0:s1], hi[s0:s1]
+            enter = np.full(s1 - s0, self.depth - 1)
+            for k in range(self.depth - 2, -1, -1):
+                enter[((hi - 1) >> k) - (lo >> k) <= 1] = k
+            si, ni = si[:0], ni[:0]
         for k in range(self.depth - 1, -1, -1):
             if ranged:  # node ni of level k holds items ni 2^k .. (ni+1) 2^k - 1
+                new = np.flatnonzero(enter == k)
+                if len(new):  # the segments entering here, each with its one or two nodes
+                    two = ((hi[new] - 1) >> k) > (lo[new] >> k)
+                    add_n = np.repeat(lo[new] >> k, 1 + two)
+                    add_n[np.cumsum(1 + two)[two] - 1] += 1
+                    si = np.concatenate([si, np.repeat(new, 1 + two)])
+                    ni = np.concatenate([ni, add_n])
+                    by_seg = np.argsort(si, kind="stable")  # two sorted runs merged
+                    si, ni = si[by_seg], ni[by_seg]
                 inr = (ni << k < hi[si]) & ((ni + 1) << k > lo[si])
                 si, ni = si[inr], ni[inr]
             if k > 0:
