@@ -172,7 +172,7 @@ def _grid_levels(ext: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
             lev[short] += 1
     top = int(min(lev.max(), np.ceil(np.log2(4.0 / h0)) + 1))
     lev = np.minimum(lev, top)  # cells of side >= 4 hold the whole sphere
-    order = np.argsort(lev, kind="stable")
+    order = np.argsort(lev.astype(np.int16), kind="stable")  # small ints: a radix sort
     return h0, order, np.searchsorted(lev[order], np.arange(top + 2))
 
 
@@ -497,13 +497,13 @@ class CapTree:
                     si, ni = si[by_seg], ni[by_seg]
                 inr = (ni << k < hi[si]) & ((ni + 1) << k > lo[si])
                 si, ni = si[inr], ni[inr]
-            if k > 0:
-                keep = self._meets_segment(k, ni, n_t, mid_t, seg_chord, si)
-            else:
+            keep = self._meets_segment(k, ni, n_t, mid_t, seg_chord, si)
+            si, ni = si[keep], ni[keep]
+            if k == 0:  # the items that pass those necessary conditions: the exact test
                 c, r = self.centers[0], self.radii[0]
                 dist = arc_distance(c[ni], a[si], b[si], n[si])
                 keep = dist <= pad(r[ni], abs_=_PAD)
-            si, ni = si[keep], ni[keep]
+                si, ni = si[keep], ni[keep]
             if k > 0:
                 nk = len(self.centers[k - 1])
                 si = np.repeat(si, 2)
