@@ -41,7 +41,7 @@ from .geometry.arrangement import (
     equal_rows,
     permutation_cycles,
     row_keys,
-    split,
+    split_between,
 )
 from .geometry.caps import arc_cap, cap_threshold, pad
 from .geometry.captree import CapTree
@@ -357,12 +357,7 @@ class _Union:
         dup[1:] = (e_all[1:] == e_all[:-1]) & (v[p_all[1:]] == v[p_all[:-1]]).all(axis=1)
         e_all, p_all, t = e_all[~dup], p_all[~dup], t[~dup]
         # a chain per edge: start, split points in order, end
-        edges = np.arange(m)
-        piece_edge, _, _, start, end = split(
-            np.concatenate([e_all, edges, edges]),
-            np.concatenate([t, np.full(m, -1.0), np.full(m, np.inf)]),
-            np.concatenate([p_all, edges, self.nxt]),
-        )
+        piece_edge, start, end = split_between(np.arange(m), self.nxt, e_all, p_all)
         ok = ~pair_equal(v, start, end)
         return {"start": start[ok], "end": end[ok], "edge": piece_edge[ok]}
 

@@ -85,3 +85,25 @@ def test_bucket_order_is_the_stable_argsort(seed):
     assert np.array_equal(counts, np.bincount(ids, minlength=n))
     assert np.array_equal(starts, np.searchsorted(ids[order], np.arange(n)))
     assert (counts > 1).sum() > 20
+
+
+def test_split_between_is_split_with_the_arcs_ends_as_events():
+    from gloffset.geometry.arrangement import split_between
+
+    rng = np.random.default_rng(2)
+    n = 300
+    first, last = np.arange(n), rng.permutation(n)
+    arc = rng.integers(0, n, 700)
+    t = rng.integers(0, 5, 700).astype(float)  # ties keep their order, in both
+    node = n + np.arange(700)
+    order = np.lexsort((t, arc))
+    arc, t, node = arc[order], t[order], node[order]
+    want = split(
+        np.concatenate([arc, np.arange(n), np.arange(n)]),
+        np.concatenate([t, np.full(n, -1.0), np.full(n, np.inf)]),
+        np.concatenate([node, first, last]),
+    )
+    got = split_between(first, last, arc, node)
+    for g, w in zip(got, (want[0], want[3], want[4])):
+        assert np.array_equal(g, w)
+    assert len(got[0]) == n + 700

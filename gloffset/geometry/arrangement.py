@@ -36,6 +36,7 @@ __all__ = [
     "equal_rows",
     "row_keys",
     "split",
+    "split_between",
     "cycles",
     "permutation_cycles",
     "bucket_order",
@@ -97,6 +98,29 @@ def split(arc, t, node):
     arc, t, node = arc[order], np.asarray(t)[order], np.asarray(node)[order]
     same = arc[1:] == arc[:-1]
     return arc[:-1][same], t[:-1][same], t[1:][same], node[:-1][same], node[1:][same]
+
+
+def split_between(first_node, last_node, arc, node):
+    """:func:`split`'s pieces of the arcs ``0 .. n-1`` from node ``first_node[a]`` to
+    ``last_node[a]`` through their events ``(arc[k], node[k])``, given sorted by arc
+    and then by position along it: ``(arc, n0, n1)`` per piece, in :func:`split`'s
+    order, without its sort (the events are placed by counting).
+    """
+    first_node = np.asarray(first_node, dtype=np.int64)
+    n = len(first_node)
+    arc = np.asarray(arc, dtype=np.int64)
+    cnt = np.bincount(arc, minlength=n)
+    size = cnt + 2  # each arc's nodes: its first, its events, its last
+    at = np.cumsum(size) - size
+    seq = np.empty(int(size.sum()), np.int64)
+    seq[at] = first_node
+    seq[at + size - 1] = last_node
+    rank = np.arange(len(arc)) - (np.cumsum(cnt) - cnt)[arc]
+    seq[at[arc] + 1 + rank] = node
+    piece = np.ones(len(seq), bool)  # a piece from every node but the last of its arc
+    piece[at + size - 1] = False
+    k = np.flatnonzero(piece)
+    return np.repeat(np.arange(n), cnt + 1), seq[k], seq[k + 1]
 
 
 def cycles(nxt) -> tuple[list[np.ndarray], np.ndarray]:
