@@ -303,6 +303,10 @@ class _Union:
                 end_ = f_ if head else nx[f_]
                 other = (end_ != e_) & (end_ != nx[e_])
                 e_, f_, end_ = e_[other], f_[other], end_[other]
+                # an end at one of the edge's ends (most: a vertex two polygons share) is
+                # not far from it; the distances of the others
+                apart = ~(pair_equal(v, end_, e_) | pair_equal(v, end_, nx[e_]))
+                e_, f_, end_ = e_[apart], f_[apart], end_[apart]
                 p = v[end_]
                 far = (np.linalg.norm(p - a[e_], axis=1) > TOL) & (
                     np.linalg.norm(p - b[e_], axis=1) > TOL
