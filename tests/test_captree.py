@@ -155,6 +155,7 @@ def test_along_in_blocks_of_segments_returns_the_pairs_of_one_walk_in_its_order(
     lo = rng.integers(0, 1000, len(a))
     hi = lo + rng.integers(1, 600, len(a))
     hi[:30:3], hi[1:30:3] = lo[:30:3], lo[1:30:3] + rng.integers(1, 3, 10)  # empty, 1 or 2
+    lo[30:35], lo[35:40], hi[35:40] = -5, len(c) - 3, len(c) + 40  # beyond the items
     one = tree.along(a, b), tree.along(a, b, lo=lo, hi=hi)
     monkeypatch.setattr(captree, "_ALONG_BLOCK", 7)
     blocks = tree.along(a, b), tree.along(a, b, lo=lo, hi=hi)

@@ -479,10 +479,11 @@ class CapTree:
             # a segment enters the walk on the highest level whose nodes hold its items
             # in at most two (its nodes' ancestors only hold them too, and their caps
             # hold those nodes' caps: their tests would drop nothing more)
-            lo, hi = lo[s0:s1], hi[s0:s1]
+            lo, hi = np.maximum(lo[s0:s1], 0), np.minimum(hi[s0:s1], self.n)  # items only
             enter = np.full(s1 - s0, self.depth - 1)
             for k in range(self.depth - 2, -1, -1):
                 enter[((hi - 1) >> k) - (lo >> k) <= 1] = k
+            enter[hi <= lo] = -1  # no items: never
             si, ni = si[:0], ni[:0]
         for k in range(self.depth - 1, -1, -1):
             if ranged:  # node ni of level k holds items ni 2^k .. (ni+1) 2^k - 1
