@@ -14,7 +14,8 @@ go through the same steps, and those steps live here, once:
 3. :func:`components`: nodes (or vertices, or polygons) that are one, labelled by the
    smallest member of each connected set; :func:`equal_rows`: the vertices that are one
    point (equal coordinates);
-4. :func:`split`: the arcs cut into pieces between consecutive events;
+4. :func:`split`: the arcs cut into pieces between consecutive events
+   (:func:`split_between` where the events come sorted, between each arc's two ends);
 5. :func:`cycles`: the pieces, once each is given its successor (the callers' rule at a
    node where several meet), followed into closed rings (:func:`permutation_cycles`, all
    at once, where every piece has one successor and one predecessor).
