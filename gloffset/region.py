@@ -94,8 +94,7 @@ def left_areas(v: np.ndarray, at: np.ndarray) -> np.ndarray:
     sizes = np.diff(at)
     if len(sizes) == 0:
         return np.zeros(0)
-    # each ring's next vertices and previous edges: the arrays shifted by one, a ring's
-    # last vertex followed by its first
+    # each ring's next vertices and previous edges: the arrays shifted by one (cyclically)
     first, last = at[:-1][sizes > 0], at[1:][sizes > 0] - 1
     w = np.empty_like(v)
     w[:-1] = v[1:]
@@ -230,9 +229,8 @@ class _Union:
         ai, bi, aj, bj = ends
         pa, pb = [], []
         for x, y in ((ai, aj), (ai, bj), (bi, aj), (bi, bj)):
-            # the ends within 2 TOL by a cheap square, then the distance as it was taken
-            # (of the ends apart: the square is 0 where the distance is, and most of the
-            # ends so near are one vertex)
+            # the ends within 2 TOL by a cheap square (of the ends apart: most ends so near
+            # are one vertex), then the distance as it was taken
             c2 = pair_chord2(v, x, y)
             near = np.flatnonzero((c2 <= (2.0 * TOL) ** 2) & (c2 > 0.0))
             x, y = x[near], y[near]
@@ -288,8 +286,7 @@ class _Union:
         n = normalize(robust_cross(a, b))
         self.n = n
         out_e, out_p, meet_a, meet_b = [], [], [], []
-        # the sides of each end against the other edge's great circle, computed once,
-        # serve the end-on-edge tests and the crossings
+        # the sides of each end against the other's great circle: for both tests below
         sides = _sides(v, n, *ends)
         # an end of one edge on the other (T-junctions, collinear overlaps); the tests
         # after the first only for the ends within TOL of the other's great circle
@@ -303,8 +300,7 @@ class _Union:
                 end_ = f_ if head else nx[f_]
                 other = (end_ != e_) & (end_ != nx[e_])
                 e_, f_, end_ = e_[other], f_[other], end_[other]
-                # an end at one of the edge's ends (most: a vertex two polygons share) is
-                # not far from it; the distances of the others
+                # not far from the edge: an end at one of its ends (most: a vertex shared)
                 apart = ~(pair_equal(v, end_, e_) | pair_equal(v, end_, nx[e_]))
                 e_, f_, end_ = e_[apart], f_[apart], end_[apart]
                 p = v[end_]

@@ -67,6 +67,17 @@ def _reduce_levels(values: np.ndarray, op, depth: int) -> list:
     return out
 
 
+def _query_ranges(depth: int, lo, hi, stop) -> tuple[list | None, list | None]:
+    """:meth:`CapTree.near`'s item ranges per node of its query tree (``depth`` levels):
+    the least ``lo`` and the greatest ``hi`` of each node's queries; None without them."""
+    if lo is None:
+        return None, None
+    if stop is not None:
+        raise ValueError("CapTree.near: item ranges and stop distances do not combine")
+    lo_k = _reduce_levels(np.asarray(lo, np.int64), np.minimum, depth)
+    return lo_k, _reduce_levels(np.asarray(hi, np.int64), np.maximum, depth)
+
+
 def _merge_caps(c1, r1, c2, r2):
     """Smallest caps containing each pair of caps (vectorised)."""
     theta = angle(c1, c2)
@@ -371,19 +382,14 @@ class CapTree:
                 st_k = q_stop[k]
                 s_ch = chord(np.maximum(st_k, 0.0)) * (1.0 - 1e-12)  # rounded down
                 q_left.append(np.where(st_k > 0.0, s_ch - q_chords[k], -1.0))
-        ranged = lo is not None
-        if ranged and stop is not None:
-            raise ValueError("CapTree.near: item ranges and stop distances do not combine")
-        if ranged:  # per query node: the least lo and the greatest hi of its queries
-            q_lo = _reduce_levels(np.asarray(lo, np.int64), np.minimum, qt.depth)
-            q_hi = _reduce_levels(np.asarray(hi, np.int64), np.maximum, qt.depth)
+        q_lo, q_hi = _query_ranges(qt.depth, lo, hi, stop)
         q_size = [float(np.mean(qt.radii[k] + q_reach[k])) for k in range(qt.depth)]
         d_size = [float(np.mean(r)) for r in self.radii]
         qi = np.zeros(1, dtype=np.int64)
         di = np.zeros(1, dtype=np.int64)
         done = np.zeros(1, dtype=bool)  # per query node of level lq
         while True:
-            if ranged:  # node di of level ld holds items di 2^ld .. (di+1) 2^ld - 1
+            if q_lo is not None and q_hi is not None:  # node di holds di 2^ld .. (di+1) 2^ld - 1
                 inr = (di << ld < q_hi[lq][qi]) & ((di + 1) << ld > q_lo[lq][qi])
                 qi, di = qi[inr], di[inr]
             lim = q_lim[lq][qi] + d_chords[ld][di]
