@@ -35,12 +35,13 @@ import numpy as np
 
 from .errors import InvalidGeometryError
 from .geometry.arrangement import (
+    bucket_order,
     candidate_pairs,
     components,
     equal_rows,
     permutation_cycles,
     row_keys,
-    split,
+    split_between,
 )
 from .geometry.caps import arc_cap, cap_threshold, pad
 from .geometry.captree import CapTree
@@ -50,9 +51,10 @@ from .geometry.sphere import (
     arcs_cross,
     cross,
     crossing_rule,
-    dot,
     normalize,
+    pair_chord2,
     pair_dots,
+    pair_equal,
     robust_cross,
 )
 
@@ -92,14 +94,17 @@ def left_areas(v: np.ndarray, at: np.ndarray) -> np.ndarray:
     sizes = np.diff(at)
     if len(sizes) == 0:
         return np.zeros(0)
-    base = np.repeat(at[:-1], sizes)
-    pos = np.arange(len(v)) - base
-    size = np.repeat(sizes, sizes)
-    nxt = base + (pos + 1) % size
-    prv = base + (pos - 1) % size
-    n = normalize(robust_cross(v, v[nxt]))  # edge i: v[i] -> v[i+1]
+    # each ring's next vertices and previous edges: the arrays shifted by one (cyclically)
+    first, last = at[:-1][sizes > 0], at[1:][sizes > 0] - 1
+    w = np.empty_like(v)
+    w[:-1] = v[1:]
+    w[last] = v[first]
+    n = normalize(robust_cross(v, w))  # edge i: v[i] -> v[i+1]
+    n_in = np.empty_like(n)
+    n_in[1:] = n[:-1]
+    n_in[first] = n[last]
     t_out = cross(n, v)  # direction of travel leaving v[i]
-    t_in = cross(n[prv], v)  # arriving at v[i] along edge i-1
+    t_in = cross(n_in, v)  # arriving at v[i] along edge i-1
     turn = np.arctan2(
         np.einsum("ij,ij->i", cross(t_in, t_out), v), np.einsum("ij,ij->i", t_in, t_out)
     )
@@ -108,21 +113,23 @@ def left_areas(v: np.ndarray, at: np.ndarray) -> np.ndarray:
     )
 
 
-def _proper_crossings(a, b, n, i, j) -> np.ndarray:
-    """Whether edges ``i[k]`` and ``j[k]`` cross properly: the ends of each lie farther
-    than :data:`TOL` from the other's great circle (``n``: the edges' unit normals), on
-    both sides of it, and the crossing is not the antipodal one."""
-    return _proper(*_sides(a[i], b[i], n[i], a[j], b[j], n[j]))
+def _proper_crossings(v, nxt, n, i, j) -> np.ndarray:
+    """Whether edges ``i[k]`` and ``j[k]`` (edge ``e``: ``v[e] -> v[nxt[e]]``) cross
+    properly: the ends of each lie farther than :data:`TOL` from the other's great circle
+    (``n``: the edges' unit normals), on both sides of it, and the crossing is not the
+    antipodal one."""
+    return _proper(*_sides(v, n, i, nxt[i], j, nxt[j]))
 
 
-def _sides(ai, bi, ni, aj, bj, nj):
-    """The four side values of edge pairs: ``aj.ni``, ``bj.ni``, ``ai.nj``, ``bi.nj``
-    (einsum's sums, so the same bits wherever they are computed)."""
+def _sides(v, n, ai, bi, aj, bj):
+    """The four side values of the pairs of edges ``i``: ``v[ai] -> v[bi]`` and ``j``:
+    ``v[aj] -> v[bj]`` (normals ``n[ai]``, ``n[aj]``): ``aj.ni``, ``bj.ni``, ``ai.nj``,
+    ``bi.nj`` (einsum's sums, so the same bits wherever they are computed)."""
     return (
-        np.einsum("ij,ij->i", aj, ni),
-        np.einsum("ij,ij->i", bj, ni),
-        np.einsum("ij,ij->i", ai, nj),
-        np.einsum("ij,ij->i", bi, nj),
+        pair_dots(v, aj, n, ai),
+        pair_dots(v, bj, n, ai),
+        pair_dots(v, ai, n, aj),
+        pair_dots(v, bi, n, aj),
     )
 
 
@@ -142,11 +149,12 @@ def _crosses_itself(rings) -> bool:
     starts = np.repeat(np.concatenate([[0], np.cumsum(sizes)[:-1]]), sizes)
     pos = np.arange(sizes.sum()) - starts
     a = np.concatenate(rings).astype(np.float64)
-    b = a[starts + (pos + 1) % np.repeat(sizes, sizes)]
+    nxt = starts + (pos + 1) % np.repeat(sizes, sizes)
+    b = a[nxt]
     _, i, j = candidate_pairs(*arc_cap(a, b), slack=2 * TOL)
     if len(i) == 0:
         return False
-    return bool(_proper_crossings(a, b, normalize(robust_cross(a, b)), i, j).any())
+    return bool(_proper_crossings(a, nxt, normalize(robust_cross(a, b)), i, j).any())
 
 
 def unite(rings, seams, comps, holes, labels) -> Boundary:
@@ -210,29 +218,26 @@ class _Union:
         self.seam = np.concatenate(seams).astype(bool)
 
     def _ends(self, i, j):
-        """The ends ``a``, ``b`` of the edges ``i`` and ``j`` of the candidate pairs,
-        gathered once for the tests of the pairs."""
-        v, nx = self.v, self.nxt
-        return v[i], v[nx[i]], v[j], v[nx[j]]
-
-    def _snap_vertices(self, i, j, ends) -> bool:
-        """Merge vertices of candidate edge pairs that lie within TOL (not identical)."""
+        """The vertices at the ends ``a``, ``b`` of the edges ``i`` and ``j`` of the
+        candidate pairs (indices into ``self.v``), for the tests of the pairs."""
         nx = self.nxt
+        return i, nx[i], j, nx[j]
+
+    def _snap_vertices(self, ends) -> bool:
+        """Merge vertices of candidate edge pairs that lie within TOL (not identical)."""
+        v = self.v
         ai, bi, aj, bj = ends
         pa, pb = [], []
-        for p, q, x, y in (
-            (i, j, ai, aj),
-            (i, None, ai, bj),
-            (None, j, bi, aj),
-            (None, None, bi, bj),
-        ):
-            diff = x - y
-            # the ends within 2 TOL by a cheap square, then the distance as it was taken
-            near = np.flatnonzero(dot(diff, diff) <= (2.0 * TOL) ** 2)
-            d = np.linalg.norm(diff[near], axis=1)
-            near = near[(d > 0.0) & (d <= TOL)]
-            pa.append(i[near] if p is not None else nx[i[near]])
-            pb.append(j[near] if q is not None else nx[j[near]])
+        for x, y in ((ai, aj), (ai, bj), (bi, aj), (bi, bj)):
+            # the ends within 2 TOL by a cheap square (of the ends apart: most ends so near
+            # are one vertex), then the distance as it was taken
+            c2 = pair_chord2(v, x, y)
+            near = np.flatnonzero((c2 <= (2.0 * TOL) ** 2) & (c2 > 0.0))
+            x, y = x[near], y[near]
+            d = np.linalg.norm(v[x] - v[y], axis=1)
+            near = (d > 0.0) & (d <= TOL)
+            pa.append(x[near])
+            pb.append(y[near])
         pa_c, pb_c = np.concatenate(pa), np.concatenate(pb)
         if len(pa_c) == 0:
             return False
@@ -243,14 +248,15 @@ class _Union:
 
     def _pairs(self):
         a, b = self.v, self.v[self.nxt]
-        self.tree, i, j = candidate_pairs(*arc_cap(a, b), slack=2 * TOL)
+        mid, self.half = arc_cap(a, b)  # the edges' half lengths, kept for later steps
+        self.tree, i, j = candidate_pairs(mid, self.half, slack=2 * TOL)
         return i, j
 
     # ------------------------------------------------------------------ run
     def run(self) -> Boundary:
         i, j = self._pairs()
         ends = self._ends(i, j)
-        if self._snap_vertices(i, j, ends):
+        if self._snap_vertices(ends):
             i, j = self._pairs()
             ends = self._ends(i, j)
         other = self.comp[i] != self.comp[j]
@@ -276,13 +282,12 @@ class _Union:
         """
         v, nx = self.v, self.nxt
         a, b = v, v[nx]
+        self.b = b  # the edges' ends, kept for the inside tests (v does not move again)
         n = normalize(robust_cross(a, b))
         self.n = n
         out_e, out_p, meet_a, meet_b = [], [], [], []
-        # the pairs' ends and normals, gathered once: the sides of each end against the
-        # other edge's great circle serve the end-on-edge tests and the crossings
-        ai, bi, aj, bj = ends
-        sides = _sides(ai, bi, n[i], aj, bj, n[j])
+        # the sides of each end against the other's great circle: for both tests below
+        sides = _sides(v, n, *ends)
         # an end of one edge on the other (T-junctions, collinear overlaps); the tests
         # after the first only for the ends within TOL of the other's great circle
         # (most such ends are a vertex the two edges share: an end that is one of the
@@ -295,6 +300,9 @@ class _Union:
                 end_ = f_ if head else nx[f_]
                 other = (end_ != e_) & (end_ != nx[e_])
                 e_, f_, end_ = e_[other], f_[other], end_[other]
+                # not far from the edge: an end at one of its ends (most: a vertex shared)
+                apart = ~(pair_equal(v, end_, e_) | pair_equal(v, end_, nx[e_]))
+                e_, f_, end_ = e_[apart], f_[apart], end_[apart]
                 p = v[end_]
                 far = (np.linalg.norm(p - a[e_], axis=1) > TOL) & (
                     np.linalg.norm(p - b[e_], axis=1) > TOL
@@ -325,9 +333,9 @@ class _Union:
         meet_b.append(cj)
         # shared vertices (of pairs of two polygons: only those join components)
         o = np.flatnonzero(self.comp[i] != self.comp[j])
-        ai, bi, aj, bj = ai[o], bi[o], aj[o], bj[o]
-        shared = (ai == aj).all(axis=1) | (ai == bj).all(axis=1)
-        shared |= (bi == aj).all(axis=1) | (bi == bj).all(axis=1)
+        ai, bi, aj, bj = (e[o] for e in ends)
+        shared = pair_equal(v, ai, aj) | pair_equal(v, ai, bj)
+        shared |= pair_equal(v, bi, aj) | pair_equal(v, bi, bj)
         meet_a.append(i[o[shared]])
         meet_b.append(j[o[shared]])
         ca = self.comp[np.concatenate(meet_a)]
@@ -349,13 +357,8 @@ class _Union:
         dup[1:] = (e_all[1:] == e_all[:-1]) & (v[p_all[1:]] == v[p_all[:-1]]).all(axis=1)
         e_all, p_all, t = e_all[~dup], p_all[~dup], t[~dup]
         # a chain per edge: start, split points in order, end
-        edges = np.arange(m)
-        piece_edge, _, _, start, end = split(
-            np.concatenate([e_all, edges, edges]),
-            np.concatenate([t, np.full(m, -1.0), np.full(m, np.inf)]),
-            np.concatenate([p_all, edges, self.nxt]),
-        )
-        ok = ~(v[start] == v[end]).all(axis=1)
+        piece_edge, start, end = split_between(np.arange(m), self.nxt, e_all, p_all)
+        ok = ~pair_equal(v, start, end)
         return {"start": start[ok], "end": end[ok], "edge": piece_edge[ok]}
 
     def _cancel(self, pieces):
@@ -371,11 +374,11 @@ class _Union:
         polygons along it (left out of its inside test).
         """
         v = self.v
-        s, e = v[pieces["start"]] + 0.0, v[pieces["end"]] + 0.0
-        d = s - e
-        fwd = (d[:, 0] < 0) | (
-            (d[:, 0] == 0) & ((d[:, 1] < 0) | ((d[:, 1] == 0) & (d[:, 2] < 0)))
-        )  # a canonical order of the two ends
+        # a canonical order of the two ends (the first coordinate that differs), from
+        # the coordinates gathered one by one
+        s_, e_ = pieces["start"], pieces["end"]
+        d0, d1, d2 = ((v[:, k][s_] + 0.0) - (v[:, k][e_] + 0.0) for k in range(3))
+        fwd = (d0 < 0) | ((d0 == 0) & ((d1 < 0) | ((d1 == 0) & (d2 < 0))))
         # the pieces with the same two ends, by the ends' vertex groups (equal rows)
         self.vid, _ = equal_rows(v)
         s_id, e_id = self.vid[pieces["start"]], self.vid[pieces["end"]]
@@ -429,8 +432,8 @@ class _Union:
         the left side is in the parity class of the point opposite its vertices' mean."""
         v, nx = self.v, self.nxt
         m = len(nx)
-        a, b = v[:m], v[nx]
-        length = angle(a, b)
+        a, b = v[:m], self.b
+        length = 2.0 * self.half  # angle(a, b), exactly (halving and doubling are)
         score = length * np.where(self.seam, 1e-3, 1.0)
         lo = self.comp_start
         # the longest edge of each polygon: the last of its edges in the order of score
@@ -439,8 +442,8 @@ class _Union:
         k = np.maximum.reduceat(np.where(score == best[self.comp], np.arange(m), -1), lo)
         mid = normalize(a[k] + b[k])
         left = normalize(robust_cross(a[k], b[k]))
-        qi, di, _ = self.tree.near(mid, 1e-3)
-        ok = (self.comp[di] == qi) & (di != k[qi])
+        qi, di, _ = self.tree.near(mid, 1e-3, lo=lo, hi=self.comp_end)
+        ok = di != k[qi]
         qi, di = qi[ok], di[ok]
         dmin = np.ones(self.n_comp)
         np.minimum.at(dmin, qi, arc_distance(mid[qi], a[di], b[di], self.n[di]))
@@ -492,7 +495,7 @@ class _Union:
         crossings of the arc from it to the polygon's inner point (through a point off
         the way when the two are far apart)."""
         m = len(self.nxt)
-        a, b = self.v[:m], self.v[self.nxt]
+        a, b = self.v[:m], self.b
         if len(p) == 0:
             return np.zeros(0, bool)
         q = self.inner[ci]
@@ -517,14 +520,15 @@ class _Union:
         side: then the point opposite the cap's centre is inside, and the cap is the
         whole sphere.
         """
-        m = len(self.nxt)
-        a, b = self.v[:m], self.v[self.nxt]
+        a = self.v[: len(self.nxt)]
         lo = self.comp_start
         s = np.add.reduceat(a, lo, axis=0)
         big = np.linalg.norm(s, axis=1) < 1e-9
         c = normalize(np.where(big[:, None], [0.0, 0.0, 1.0], s))
         cc = c[self.comp]
-        reach = np.maximum(angle(cc, a), angle(cc, b)) + 0.5 * angle(a, b)
+        # the angle to an edge's far end is the one to the next edge's start (one ring)
+        to_a = angle(cc, a)
+        reach = np.maximum(to_a, to_a[self.nxt]) + self.half
         r = pad(np.maximum.reduceat(reach, lo), abs_=1e-9)
         big |= r >= np.pi
         small = np.flatnonzero(~big)
@@ -589,7 +593,7 @@ class _Union:
         mine = di == pieces["edge"][idx][qi]
         qi, di = qi[~mine], di[~mine]
         dmin = np.full(len(idx), np.inf)
-        dist = arc_distance(mid[qi], self.v[:m][di], self.v[self.nxt[di]], self.n[di])
+        dist = arc_distance(mid[qi], self.v[:m][di], self.b[di], self.n[di])
         # edges along the piece (coincident ones) do not limit the step off it
         np.minimum.at(dmin, qi, np.where(dist > TOL, dist, np.inf))
         eps = np.minimum(eps0, 0.25 * dmin)[:, None]
@@ -615,10 +619,9 @@ class _Union:
         vid = self.vid  # the vertex groups of _cancel
         s_id, e_id = vid[start], vid[end]
         k = len(idx)
-        order = np.argsort(s_id, kind="stable")
-        n_out = np.bincount(s_id, minlength=len(v))
+        order, n_out, out_at = bucket_order(s_id, len(v))  # the pieces by start vertex
         # where each vertex's pieces start in that order (a search of e_id, by counting)
-        first = (np.cumsum(n_out) - n_out)[e_id]
+        first = out_at[e_id]
         n_in = np.bincount(e_id, minlength=len(v))
         bad = np.flatnonzero(n_out != n_in)
         if len(bad):
@@ -637,12 +640,13 @@ class _Union:
         nxt = order[np.minimum(first, k - 1)]
         multi = np.flatnonzero(n_out[e_id] > 1)
         if len(multi):
-            normal = normalize(robust_cross(v[start], v[end]))
             for p in multi.tolist():
                 w = v[end[p]]
                 cand = order[first[p] : first[p] + n_out[e_id[p]]]
-                r = -cross(normal[p], w)
-                t = cross(normal[cand], w)
+                # the normals of the piece and of those leaving its end (row by row)
+                normal = normalize(robust_cross(v[start[[p, *cand]]], v[end[[p, *cand]]]))
+                r = -cross(normal[0], w)
+                t = cross(normal[1:], w)
                 ccw = np.arctan2(cross(r, t) @ w, t @ r)
                 cw = np.mod(-ccw, 2.0 * np.pi)
                 cw[cw <= 0.0] = 2.0 * np.pi

@@ -1,6 +1,7 @@
 """The arrangement skeleton shared by the union and the offsets' self-intersections."""
 
 import numpy as np
+import pytest
 
 from gloffset.geometry.arrangement import (
     candidate_pairs,
@@ -53,8 +54,56 @@ def test_permutation_cycles_are_those_of_cycles():
     perms = [rng.permutation(n) for n in (1, 2, 3, 50, 5000) for _ in range(3)]
     perms.append(np.roll(np.arange(4097), -1))  # one long cycle
     perms.append(np.arange(7))  # fixed points
+    for n in (10, 3000):  # rings of consecutive items (a boundary's pieces), some spliced
+        sizes = rng.integers(1, min(40, n // 2), n)
+        ends = np.cumsum(sizes)[np.cumsum(sizes) <= n]
+        starts = np.concatenate([[0], ends[:-1]])
+        ring = np.arange(n) + 1  # each item to the next, the last of a ring to its first
+        ring[ends - 1] = starts
+        ring[ends[-1] :] = np.arange(ends[-1], n)
+        spliced = ring.copy()
+        a, b = rng.permutation(n)[:10].reshape(2, 5)  # successors swapped: a permutation still
+        spliced[a], spliced[b] = ring[b], ring[a]
+        perms += [ring, spliced]
     for nxt in perms:
         want = cycles(nxt)[0]
         items, sizes = permutation_cycles(nxt)
         assert sizes.tolist() == [len(c) for c in want]
         assert np.array_equal(items, np.concatenate(want))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_bucket_order_is_the_stable_argsort(seed):
+    from gloffset.geometry.arrangement import bucket_order
+
+    rng = np.random.default_rng(seed)
+    n = 5000
+    ids = rng.permutation(n)[:4000]  # mostly unique ids, as a boundary's vertices
+    ids[rng.integers(0, 4000, 300)] = rng.integers(0, 50, 300)  # and some shared
+    order, counts, starts = bucket_order(ids, n)
+    assert np.array_equal(order, np.argsort(ids, kind="stable"))
+    assert np.array_equal(counts, np.bincount(ids, minlength=n))
+    assert np.array_equal(starts, np.searchsorted(ids[order], np.arange(n)))
+    assert (counts > 1).sum() > 20
+
+
+def test_split_between_is_split_with_the_arcs_ends_as_events():
+    from gloffset.geometry.arrangement import split_between
+
+    rng = np.random.default_rng(2)
+    n = 300
+    first, last = np.arange(n), rng.permutation(n)
+    arc = rng.integers(0, n, 700)
+    t = rng.integers(0, 5, 700).astype(float)  # ties keep their order, in both
+    node = n + np.arange(700)
+    order = np.lexsort((t, arc))
+    arc, t, node = arc[order], t[order], node[order]
+    want = split(
+        np.concatenate([arc, np.arange(n), np.arange(n)]),
+        np.concatenate([t, np.full(n, -1.0), np.full(n, np.inf)]),
+        np.concatenate([node, first, last]),
+    )
+    got = split_between(first, last, arc, node)
+    for g, w in zip(got, (want[0], want[3], want[4])):
+        assert np.array_equal(g, w)
+    assert len(got[0]) == n + 700

@@ -5,6 +5,7 @@ import pytest
 from conftest import DATA
 
 import gloffset
+from gloffset.geometry import captree
 from gloffset.geometry.caps import arc_cap, chord, pad
 from gloffset.geometry.captree import CapTree, _grid_pairs
 from gloffset.geometry.sphere import angle, arcs_cross, normalize
@@ -122,3 +123,44 @@ def test_along_returns_exactly_the_items_its_distance_test_keeps(seed):
     hi = lo + rng.integers(1, 600, len(a))
     si, ni = tree.along(a, b, lo=lo, hi=hi)
     assert set(zip(si.tolist(), ni.tolist())) == brute_along(tree, a, b, lo, hi)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_near_with_item_ranges_returns_the_pairs_without_them_that_lie_in_range(seed):
+    # the union's inner points ask for the edges of their own polygon only: the walk
+    # drops the nodes outside every range of its queries, and no pair in range is lost
+    c, r = mixed_caps(1500, seed)
+    tree = CapTree(c, r)
+    rng = np.random.default_rng(seed)
+    p = normalize(rng.normal(size=(200, 3)))
+    p[:100] = c[rng.integers(0, len(c), 100)]  # points among the items
+    reach = 10.0 ** rng.uniform(-6, -0.5, len(p))
+    qi, di, _ = tree.near(p, reach)
+    lo = rng.integers(0, 1400, len(p))
+    hi = lo + rng.integers(0, 300, len(p))
+    inr = (di >= lo[qi]) & (di < hi[qi])
+    want = set(zip(qi[inr].tolist(), di[inr].tolist()))
+    assert len(want) > 50
+    qi, di, _ = tree.near(p, reach, lo=lo, hi=hi)
+    assert ((di >= lo[qi]) & (di < hi[qi])).all()
+    assert set(zip(qi.tolist(), di.tolist())) == want and len(want) == len(qi)
+
+
+def test_along_in_blocks_of_segments_returns_the_pairs_of_one_walk_in_its_order(monkeypatch):
+    c, r = mixed_caps(1500, 3)
+    tree = CapTree(c, r)
+    rng = np.random.default_rng(3)
+    a = normalize(rng.normal(size=(100, 3)))
+    b = normalize(a + rng.normal(size=(100, 3)) * 10.0 ** rng.uniform(-6, 0.2, (100, 1)))
+    lo = rng.integers(0, 1000, len(a))
+    hi = lo + rng.integers(1, 600, len(a))
+    hi[:30:3], hi[1:30:3] = lo[:30:3], lo[1:30:3] + rng.integers(1, 3, 10)  # empty, 1 or 2
+    lo[30:35], lo[35:40], hi[35:40] = -5, len(c) - 3, len(c) + 40  # beyond the items
+    one = tree.along(a, b), tree.along(a, b, lo=lo, hi=hi)
+    monkeypatch.setattr(captree, "_ALONG_BLOCK", 7)
+    blocks = tree.along(a, b), tree.along(a, b, lo=lo, hi=hi)
+    for (si, ni), (sj, nj) in zip(one, blocks):
+        assert len(si) > 50
+        assert np.array_equal(si, sj) and np.array_equal(ni, nj)
+        assert (np.diff(si) >= 0).all()
+    assert set(zip(*blocks[1])) == brute_along(tree, a, b, lo, hi)

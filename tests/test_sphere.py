@@ -115,3 +115,31 @@ def test_pair_dots_are_einsum_bits():
     u, v = rng.normal(size=(100, 3)), rng.normal(size=(80, 3))
     ui, vi = rng.integers(0, 100, 5000), rng.integers(0, 80, 5000)
     assert np.array_equal(pair_dots(u, ui, v, vi), np.einsum("ij,ij->i", u[ui], v[vi]))
+
+
+def test_pair_chord2_and_pair_equal_are_the_row_by_row_answers():
+    from gloffset.geometry.sphere import chord2_between, pair_chord2, pair_equal
+
+    rng = np.random.default_rng(4)
+    v = normalize(rng.normal(size=(300, 3)))
+    v[200:250] = v[:50] + rng.normal(size=(50, 3)) * 1e-13  # near twins
+    v[250:] = v[:50]  # exact twins
+    v[260, 2], v[10, 2] = 0.0, -0.0  # a signed zero: equal rows all the same
+    i, j = rng.integers(0, 300, 20000), rng.integers(0, 300, 20000)
+    i[:300], j[:300] = np.arange(300), (np.arange(300) + 250) % 300
+    want = chord2_between(v[i], v[j])
+    assert np.array_equal(pair_chord2(v, i, j).view(np.int64), want.view(np.int64))
+    same = pair_equal(v, i, j)
+    assert np.array_equal(same, (v[i] == v[j]).all(axis=1))
+    assert same.sum() > 50 and same[260 - 250]
+
+
+def test_slerp_with_the_callers_angle_is_the_same_bits():
+    from gloffset.geometry.sphere import angle, slerp
+
+    rng = np.random.default_rng(5)
+    a, b = normalize(rng.normal(size=(2000, 3))), normalize(rng.normal(size=(2000, 3)))
+    b[:100] = normalize(a[:100] + rng.normal(size=(100, 3)) * 1e-9)
+    t = rng.uniform(size=2000)
+    want = slerp(a, b, t)
+    assert np.array_equal(slerp(a, b, t, angle(a, b)).view(np.int64), want.view(np.int64))

@@ -14,7 +14,8 @@ go through the same steps, and those steps live here, once:
 3. :func:`components`: nodes (or vertices, or polygons) that are one, labelled by the
    smallest member of each connected set; :func:`equal_rows`: the vertices that are one
    point (equal coordinates);
-4. :func:`split`: the arcs cut into pieces between consecutive events;
+4. :func:`split`: the arcs cut into pieces between consecutive events
+   (:func:`split_between` where the events come sorted, between each arc's two ends);
 5. :func:`cycles`: the pieces, once each is given its successor (the callers' rule at a
    node where several meet), followed into closed rings (:func:`permutation_cycles`, all
    at once, where every piece has one successor and one predecessor).
@@ -36,8 +37,10 @@ __all__ = [
     "equal_rows",
     "row_keys",
     "split",
+    "split_between",
     "cycles",
     "permutation_cycles",
+    "bucket_order",
 ]
 
 
@@ -98,6 +101,29 @@ def split(arc, t, node):
     return arc[:-1][same], t[:-1][same], t[1:][same], node[:-1][same], node[1:][same]
 
 
+def split_between(first_node, last_node, arc, node):
+    """:func:`split`'s pieces of the arcs ``0 .. n-1`` from node ``first_node[a]`` to
+    ``last_node[a]`` through their events ``(arc[k], node[k])``, given sorted by arc
+    and then by position along it: ``(arc, n0, n1)`` per piece, in :func:`split`'s
+    order, without its sort (the events are placed by counting).
+    """
+    first_node = np.asarray(first_node, dtype=np.int64)
+    n = len(first_node)
+    arc = np.asarray(arc, dtype=np.int64)
+    cnt = np.bincount(arc, minlength=n)
+    size = cnt + 2  # each arc's nodes: its first, its events, its last
+    at = np.cumsum(size) - size
+    seq = np.empty(int(size.sum()), np.int64)
+    seq[at] = first_node
+    seq[at + size - 1] = last_node
+    rank = np.arange(len(arc)) - (np.cumsum(cnt) - cnt)[arc]
+    seq[at[arc] + 1 + rank] = node
+    piece = np.ones(len(seq), bool)  # a piece from every node but the last of its arc
+    piece[at + size - 1] = False
+    k = np.flatnonzero(piece)
+    return np.repeat(np.arange(n), cnt + 1), seq[k], seq[k + 1]
+
+
 def cycles(nxt) -> tuple[list[np.ndarray], np.ndarray]:
     """Closed cycles of a successor map, and the items left on open chains.
 
@@ -149,6 +175,20 @@ def permutation_cycles(nxt) -> tuple[np.ndarray, np.ndarray]:
     nxt = np.asarray(nxt, dtype=np.int64)
     n = len(nxt)
     items = np.arange(n, dtype=np.int64)
+    # runs of consecutive items (k -> k + 1), as a ring's pieces mostly come, are
+    # followed as one: a cycle's smallest item starts a run, so the cycles of the runs'
+    # successor map, each run expanded in place, are the cycles in the same order
+    last = np.flatnonzero(nxt != items + 1)  # the last item of each run
+    if 0 < len(last) < n // 2:
+        first = np.concatenate([[0], last[:-1] + 1])
+        run_of = np.repeat(np.arange(len(last)), last - first + 1)
+        runs, run_sizes = permutation_cycles(run_of[nxt[last]])
+        length = (last - first + 1)[runs]
+        out = np.repeat(first[runs] - np.cumsum(length) + length, length) + np.arange(n)
+        cycle_of_run = np.repeat(np.arange(len(run_sizes)), run_sizes)
+        return out, np.bincount(cycle_of_run, weights=length, minlength=len(run_sizes)).astype(
+            np.int64
+        )
     lab, p, span = items.copy(), nxt, 1
     while span < n:  # lab: the smallest item of the next 2 span (all of the cycle at the end)
         lab = np.minimum(lab, lab[p])
@@ -173,6 +213,28 @@ def permutation_cycles(nxt) -> tuple[np.ndarray, np.ndarray]:
     return out, sizes
 
 
+def bucket_order(ids: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``np.argsort(ids, kind="stable")`` of integers ``0 <= ids < n``, by counting.
+
+    Returns ``(order, counts, starts)``: the order, how many items each id has and where
+    its items start in the order. Items alone with their id are placed by their id's
+    start; those that share an id (few, where pieces of a boundary meet) by a stable
+    sort of their own. Linear in ``len(ids) + n`` where most ids are unique.
+    """
+    ids = np.asarray(ids, dtype=np.int64)
+    counts = np.bincount(ids, minlength=n)
+    starts = np.cumsum(counts) - counts
+    pos = starts[ids]
+    shared = np.flatnonzero(counts[ids] > 1)
+    if len(shared):
+        shared = shared[np.argsort(ids[shared], kind="stable")]
+        sid = ids[shared]
+        pos[shared] += np.arange(len(shared)) - np.searchsorted(sid, sid)
+    order = np.empty(len(ids), np.int64)
+    order[pos] = np.arange(len(ids))
+    return order, counts, starts
+
+
 def row_keys(v: np.ndarray) -> np.ndarray:
     """Exact row keys of unit vectors (``-0.0`` made ``0.0``), as a void view."""
     v = np.ascontiguousarray(v + 0.0)
@@ -195,9 +257,12 @@ def equal_rows(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             h = (h ^ bits[:, col]) * np.uint64(0x9E3779B97F4A7C15)
             h ^= h >> np.uint64(29)
     order = np.argsort(h)
-    hs, rows = h[order], bits[order]
+    hs = h[order]
     same_h = hs[1:] == hs[:-1]
-    same_row = (rows[1:] == rows[:-1]).all(axis=1)
+    same_row = np.ones(len(hs) - 1 if len(hs) else 0, bool)
+    for col in range(bits.shape[1]):  # the rows in that order, a coordinate at a time
+        b = bits[:, col][order]
+        same_row &= b[1:] == b[:-1]
     if np.any(same_h & ~same_row):  # a collision
         _, inv, counts = np.unique(row_keys(v), return_inverse=True, return_counts=True)
         return inv.reshape(-1), counts

@@ -21,23 +21,36 @@ the query's cap touches on each level. The pairs of items among themselves
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..memo import Memo, once_attr
 from .caps import arc_cap, chord, pad
-from .sphere import angle, arc_distance, dot, normalize, robust_cross, slerp
+from .sphere import angle, arc_distance, normalize, robust_cross, slerp
 
 __all__ = ["CapTree"]
+
+# Points as their three coordinates: a (3, n) array, or three (n,) arrays
+_Rows = np.ndarray | Sequence[np.ndarray]
 
 # Caps are padded by this (radians, absolute and relative) to stay conservative.
 _PAD = 1e-14
 
+# CapTree.along walks this many segments at a time (a few 100k pairs per level at most)
+_ALONG_BLOCK = 2048
 
-def _chord2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    diff = a - b
-    return np.einsum("ij,ij->i", diff, diff)
+
+def _chord2_at(u_t: _Rows, ui: np.ndarray, v_t: _Rows, vi: np.ndarray) -> np.ndarray:
+    """Squared chords ``|u[ui] - v[vi]|^2`` with the bits of ``np.einsum`` on the
+    differences' rows (its sum, ``(x0^2 + x2^2) + x1^2``), from the points' three
+    coordinates ``u_t``, ``v_t`` ((3, n) rows), gathered coordinate by coordinate (no
+    (k, 3) copies: several times faster for a million pairs)."""
+    d0 = u_t[0][ui] - v_t[0][vi]
+    d1 = u_t[1][ui] - v_t[1][vi]
+    d2 = u_t[2][ui] - v_t[2][vi]
+    return (d0 * d0 + d2 * d2) + d1 * d1
 
 
 def _reduce_levels(values: np.ndarray, op, depth: int) -> list:
@@ -54,6 +67,17 @@ def _reduce_levels(values: np.ndarray, op, depth: int) -> list:
     return out
 
 
+def _query_ranges(depth: int, lo, hi, stop) -> tuple[list | None, list | None]:
+    """:meth:`CapTree.near`'s item ranges per node of its query tree (``depth`` levels):
+    the least ``lo`` and the greatest ``hi`` of each node's queries; None without them."""
+    if lo is None:
+        return None, None
+    if stop is not None:
+        raise ValueError("CapTree.near: item ranges and stop distances do not combine")
+    lo_k = _reduce_levels(np.asarray(lo, np.int64), np.minimum, depth)
+    return lo_k, _reduce_levels(np.asarray(hi, np.int64), np.maximum, depth)
+
+
 def _merge_caps(c1, r1, c2, r2):
     """Smallest caps containing each pair of caps (vectorised)."""
     theta = angle(c1, c2)
@@ -62,7 +86,12 @@ def _merge_caps(c1, r1, c2, r2):
         t = np.where(theta > 0.0, (r - r1) / np.where(theta > 0.0, theta, 1.0), 0.0)
     t = np.clip(t, 0.0, 1.0)
     far = theta > np.pi - 1e-6  # nearly antipodal centres: SLERP is undefined
-    c = slerp(c1, np.where(far[:, None], c1, c2), np.where(far, 0.0, t))
+    if far.any():  # from c1 to itself there (an angle of 0, exactly)
+        c = slerp(
+            c1, np.where(far[:, None], c1, c2), np.where(far, 0.0, t), np.where(far, 0.0, theta)
+        )
+    else:
+        c = slerp(c1, c2, t, theta)
     r = np.where(far, np.pi, r)
     first = theta + r2 <= r1  # one cap already holds the other
     second = theta + r1 <= r2
@@ -95,7 +124,11 @@ def _grid_pairs(
     ``(c + 1) / h_0`` scaled by a power of 2, exactly, so its floor is the same.
     """
     h0, order, bounds = _grid_levels(ext)
-    cell0 = np.floor((c + 1.0) / h0).astype(np.int64)
+    c_rows = c.T.copy()
+    # the centres and their cells of level 0 in the order of the levels, by coordinate:
+    # the balls of level k and those below it are slices
+    c_o = [x[order] for x in c_rows]
+    cell_o = [np.floor((x + 1.0) / h0).astype(np.int64) for x in c_o]
     out_i: list[np.ndarray] = []
     out_j: list[np.ndarray] = []
     # (dx, dy) columns of cells: all nine below, the four after (0, 0) and (0, 0) itself
@@ -108,20 +141,21 @@ def _grid_pairs(
             continue
         h = h0 * 2.0**k
         m = int(np.floor(2.0 / h)) + 3
-        uq = (c[q] + 1.0) / h
-        cell_q = np.floor(uq).astype(np.int64)
-        key_q = (cell_q[:, 0] * m + cell_q[:, 1]) * m + cell_q[:, 2]
+        uq = [(x[bounds[k] : bounds[k + 1]] + 1.0) / h for x in c_o]
+        cell_q = [np.floor(u).astype(np.int64) for u in uq]
+        key_q = (cell_q[0] * m + cell_q[1]) * m + cell_q[2]
         by_q = np.argsort(key_q)  # sorted needles: searchsorted's fast path
-        q, key_q, frac = q[by_q], key_q[by_q], (uq - cell_q)[by_q]
+        q, key_q = q[by_q], key_q[by_q]
+        frac = np.stack([(u - cq)[by_q] for u, cq in zip(uq, cell_q)], axis=1)
         level = _Level(q, key_q, frac, h, m)
-        _column_pairs(level, q, key_q, after, c, ext, radii, slack, out_i, out_j)
+        _column_pairs(level, q, key_q, after, c_rows, ext, radii, slack, out_i, out_j)
         if bounds[k] > 0:
             t = order[: bounds[k]]  # the balls of lower levels
-            cell_t = cell0[t] >> k
-            key_t = (cell_t[:, 0] * m + cell_t[:, 1]) * m + cell_t[:, 2]
+            cell_t = [x[: bounds[k]] >> k for x in cell_o]
+            key_t = (cell_t[0] * m + cell_t[1]) * m + cell_t[2]
             by_key = np.argsort(key_t)  # any order of equal keys: the pairs are a set
             _column_pairs(
-                level, t[by_key], key_t[by_key], every, c, ext, radii, slack, out_i, out_j
+                level, t[by_key], key_t[by_key], every, c_rows, ext, radii, slack, out_i, out_j
             )
     if not out_i:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
@@ -149,7 +183,7 @@ def _grid_levels(ext: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
             lev[short] += 1
     top = int(min(lev.max(), np.ceil(np.log2(4.0 / h0)) + 1))
     lev = np.minimum(lev, top)  # cells of side >= 4 hold the whole sphere
-    order = np.argsort(lev, kind="stable")
+    order = np.argsort(lev.astype(np.int16), kind="stable")  # small ints: a radix sort
     return h0, order, np.searchsorted(lev[order], np.arange(top + 2))
 
 
@@ -166,11 +200,11 @@ class _Level:
     m: int
 
 
-def _column_pairs(lv, t_sorted, key_sorted, columns, c, ext, radii, slack, out_i, out_j):
+def _column_pairs(lv, t_sorted, key_sorted, columns, c_rows, ext, radii, slack, out_i, out_j):
     """The pairs of the balls of level ``lv`` with the balls ``t_sorted`` (sorted by
     their cells' keys ``key_sorted``: the level's own, or those of lower levels) in the
     columns of cells ``columns`` around each ball's own (:func:`_grid_pairs`),
-    appended to ``out_i``, ``out_j``."""
+    appended to ``out_i``, ``out_j``; ``c_rows``: the centres' three coordinates."""
     q, key_q, frac, h, m = lv.q, lv.key_q, lv.frac, lv.h, lv.m
     same = t_sorted is q
     # the distinct keys and where each starts (with sentinels after the last)
@@ -179,8 +213,10 @@ def _column_pairs(lv, t_sorted, key_sorted, columns, c, ext, radii, slack, out_i
     at = np.flatnonzero(first)
     keys = np.append(key_sorted[at], np.full(3, np.iinfo(np.int64).max))
     at = np.append(at, len(key_sorted))
-    if radii is not None:  # the chord test's operands, in the grid's order
-        c_q, r_q, c_t, r_t = c[q], radii[q], c[t_sorted], radii[t_sorted]
+    if radii is not None:  # the chord test's operands in the grid's order, by coordinate
+        c_q = [x[q] for x in c_rows]
+        c_t = c_q if same else [x[t_sorted] for x in c_rows]
+        r_q, r_t = radii[q], radii[t_sorted]
     reach = (ext[q] + float(ext[t_sorted].max())) / h * (1.0 + 1e-6) + 1e-7
     lo_need = frac < reach[:, None]  # the cell below along each axis
     hi_need = 1.0 - frac < reach[:, None]
@@ -216,7 +252,8 @@ def _column_pairs(lv, t_sorted, key_sorted, columns, c, ext, radii, slack, out_i
             keep = (key_sorted[pos] != key_q[qq]) | (t_sorted[pos] > q[qq])
             qq, pos = qq[keep], pos[keep]
         if radii is not None:
-            keep = _chord2(c_q[qq], c_t[pos]) <= pad(chord(r_q[qq] + r_t[pos] + slack)) ** 2
+            lim = pad(chord(r_q[qq] + r_t[pos] + slack))
+            keep = _chord2_at(c_q, qq, c_t, pos) <= lim * lim
             qq, pos = qq[keep], pos[keep]
         out_i.append(q[qq])
         out_j.append(t_sorted[pos])
@@ -285,7 +322,7 @@ class CapTree:
         order = np.argsort(ci * self.n + cj)  # by i, then j (n^2 < 2^63)
         return ci[order], cj[order]
 
-    def near(self, points, reach, *, stop=None):
+    def near(self, points, reach, *, stop=None, lo=None, hi=None):
         """Items whose cap comes within ``reach`` of each point.
 
         Parameters
@@ -297,6 +334,11 @@ class CapTree:
             With ``reps``: a point ``p`` is *done* as soon as a visited node's
             representative point lies closer than ``stop[p]`` to it; its remaining
             pairs are dropped. Use it when any item within ``stop`` answers the query.
+        lo, hi : (m,) int arrays, optional
+            Only items ``lo[p] <= item < hi[p]`` for point ``p`` (the same pairs as
+            without them, less those outside the range: a node of the walk is dropped
+            when its items lie outside the ranges of all the queries of its pair).
+            Not with ``stop`` (an item out of a query's range would stop it).
 
         Returns
         -------
@@ -320,6 +362,7 @@ class CapTree:
         # the queries get a hierarchy of their own (they come in curve order too): caps
         # around the points alone, the largest reach, and the smallest stop per node
         qt = CapTree(p, np.zeros(m))
+        q_rows = [c.T.copy() for c in qt.centers]
         q_reach = _reduce_levels(np.clip(reach, 0.0, np.pi), np.maximum, qt.depth)
         if use_stop:
             st = np.broadcast_to(np.asarray(stop, dtype=np.float64), (m,))
@@ -339,22 +382,26 @@ class CapTree:
                 st_k = q_stop[k]
                 s_ch = chord(np.maximum(st_k, 0.0)) * (1.0 - 1e-12)  # rounded down
                 q_left.append(np.where(st_k > 0.0, s_ch - q_chords[k], -1.0))
+        q_lo, q_hi = _query_ranges(qt.depth, lo, hi, stop)
         q_size = [float(np.mean(qt.radii[k] + q_reach[k])) for k in range(qt.depth)]
         d_size = [float(np.mean(r)) for r in self.radii]
         qi = np.zeros(1, dtype=np.int64)
         di = np.zeros(1, dtype=np.int64)
         done = np.zeros(1, dtype=bool)  # per query node of level lq
         while True:
-            cq, cd = qt.centers[lq][qi], self.centers[ld][di]
+            if q_lo is not None and q_hi is not None:  # node di holds di 2^ld .. (di+1) 2^ld - 1
+                inr = (di << ld < q_hi[lq][qi]) & ((di + 1) << ld > q_lo[lq][qi])
+                qi, di = qi[inr], di[inr]
             lim = q_lim[lq][qi] + d_chords[ld][di]
-            keep = _chord2(cq, cd) <= lim * lim
+            keep = _chord2_at(q_rows[lq], qi, self._rows(ld), di) <= lim * lim
             qi, di = qi[keep], di[keep]
             if use_stop and len(qi):
                 # every query of the node lies closer than its stop to the item's point:
                 # |c - rep| + chord(r) < chord(stop) suffices (chords are subadditive)
                 left = q_left[lq][qi]
                 assert self.reps is not None  # use_stop
-                hit = (left > 0.0) & (_chord2(cq[keep], self.reps[ld][di]) < left * left)
+                reps = self._rows(ld, "reps")
+                hit = (left > 0.0) & (_chord2_at(q_rows[lq], qi, reps, di) < left * left)
                 if hit.any():
                     done[qi[hit]] = True
                     keep = ~done[qi]
@@ -386,6 +433,12 @@ class CapTree:
             qi, di = qi[keep], di[keep]
         return qi, di, out_done
 
+    def _rows(self, k: int, of: str = "centers") -> np.ndarray:
+        """The cap centres (or with ``of="reps"`` the points) of level ``k`` as (3, n)
+        rows, for gathers coordinate by coordinate (cached)."""
+        rows: Memo[np.ndarray] = once_attr(self, "_rows_cache", Memo)
+        return rows.once((of, k), lambda: getattr(self, of)[k].T.copy())
+
     def _chords(self, k: int) -> np.ndarray:
         """Chords of the cap radii of level ``k`` (cached)."""
         chords: Memo[np.ndarray] = once_attr(self, "_chord_cache", Memo)
@@ -408,20 +461,56 @@ class CapTree:
         n = normalize(robust_cross(a, b))
         mid, half = arc_cap(a, b)
         seg_chord = pad(chord(half), abs_=1e-14)  # the arc lies within half + 2e-15 of mid
-        si = np.arange(len(a), dtype=np.int64)
-        ni = np.zeros(len(a), dtype=np.int64)
+        if lo is not None:
+            lo, hi = np.asarray(lo, np.int64), np.asarray(hi, np.int64)
+        # the walk a block of segments at a time: its pairs' arrays stay in the caches
+        # (the pairs come out by segment, then item, as from one walk)
+        out = [
+            self._along_walk(s, min(s + _ALONG_BLOCK, len(a)), a, b, n, mid, seg_chord, lo, hi)
+            for s in range(0, len(a), _ALONG_BLOCK)
+        ]
+        if len(out) == 1:
+            return out[0]
+        return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
+
+    def _along_walk(self, s0, s1, a, b, n, mid, seg_chord, lo, hi):
+        """:meth:`along`'s walk down the levels for the segments ``s0 .. s1 - 1``."""
+        si = np.arange(s1 - s0, dtype=np.int64)  # the segments from s0 on
+        ni = np.zeros(s1 - s0, dtype=np.int64)
+        a, b, n, seg_chord = a[s0:s1], b[s0:s1], n[s0:s1], seg_chord[s0:s1]
+        # the segments' normals and midpoints as rows of coordinates (gathered by row)
+        n_t, mid_t = n.T.copy(), mid[s0:s1].T.copy()
         ranged = lo is not None
+        if ranged:
+            # a segment enters the walk on the highest level whose nodes hold its items
+            # in at most two (its nodes' ancestors only hold them too, and their caps
+            # hold those nodes' caps: their tests would drop nothing more)
+            lo, hi = np.maximum(lo[s0:s1], 0), np.minimum(hi[s0:s1], self.n)  # items only
+            enter = np.full(s1 - s0, self.depth - 1)
+            for k in range(self.depth - 2, -1, -1):
+                enter[((hi - 1) >> k) - (lo >> k) <= 1] = k
+            enter[hi <= lo] = -1  # no items: never
+            si, ni = si[:0], ni[:0]
         for k in range(self.depth - 1, -1, -1):
-            c, r = self.centers[k], self.radii[k]
             if ranged:  # node ni of level k holds items ni 2^k .. (ni+1) 2^k - 1
+                new = np.flatnonzero(enter == k)
+                if len(new):  # the segments entering here, each with its one or two nodes
+                    two = ((hi[new] - 1) >> k) > (lo[new] >> k)
+                    add_n = np.repeat(lo[new] >> k, 1 + two)
+                    add_n[np.cumsum(1 + two)[two] - 1] += 1
+                    si = np.concatenate([si, np.repeat(new, 1 + two)])
+                    ni = np.concatenate([ni, add_n])
+                    by_seg = np.argsort(si, kind="stable")  # two sorted runs merged
+                    si, ni = si[by_seg], ni[by_seg]
                 inr = (ni << k < hi[si]) & ((ni + 1) << k > lo[si])
                 si, ni = si[inr], ni[inr]
-            if k > 0:
-                keep = self._meets_segment(k, ni, n, mid, seg_chord, si)
-            else:
+            keep = self._meets_segment(k, ni, n_t, mid_t, seg_chord, si)
+            si, ni = si[keep], ni[keep]
+            if k == 0:  # the items that pass those necessary conditions: the exact test
+                c, r = self.centers[0], self.radii[0]
                 dist = arc_distance(c[ni], a[si], b[si], n[si])
                 keep = dist <= pad(r[ni], abs_=_PAD)
-            si, ni = si[keep], ni[keep]
+                si, ni = si[keep], ni[keep]
             if k > 0:
                 nk = len(self.centers[k - 1])
                 si = np.repeat(si, 2)
@@ -430,22 +519,25 @@ class CapTree:
                 ok = ni < nk
                 if not ok.all():
                     si, ni = si[ok], ni[ok]
-        return si, ni
+        return si + s0, ni
 
-    def _meets_segment(self, k, ni, n, mid, seg_chord, si) -> np.ndarray:
+    def _meets_segment(self, k, ni, n_t, mid_t, seg_chord, si) -> np.ndarray:
         """Whether the caps ``ni`` of level ``k`` may meet the arcs ``si`` (unit normals
-        ``n``, bounding caps of centre ``mid`` and chord ``seg_chord``): the cap meets
-        the arc's great circle (``|c.n| <= sin R``) and the arc's bounding cap (``|c -
-        mid| <= chord R + seg_chord``), ``R`` the radius padded as :meth:`along`'s item
-        test pads it. Both hold wherever the cap meets the arc, so no pair that the
-        exact distance would keep is dropped (the bounds are padded well above their
-        rounding, 1e-12 relative)."""
+        ``n_t``, bounding caps of centre ``mid_t`` and chord ``seg_chord``; the normals
+        and centres as (3, n) rows): the cap meets the arc's great circle (``|c.n| <=
+        sin R``) and the arc's bounding cap (``|c - mid| <= chord R + seg_chord``), ``R``
+        the radius padded as :meth:`along`'s item test pads it. Both hold wherever the
+        cap meets the arc, so no pair that the exact distance would keep is dropped (the
+        bounds are padded well above their rounding, 1e-12 relative)."""
         bounds: Memo[tuple[np.ndarray, np.ndarray]] = once_attr(self, "_segment_bounds", Memo)
         sin_r, chord_r = bounds.once(k, lambda: self._segment_bounds_of(k))
-        c = self.centers[k][ni]
+        c_t = self._rows(k)
+        # the products of dot(), coordinate by coordinate (gathers of single coordinates)
+        cx, cy, cz = c_t[0][ni], c_t[1][ni], c_t[2][ni]
+        cn = cx * n_t[0][si] + cy * n_t[1][si] + cz * n_t[2][si]
+        dx, dy, dz = cx - mid_t[0][si], cy - mid_t[1][si], cz - mid_t[2][si]
         lim = chord_r[ni] + seg_chord[si]
-        d = c - mid[si]
-        return (np.abs(dot(c, n[si])) <= sin_r[ni]) & (dot(d, d) <= lim * lim)
+        return (np.abs(cn) <= sin_r[ni]) & (dx * dx + dy * dy + dz * dz <= lim * lim)
 
     def _segment_bounds_of(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """``pad(sin R)`` (2 from R >= pi/2 on: every great circle) and ``pad(chord R)``

@@ -27,6 +27,8 @@ __all__ = [
     "dot",
     "chord2_between",
     "pair_dots",
+    "pair_chord2",
+    "pair_equal",
     "cross",
     "norm",
     "robust_cross",
@@ -138,6 +140,27 @@ def pair_dots(u, ui, v, vi) -> np.ndarray:
     return out
 
 
+def pair_chord2(v, i, j) -> np.ndarray:
+    """``chord2_between(v[i], v[j])`` (the same bits: :func:`dot`'s sum of the squared
+    differences) for index arrays ``i``, ``j`` into an (n, 3) array, from gathers of
+    single coordinates (no (k, 3) copies)."""
+    v = np.asarray(v, dtype=np.float64)
+    d0 = v[:, 0][i] - v[:, 0][j]
+    d1 = v[:, 1][i] - v[:, 1][j]
+    d2 = v[:, 2][i] - v[:, 2][j]
+    return d0 * d0 + d1 * d1 + d2 * d2
+
+
+def pair_equal(v, i, j) -> np.ndarray:
+    """``(v[i] == v[j]).all(axis=1)`` for index arrays ``i``, ``j`` into an (n, 3) array
+    (``-0.0`` equal to ``0.0``), coordinate by coordinate."""
+    v = np.asarray(v)
+    out = v[:, 0][i] == v[:, 0][j]
+    out &= v[:, 1][i] == v[:, 1][j]
+    out &= v[:, 2][i] == v[:, 2][j]
+    return out
+
+
 def cross(u, v) -> np.ndarray:
     """Cross products along the last axis, written out (as :func:`numpy.cross`, faster)."""
     u = np.asarray(u, dtype=np.float64)
@@ -181,17 +204,18 @@ def angle(a, b) -> np.ndarray:
     return 2.0 * np.arctan2(norm(a - b), norm(a + b))
 
 
-def slerp(a, b, t) -> np.ndarray:
+def slerp(a, b, t, theta=None) -> np.ndarray:
     """Spherical linear interpolation from ``a`` (t=0) to ``b`` (t=1) along the short arc.
 
     ``t`` broadcasts against the leading dimensions of ``a`` and ``b`` (use
     ``t[..., None]`` shapes as needed). Undefined for antipodal ``a``, ``b``.
-    Points lie on the unit sphere to 1 ulp and on the arc to 1e-15 rad.
+    Points lie on the unit sphere to 1 ulp and on the arc to 1e-15 rad. ``theta``: the
+    angle ``angle(a, b)`` where the caller has it (the same bits).
     """
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
     t = np.asarray(t, dtype=np.float64)[..., None]
-    theta = angle(a, b)[..., None]
+    theta = (angle(a, b) if theta is None else np.asarray(theta, dtype=np.float64))[..., None]
     s = np.sin(theta)
     small = s < 1e-300
     s_safe = np.where(small, 1.0, s)
