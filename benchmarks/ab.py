@@ -53,13 +53,17 @@ WORKLOADS = {
     "offset+resolve mexico": "g.offset(mexico, 0.02, radius=1.0).resolve()",
     "contains mexico 1e6 points": "g.contains(mexico, lon, lat, distance=0.02, radius=1.0)",
     "read countries_10m": "g.read(countries_path)",
+    "distance_field countries 4096x2048": "g.distance_field(countries, Equirect(4096, 2048))",
+    "distance_field mexico tiles z5 z10": (
+        "[g.distance_field(mexico, Tile(*t)) for t in ((5, 7, 14), (10, 234, 457))]"
+    ),
 }
 
 SETUP = """
 import itertools, tempfile, time, os
 import numpy as np
 import gloffset as g
-from gloffset.grids import Cube, Equirect
+from gloffset.grids import Cube, Equirect, Tile
 mexico = g.read({data!r} + '/mexico_10m.geojson')
 world = g.read({data!r} + '/world_110m.geojson')
 countries_path = {data!r} + '/countries_10m.geojson'
