@@ -165,7 +165,11 @@ def _broken(monkeypatch, tmp_path, old: str, new: str) -> None:
         # the least float32 feature alone, never those within reach nor the whole list
         ("float reach = m0 + u_gap;", "float reach = m0 - 1.0;", 30),
         # a wrong candidate: the second feature in place of the least one
-        ("double d = feature(pd, w0);", "double d = feature(pd, w1 != NONE ? w1 : w0);", 10000),
+        (
+            "double d0 = feature(pd, w0, g0);",
+            "double d0 = feature(pd, w1 != NONE ? w1 : w0, g0);",
+            10000,
+        ),
         # every pixel its cell's whole list: the same values
         pytest.param(
             "if (dropped <= reach || unsure <= reach) {",

@@ -36,7 +36,6 @@ import numpy as np
 
 from ..edges import CurveArcs
 from ..errors import OptionError
-from ..geometry.classes import CONTAINED
 from ..grids.protocol import Image
 from ..shape import read
 from ..units import (
@@ -48,11 +47,10 @@ from ..units import (
     to_angle,
 )
 from .fields.gpu import gpu_distances
-from .fields.sign import Corners, block_signs, levels_inside
+from .fields.sign import INSIDE, NEAR, UNDECIDED, Corners, block_signs, levels_inside
 from .fields.walk import walk_levels
 from .render import MAX_PIXELS
 from .simplified import band_members
-from .vector import curves
 from .vector.node_levels import NodeArcs
 
 __all__ = ["DistanceField", "check_field_grid", "distance_field"]
@@ -378,13 +376,12 @@ def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str)
     """
     signed = bool(shape.rings)
     if backend == "gpu" and grid.n_levels > 1:
-        dist = gpu_distances(shape, grid, m, count.add)
+        codes = np.empty(grid.level_shape(grid.n_levels - 1), dtype=np.uint32) if signed else None
+        dist = gpu_distances(shape, grid, m, count.add, codes=codes)
         inside = np.zeros(dist.shape, dtype=bool)
-        if signed:
-            before = count.done
-            classes = curves.classify_curves(shape, 0.0, grid, callback=count.levels(grid))[0]
-            inside = classes == CONTAINED
-            count.add(before + dist.size - count.done)  # the levels reported, all of them
+        if codes is not None:
+            inside = _gpu_inside(shape, grid, m, dist, codes)
+            count.add(2 * dist.size - count.done)
     else:
         dist, inside = _distances(shape, grid, m, count, signed)
     v = np.minimum(dist, m) * radius
@@ -393,6 +390,26 @@ def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str)
     if valid is not None:  # pixels without a place on the sphere: farther than any d
         out[~valid] = np.inf
     return out
+
+
+def _gpu_inside(shape, grid, m: float, dist: np.ndarray, codes: np.ndarray) -> np.ndarray:
+    """Return the pixels' inside status from the shader's sign codes.
+
+    ``codes`` as :func:`~gloffset.raster.fields.gpu.gpu_distances` fills them; a pixel
+    at distance 0 is inside, one within ``NEAR`` of the boundary, beyond ``m`` or undecided
+    by the shader gets the
+    float64 levels' test (:func:`~gloffset.raster.fields.sign.levels_inside`, only its
+    ancestors walked; none where nothing is undecided). The inside status of
+    ``classify_curves(shape, 0.0, grid)``, bit for bit.
+    """
+    zero = dist == 0.0
+    und = (codes == UNDECIDED) | ~(dist > NEAR) | ~(dist <= m)
+    und &= ~zero
+    inside = (codes == INSIDE) | zero
+    j, i = np.nonzero(und)
+    if len(j):
+        inside[j, i] = levels_inside(shape, grid, j, i)
+    return inside
 
 
 def _distances(shape, grid, m: float, count: _Progress, signed: bool):
