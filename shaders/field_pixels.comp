@@ -237,8 +237,10 @@ dvec2 end_lengths(dvec3 p, dvec3 v) {
 // p.(b x n) >= 0, n a normal), else to the nearer end (the one of lesser tan^2 of half
 // its angle, A / B, compared as A_a B_b < A_b B_a: where the roundings could swap them,
 // their angles agree to a few ulp). Every case ends in one square root and one
-// arctangent (no branch of the SIMD lanes runs them twice). `got` says which it was: 0
-// the foot, 1 end a, 2 end b, 3 the arc's nearer end (for the sign).
+// arctangent (no branch of the SIMD lanes runs them twice). `got` says which it was,
+// for the sign: 4 the foot with p . n > 0 (in double, as the host's rule), 0 the foot
+// with p . n <= 0, 1 end a, 2 end b, 3 either end (an arc's ends whose distances may
+// lie within FIELD_ETA: |p . (a - b)| <= 2 FIELD_ETA, fields/sign.py's test).
 double feature(dvec3 p, uint w, out uint got) {
     uint k = pairs[w >> 2];
     uint kind = w & 3u;
@@ -257,9 +259,11 @@ double feature(dvec3 p, uint w, out uint got) {
             pn = dot3(p, r2.xyz);
             precise dvec3 f = p - pn * r2.xyz;
             q = dot3(f, f);
-            got = 0u;
+            got = pn > 0.0LF ? 4u : 0u;
         } else {
-            got = 3u;
+            precise dvec3 ab = r0.xyz - r1.xyz;
+            double s = dot3(p, ab);  // > 0: a is the nearer end
+            got = s > 2.0LF * FIELD_ETA ? 1u : (s < -2.0LF * FIELD_ETA ? 2u : 3u);
             dvec2 ea = end_lengths(p, r0.xyz);
             dvec2 eb = end_lengths(p, r1.xyz);
             dvec2 e = ea.x * eb.y <= eb.x * ea.y ? ea : eb;
@@ -278,9 +282,9 @@ double feature(dvec3 p, uint w, out uint got) {
 }
 
 // The sign's answer of a finished feature ((pair << 2) | kind, `got` as feature()
-// reports it) combined with the answers so far (`none`: no answer yet). The arc's
-// nearer end (got 3) is the end of greater p . a (|p - a|^2 = 2 - 2 p . a); where the
-// float32 value p . (a - b) lies within FIELD_SIGN_EPS of 0 both ends are asked.
+// reports it) combined with the answers so far (`none`: no answer yet): the foot's
+// side from its double p . n, its lune values and the ends' rule from
+// lib/field_sign.glsl (either end: both asked).
 uint feature_sign(vec3 p, uint w, uint got, uint now, inout bool none) {
     uint k = pairs[w >> 2];
     vec4 r0 = arcs[5u * k];
@@ -289,16 +293,12 @@ uint feature_sign(vec3 p, uint w, uint got, uint now, inout bool none) {
     vec4 r3 = arcs[5u * k + 3u];
     uint corner = flags[k];
     uint ans;
-    if (got == 3u) {
-        float s = dot(p, r0.xyz - r1.xyz);
-        if (s > FIELD_SIGN_EPS) {
-            ans = field_sign(p, 1u, r0, r1, r2, r3, corner);
-        } else if (s < -FIELD_SIGN_EPS) {
-            ans = field_sign(p, 2u, r0, r1, r2, r3, corner);
-        } else {
-            ans = field_sign_agree(field_sign(p, 1u, r0, r1, r2, r3, corner),
-                                   field_sign(p, 2u, r0, r1, r2, r3, corner));
-        }
+    if (got == 0u || got == 4u) {
+        uint side = got == 4u ? FIELD_INSIDE : FIELD_OUTSIDE;
+        ans = field_sign_foot(side, dot(p, r2.xyz), dot(p, r3.xyz), corner);
+    } else if (got == 3u) {
+        ans = field_sign_agree(field_sign(p, 1u, r0, r1, r2, r3, corner),
+                               field_sign(p, 2u, r0, r1, r2, r3, corner));
     } else {
         ans = field_sign(p, got, r0, r1, r2, r3, corner);
     }
