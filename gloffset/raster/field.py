@@ -13,9 +13,11 @@ each pixel ending with the exact float64 distance of its nearest arc
 (:mod:`gloffset.raster.fields.walk`). With ``backend="gpu"`` the walk stops at cells of
 8 x 8 pixels and one compute shader does each pixel: its centre, its candidates ranked
 in float32 and the near-least finished in float64 (:mod:`gloffset.raster.fields.gpu`).
-The sign is the inside status of the float64 render at distance 0: on the CPU read from each
-pixel's nearest boundary features (:mod:`gloffset.raster.fields.sign`; the levels' test
-on the few pixels that leaves undecided), on the GPU backend that test itself. The
+The sign is the inside status of the float64 render at distance 0, read from each
+pixel's nearest boundary features (:mod:`gloffset.raster.fields.sign`): by the CPU
+backend from the walk's pairs in float64, by the GPU backend in the same compute shader
+from the features it finished (``shaders/lib/field_sign.glsl``); the levels' test only
+on the few pixels that leaves undecided (none at all where it decides every pixel). The
 derivation is in the design notes (``docs/design.md``).
 
 Accuracy: each value is the float64 distance (exact to 1e-15 rad; on the GPU within
@@ -267,16 +269,15 @@ def distance_field(
     progress : callable, optional
         Called as ``progress(done, total)`` as the work goes on: ``done`` rises to
         ``total``, in pixels (those whose distances are final, then, for a shape with
-        polygons, those whose sign is: each level of the inside test, in output pixels,
-        on the GPU backend; all at once on the CPU one).
+        polygons, those whose sign is, all at once).
     backend : {"gpu", "cpu"}
         Where the pixels' nearest arcs are found: ``"gpu"`` (the GL context's compute
         shader, ranked in float32, finished in float64) or ``"cpu"`` (in float64). The
         values agree within 1 float32 ulp, with the same signs (nearly all bit for bit:
         the float64 distances differ by at most ``FIELD_ERR`` relative); the walk above
-        the pixels and the sign run on the CPU either way (``"cpu"`` reads the sign from
-        the pixels' nearest features, ``"gpu"`` runs the levels' inside test; the same
-        signs).
+        the pixels runs on the CPU either way, and the sign is read from the pixels'
+        nearest features by either (``"gpu"`` in its compute shader), the levels'
+        inside test settling the few pixels that leaves open: the same signs.
 
     Raises
     ------
@@ -332,8 +333,7 @@ def distance_field(
 class _Progress:
     """The count of :func:`distance_field`'s ``progress``.
 
-    Pixels of the distance walk, then (with polygons) each level of the inside test as
-    its share of the pixels.
+    Pixels of the distance walk, then (with polygons) the pixels' signs, all at once.
     """
 
     def __init__(self, callback, grid, signed: bool):
@@ -347,32 +347,15 @@ class _Progress:
             self.done += int(n)
             self.callback(self.done, self.total)
 
-    def levels(self, grid):
-        """Return the callback of the inside test's levels on ``grid`` (None without one)."""
-        if self.callback is None:
-            return None
-        last = grid.n_levels - 1
-        pixels = math.prod(grid.level_shape(last))
-        shown = [0]
-
-        def level(lev, classes):
-            # a level's share in output pixels: a quarter of the next one's; the last
-            # level's share is added by the caller
-            now = pixels >> (2 * (last - lev)) if lev < last else 0
-            if now > shown[0]:
-                self.add(now - shown[0])
-                shown[0] = now
-
-        return level
-
 
 def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str) -> np.ndarray:
     """Return the float32 field of one grid (clamped to ``+-m`` rad, ``m`` may be inf).
 
     The unsigned distances, negated where the levels' float64 render at distance 0
     (:func:`gloffset.raster.vector.curves.classify_curves`) has the pixel inside (a pixel
-    on the curves has the value 0 either way): the GPU backend runs those levels, the CPU
-    backend reads the same status from the pixels' nearest features (:func:`_distances`).
+    on the curves has the value 0 either way), that status read from the pixels' nearest
+    features: by the GPU backend's shader (:func:`_gpu_inside`), by the CPU backend
+    from its walk (:func:`_distances`).
     """
     signed = bool(shape.rings)
     if backend == "gpu" and grid.n_levels > 1:
@@ -381,7 +364,7 @@ def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str)
         inside = np.zeros(dist.shape, dtype=bool)
         if codes is not None:
             inside = _gpu_inside(shape, grid, m, dist, codes)
-            count.add(2 * dist.size - count.done)
+            count.add(dist.size)  # the signs, all at once
     else:
         dist, inside = _distances(shape, grid, m, count, signed)
     v = np.minimum(dist, m) * radius

@@ -19,6 +19,12 @@ within :data:`~gloffset.gl.field_pass.FIELD_ERR` (relative) of the CPU walk's.
    NEAREST_ERR`` has a true chord greater than the least one's (by more than the
    float64 error), so the nearest arc is among those finished.
 
+3. With a shape's polygons, the same pass reads each pixel's sign from the features it
+   finished within ``ETA`` of the least (:mod:`gloffset.raster.fields.sign`'s rule:
+   the foot's side in double, the corners' flags uploaded per arc, the lune and end
+   tests in float32 with ``shaders/lib/field_sign.glsl``'s margins): inside, outside or
+   undecided, one code per pixel beside its distance.
+
 The host hands over the lists and the arcs and reads back one float64 per pixel: no
 per-pixel work on the host but for grids whose centres come from a texture (pyproj's).
 Accuracy: for the same centre, within ``FIELD_ERR`` relative of ``arc_distance`` (the
