@@ -14,11 +14,9 @@ each pixel ending with the exact float64 distance of its nearest arc
 8 x 8 pixels and one compute shader does each pixel: its centre, its candidates ranked
 in float32 and the near-least finished in float64 (:mod:`gloffset.raster.fields.gpu`).
 The sign is the inside status of the float64 render at distance 0, read from each
-pixel's nearest boundary features (:mod:`gloffset.raster.fields.sign`): by the CPU
-backend from the walk's pairs in float64, by the GPU backend in the same compute shader
-from the features it finished (``shaders/lib/field_sign.glsl``); the levels' test only
-on the few pixels that leaves undecided (none at all where it decides every pixel). The
-derivation is in the design notes (``docs/design.md``).
+pixel's nearest boundary features (:mod:`gloffset.raster.fields.sign`; on the GPU in the
+same shader), the levels' test only on the few pixels that leaves undecided
+(``docs/design.md`` has the derivation).
 
 Accuracy: each value is the float64 distance (exact to 1e-15 rad; on the GPU within
 :data:`~gloffset.gl.field_pass.FIELD_ERR`, 1.5e-15, relative) times ``radius``, clamped

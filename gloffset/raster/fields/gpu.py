@@ -18,15 +18,10 @@ within :data:`~gloffset.gl.field_pass.FIELD_ERR` (relative) of the CPU walk's.
    read back. A feature whose float32 chord exceeds the least by more than ``2
    NEAREST_ERR`` has a true chord greater than the least one's (by more than the
    float64 error), so the nearest arc is among those finished.
+3. With polygons, the sign from the features finished within ``ETA`` of the least.
 
-3. With a shape's polygons, the same pass reads each pixel's sign from the features it
-   finished within ``ETA`` of the least (:mod:`gloffset.raster.fields.sign`'s rule:
-   the foot's side in double, the corners' flags uploaded per arc, the lune and end
-   tests in float32 with ``shaders/lib/field_sign.glsl``'s margins): inside, outside or
-   undecided, one code per pixel beside its distance.
-
-The host hands over the lists and the arcs and reads back one float64 per pixel: no
-per-pixel work on the host but for grids whose centres come from a texture (pyproj's).
+The host hands over the lists and the arcs and reads back one float64 (and a sign
+code) per pixel: no per-pixel work on the host but for pyproj's centres (a texture).
 Accuracy: for the same centre, within ``FIELD_ERR`` relative of ``arc_distance`` (the
 float32 field within 1 float32 ulp of the CPU's); the centres are the host's bit for
 bit on lon/lat grids, within 3 ulp on cube faces, and on grids with a GLSL function
