@@ -239,8 +239,7 @@ dvec2 end_lengths(dvec3 p, dvec3 v) {
 // their angles agree to a few ulp). Every case ends in one square root and one
 // arctangent (no branch of the SIMD lanes runs them twice). `got` says which it was,
 // for the sign: 4 the foot with p . n > 0 (in double, as the host's rule), 0 the foot
-// with p . n <= 0, 1 end a, 2 end b, 3 either end (an arc's ends whose distances may
-// lie within FIELD_ETA: |p . (a - b)| <= 2 FIELD_ETA, fields/sign.py's test).
+// with p . n <= 0, 1 end a, 2 end b, 3 the arc's nearer end.
 double feature(dvec3 p, uint w, out uint got) {
     uint k = pairs[w >> 2];
     uint kind = w & 3u;
@@ -261,9 +260,7 @@ double feature(dvec3 p, uint w, out uint got) {
             q = dot3(f, f);
             got = pn > 0.0LF ? 4u : 0u;
         } else {
-            precise dvec3 ab = r0.xyz - r1.xyz;
-            double s = dot3(p, ab);  // > 0: a is the nearer end
-            got = s > 2.0LF * FIELD_ETA ? 1u : (s < -2.0LF * FIELD_ETA ? 2u : 3u);
+            got = 3u;
             dvec2 ea = end_lengths(p, r0.xyz);
             dvec2 eb = end_lengths(p, r1.xyz);
             dvec2 e = ea.x * eb.y <= eb.x * ea.y ? ea : eb;
@@ -284,8 +281,10 @@ double feature(dvec3 p, uint w, out uint got) {
 // The sign's answer of a finished feature ((pair << 2) | kind, `got` as feature()
 // reports it) combined with the answers so far (`none`: no answer yet): the foot's
 // side from its double p . n, its lune values and the ends' rule from
-// lib/field_sign.glsl (either end: both asked).
-uint feature_sign(vec3 p, uint w, uint got, uint now, inout bool none) {
+// lib/field_sign.glsl; an arc's nearer end by p . (a - b) in double, both ends asked
+// where it lies within 2 FIELD_ETA of 0 (their distances may be that near:
+// fields/sign.py's test).
+uint feature_sign(dvec3 pd, vec3 p, uint w, uint got, uint now, inout bool none) {
     uint k = pairs[w >> 2];
     vec4 r0 = arcs[5u * k];
     vec4 r1 = arcs[5u * k + 1u];
@@ -297,8 +296,16 @@ uint feature_sign(vec3 p, uint w, uint got, uint now, inout bool none) {
         uint side = got == 4u ? FIELD_INSIDE : FIELD_OUTSIDE;
         ans = field_sign_foot(side, dot(p, r2.xyz), dot(p, r3.xyz), corner);
     } else if (got == 3u) {
-        ans = field_sign_agree(field_sign(p, 1u, r0, r1, r2, r3, corner),
-                               field_sign(p, 2u, r0, r1, r2, r3, corner));
+        precise dvec3 ab = exact[4u * k].xyz - exact[4u * k + 1u].xyz;
+        double s = dot3(pd, ab);  // > 0: a is the nearer end
+        if (s > 2.0LF * FIELD_ETA) {
+            ans = field_sign(p, 1u, r0, r1, r2, r3, corner);
+        } else if (s < -2.0LF * FIELD_ETA) {
+            ans = field_sign(p, 2u, r0, r1, r2, r3, corner);
+        } else {
+            ans = field_sign_agree(field_sign(p, 1u, r0, r1, r2, r3, corner),
+                                   field_sign(p, 2u, r0, r1, r2, r3, corner));
+        }
     } else {
         ans = field_sign(p, got, r0, r1, r2, r3, corner);
     }
@@ -345,11 +352,22 @@ void main() {
 #endif
     uint g0 = 3u, g1 = 3u, g2 = 3u, g3 = 3u, g4 = 3u, g5 = 3u;
     double d0 = feature(pd, w0, g0);
-    double d1 = m1 <= reach ? feature(pd, w1, g1) : double(inf);
-    double d2 = m2 <= reach ? feature(pd, w2, g2) : double(inf);
-    double d3 = m3 <= reach ? feature(pd, w3, g3) : double(inf);
-    double d4 = m4 <= reach ? feature(pd, w4, g4) : double(inf);
-    double d5 = m5 <= reach ? feature(pd, w5, g5) : double(inf);
+    double d1 = double(inf), d2 = d1, d3 = d1, d4 = d1, d5 = d1;
+    if (m1 <= reach) {
+        d1 = feature(pd, w1, g1);
+    }
+    if (m2 <= reach) {
+        d2 = feature(pd, w2, g2);
+    }
+    if (m3 <= reach) {
+        d3 = feature(pd, w3, g3);
+    }
+    if (m4 <= reach) {
+        d4 = feature(pd, w4, g4);
+    }
+    if (m5 <= reach) {
+        d5 = feature(pd, w5, g5);
+    }
     double d = min(min(min(d0, d1), min(d2, d3)), min(d4, d5));
     // more may be: the cell's whole list (arcs whose caps lie beyond reach skipped)
     bool whole = dropped <= reach || unsure <= reach;
@@ -370,18 +388,18 @@ void main() {
     double near = d + FIELD_ETA;
     uint code = FIELD_UNDECIDED;
     bool none = true;
-    if (d0 <= near) { code = feature_sign(p, w0, g0, code, none); }
-    if (d1 <= near) { code = feature_sign(p, w1, g1, code, none); }
-    if (d2 <= near) { code = feature_sign(p, w2, g2, code, none); }
-    if (d3 <= near) { code = feature_sign(p, w3, g3, code, none); }
-    if (d4 <= near) { code = feature_sign(p, w4, g4, code, none); }
-    if (d5 <= near) { code = feature_sign(p, w5, g5, code, none); }
+    if (d0 <= near) { code = feature_sign(pd, p, w0, g0, code, none); }
+    if (d1 <= near) { code = feature_sign(pd, p, w1, g1, code, none); }
+    if (d2 <= near) { code = feature_sign(pd, p, w2, g2, code, none); }
+    if (d3 <= near) { code = feature_sign(pd, p, w3, g3, code, none); }
+    if (d4 <= near) { code = feature_sign(pd, p, w4, g4, code, none); }
+    if (d5 <= near) { code = feature_sign(pd, p, w5, g5, code, none); }
     if (whole) {
         uint gk;
         for (uint k = list.x; k < list.x + list.y; k++) {
             uint a = pairs[k];
             if (!far_cap(p, a) && feature(pd, k << 2, gk) <= near) {
-                code = feature_sign(p, k << 2, gk, code, none);
+                code = feature_sign(pd, p, k << 2, gk, code, none);
             }
         }
     }
