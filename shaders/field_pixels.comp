@@ -17,7 +17,13 @@
 //    gloffset.geometry.sphere.arc_distance (products and sums rounded once, `precise`:
 //    no fused multiply-add; square roots and arctangents from lib/fp64.glsl), the least
 //    written. A cell with no arc writes +inf.
+// 4. The sign (u_signed), from the finished features within FIELD_ETA of the least
+//    (lib/field_sign.glsl with the corner flags of gloffset.raster.fields.sign.Corners,
+//    the answers combined: decided only where they agree), undecided where the pixel's
+//    disc may hold a seam; the host leaves undecided the pixels within NEAR of the
+//    boundary or beyond max_distance and settles the undecided by the levels.
 #include "lib/fp64.glsl"
+#include "lib/field_sign.glsl"
 #include "lib/cube64.glsl"
 #include GRID_GLSL
 
@@ -48,12 +54,24 @@ layout(std430, binding = 7) readonly buffer Cols {
     double cols[];            // per pixel column: lon/lat (cos, sin) of its longitude;
 };                            // cube: its face coordinate s
 
+layout(std430, binding = 8) readonly buffer Flags {
+    uint flags[];             // per arc: Corners.flags (with u_signed)
+};
+layout(std430, binding = 9) readonly buffer Seams {
+    vec4 seams[];             // the seams' bounding caps: (mid, half angle)
+};
+layout(std430, binding = 10) writeonly buffer Sign {
+    uint sign_code[];         // per pixel: FIELD_OUTSIDE, FIELD_INSIDE or FIELD_UNDECIDED
+};
+
 uniform ivec2 u_size;         // the block's pixels (columns, rows)
 uniform ivec2 u_origin;       // its first pixel in the grid (column, row)
 uniform int u_shift;          // output pixels per cell side: 1 << u_shift
 uniform int u_cells_w;        // cells per row of the block
 uniform float u_gap;          // 2 NEAREST_ERR: chords nearer than this to the least one
 uniform float u_same;         // NEAREST_ERR / 8: an undecided arc's two chords, at most
+uniform int u_signed;         // 1: write the sign codes too
+uniform int u_seams;          // seams (rows of Seams)
 #ifdef GRID_CUBE
 uniform vec3 u_face_e;        // the face's axis and the directions of s and t (0, +-1)
 uniform vec3 u_face_u;
@@ -63,6 +81,8 @@ uniform vec3 u_face_v;
 const uint NONE = 0xffffffffu;
 const uint LINE = 0x80000000u;  // a key of its own: the arc (line or uncertain)
 const float TEST = 1e-6;        // a branch test decided alike in float64 beyond this
+const double FIELD_ETA = 1e-13LF;  // gloffset.raster.fields.sign.ETA
+const float SEAM_MARGIN = 1e-5;  // the float32 seam test's margin (its error: 1e-6)
 
 // The centre of pixel (x, y) of the block, in double.
 dvec3 pixel_centre(ivec2 px) {
@@ -217,8 +237,10 @@ dvec2 end_lengths(dvec3 p, dvec3 v) {
 // p.(b x n) >= 0, n a normal), else to the nearer end (the one of lesser tan^2 of half
 // its angle, A / B, compared as A_a B_b < A_b B_a: where the roundings could swap them,
 // their angles agree to a few ulp). Every case ends in one square root and one
-// arctangent (no branch of the SIMD lanes runs them twice).
-double feature(dvec3 p, uint w) {
+// arctangent (no branch of the SIMD lanes runs them twice). `got` says which it was,
+// for the sign: 4 the foot with p . n > 0 (in double, as the host's rule), 0 the foot
+// with p . n <= 0, 1 end a, 2 end b, 3 the arc's nearer end.
+double feature(dvec3 p, uint w, out uint got) {
     uint k = pairs[w >> 2];
     uint kind = w & 3u;
     dvec4 r0 = exact[4u * k];
@@ -236,7 +258,9 @@ double feature(dvec3 p, uint w) {
             pn = dot3(p, r2.xyz);
             precise dvec3 f = p - pn * r2.xyz;
             q = dot3(f, f);
+            got = pn > 0.0LF ? 4u : 0u;
         } else {
+            got = 3u;
             dvec2 ea = end_lengths(p, r0.xyz);
             dvec2 eb = end_lengths(p, r1.xyz);
             dvec2 e = ea.x * eb.y <= eb.x * ea.y ? ea : eb;
@@ -244,6 +268,7 @@ double feature(dvec3 p, uint w) {
             x = e.y;
         }
     } else {
+        got = kind;
         dvec2 e = end_lengths(p, kind == 1u ? r0.xyz : r1.xyz);
         q = e.x * e.y;
         x = e.y;
@@ -251,6 +276,44 @@ double feature(dvec3 p, uint w) {
     double r = fp64_sqrt(q);
     double t = fp64_atan2(foot ? abs(pn) : r, foot ? r : x);
     return foot ? t : 2.0LF * t;
+}
+
+// The sign's answer of a finished feature ((pair << 2) | kind, `got` as feature()
+// reports it) combined with the answers so far (`none`: no answer yet): the foot's
+// side from its double p . n, its lune values and the ends' rule from
+// lib/field_sign.glsl; an arc's nearer end by p . (a - b) in double, both ends asked
+// where it lies within 2 FIELD_ETA of 0 (their distances may be that near:
+// fields/sign.py's test).
+uint feature_sign(dvec3 pd, vec3 p, uint w, uint got, uint now, inout bool none) {
+    uint k = pairs[w >> 2];
+    vec4 r0 = arcs[5u * k];
+    vec4 r1 = arcs[5u * k + 1u];
+    vec4 r2 = arcs[5u * k + 2u];
+    vec4 r3 = arcs[5u * k + 3u];
+    uint corner = flags[k];
+    uint ans;
+    if (got == 0u || got == 4u) {
+        uint side = got == 4u ? FIELD_INSIDE : FIELD_OUTSIDE;
+        ans = field_sign_foot(side, dot(p, r2.xyz), dot(p, r3.xyz), corner);
+    } else if (got == 3u) {
+        precise dvec3 ab = exact[4u * k].xyz - exact[4u * k + 1u].xyz;
+        double s = dot3(pd, ab);  // > 0: a is the nearer end
+        if (s > 2.0LF * FIELD_ETA) {
+            ans = field_sign(p, 1u, r0, r1, r2, r3, corner);
+        } else if (s < -2.0LF * FIELD_ETA) {
+            ans = field_sign(p, 2u, r0, r1, r2, r3, corner);
+        } else {
+            ans = field_sign_agree(field_sign(p, 1u, r0, r1, r2, r3, corner),
+                                   field_sign(p, 2u, r0, r1, r2, r3, corner));
+        }
+    } else {
+        ans = field_sign(p, got, r0, r1, r2, r3, corner);
+    }
+    if (none) {
+        none = false;
+        return ans;
+    }
+    return field_sign_agree(now, ans);
 }
 
 void main() {
@@ -274,6 +337,9 @@ void main() {
     uint at = uint(px.y * u_size.x + px.x);
     if (w0 == NONE) {
         dist[at] = double(inf);
+        if (u_signed != 0) {
+            sign_code[at] = FIELD_UNDECIDED;
+        }
         return;
     }
     // the features within reach of the least, in double (the least first)
@@ -284,30 +350,70 @@ void main() {
     dist[at] = dropped <= reach || unsure <= reach ? -double(m0) : double(m0);
     return;
 #endif
-    double d = feature(pd, w0);
+    uint g0 = 3u, g1 = 3u, g2 = 3u, g3 = 3u, g4 = 3u, g5 = 3u;
+    double d0 = feature(pd, w0, g0);
+    double d1 = double(inf), d2 = d1, d3 = d1, d4 = d1, d5 = d1;
     if (m1 <= reach) {
-        d = min(d, feature(pd, w1));
+        d1 = feature(pd, w1, g1);
     }
     if (m2 <= reach) {
-        d = min(d, feature(pd, w2));
+        d2 = feature(pd, w2, g2);
     }
     if (m3 <= reach) {
-        d = min(d, feature(pd, w3));
+        d3 = feature(pd, w3, g3);
     }
     if (m4 <= reach) {
-        d = min(d, feature(pd, w4));
+        d4 = feature(pd, w4, g4);
     }
     if (m5 <= reach) {
-        d = min(d, feature(pd, w5));
+        d5 = feature(pd, w5, g5);
     }
+    double d = min(min(min(d0, d1), min(d2, d3)), min(d4, d5));
     // more may be: the cell's whole list (arcs whose caps lie beyond reach skipped)
-    if (dropped <= reach || unsure <= reach) {
+    bool whole = dropped <= reach || unsure <= reach;
+    if (whole) {
+        uint gk;
         for (uint k = list.x; k < list.x + list.y; k++) {
             uint a = pairs[k];
             if (!far_cap(p, a)) {
-                d = min(d, feature(pd, k << 2));
+                d = min(d, feature(pd, k << 2, gk));
             }
         }
     }
     dist[at] = d;
+    if (u_signed == 0) {
+        return;
+    }
+    // 4. the sign: every finished feature within FIELD_ETA of the least asked
+    double near = d + FIELD_ETA;
+    uint code = FIELD_UNDECIDED;
+    bool none = true;
+    if (d0 <= near) { code = feature_sign(pd, p, w0, g0, code, none); }
+    if (d1 <= near) { code = feature_sign(pd, p, w1, g1, code, none); }
+    if (d2 <= near) { code = feature_sign(pd, p, w2, g2, code, none); }
+    if (d3 <= near) { code = feature_sign(pd, p, w3, g3, code, none); }
+    if (d4 <= near) { code = feature_sign(pd, p, w4, g4, code, none); }
+    if (d5 <= near) { code = feature_sign(pd, p, w5, g5, code, none); }
+    if (whole) {
+        uint gk;
+        for (uint k = list.x; k < list.x + list.y; k++) {
+            uint a = pairs[k];
+            if (!far_cap(p, a) && feature(pd, k << 2, gk) <= near) {
+                code = feature_sign(pd, p, k << 2, gk, code, none);
+            }
+        }
+    }
+    if (none) {
+        code = FIELD_UNDECIDED;
+    }
+    // a disc about p of radius d that may hold a seam: undecided
+    float df = float(d);
+    for (int k = 0; k < u_seams && code != FIELD_UNDECIDED; k++) {
+        vec4 cap = seams[k];
+        float t = 2.0 * atan(length(p - cap.xyz), length(p + cap.xyz));
+        if (t - cap.w <= df + SEAM_MARGIN) {
+            code = FIELD_UNDECIDED;
+        }
+    }
+    sign_code[at] = code;
 }

@@ -165,11 +165,15 @@ def _broken(monkeypatch, tmp_path, old: str, new: str) -> None:
         # the least float32 feature alone, never those within reach nor the whole list
         ("float reach = m0 + u_gap;", "float reach = m0 - 1.0;", 30),
         # a wrong candidate: the second feature in place of the least one
-        ("double d = feature(pd, w0);", "double d = feature(pd, w1 != NONE ? w1 : w0);", 10000),
+        (
+            "double d0 = feature(pd, w0, g0);",
+            "double d0 = feature(pd, w1 != NONE ? w1 : w0, g0);",
+            10000,
+        ),
         # every pixel its cell's whole list: the same values
         pytest.param(
-            "if (dropped <= reach || unsure <= reach) {",
-            "if (true) {",
+            "bool whole = dropped <= reach || unsure <= reach;",
+            "bool whole = true;",
             0,
             marks=pytest.mark.slow,
         ),
@@ -225,7 +229,12 @@ def test_the_whole_list_where_more_may_tie(monkeypatch, tmp_path):
     want = gloffset.distance_field(shape, grid, backend="cpu").values
     got = gloffset.distance_field(shape, grid).values
     assert within_ulp(got, want).all()
-    _broken(monkeypatch, tmp_path, "if (dropped <= reach || unsure <= reach) {", "if (false) {")
+    _broken(
+        monkeypatch,
+        tmp_path,
+        "bool whole = dropped <= reach || unsure <= reach;",
+        "bool whole = false;",
+    )
     bad = gloffset.distance_field(shape, grid).values
     assert within_ulp(bad[~np.isin(np.arange(180), j)], want[~np.isin(np.arange(180), j)]).all()
     assert (~within_ulp(bad[j, i], want[j, i])).sum() >= 3

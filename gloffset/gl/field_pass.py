@@ -90,6 +90,13 @@ class FieldPlan:
     axes; ``"glsl"`` ``source`` and ``constants`` (a grid's
     :class:`~gloffset.grids.protocol.GlslCentres`) at output-pixel coordinates from
     ``origin``; ``"texture"`` ``rows`` (h, w, 3) float64 the centres themselves.
+
+    The sign (optional): ``flags`` (m,) uint32 the arcs' corner flags
+    (:attr:`gloffset.raster.fields.sign.Corners.flags`, 0 for an arc with none) and
+    ``seams`` (k, 4) float32 the seams' bounding caps (centre, half angle); with
+    ``flags``, :meth:`FieldPass.run` fills ``codes`` (h, w) uint32 with each pixel's
+    answer from its nearest features (0 outside, 1 inside, 2 undecided;
+    ``shaders/field_pixels.comp``).
     """
 
     size: tuple[int, int]
@@ -106,6 +113,9 @@ class FieldPlan:
     basis: np.ndarray | None = None
     source: str | None = None
     constants: tuple[float, ...] = ()
+    flags: np.ndarray | None = None
+    seams: np.ndarray | None = None
+    codes: np.ndarray | None = None
 
 
 class FieldPass:
@@ -171,6 +181,9 @@ class FieldPass:
             return ctx.buffer(np.ascontiguousarray(a, dtype=t).tobytes() or bytes(16))
 
         cols = plan.cols if plan.cols is not None else np.zeros(1)
+        signed = plan.flags is not None and not probe
+        flags = plan.flags if signed else np.zeros(1)
+        seams = plan.seams if signed and plan.seams is not None else np.zeros((0, 4))
         bufs = [
             buf(plan.cells, np.uint32),
             buf(plan.pairs, np.uint32),
@@ -180,6 +193,9 @@ class FieldPass:
             ctx.buffer(reserve=8 * h * w),
             buf(plan.rows, np.float64),
             buf(cols, np.float64),
+            buf(flags, np.uint32),
+            buf(seams, np.float32),
+            ctx.buffer(reserve=4 * h * w if signed else 16),
         ]
         try:
             for k, b in enumerate(bufs):
@@ -190,6 +206,8 @@ class FieldPass:
             _set(prog, "u_cells_w", int(wc))
             _set(prog, "u_gap", 2.0 * NEAREST_ERR)
             _set(prog, "u_same", 0.125 * NEAREST_ERR)
+            _set(prog, "u_signed", int(signed))
+            _set(prog, "u_seams", len(seams))
             if plan.kind == "cube":
                 assert plan.basis is not None  # a cube plan's
                 for name, row in zip(("u_face_e", "u_face_u", "u_face_v"), plan.basis):
@@ -199,6 +217,8 @@ class FieldPass:
             prog.run(group_x=-(-w // _LOCAL), group_y=-(-h // _LOCAL))
             ctx.memory_barrier()  # the shader's writes, before they are read back
             out = np.frombuffer(bufs[5].read(), dtype=np.float64).reshape(h, w).copy()
+            if signed:
+                plan.codes = np.frombuffer(bufs[10].read(), dtype=np.uint32).reshape(h, w).copy()
         finally:
             for b in bufs:
                 b.release()

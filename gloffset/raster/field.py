@@ -13,10 +13,10 @@ each pixel ending with the exact float64 distance of its nearest arc
 (:mod:`gloffset.raster.fields.walk`). With ``backend="gpu"`` the walk stops at cells of
 8 x 8 pixels and one compute shader does each pixel: its centre, its candidates ranked
 in float32 and the near-least finished in float64 (:mod:`gloffset.raster.fields.gpu`).
-The sign is the inside status of the float64 render at distance 0: on the CPU read from each
-pixel's nearest boundary features (:mod:`gloffset.raster.fields.sign`; the levels' test
-on the few pixels that leaves undecided), on the GPU backend that test itself. The
-derivation is in the design notes (``docs/design.md``).
+The sign is the inside status of the float64 render at distance 0, read from each
+pixel's nearest boundary features (:mod:`gloffset.raster.fields.sign`; on the GPU in the
+same shader), the levels' test only on the few pixels that leaves undecided
+(``docs/design.md`` has the derivation).
 
 Accuracy: each value is the float64 distance (exact to 1e-15 rad; on the GPU within
 :data:`~gloffset.gl.field_pass.FIELD_ERR`, 1.5e-15, relative) times ``radius``, clamped
@@ -36,7 +36,6 @@ import numpy as np
 
 from ..edges import CurveArcs
 from ..errors import OptionError
-from ..geometry.classes import CONTAINED
 from ..grids.protocol import Image
 from ..shape import read
 from ..units import (
@@ -48,11 +47,10 @@ from ..units import (
     to_angle,
 )
 from .fields.gpu import gpu_distances
-from .fields.sign import Corners, block_signs, levels_inside
+from .fields.sign import INSIDE, NEAR, UNDECIDED, Corners, block_signs, levels_inside
 from .fields.walk import walk_levels
 from .render import MAX_PIXELS
 from .simplified import band_members
-from .vector import curves
 from .vector.node_levels import NodeArcs
 
 __all__ = ["DistanceField", "check_field_grid", "distance_field"]
@@ -269,16 +267,15 @@ def distance_field(
     progress : callable, optional
         Called as ``progress(done, total)`` as the work goes on: ``done`` rises to
         ``total``, in pixels (those whose distances are final, then, for a shape with
-        polygons, those whose sign is: each level of the inside test, in output pixels,
-        on the GPU backend; all at once on the CPU one).
+        polygons, those whose sign is, all at once).
     backend : {"gpu", "cpu"}
         Where the pixels' nearest arcs are found: ``"gpu"`` (the GL context's compute
         shader, ranked in float32, finished in float64) or ``"cpu"`` (in float64). The
         values agree within 1 float32 ulp, with the same signs (nearly all bit for bit:
         the float64 distances differ by at most ``FIELD_ERR`` relative); the walk above
-        the pixels and the sign run on the CPU either way (``"cpu"`` reads the sign from
-        the pixels' nearest features, ``"gpu"`` runs the levels' inside test; the same
-        signs).
+        the pixels runs on the CPU either way, and the sign is read from the pixels'
+        nearest features by either (``"gpu"`` in its compute shader), the levels'
+        inside test settling the few pixels that leaves open: the same signs.
 
     Raises
     ------
@@ -334,8 +331,7 @@ def distance_field(
 class _Progress:
     """The count of :func:`distance_field`'s ``progress``.
 
-    Pixels of the distance walk, then (with polygons) each level of the inside test as
-    its share of the pixels.
+    Pixels of the distance walk, then (with polygons) the pixels' signs, all at once.
     """
 
     def __init__(self, callback, grid, signed: bool):
@@ -349,42 +345,24 @@ class _Progress:
             self.done += int(n)
             self.callback(self.done, self.total)
 
-    def levels(self, grid):
-        """Return the callback of the inside test's levels on ``grid`` (None without one)."""
-        if self.callback is None:
-            return None
-        last = grid.n_levels - 1
-        pixels = math.prod(grid.level_shape(last))
-        shown = [0]
-
-        def level(lev, classes):
-            # a level's share in output pixels: a quarter of the next one's; the last
-            # level's share is added by the caller
-            now = pixels >> (2 * (last - lev)) if lev < last else 0
-            if now > shown[0]:
-                self.add(now - shown[0])
-                shown[0] = now
-
-        return level
-
 
 def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str) -> np.ndarray:
     """Return the float32 field of one grid (clamped to ``+-m`` rad, ``m`` may be inf).
 
     The unsigned distances, negated where the levels' float64 render at distance 0
     (:func:`gloffset.raster.vector.curves.classify_curves`) has the pixel inside (a pixel
-    on the curves has the value 0 either way): the GPU backend runs those levels, the CPU
-    backend reads the same status from the pixels' nearest features (:func:`_distances`).
+    on the curves has the value 0 either way), that status read from the pixels' nearest
+    features: by the GPU backend's shader (:func:`_gpu_inside`), by the CPU backend
+    from its walk (:func:`_distances`).
     """
     signed = bool(shape.rings)
     if backend == "gpu" and grid.n_levels > 1:
-        dist = gpu_distances(shape, grid, m, count.add)
+        codes = np.empty(grid.level_shape(grid.n_levels - 1), dtype=np.uint32) if signed else None
+        dist = gpu_distances(shape, grid, m, count.add, codes=codes)
         inside = np.zeros(dist.shape, dtype=bool)
-        if signed:
-            before = count.done
-            classes = curves.classify_curves(shape, 0.0, grid, callback=count.levels(grid))[0]
-            inside = classes == CONTAINED
-            count.add(before + dist.size - count.done)  # the levels reported, all of them
+        if codes is not None:
+            inside = _gpu_inside(shape, grid, m, dist, codes)
+            count.add(dist.size)  # the signs, all at once
     else:
         dist, inside = _distances(shape, grid, m, count, signed)
     v = np.minimum(dist, m) * radius
@@ -393,6 +371,26 @@ def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str)
     if valid is not None:  # pixels without a place on the sphere: farther than any d
         out[~valid] = np.inf
     return out
+
+
+def _gpu_inside(shape, grid, m: float, dist: np.ndarray, codes: np.ndarray) -> np.ndarray:
+    """Return the pixels' inside status from the shader's sign codes.
+
+    ``codes`` as :func:`~gloffset.raster.fields.gpu.gpu_distances` fills them; a pixel
+    at distance 0 is inside, one within ``NEAR`` of the boundary, beyond ``m`` or undecided
+    by the shader gets the
+    float64 levels' test (:func:`~gloffset.raster.fields.sign.levels_inside`, only its
+    ancestors walked; none where nothing is undecided). The inside status of
+    ``classify_curves(shape, 0.0, grid)``, bit for bit.
+    """
+    zero = dist == 0.0
+    und = (codes == UNDECIDED) | ~(dist > NEAR) | ~(dist <= m)
+    und &= ~zero
+    inside = (codes == INSIDE) | zero
+    j, i = np.nonzero(und)
+    if len(j):
+        inside[j, i] = levels_inside(shape, grid, j, i)
+    return inside
 
 
 def _distances(shape, grid, m: float, count: _Progress, signed: bool):

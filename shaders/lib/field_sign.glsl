@@ -44,6 +44,23 @@ uint field_sign_side(vec3 p, vec3 n) {
     return s > 0.0 ? FIELD_INSIDE : FIELD_OUTSIDE;
 }
 
+// The answer for a pixel whose nearest feature is the foot on an arc (corner flags
+// `corner`), its side's answer `side` and its lune values la = p . (n x a), lb = p . (b x n)
+// given: a foot within FIELD_SIGN_EPS of an end also asks the end's corner.
+uint field_sign_foot(uint side, float la, float lb, uint corner) {
+    if ((corner & FIELD_SIGN_OK) == 0u) {
+        return FIELD_UNDECIDED;
+    }
+    uint ans = side;
+    if (la <= FIELD_SIGN_EPS) {
+        ans = field_sign_agree(ans, corner & 3u);
+    }
+    if (lb <= FIELD_SIGN_EPS) {
+        ans = field_sign_agree(ans, (corner >> 2) & 3u);
+    }
+    return ans;
+}
+
 // The answer for pixel p whose nearest feature is `kind` of the arc (records r0..r3,
 // corner flags `corner`), or FIELD_UNDECIDED.
 uint field_sign(vec3 p, uint kind, vec4 r0, vec4 r1, vec4 r2, vec4 r3, uint corner) {
@@ -57,14 +74,7 @@ uint field_sign(vec3 p, uint kind, vec4 r0, vec4 r1, vec4 r2, vec4 r3, uint corn
     uint at_b = (corner >> 2) & 3u;
     uint ans;
     if (kind == 0u) {
-        ans = field_sign_side(p, n);
-        if (la <= FIELD_SIGN_EPS) {
-            ans = field_sign_agree(ans, at_a);
-        }
-        if (lb <= FIELD_SIGN_EPS) {
-            ans = field_sign_agree(ans, at_b);
-        }
-        return ans;
+        return field_sign_foot(field_sign_side(p, n), la, lb, corner);
     }
     ans = kind == 1u ? at_a : at_b;
     float l = kind == 1u ? la : lb;

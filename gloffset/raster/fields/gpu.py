@@ -18,9 +18,10 @@ within :data:`~gloffset.gl.field_pass.FIELD_ERR` (relative) of the CPU walk's.
    read back. A feature whose float32 chord exceeds the least by more than ``2
    NEAREST_ERR`` has a true chord greater than the least one's (by more than the
    float64 error), so the nearest arc is among those finished.
+3. With polygons, the sign from the features finished within ``ETA`` of the least.
 
-The host hands over the lists and the arcs and reads back one float64 per pixel: no
-per-pixel work on the host but for grids whose centres come from a texture (pyproj's).
+The host hands over the lists and the arcs and reads back one float64 (and a sign
+code) per pixel: no per-pixel work on the host but for pyproj's centres (a texture).
 Accuracy: for the same centre, within ``FIELD_ERR`` relative of ``arc_distance`` (the
 float32 field within 1 float32 ulp of the CPU's); the centres are the host's bit for
 bit on lon/lat grids, within 3 ulp on cube faces, and on grids with a GLSL function
@@ -41,6 +42,7 @@ from ...gl.context import context_info
 from ...gl.field_pass import ARC_TEXELS, EXACT_DOUBLES, FieldPlan, field_pass
 from ..vector.node_levels import NodeArcs
 from .lists import gpu_lists
+from .sign import UNDECIDED, Corners
 from .walk import walk_levels
 
 __all__ = ["SHIFT", "gpu_distances"]
@@ -123,7 +125,9 @@ class _Lists:
         return first, cnt, self.node[at]
 
 
-def gpu_distances(shape, grid, m: float, add, timings: dict | None = None) -> np.ndarray:
+def gpu_distances(
+    shape, grid, m: float, add, timings: dict | None = None, codes: np.ndarray | None = None
+) -> np.ndarray:
     """Return the distance (rad, float64) from each pixel centre to the nearest arc.
 
     As :func:`gloffset.raster.field._distances` (the CPU walk), each value within
@@ -133,11 +137,31 @@ def gpu_distances(shape, grid, m: float, add, timings: dict | None = None) -> np
     gets the seconds of the stages added to its ``"walk"`` (to the lists' level),
     ``"plan"`` (the blocks' lists and arcs) and ``"gpu"`` (the pass: centres, ranking
     and finishing). The grid must have more than one level.
+
+    ``codes`` (optional, (h, w) uint32 of the output pixels): filled with the sign rule's
+    answer at each pixel from its nearest features, in the shader (0 outside, 1 inside,
+    2 undecided; :mod:`gloffset.raster.fields.sign`'s rule in float32 with
+    ``shaders/lib/field_sign.glsl``, the features within ``ETA`` of the least asked, a
+    disc that may hold a seam undecided; all undecided where the shape's
+    :class:`~gloffset.raster.fields.sign.Corners` are not trusted). Where it decides, it
+    is the float64 levels' inside status at pixels farther than ``NEAR`` from the
+    boundary and within ``m`` (the caller leaves the others undecided).
     """
     t = {} if timings is None else timings
     for k in ("walk", "plan", "gpu"):
         t.setdefault(k, 0.0)
     nodes = NodeArcs.from_shape(shape)
+    sign = None
+    if codes is not None:
+        corners = Corners.from_shape(shape)
+        if not corners.trusted:
+            codes[...] = UNDECIDED
+        else:
+            flags = np.zeros(len(nodes.a), dtype=np.uint32)  # merged nodes: none
+            flags[: len(corners.ok)] = corners.flags
+            seams = np.zeros((len(corners.seam_half), 4), dtype=np.float32)
+            seams[:, :3], seams[:, 3] = corners.seam_mid, corners.seam_half
+            sign = (flags, seams, codes)
     last = grid.n_levels - 1
     shift = min(SHIFT, last)
     t0 = time.perf_counter()
@@ -150,16 +174,17 @@ def gpu_distances(shape, grid, m: float, add, timings: dict | None = None) -> np
     for r0 in range(0, hc, side):
         for c0 in range(0, wc, side):
             rows, cols = range(r0, min(r0 + side, hc)), range(c0, min(c0 + side, wc))
-            _block(nodes, grid, lists, (rows, cols, shift), out, t)
+            _block(nodes, grid, lists, (rows, cols, shift), out, t, sign)
             pj = min(h, rows.stop << shift) - (rows.start << shift)
             add(pj * (min(w, cols.stop << shift) - (cols.start << shift)))
     return out
 
 
-def _block(nodes: NodeArcs, grid, lists: _Lists, where, out: np.ndarray, t: dict) -> None:
+def _block(nodes: NodeArcs, grid, lists: _Lists, where, out: np.ndarray, t: dict, sign=None):
     """Fill ``out`` at the pixels of the cells ``rows x cols`` (``where``, with the
-    shift): their distances on the GPU (see the module notes). A block over the GL
-    limits is run in two halves of its rows."""
+    shift): their distances on the GPU (see the module notes); with ``sign`` (the
+    nodes' flags, the seams' caps and the codes to fill), their sign codes too. A block
+    over the GL limits is run in two halves of its rows."""
     rows, cols, shift = where
     eng = field_pass()
     t0 = time.perf_counter()
@@ -173,7 +198,7 @@ def _block(nodes: NodeArcs, grid, lists: _Lists, where, out: np.ndarray, t: dict
         half = rows.start + len(rows) // 2
         for part in (range(rows.start, half), range(half, rows.stop)):
             if len(part):
-                _block(nodes, grid, lists, (part, cols, shift), out, t)
+                _block(nodes, grid, lists, (part, cols, shift), out, t, sign)
         return
     rec, exact = _records(nodes)
     cells = np.stack([first, cnt], axis=-1).reshape(len(rows), len(cols), 2)
@@ -188,8 +213,12 @@ def _block(nodes: NodeArcs, grid, lists: _Lists, where, out: np.ndarray, t: dict
         exact[arcs],
         **_centres(grid, range(j0, j1), range(i0, i1)),
     )
+    if sign is not None:
+        plan.flags, plan.seams = sign[0][arcs], sign[1]
     t1 = time.perf_counter()
     out[j0:j1, i0:i1] = eng.run(plan)
+    if sign is not None:
+        sign[2][j0:j1, i0:i1] = plan.codes
     t["plan"] += t1 - t0
     t["gpu"] += time.perf_counter() - t1
 
