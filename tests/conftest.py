@@ -179,6 +179,11 @@ REPEATS = (
     "tests/test_cli_errors.py::test_render_bands_refuse_styles_and_raster_input",
     "tests/test_golden.py::test_golden[raster_input/world_borders_cube_6x128_50km_levels]",
     "tests/test_field.py::test_cli_geotiff_npy_and_cube",
+    "tests/test_field_walk_gpu.py::test_every_nearest_arc_is_in_its_cells_gpu_list[clamped]",
+    "tests/test_field_walk_gpu.py::test_every_nearest_arc_is_in_its_cells_gpu_list[fiji]",
+    "tests/test_field_gpu_sign.py::test_a_broken_sign_is_caught[side-flipped]",
+    "tests/test_field_gpu.py::test_the_finishing_needs_the_features_within_reach[wrong-candidate]",
+    "tests/test_field_gpu.py::test_the_whole_list_where_more_may_tie",
 )
 
 
