@@ -28,6 +28,28 @@ def world():
     return {f["properties"]["name"]: f for f in fc["features"]}
 
 
+def named_countries(*names, path=DATA / "world_110m.geojson"):
+    """The shape of the features of ``path`` (Natural Earth) with these names, all found."""
+    import gloffset
+
+    fc = json.loads(Path(path).read_text())
+    feats = [f for f in fc["features"] if f["properties"]["name"] in names]
+    assert len(feats) == len(names)
+    return gloffset.read({"type": "FeatureCollection", "features": feats})
+
+
+def broken_field_pass(monkeypatch, tmp_path, old: str, new: str) -> None:
+    """Run the field's pass from a copy of ``shaders/field_pixels.comp`` with ``old`` made
+    ``new`` (each test's broken shader)."""
+    from gloffset.gl.field_pass import field_pass
+    from gloffset.gl.shaders import SHADER_DIR
+
+    src = (SHADER_DIR / "field_pixels.comp").read_text()
+    assert src.count(old) == 1, old
+    (tmp_path / "field_pixels.comp").write_text(src.replace(old, new))
+    monkeypatch.setattr(field_pass(), "root", tmp_path)
+
+
 @pytest.fixture(scope="session")
 def mexico_path():
     return DATA / "mexico_10m.geojson"

@@ -4,16 +4,13 @@ error bounds, and the finishing it cannot do without."""
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
-from conftest import DATA
+from conftest import DATA, broken_field_pass, named_countries
 
 import gloffset
 from gloffset.geometry.sphere import normalize
 from gloffset.gl.field_pass import FIELD_ERR, NEAREST_ERR, FieldPass, FieldPlan, field_pass
-from gloffset.gl.shaders import SHADER_DIR
 from gloffset.grids import Cube, Equirect, Tile
 from gloffset.raster.fields import gpu as field_gpu
 from gloffset.raster.fields.walk import exact_distances
@@ -28,11 +25,7 @@ def mexico(mexico_path):
 @pytest.fixture(scope="module")
 def edges():
     """Fiji and Russia (across the antimeridian) and Antarctica (round the pole), 1:110m."""
-    fc = json.loads((DATA / "world_110m.geojson").read_text())
-    keep = {"Fiji", "Russia", "Antarctica"}
-    feats = [f for f in fc["features"] if f["properties"]["name"] in keep]
-    assert len(feats) == len(keep)
-    return gloffset.read({"type": "FeatureCollection", "features": feats})
+    return named_countries("Fiji", "Russia", "Antarctica")
 
 
 def within_ulp(got: np.ndarray, want: np.ndarray) -> np.ndarray:
@@ -151,14 +144,6 @@ def test_blocks_and_their_halves(mexico, monkeypatch):
     assert len(runs) == 5 * 12
 
 
-def _broken(monkeypatch, tmp_path, old: str, new: str) -> None:
-    """Run the field's pass from a copy of ``field_pixels.comp`` with ``old`` made ``new``."""
-    src = (SHADER_DIR / "field_pixels.comp").read_text()
-    assert src.count(old) == 1, old
-    (tmp_path / "field_pixels.comp").write_text(src.replace(old, new))
-    monkeypatch.setattr(field_pass(), "root", tmp_path)
-
-
 @pytest.mark.parametrize(
     "old, new, least",
     [
@@ -191,7 +176,7 @@ def test_the_finishing_needs_the_features_within_reach(
     want = gloffset.distance_field(mexico, grid, radius=1.0, backend="cpu").values
     good = gloffset.distance_field(mexico, grid, radius=1.0).values
     assert within_ulp(good, want).all()
-    _broken(monkeypatch, tmp_path, old, new)
+    broken_field_pass(monkeypatch, tmp_path, old, new)
     bad = gloffset.distance_field(mexico, grid, radius=1.0).values
     off = (~within_ulp(bad, want)).sum()
     if least:
@@ -229,7 +214,7 @@ def test_the_whole_list_where_more_may_tie(monkeypatch, tmp_path):
     want = gloffset.distance_field(shape, grid, backend="cpu").values
     got = gloffset.distance_field(shape, grid).values
     assert within_ulp(got, want).all()
-    _broken(
+    broken_field_pass(
         monkeypatch,
         tmp_path,
         "bool whole = dropped <= reach || unsure <= reach;",

@@ -8,12 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import DATA, SQUARE_WITH_HOLE
+from conftest import DATA, SQUARE_WITH_HOLE, broken_field_pass
 
 import gloffset
 from gloffset.geometry.classes import CONTAINED
-from gloffset.gl.field_pass import field_pass
-from gloffset.gl.shaders import SHADER_DIR
 from gloffset.grids import Cube, Equirect, Tile
 from gloffset.raster import field as field_mod
 from gloffset.raster.vector.curves import classify_curves
@@ -127,14 +125,6 @@ def test_holes_reflex_corners_pinch_seam_and_untrusted(levels):
     assert levels  # the pixels on the boundary, the seam's and the untrusted: the levels'
 
 
-def _broken(monkeypatch, tmp_path, old: str, new: str) -> None:
-    """Run the field's pass from a copy of ``field_pixels.comp`` with ``old`` made ``new``."""
-    src = (SHADER_DIR / "field_pixels.comp").read_text()
-    assert src.count(old) == 1, old
-    (tmp_path / "field_pixels.comp").write_text(src.replace(old, new))
-    monkeypatch.setattr(field_pass(), "root", tmp_path)
-
-
 @pytest.mark.parametrize(
     "old, new",
     [
@@ -150,6 +140,6 @@ def test_a_broken_sign_is_caught(mexico, world110, monkeypatch, tmp_path, old, n
     wants = [today(s, g) for s, g in cases]
     for (s, g), want in zip(cases, wants):
         assert (gpu_inside(s, g) == want).all()
-    _broken(monkeypatch, tmp_path, old, new)
+    broken_field_pass(monkeypatch, tmp_path, old, new)
     for (s, g), want in zip(cases, wants):
         assert (gpu_inside(s, g) != want).sum() > 100

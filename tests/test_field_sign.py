@@ -5,12 +5,11 @@ rule is caught; the GLSL rule agrees where it decides."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import DATA, SQUARE_WITH_HOLE
+from conftest import DATA, SQUARE_WITH_HOLE, named_countries
 
 import gloffset
 from gloffset.edges import CurveArcs
@@ -66,13 +65,6 @@ def rule(shape, grid, corners=None):
     return ins, und
 
 
-def named(*names, path=DATA / "world_110m.geojson"):
-    fc = json.loads(path.read_text())
-    feats = [f for f in fc["features"] if f["properties"]["name"] in names]
-    assert len(feats) == len(names)
-    return gloffset.read({"type": "FeatureCollection", "features": feats})
-
-
 @pytest.fixture(scope="module")
 def mexico(mexico_path):
     return gloffset.read(mexico_path)
@@ -102,7 +94,7 @@ def test_world_neighbours_cube_and_equirect(world110):
 
 def test_antimeridian_and_pole():
     """Fiji and Russia across the antimeridian, Antarctica round the pole."""
-    shape = named("Fiji", "Russia", "Antarctica", "United States of America")
+    shape = named_countries("Fiji", "Russia", "Antarctica", "United States of America")
     for grid in (Equirect(256, 128), Cube(16), Tile(3, 7, 2), Tile(2, 0, 3)):
         assert_same_sign(shape, grid)
 

@@ -4,12 +4,11 @@ broken bound loses arcs; the float32 ``asin`` within its stated bound."""
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
 import pytest
-from conftest import DATA
+from conftest import DATA, named_countries
 
 import gloffset
 from gloffset.gl import walk_pass
@@ -28,10 +27,7 @@ def mexico(mexico_path):
 @pytest.fixture(scope="module")
 def edges():
     """Fiji and Russia (across the antimeridian) and Antarctica (round the pole), 1:110m."""
-    fc = json.loads((DATA / "world_110m.geojson").read_text())
-    keep = {"Fiji", "Russia", "Antarctica"}
-    feats = [f for f in fc["features"] if f["properties"]["name"] in keep]
-    return gloffset.read({"type": "FeatureCollection", "features": feats})
+    return named_countries("Fiji", "Russia", "Antarctica")
 
 
 @pytest.fixture(scope="module")
