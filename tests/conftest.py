@@ -38,6 +38,17 @@ def named_countries(*names, path=DATA / "world_110m.geojson"):
     return gloffset.read({"type": "FeatureCollection", "features": feats})
 
 
+def frontier_without_pairs(k: int):
+    """A level-0 frontier of ``k`` cells and no (cell, arc) pair, the second cell inside."""
+    from gloffset.raster.vector.levels import Frontier
+
+    status = np.zeros((k, 1), dtype=np.uint8)
+    status[1, 0] = 1
+    zeros = np.zeros(0, dtype=int)
+    cells, centres = np.zeros((k, 2), dtype=int), np.tile([1.0, 0.0, 0.0], (k, 1))
+    return Frontier(0, cells, centres, np.zeros(k), zeros, zeros, status)
+
+
 def broken_field_pass(monkeypatch, tmp_path, old: str, new: str) -> None:
     """Run the field's pass from a copy of ``shaders/field_pixels.comp`` with ``old`` made
     ``new`` (each test's broken shader)."""

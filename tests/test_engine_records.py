@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import LINES, SQUARE_WITH_HOLE
+from conftest import LINES, SQUARE_WITH_HOLE, frontier_without_pairs
 
 import gloffset
 from gloffset.geometry.sphere import arc_distance, dot, slerp
@@ -13,7 +13,7 @@ from gloffset.grids import Cube, Equirect, Tile
 from gloffset.raster import gpu
 from gloffset.raster import records as E
 from gloffset.raster.vector.curves import classify_curves as classify
-from gloffset.raster.vector.levels import Frontier, cell_distances
+from gloffset.raster.vector.levels import cell_distances
 
 POINTS = {"type": "MultiPoint", "coordinates": [[30, 60], [31, 60.5], [-120, -20]]}
 
@@ -198,17 +198,7 @@ def test_cluster_headers_order_and_bounds(cases):
 
 def test_a_frontier_without_pairs():
     k = 3
-    status = np.zeros((k, 1), dtype=np.uint8)
-    status[1, 0] = 1
-    f = Frontier(
-        0,
-        np.zeros((k, 2), dtype=int),
-        np.tile([1.0, 0.0, 0.0], (k, 1)),
-        np.zeros(k),
-        np.zeros(0, dtype=int),
-        np.zeros(0, dtype=int),
-        status,
-    )
+    f = frontier_without_pairs(k)
     arcs = classify(gloffset.read(SQUARE_WITH_HOLE), 0.01, Equirect(64, 32))[2]
     rec, first, bits, hdr, cfirst, ccount = E.records(f, arcs, 0.01)
     assert rec.shape == (0, 6, 4) and hdr.shape == (0, 2, 4)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import LINES, SQUARE_WITH_HOLE
+from conftest import LINES, SQUARE_WITH_HOLE, frontier_without_pairs
 from test_engine_records import POINTS, frontier, pair_distances, reference_records
 
 import gloffset
@@ -14,7 +14,6 @@ from gloffset.geometry.sphere import slerp
 from gloffset.grids import Cube, Equirect, Tile
 from gloffset.raster import gpu
 from gloffset.raster import records as E
-from gloffset.raster.vector.levels import Frontier
 
 DATA = Path(__file__).resolve().parent.parent / "data"
 #: polygons and lines: ring edges and other arcs in the same bins
@@ -123,17 +122,7 @@ def test_cluster_headers_order_and_bounds(cases):
 
 def test_a_frontier_without_pairs(mexico_path):
     k = 3
-    status = np.zeros((k, 1), dtype=np.uint8)
-    status[1, 0] = 1
-    f = Frontier(
-        0,
-        np.zeros((k, 2), dtype=int),
-        np.tile([1.0, 0.0, 0.0], (k, 1)),
-        np.zeros(k),
-        np.zeros(0, dtype=int),
-        np.zeros(0, dtype=int),
-        status,
-    )
+    f = frontier_without_pairs(k)
     arcs = frontier(SQUARE_WITH_HOLE, 0.01, Equirect(64, 32))[1]
     host, rec, hdr = on_gpu(f, arcs, 0.01)
     assert rec.shape == (0, 6, 4) and hdr.shape == (0, 2, 4)
