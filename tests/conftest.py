@@ -49,6 +49,33 @@ def frontier_without_pairs(k: int):
     return Frontier(0, cells, centres, np.zeros(k), zeros, zeros, status)
 
 
+def assert_cluster_headers(hdr, rec, f, arcs, every: int = 1) -> None:
+    """Every ``every``-th cluster header of the records ``rec`` of frontier ``f``: Dmin
+    and hmin the records' own least values, ``S >= |Q| + rho``, and the ball ``(Q, rho)``
+    about the cell's centre holding every point of the cluster's arcs."""
+    from gloffset.geometry.sphere import slerp
+    from gloffset.raster.records import ARC_RING
+
+    fh = hdr.view(np.float32)
+    start = (hdr[:, 1, 3] >> 4).astype(np.int64)
+    count = (hdr[:, 1, 3] & 15).astype(np.int64) + 1
+    t0 = rec[:, 0]
+    ring = (t0[:, 1].astype(int) & ARC_RING) != 0
+    t = np.linspace(0.0, 1.0, 9)
+    for j in range(0, len(hdr), every):
+        sl = slice(start[j], start[j] + count[j])
+        assert fh[j, 1, 0] == t0[sl, 0].min()
+        hm = np.abs(t0[sl, 2][ring[sl]])
+        assert fh[j, 1, 1] == (hm.min() if len(hm) else np.inf)
+        q, rho, S = fh[j, 0, :3].astype(float), float(fh[j, 0, 3]), float(fh[j, 1, 2])
+        assert S >= np.linalg.norm(q) + rho
+        ci = f.pair_cell[sl]
+        for arc in f.pair_arc[sl]:
+            a, b = arcs.a[arc], arcs.b[arc]
+            pts = slerp(a, b, t) if not np.array_equal(a, b) else a[None]
+            assert np.all(np.linalg.norm(pts - f.centers[ci[0]] - q, axis=1) <= rho)
+
+
 def broken_field_pass(monkeypatch, tmp_path, old: str, new: str) -> None:
     """Run the field's pass from a copy of ``shaders/field_pixels.comp`` with ``old`` made
     ``new`` (each test's broken shader)."""

@@ -6,11 +6,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import LINES, SQUARE_WITH_HOLE, frontier_without_pairs
+from conftest import LINES, SQUARE_WITH_HOLE, assert_cluster_headers, frontier_without_pairs
 from test_engine_records import POINTS, frontier, pair_distances, reference_records
 
 import gloffset
-from gloffset.geometry.sphere import slerp
 from gloffset.grids import Cube, Equirect, Tile
 from gloffset.raster import gpu
 from gloffset.raster import records as E
@@ -81,7 +80,6 @@ def test_cluster_headers_order_and_bounds(cases):
     """The clusters are numpy's runs; a bin's come by Dmin; Dmin, hmin are the records'
     own values; the ball (Q, rho) holds every point of the cluster's arcs, S >= |Q| +
     rho; Q is numpy's, rho and S at most an ulp of float32 from it."""
-    t = np.linspace(0.0, 1.0, 9)
     for (f, arcs), e in cases:
         want = E.records(f, arcs, e)
         host, rec, hdr = on_gpu(f, arcs, e)
@@ -98,26 +96,11 @@ def test_cluster_headers_order_and_bounds(cases):
             assert np.all(np.abs(a - b) <= np.spacing(b))
         fh = hdr.view(np.float32)
         start = (hdr[:, 1, 3] >> 4).astype(np.int64)
-        count = (hdr[:, 1, 3] & 15).astype(np.int64) + 1
         for b in range(len(f.cells)):
             js = np.arange(host.first_cluster[b], host.first_cluster[b] + host.n_clusters[b])
             assert np.all(np.diff(fh[js, 1, 0]) >= 0)
             assert np.all(f.pair_cell[start[js]] == b)
-        t0 = rec[:, 0]
-        ring = (t0[:, 1].astype(int) & E.ARC_RING) != 0
-        for j in range(0, len(hdr), max(1, len(hdr) // 500)):
-            sl = slice(start[j], start[j] + count[j])
-            assert fh[j, 1, 0] == t0[sl, 0].min()
-            hm = np.abs(t0[sl, 2][ring[sl]])
-            assert fh[j, 1, 1] == (hm.min() if len(hm) else np.inf)
-            q, rho, S = fh[j, 0, :3].astype(float), float(fh[j, 0, 3]), float(fh[j, 1, 2])
-            assert S >= np.linalg.norm(q) + rho
-            ci, ai = f.pair_cell[sl], f.pair_arc[sl]
-            for arc in ai:
-                a, b = arcs.a[arc], arcs.b[arc]
-                pts = slerp(a, b, t) if not np.array_equal(a, b) else a[None]
-                off = pts - f.centers[ci[0]] - q
-                assert np.all(np.linalg.norm(off, axis=1) <= rho)
+        assert_cluster_headers(hdr, rec, f, arcs, every=max(1, len(hdr) // 500))
 
 
 def test_a_frontier_without_pairs(mexico_path):
