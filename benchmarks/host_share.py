@@ -24,8 +24,14 @@ with them, gives the GL time and its own wall time: the host share is ``1 - gl /
 of that run (on a loaded machine two runs differ more than the GL part of one), and the
 host time is the best wall time times that share.
 
-Run: python benchmarks/host_share.py [--quick] [-k NAME]
-Writes benchmarks/results/host_share.json.
+``--walk gpu`` makes a field's lists with the GPU walk, as the field does by default on
+a hardware GL (``gloffset.raster.fields.gpu.WALK = "auto"``; on llvmpipe "auto" is the
+float64 host walk, since llvmpipe runs the GPU walk slower than numpy runs it): on
+llvmpipe that run is slower, but its host time is the host time a hardware GPU is left
+with.
+
+Run: python benchmarks/host_share.py [--quick] [-k NAME] [--walk auto|cpu|gpu]
+Writes benchmarks/results/host_share.json (host_share_walk_WALK.json for another walk).
 """
 
 from __future__ import annotations
@@ -41,6 +47,7 @@ from common import DATA, best_of, write
 
 import gloffset
 from gloffset.grids import Equirect
+from gloffset.raster.fields import gpu as field_gpu
 
 D = 0.02  # radians on the unit sphere, as in render.py
 R = gloffset.EARTH_RADIUS
@@ -152,7 +159,14 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="1024x512 images, tiles z0-4")
     ap.add_argument("-k", default="", help="only the workloads whose name contains this")
     ap.add_argument("--repeat", type=int, default=3, help="warm runs, the best kept")
+    ap.add_argument(
+        "--walk",
+        choices=("auto", "cpu", "gpu"),
+        default="auto",
+        help="the field's walk (gloffset.raster.fields.gpu.WALK; gpu: a hardware GL's)",
+    )
     args = ap.parse_args(argv)
+    field_gpu.WALK = args.walk
     timer = GLTimer()
     timer.install()
     rows = {}
@@ -176,10 +190,11 @@ def main(argv=None):
                 flush=True,
             )
     write(
-        "host_share",
+        "host_share" if args.walk == "auto" else f"host_share_walk_{args.walk}",
         {
             "distance_rad": D,
             "quick": args.quick,
+            "walk": args.walk,
             "repeat": args.repeat,
             "method": "moderngl class methods wrapped with perf_counter, outermost call only",
             **rows,
