@@ -177,6 +177,7 @@ def assert_options_refused(call, func, what):
 #: the same check): marked slow here, so that the README's test command stays within 5
 #: minutes on 2 cores; ``.ci/run`` runs them with ``-m slow``. Prefixes of node ids.
 REPEATS = (
+    "tests/test_walk_check.py::test_a_broken_bound_fails_the_check[SUM_ERR",
     "tests/test_golden.py::test_golden[contains/table1_10000]",
     "tests/test_golden.py::test_golden[raster_input/world_borders_cube_6x128_127km_levels]",
     "tests/test_golden.py::test_golden[raster_input/world_borders_cube_6x128_250km_cpu]",

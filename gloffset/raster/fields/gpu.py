@@ -32,13 +32,14 @@ no arc (all beyond ``max_distance``) stay ``inf``, as on the CPU.
 from __future__ import annotations
 
 import time
+import warnings
 import weakref
 
 import numpy as np
 
 from ...geometry.caps import chord, pad
 from ...geometry.sphere import cross, dot
-from ...gl.context import context_info
+from ...gl.context import context_info, shared
 from ...gl.field_pass import ARC_TEXELS, EXACT_DOUBLES, FieldPlan, field_pass
 from ..vector.node_levels import NodeArcs
 from .lists import gpu_lists
@@ -83,8 +84,9 @@ def _records(nodes: NodeArcs) -> tuple[np.ndarray, np.ndarray]:
 
 #: Which walk makes the lists: ``"gpu"`` (:func:`~gloffset.raster.fields.lists.gpu_lists`,
 #: the float64 walk where it does not apply), ``"cpu"`` (the float64 walk), or ``"auto"``:
-#: the GPU's on a hardware GL, the float64 walk on a software one (Mesa's llvmpipe runs
-#: the GPU walk's divergent loops slower than numpy runs the float64 walk).
+#: the GPU's on a hardware GL whose GPU walk passes :func:`walk_check` (once per thread),
+#: the float64 walk on a software one (Mesa's llvmpipe runs the GPU walk's divergent
+#: loops slower than numpy runs the float64 walk) or where the check fails.
 WALK = "auto"
 
 
@@ -97,7 +99,7 @@ class _Lists:
         self.shape = hc, wc = grid.level_shape(level)
         walk = WALK if walk is None else walk
         if walk == "auto":
-            walk = "cpu" if context_info()["software"] else "gpu"
+            walk = "cpu" if context_info()["software"] or not shared(_WalkCheck).ok else "gpu"
         got = gpu_lists(nodes, grid, m, level) if walk == "gpu" else None
         if got is not None:
             self.count, self.node = got
@@ -126,7 +128,13 @@ class _Lists:
 
 
 def gpu_distances(
-    shape, grid, m: float, add, timings: dict | None = None, codes: np.ndarray | None = None
+    shape,
+    grid,
+    m: float,
+    add,
+    timings: dict | None = None,
+    codes: np.ndarray | None = None,
+    walk: str | None = None,
 ) -> np.ndarray:
     """Return the distance (rad, float64) from each pixel centre to the nearest arc.
 
@@ -145,7 +153,8 @@ def gpu_distances(
     disc that may hold a seam undecided; all undecided where the shape's
     :class:`~gloffset.raster.fields.sign.Corners` are not trusted). Where it decides, it
     is the float64 levels' inside status at pixels farther than ``NEAR`` from the
-    boundary and within ``m`` (the caller leaves the others undecided).
+    boundary and within ``m`` (the caller leaves the others undecided). ``walk``: the
+    lists' walk (default :data:`WALK`).
     """
     t = {} if timings is None else timings
     for k in ("walk", "plan", "gpu"):
@@ -165,7 +174,7 @@ def gpu_distances(
     last = grid.n_levels - 1
     shift = min(SHIFT, last)
     t0 = time.perf_counter()
-    lists = _Lists(nodes, grid, m, last - shift)
+    lists = _Lists(nodes, grid, m, last - shift, walk)
     t["walk"] += time.perf_counter() - t0
     h, w = grid.level_shape(last)
     out = np.empty((h, w))
@@ -258,3 +267,83 @@ def _vertex_ids(nodes: NodeArcs, arcs: np.ndarray) -> np.ndarray:
     rows = np.ascontiguousarray(ends).view(np.dtype((np.void, 24))).ravel()
     _, ids = np.unique(rows, return_inverse=True)
     return ids.reshape(2, -1).T.astype(np.uint32)
+
+
+def check_shape():
+    """The shape of :func:`walk_check`: three rings and a line, 6,300 vertices of
+    fjord-like wiggles (three frequencies) across the antimeridian, round the south pole
+    and along the equator."""
+    from ...shape import Shape
+
+    t = np.linspace(0.0, 2.0 * np.pi, 3000, endpoint=False)
+    r = 12.0 + 3.0 * np.sin(5 * t) + 1.2 * np.sin(37 * t) + 0.4 * np.sin(211 * t)
+    c, az = np.radians([178.0, 55.0]), t  # a ring about (178, 55), radius r degrees
+    d = np.radians(r)
+    lat = np.arcsin(np.sin(c[1]) * np.cos(d) + np.cos(c[1]) * np.sin(d) * np.cos(az))
+    dlon = np.arctan2(np.sin(az) * np.sin(d) * np.cos(c[1]), np.cos(d) - np.sin(c[1]) * np.sin(lat))
+    lon = (np.degrees(c[0] + dlon) + 180.0) % 360.0 - 180.0
+    south = np.linspace(180.0, -180.0, 2000, endpoint=False)
+    south_lat = -72.0 + 4.0 * np.sin(np.radians(9 * south)) + 0.7 * np.sin(np.radians(83 * south))
+    hole_t = t[::10]
+    hole = [[-60.0 + 5.0 * np.cos(a), -10.0 + 4.0 * np.sin(a)] for a in hole_t[::-1]]
+    line_lon = np.linspace(-40.0, 40.0, 1000)
+    line_lat = 3.0 * np.sin(np.radians(17 * line_lon)) + 0.5 * np.sin(np.radians(131 * line_lon))
+
+    def ring(x, y):
+        pts = np.column_stack([x, y]).tolist()
+        return pts + pts[:1]
+
+    box = [[-70.0, -20.0], [-50.0, -20.0], [-50.0, 0.0], [-70.0, 0.0], [-70.0, -20.0]]
+    geoms = [
+        {"type": "Polygon", "coordinates": [ring(lon, np.degrees(lat))]},
+        {"type": "Polygon", "coordinates": [ring(south, south_lat)]},
+        {"type": "Polygon", "coordinates": [box, hole + hole[:1]]},
+        {"type": "LineString", "coordinates": np.column_stack([line_lon, line_lat]).tolist()},
+    ]
+    return Shape.from_geojson({"type": "GeometryCollection", "geometries": geoms})
+
+
+class _WalkCheck:
+    """This thread's answer to :func:`walk_check` (asked once)."""
+
+    def __init__(self):
+        self.ok = walk_check()
+        if not self.ok:
+            warnings.warn(
+                "gloffset: this GL's field walk (shaders/field_walk.comp) missed arcs on a "
+                "check shape; distance fields use the float64 walk on the host instead "
+                f"(GL renderer: {context_info().get('renderer', '?')})",
+                UserWarning,
+                stacklevel=2,
+            )
+
+
+def walk_check(grids=None) -> bool:
+    """Whether the GPU walk's lists give the float64 walk's field, bit for bit, on
+    :func:`check_shape` over each of ``grids`` (default :func:`check_grids`).
+
+    The guard of ``WALK = "auto"`` on a GL where the tests have not run: a driver whose
+    float32 arithmetic breaks the walk's error bounds by more than about 1e-3 rad in a
+    lower bound, or 1e-5 in the bisector test, loses nearest arcs on these grids, which
+    changes field values (``tests/test_walk_check.py``); an error below the bounds' slack
+    costs nothing. Milliseconds of a hardware GPU and a fraction of a second of the
+    host's float64 walk, once per thread; seconds on llvmpipe (where "auto" does not ask).
+    """
+    shape = check_shape()
+    for grid in check_grids() if grids is None else grids:
+        got = [gpu_distances(shape, grid, float("inf"), lambda n: None, walk=w) for w in WALKS]
+        if not np.array_equal(got[0].view(np.uint64), got[1].view(np.uint64)):
+            return False
+    return True
+
+
+#: The walks :func:`walk_check` compares.
+WALKS = ("cpu", "gpu")
+
+
+def check_grids() -> tuple:
+    """The grids of :func:`walk_check`: the globe at 1024 x 512 (the antimeridian, the
+    pole) and a 10-degree box at 1024 x 1024 (cells of 0.08 degrees: small slack)."""
+    from ...grids import Equirect
+
+    return Equirect(1024, 512), Equirect(1024, 1024, (-10.0, -5.0, 0.0, 5.0))
