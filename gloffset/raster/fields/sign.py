@@ -49,6 +49,7 @@ __all__ = [
     "Corners",
     "block_signs",
     "levels_inside",
+    "nearest_signs",
     "signs",
 ]
 
@@ -77,6 +78,8 @@ _MAX_SEAMS = 64
 _MAX_CHECKED = 4096
 #: :func:`levels_inside` runs the whole grid's levels for more than 1 / _WHOLE of its pixels.
 _WHOLE = 8
+#: :func:`nearest_signs` searches at most this many points (more: all undecided).
+_NEAREST_MAX = 4096
 
 
 class Corners:
@@ -268,6 +271,36 @@ def signs(corners: Corners, arcs: CurveArcs, c, dist, pairs) -> tuple[np.ndarray
             near = angle(c[todo], mid[None, :]) - half <= dist[todo] + ETA
             und[todo[near]] = True
     return inside & ~und, und
+
+
+def nearest_signs(shape, c: np.ndarray, near: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``(inside, undecided)`` of points ``c`` by :func:`signs`, their nearest
+    features found in the arcs' tree.
+
+    ``near`` (k,) float64: a distance (rad) within 1e-9 relative of each point's
+    distance to the curves (a point with none finite, or of one at most :data:`NEAR`,
+    comes back undecided). Every arc whose cap comes within ``near (1 + 1e-6) + 1e-9``
+    is measured with :func:`~gloffset.geometry.sphere.arc_distance` (the float64 walk's
+    distance), so the nearest and every feature within :data:`ETA` of it are among
+    them: exact as :func:`signs` (the float64 levels' inside status where decided).
+    For the few pixels a faster rule leaves open (the GPU's, in float32); all are
+    undecided where the shape's :class:`Corners` are not trusted or there are more
+    than ``_NEAREST_MAX`` points.
+    """
+    k = len(c)
+    inside, und = np.zeros(k, dtype=bool), np.ones(k, dtype=bool)
+    corners = Corners.from_shape(shape)
+    ok = np.isfinite(near) & (near > NEAR)
+    if not corners.trusted or not ok.any() or k > _NEAREST_MAX:
+        return inside, und
+    sel = np.flatnonzero(ok)
+    arcs = CurveArcs.from_shape(shape)
+    qi, item, _ = arcs.tree.near(c[sel], near[sel] * (1.0 + 1e-6) + 1e-9)
+    d = arc_distance(c[sel][qi], arcs.a[item], arcs.b[item], arcs.n[item])
+    dist = np.full(len(sel), np.inf)
+    np.minimum.at(dist, qi, d)
+    inside[sel], und[sel] = signs(corners, arcs, c[sel], dist, (qi, item, d))
+    return inside, und
 
 
 def _dot3(p, v, i) -> np.ndarray:
