@@ -8,10 +8,11 @@
 //    latitude and column's longitude (the host's products, bit for bit), cube faces from
 //    their rows' and columns' face coordinates (lib/cube64.glsl, cube_point), grids with a
 //    GLSL function from it (GRID_GLSL); other grids read the host's centres (GRID_TEXTURE).
-// 2. The ranking, in float32: each arc's features (the foot on the arc, or its ends) as
-//    chords 2 sin(angle / 2), good to NEAREST_ERR (field_pass.py, with its derivation);
-//    an end shared by two arcs is one feature (its vertex id); the six least kept, with
-//    how many lie within u_gap of the least and whether more may.
+// 2. The ranking, in float32: each arc's nearest feature (the foot on the arc, or its
+//    nearer end; the arc itself where its ends' chords lie within u_gap) as a chord
+//    2 sin(angle / 2), good to NEAREST_ERR (field_pass.py, with its derivation); an end
+//    shared by two arcs is one feature (its vertex id); the six least kept, with how
+//    many lie within u_gap of the least and whether more may.
 // 3. The finishing, in double: the features within u_gap of the least (the cell's whole
 //    list, its far caps skipped, where more may be), each with the operations of
 //    gloffset.geometry.sphere.arc_distance (products and sums rounded once, `precise`:
@@ -164,7 +165,7 @@ bool far_cap(vec3 p, uint k) {
 // 2 sin(t / 2) = sin t sqrt(2 / (1 + cos t)), well conditioned at every angle), else
 // each end, a feature of its own (its vertex id), where the float32 test decides
 // (beyond TEST: float64 decides alike, gloffset.geometry.sphere.arc_distance's test);
-// an arc it does not decide is a feature of its own.
+// an arc it does not decide is a feature of its own. One put per arc (see below).
 void measure(vec3 p, uint k, uint pair) {
     // every case computed, two puts (llvmpipe runs the body of every branch anyway)
     float inf = uintBitsToFloat(0x7f800000u);
@@ -190,10 +191,16 @@ void measure(vec3 p, uint k, uint pair) {
     if (!far && !foot && !two && abs(cl - ce) > u_same) {
         unsure = min(unsure, min(cl, ce));
     }
+    // one feature per arc: the foot; its nearer end, one feature with the other arcs
+    // of its vertex, where the ends' chords differ by more than u_gap (the nearer in
+    // float64 too); else the arc itself (finished to its nearer end in double)
     uvec2 id = ends[k];
-    float v = far ? inf : (foot ? cl : (two ? ca : min(cl, ce)));
-    put(v, two ? id.x : LINE | pair, two ? (pair << 2) | 1u : pair << 2);
-    put(two && !far ? cb : inf, id.y, (pair << 2) | 2u);
+    bool vertex = two && abs(ca - cb) > u_gap;
+    bool at_a = ca < cb;
+    float v = far ? inf : (foot ? cl : min(cl, ce));
+    v = two && !far ? ce : v;
+    put(v, vertex ? (at_a ? id.x : id.y) : LINE | pair,
+        vertex ? (pair << 2) | (at_a ? 1u : 2u) : pair << 2);
 }
 
 // ---- 3. the finishing, in double -----------------------------------------------------
