@@ -34,6 +34,7 @@ import numpy as np
 from ...edges import CurveArcs, points_inside
 from ...geometry.classes import CONTAINED, FRONTIER
 from ...geometry.sphere import angle, arc_distance, dot, normalize
+from ...memo import once_attr
 from .. import driver
 from ..vector.curves import CurveCells, classify_curves
 
@@ -125,6 +126,21 @@ class Corners:
         the corner at ``a``, bits 2-3 at ``b``, bit 4 :attr:`ok`."""
         c = self.corner.astype(np.uint32)
         return c[:, 0] | (c[:, 1] << 2) | (self.ok.astype(np.uint32) << 4)
+
+    def shader_records(self, nodes: int) -> tuple[np.ndarray, np.ndarray]:
+        """What ``shaders/field_pixels.comp`` reads for the sign (made once, kept): the
+        :attr:`flags` of ``nodes`` nodes ((nodes,) uint32, the arcs' first, 0 for the
+        merged nodes after them) and the seams' caps ((k, 4) float32: centre, half
+        angle)."""
+
+        def make():
+            flags = np.zeros(nodes, dtype=np.uint32)
+            flags[: len(self.ok)] = self.flags
+            seams = np.zeros((len(self.seam_half), 4), dtype=np.float32)
+            seams[:, :3], seams[:, 3] = self.seam_mid, self.seam_half
+            return flags, seams
+
+        return once_attr(self, "_shader_records", make)
 
     @classmethod
     def from_shape(cls, shape) -> Corners:
