@@ -15,8 +15,9 @@ each pixel ending with the exact float64 distance of its nearest arc
 in float32 and the near-least finished in float64 (:mod:`gloffset.raster.fields.gpu`).
 The sign is the inside status of the float64 render at distance 0, read from each
 pixel's nearest boundary features (:mod:`gloffset.raster.fields.sign`; on the GPU in the
-same shader), the levels' test only on the few pixels that leaves undecided
-(``docs/design.md`` has the derivation).
+same shader, the few pixels its float32 margins leave open by the float64 rule on the
+host), the levels' test only on the pixels that leaves undecided (``docs/design.md``
+has the derivation).
 
 Accuracy: each value is the float64 distance (exact to 1e-15 rad; on the GPU within
 :data:`~gloffset.gl.field_pass.FIELD_ERR`, 1.5e-15, relative) times ``radius``, clamped
