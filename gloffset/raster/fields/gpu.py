@@ -14,9 +14,10 @@ within :data:`~gloffset.gl.field_pass.FIELD_ERR` (relative) of the CPU walk's.
    feature as a chord, good to ``NEAREST_ERR``): the six least features, how many lie
    within ``2 NEAREST_ERR`` of the least and whether more may; then those features
    (the cell's whole list where more may be) finished in double with the operations
-   of :func:`~gloffset.geometry.sphere.arc_distance`, the least read back. A feature whose float32 chord exceeds the least by more than ``2
-   NEAREST_ERR`` has a true chord greater than the least one's (by more than the
-   float64 error), so the nearest arc is among those finished.
+   of :func:`~gloffset.geometry.sphere.arc_distance`, the least read back. A feature
+   whose float32 chord exceeds the least by more than ``2 NEAREST_ERR`` has a true
+   chord greater than the least one's (by more than the float64 error), so the
+   nearest arc is among those finished.
 3. With polygons, the sign from the features finished within ``ETA`` of the least.
 
 The host hands over the lists and the arcs and reads back one float64 (and a sign
