@@ -8,15 +8,19 @@
 //    latitude and column's longitude (the host's products, bit for bit), cube faces from
 //    their rows' and columns' face coordinates (lib/cube64.glsl, cube_point), grids with a
 //    GLSL function from it (GRID_GLSL); other grids read the host's centres (GRID_TEXTURE).
-// 2. The ranking, in float32: each arc's features (the foot on the arc, or its ends) as
-//    chords 2 sin(angle / 2), good to NEAREST_ERR (field_pass.py, with its derivation);
-//    an end shared by two arcs is one feature (its vertex id); the six least kept, with
-//    how many lie within u_gap of the least and whether more may.
+// 2. The ranking, in float32: each arc's nearest feature (the foot on the arc, or its
+//    nearer end; the arc itself where its ends' chords lie within u_gap) as a chord
+//    2 sin(angle / 2), good to NEAREST_ERR (field_pass.py, with its derivation); an end
+//    shared by two arcs is one feature (its vertex id); the six least kept, with how
+//    many lie within u_gap of the least and whether more may.
 // 3. The finishing, in double: the features within u_gap of the least (the cell's whole
 //    list, its far caps skipped, where more may be), each with the operations of
 //    gloffset.geometry.sphere.arc_distance (products and sums rounded once, `precise`:
 //    no fused multiply-add; square roots and arctangents from lib/fp64.glsl), the least
-//    written. A cell with no arc writes +inf.
+//    written. A cell with no arc writes +inf. Shaped for llvmpipe, which runs the body of
+//    every branch its lanes take (masked: of every `if`, at least once of every loop):
+//    the ranking's insertion has no branch, and one loop finishes every feature (its
+//    body run as often as the most its lanes ask), keeping the least six for the sign.
 // 4. The sign (u_signed), from the finished features within FIELD_ETA of the least
 //    (lib/field_sign.glsl with the corner flags of gloffset.raster.fields.sign.Corners,
 //    the answers combined: decided only where they agree), undecided where the pixel's
@@ -115,50 +119,35 @@ float dropped;                  // the least chord pushed out of them (or never 
 float unsure;                   // the least chord of the undecided arcs whose two differ
 
 void put(float v, uint key, uint w) {
-    if (!(v < m5)) {
-        dropped = min(dropped, v);
-        return;
-    }
-    if (key == k0 || key == k1 || key == k2 || key == k3 || key == k4 || key == k5) {
-        return;  // a vertex seen already: the same bits of the same chord
-    }
-    dropped = min(dropped, m5);
-    m5 = v;
-    k5 = key;
-    w5 = w;
-    if (m5 < m4) {
-        float t = m4; m4 = m5; m5 = t;
-        uint k = k4; k4 = k5; k5 = k;
-        uint x = w4; w4 = w5; w5 = x;
-    } else {
-        return;
-    }
-    if (m4 < m3) {
-        float t = m3; m3 = m4; m4 = t;
-        uint k = k3; k3 = k4; k4 = k;
-        uint x = w3; w3 = w4; w4 = x;
-    } else {
-        return;
-    }
-    if (m3 < m2) {
-        float t = m2; m2 = m3; m3 = t;
-        uint k = k2; k2 = k3; k3 = k;
-        uint x = w2; w2 = w3; w3 = x;
-    } else {
-        return;
-    }
-    if (m2 < m1) {
-        float t = m1; m1 = m2; m2 = t;
-        uint k = k1; k1 = k2; k2 = k;
-        uint x = w1; w1 = w2; w2 = x;
-    } else {
-        return;
-    }
-    if (m1 < m0) {
-        float t = m0; m0 = m1; m1 = t;
-        uint k = k0; k0 = k1; k1 = k;
-        uint x = w0; w0 = w1; w1 = x;
-    }
+    // branch-free (llvmpipe runs both sides of a branch its lanes disagree on, and
+    // the body of any branch): a chord not below m5 is dropped, a vertex seen already
+    // (the same bits of the same chord) is skipped, else it is inserted after the
+    // equal ones and pushes m5 out
+    bool in6 = v < m5;
+    bool seen = key == k0 || key == k1 || key == k2 || key == k3 || key == k4 || key == k5;
+    bool ins = in6 && !seen;
+    float inf = uintBitsToFloat(0x7f800000u);
+    dropped = min(dropped, in6 ? (seen ? inf : m5) : v);
+    float x = ins ? v : inf;
+    bool s;
+    float tm; uint tk, tw;
+    s = x < m0; tm = m0; tk = k0; tw = w0;
+    m0 = s ? x : m0; k0 = s ? key : k0; w0 = s ? w : w0;
+    x = s ? tm : x; key = s ? tk : key; w = s ? tw : w;
+    s = x < m1; tm = m1; tk = k1; tw = w1;
+    m1 = s ? x : m1; k1 = s ? key : k1; w1 = s ? w : w1;
+    x = s ? tm : x; key = s ? tk : key; w = s ? tw : w;
+    s = x < m2; tm = m2; tk = k2; tw = w2;
+    m2 = s ? x : m2; k2 = s ? key : k2; w2 = s ? w : w2;
+    x = s ? tm : x; key = s ? tk : key; w = s ? tw : w;
+    s = x < m3; tm = m3; tk = k3; tw = w3;
+    m3 = s ? x : m3; k3 = s ? key : k3; w3 = s ? w : w3;
+    x = s ? tm : x; key = s ? tk : key; w = s ? tw : w;
+    s = x < m4; tm = m4; tk = k4; tw = w4;
+    m4 = s ? x : m4; k4 = s ? key : k4; w4 = s ? w : w4;
+    x = s ? tm : x; key = s ? tk : key; w = s ? tw : w;
+    s = x < m5;
+    m5 = s ? x : m5; k5 = s ? key : k5; w5 = s ? w : w5;
 }
 
 // Whether arc k's bounding cap lies farther from p than the least chord so far plus
@@ -176,11 +165,11 @@ bool far_cap(vec3 p, uint k) {
 // 2 sin(t / 2) = sin t sqrt(2 / (1 + cos t)), well conditioned at every angle), else
 // each end, a feature of its own (its vertex id), where the float32 test decides
 // (beyond TEST: float64 decides alike, gloffset.geometry.sphere.arc_distance's test);
-// an arc it does not decide is a feature of its own.
+// an arc it does not decide is a feature of its own. One put per arc (see below).
 void measure(vec3 p, uint k, uint pair) {
-    if (far_cap(p, k)) {
-        return;
-    }
+    // every case computed, two puts (llvmpipe runs the body of every branch anyway)
+    float inf = uintBitsToFloat(0x7f800000u);
+    bool far = far_cap(p, k);
     vec4 r0 = arcs[5u * k];
     vec4 r1 = arcs[5u * k + 1u];
     vec4 r2 = arcs[5u * k + 2u];
@@ -188,31 +177,30 @@ void measure(vec3 p, uint k, uint pair) {
     float ta = dot(p, r2.xyz);
     float tb = dot(p, r3.xyz);
     bool ok = r3.w > 0.5;
-    if (ok && ta >= TEST && tb >= TEST) {
-        vec3 n = vec3(r0.w, r1.w, r2.w);
-        float s = dot(p, n);
-        put(abs(s) * sqrt(2.0 / (1.0 + length(p - s * n))), LINE | pair, pair << 2);
-        return;
-    }
-    float ca = length(p - r0.xyz);
-    float cb = length(p - r1.xyz);
-    if (!ok || ta < -TEST || tb < -TEST) {
-        uvec2 id = ends[k];
-        put(ca, id.x, (pair << 2) | 1u);
-        put(cb, id.y, (pair << 2) | 2u);
-        return;
-    }
-    // undecided: float64 may take either branch; both chords, and where they differ by
-    // more than u_same (the far side of a short arc, seen from near its circle's pole)
-    // and the lesser lies within u_gap of the least, the pixel takes its whole list
+    bool foot = ok && ta >= TEST && tb >= TEST;
+    bool two = !ok || ta < -TEST || tb < -TEST;  // its ends
     vec3 n = vec3(r0.w, r1.w, r2.w);
     float s = dot(p, n);
     float cl = abs(s) * sqrt(2.0 / (1.0 + length(p - s * n)));
+    float ca = length(p - r0.xyz);
+    float cb = length(p - r1.xyz);
+    // undecided: float64 may take either branch; both chords, and where they differ by
+    // more than u_same (the far side of a short arc, seen from near its circle's pole)
+    // and the lesser lies within u_gap of the least, the pixel takes its whole list
     float ce = min(ca, cb);
-    if (abs(cl - ce) > u_same) {
+    if (!far && !foot && !two && abs(cl - ce) > u_same) {
         unsure = min(unsure, min(cl, ce));
     }
-    put(min(cl, ce), LINE | pair, pair << 2);
+    // one feature per arc: the foot; its nearer end, one feature with the other arcs
+    // of its vertex, where the ends' chords differ by more than u_gap (the nearer in
+    // float64 too); else the arc itself (finished to its nearer end in double)
+    uvec2 id = ends[k];
+    bool vertex = two && abs(ca - cb) > u_gap;
+    bool at_a = ca < cb;
+    float v = far ? inf : (foot ? cl : min(cl, ce));
+    v = two && !far ? ce : v;
+    put(v, vertex ? (at_a ? id.x : id.y) : LINE | pair,
+        vertex ? (pair << 2) | (at_a ? 1u : 2u) : pair << 2);
 }
 
 // ---- 3. the finishing, in double -----------------------------------------------------
@@ -350,60 +338,68 @@ void main() {
     dist[at] = dropped <= reach || unsure <= reach ? -double(m0) : double(m0);
     return;
 #endif
-    uint g0 = 3u, g1 = 3u, g2 = 3u, g3 = 3u, g4 = 3u, g5 = 3u;
-    double d0 = feature(pd, w0, g0);
-    double d1 = double(inf), d2 = d1, d3 = d1, d4 = d1, d5 = d1;
-    if (m1 <= reach) {
-        d1 = feature(pd, w1, g1);
-    }
-    if (m2 <= reach) {
-        d2 = feature(pd, w2, g2);
-    }
-    if (m3 <= reach) {
-        d3 = feature(pd, w3, g3);
-    }
-    if (m4 <= reach) {
-        d4 = feature(pd, w4, g4);
-    }
-    if (m5 <= reach) {
-        d5 = feature(pd, w5, g5);
-    }
-    double d = min(min(min(d0, d1), min(d2, d3)), min(d4, d5));
-    // more may be: the cell's whole list (arcs whose caps lie beyond reach skipped)
+    // One loop finishes them (llvmpipe runs a loop's body as often as the most any of
+    // its lanes asks, at least once, and the body of every branch): first the six's
+    // within reach, then, where more may be, the cell's whole list (arcs whose caps lie
+    // beyond reach skipped). The least finished features are kept (distance, kind,
+    // feature) for the sign, six of them.
+    uint near_n = 1u + uint(m1 <= reach) + uint(m2 <= reach) + uint(m3 <= reach)
+        + uint(m4 <= reach) + uint(m5 <= reach);
     bool whole = dropped <= reach || unsure <= reach;
-    if (whole) {
-        uint gk;
-        for (uint k = list.x; k < list.x + list.y; k++) {
-            uint a = pairs[k];
-            if (!far_cap(p, a)) {
-                d = min(d, feature(pd, k << 2, gk));
-            }
-        }
+    uint n = w0 == NONE ? 0u : near_n + (whole ? list.y : 0u);  // (returned above)
+    double dinf = double(inf);
+    double d = dinf;
+    double e0 = dinf, e1 = dinf, e2 = dinf, e3 = dinf, e4 = dinf, e5 = dinf;
+    uint q0 = 3u, q1 = 3u, q2 = 3u, q3 = 3u, q4 = 3u, q5 = 3u;
+    uint v0 = NONE, v1 = NONE, v2 = NONE, v3 = NONE, v4 = NONE, v5 = NONE;
+    for (uint i = 0u; i < n; i++) {
+        bool listed = i >= near_n;
+        uint k = list.x + i - near_n;
+        uint w = listed ? k << 2 : w0;
+        w0 = w1; w1 = w2; w2 = w3; w3 = w4; w4 = w5;
+        bool skip = listed && far_cap(p, pairs[k]);
+        uint g;
+        double x = feature(pd, w, g);
+        x = skip ? dinf : x;
+        d = min(d, x);
+        // keep it among the least six (after the equal ones)
+        bool c;
+        double te; uint tq, tv;
+        c = x < e0; te = e0; tq = q0; tv = v0;
+        e0 = c ? x : e0; q0 = c ? g : q0; v0 = c ? w : v0;
+        x = c ? te : x; g = c ? tq : g; w = c ? tv : w;
+        c = x < e1; te = e1; tq = q1; tv = v1;
+        e1 = c ? x : e1; q1 = c ? g : q1; v1 = c ? w : v1;
+        x = c ? te : x; g = c ? tq : g; w = c ? tv : w;
+        c = x < e2; te = e2; tq = q2; tv = v2;
+        e2 = c ? x : e2; q2 = c ? g : q2; v2 = c ? w : v2;
+        x = c ? te : x; g = c ? tq : g; w = c ? tv : w;
+        c = x < e3; te = e3; tq = q3; tv = v3;
+        e3 = c ? x : e3; q3 = c ? g : q3; v3 = c ? w : v3;
+        x = c ? te : x; g = c ? tq : g; w = c ? tv : w;
+        c = x < e4; te = e4; tq = q4; tv = v4;
+        e4 = c ? x : e4; q4 = c ? g : q4; v4 = c ? w : v4;
+        x = c ? te : x; g = c ? tq : g; w = c ? tv : w;
+        c = x < e5;
+        e5 = c ? x : e5; q5 = c ? g : q5; v5 = c ? w : v5;
     }
     dist[at] = d;
     if (u_signed == 0) {
         return;
     }
-    // 4. the sign: every finished feature within FIELD_ETA of the least asked
+    // 4. the sign: every finished feature within FIELD_ETA of the least asked (all of
+    // them kept, else undecided)
     double near = d + FIELD_ETA;
     uint code = FIELD_UNDECIDED;
     bool none = true;
-    if (d0 <= near) { code = feature_sign(pd, p, w0, g0, code, none); }
-    if (d1 <= near) { code = feature_sign(pd, p, w1, g1, code, none); }
-    if (d2 <= near) { code = feature_sign(pd, p, w2, g2, code, none); }
-    if (d3 <= near) { code = feature_sign(pd, p, w3, g3, code, none); }
-    if (d4 <= near) { code = feature_sign(pd, p, w4, g4, code, none); }
-    if (d5 <= near) { code = feature_sign(pd, p, w5, g5, code, none); }
-    if (whole) {
-        uint gk;
-        for (uint k = list.x; k < list.x + list.y; k++) {
-            uint a = pairs[k];
-            if (!far_cap(p, a) && feature(pd, k << 2, gk) <= near) {
-                code = feature_sign(pd, p, k << 2, gk, code, none);
-            }
-        }
+    uint ns = uint(e0 <= near) + uint(e1 <= near) + uint(e2 <= near) + uint(e3 <= near)
+        + uint(e4 <= near) + uint(e5 <= near);
+    for (uint i = 0u; i < ns; i++) {
+        code = feature_sign(pd, p, v0, q0, code, none);
+        v0 = v1; v1 = v2; v2 = v3; v3 = v4; v4 = v5;
+        q0 = q1; q1 = q2; q2 = q3; q3 = q4; q4 = q5;
     }
-    if (none) {
+    if (none || e5 <= near) {
         code = FIELD_UNDECIDED;
     }
     // a disc about p of radius d that may hold a seam: undecided

@@ -151,8 +151,8 @@ def test_blocks_and_their_halves(mexico, monkeypatch):
         ("float reach = m0 + u_gap;", "float reach = m0 - 1.0;", 30),
         # a wrong candidate: the second feature in place of the least one
         (
-            "double d0 = feature(pd, w0, g0);",
-            "double d0 = feature(pd, w1 != NONE ? w1 : w0, g0);",
+            "uint w = listed ? k << 2 : w0;",
+            "uint w = listed ? k << 2 : (i == 0u && w1 != NONE ? w1 : w0);",
             10000,
         ),
         # every pixel its cell's whole list: the same values

@@ -23,6 +23,7 @@ from gloffset.raster.fields.sign import (
     Corners,
     block_signs,
     levels_inside,
+    nearest_signs,
     signs,
 )
 from gloffset.raster.fields.walk import walk_levels
@@ -204,6 +205,33 @@ def test_levels_inside_is_the_levels_answer(mexico):
     rng = np.random.default_rng(1)
     j, i = rng.integers(0, 256, 500), rng.integers(0, 256, 500)
     assert (levels_inside(mexico, grid, j, i) == want[j, i]).all()
+
+
+def test_nearest_signs_are_the_levels_answer(mexico):
+    """The float64 rule with the nearest features found in the arcs' tree: the levels'
+    answer where it decides, nearly everywhere on random pixels, and at every pixel of
+    a z10 tile the shader's float32 rule leaves open (none left to the levels)."""
+    import math
+
+    from gloffset.raster.fields.gpu import gpu_distances
+
+    rng = np.random.default_rng(2)
+    for grid, pick in ((Tile(5, 6, 13), "random"), (Tile(10, 199, 441), "shader")):
+        codes = np.empty(grid.level_shape(grid.n_levels - 1), dtype=np.uint32)
+        dist = gpu_distances(mexico, grid, math.inf, lambda n: None, codes=codes)
+        if pick == "random":
+            j, i = rng.integers(0, 256, 500), rng.integers(0, 256, 500)
+        else:
+            j, i = np.nonzero(codes == UNDECIDED)
+            assert len(j)  # the float32 rule leaves a few open here
+        c = grid.centers(grid.n_levels - 1, j, i)
+        ins, und = nearest_signs(mexico, c, dist[j, i])
+        want = today(mexico, grid)[j, i]
+        assert np.array_equal(ins[~und], want[~und])
+        assert und.mean() < 0.01 if pick == "random" else not und.any()
+    # unknown or tiny distances: undecided
+    ins, und = nearest_signs(mexico, c[:2], np.array([np.inf, 1e-13]))
+    assert und.all() and not ins.any()
 
 
 def test_signs_per_pixel_equals_blocks(mexico):

@@ -15,8 +15,9 @@ each pixel ending with the exact float64 distance of its nearest arc
 in float32 and the near-least finished in float64 (:mod:`gloffset.raster.fields.gpu`).
 The sign is the inside status of the float64 render at distance 0, read from each
 pixel's nearest boundary features (:mod:`gloffset.raster.fields.sign`; on the GPU in the
-same shader), the levels' test only on the few pixels that leaves undecided
-(``docs/design.md`` has the derivation).
+same shader, the few pixels its float32 margins leave open by the float64 rule on the
+host), the levels' test only on the pixels that leaves undecided (``docs/design.md``
+has the derivation).
 
 Accuracy: each value is the float64 distance (exact to 1e-15 rad; on the GPU within
 :data:`~gloffset.gl.field_pass.FIELD_ERR`, 1.5e-15, relative) times ``radius``, clamped
@@ -47,7 +48,15 @@ from ..units import (
     to_angle,
 )
 from .fields.gpu import gpu_distances
-from .fields.sign import INSIDE, NEAR, UNDECIDED, Corners, block_signs, levels_inside
+from .fields.sign import (
+    INSIDE,
+    NEAR,
+    UNDECIDED,
+    Corners,
+    block_signs,
+    levels_inside,
+    nearest_signs,
+)
 from .fields.walk import walk_levels
 from .render import MAX_PIXELS
 from .simplified import band_members
@@ -377,10 +386,12 @@ def _gpu_inside(shape, grid, m: float, dist: np.ndarray, codes: np.ndarray) -> n
     """Return the pixels' inside status from the shader's sign codes.
 
     ``codes`` as :func:`~gloffset.raster.fields.gpu.gpu_distances` fills them; a pixel
-    at distance 0 is inside, one within ``NEAR`` of the boundary, beyond ``m`` or undecided
-    by the shader gets the
-    float64 levels' test (:func:`~gloffset.raster.fields.sign.levels_inside`, only its
-    ancestors walked; none where nothing is undecided). The inside status of
+    at distance 0 is inside; one undecided by the shader gets the float64 rule from its
+    nearest features found on the host (:func:`~gloffset.raster.fields.sign.nearest_signs`;
+    the shader's float32 rule leaves a few pixels open that it decides); one within
+    ``NEAR`` of the boundary, beyond ``m`` or still undecided gets the float64 levels'
+    test (:func:`~gloffset.raster.fields.sign.levels_inside`, only its ancestors
+    walked; none where nothing is undecided). The inside status of
     ``classify_curves(shape, 0.0, grid)``, bit for bit.
     """
     zero = dist == 0.0
@@ -388,6 +399,12 @@ def _gpu_inside(shape, grid, m: float, dist: np.ndarray, codes: np.ndarray) -> n
     und &= ~zero
     inside = (codes == INSIDE) | zero
     j, i = np.nonzero(und)
+    if len(j):  # the float64 rule first: the levels' walk is the dearer
+        near = np.where(dist[j, i] <= m, dist[j, i], np.inf)
+        c = grid.centers(grid.n_levels - 1, j, i)
+        ins, left = nearest_signs(shape, c, near)
+        inside[j, i] = ins
+        j, i = j[left], i[left]
     if len(j):
         inside[j, i] = levels_inside(shape, grid, j, i)
     return inside

@@ -10,14 +10,14 @@ within :data:`~gloffset.gl.field_pass.FIELD_ERR` (relative) of the CPU walk's.
    (lon/lat grids from the cosine and sine of their rows' latitudes and columns'
    longitudes, the host's products bit for bit; cube faces from their face
    coordinates; grids with a GLSL function of their centres from it; the others from
-   the host's float64 centres); its cell's list ranked in float32 (chords of its arcs'
-   features, the foot on the arc or its ends, good to ``NEAREST_ERR``): the six least
-   features, how many lie within ``2 NEAREST_ERR`` of the least and whether more may;
-   then those features (the cell's whole list where more may be) finished in double
-   with the operations of :func:`~gloffset.geometry.sphere.arc_distance`, the least
-   read back. A feature whose float32 chord exceeds the least by more than ``2
-   NEAREST_ERR`` has a true chord greater than the least one's (by more than the
-   float64 error), so the nearest arc is among those finished.
+   the host's float64 centres); its cell's list ranked in float32 (each arc's nearest
+   feature as a chord, good to ``NEAREST_ERR``): the six least features, how many lie
+   within ``2 NEAREST_ERR`` of the least and whether more may; then those features
+   (the cell's whole list where more may be) finished in double with the operations
+   of :func:`~gloffset.geometry.sphere.arc_distance`, the least read back. A feature
+   whose float32 chord exceeds the least by more than ``2 NEAREST_ERR`` has a true
+   chord greater than the least one's (by more than the float64 error), so the
+   nearest arc is among those finished.
 3. With polygons, the sign from the features finished within ``ETA`` of the least.
 
 The host hands over the lists and the arcs and reads back one float64 (and a sign
@@ -166,11 +166,7 @@ def gpu_distances(
         if not corners.trusted:
             codes[...] = UNDECIDED
         else:
-            flags = np.zeros(len(nodes.a), dtype=np.uint32)  # merged nodes: none
-            flags[: len(corners.ok)] = corners.flags
-            seams = np.zeros((len(corners.seam_half), 4), dtype=np.float32)
-            seams[:, :3], seams[:, 3] = corners.seam_mid, corners.seam_half
-            sign = (flags, seams, codes)
+            sign = (*corners.shader_records(len(nodes.a)), codes)
     last = grid.n_levels - 1
     shift = min(SHIFT, last)
     t0 = time.perf_counter()

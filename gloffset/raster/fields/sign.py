@@ -34,6 +34,7 @@ import numpy as np
 from ...edges import CurveArcs, points_inside
 from ...geometry.classes import CONTAINED, FRONTIER
 from ...geometry.sphere import angle, arc_distance, dot, normalize
+from ...memo import once_attr
 from .. import driver
 from ..vector.curves import CurveCells, classify_curves
 
@@ -49,6 +50,7 @@ __all__ = [
     "Corners",
     "block_signs",
     "levels_inside",
+    "nearest_signs",
     "signs",
 ]
 
@@ -77,6 +79,8 @@ _MAX_SEAMS = 64
 _MAX_CHECKED = 4096
 #: :func:`levels_inside` runs the whole grid's levels for more than 1 / _WHOLE of its pixels.
 _WHOLE = 8
+#: :func:`nearest_signs` searches at most this many points (more: all undecided).
+_NEAREST_MAX = 4096
 
 
 class Corners:
@@ -122,6 +126,21 @@ class Corners:
         the corner at ``a``, bits 2-3 at ``b``, bit 4 :attr:`ok`."""
         c = self.corner.astype(np.uint32)
         return c[:, 0] | (c[:, 1] << 2) | (self.ok.astype(np.uint32) << 4)
+
+    def shader_records(self, nodes: int) -> tuple[np.ndarray, np.ndarray]:
+        """What ``shaders/field_pixels.comp`` reads for the sign (made once, kept): the
+        :attr:`flags` of ``nodes`` nodes ((nodes,) uint32, the arcs' first, 0 for the
+        merged nodes after them) and the seams' caps ((k, 4) float32: centre, half
+        angle)."""
+
+        def make():
+            flags = np.zeros(nodes, dtype=np.uint32)
+            flags[: len(self.ok)] = self.flags
+            seams = np.zeros((len(self.seam_half), 4), dtype=np.float32)
+            seams[:, :3], seams[:, 3] = self.seam_mid, self.seam_half
+            return flags, seams
+
+        return once_attr(self, "_shader_records", make)
 
     @classmethod
     def from_shape(cls, shape) -> Corners:
@@ -268,6 +287,36 @@ def signs(corners: Corners, arcs: CurveArcs, c, dist, pairs) -> tuple[np.ndarray
             near = angle(c[todo], mid[None, :]) - half <= dist[todo] + ETA
             und[todo[near]] = True
     return inside & ~und, und
+
+
+def nearest_signs(shape, c: np.ndarray, near: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``(inside, undecided)`` of points ``c`` by :func:`signs`, their nearest
+    features found in the arcs' tree.
+
+    ``near`` (k,) float64: a distance (rad) within 1e-9 relative of each point's
+    distance to the curves (a point with none finite, or of one at most :data:`NEAR`,
+    comes back undecided). Every arc whose cap comes within ``near (1 + 1e-6) + 1e-9``
+    is measured with :func:`~gloffset.geometry.sphere.arc_distance` (the float64 walk's
+    distance), so the nearest and every feature within :data:`ETA` of it are among
+    them: exact as :func:`signs` (the float64 levels' inside status where decided).
+    For the few pixels a faster rule leaves open (the GPU's, in float32); all are
+    undecided where the shape's :class:`Corners` are not trusted or there are more
+    than ``_NEAREST_MAX`` points.
+    """
+    k = len(c)
+    inside, und = np.zeros(k, dtype=bool), np.ones(k, dtype=bool)
+    corners = Corners.from_shape(shape)
+    ok = np.isfinite(near) & (near > NEAR)
+    if not corners.trusted or not ok.any() or k > _NEAREST_MAX:
+        return inside, und
+    sel = np.flatnonzero(ok)
+    arcs = CurveArcs.from_shape(shape)
+    qi, item, _ = arcs.tree.near(c[sel], near[sel] * (1.0 + 1e-6) + 1e-9)
+    d = arc_distance(c[sel][qi], arcs.a[item], arcs.b[item], arcs.n[item])
+    dist = np.full(len(sel), np.inf)
+    np.minimum.at(dist, qi, d)
+    inside[sel], und[sel] = signs(corners, arcs, c[sel], dist, (qi, item, d))
+    return inside, und
 
 
 def _dot3(p, v, i) -> np.ndarray:
