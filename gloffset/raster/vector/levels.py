@@ -37,6 +37,7 @@ from ...edges import CurveArcs, component_status, status_bits
 from ...geometry.caps import CAP_SLACK, arc_cap, cap_range, cap_within, cap_within_pairs, pad
 from ...geometry.classes import CONTAINED, FRONTIER, OUTSIDE
 from ...geometry.sphere import angle, arc_distance, arcs_cross, pair_dots
+from ...memo import once_attr
 
 __all__ = [
     "CurveArcs",
@@ -291,15 +292,14 @@ def nearest(arcs: ArcTable, cell, ai, cm, point, dist, dring) -> np.ndarray:
     owner = cell[starts]
     lo, hi = cap_range(cm, np.take(arcs.half, ai))
     kinds = _kinds(arcs, ai, dist, dring)
-    measure = np.zeros(len(cell), dtype=bool)
+    measure = None
     for kind, _ in kinds:
-        if kind is None:  # every pair
-            best = np.minimum.reduceat(hi, starts)
-            measure |= lo <= np.take(best, seg) + CAP_SLACK
-        else:
-            best = np.minimum.reduceat(np.where(kind, hi, np.inf), starts)
-            measure |= kind & (lo <= np.take(best, seg) + CAP_SLACK)
-    k = np.flatnonzero(measure)
+        best = np.minimum.reduceat(hi if kind is None else np.where(kind, hi, np.inf), starts)
+        near = lo <= np.take(best + CAP_SLACK, seg)
+        if kind is not None:
+            near &= kind
+        measure = near if measure is None else measure | near
+    k = np.flatnonzero(measure) if measure is not None else np.zeros(0, dtype=np.int64)
     dd = np.full(len(cell), np.inf)
     ak = np.take(ai, k)
     dd[k] = arc_distance(point(k), arcs.a[ak], arcs.b[ak], arcs.n[ak])
@@ -315,13 +315,17 @@ def _kinds(arcs: ArcTable, ai, dist, dring):
     arcs (``dist``) and the ring edges (``dring``), a kind without a pair left out, one
     that holds every pair as ``None``, and the two as one where they are the same pairs
     (polygons: every edge is both)."""
-    kb = np.take(arcs.boundary, ai)
-    kr = np.take(arcs.group, ai) >= 0
+    every_b, every_r = once_attr(
+        arcs, "_every_kind", lambda: (bool(arcs.boundary.all()), bool((arcs.group >= 0).all()))
+    )
+    kb = None if every_b else np.take(arcs.boundary, ai)
+    kr = None if every_r else np.take(arcs.group, ai) >= 0
     masks = []
     for kind, out in ((kb, dist), (kr, dring)):
-        every = bool(kind.all())
-        if every or kind.any():
-            masks.append((None if every else kind, out))
+        if kind is None or kind.all():
+            masks.append((None, out))
+        elif kind.any():
+            masks.append((kind, out))
     if len(masks) == 2 and (
         masks[0][0] is None
         and masks[1][0] is None
