@@ -107,7 +107,9 @@ def gpu_box_pairs(
             keep = np.ones(len(ai), dtype=bool)
             keep[unsure[~ok]] = False
             cell, ai, cm = cell[keep], ai[keep], cm[keep]
-    jj, ii = np.divmod(cell.astype(np.int64), w)
+    cell = cell.astype(np.int64)
+    jj = cell // w  # floor division and a product: divmod's values, in less time
+    ii = cell - jj * w
     hit = (ai & CROSS) != 0
     ai = (ai & (CROSS - 1)).astype(np.int64)
     return (jj, ii, ai, cm, hit) if crossings else (jj, ii, ai, cm)
