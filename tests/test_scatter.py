@@ -105,3 +105,42 @@ def test_bad_start(world):
         classify(shape, 0.01, Equirect(64, 32), start="fast")
     with pytest.raises(ValueError, match="start must be"):
         classify(shape, 0.01, Equirect(64, 32), start=99)
+
+
+def test_a_refined_level_hands_over_its_dot_products_bit_for_bit():
+    """``refine`` keeps each pair's ``c.m`` on the :class:`Frontier` it makes
+    (``cm``), and ``cell_distances`` takes it instead of computing it again: the values
+    are :func:`~gloffset.geometry.sphere.pair_dots`'s bits, so the distances and lower
+    bounds are those of the level without it (South America's countries at 1:110m,
+    refined whole and in parts of a few pairs each; ``subset`` and ``prune`` drop it)."""
+    from conftest import named_countries
+
+    from gloffset.geometry.sphere import pair_dots
+    from gloffset.raster.vector import levels
+
+    shape = named_countries("Brazil", "Argentina", "Chile", "Peru", "Bolivia", "Uruguay")
+    arcs = CurveArcs.from_shape(shape)
+    grid = Equirect(512, 256)
+    e = 0.02
+    f = levels.coarse(shape, arcs, grid, e)
+    for parts in (False, True):
+        if parts:  # refine in parts of a few pairs: the parts' cm are concatenated
+            old = levels._REFINE_PAIRS
+            levels._REFINE_PAIRS = 64
+        try:
+            g = levels.refine(f, grid, arcs, e, shape)
+        finally:
+            if parts:
+                levels._REFINE_PAIRS = old
+        assert g.cm is not None and len(g.cm) == len(g.pair_cell) > 500
+        assert np.array_equal(g.cm, pair_dots(g.centers, g.pair_cell, arcs.mid, g.pair_arc))
+        bare = levels.Frontier(
+            g.level, g.cells, g.centers, g.rho, g.pair_cell, g.pair_arc, g.status
+        )
+        for a, b in zip(
+            levels.cell_distances(g, arcs, lows=True), levels.cell_distances(bare, arcs, lows=True)
+        ):
+            assert np.array_equal(a, b)
+        assert levels.subset(g, np.arange(0, len(g.cells), 2)).cm is None
+        dist, _, low = levels.cell_distances(g, arcs, lows=True)
+        assert levels.prune(g, low, dist, e).cm is None

@@ -904,3 +904,39 @@ def test_field_tiles_report_their_progress_as_the_raster_pyramids_do(tmp_path):
     for z, x, y in ((0, 0, 0), (2, 0, 1), (2, 3, 3)):
         one = tmp_path / "quiet" / str(z) / str(x) / f"{y}.png"
         assert one.read_bytes() == (tmp_path / "shown" / str(z) / str(x) / f"{y}.png").read_bytes()
+
+
+def test_batches_cut_to_the_records_buffer_give_the_same_tiles(tmp_path, monkeypatch):
+    """A batch of frontier tiles is cut where its frontier bins' pairs would overflow the
+    one storage buffer of the records made on the GL context
+    (:meth:`~gloffset.tiles.tiling.walk.BinChain.batches`): with a buffer of a few
+    thousand records, the runs are many more, each within the buffer or of one tile,
+    they cover every tile once and in order, and the tiles are those of the uncut
+    pyramid, byte for byte (Mexico, real borders)."""
+    from gloffset.gl.vector_pass import vector_passes
+    from gloffset.tiles.tiling import walk
+
+    shape = gloffset.read(Path(__file__).resolve().parents[1] / "data" / "mexico_10m.geojson")
+    d = 0.01 * gloffset.EARTH_RADIUS
+    whole = pyramid(shape, d, "3-6", tmp_path / "whole.mbtiles")
+    runs = []
+    cut = walk.BinChain.batches
+
+    def batches(self, which, per_run, most):
+        made = list(cut(self, which, per_run, most))
+        assert np.array_equal(np.concatenate(made), which)  # every tile once, in order
+        for b in made:
+            assert len(b) <= per_run
+            runs.append((len(b), len(self.layout(b, 4)[2].pair_cell), most))
+        yield from made
+
+    monkeypatch.setattr(walk.BinChain, "batches", batches)
+    monkeypatch.setattr(vector_passes(), "max_records", 4000)
+    small = pyramid(shape, d, "3-6", tmp_path / "small.mbtiles")
+    assert small.render_calls > whole.render_calls
+    assert all(n <= most or k == 1 for k, n, most in runs)
+    assert any(k == 1 and n > most for k, n, most in runs)  # a tile alone over it
+    assert any(k > 1 for k, n, most in runs)
+    assert (
+        read_mbtiles(tmp_path / "small.mbtiles")[0] == read_mbtiles(tmp_path / "whole.mbtiles")[0]
+    )

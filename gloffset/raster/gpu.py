@@ -18,7 +18,7 @@ import numpy as np
 from ..edges import CurveArcs
 from ..geometry.caps import COS_SLACK, cap_within, chord2
 from ..gl.arcs import arc_buffer
-from ..gl.records_pass import DeviceRecords, records_pass
+from ..gl.records_pass import DeviceRecords, records_pass, records_pass_made
 from ..gl.scatter_pass import CROSS, UNSURE, scatter_pass
 from ..gl.vector_pass import BinPlan, vector_passes
 from .layout import BinLayout
@@ -37,6 +37,13 @@ GPU_PAIR_MARGIN = 1e-9
 #: costs less than the shaders' first run in a process (llvmpipe compiles them then: about
 #: 0.1 s measured) plus their own time (about a quarter of numpy's there).
 GPU_MIN_RECORDS = 100_000
+#: Once this thread has compiled the records' shaders
+#: (:func:`gloffset.gl.records_pass.records_pass_made`), the fewest pairs are this share
+#: of :data:`GPU_MIN_RECORDS`: from about 15,000 pairs the
+#: shader made them as fast as numpy on llvmpipe, in wall time (0.25-0.4 us a pair
+#: either way, measured on the batches of a pyramid of countries_10m), and the host then
+#: only counts the pairs (:func:`gloffset.raster.records.record_inputs`).
+GPU_WARM_SHARE = 0.2
 #: Fewest box cells for which :func:`gpu_box_pairs` runs the shader: below, the numpy path
 #: costs less than the shader's first run in a process (llvmpipe compiles it then: 0.15-0.2
 #: s measured; numpy took 0.3-0.5 us a box cell, the shader about half). See
@@ -100,7 +107,9 @@ def gpu_box_pairs(
             keep = np.ones(len(ai), dtype=bool)
             keep[unsure[~ok]] = False
             cell, ai, cm = cell[keep], ai[keep], cm[keep]
-    jj, ii = np.divmod(cell.astype(np.int64), w)
+    cell = cell.astype(np.int64)
+    jj = cell // w  # floor division and a product: divmod's values, in less time
+    ii = cell - jj * w
     hit = (ai & CROSS) != 0
     ai = (ai & (CROSS - 1)).astype(np.int64)
     return (jj, ii, ai, cm, hit) if crossings else (jj, ii, ai, cm)
@@ -113,9 +122,15 @@ def device_records(
     (:mod:`gloffset.gl.records_pass`): the per-bin arrays (records and clusters empty)
     and the buffers; None where numpy makes them (fewer pairs than ``min_pairs``,
     default :data:`GPU_MIN_RECORDS`, or more than one storage buffer of the level passes
-    ``passes``, default the process's, holds)."""
+    ``passes``, default the process's, holds; :data:`GPU_WARM_SHARE` of it where the
+    shaders are compiled already)."""
     npair = len(f.pair_cell)
-    least = GPU_MIN_RECORDS if min_pairs is None else min_pairs
+    if min_pairs is not None:
+        least = min_pairs
+    elif records_pass_made():
+        least = int(GPU_MIN_RECORDS * GPU_WARM_SHARE)
+    else:
+        least = GPU_MIN_RECORDS
     # the level passes bind the records as one storage buffer (those of vector_pass)
     limit = getattr(vector_passes() if passes is None else passes, "max_records", None)
     if npair < least or limit is None or npair > limit:

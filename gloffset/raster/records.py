@@ -33,6 +33,7 @@ from ..edges import CurveArcs
 from ..errors import GLContextError
 from ..geometry.caps import CAP_SLACK, cap_range, chord2
 from ..geometry.sphere import dot, einsum_dot
+from ..memo import once_attr
 from .vector.levels import Frontier
 
 __all__ = [
@@ -94,8 +95,7 @@ def record_inputs(f: Frontier, arcs: CurveArcs, cluster: int = CLUSTER) -> Recor
         raise ValueError(f"cluster must be 1..16, got {cluster}")
     ci, ai = _pairs(f)
     k = len(f.cells)
-    is_arc = dot(arcs.n, arcs.n) > 0.5  # n is a unit vector or zero
-    code = np.where(np.take(is_arc, ai), ARC_IS_ARC, 0)
+    code = np.take(_arc_codes(arcs)[0], ai)
     _, bits = _components(f, arcs, ci, ai, code)
     cfirst, csize = _cluster_starts(ci, ai, cluster)
     cbin = ci[cfirst]
@@ -226,8 +226,8 @@ def _components(f: Frontier, arcs: CurveArcs, ci, ai, code: np.ndarray):
     k = len(f.cells)
     group = np.take(arcs.group, ai)
     ring = group >= 0
-    code += np.where(ring, ARC_RING, 0) + np.where(np.take(arcs.boundary, ai), ARC_HAS_DISTANCE, 0)
-    code += 8 * 31
+    # the flags of each arc and the id 31, once per arc: one gather per pair
+    code += np.take(_arc_codes(arcs)[1], ai)
     ng = arcs.n_groups
     bits = np.zeros(k, dtype=np.uint64)
     # components the centre is inside: popcount of the first max(ng, 1) status bits
@@ -241,7 +241,8 @@ def _components(f: Frontier, arcs: CurveArcs, ci, ai, code: np.ndarray):
         new = np.empty(len(key), dtype=bool)
         new[:1] = True
         np.not_equal(key[1:], key[:-1], out=new[1:])
-        run = np.cumsum(new) - 1
+        run = np.cumsum(new)
+        run -= 1
         rkey = key[new]
         if k * ng <= _DENSE:
             present = np.zeros(k * ng, dtype=bool)
@@ -249,16 +250,16 @@ def _components(f: Frontier, arcs: CurveArcs, ci, ai, code: np.ndarray):
             ukey = np.flatnonzero(present)
             lut = np.empty(k * ng, dtype=np.int64)
             lut[ukey] = np.arange(len(ukey))
-            inv = lut[rkey][run]
+            rinv = lut[rkey]
         else:
             ukey, rinv = _unique_inverse(rkey)
-            inv = rinv[run]
         ubin, ugrp = ukey // ng, ukey % ng
         rank = np.minimum(np.arange(len(ukey)) - np.searchsorted(ubin, ubin), MAX_LOCAL)
+        shift = np.take(8 * (rank - 31), rinv)  # per run of one key
         if every:
-            code += 8 * (rank[inv] - 31)
+            code += np.take(shift, run)
         else:
-            code[ring] += 8 * (rank[inv] - 31)
+            code[ring] += np.take(shift, run)
         inside_g = ((f.status[ubin, ugrp >> 3] >> (ugrp & 7).astype(np.uint8)) & 1) == 1
         np.bitwise_or.at(bits, ubin[inside_g], np.uint64(1) << rank[inside_g].astype(np.uint64))
         # inside a component that has no arc here: one shared bit
@@ -267,6 +268,27 @@ def _components(f: Frontier, arcs: CurveArcs, ci, ai, code: np.ndarray):
         other = n_inside > 0
     bits |= np.where(other, np.uint64(1) << np.uint64(OTHER_BIT), np.uint64(0))
     return ring, bits
+
+
+def _arc_codes(arcs: CurveArcs) -> tuple[np.ndarray, np.ndarray]:
+    """Per arc, the parts of a pair's code that depend on the arc alone: its flag
+    :data:`ARC_IS_ARC` (``n`` a unit vector, not zero: the test of :func:`_arc_terms`);
+    its flags :data:`ARC_RING` and :data:`ARC_HAS_DISTANCE` and the local id 31 (``+ 8 *
+    31``), which :func:`_components` then lowers for ring edges (made once per set of
+    arcs)."""
+
+    def build() -> tuple[np.ndarray, np.ndarray]:
+        is_arc = np.where(dot(arcs.n, arcs.n) > 0.5, ARC_IS_ARC, 0).astype(np.int64)
+        rest = (
+            np.where(arcs.group >= 0, ARC_RING, 0)
+            + np.where(arcs.boundary, ARC_HAS_DISTANCE, 0)
+            + 8 * 31
+        ).astype(np.int64)
+        for a in (is_arc, rest):
+            a.setflags(write=False)
+        return is_arc, rest
+
+    return once_attr(arcs, "_record_codes", build)
 
 
 def _unique_inverse(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -321,10 +343,18 @@ def _cluster_starts(ci, ai, cluster: int) -> tuple[np.ndarray, np.ndarray]:
     cut every ``cluster`` pairs."""
     npair = len(ci)
     start = np.ones(npair, dtype=bool)
-    start[1:] = (ci[1:] != ci[:-1]) | (ai[1:] != ai[:-1] + 1)
+    np.not_equal(ci[1:], ci[:-1], out=start[1:])
+    start[1:] |= ai[1:] != ai[:-1] + 1
     run_first = np.flatnonzero(start)
-    pos = np.arange(npair) - np.repeat(run_first, np.diff(np.append(run_first, npair)))
-    cfirst = np.flatnonzero(start | (pos % cluster == 0))
+    run = np.cumsum(start)
+    run -= 1
+    pos = np.arange(npair)
+    pos -= np.take(run_first, run)  # place in its run
+    if cluster & (cluster - 1) == 0:  # a power of two
+        cut = (pos & (cluster - 1)) == 0
+    else:
+        cut = pos % cluster == 0
+    cfirst = np.flatnonzero(cut)  # every run's first pair is a cut (its place is 0)
     return cfirst, np.diff(np.append(cfirst, npair))
 
 

@@ -37,6 +37,7 @@ from ...edges import CurveArcs, component_status, status_bits
 from ...geometry.caps import CAP_SLACK, arc_cap, cap_range, cap_within, cap_within_pairs, pad
 from ...geometry.classes import CONTAINED, FRONTIER, OUTSIDE
 from ...geometry.sphere import angle, arc_distance, arcs_cross, pair_dots
+from ...memo import once_attr
 
 __all__ = [
     "CurveArcs",
@@ -78,7 +79,10 @@ class Frontier:
 
     ``cells`` (k, 2) rows and columns; ``pair_cell``/``pair_arc`` the candidate
     pairs sorted by cell; ``status`` (k, ceil(G/8)) uint8 bitsets, bit ``g`` set when
-    the cell centre is inside component ``g``.
+    the cell centre is inside component ``g``. ``cm``, where the level that made the
+    cells computed it, is each pair's ``c.m`` (the cell centre and the arc's cap centre,
+    :func:`~gloffset.geometry.sphere.pair_dots`'s bits), which :func:`cell_distances`
+    then takes instead of computing it again; None elsewhere.
     """
 
     level: int
@@ -88,6 +92,7 @@ class Frontier:
     pair_cell: np.ndarray
     pair_arc: np.ndarray
     status: np.ndarray
+    cm: np.ndarray | None = None
 
     def part(self, a: int, b: int, pa: int, pb: int) -> Frontier:
         """Return cells ``a:b`` with their pairs ``pa:pb`` (those of cells ``a:b``)."""
@@ -99,6 +104,7 @@ class Frontier:
             self.pair_cell[pa:pb] - a,
             self.pair_arc[pa:pb],
             self.status[a:b],
+            None if self.cm is None else self.cm[pa:pb],
         )
 
 
@@ -228,7 +234,7 @@ def cell_distances(f: Frontier, arcs: ArcTable, *, lows: bool = False):
     low = np.empty(len(f.pair_cell)) if lows else None
     for s in range(0, len(f.pair_cell), _PAIRS):
         ci, ai = f.pair_cell[s : s + _PAIRS], f.pair_arc[s : s + _PAIRS]
-        cm = pair_dots(f.centers, ci, arcs.mid, ai)
+        cm = pair_dots(f.centers, ci, arcs.mid, ai) if f.cm is None else f.cm[s : s + _PAIRS]
         lo = nearest(arcs, ci, ai, cm, lambda idx, ci=ci: f.centers[ci[idx]], dist, dring)
         if low is not None:  # with lows
             low[s : s + len(ci)] = lo
@@ -259,7 +265,7 @@ def prune(f: Frontier, low: np.ndarray, dist: np.ndarray, e: float) -> Frontier:
     reach = np.minimum(e + f.rho, dist + 2.0 * f.rho) * (1.0 + PRUNE_SLACK) + CAP_SLACK
     keep = low <= reach[f.pair_cell]
     if keep.all():
-        return f
+        return Frontier(f.level, f.cells, f.centers, f.rho, f.pair_cell, f.pair_arc, f.status)
     return Frontier(
         f.level, f.cells, f.centers, f.rho, f.pair_cell[keep], f.pair_arc[keep], f.status
     )
@@ -278,23 +284,57 @@ def nearest(arcs: ArcTable, cell, ai, cm, point, dist, dring) -> np.ndarray:
     """
     if len(cell) == 0:
         return np.zeros(0)
-    starts = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]])
-    seg = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(cell)]))
+    new = np.empty(len(cell), dtype=bool)
+    new[0] = True
+    np.not_equal(cell[1:], cell[:-1], out=new[1:])
+    starts = np.flatnonzero(new)
+    seg = np.cumsum(new) - 1  # each pair's run
     owner = cell[starts]
-    lo, hi = cap_range(cm, arcs.half[ai])
-    kinds = [(arcs.boundary[ai], dist), (arcs.group[ai] >= 0, dring)]
-    measure = np.zeros(len(cell), dtype=bool)
+    lo, hi = cap_range(cm, np.take(arcs.half, ai))
+    kinds = _kinds(arcs, ai, dist, dring)
+    measure = None
     for kind, _ in kinds:
-        if kind.any():
-            best = np.minimum.reduceat(np.where(kind, hi, np.inf), starts)
-            measure |= kind & (lo <= best[seg] + CAP_SLACK)
-    k = np.flatnonzero(measure)
+        best = np.minimum.reduceat(hi if kind is None else np.where(kind, hi, np.inf), starts)
+        near = lo <= np.take(best + CAP_SLACK, seg)
+        if kind is not None:
+            near &= kind
+        measure = near if measure is None else measure | near
+    k = np.flatnonzero(measure) if measure is not None else np.zeros(0, dtype=np.int64)
     dd = np.full(len(cell), np.inf)
-    dd[k] = arc_distance(point(k), arcs.a[ai[k]], arcs.b[ai[k]], arcs.n[ai[k]])
-    for kind, out in kinds:
-        if kind.any():
-            np.minimum.at(out, owner, np.minimum.reduceat(np.where(kind, dd, np.inf), starts))
+    ak = np.take(ai, k)
+    dd[k] = arc_distance(point(k), arcs.a[ak], arcs.b[ak], arcs.n[ak])
+    for kind, outs in kinds:
+        low = np.minimum.reduceat(dd if kind is None else np.where(kind, dd, np.inf), starts)
+        for out in outs:
+            np.minimum.at(out, owner, low)
     return lo
+
+
+def _kinds(arcs: ArcTable, ai, dist, dring):
+    """The kinds of pairs :func:`nearest` measures, as ``(mask, outputs)``: the boundary
+    arcs (``dist``) and the ring edges (``dring``), a kind without a pair left out, one
+    that holds every pair as ``None``, and the two as one where they are the same pairs
+    (polygons: every edge is both)."""
+    every_b, every_r = once_attr(
+        arcs, "_every_kind", lambda: (bool(arcs.boundary.all()), bool((arcs.group >= 0).all()))
+    )
+    kb = None if every_b else np.take(arcs.boundary, ai)
+    kr = None if every_r else np.take(arcs.group, ai) >= 0
+    masks = []
+    for kind, out in ((kb, dist), (kr, dring)):
+        if kind is None or kind.all():
+            masks.append((None, out))
+        elif kind.any():
+            masks.append((kind, out))
+    if len(masks) == 2 and (
+        masks[0][0] is None
+        and masks[1][0] is None
+        or masks[0][0] is not None
+        and masks[1][0] is not None
+        and np.array_equal(masks[0][0], masks[1][0])
+    ):
+        return [(masks[0][0], [dist, dring])]
+    return [(kind, [out]) for kind, out in masks]
 
 
 def decide(dist, dring, inside, rho, d: float, final: bool) -> np.ndarray:
@@ -361,6 +401,7 @@ def refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
         np.concatenate([o.pair_cell + off for o, off in zip(outs, offsets)]),
         np.concatenate([o.pair_arc for o in outs]),
         np.concatenate([o.status for o in outs]),
+        np.concatenate([o.cm for o in outs]),  # _refine's, all set
     )
 
 
@@ -384,14 +425,16 @@ def children(f: Frontier, grid):
     c = grid.centers(lev, cells[:, 0], cells[:, 1])
     rho = grid.rho_at(lev, cells[:, 0], cells[:, 1])
 
-    # expand the parent's pairs to each child
-    starts = np.searchsorted(f.pair_cell, np.arange(len(f.cells)))
-    ends = np.searchsorted(f.pair_cell, np.arange(len(f.cells)), side="right")
-    counts = (ends - starts)[parent]
+    # expand the parent's pairs to each child: child k's pairs are its parent's, pairs
+    # starts[parent] .. + counts, placed after those of the children before it
+    bounds = np.searchsorted(f.pair_cell, np.arange(len(f.cells) + 1))
+    starts = bounds[:-1]
+    counts = np.take(np.diff(bounds), parent)
     child_of_pair = np.repeat(np.arange(len(cells)), counts)
-    first = np.repeat(starts[parent], counts)
-    offs = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    return cells, parent, c, rho, child_of_pair, f.pair_arc[first + offs]
+    shift = np.take(starts, parent) - (np.cumsum(counts) - counts)
+    src = np.arange(int(counts.sum()))
+    src += np.take(shift, child_of_pair)
+    return cells, parent, c, rho, child_of_pair, np.take(f.pair_arc, src)
 
 
 def _refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
@@ -420,7 +463,17 @@ def _refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
 
     # candidates: arcs whose bounding cap comes within e + rho of the child's centre
     keep = cap_within_pairs(cm, e + rho, child_of_pair, arcs.half, arc_of_pair)
-    return Frontier(lev, cells, c, rho, child_of_pair[keep], arc_of_pair[keep], status)
+    k = np.flatnonzero(keep)
+    return Frontier(
+        lev,
+        cells,
+        c,
+        rho,
+        np.take(child_of_pair, k),
+        np.take(arc_of_pair, k),
+        status,
+        np.take(cm, k),
+    )
 
 
 #: A centre within this angle (rad) of a ring edge's great circle, inside the edge's cap,
@@ -434,33 +487,48 @@ def _on_ring(f: Frontier, arcs: CurveArcs) -> np.ndarray:
     arc child -> parent, and :func:`~gloffset.geometry.sphere.arcs_cross` is exact only when
     neither end lies on the other arc (a parent centre at a shared vertex, e.g. a tile
     corner at (0, 0), counts the two edges there inconsistently)."""
-    ring = np.flatnonzero(arcs.group[f.pair_arc] >= 0)
-    pc, pa = f.pair_cell[ring], f.pair_arc[ring]
+    pc, pa = f.pair_cell, f.pair_arc
+    ring = np.take(arcs.group, pa) >= 0
+    if not ring.all():  # polygons alone: every arc is a ring edge
+        k = np.flatnonzero(ring)
+        pc, pa = np.take(pc, k), np.take(pa, k)
     out = np.zeros(len(f.cells), dtype=bool)
-    out[pc[on_edge(f.centers[pc], arcs, pa)]] = True
+    out[pc[on_edge(f.centers, arcs, pa, pc)]] = True
     return out
 
 
-def on_edge(p: np.ndarray, arcs, ai: np.ndarray) -> np.ndarray:
-    """Whether each point ``p`` lies on its arc ``ai`` (to :data:`ON_EDGE`): on the
-    great circle, and inside the arc's cap."""
-    idx = np.arange(len(p))
+def on_edge(p: np.ndarray, arcs, ai: np.ndarray, pi: np.ndarray | None = None) -> np.ndarray:
+    """Whether each point ``p`` (or ``p[pi]``, with ``pi``) lies on its arc ``ai`` (to
+    :data:`ON_EDGE`): on the great circle, and inside the arc's cap."""
+    idx = np.arange(len(p)) if pi is None else pi
     on = np.abs(pair_dots(p, idx, arcs.n, ai)) <= ON_EDGE
-    on[on] = cap_within(pair_dots(p, idx[on], arcs.mid, ai[on]), arcs.half[ai[on]] + ON_EDGE)
+    k = np.flatnonzero(on)
+    if len(k):
+        ik, ak = idx[k], ai[k]
+        on[k] = cap_within(pair_dots(p, ik, arcs.mid, ak), arcs.half[ak] + ON_EDGE)
     return on
 
 
 def subset(f: Frontier, sel: np.ndarray) -> Frontier:
     """The cells ``sel`` (sorted indices) of ``f`` with their pairs."""
-    remap = np.full(len(f.cells), -1)
-    remap[sel] = np.arange(len(sel))
-    keep = remap[f.pair_cell] >= 0
+    pc = f.pair_cell
+    if len(pc) and not (pc[1:] >= pc[:-1]).all():  # pairs not by cell: map each
+        remap = np.full(len(f.cells), -1)
+        remap[sel] = np.arange(len(sel))
+        keep = remap[pc] >= 0
+        cell, arc = remap[pc[keep]], f.pair_arc[keep]
+    else:  # each cell's pairs are one run: keep the runs of the cells kept
+        counts = np.diff(np.searchsorted(pc, np.arange(len(f.cells) + 1)))
+        chosen = np.zeros(len(f.cells), dtype=bool)
+        chosen[sel] = True
+        arc = f.pair_arc[np.repeat(chosen, counts)]
+        cell = np.repeat(np.arange(len(sel)), np.take(counts, sel))
     return Frontier(
         f.level,
         f.cells[sel],
         f.centers[sel],
         f.rho[sel],
-        remap[f.pair_cell[keep]],
-        f.pair_arc[keep],
+        cell,
+        arc,
         f.status[sel],
     )

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...edges import CurveArcs, component_status, inside_any, status_bits
-from ...geometry.caps import cap_within, pad
+from ...geometry.caps import cap_within, cap_within_pairs, pad
 from ...geometry.sphere import angle, arc_distance, arcs_cross, pair_dots
 from ...vector.multires import full_decomposition
 from .levels import Frontier, cell_distances, children, decide, on_edge
@@ -85,7 +85,7 @@ def _split(nodes: NodeArcs, cell, node, c, reach, bound):
     original edge). Each round splits only the pairs left to split."""
     done_cell, done_node = [], []
     while len(cell):
-        near = cap_within(pair_dots(c, cell, nodes.mid, node), reach[cell] + nodes.reach[node])
+        near = cap_within_pairs(pair_dots(c, cell, nodes.mid, node), reach, cell, nodes.reach, node)
         cell, node = cell[near], node[near]
         bad = ~nodes.leaf[node] & (nodes.err[node] > bound[cell])
         done_cell.append(cell[~bad])
@@ -178,7 +178,7 @@ def _crossings(nodes: NodeArcs, c, pc, seg, cell, node):
         u = np.flatnonzero(~sure)
         cell = np.repeat(cell[u], 2)
         node = nodes.child[node[u]].ravel()
-        keep = cap_within(pair_dots(c, cell, nodes.mid, node), seg[cell] + nodes.reach[node])
+        keep = cap_within_pairs(pair_dots(c, cell, nodes.mid, node), seg, cell, nodes.reach, node)
         cell, node = cell[keep], node[keep]
     return (np.concatenate(hit_cell), np.concatenate(hit_node)), on
 

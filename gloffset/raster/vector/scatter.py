@@ -92,10 +92,16 @@ def _boxes(arcs: CurveArcs, lat, lon, reach: float):
     if full.any():
         k = idx[full]
         out.append((k, j0[k], j1[k], np.zeros(len(k), int), np.full(len(k), len(lon))))
-    k = idx[~full]
+    part = idx[~full]
+    west, east = lon0[part] - dl[part], lon0[part] + dl[part]
     for turn in (-2.0 * math.pi, 0.0, 2.0 * math.pi):
-        i0 = np.searchsorted(lon, lon0[k] - dl[k] + turn, side="left")
-        i1 = np.searchsorted(lon, lon0[k] + dl[k] + turn, side="right")
+        # only the ranges that reach the columns are searched: one that ends before the
+        # first column (or starts after the last) has i1 = 0 (i0 = w), so no column
+        lo, hi = west + turn, east + turn
+        reach_ = np.flatnonzero((hi >= lon[0]) & (lo <= lon[-1])) if len(lon) else part[:0]
+        k = part[reach_]
+        i0 = np.searchsorted(lon, lo[reach_], side="left")
+        i1 = np.searchsorted(lon, hi[reach_], side="right")
         ok = i1 > i0
         out.append((k[ok], j0[k][ok], j1[k][ok], i0[ok], i1[ok]))
     return tuple(np.concatenate([o[t] for o in out]) for t in range(5))

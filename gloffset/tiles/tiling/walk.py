@@ -303,6 +303,36 @@ class BinChain:
         the frontier and newly contained tiles of those zooms (without an outline)."""
         return [(len(fr.cells), int((dcls == CONTAINED).sum())) for _, dcls, fr in self.lev]
 
+    def batches(self, which, per_run: int, most: int | None):
+        """The tiles ``which`` (indices into the chain's tiles) in runs of consecutive
+        tiles: at most ``per_run`` tiles, and, where ``most`` is given, at most ``most``
+        candidate pairs of their frontier bins (a run's records then fit the one storage
+        buffer in which the GL context makes them, :func:`gloffset.raster.gpu.device_records`,
+        instead of numpy), or a single tile. Each tile's pixels are its own whatever the
+        runs: only the work moves."""
+        which = np.asarray(which, dtype=np.int64)
+        if most is None or len(which) <= 1:
+            for s0 in range(0, len(which), per_run):
+                yield which[s0 : s0 + per_run]
+            return
+        # the bin level's pairs under each tile of the chain
+        fr = self.lev[-1][2] if self.nb else self.f
+        per_cell = np.bincount(fr.pair_cell, minlength=len(fr.cells))
+        keys = _keys(self.f.cells)
+        order = np.argsort(keys)
+        t = _member(_keys(fr.cells, self.nb), keys[order])
+        ok = t >= 0
+        per_tile = np.zeros(len(keys))
+        per_tile[order] = np.bincount(t[ok], weights=per_cell[ok], minlength=len(keys))
+        load = per_tile[which]
+        s0 = 0
+        while s0 < len(which):
+            s1 = min(s0 + per_run, len(which))
+            cum = np.cumsum(load[s0:s1])
+            s1 = s0 + max(1, int(np.searchsorted(cum, most, side="right")))
+            yield which[s0:s1]
+            s0 = s1
+
     def layout(self, which, ns):
         """The tiles ``which`` (indices into the chain's tiles) down to their bins.
 
@@ -377,10 +407,11 @@ def render_frontier_tiles(chain, which, size, max_block, stats):
     ns = plog - chain.nb  # GPU levels: a bin is 2^ns pixels on a side
     b = 1 << ns
     per_run = max(1, max_block // size) ** 2
-    for s0 in range(0, len(which), per_run):
-        batch = which[s0 : s0 + per_run]
+    passes = bin_passes()
+    most = getattr(passes.passes, "max_records", None)
+    for batch in chain.batches(which, per_run, most):
         tiles, layout, fb, (t, jr, jc) = chain.layout(batch, ns)
-        packed = bin_passes().run_layout(layout, chain.d, fb, chain.arcs)
+        packed = passes.run_layout(layout, chain.d, fb, chain.arcs)
         stats.render_calls += 1
         n, nbin = len(batch), tiles.shape[1]
         out = np.repeat(np.repeat(tiles, b, 1), b, 2)
