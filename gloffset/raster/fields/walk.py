@@ -186,6 +186,33 @@ def _bound(
         d = exact_distances(f.centers, f.pair_cell, nodes, f.pair_arc)
         dist = _least(len(f.cells), f.pair_cell, d)
         return (f, dist, (f.pair_cell, f.pair_arc, d)) if pairs else (f, dist)
+    cuts = _cuts(f, len(f.cells), _BOUND_PAIRS)
+    if len(cuts) == 1:
+        return _rounds(f, nodes, m, reach, final, leaves, pairs)
+    got = []
+    for a, b, pa, pb in cuts:
+        part = f.part(a, b, pa, pb)
+        got.append(_rounds(part, nodes, m, None if final else reach[a:b], final, leaves, pairs))
+    dist = np.concatenate([g[1] for g in got])
+    if final and not pairs:
+        return f, dist
+    at = [a for a, _, _, _ in cuts]
+    if final:
+        cell, node, d = (np.concatenate(x) for x in zip(*(g[2] for g in got)))
+        return f, dist, (cell + np.repeat(at, [len(g[2][0]) for g in got]), node, d)
+    cell = np.concatenate([g[0].pair_cell + a for g, a in zip(got, at)])
+    node = np.concatenate([g[0].pair_arc for g in got])
+    return Frontier(f.level, f.cells, f.centers, f.rho, cell, node, f.status), dist
+
+
+#: Pairs per call of :func:`_rounds` (the cells of :func:`_bound` in parts, each part's
+#: pairs in rounds whose arrays stay in the processor's caches; the cells are bounded
+#: one by one, so the parts change no bit).
+_BOUND_PAIRS = 1 << 17
+
+
+def _rounds(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool, leaves: bool, pairs: bool):
+    """:func:`_bound` of the cells of ``f``: its rounds."""
     tab = _table(nodes)
     c, rho = f.centers, f.rho
     k = len(f.cells)
@@ -508,13 +535,22 @@ def _parts(f: Frontier):
     Each part has at most :data:`_PART_CELLS` cells and about :data:`_PART_PAIRS` pairs
     (the pairs are sorted by cell).
     """
+    for a, b, pa, pb in _cuts(f, _PART_CELLS, _PART_PAIRS):
+        yield f.part(a, b, pa, pb)
+
+
+def _cuts(f: Frontier, cells: int, pairs: int):
+    """Return the ranges of cells and of their pairs ``(a, b, pa, pb)`` that cut ``f``
+    into parts of at most ``cells`` cells and about ``pairs`` pairs (a cell with more
+    pairs is a part of its own)."""
     k = len(f.cells)
-    if k <= _PART_CELLS and len(f.pair_cell) <= _PART_PAIRS:
-        yield f
-        return
+    if k <= cells and len(f.pair_cell) <= pairs:
+        return [(0, k, 0, len(f.pair_cell))]
     before = np.searchsorted(f.pair_cell, np.arange(k))  # pairs before each cell
-    part = np.maximum(before // _PART_PAIRS, np.arange(k) // _PART_CELLS)
+    part = np.maximum(before // pairs, np.arange(k) // cells)
     cuts = np.flatnonzero(np.r_[True, part[1:] != part[:-1]])
     at = np.r_[before[cuts], len(f.pair_cell)]
-    for n, (a, b) in enumerate(zip(cuts, np.r_[cuts[1:], k])):
-        yield f.part(int(a), int(b), int(at[n]), int(at[n + 1]))
+    ends = np.r_[cuts[1:], k]
+    return [
+        (int(a), int(b), int(at[n]), int(at[n + 1])) for n, (a, b) in enumerate(zip(cuts, ends))
+    ]
