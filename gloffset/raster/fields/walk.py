@@ -211,6 +211,11 @@ def _bound(
 _BOUND_PAIRS = 1 << 17
 
 
+#: Above this fraction of a round's pairs kept for the slack alone, the bisector test runs
+#: on every pair of the round (and is read where kept) rather than on those gathered.
+_ALL_KEPT = 0.85
+
+
 def _rounds(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool, leaves: bool, pairs: bool):
     """:func:`_bound` of the cells of ``f``: its rounds."""
     tab = _table(nodes)
@@ -275,14 +280,26 @@ def _rounds(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool, leaves: 
             _nearest_vertices(cc, cn, ni, tab, vcos, vtx)
             # the pairs kept for the slack alone (a pair that may be the nearest at the
             # centre stays whatever the test says, nearly always)
-            kept = np.flatnonzero(keep & (lo > _per_pair(runs, best)))
-            ck, nk = cell[kept], node[kept]
-            vm = column_dots(vtx, [x.take(kept) for x in mid], ck)
-            keep[kept] = _maybe_nearer(
-                (cm[kept], t[kept], vcos.take(ck), vm),
-                (r[kept], tab.cos_r.take(nk), tab.sin_r.take(nk)),
-                (reach.take(ck), cos_reach.take(ck), sin_reach.take(ck)),
-            )
+            kept = keep & (lo > _per_pair(runs, best))
+            n_kept = np.count_nonzero(kept)
+            if n_kept > _ALL_KEPT * len(cell):
+                # the test on every pair (no gathers of the kept ones), read where kept
+                at_cell = [_per_pair(runs, x) for x in (vcos, *vtx, reach, cos_reach, sin_reach)]
+                ok = _maybe_nearer(
+                    (cm, t, at_cell[0], column_dots(at_cell[1:4], mid)),
+                    (r, tab.cos_r.take(node), tab.sin_r.take(node)),
+                    at_cell[4:],
+                )
+                keep &= ok | ~kept
+            elif n_kept:
+                kept = np.flatnonzero(kept)
+                ck, nk = cell.take(kept), node.take(kept)
+                vm = column_dots(vtx, [x.take(kept) for x in mid], ck)
+                keep[kept] = _maybe_nearer(
+                    (cm.take(kept), t.take(kept), vcos.take(ck), vm),
+                    (r.take(kept), tab.cos_r.take(nk), tab.sin_r.take(nk)),
+                    (reach.take(ck), cos_reach.take(ck), sin_reach.take(ck)),
+                )
         split = tab.cut.take(node)
         split = split > (0.0 if bound is None else _per_pair(runs, bound))
         split &= keep
@@ -411,7 +428,7 @@ def exact_distances(c, cell, nodes: NodeArcs, node) -> np.ndarray:
     out = np.empty(len(cell))
     for s in range(0, len(cell), _CHUNK):
         ci, ni = cell[s : s + _CHUNK], node[s : s + _CHUNK]
-        out[s : s + _CHUNK] = _arc_distance([x[ci] for x in cols], ends, ni)
+        out[s : s + _CHUNK] = _arc_distance([x.take(ci) for x in cols], ends, ni)
     return out
 
 
@@ -435,9 +452,9 @@ def _dot3(u, v, i=None):
     """
     if i is None:
         return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-    out = u[0] * v[0][i]
-    out += u[1] * v[1][i]
-    out += u[2] * v[2][i]
+    out = u[0] * v[0].take(i)
+    out += u[1] * v[1].take(i)
+    out += u[2] * v[2].take(i)
     return out
 
 
@@ -449,21 +466,21 @@ def _arc_distance(p, ends: _Table, ni) -> np.ndarray:
     """
     inside = _dot3(p, ends.na, ni) >= 0.0
     inside &= _dot3(p, ends.bn, ni) >= 0.0
-    inside &= ends.ok[ni]
+    inside &= ends.ok.take(ni)
     out = np.empty(len(ni))
     on = np.flatnonzero(inside)
     if len(on):
-        q, j = [x[on] for x in p], ni[on]
-        n = [x[j] for x in ends.n]
+        q, j = [x.take(on) for x in p], ni.take(on)
+        n = [x.take(j) for x in ends.n]
         pn = _dot3(q, n)
         foot = [q[k] - pn * n[k] for k in range(3)]
         out[on] = np.arctan2(np.abs(pn), np.sqrt(_dot3(foot, foot)))
     off = np.flatnonzero(~inside)
     if len(off):
-        q, j = [x[off] for x in p], ni[off]
+        q, j = [x.take(off) for x in p], ni.take(off)
         to = []
         for e in (ends.a, ends.b):
-            v = [x[j] for x in e]
+            v = [x.take(j) for x in e]
             dm = [q[k] - v[k] for k in range(3)]
             dp = [q[k] + v[k] for k in range(3)]
             to.append(2.0 * np.arctan2(np.sqrt(_dot3(dm, dm)), np.sqrt(_dot3(dp, dp))))
