@@ -186,135 +186,17 @@ def _bound(
         d = exact_distances(f.centers, f.pair_cell, nodes, f.pair_arc)
         dist = _least(len(f.cells), f.pair_cell, d)
         return (f, dist, (f.pair_cell, f.pair_arc, d)) if pairs else (f, dist)
-    cuts = _cuts(f, len(f.cells), _BOUND_PAIRS)
-    if len(cuts) == 1:
-        return _rounds(f, nodes, m, reach, final, leaves, pairs)
-    got = []
-    for a, b, pa, pb in cuts:
-        part = f.part(a, b, pa, pb)
-        got.append(_rounds(part, nodes, m, None if final else reach[a:b], final, leaves, pairs))
-    dist = np.concatenate([g[1] for g in got])
-    if final and not pairs:
-        return f, dist
-    at = [a for a, _, _, _ in cuts]
-    if final:
-        cell, node, d = (np.concatenate(x) for x in zip(*(g[2] for g in got)))
-        return f, dist, (cell + np.repeat(at, [len(g[2][0]) for g in got]), node, d)
-    cell = np.concatenate([g[0].pair_cell + a for g, a in zip(got, at)])
-    node = np.concatenate([g[0].pair_arc for g in got])
-    return Frontier(f.level, f.cells, f.centers, f.rho, cell, node, f.status), dist
-
-
-#: Pairs per call of :func:`_rounds` (the cells of :func:`_bound` in parts, each part's
-#: pairs in rounds whose arrays stay in the processor's caches; the cells are bounded
-#: one by one, so the parts change no bit).
-_BOUND_PAIRS = 1 << 17
-
-
-#: Above this fraction of a round's pairs kept for the slack alone, the bisector test runs
-#: on every pair of the round (and is read where kept) rather than on those gathered.
-_ALL_KEPT = 0.85
-
-
-def _rounds(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool, leaves: bool, pairs: bool):
-    """:func:`_bound` of the cells of ``f``: its rounds."""
     tab = _table(nodes)
-    c, rho = f.centers, f.rho
     k = len(f.cells)
-    cc = [np.ascontiguousarray(c[:, i]) for i in range(3)]
-    # a node is split where its error bound exceeds this (read above the output level only)
-    bound = None if (leaves or final) else _KAPPA * rho
-    slack = 0.0 if final else 2.0 * reach
-    far = m if final else m + reach
-    best = np.full(k, np.inf)
-    dist = np.full(k, np.inf)
+    st = _Cells(f, m, reach, final, leaves)
     cell, node = f.pair_cell, f.pair_arc
     # (cells, nodes, lower bounds[, exact distances]) of the pairs left as they are
     done: list = [(cell[:0], node[:0], np.zeros(0), np.zeros(0))] if final else []
-    if not final:
-        # the nearest boundary vertex found so far of each cell (cosine, point)
-        vcos, vtx = np.full(k, -2.0), [np.zeros(k) for _ in range(3)]
-        cos_reach, sin_reach = np.cos(reach), np.sin(reach)
     while len(cell):
-        # the cells of the round's pairs, by runs: has[i] holds at[i] .. at[i] + cnt[i]
-        at = np.searchsorted(cell, np.arange(k + 1))
-        cnt = np.diff(at)
-        has = np.flatnonzero(cnt)
-        at, cnt = at[has], cnt[has]
-        runs = has, cnt
-        mid = [x.take(node) for x in tab.mid]
-        cm = column_dots([_per_pair(runs, x) for x in cc], mid)
-        r = tab.reach.take(node)
-        lo, hi = cap_range(cm, r)
-        t = lo + hi
-        t *= 0.5  # the angle to the cap's centre
-        lo -= CAP_SLACK
-        hi += CAP_SLACK
-        # first each cell's likeliest pair of the round (least upper bound): its exact
-        # distance tightens the bound that the others are tested against
-        least = np.minimum.reduceat(hi, at)
-        best[has] = np.minimum(best[has], least)
-        first = np.flatnonzero(hi == np.repeat(least, cnt))
-        first = first[np.diff(cell[first], prepend=-1) != 0]  # one per cell (sorted)
-        cf, fi = cell[first], node[first]
-        exact_f = exact_distances(c, cf, nodes, fi)
-        best[cf] = np.minimum(best[cf], exact_f + tab.err[fi])  # one pair per cell
-        is_near = lo <= _per_pair(runs, best)
-        is_near[first] = False
-        rest = np.flatnonzero(is_near)
-        exact_r = exact_distances(c, cell[rest], nodes, node[rest])
-        is_near[first] = True
-        near = np.flatnonzero(is_near)
-        # the exact distances of the pairs ``near`` (``first`` and ``rest``, merged)
-        exact = np.empty(len(near))
-        is_first = np.zeros(len(near), dtype=bool)
-        is_first[np.searchsorted(near, first)] = True
-        exact[is_first] = exact_f
-        exact[~is_first] = exact_r
-        cn, ni = cell[near], node[near]
-        err = tab.err[ni]
-        np.minimum.at(best, cn, exact + err)
-        lo[near] = np.maximum(lo[near], exact - err)
-        keep = lo <= _per_pair(runs, np.minimum(best + slack, far) + _TINY)
-        if not final:
-            _nearest_vertices(cc, cn, ni, tab, vcos, vtx)
-            # the pairs kept for the slack alone (a pair that may be the nearest at the
-            # centre stays whatever the test says, nearly always)
-            kept = keep & (lo > _per_pair(runs, best))
-            n_kept = np.count_nonzero(kept)
-            if n_kept > _ALL_KEPT * len(cell):
-                # the test on every pair (no gathers of the kept ones), read where kept
-                at_cell = [_per_pair(runs, x) for x in (vcos, *vtx, reach, cos_reach, sin_reach)]
-                ok = _maybe_nearer(
-                    (cm, t, at_cell[0], column_dots(at_cell[1:4], mid)),
-                    (r, tab.cos_r.take(node), tab.sin_r.take(node)),
-                    at_cell[4:],
-                )
-                keep &= ok | ~kept
-            elif n_kept:
-                kept = np.flatnonzero(kept)
-                ck, nk = cell.take(kept), node.take(kept)
-                vm = column_dots(vtx, [x.take(kept) for x in mid], ck)
-                keep[kept] = _maybe_nearer(
-                    (cm.take(kept), t.take(kept), vcos.take(ck), vm),
-                    (r.take(kept), tab.cos_r.take(nk), tab.sin_r.take(nk)),
-                    (reach.take(ck), cos_reach.take(ck), sin_reach.take(ck)),
-                )
-        split = tab.cut.take(node)
-        split = split > (0.0 if bound is None else _per_pair(runs, bound))
-        split &= keep
-        stay = keep & ~split
-        if final:
-            measured = np.full(len(cell), np.inf)
-            measured[near] = exact
-            done.append((*(x.compress(stay) for x in (cell, node, lo)), measured.compress(stay)))
-        else:
-            done.append(tuple(x.compress(stay) for x in (cell, node, lo)))
-            on = stay.take(near)  # the exact distances of the pairs left as they are
-            np.minimum.at(dist, cn.compress(on), exact.compress(on))
-        s = np.flatnonzero(split)
-        cell = np.repeat(cell[s], 2)
-        node = tab.child.take(node[s], axis=0).ravel()
+        pieces = [_round(st, tab, nodes, cell[a:b], node[a:b]) for a, b in _pieces(cell)]
+        done.append(tuple(np.concatenate(x) for x in zip(*(x[0] for x in pieces))))
+        cell, node = (np.concatenate(x) for x in zip(*(x[1] for x in pieces)))
+    dist = st.dist
     if final:  # the distances are all that is asked for (no list goes further down)
         cell, node, lo, exact = (np.concatenate(x) for x in zip(*done))
         np.minimum.at(dist, cell, exact)
@@ -323,14 +205,154 @@ def _rounds(f: Frontier, nodes: NodeArcs, m: float, reach, final: bool, leaves: 
         order = np.argsort(cell, kind="stable")
         return f, dist, (cell[order], node[order], exact[order])
     # the rounds' pairs against the least upper bounds of all rounds, sorted by cell
-    thr = np.minimum(best + slack, far) + _TINY
+    thr = st.threshold()
     left = []
     for cell, node, lo in done:
         keep = lo <= thr.take(cell)
         left.append((cell.compress(keep), node.compress(keep)))
     cell, node = _merge(k, left, f.pair_arc.dtype)
-    g = Frontier(f.level, f.cells, c, rho, cell, node, f.status)
+    g = Frontier(f.level, f.cells, f.centers, f.rho, cell, node, f.status)
     return g, dist
+
+
+#: Pairs per piece of a round of :func:`_bound` (whose arrays then stay in the processor's
+#: caches; the cells are bounded one by one, so the pieces change no bit).
+_BOUND_PAIRS = 1 << 17
+
+#: Above this fraction of a round's pairs kept for the slack alone, the bisector test runs
+#: on every pair of the round (and is read where kept) rather than on those gathered.
+_ALL_KEPT = 0.85
+
+
+def _pieces(cell) -> list[tuple[int, int]]:
+    """Return ranges of about :data:`_BOUND_PAIRS` pairs that cut the pairs (sorted by
+    cell) between cells."""
+    n = len(cell)
+    if n <= _BOUND_PAIRS:
+        return [(0, n)]
+    cuts = np.searchsorted(cell, cell[_BOUND_PAIRS::_BOUND_PAIRS])  # each one's cell's first
+    cuts = np.unique(np.r_[0, cuts, n])
+    return list(zip(cuts[:-1].tolist(), cuts[1:].tolist()))
+
+
+class _Cells:
+    """The cells of a call of :func:`_bound` as its rounds read and update them.
+
+    Their centres (columns), ``reach`` (its cosine and sine), the error bound above
+    which a node is split (None: 0, the arcs), the slack and ``far`` of the pruning;
+    ``best`` (each cell's least upper bound so far), ``dist`` (its least exact distance
+    of the pairs left as they are) and, above the output level, its nearest boundary
+    vertex so far (``vcos`` the cosine of its angle to the centre, ``vtx`` the point as
+    columns).
+    """
+
+    def __init__(self, f: Frontier, m: float, reach, final: bool, leaves: bool):
+        k = len(f.cells)
+        self.final = final
+        self.c = f.centers
+        self.cc = [np.ascontiguousarray(f.centers[:, i]) for i in range(3)]
+        self.bound = None if (leaves or final) else _KAPPA * f.rho
+        self.slack = 0.0 if final else 2.0 * reach
+        self.far = m if final else m + reach
+        self.best = np.full(k, np.inf)
+        self.dist = np.full(k, np.inf)
+        if not final:
+            self.reach = reach
+            self.cos_reach, self.sin_reach = np.cos(reach), np.sin(reach)
+            self.vcos, self.vtx = np.full(k, -2.0), [np.zeros(k) for _ in range(3)]
+
+    def threshold(self) -> np.ndarray:
+        """Each cell's bound above which a pair's lower bound prunes it."""
+        return np.minimum(self.best + self.slack, self.far) + _TINY
+
+
+def _round(st: _Cells, tab: _Table, nodes: NodeArcs, cell, node):
+    """One round of :func:`_bound` on the pairs ``(cell, node)`` (sorted by cell, every
+    pair of their cells in the round): return the pairs left as they are (cells, nodes,
+    lower bounds, and at the output level exact distances, ``inf`` where not measured)
+    and the halves of those split, ``(cell, node)``."""
+    best = st.best
+    # the cells of the pairs, by runs: has[i] holds at[i] .. at[i] + cnt[i]
+    c0 = int(cell[0])
+    at = np.searchsorted(cell, np.arange(c0, int(cell[-1]) + 2))
+    cnt = np.diff(at)
+    has = np.flatnonzero(cnt)
+    at, cnt = at[has], cnt[has]
+    has += c0
+    runs = has, cnt
+    mid = [x.take(node) for x in tab.mid]
+    cm = column_dots([_per_pair(runs, x) for x in st.cc], mid)
+    r = tab.reach.take(node)
+    lo, hi = cap_range(cm, r)
+    t = lo + hi
+    t *= 0.5  # the angle to the cap's centre
+    lo -= CAP_SLACK
+    hi += CAP_SLACK
+    # first each cell's likeliest pair of the round (least upper bound): its exact
+    # distance tightens the bound that the others are tested against
+    least = np.minimum.reduceat(hi, at)
+    best[has] = np.minimum(best[has], least)
+    first = np.flatnonzero(hi == np.repeat(least, cnt))
+    first = first[np.diff(cell[first], prepend=-1) != 0]  # one per cell (sorted)
+    cf, fi = cell[first], node[first]
+    exact_f = exact_distances(st.c, cf, nodes, fi)
+    best[cf] = np.minimum(best[cf], exact_f + tab.err[fi])  # one pair per cell
+    is_near = lo <= _per_pair(runs, best)
+    is_near[first] = False
+    rest = np.flatnonzero(is_near)
+    exact_r = exact_distances(st.c, cell[rest], nodes, node[rest])
+    is_near[first] = True
+    near = np.flatnonzero(is_near)
+    # the exact distances of the pairs ``near`` (``first`` and ``rest``, merged)
+    exact = np.empty(len(near))
+    is_first = np.zeros(len(near), dtype=bool)
+    is_first[np.searchsorted(near, first)] = True
+    exact[is_first] = exact_f
+    exact[~is_first] = exact_r
+    cn, ni = cell[near], node[near]
+    err = tab.err[ni]
+    np.minimum.at(best, cn, exact + err)
+    lo[near] = np.maximum(lo[near], exact - err)
+    keep = lo <= _per_pair(runs, st.threshold())
+    if not st.final:
+        _nearest_vertices(st.cc, cn, ni, tab, st.vcos, st.vtx)
+        # the pairs kept for the slack alone (a pair that may be the nearest at the
+        # centre stays whatever the test says, nearly always)
+        is_kept = keep & (lo > _per_pair(runs, best))
+        n_kept = np.count_nonzero(is_kept)
+        disc = st.reach, st.cos_reach, st.sin_reach
+        if n_kept > _ALL_KEPT * len(cell):
+            # the test on every pair (no gathers of the kept ones), read where kept
+            vm = column_dots([_per_pair(runs, x) for x in st.vtx], mid)
+            ok = _maybe_nearer(
+                (cm, t, _per_pair(runs, st.vcos), vm),
+                (r, tab.cos_r.take(node), tab.sin_r.take(node)),
+                [_per_pair(runs, x) for x in disc],
+            )
+            keep &= ok | ~is_kept
+        elif n_kept:
+            kept = np.flatnonzero(is_kept)
+            ck, nk = cell.take(kept), node.take(kept)
+            vm = column_dots(st.vtx, [x.take(kept) for x in mid], ck)
+            keep[kept] = _maybe_nearer(
+                (cm.take(kept), t.take(kept), st.vcos.take(ck), vm),
+                (r.take(kept), tab.cos_r.take(nk), tab.sin_r.take(nk)),
+                [x.take(ck) for x in disc],
+            )
+    split = tab.cut.take(node)
+    split = split > (0.0 if st.bound is None else _per_pair(runs, st.bound))
+    split &= keep
+    stay = keep & ~split
+    if st.final:
+        measured = np.full(len(cell), np.inf)
+        measured[near] = exact
+        left = (*(x.compress(stay) for x in (cell, node, lo)), measured.compress(stay))
+    else:
+        left = tuple(x.compress(stay) for x in (cell, node, lo))
+        on = stay.take(near)  # the exact distances of the pairs left as they are
+        np.minimum.at(st.dist, cn.compress(on), exact.compress(on))
+    s = np.flatnonzero(split)
+    return left, (np.repeat(cell[s], 2), tab.child.take(node[s], axis=0).ravel())
 
 
 def _per_pair(runs, x) -> np.ndarray:
@@ -552,22 +574,13 @@ def _parts(f: Frontier):
     Each part has at most :data:`_PART_CELLS` cells and about :data:`_PART_PAIRS` pairs
     (the pairs are sorted by cell).
     """
-    for a, b, pa, pb in _cuts(f, _PART_CELLS, _PART_PAIRS):
-        yield f.part(a, b, pa, pb)
-
-
-def _cuts(f: Frontier, cells: int, pairs: int):
-    """Return the ranges of cells and of their pairs ``(a, b, pa, pb)`` that cut ``f``
-    into parts of at most ``cells`` cells and about ``pairs`` pairs (a cell with more
-    pairs is a part of its own)."""
     k = len(f.cells)
-    if k <= cells and len(f.pair_cell) <= pairs:
-        return [(0, k, 0, len(f.pair_cell))]
+    if k <= _PART_CELLS and len(f.pair_cell) <= _PART_PAIRS:
+        yield f
+        return
     before = np.searchsorted(f.pair_cell, np.arange(k))  # pairs before each cell
-    part = np.maximum(before // pairs, np.arange(k) // cells)
+    part = np.maximum(before // _PART_PAIRS, np.arange(k) // _PART_CELLS)
     cuts = np.flatnonzero(np.r_[True, part[1:] != part[:-1]])
     at = np.r_[before[cuts], len(f.pair_cell)]
-    ends = np.r_[cuts[1:], k]
-    return [
-        (int(a), int(b), int(at[n]), int(at[n + 1])) for n, (a, b) in enumerate(zip(cuts, ends))
-    ]
+    for n, (a, b) in enumerate(zip(cuts, np.r_[cuts[1:], k])):
+        yield f.part(int(a), int(b), int(at[n]), int(at[n + 1]))
