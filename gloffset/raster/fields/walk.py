@@ -177,10 +177,12 @@ def _bound(
     :func:`walk_levels`).
 
     Each round's pairs come sorted by cell (the frontier's are, and a split pair's
-    halves follow it), so the values per cell are gathered by runs (``np.repeat``) and
-    reduced by them (``reduceat``); each node's values are gathered once per pair, and
-    the rounds' pairs are merged by cell with a counting sort. The same values as
-    the formulas applied pair by pair, bit for bit.
+    halves follow it) and are bounded in pieces of about :data:`_BOUND_PAIRS` pairs cut
+    between cells (:func:`_round`; every value is its cell's own, so the pieces change
+    no bit); the values per cell are gathered by runs (``np.repeat``) and reduced by them
+    (``reduceat``), each node's values gathered once per pair (:class:`_Table`), and the
+    rounds' pairs merged by cell with a counting sort (:func:`_merge`): the values of the
+    formulas applied pair by pair, bit for bit.
     """
     if final and nodes.leaf[f.pair_arc].all():
         d = exact_distances(f.centers, f.pair_cell, nodes, f.pair_arc)
