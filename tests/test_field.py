@@ -516,6 +516,41 @@ def test_the_lists_follow_the_pixels(mexico, monkeypatch):
     assert_within_ulps(field.values[j, i], reference_field(mexico, p))
 
 
+@pytest.mark.parametrize("m", [np.inf, 0.02])
+def test_the_walks_pieces_change_no_bit(mexico, monkeypatch, m):
+    """The bound's rounds cut into pieces of a few pairs (between cells), and the
+    bisector test run on the gathered pairs it reads or on every pair: the same lists in
+    the same order, the same distances and measured pairs, bit for bit (each cell is
+    bounded on its own)."""
+    from gloffset.raster.fields import walk as walkmod
+    from gloffset.raster.vector.node_levels import NodeArcs
+
+    nodes = NodeArcs.from_shape(mexico)
+    grid = Equirect(160, 100, (-118, 14, -86, 33))
+    last = grid.n_levels - 1
+    one = Equirect(12, 12, (-118, 14, -86, 33))  # one level: the tree's nodes at the pixels
+
+    def walked():
+        got = []
+        for stop, split in ((last - 2, True), (last - 2, False)):
+            for f, dist in walkmod.walk_levels(nodes, grid, m, stop, split):
+                got += [f.cells, f.pair_cell, f.pair_arc, dist]
+        for g in (grid, one):
+            for f, dist, pairs in walkmod.walk_levels(nodes, g, m, g.n_levels - 1, pairs=True):
+                got += [f.cells, dist, *pairs]
+        return got
+
+    want = walked()
+    assert sum(len(x) for x in want[1::4]) > 1000  # lists of the levels above
+    for pieces, every in ((100, 0.0), (1 << 30, 2.0)):
+        monkeypatch.setattr(walkmod, "_BOUND_PAIRS", pieces)
+        monkeypatch.setattr(walkmod, "_ALL_KEPT", every)
+        got = walked()
+        assert len(got) == len(want)
+        for a, b in zip(got, want):
+            assert a.dtype == b.dtype and np.array_equal(a.view(np.uint8), b.view(np.uint8))
+
+
 def test_bisector_pruning_is_rigorous():
     """A node is dropped from a cell only where every point within ``reach`` of the
     centre is nearer to the cell's vertex than to every point of the node's cap: checked
