@@ -195,7 +195,7 @@ def _bound(
     # (cells, nodes, lower bounds[, exact distances]) of the pairs left as they are
     done: list = [(cell[:0], node[:0], np.zeros(0), np.zeros(0))] if final else []
     while len(cell):
-        pieces = [_round(st, tab, nodes, cell[a:b], node[a:b]) for a, b in _pieces(cell)]
+        pieces = [_round(st, tab, cell[a:b], node[a:b]) for a, b in _pieces(cell)]
         done.append(tuple(np.concatenate(x) for x in zip(*(x[0] for x in pieces))))
         cell, node = (np.concatenate(x) for x in zip(*(x[1] for x in pieces)))
     dist = st.dist
@@ -251,7 +251,6 @@ class _Cells:
     def __init__(self, f: Frontier, m: float, reach, final: bool, leaves: bool):
         k = len(f.cells)
         self.final = final
-        self.c = f.centers
         self.cc = [np.ascontiguousarray(f.centers[:, i]) for i in range(3)]
         self.bound = None if (leaves or final) else _KAPPA * f.rho
         self.slack = 0.0 if final else 2.0 * reach
@@ -268,7 +267,7 @@ class _Cells:
         return np.minimum(self.best + self.slack, self.far) + _TINY
 
 
-def _round(st: _Cells, tab: _Table, nodes: NodeArcs, cell, node):
+def _round(st: _Cells, tab: _Table, cell, node):
     """One round of :func:`_bound` on the pairs ``(cell, node)`` (sorted by cell, every
     pair of their cells in the round): return the pairs left as they are (cells, nodes,
     lower bounds, and at the output level exact distances, ``inf`` where not measured)
@@ -297,12 +296,12 @@ def _round(st: _Cells, tab: _Table, nodes: NodeArcs, cell, node):
     first = np.flatnonzero(hi == np.repeat(least, cnt))
     first = first[np.diff(cell[first], prepend=-1) != 0]  # one per cell (sorted)
     cf, fi = cell[first], node[first]
-    exact_f = exact_distances(st.c, cf, nodes, fi)
+    exact_f = _exact(st.cc, cf, tab, fi)
     best[cf] = np.minimum(best[cf], exact_f + tab.err[fi])  # one pair per cell
     is_near = lo <= _per_pair(runs, best)
     is_near[first] = False
     rest = np.flatnonzero(is_near)
-    exact_r = exact_distances(st.c, cell[rest], nodes, node[rest])
+    exact_r = _exact(st.cc, cell[rest], tab, node[rest])
     is_near[first] = True
     near = np.flatnonzero(is_near)
     # the exact distances of the pairs ``near`` (``first`` and ``rest``, merged)
@@ -447,8 +446,11 @@ def exact_distances(c, cell, nodes: NodeArcs, node) -> np.ndarray:
     each pair's distance to the line computed only where its foot falls on the arc and
     its distance to the ends only where it does not.
     """
-    ends = _table(nodes)
-    cols = [np.ascontiguousarray(c[:, k]) for k in range(3)]
+    return _exact([np.ascontiguousarray(c[:, k]) for k in range(3)], cell, _table(nodes), node)
+
+
+def _exact(cols, cell, ends: _Table, node) -> np.ndarray:
+    """:func:`exact_distances` from the points' coordinate columns ``cols``."""
     out = np.empty(len(cell))
     for s in range(0, len(cell), _CHUNK):
         ci, ni = cell[s : s + _CHUNK], node[s : s + _CHUNK]
