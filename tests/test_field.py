@@ -516,12 +516,46 @@ def test_the_lists_follow_the_pixels(mexico, monkeypatch):
     assert_within_ulps(field.values[j, i], reference_field(mexico, p))
 
 
+@pytest.mark.parametrize("m", [np.inf, 0.02])
+def test_the_walks_pieces_change_no_bit(mexico, monkeypatch, m):
+    """The bound's rounds cut into pieces of a few pairs (between cells), and the
+    bisector test run on the gathered pairs it reads or on every pair: the same lists in
+    the same order, the same distances and measured pairs, bit for bit (each cell is
+    bounded on its own)."""
+    from gloffset.raster.fields import walk as walkmod
+    from gloffset.raster.vector.node_levels import NodeArcs
+
+    nodes = NodeArcs.from_shape(mexico)
+    grid = Equirect(160, 100, (-118, 14, -86, 33))
+    last = grid.n_levels - 1
+    one = Equirect(12, 12, (-118, 14, -86, 33))  # one level: the tree's nodes at the pixels
+
+    def walked():
+        got = []
+        for stop, split in ((last - 2, True), (last - 2, False)):
+            for f, dist in walkmod.walk_levels(nodes, grid, m, stop, split):
+                got += [f.cells, f.pair_cell, f.pair_arc, dist]
+        for g in (grid, one):
+            for f, dist, pairs in walkmod.walk_levels(nodes, g, m, g.n_levels - 1, pairs=True):
+                got += [f.cells, dist, *pairs]
+        return got
+
+    want = walked()
+    assert sum(len(x) for x in want[1::4]) > 1000  # lists of the levels above
+    for pieces, every in ((100, 0.0), (1 << 30, 2.0)):
+        monkeypatch.setattr(walkmod, "_BOUND_PAIRS", pieces)
+        monkeypatch.setattr(walkmod, "_ALL_KEPT", every)
+        got = walked()
+        assert len(got) == len(want)
+        for a, b in zip(got, want):
+            assert a.dtype == b.dtype and np.array_equal(a.view(np.uint8), b.view(np.uint8))
+
+
 def test_bisector_pruning_is_rigorous():
     """A node is dropped from a cell only where every point within ``reach`` of the
     centre is nearer to the cell's vertex than to every point of the node's cap: checked
     on random caps, vertices and discs, at points sampled over each disc (its rim
     included), caps large and small, near and far."""
-    from types import SimpleNamespace
 
     from gloffset.geometry.sphere import angle, normalize, rotate
     from gloffset.raster.fields.walk import _maybe_nearer
@@ -539,12 +573,13 @@ def test_bisector_pruning_is_rigorous():
 
     x = away(c, 10.0 ** rng.uniform(-4, 0, n))
     mid = away(x, 10.0 ** rng.uniform(-4, 0, n))
-    nodes = SimpleNamespace(reach=r, mid=mid)
-    cell = node = np.arange(n)
     cm = np.einsum("ij,ij->i", c, mid)
     t = np.arccos(np.clip(cm, -1, 1))
     vcos = np.einsum("ij,ij->i", c, x)
-    keep = _maybe_nearer(c, cell, node, cm, t, nodes, (np.cos(r), np.sin(r)), vcos, x, reach)
+    vm = np.einsum("ij,ij->i", x, mid)
+    keep = _maybe_nearer(
+        (cm, t, vcos, vm), (r, np.cos(r), np.sin(r)), (reach, np.cos(reach), np.sin(reach))
+    )
     dropped = np.flatnonzero(~keep)
     assert 0.2 * n < len(dropped) < 0.9 * n
     for _ in range(40):
@@ -604,17 +639,16 @@ def test_a_small_grid_starts_from_its_own_list(which, grid, request, monkeypatch
         shape = gloffset.read(DATA / "world_110m.geojson")
     nodes = NodeArcs.from_shape(shape)
     top = nodes.top[nodes.boundary[nodes.top]]
-    trig = np.cos(nodes.reach), np.sin(nodes.reach)
     h, w = grid.level_shape(0)
     j, i = np.divmod(np.arange(h * w), w)
     c, rho = grid.centers(0, j, i), grid.rho_at(0, j, i)
-    own = field_walk.root_list(nodes, trig, np.inf, c, rho, top)
+    own = field_walk.root_list(nodes, np.inf, c, rho, top)
     assert not np.array_equal(np.sort(own), np.sort(top))
     world = Equirect(64, 32)
     h, w = world.level_shape(0)
     j, i = np.divmod(np.arange(h * w), w)
     c, rho = world.centers(0, j, i), world.rho_at(0, j, i)
-    assert field_walk.root_list(nodes, trig, np.inf, c, rho, top) is top
+    assert field_walk.root_list(nodes, np.inf, c, rho, top) is top
     got = gloffset.distance_field(shape, grid, radius=1.0).values
     monkeypatch.setattr(field_walk, "_ROOT_REACH", 0.0)  # every grid from the top
     want = gloffset.distance_field(shape, grid, radius=1.0).values

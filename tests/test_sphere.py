@@ -117,6 +117,29 @@ def test_pair_dots_are_einsum_bits():
     assert np.array_equal(pair_dots(u, ui, v, vi), np.einsum("ij,ij->i", u[ui], v[vi]))
 
 
+def test_column_dots_are_the_pair_dots_bits():
+    """From coordinate columns, gathered or not, by indices of any integer type or by a
+    mask: the bits of :func:`pair_dots` (its sum order, not :func:`dot`'s)."""
+    from gloffset.geometry.sphere import column_dots, dot, pair_dots
+
+    rng = np.random.default_rng(5)
+    u, v = rng.normal(size=(100, 3)), rng.normal(size=(80, 3))
+    ui, vi = rng.integers(0, 100, 5000), rng.integers(0, 80, 5000)
+    want = pair_dots(u, ui, v, vi).view(np.int64)
+    uc = [np.ascontiguousarray(u[:, k]) for k in range(3)]
+    vc = [np.ascontiguousarray(v[:, k]) for k in range(3)]
+    assert np.array_equal(column_dots(uc, vc, ui, vi).view(np.int64), want)
+    got = column_dots(uc, vc, ui.astype(np.int32), vi.astype(np.uint32))
+    assert np.array_equal(got.view(np.int64), want)
+    vg = [x[vi] for x in vc]
+    assert np.array_equal(column_dots(uc, vg, ui).view(np.int64), want)
+    mask = np.arange(100) % 3 == 0
+    got = column_dots(uc, uc[::-1], mask, mask)
+    at = np.flatnonzero(mask)
+    assert np.array_equal(got, pair_dots(u, at, u[:, ::-1], at))
+    assert not np.array_equal(want, dot(u[ui], v[vi]).view(np.int64))  # another sum order
+
+
 def test_pair_chord2_and_pair_equal_are_the_row_by_row_answers():
     from gloffset.geometry.sphere import chord2_between, pair_chord2, pair_equal
 

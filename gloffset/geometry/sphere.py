@@ -27,6 +27,7 @@ __all__ = [
     "dot",
     "chord2_between",
     "pair_dots",
+    "column_dots",
     "pair_chord2",
     "pair_equal",
     "cross",
@@ -134,9 +135,23 @@ def pair_dots(u, ui, v, vi) -> np.ndarray:
     single coordinates (no (k, 3) copies: several times faster for millions of pairs)."""
     u = np.asarray(u, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
-    out = u[:, 0][ui] * v[:, 0][vi]
-    out += u[:, 2][ui] * v[:, 2][vi]
-    out += u[:, 1][ui] * v[:, 1][vi]
+    return column_dots([u[:, k] for k in range(3)], [v[:, k] for k in range(3)], ui, vi)
+
+
+def column_dots(u, v, ui=None, vi=None) -> np.ndarray:
+    """:func:`pair_dots` of points given as coordinate columns ``u``, ``v`` (three 1-d
+    arrays each), gathered at ``ui``, ``vi`` (or taken as they are where None): the same
+    sum, ``(x0 y0 + x2 y2) + x1 y1``, so the same bits. Contiguous columns gather several
+    times faster than the columns of (n, 3) arrays."""
+
+    def at(x, i):
+        if i is None:
+            return x
+        return x.take(i) if getattr(i, "dtype", None) is not None and i.dtype.kind in "iu" else x[i]
+
+    out = at(u[0], ui) * at(v[0], vi)
+    out += at(u[2], ui) * at(v[2], vi)
+    out += at(u[1], ui) * at(v[1], vi)
     return out
 
 

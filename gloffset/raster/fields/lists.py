@@ -101,8 +101,7 @@ def _parents(nodes: NodeArcs, grid, m: float, first: int):
         jj, ii = np.meshgrid(np.arange(h0), np.arange(w0), indexing="ij")
         c0 = grid.centers(0, jj.ravel(), ii.ravel())
         rho0 = grid.rho_at(0, jj.ravel(), ii.ravel())
-        trig = np.cos(nodes.reach), np.sin(nodes.reach)
-        root = root_list(nodes, trig, m, c0, rho0, nodes.top[nodes.boundary[nodes.top]])
+        root = root_list(nodes, m, c0, rho0, nodes.top[nodes.boundary[nodes.top]])
         return np.array([[0, len(root)]], np.uint32), np.asarray(root, np.uint32)
     wc = grid.level_shape(first - 1)[1]
     keys, vals = [], []

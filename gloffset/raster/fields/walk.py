@@ -20,7 +20,7 @@ import weakref
 import numpy as np
 
 from ...geometry.caps import CAP_SLACK, cap_range, pad
-from ...geometry.sphere import angle, cross, dot, pair_dots
+from ...geometry.sphere import angle, column_dots, cross, dot
 from ..vector.levels import Frontier, children
 from ..vector.node_levels import NodeArcs
 
@@ -51,7 +51,6 @@ def walk_levels(
     each pixel's nearest features are read from (:mod:`gloffset.raster.fields.sign`).
     The distances are the same bits either way.
     """
-    trig = np.cos(nodes.reach), np.sin(nodes.reach)
     last = grid.n_levels - 1
     h0, w0 = grid.level_shape(0)
     top = nodes.top[nodes.boundary[nodes.top]]
@@ -60,7 +59,7 @@ def walk_levels(
     k = len(cells)
     c = grid.centers(0, cells[:, 0], cells[:, 1])
     rho = grid.rho_at(0, cells[:, 0], cells[:, 1])
-    top = root_list(nodes, trig, m, c, rho, top)
+    top = root_list(nodes, m, c, rho, top)
     pc, pn = np.repeat(np.arange(k), len(top)), np.tile(top, k)
     stack = [(Frontier(0, cells, c, rho, pc, pn, np.zeros((k, 0), np.uint8)), False)]
     leaves = min(stop if split else last, last - 1)  # the level whose nodes are split to the arcs
@@ -71,7 +70,7 @@ def walk_levels(
             f = Frontier(f.level + 1, cells, c, rho, pc, pn, np.zeros((len(cells), 0), np.uint8))
         reach = kids_reach(f, grid) if f.level == last - 1 else f.rho
         final = f.level == last
-        got = _bound(f, nodes, trig, m, reach, final=final, leaves=f.level == leaves, pairs=pairs)
+        got = _bound(f, nodes, m, reach, final=final, leaves=f.level == leaves, pairs=pairs)
         f, dist = got[0], got[1]
         if f.level == stop:
             yield (f, dist, got[2]) if pairs and final else (f, dist)
@@ -84,7 +83,7 @@ def walk_levels(
 _ROOT_REACH = 1.0
 
 
-def root_list(nodes: NodeArcs, trig, m: float, c: np.ndarray, rho: np.ndarray, top):
+def root_list(nodes: NodeArcs, m: float, c: np.ndarray, rho: np.ndarray, top):
     """Return the nodes every cell of level 0 starts with.
 
     For a small grid (its level-0 cells within :data:`_ROOT_REACH` of their mean
@@ -110,7 +109,7 @@ def root_list(nodes: NodeArcs, trig, m: float, c: np.ndarray, rho: np.ndarray, t
         top,
         np.zeros((1, 0), np.uint8),
     )
-    g, _ = _bound(root, nodes, trig, m, np.array([reach]), final=False)
+    g, _ = _bound(root, nodes, m, np.array([reach]), final=False)
     return g.pair_arc
 
 
@@ -143,7 +142,6 @@ def kids_reach(f: Frontier, grid) -> np.ndarray:
 def _bound(
     f: Frontier,
     nodes: NodeArcs,
-    trig,
     m: float,
     reach,
     final: bool,
@@ -177,79 +175,209 @@ def _bound(
     lists), every pair's exact distance instead (:func:`_least`). With ``pairs`` at the
     output level, also the pairs measured, ``(cell, node, exact)`` (see
     :func:`walk_levels`).
+
+    Each round's pairs come sorted by cell (the frontier's are, and a split pair's
+    halves follow it) and are bounded in pieces of about :data:`_BOUND_PAIRS` pairs cut
+    between cells (:func:`_round`; every value is its cell's own, so the pieces change
+    no bit); the values per cell are gathered by runs (``np.repeat``) and reduced by them
+    (``reduceat``), each node's values gathered once per pair (:class:`_Table`), and the
+    rounds' pairs merged by cell with a counting sort (:func:`_merge`): the values of the
+    formulas applied pair by pair, bit for bit.
     """
     if final and nodes.leaf[f.pair_arc].all():
         d = exact_distances(f.centers, f.pair_cell, nodes, f.pair_arc)
         dist = _least(len(f.cells), f.pair_cell, d)
         return (f, dist, (f.pair_cell, f.pair_arc, d)) if pairs else (f, dist)
-    c, rho = f.centers, f.rho
+    tab = _table(nodes)
     k = len(f.cells)
-    bound = np.where(leaves, 0.0, _KAPPA * rho)  # read above the output level only
-    slack = 0.0 if final else 2.0 * reach
-    far = m if final else m + reach
-    best = np.full(k, np.inf)
+    st = _Cells(f, m, reach, final, leaves)
     cell, node = f.pair_cell, f.pair_arc
-    none = np.zeros(0)
-    # (cells, nodes, lower bounds, exact distances) of the pairs left as they are
-    done = [(cell[:0], node[:0], none, none)]
-    # the nearest boundary vertex found so far of each cell (cosine, point)
-    vcos, vtx = np.full(k, -2.0), np.zeros((k, 3))
+    # (cells, nodes, lower bounds[, exact distances]) of the pairs left as they are
+    done: list = [(cell[:0], node[:0], np.zeros(0), np.zeros(0))] if final else []
     while len(cell):
-        cm = pair_dots(c, cell, nodes.mid, node)
-        lo, hi = cap_range(cm, nodes.reach[node])
-        t = 0.5 * (lo + hi)  # the angle to the cap's centre
-        lo = lo - CAP_SLACK
-        hi = hi + CAP_SLACK
-        # first each cell's likeliest pair of the round (least upper bound): its exact
-        # distance tightens the bound that the others are tested against
-        least = np.full(k, np.inf)
-        np.minimum.at(least, cell, hi)
-        np.minimum(best, least, out=best)
-        first = np.flatnonzero(hi == least[cell])
-        first = first[np.diff(cell[first], prepend=-1) != 0]  # one per cell (sorted)
-        fi = node[first]
-        exact = np.full(len(cell), np.inf)
-        exact[first] = exact_distances(c, cell[first], nodes, fi)
-        np.minimum.at(best, cell[first], exact[first] + pad(nodes.err[fi]) + _TINY)
-        near = lo <= best[cell]
-        near[first] = False
-        rest = np.flatnonzero(near)
-        exact[rest] = exact_distances(c, cell[rest], nodes, node[rest])
-        near[first] = True
-        near = np.flatnonzero(near)
-        ni = node[near]
-        err = pad(nodes.err[ni]) + _TINY
-        np.minimum.at(best, cell[near], exact[near] + err)
-        lo[near] = np.maximum(lo[near], exact[near] - err)
-        keep = lo <= np.minimum(best + slack, far)[cell] + _TINY
-        if not final:
-            _nearest_vertices(c, cell[near], ni, nodes, vcos, vtx)
-            # the pairs kept for the slack alone (a pair that may be the nearest at the
-            # centre stays whatever the test says, nearly always)
-            kept = np.flatnonzero(keep & (lo > best[cell]))
-            keep[kept] = _maybe_nearer(
-                c, cell[kept], node[kept], cm[kept], t[kept], nodes, trig, vcos, vtx, reach
-            )
-        split = keep & ~nodes.leaf[node] & (nodes.err[node] > (0.0 if final else bound[cell]))
-        stay = np.flatnonzero(keep & ~split)
-        done.append((cell[stay], node[stay], lo[stay], exact[stay]))
-        s = np.flatnonzero(split)
-        cell = np.repeat(cell[s], 2)
-        node = nodes.child[node[s]].ravel()
-    cell, node, lo, exact = (np.concatenate(x) for x in zip(*done))
-    dist = np.full(k, np.inf)
-    np.minimum.at(dist, cell, exact)
+        pieces = [_round(st, tab, cell[a:b], node[a:b]) for a, b in _pieces(cell)]
+        done.append(tuple(np.concatenate(x) for x in zip(*(x[0] for x in pieces))))
+        cell, node = (np.concatenate(x) for x in zip(*(x[1] for x in pieces)))
+    dist = st.dist
     if final:  # the distances are all that is asked for (no list goes further down)
+        cell, node, lo, exact = (np.concatenate(x) for x in zip(*done))
+        np.minimum.at(dist, cell, exact)
         if not pairs:
             return f, dist
         order = np.argsort(cell, kind="stable")
         return f, dist, (cell[order], node[order], exact[order])
     # the rounds' pairs against the least upper bounds of all rounds, sorted by cell
-    keep = lo <= np.minimum(best + slack, far)[cell] + _TINY
-    cell, node = cell[keep], node[keep]
-    order = np.argsort(cell, kind="stable")
-    g = Frontier(f.level, f.cells, c, rho, cell[order], node[order], f.status)
+    thr = st.threshold()
+    left = []
+    for cell, node, lo in done:
+        keep = lo <= thr.take(cell)
+        left.append((cell.compress(keep), node.compress(keep)))
+    cell, node = _merge(k, left, f.pair_arc.dtype)
+    g = Frontier(f.level, f.cells, f.centers, f.rho, cell, node, f.status)
     return g, dist
+
+
+#: Pairs per piece of a round of :func:`_bound` (whose arrays then stay in the processor's
+#: caches; the cells are bounded one by one, so the pieces change no bit).
+_BOUND_PAIRS = 1 << 17
+
+#: Above this fraction of a round's pairs kept for the slack alone, the bisector test runs
+#: on every pair of the round (and is read where kept) rather than on those gathered.
+_ALL_KEPT = 0.85
+
+
+def _pieces(cell) -> list[tuple[int, int]]:
+    """Return ranges of about :data:`_BOUND_PAIRS` pairs that cut the pairs (sorted by
+    cell) between cells."""
+    n = len(cell)
+    if n <= _BOUND_PAIRS:
+        return [(0, n)]
+    cuts = np.searchsorted(cell, cell[_BOUND_PAIRS::_BOUND_PAIRS])  # each one's cell's first
+    cuts = np.unique(np.r_[0, cuts, n])
+    return list(zip(cuts[:-1].tolist(), cuts[1:].tolist()))
+
+
+class _Cells:
+    """The cells of a call of :func:`_bound` as its rounds read and update them.
+
+    Their centres (columns), ``reach`` (its cosine and sine), the error bound above
+    which a node is split (None: 0, the arcs), the slack and ``far`` of the pruning;
+    ``best`` (each cell's least upper bound so far), ``dist`` (its least exact distance
+    of the pairs left as they are) and, above the output level, its nearest boundary
+    vertex so far (``vcos`` the cosine of its angle to the centre, ``vtx`` the point as
+    columns).
+    """
+
+    def __init__(self, f: Frontier, m: float, reach, final: bool, leaves: bool):
+        k = len(f.cells)
+        self.final = final
+        self.cc = [np.ascontiguousarray(f.centers[:, i]) for i in range(3)]
+        self.bound = None if (leaves or final) else _KAPPA * f.rho
+        self.slack = 0.0 if final else 2.0 * reach
+        self.far = m if final else m + reach
+        self.best = np.full(k, np.inf)
+        self.dist = np.full(k, np.inf)
+        if not final:
+            self.reach = reach
+            self.cos_reach, self.sin_reach = np.cos(reach), np.sin(reach)
+            self.vcos, self.vtx = np.full(k, -2.0), [np.zeros(k) for _ in range(3)]
+
+    def threshold(self) -> np.ndarray:
+        """Each cell's bound above which a pair's lower bound prunes it."""
+        return np.minimum(self.best + self.slack, self.far) + _TINY
+
+
+def _round(st: _Cells, tab: _Table, cell, node):
+    """One round of :func:`_bound` on the pairs ``(cell, node)`` (sorted by cell, every
+    pair of their cells in the round): return the pairs left as they are (cells, nodes,
+    lower bounds, and at the output level exact distances, ``inf`` where not measured)
+    and the halves of those split, ``(cell, node)``."""
+    best = st.best
+    # the cells of the pairs, by runs: has[i] holds at[i] .. at[i] + cnt[i]
+    c0 = int(cell[0])
+    at = np.searchsorted(cell, np.arange(c0, int(cell[-1]) + 2))
+    cnt = np.diff(at)
+    has = np.flatnonzero(cnt)
+    at, cnt = at[has], cnt[has]
+    has += c0
+    runs = has, cnt
+    mid = [x.take(node) for x in tab.mid]
+    cm = column_dots([_per_pair(runs, x) for x in st.cc], mid)
+    r = tab.reach.take(node)
+    lo, hi = cap_range(cm, r)
+    t = lo + hi
+    t *= 0.5  # the angle to the cap's centre
+    lo -= CAP_SLACK
+    hi += CAP_SLACK
+    # first each cell's likeliest pair of the round (least upper bound): its exact
+    # distance tightens the bound that the others are tested against
+    least = np.minimum.reduceat(hi, at)
+    best[has] = np.minimum(best[has], least)
+    first = np.flatnonzero(hi == np.repeat(least, cnt))
+    first = first[np.diff(cell[first], prepend=-1) != 0]  # one per cell (sorted)
+    cf, fi = cell[first], node[first]
+    exact_f = _exact(st.cc, cf, tab, fi)
+    best[cf] = np.minimum(best[cf], exact_f + tab.err[fi])  # one pair per cell
+    is_near = lo <= _per_pair(runs, best)
+    is_near[first] = False
+    rest = np.flatnonzero(is_near)
+    exact_r = _exact(st.cc, cell[rest], tab, node[rest])
+    is_near[first] = True
+    near = np.flatnonzero(is_near)
+    # the exact distances of the pairs ``near`` (``first`` and ``rest``, merged)
+    exact = np.empty(len(near))
+    is_first = np.zeros(len(near), dtype=bool)
+    is_first[np.searchsorted(near, first)] = True
+    exact[is_first] = exact_f
+    exact[~is_first] = exact_r
+    cn, ni = cell[near], node[near]
+    err = tab.err[ni]
+    np.minimum.at(best, cn, exact + err)
+    lo[near] = np.maximum(lo[near], exact - err)
+    keep = lo <= _per_pair(runs, st.threshold())
+    if not st.final:
+        _nearest_vertices(st.cc, cn, ni, tab, st.vcos, st.vtx)
+        # the pairs kept for the slack alone (a pair that may be the nearest at the
+        # centre stays whatever the test says, nearly always)
+        is_kept = keep & (lo > _per_pair(runs, best))
+        n_kept = np.count_nonzero(is_kept)
+        disc = st.reach, st.cos_reach, st.sin_reach
+        if n_kept > _ALL_KEPT * len(cell):
+            # the test on every pair (no gathers of the kept ones), read where kept
+            vm = column_dots([_per_pair(runs, x) for x in st.vtx], mid)
+            ok = _maybe_nearer(
+                (cm, t, _per_pair(runs, st.vcos), vm),
+                (r, tab.cos_r.take(node), tab.sin_r.take(node)),
+                [_per_pair(runs, x) for x in disc],
+            )
+            keep &= ok | ~is_kept
+        elif n_kept:
+            kept = np.flatnonzero(is_kept)
+            ck, nk = cell.take(kept), node.take(kept)
+            vm = column_dots(st.vtx, [x.take(kept) for x in mid], ck)
+            keep[kept] = _maybe_nearer(
+                (cm.take(kept), t.take(kept), st.vcos.take(ck), vm),
+                (r.take(kept), tab.cos_r.take(nk), tab.sin_r.take(nk)),
+                [x.take(ck) for x in disc],
+            )
+    split = tab.cut.take(node)
+    split = split > (0.0 if st.bound is None else _per_pair(runs, st.bound))
+    split &= keep
+    stay = keep & ~split
+    if st.final:
+        measured = np.full(len(cell), np.inf)
+        measured[near] = exact
+        left = (*(x.compress(stay) for x in (cell, node, lo)), measured.compress(stay))
+    else:
+        left = tuple(x.compress(stay) for x in (cell, node, lo))
+        on = stay.take(near)  # the exact distances of the pairs left as they are
+        np.minimum.at(st.dist, cn.compress(on), exact.compress(on))
+    s = np.flatnonzero(split)
+    return left, (np.repeat(cell[s], 2), tab.child.take(node[s], axis=0).ravel())
+
+
+def _per_pair(runs, x) -> np.ndarray:
+    """``x[cell]`` for a value ``x`` per cell, the pairs' cells given as ``runs``: the
+    cells that have pairs and how many each (the pairs sorted by cell)."""
+    has, cnt = runs
+    return np.repeat(x[has], cnt)
+
+
+def _merge(k: int, runs, dtype):
+    """Return the pairs ``(cell, node)`` of ``runs`` sorted by cell, stably.
+
+    Each run's pairs sorted by cell (cells ``0 .. k - 1``): a counting sort, the order
+    of ``np.argsort(cell, kind="stable")`` on the runs one after the other.
+    """
+    counts = [np.bincount(cell, minlength=k) for cell, _ in runs]
+    total = np.sum(counts, axis=0) if counts else np.zeros(k, np.int64)
+    at = np.cumsum(total) - total  # where each cell's next pair goes
+    out = np.empty(int(total.sum()), dtype=dtype)
+    for (cell, node), n in zip(runs, counts):
+        if len(cell):
+            out[np.repeat(at - (np.cumsum(n) - n), n) + np.arange(len(cell))] = node
+        at += n
+    return np.repeat(np.arange(k), total), out
 
 
 def _least(k: int, cell, d) -> np.ndarray:
@@ -270,33 +398,43 @@ def _least(k: int, cell, d) -> np.ndarray:
 _CHUNK = 1 << 15
 
 
-class _Ends:
-    """The nodes' arcs as :func:`exact_distances` reads them.
+class _Table:
+    """The node table as the walk reads it, made once per table.
 
     Coordinates as contiguous columns (gathered one at a time, no (k, 3) copies), and
     what :func:`~gloffset.geometry.sphere.arc_distance` computes per arc (``n x a``,
-    ``b x n`` and ``n.n > 0.5``) computed once per node, with the same bits.
+    ``b x n`` and ``n.n > 0.5``) computed once per node, with the same bits; for
+    :func:`_bound`, each node's cap (``mid``, ``reach`` and its cosine and sine), its
+    padded error bound plus :data:`_TINY` (``err``) and ``cut``: its error bound, or
+    ``-inf`` for an original arc (a pair is split where ``cut`` exceeds the cell's bound,
+    which is never negative). Each value the bits of the formula applied to the node
+    where it is read.
     """
 
     def __init__(self, nodes: NodeArcs):
+        def cols(x):
+            return [np.ascontiguousarray(x[:, k]) for k in range(3)]
+
         n = nodes.n
-        self.a = [np.ascontiguousarray(nodes.a[:, k]) for k in range(3)]
-        self.b = [np.ascontiguousarray(nodes.b[:, k]) for k in range(3)]
-        self.n = [np.ascontiguousarray(n[:, k]) for k in range(3)]
-        na, bn = cross(n, nodes.a), cross(nodes.b, n)
-        self.na = [np.ascontiguousarray(na[:, k]) for k in range(3)]
-        self.bn = [np.ascontiguousarray(bn[:, k]) for k in range(3)]
+        self.a, self.b, self.n = cols(nodes.a), cols(nodes.b), cols(n)
+        self.na, self.bn = cols(cross(n, nodes.a)), cols(cross(nodes.b, n))
         self.ok = dot(n, n) > 0.5
+        self.mid = cols(nodes.mid)
+        self.reach = np.ascontiguousarray(nodes.reach)
+        self.cos_r, self.sin_r = np.cos(self.reach), np.sin(self.reach)
+        self.err = pad(nodes.err) + _TINY
+        self.cut = np.where(nodes.leaf, -np.inf, nodes.err)
+        self.child = np.ascontiguousarray(nodes.child)
 
 
-#: The :class:`_Ends` of each node table (made once per table, kept while it lives).
-_ENDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: The :class:`_Table` of each node table (made once per table, kept while it lives).
+_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def _ends(nodes: NodeArcs) -> _Ends:
-    got = _ENDS.get(nodes)
+def _table(nodes: NodeArcs) -> _Table:
+    got = _TABLES.get(nodes)
     if got is None:
-        got = _ENDS[nodes] = _Ends(nodes)
+        got = _TABLES[nodes] = _Table(nodes)
     return got
 
 
@@ -308,12 +446,15 @@ def exact_distances(c, cell, nodes: NodeArcs, node) -> np.ndarray:
     each pair's distance to the line computed only where its foot falls on the arc and
     its distance to the ends only where it does not.
     """
-    ends = _ends(nodes)
-    cols = [np.ascontiguousarray(c[:, k]) for k in range(3)]
+    return _exact([np.ascontiguousarray(c[:, k]) for k in range(3)], cell, _table(nodes), node)
+
+
+def _exact(cols, cell, ends: _Table, node) -> np.ndarray:
+    """:func:`exact_distances` from the points' coordinate columns ``cols``."""
     out = np.empty(len(cell))
     for s in range(0, len(cell), _CHUNK):
         ci, ni = cell[s : s + _CHUNK], node[s : s + _CHUNK]
-        out[s : s + _CHUNK] = _arc_distance([x[ci] for x in cols], ends, ni)
+        out[s : s + _CHUNK] = _arc_distance([x.take(ci) for x in cols], ends, ni)
     return out
 
 
@@ -337,13 +478,13 @@ def _dot3(u, v, i=None):
     """
     if i is None:
         return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-    out = u[0] * v[0][i]
-    out += u[1] * v[1][i]
-    out += u[2] * v[2][i]
+    out = u[0] * v[0].take(i)
+    out += u[1] * v[1].take(i)
+    out += u[2] * v[2].take(i)
     return out
 
 
-def _arc_distance(p, ends: _Ends, ni) -> np.ndarray:
+def _arc_distance(p, ends: _Table, ni) -> np.ndarray:
     """Return the distances from points ``p`` (columns) to the arcs ``ni`` of ``ends``.
 
     :func:`~gloffset.geometry.sphere.arc_distance`'s, each branch on its own pairs (see
@@ -351,21 +492,21 @@ def _arc_distance(p, ends: _Ends, ni) -> np.ndarray:
     """
     inside = _dot3(p, ends.na, ni) >= 0.0
     inside &= _dot3(p, ends.bn, ni) >= 0.0
-    inside &= ends.ok[ni]
+    inside &= ends.ok.take(ni)
     out = np.empty(len(ni))
     on = np.flatnonzero(inside)
     if len(on):
-        q, j = [x[on] for x in p], ni[on]
-        n = [x[j] for x in ends.n]
+        q, j = [x.take(on) for x in p], ni.take(on)
+        n = [x.take(j) for x in ends.n]
         pn = _dot3(q, n)
         foot = [q[k] - pn * n[k] for k in range(3)]
         out[on] = np.arctan2(np.abs(pn), np.sqrt(_dot3(foot, foot)))
     off = np.flatnonzero(~inside)
     if len(off):
-        q, j = [x[off] for x in p], ni[off]
+        q, j = [x.take(off) for x in p], ni.take(off)
         to = []
         for e in (ends.a, ends.b):
-            v = [x[j] for x in e]
+            v = [x.take(j) for x in e]
             dm = [q[k] - v[k] for k in range(3)]
             dp = [q[k] + v[k] for k in range(3)]
             to.append(2.0 * np.arctan2(np.sqrt(_dot3(dm, dm)), np.sqrt(_dot3(dp, dp))))
@@ -381,28 +522,32 @@ _DOT_SLACK = 1e-12
 _SQ_SLACK = 1e-13
 
 
-def _nearest_vertices(c, cell, node, nodes: NodeArcs, vcos, vtx) -> None:
+def _nearest_vertices(cc, cell, node, tab: _Table, vcos, vtx) -> None:
     """Update each cell's nearest boundary vertex with the ends of the nodes ``node``.
 
-    ``vcos`` is the cosine of its angle to the centre, ``vtx`` the point; the ends of a
-    boundary node are original vertices of the boundary, bit for bit.
+    ``cc`` the cells' centres, ``vcos`` the cosine of the vertex's angle to the centre,
+    ``vtx`` the point (as coordinate columns); the ends of a boundary node are original
+    vertices of the boundary, bit for bit.
     """
-    for ends in (nodes.a, nodes.b):
-        cos = pair_dots(c, cell, ends, node)
+    for ends in (tab.a, tab.b):
+        cos = column_dots(cc, ends, cell, node)
         np.maximum.at(vcos, cell, cos)
-        win = np.flatnonzero(cos == vcos[cell])
-        vtx[cell[win]] = ends[node[win]]
+        win = np.flatnonzero(cos == vcos.take(cell))
+        cw, nw = cell.take(win), node.take(win)
+        for k in range(3):
+            vtx[k][cw] = ends[k].take(nw)
 
 
-def _maybe_nearer(c, cell, node, cm, t, nodes: NodeArcs, trig, vcos, vtx, reach) -> np.ndarray:
+def _maybe_nearer(centre, cap, disc) -> np.ndarray:
     """Return whether a node's run can be as near as the cell's vertex to some point.
 
     Whether it can be as near as the cell's vertex ``vtx`` to some point
     within ``reach`` of the cell's centre ``c``: False only where every such point is
     nearer to the vertex than to every point of the node's cap (centre ``mid``, radius
     ``r`` = ``nodes.reach``, which holds its run), so that the run holds no nearest point.
-    ``cm`` is ``c.mid``, ``t`` its angle (good to ``CAP_SLACK / 2``), ``vcos`` ``c.vtx``,
-    ``trig`` the cosines and sines of ``nodes.reach``.
+    Per pair: ``centre`` is ``(c.mid, t, c.vtx, vtx.mid)`` (``t`` the angle of ``c.mid``,
+    good to ``CAP_SLACK / 2``), ``cap`` ``(r, cos r, sin r)`` and ``disc`` ``(reach,
+    cos(reach), sin(reach))``.
 
     The test, rigorous: for ``q`` outside the cap, the cap's nearest point ``y`` has ``q.y
     = cos(angle(q, mid) - r) = cos r (q.mid) + sin r sin(angle(q, mid))``, so ``q.v > sin
@@ -414,15 +559,14 @@ def _maybe_nearer(c, cell, node, cm, t, nodes: NodeArcs, trig, vcos, vtx, reach)
     sin(min(pi / 2, t + reach))``. The rounding of these (a few 1e-16 on values of at
     most 4) is covered by :data:`_DOT_SLACK` and by :data:`_SQ_SLACK` under the root.
     """
-    r = nodes.reach[node]
-    rr = reach[cell]
-    cr = trig[0][node]
-    cv = vcos[cell] - cr * cm
-    vv = 1.0 + cr * cr - 2.0 * cr * pair_dots(vtx, cell, nodes.mid, node)
+    cm, t, vcos, vm = centre
+    r, cr, sin_r = cap
+    rr, cos_rr, sin_rr = disc
+    cv = vcos - cr * cm
+    vv = 1.0 + cr * cr - 2.0 * cr * vm
     s2 = np.maximum(vv - cv * cv, 0.0) + _SQ_SLACK
-    least = cv * np.cos(reach)[cell] - np.sqrt(s2) * np.sin(reach)[cell]
+    least = cv * cos_rr - np.sqrt(s2) * sin_rr
     sin_s = np.sin(np.minimum(t + rr + CAP_SLACK, 0.5 * np.pi))
-    sin_r = trig[1][node]
     out = least <= sin_r * np.maximum(sin_s, sin_r) + _DOT_SLACK
     # the test holds for caps and discs smaller than a quarter circle only
     return out | (r >= 1.0) | (rr >= 1.0)
