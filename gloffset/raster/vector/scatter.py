@@ -81,18 +81,25 @@ def _boxes(arcs: CurveArcs, lat, lon, reach: float):
     neg = -lat
     j0 = np.searchsorted(neg, -(lat0 + r), side="left")
     j1 = np.searchsorted(neg, -(lat0 - r), side="right")
+    # the arcs whose box has rows (j0 <= j1 always): on a grid that covers a band of
+    # latitudes (a tile), most arcs have none, and an empty box holds no cell; the rest in
+    # their order, so the entries are the same, less those of no cell
+    idx = np.flatnonzero(j1 > j0)
+    if len(idx) < len(j0):
+        lon0, lat0, r, j0, j1 = (x[idx] for x in (lon0, lat0, r, j0, j1))
+    else:
+        idx = np.arange(len(j0))
     # columns: the cap's longitude half-width, or all of them where it holds a pole
     polar = (np.abs(lat0) + r >= 0.5 * math.pi) | (r >= 0.5 * math.pi)
     with np.errstate(invalid="ignore", divide="ignore"):
         s = np.sin(np.minimum(r, 0.5 * math.pi)) / np.cos(lat0)
     dl = np.where(polar, math.pi, pad(np.arcsin(np.clip(s, 0.0, 1.0)), _REL, _ABS))
     out = []
-    idx = np.arange(len(lon0))
     full = polar | (dl >= math.pi)
     if full.any():
-        k = idx[full]
-        out.append((k, j0[k], j1[k], np.zeros(len(k), int), np.full(len(k), len(lon))))
-    part = idx[~full]
+        k = np.flatnonzero(full)
+        out.append((idx[k], j0[k], j1[k], np.zeros(len(k), int), np.full(len(k), len(lon))))
+    part = np.flatnonzero(~full)
     west, east = lon0[part] - dl[part], lon0[part] + dl[part]
     for turn in (-2.0 * math.pi, 0.0, 2.0 * math.pi):
         # only the ranges that reach the columns are searched: one that ends before the
@@ -103,7 +110,8 @@ def _boxes(arcs: CurveArcs, lat, lon, reach: float):
         i0 = np.searchsorted(lon, lo[reach_], side="left")
         i1 = np.searchsorted(lon, hi[reach_], side="right")
         ok = i1 > i0
-        out.append((k[ok], j0[k][ok], j1[k][ok], i0[ok], i1[ok]))
+        k = k[ok]
+        out.append((idx[k], j0[k], j1[k], i0[ok], i1[ok]))
     return tuple(np.concatenate([o[t] for o in out]) for t in range(5))
 
 
