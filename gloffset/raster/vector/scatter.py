@@ -146,16 +146,20 @@ def box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int):
     a_idx, j0, j1, i0, i1 = boxes
     nc = i1 - i0
     count = (j1 - j0) * nc
-    box = np.repeat(np.arange(len(count)), count)
-    off = np.arange(len(box)) - np.repeat(np.cumsum(count) - count, count)
-    jj = j0[box] + off // nc[box]
-    ii = i0[box] + off % nc[box]
-    ai = a_idx[box]
+    # a box's values spread over its cells with np.repeat (far cheaper than gathers by
+    # a box index per cell); the cell's offset in its box gives its row and column
+    ncb = np.repeat(nc, count)
+    off = np.arange(len(ncb)) - np.repeat(np.cumsum(count) - count, count)
+    q = off // ncb
+    jj = np.repeat(j0, count) + q
+    ii = np.repeat(i0, count) + (off - q * ncb)
+    ai = np.repeat(a_idx, count)
     cphi, sphi = np.cos(lat), np.sin(lat)
     clam, slam = np.cos(lon), np.sin(lon)
-    m = arcs.mid[ai]
-    cm = cphi[jj] * (clam[ii] * m[:, 0] + slam[ii] * m[:, 1]) + sphi[jj] * m[:, 2]
-    keep = cap_within_pairs(cm, row_reach, jj, arcs.half, ai)
+    m = arcs.mid[a_idx]
+    m0, m1, m2 = (np.repeat(m[:, k], count) for k in range(3))
+    cm = cphi[jj] * (clam[ii] * m0 + slam[ii] * m1) + sphi[jj] * m2
+    keep = np.flatnonzero(cap_within_pairs(cm, row_reach, jj, arcs.half, ai, runs=(a_idx, count)))
     return jj[keep], ii[keep], ai[keep], cm[keep]
 
 
