@@ -114,3 +114,8 @@ def test_cap_within_pairs_is_cap_within():
         cm[k[::3]] = thr[k[::3]]
         want = caps.cap_within(cm, first[cell] + half[arc])
         assert np.array_equal(caps.cap_within_pairs(cm, first, cell, half, arc), want)
+        # the pairs in runs of one arc, the bounds spread by run: the same booleans
+        o = np.argsort(arc, kind="stable")
+        runs, counts = np.unique(arc[o], return_counts=True)
+        got = caps.cap_within_pairs(cm[o], first, cell[o], half, arc[o], runs=(runs, counts))
+        assert np.array_equal(got, want[o])

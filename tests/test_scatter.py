@@ -99,6 +99,33 @@ def test_start_level_falls_back_for_large_distances(mexico_path):
     assert PAIRS_PER_ARC > 0
 
 
+def test_boxes_of_a_tile_are_its_arcs_pairs(mexico_path):
+    """On a tile (a band of latitudes) the arcs beyond its rows have no box, every box
+    holds cells, and the pairs are those of every cell and arc within the cap test."""
+    from gloffset.geometry.caps import cap_within
+    from gloffset.raster.vector.scatter import _plan, box_pairs
+
+    shape = gloffset.read(mexico_path)
+    arcs = CurveArcs.from_shape(shape)
+    grid = Tile(4, 3, 6, size=256)  # the Gulf of Mexico: part of the arcs
+    level = 1  # 64 x 64
+    (lat, lon, _, _, row_reach), boxes = _plan(arcs, grid, 0.01, level)
+    a_idx, j0, j1, i0, i1 = boxes
+    assert 0 < len(np.unique(a_idx)) < len(arcs.a)
+    assert np.all(j1 > j0) and np.all(i1 > i0)
+    h, w = grid.level_shape(level)
+    jj, ii, ai, cm = box_pairs(arcs, lat, lon, row_reach, boxes, w)
+    got = set(zip((jj * w + ii).tolist(), ai.tolist()))
+    j, i = np.divmod(np.arange(h * w), w)
+    c = np.stack(
+        [np.cos(lat[j]) * np.cos(lon[i]), np.cos(lat[j]) * np.sin(lon[i]), np.sin(lat[j])], -1
+    )
+    dots = c @ arcs.mid.T
+    near = cap_within(dots, row_reach[j][:, None] + arcs.half[None])
+    want = set(zip(*(x.tolist() for x in np.nonzero(near))))
+    assert got == want and len(got) == len(jj)
+
+
 def test_bad_start(world):
     shape = _shape(world, "Fiji")
     with pytest.raises(ValueError, match="start must be"):

@@ -156,9 +156,12 @@ def cap_threshold(reach) -> np.ndarray:
 _PAIR_MARGIN = 1e-12
 
 
-def cap_within_pairs(cm, first, cell, half, arc) -> np.ndarray:
+def cap_within_pairs(cm, first, cell, half, arc, *, runs=None) -> np.ndarray:
     """``cap_within(cm, first[cell] + half[arc])`` for pairs ``(cell, arc)``: the same
     booleans, with ``cos`` evaluated only for the pairs near their threshold.
+
+    ``runs``: ``(arcs, counts)`` where ``arc`` is ``np.repeat(arcs, counts)`` (pairs in
+    runs of one arc): the arcs' bounds are then spread by run, not gathered by pair.
 
     With ``first`` between its least and greatest value, each arc's reach lies between
     two values, so its threshold lies between two cosines computed once per arc; a pair
@@ -171,7 +174,7 @@ def cap_within_pairs(cm, first, cell, half, arc) -> np.ndarray:
     out = np.zeros(len(cm), dtype=bool)
     lo = np.cos(np.minimum(first.max() + half, np.pi)) - COS_SLACK - _PAIR_MARGIN
     hi = np.cos(np.minimum(first.min() + half, np.pi)) - COS_SLACK + _PAIR_MARGIN
-    may = np.flatnonzero(cm >= lo[arc])
+    may = np.flatnonzero(cm >= (lo[arc] if runs is None else np.repeat(lo[runs[0]], runs[1])))
     a, cmm = arc[may], cm[may]
     unsure = cmm < hi[a]
     out[may] = ~unsure

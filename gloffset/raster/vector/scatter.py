@@ -81,18 +81,25 @@ def _boxes(arcs: CurveArcs, lat, lon, reach: float):
     neg = -lat
     j0 = np.searchsorted(neg, -(lat0 + r), side="left")
     j1 = np.searchsorted(neg, -(lat0 - r), side="right")
+    # the arcs whose box has rows (j0 <= j1 always): on a grid that covers a band of
+    # latitudes (a tile), most arcs have none, and an empty box holds no cell; the rest in
+    # their order, so the entries are the same, less those of no cell
+    idx = np.flatnonzero(j1 > j0)
+    if len(idx) < len(j0):
+        lon0, lat0, r, j0, j1 = (x[idx] for x in (lon0, lat0, r, j0, j1))
+    else:
+        idx = np.arange(len(j0))
     # columns: the cap's longitude half-width, or all of them where it holds a pole
     polar = (np.abs(lat0) + r >= 0.5 * math.pi) | (r >= 0.5 * math.pi)
     with np.errstate(invalid="ignore", divide="ignore"):
         s = np.sin(np.minimum(r, 0.5 * math.pi)) / np.cos(lat0)
     dl = np.where(polar, math.pi, pad(np.arcsin(np.clip(s, 0.0, 1.0)), _REL, _ABS))
     out = []
-    idx = np.arange(len(lon0))
     full = polar | (dl >= math.pi)
     if full.any():
-        k = idx[full]
-        out.append((k, j0[k], j1[k], np.zeros(len(k), int), np.full(len(k), len(lon))))
-    part = idx[~full]
+        k = np.flatnonzero(full)
+        out.append((idx[k], j0[k], j1[k], np.zeros(len(k), int), np.full(len(k), len(lon))))
+    part = np.flatnonzero(~full)
     west, east = lon0[part] - dl[part], lon0[part] + dl[part]
     for turn in (-2.0 * math.pi, 0.0, 2.0 * math.pi):
         # only the ranges that reach the columns are searched: one that ends before the
@@ -103,7 +110,8 @@ def _boxes(arcs: CurveArcs, lat, lon, reach: float):
         i0 = np.searchsorted(lon, lo[reach_], side="left")
         i1 = np.searchsorted(lon, hi[reach_], side="right")
         ok = i1 > i0
-        out.append((k[ok], j0[k][ok], j1[k][ok], i0[ok], i1[ok]))
+        k = k[ok]
+        out.append((idx[k], j0[k], j1[k], i0[ok], i1[ok]))
     return tuple(np.concatenate([o[t] for o in out]) for t in range(5))
 
 
@@ -138,16 +146,20 @@ def box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int):
     a_idx, j0, j1, i0, i1 = boxes
     nc = i1 - i0
     count = (j1 - j0) * nc
-    box = np.repeat(np.arange(len(count)), count)
-    off = np.arange(len(box)) - np.repeat(np.cumsum(count) - count, count)
-    jj = j0[box] + off // nc[box]
-    ii = i0[box] + off % nc[box]
-    ai = a_idx[box]
+    # a box's values spread over its cells with np.repeat (far cheaper than gathers by
+    # a box index per cell); the cell's offset in its box gives its row and column
+    ncb = np.repeat(nc, count)
+    off = np.arange(len(ncb)) - np.repeat(np.cumsum(count) - count, count)
+    q = off // ncb
+    jj = np.repeat(j0, count) + q
+    ii = np.repeat(i0, count) + (off - q * ncb)
+    ai = np.repeat(a_idx, count)
     cphi, sphi = np.cos(lat), np.sin(lat)
     clam, slam = np.cos(lon), np.sin(lon)
-    m = arcs.mid[ai]
-    cm = cphi[jj] * (clam[ii] * m[:, 0] + slam[ii] * m[:, 1]) + sphi[jj] * m[:, 2]
-    keep = cap_within_pairs(cm, row_reach, jj, arcs.half, ai)
+    m = arcs.mid[a_idx]
+    m0, m1, m2 = (np.repeat(m[:, k], count) for k in range(3))
+    cm = cphi[jj] * (clam[ii] * m0 + slam[ii] * m1) + sphi[jj] * m2
+    keep = np.flatnonzero(cap_within_pairs(cm, row_reach, jj, arcs.half, ai, runs=(a_idx, count)))
     return jj[keep], ii[keep], ai[keep], cm[keep]
 
 
