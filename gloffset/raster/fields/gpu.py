@@ -194,7 +194,7 @@ def _block(nodes: NodeArcs, grid, lists: _Lists, where, out: np.ndarray, t: dict
     eng = field_pass()
     t0 = time.perf_counter()
     first, cnt, node = lists.block(rows, cols)
-    arcs, local = np.unique(node, return_inverse=True)
+    arcs, local = _compact(node, len(nodes.a))
     h, w = out.shape
     j0, j1 = rows.start << shift, min(h, rows.stop << shift)
     i0, i1 = cols.start << shift, min(w, cols.stop << shift)
@@ -212,9 +212,9 @@ def _block(nodes: NodeArcs, grid, lists: _Lists, where, out: np.ndarray, t: dict
         (j0, i0),
         shift,
         cells.astype(np.uint32),
-        local.astype(np.uint32),
+        local,
         rec[arcs],
-        _vertex_ids(nodes, arcs),
+        _vertex_ids(nodes)[arcs],
         exact[arcs],
         **_centres(grid, range(j0, j1), range(i0, i1)),
     )
@@ -257,11 +257,52 @@ def _centres(grid, pj: range, pi: range) -> dict:
     return {"kind": "texture", "rows": grid.centers(last, jj.ravel(), ii.ravel())}
 
 
-def _vertex_ids(nodes: NodeArcs, arcs: np.ndarray) -> np.ndarray:
-    """Return (arcs, 2) uint32 ids of the ends of ``arcs``, equal for equal points."""
-    ends = np.concatenate([nodes.a[arcs], nodes.b[arcs]])
-    rows = np.ascontiguousarray(ends).view(np.dtype((np.void, 24))).ravel()
-    _, ids = np.unique(rows, return_inverse=True)
+def _compact(node: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Return the distinct values of ``node`` (ids below ``n``), ascending, and each
+    value's place among them (uint32): ``np.unique(node, return_inverse=True)``'s
+    answer, by a mark per id instead of a sort."""
+    mark = np.zeros(n, dtype=bool)
+    mark[node] = True
+    arcs = np.flatnonzero(mark)
+    place = np.empty(n, dtype=np.uint32)
+    place[arcs] = np.arange(len(arcs), dtype=np.uint32)
+    return arcs, place[node]
+
+
+#: Odd 64-bit multipliers of :func:`_vertex_ids`' hash of a point's three coordinates.
+_MIX = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9], dtype=np.uint64)
+
+
+#: :func:`_vertex_ids` of each node table (made once, kept while it lives).
+_ENDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _vertex_ids(nodes: NodeArcs) -> np.ndarray:
+    """Return (nodes, 2) uint32 ids of every node's ends, equal for equal points (the
+    same bits), distinct for distinct ones, below 2^31 (the shader compares them only
+    for equality). Numbered through a 64-bit hash of the bits, checked: where two
+    distinct points share a hash, through the bits themselves. Made once per table."""
+    got = _ENDS.get(nodes)
+    if got is None:
+        got = _ENDS[nodes] = _number_ends(nodes)
+    return got
+
+
+def _number_ends(nodes: NodeArcs) -> np.ndarray:
+    """:func:`_vertex_ids`, made."""
+    ends = np.ascontiguousarray(np.concatenate([nodes.a, nodes.b]))
+    bits = ends.view(np.uint64).reshape(len(ends), 3)
+    h = bits * _MIX
+    key = h[:, 0] ^ h[:, 1] ^ h[:, 2]
+    key ^= key >> np.uint64(29)
+    _, ids = np.unique(key, return_inverse=True)
+    ids = ids.ravel()
+    one = np.empty(int(ids.max(initial=-1)) + 1, dtype=np.int64)
+    one[ids] = np.arange(len(ids))  # one point of each hash
+    if not np.array_equal(bits[one[ids]], bits):  # a collision: by the bits
+        rows = ends.view(np.dtype((np.void, 24))).ravel()
+        _, ids = np.unique(rows, return_inverse=True)
+        ids = ids.ravel()
     return ids.reshape(2, -1).T.astype(np.uint32)
 
 
