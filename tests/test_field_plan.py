@@ -69,3 +69,27 @@ def test_vertex_ids_through_the_bits_where_hashes_collide(nodes, monkeypatch):
     monkeypatch.setattr(field_gpu, "_MIX", np.zeros(3, dtype=np.uint64))
     ids = field_gpu._number_ends(nodes)
     assert same_partition(ids, by_bits(nodes))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_by_key_is_the_stable_argsort(seed):
+    rng = np.random.default_rng(seed)
+    runs = rng.integers(0, 50, 400)  # keys in runs, repeated across runs, and singles
+    key = np.repeat(runs, rng.integers(1, 6, len(runs)))
+    key = np.concatenate([key, rng.integers(0, 50, 300)])
+    assert np.array_equal(field_gpu._by_key(key), np.argsort(key, kind="stable"))
+    assert len(field_gpu._by_key(np.zeros(0, np.int64))) == 0
+
+
+def test_lists_are_the_stable_sort_of_the_walks_pairs(nodes):
+    grid = Equirect(512, 512, (-118.0, 14.0, -86.0, 33.0))
+    level = grid.n_levels - 1 - field_gpu.SHIFT
+    lists = field_gpu._Lists(nodes, grid, np.inf, level, "cpu")
+    wc = lists.shape[1]
+    keys, vals = [], []
+    for f, _ in field_gpu.walk_levels(nodes, grid, np.inf, level):
+        keys.append((f.cells[:, 0].astype(np.int64) * wc + f.cells[:, 1])[f.pair_cell])
+        vals.append(f.pair_arc)
+    key, val = np.concatenate(keys), np.concatenate(vals)
+    assert np.array_equal(lists.node, val[np.argsort(key, kind="stable")])
+    assert np.array_equal(lists.count, np.bincount(key, minlength=lists.count.size))

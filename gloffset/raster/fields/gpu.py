@@ -111,8 +111,8 @@ class _Lists:
             keys.append(flat[f.pair_cell])
             vals.append(f.pair_arc)
         key = np.concatenate(keys) if keys else np.zeros(0, np.int64)
-        order = np.argsort(key, kind="stable")
-        self.node = np.concatenate(vals)[order] if vals else np.zeros(0, np.int64)
+        val = np.concatenate(vals) if vals else np.zeros(0, np.int64)
+        self.node = val[_by_key(key)]
         self.count = np.bincount(key, minlength=hc * wc)
         self.start = np.cumsum(self.count) - self.count
 
@@ -125,6 +125,20 @@ class _Lists:
         first = np.cumsum(cnt) - cnt
         at = np.repeat(st - first, cnt) + np.arange(int(cnt.sum()))
         return first, cnt, self.node[at]
+
+
+def _by_key(key: np.ndarray) -> np.ndarray:
+    """Return ``np.argsort(key, kind="stable")``, sorting the runs of equal keys (the
+    walk gives each block's pairs by cell: a run per cell) instead of the pairs."""
+    n = len(key)
+    if n == 0:
+        return np.zeros(0, np.int64)
+    starts = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
+    lens = np.diff(np.append(starts, n))
+    order = np.argsort(key[starts], kind="stable")
+    starts, lens = starts[order], lens[order]
+    first = np.cumsum(lens) - lens  # each run's place in the answer
+    return np.repeat(starts - first, lens) + np.arange(n)
 
 
 def gpu_distances(
