@@ -67,7 +67,7 @@ def _records(nodes: NodeArcs) -> tuple[np.ndarray, np.ndarray]:
         n = nodes.n
         na, bn = cross(n, nodes.a), cross(nodes.b, n)
         ok = dot(n, n) > 0.5
-        rec = np.zeros((len(n), ARC_TEXELS, 4))
+        rec = np.zeros((len(n), ARC_TEXELS, 4), dtype=np.float32)  # rounded as written
         rec[:, 0, :3], rec[:, 1, :3] = nodes.a, nodes.b
         rec[:, 2, :3], rec[:, 3, :3] = na, bn
         rec[:, :3, 3] = n
@@ -78,7 +78,7 @@ def _records(nodes: NodeArcs) -> tuple[np.ndarray, np.ndarray]:
         ex[:, 0, :3], ex[:, 1, :3], ex[:, 2, :3], ex[:, 3, :3] = nodes.a, nodes.b, n, na
         ex[:, 0, 3] = ok
         ex[:, 1:, 3] = bn
-        got = _RECORDS[nodes] = (rec.astype(np.float32), ex.reshape(len(n), EXACT_DOUBLES))
+        got = _RECORDS[nodes] = (rec, ex.reshape(len(n), EXACT_DOUBLES))
     return got
 
 
