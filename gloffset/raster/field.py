@@ -374,8 +374,10 @@ def _field(shape, grid, m: float, radius: float, count: _Progress, backend: str)
             count.add(dist.size)  # the signs, all at once
     else:
         dist, inside = _distances(shape, grid, m, count, signed)
-    v = np.minimum(dist, m) * radius
-    out = np.where(inside, -v, v).astype(np.float32)
+    v = np.minimum(dist, m, out=dist)
+    v *= radius
+    out = v.astype(np.float32)  # rounded alike either sign: negated after
+    np.negative(out, out=out, where=inside)
     valid = grid.valid(grid.n_levels - 1)
     if valid is not None:  # pixels without a place on the sphere: farther than any d
         out[~valid] = np.inf
@@ -395,9 +397,13 @@ def _gpu_inside(shape, grid, m: float, dist: np.ndarray, codes: np.ndarray) -> n
     ``classify_curves(shape, 0.0, grid)``, bit for bit.
     """
     zero = dist == 0.0
-    und = (codes == UNDECIDED) | ~(dist > NEAR) | ~(dist <= m)
+    und = np.greater(dist, NEAR)
+    und &= dist <= m
+    np.logical_not(und, out=und)
+    und |= codes == UNDECIDED
     und &= ~zero
-    inside = (codes == INSIDE) | zero
+    inside = np.equal(codes, INSIDE)
+    inside |= zero
     j, i = np.nonzero(und)
     if len(j):  # the float64 rule first: the levels' walk is the dearer
         near = np.where(dist[j, i] <= m, dist[j, i], np.inf)

@@ -67,7 +67,7 @@ def _records(nodes: NodeArcs) -> tuple[np.ndarray, np.ndarray]:
         n = nodes.n
         na, bn = cross(n, nodes.a), cross(nodes.b, n)
         ok = dot(n, n) > 0.5
-        rec = np.zeros((len(n), ARC_TEXELS, 4))
+        rec = np.zeros((len(n), ARC_TEXELS, 4), dtype=np.float32)  # rounded as written
         rec[:, 0, :3], rec[:, 1, :3] = nodes.a, nodes.b
         rec[:, 2, :3], rec[:, 3, :3] = na, bn
         rec[:, :3, 3] = n
@@ -78,7 +78,7 @@ def _records(nodes: NodeArcs) -> tuple[np.ndarray, np.ndarray]:
         ex[:, 0, :3], ex[:, 1, :3], ex[:, 2, :3], ex[:, 3, :3] = nodes.a, nodes.b, n, na
         ex[:, 0, 3] = ok
         ex[:, 1:, 3] = bn
-        got = _RECORDS[nodes] = (rec.astype(np.float32), ex.reshape(len(n), EXACT_DOUBLES))
+        got = _RECORDS[nodes] = (rec, ex.reshape(len(n), EXACT_DOUBLES))
     return got
 
 
@@ -111,8 +111,8 @@ class _Lists:
             keys.append(flat[f.pair_cell])
             vals.append(f.pair_arc)
         key = np.concatenate(keys) if keys else np.zeros(0, np.int64)
-        order = np.argsort(key, kind="stable")
-        self.node = np.concatenate(vals)[order] if vals else np.zeros(0, np.int64)
+        val = np.concatenate(vals) if vals else np.zeros(0, np.int64)
+        self.node = val[_by_key(key)]
         self.count = np.bincount(key, minlength=hc * wc)
         self.start = np.cumsum(self.count) - self.count
 
@@ -125,6 +125,20 @@ class _Lists:
         first = np.cumsum(cnt) - cnt
         at = np.repeat(st - first, cnt) + np.arange(int(cnt.sum()))
         return first, cnt, self.node[at]
+
+
+def _by_key(key: np.ndarray) -> np.ndarray:
+    """Return ``np.argsort(key, kind="stable")``, sorting the runs of equal keys (the
+    walk gives each block's pairs by cell: a run per cell) instead of the pairs."""
+    n = len(key)
+    if n == 0:
+        return np.zeros(0, np.int64)
+    starts = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
+    lens = np.diff(np.append(starts, n))
+    order = np.argsort(key[starts], kind="stable")
+    starts, lens = starts[order], lens[order]
+    first = np.cumsum(lens) - lens  # each run's place in the answer
+    return np.repeat(starts - first, lens) + np.arange(n)
 
 
 def gpu_distances(
@@ -194,7 +208,7 @@ def _block(nodes: NodeArcs, grid, lists: _Lists, where, out: np.ndarray, t: dict
     eng = field_pass()
     t0 = time.perf_counter()
     first, cnt, node = lists.block(rows, cols)
-    arcs, local = np.unique(node, return_inverse=True)
+    arcs, local = _compact(node, len(nodes.a))
     h, w = out.shape
     j0, j1 = rows.start << shift, min(h, rows.stop << shift)
     i0, i1 = cols.start << shift, min(w, cols.stop << shift)
@@ -212,9 +226,9 @@ def _block(nodes: NodeArcs, grid, lists: _Lists, where, out: np.ndarray, t: dict
         (j0, i0),
         shift,
         cells.astype(np.uint32),
-        local.astype(np.uint32),
+        local,
         rec[arcs],
-        _vertex_ids(nodes, arcs),
+        _vertex_ids(nodes)[arcs],
         exact[arcs],
         **_centres(grid, range(j0, j1), range(i0, i1)),
     )
@@ -257,11 +271,52 @@ def _centres(grid, pj: range, pi: range) -> dict:
     return {"kind": "texture", "rows": grid.centers(last, jj.ravel(), ii.ravel())}
 
 
-def _vertex_ids(nodes: NodeArcs, arcs: np.ndarray) -> np.ndarray:
-    """Return (arcs, 2) uint32 ids of the ends of ``arcs``, equal for equal points."""
-    ends = np.concatenate([nodes.a[arcs], nodes.b[arcs]])
-    rows = np.ascontiguousarray(ends).view(np.dtype((np.void, 24))).ravel()
-    _, ids = np.unique(rows, return_inverse=True)
+def _compact(node: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Return the distinct values of ``node`` (ids below ``n``), ascending, and each
+    value's place among them (uint32): ``np.unique(node, return_inverse=True)``'s
+    answer, by a mark per id instead of a sort."""
+    mark = np.zeros(n, dtype=bool)
+    mark[node] = True
+    arcs = np.flatnonzero(mark)
+    place = np.empty(n, dtype=np.uint32)
+    place[arcs] = np.arange(len(arcs), dtype=np.uint32)
+    return arcs, place[node]
+
+
+#: Odd 64-bit multipliers of :func:`_vertex_ids`' hash of a point's three coordinates.
+_MIX = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9], dtype=np.uint64)
+
+
+#: :func:`_vertex_ids` of each node table (made once, kept while it lives).
+_ENDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _vertex_ids(nodes: NodeArcs) -> np.ndarray:
+    """Return (nodes, 2) uint32 ids of every node's ends, equal for equal points (the
+    same bits), distinct for distinct ones, below 2^31 (the shader compares them only
+    for equality). Numbered through a 64-bit hash of the bits, checked: where two
+    distinct points share a hash, through the bits themselves. Made once per table."""
+    got = _ENDS.get(nodes)
+    if got is None:
+        got = _ENDS[nodes] = _number_ends(nodes)
+    return got
+
+
+def _number_ends(nodes: NodeArcs) -> np.ndarray:
+    """:func:`_vertex_ids`, made."""
+    ends = np.ascontiguousarray(np.concatenate([nodes.a, nodes.b]))
+    bits = ends.view(np.uint64).reshape(len(ends), 3)
+    h = bits * _MIX
+    key = h[:, 0] ^ h[:, 1] ^ h[:, 2]
+    key ^= key >> np.uint64(29)
+    _, ids = np.unique(key, return_inverse=True)
+    ids = ids.ravel()
+    one = np.empty(int(ids.max(initial=-1)) + 1, dtype=np.int64)
+    one[ids] = np.arange(len(ids))  # one point of each hash
+    if not np.array_equal(bits[one[ids]], bits):  # a collision: by the bits
+        rows = ends.view(np.dtype((np.void, 24))).ravel()
+        _, ids = np.unique(rows, return_inverse=True)
+        ids = ids.ravel()
     return ids.reshape(2, -1).T.astype(np.uint32)
 
 
