@@ -273,13 +273,7 @@ def _round(st: _Cells, tab: _Table, cell, node):
     lower bounds, and at the output level exact distances, ``inf`` where not measured)
     and the halves of those split, ``(cell, node)``."""
     best = st.best
-    # the cells of the pairs, by runs: has[i] holds at[i] .. at[i] + cnt[i]
-    c0 = int(cell[0])
-    at = np.searchsorted(cell, np.arange(c0, int(cell[-1]) + 2))
-    cnt = np.diff(at)
-    has = np.flatnonzero(cnt)
-    at, cnt = at[has], cnt[has]
-    has += c0
+    at, cnt, has = _cell_runs(cell)  # cell has[i] holds pairs at[i] .. at[i] + cnt[i]
     runs = has, cnt
     mid = [x.take(node) for x in tab.mid]
     cm = column_dots([_per_pair(runs, x) for x in st.cc], mid)
@@ -354,6 +348,16 @@ def _round(st: _Cells, tab: _Table, cell, node):
         np.minimum.at(st.dist, cn.compress(on), exact.compress(on))
     s = np.flatnonzero(split)
     return left, (np.repeat(cell[s], 2), tab.child.take(node[s], axis=0).ravel())
+
+
+def _cell_runs(cell) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The runs of equal values of ``cell`` (sorted, not empty): each run's first pair,
+    its count and its cell."""
+    c0 = int(cell[0])
+    at = np.searchsorted(cell, np.arange(c0, int(cell[-1]) + 2))
+    cnt = np.diff(at)
+    has = np.flatnonzero(cnt)
+    return at[has], cnt[has], has + c0
 
 
 def _per_pair(runs, x) -> np.ndarray:
