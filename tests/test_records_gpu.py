@@ -10,6 +10,7 @@ from conftest import LINES, SQUARE_WITH_HOLE, assert_cluster_headers, frontier_w
 from test_engine_records import POINTS, frontier, pair_distances, reference_records
 
 import gloffset
+from gloffset.gl import context
 from gloffset.grids import Cube, Equirect, Tile
 from gloffset.raster import gpu
 from gloffset.raster import records as E
@@ -166,3 +167,21 @@ def test_countries_render_is_that_of_the_numpy_records(monkeypatch):
     device = gloffset.render(shape, 127e3, grid)
     monkeypatch.setattr(gpu, "GPU_MIN_RECORDS", 1 << 62)
     np.testing.assert_array_equal(device, gloffset.render(shape, 127e3, grid))
+
+
+def test_made_tells_this_threads_engines():
+    """``made``, read by the records' threshold once their shaders are compiled: per
+    thread, True once ``shared`` has made the engine."""
+    import threading
+
+    class Engine:
+        pass
+
+    assert not context.made(Engine)
+    context.shared(Engine)
+    assert context.made(Engine)
+    other: list = []
+    t = threading.Thread(target=lambda: other.append(context.made(Engine)))
+    t.start()
+    t.join()
+    assert other == [False]

@@ -17,7 +17,7 @@ import threading
 
 from ..errors import GLContextError
 
-__all__ = ["get_context", "context_info", "shared"]
+__all__ = ["get_context", "context_info", "made", "shared"]
 
 _LOCAL = threading.local()  # per thread: ctx, device, shared (class -> its one instance)
 _SOFTWARE = ("llvmpipe", "softpipe", "swrast", "software")
@@ -129,3 +129,9 @@ def shared(cls):
     if obj is None:
         obj = objs[cls] = cls()
     return obj
+
+
+def made(cls) -> bool:
+    """Whether this thread has made its :func:`shared` instance of ``cls`` (its programs
+    compiled: a further run costs no compilation)."""
+    return getattr(_LOCAL, "shared", {}).get(cls) is not None

@@ -20,20 +20,18 @@ is kept; no test here has met one).
 
 from __future__ import annotations
 
-import threading
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from .arcs import arc_buffer
-from .context import context_info, get_context, shared
+from .context import context_info, get_context, made, shared
 from .shaders import load_source
 
 __all__ = ["DeviceRecords", "RecordsPass", "records_pass", "records_pass_made"]
 
 _LOCAL = 64
-_MADE = threading.local()  # per thread: whether records_pass() made its engine
 _MAX_GROUPS = 65535  # work groups per dispatch dimension (the GL minimum of the limit)
 #: llvmpipe ends a shader loop after 65535 iterations: the ORDER pass loops over a bin's
 #: clusters.
@@ -166,12 +164,10 @@ class RecordsPass:
 
 def records_pass() -> RecordsPass:
     """This thread's :class:`RecordsPass` (made on first use, with the GL context)."""
-    engine = shared(RecordsPass)
-    _MADE.done = True
-    return engine
+    return shared(RecordsPass)
 
 
 def records_pass_made() -> bool:
     """Whether this thread has made its :class:`RecordsPass` (its shaders compiled): a
     further run costs no compilation."""
-    return bool(getattr(_MADE, "done", False))
+    return made(RecordsPass)

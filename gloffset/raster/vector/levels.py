@@ -326,14 +326,10 @@ def _kinds(arcs: ArcTable, ai, dist, dring):
             masks.append((None, out))
         elif kind.any():
             masks.append((kind, out))
-    if len(masks) == 2 and (
-        masks[0][0] is None
-        and masks[1][0] is None
-        or masks[0][0] is not None
-        and masks[1][0] is not None
-        and np.array_equal(masks[0][0], masks[1][0])
-    ):
-        return [(masks[0][0], [dist, dring])]
+    if len(masks) == 2:
+        a, b = masks[0][0], masks[1][0]
+        if (a is None) == (b is None) and (a is None or np.array_equal(a, b)):
+            return [(a, [dist, dring])]
     return [(kind, [out]) for kind, out in masks]
 
 
