@@ -20,15 +20,25 @@ it prints the device, then
      Mexico at 4096 x 2048.
 
 Each timing is skipped (and says so) once ``--budget`` seconds have passed (default 420,
-so that the run stays within 8 minutes on a hardware GPU; 1200 on llvmpipe). Writes
-``benchmarks/results/gpu.json``; the other benchmarks' results are left alone.
+so that the run stays within 8 minutes on a hardware GPU; 1200 on llvmpipe).
+
+Each output is recorded by its SHA-256 (each render's mask, the five masks, the pyramid's
+tiles in order, the field's float32 values and its signs), so that two devices' runs say
+whether they drew the same. On llvmpipe the record is ``benchmarks/results/gpu.json``, the
+reference; on any other device ``gpu_device.json``, and the run then prints, per step, the
+speed-up over the llvmpipe reference and whether each output is the same (masks and tiles
+must be; the field's values may differ within its accuracy contract, which the GL tests of
+step 1 check, its signs must not). The other benchmarks' results are left alone.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
+import json
 import os
 import re
+import sqlite3
 import subprocess
 import sys
 import tempfile
@@ -37,7 +47,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from common import DATA, ROOT, write  # noqa: E402
+import numpy as np  # noqa: E402
+from common import DATA, RESULTS, ROOT, write  # noqa: E402
 
 import gloffset  # noqa: E402
 from gloffset.gl.context import context_info  # noqa: E402
@@ -49,6 +60,7 @@ GL_TESTS = [
     "tests/test_tiles.py",
     "tests/test_field.py",
     "tests/test_field_walk_gpu.py",
+    "tests/test_walk_check.py",
 ]
 DISTANCE = 127e3
 FIVE = [10e3, 50e3, 127e3, 250e3, 500e3]
@@ -75,6 +87,27 @@ def run_tests(software: bool, timeout: float) -> dict:
     return {"command": " ".join(cmd[1:]), "exit": proc.returncode, "s": seconds, **counts}
 
 
+def sha(*arrays) -> str:
+    """The SHA-256 (hex, 16 digits) of the arrays' bytes, in order."""
+    h = hashlib.sha256()
+    for a in arrays:
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()[:16]
+
+
+def tiles_sha(path: Path) -> str:
+    """The SHA-256 of an MBTiles archive's tiles (zoom, column, row and bytes, in order)."""
+    with sqlite3.connect(path) as db:
+        rows = db.execute(
+            "SELECT zoom_level, tile_column, tile_row, tile_data FROM tiles ORDER BY 1, 2, 3"
+        ).fetchall()
+    h = hashlib.sha256()
+    for z, x, y, data in rows:
+        h.update(f"{z}/{x}/{y}:".encode())
+        h.update(data)
+    return h.hexdigest()[:16]
+
+
 def timed(fn) -> float:
     t = time.perf_counter()
     fn()
@@ -86,8 +119,10 @@ def renders(mexico, world) -> dict:
     out = {}
     for name, shape in (("mexico_10m", mexico), ("countries_10m", world)):
         gloffset.render(shape, DISTANCE, Equirect(512, 256))  # caches and shaders
-        s = timed(lambda shape=shape: gloffset.render(shape, DISTANCE, grid))
-        out[name] = {"size": [4096, 2048], "distance_m": DISTANCE, "s": s}
+        t = time.perf_counter()
+        mask = gloffset.render(shape, DISTANCE, grid)
+        s = time.perf_counter() - t
+        out[name] = {"size": [4096, 2048], "distance_m": DISTANCE, "s": s, "sha": sha(mask)}
     return out
 
 
@@ -97,7 +132,9 @@ def pyramid(mexico) -> dict:
         t = time.perf_counter()
         st = gloffset.tiles.pyramid(mexico, DISTANCE, "0-8", out)
         s = time.perf_counter() - t
+        digest = tiles_sha(out)
     return {
+        "sha": digest,
         "zooms": [0, 8],
         "tile_size": 256,
         "s": s,
@@ -110,14 +147,52 @@ def field(world, size) -> dict:
     t = time.perf_counter()
     f = gloffset.distance_field(world, Equirect(*size))
     s = time.perf_counter() - t
-    return {"input": "countries_10m", "size": list(size), "s": s, "min_m": float(f.values.min())}
+    return {
+        "input": "countries_10m",
+        "size": list(size),
+        "s": s,
+        "min_m": float(f.values.min()),
+        "sha": sha(f.values),
+        "signs_sha": sha(np.sign(f.values).astype(np.int8)),
+    }
 
 
 def five_distances(mexico) -> dict:
     grid = Equirect(4096, 2048)
     single = timed(lambda: [gloffset.render(mexico, d, grid) for d in FIVE])
-    many = timed(lambda: gloffset.render_many(mexico, FIVE, grid))
-    return {"distances_m": FIVE, "single_s": single, "many_s": many, "ratio": many / single}
+    t = time.perf_counter()
+    masks = gloffset.render_many(mexico, FIVE, grid)
+    many = time.perf_counter() - t
+    return {
+        "distances_m": FIVE,
+        "single_s": single,
+        "many_s": many,
+        "ratio": many / single,
+        "sha": sha(*masks),
+    }
+
+
+def against(rec: dict, ref: dict) -> dict:
+    """Per step of ``rec`` (another device's run), the speed-up over the llvmpipe
+    reference ``ref`` and whether each output's SHA-256 is the same (None where either
+    run lacks it)."""
+    out: dict = {}
+
+    def one(name, a, b, seconds="s"):
+        if not isinstance(a, dict) or not isinstance(b, dict) or seconds not in a:
+            return
+        row = {"speedup": b[seconds] / a[seconds] if seconds in b else None}
+        for key in ("sha", "signs_sha"):
+            if key in a or key in b:
+                row[f"same_{key}"] = a[key] == b[key] if key in a and key in b else None
+        out[name] = row
+
+    for name in ("mexico_10m", "countries_10m"):
+        one(f"render {name}", rec.get("render", {}).get(name), ref.get("render", {}).get(name))
+    one("pyramid", rec.get("pyramid"), ref.get("pyramid"))
+    one("field", rec.get("field"), ref.get("field"))
+    one("five_distances", rec.get("five_distances"), ref.get("five_distances"), "many_s")
+    return out
 
 
 def main() -> None:
@@ -157,7 +232,12 @@ def main() -> None:
             rec[name] = step()
         print(f"{name}: {rec[name]}", flush=True)
     rec["total_s"] = time.perf_counter() - t0
-    path = write("gpu", rec)
+    reference = RESULTS / "gpu.json"
+    if not info["software"] and reference.exists():
+        rec["against_llvmpipe"] = against(rec, json.loads(reference.read_text()))
+        for name, row in rec["against_llvmpipe"].items():
+            print(f"against llvmpipe, {name}: {row}", flush=True)
+    path = write("gpu" if info["software"] else "gpu_device", rec)
     print(f"total {rec['total_s']:.1f} s; wrote {path}")
 
 
