@@ -8,7 +8,8 @@
 //    latitude and column's longitude (the host's products, bit for bit), cube faces from
 //    their rows' and columns' face coordinates (lib/cube64.glsl, cube_point), grids with a
 //    GLSL function from it (GRID_GLSL); other grids read the host's centres (GRID_TEXTURE).
-// 2. The ranking, in float32: each arc's nearest feature (the foot on the arc, or its
+// 2. The ranking, in float32 (of the arcs of the list that the work group's pixels may
+//    need: prune_list, where the work group is one cell): each arc's nearest feature (the foot on the arc, or its
 //    nearer end; the arc itself where its ends' chords lie within u_gap) as a chord
 //    2 sin(angle / 2), good to NEAREST_ERR (field_pass.py, with its derivation); an end
 //    shared by two arcs is one feature (its vertex id); the six least kept, with how
@@ -73,6 +74,7 @@ uniform ivec2 u_origin;       // its first pixel in the grid (column, row)
 uniform int u_shift;          // output pixels per cell side: 1 << u_shift
 uniform int u_cells_w;        // cells per row of the block
 uniform float u_gap;          // 2 NEAREST_ERR: chords nearer than this to the least one
+uniform float u_prune;        // PRUNE_MARGIN: an arc's cap beyond U + this is dropped
 uniform float u_same;         // NEAREST_ERR / 8: an undecided arc's two chords, at most
 uniform int u_signed;         // 1: write the sign codes too
 uniform int u_seams;          // seams (rows of Seams)
@@ -203,6 +205,41 @@ void measure(vec3 p, uint k, uint pair) {
         vertex ? (pair << 2) | (at_a ? 1u : 2u) : pair << 2);
 }
 
+// ---- 2a. the pruning, per work group --------------------------------------------------
+
+// The arcs of the cell's list that some pixel of the work group may need, as bits (bit
+// b of word w: pair list.x + 32 w + b), for lists of PRUNE_MIN to 32 PRUNE_WORDS arcs.
+const uint PRUNE_MIN = 8u;
+const uint PRUNE_WORDS = 128u;
+shared uint kept[PRUNE_WORDS];
+
+// Set the bits of the arcs of the list (its first `n` pairs: all, or none where it is
+// not pruned) whose bounding caps come within U + PRUNE_MARGIN of p, U the least chord
+// from p to the first end of an arc of the list (an upper bound of its nearest arc's
+// chord; the other ends are mostly the first ends of their neighbours).
+// Every arc that the ranking and the finishing measure at p has its cap within the
+// least ranked chord + 2 u_gap (far_cap), and the least ranked chord is at most U plus
+// the ranking's error (NEAREST_ERR): the arcs dropped for every pixel of the group
+// change no value that is read (field_pass.py, PRUNE_MARGIN).
+void prune_list(vec3 p, uvec2 list, uint n) {
+    float u = uintBitsToFloat(0x7f800000u);
+    for (uint k = list.x; k < list.x + n; k++) {
+        u = min(u, length(p - arcs[5u * pairs[k]].xyz));
+    }
+    float lim = u + u_prune;
+    for (uint wd = 0u; wd < ((n + 31u) >> 5); wd++) {
+        uint base = list.x + (wd << 5);
+        uint bits = 0u;
+        for (uint b = 0u; b < min(32u, n - (wd << 5)); b++) {
+            vec4 cap = arcs[5u * pairs[base + b] + 4u];
+            vec3 dm = p - cap.xyz;
+            float r = lim + cap.w;
+            bits |= dot(dm, dm) <= r * r ? 1u << b : 0u;
+        }
+        atomicOr(kept[wd], bits);
+    }
+}
+
 // ---- 3. the finishing, in double -----------------------------------------------------
 
 // u . v summed as gloffset.geometry.sphere.dot sums: (u0 v0 + u1 v1) + u2 v2
@@ -305,10 +342,11 @@ uint feature_sign(dvec3 pd, vec3 p, uint w, uint got, uint now, inout bool none)
 }
 
 void main() {
-    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-    if (px.x >= u_size.x || px.y >= u_size.y) {
-        return;
-    }
+    // a pixel past the block's edge takes its row's or column's last one (the same
+    // cell) through the pruning's barriers, and writes nothing
+    ivec2 gid = ivec2(gl_GlobalInvocationID.xy);
+    bool inside = gid.x < u_size.x && gid.y < u_size.y;
+    ivec2 px = min(gid, u_size - 1);
     ivec2 cell = px >> u_shift;
     uvec2 list = cells[cell.y * u_cells_w + cell.x];
     dvec3 pd = pixel_centre(px);
@@ -319,8 +357,31 @@ void main() {
     w0 = NONE; w1 = NONE; w2 = NONE; w3 = NONE; w4 = NONE; w5 = NONE;
     dropped = inf;
     unsure = inf;
-    for (uint k = list.x; k < list.x + list.y; k++) {
-        measure(p, pairs[k], k);
+    // 2a. the cell's list pruned by its work group (one cell: u_shift 3)
+    bool prune = u_shift == 3 && list.y >= PRUNE_MIN && list.y <= 32u * PRUNE_WORDS;
+    uint words = (list.y + 31u) >> 5;
+    for (uint wd = gl_LocalInvocationIndex; wd < (prune ? words : 0u); wd += 64u) {
+        kept[wd] = 0u;
+    }
+    memoryBarrierShared();
+    barrier();
+    prune_list(p, list, prune ? list.y : 0u);
+    memoryBarrierShared();
+    barrier();
+    // 2b. the ranking of the arcs kept (every arc where the list is not pruned)
+    for (uint wd = 0u; wd < words; wd++) {
+        uint tail = list.y - (wd << 5);
+        uint bits = tail >= 32u ? 0xffffffffu : (1u << tail) - 1u;
+        bits = prune ? kept[min(wd, PRUNE_WORDS - 1u)] : bits;
+        uint base = list.x + (wd << 5);
+        while (bits != 0u) {
+            uint b = uint(findLSB(bits));
+            bits &= bits - 1u;
+            measure(p, pairs[base + b], base + b);
+        }
+    }
+    if (!inside) {
+        return;
     }
     uint at = uint(px.y * u_size.x + px.x);
     if (w0 == NONE) {

@@ -27,6 +27,7 @@ from .vector_pass import set_grid_constants
 __all__ = [
     "FIELD_ERR",
     "NEAREST_ERR",
+    "PRUNE_MARGIN",
     "FieldPass",
     "FieldPlan",
     "field_pass",
@@ -62,6 +63,17 @@ NEAREST_ERR = 4e-6
 #: A float32 ulp is 6e-8 relative: the float64 values round to the CPU's float32 values
 #: or to a neighbour where the CPU's lies within 1.5e-15 of a rounding boundary.
 FIELD_ERR = 1.5e-15
+
+#: The margin (chord) of the work group's pruning of its cell's list
+#: (``shaders/field_pixels.comp``, ``prune_list``): an arc is kept where its bounding cap
+#: comes within ``U + PRUNE_MARGIN`` of some pixel, ``U`` the pixel's least float32 chord
+#: to an end of an arc of the list. The arcs the ranking and the finishing read at a
+#: pixel have caps within ``m + 2 gap`` of it (``far_cap``, ``gap = 2 NEAREST_ERR``),
+#: ``m`` its least ranked chord, at most ``U + NEAREST_ERR`` (the chord of that end's arc
+#: ranks no higher than the end's, within the ranking's error); this margin, 8
+#: NEAREST_ERR, covers those 5 NEAREST_ERR with room for the float32 roundings of the
+#: test (a few 1e-7), so that the pruning changes no value that is read.
+PRUNE_MARGIN = 8.0 * NEAREST_ERR
 
 #: No feature (a cell with an empty list, or fewer features than asked for).
 NONE = 0xFFFFFFFF
@@ -206,6 +218,7 @@ class FieldPass:
             _set(prog, "u_cells_w", int(wc))
             _set(prog, "u_gap", 2.0 * NEAREST_ERR)
             _set(prog, "u_same", 0.125 * NEAREST_ERR)
+            _set(prog, "u_prune", PRUNE_MARGIN)
             _set(prog, "u_signed", int(signed))
             _set(prog, "u_seams", len(seams))
             if plan.kind == "cube":

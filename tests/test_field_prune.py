@@ -1,0 +1,115 @@
+"""The GPU field's pruning of its cells' lists (``shaders/field_pixels.comp``,
+``prune_list``): each work group (one cell) ranks only the arcs whose caps come within
+``U + PRUNE_MARGIN`` of one of its pixels, ``U`` the pixel's least chord to an arc's end.
+It changes no value that is read: the field and the sign codes are those of the
+unpruned lists bit for bit, on real borders; a broken bound is off the CPU's values."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import DATA, broken_field_pass, named_countries
+
+import gloffset
+from gloffset.gl.field_pass import FieldPass
+from gloffset.grids import Equirect, Tile
+
+#: The shader's test that turns the pruning on (made ``false &&``: never pruned).
+PRUNED = "list.y >= PRUNE_MIN &&"
+
+
+@pytest.fixture(scope="module")
+def mexico(mexico_path):
+    return gloffset.read(mexico_path)
+
+
+@pytest.fixture(scope="module")
+def fiji_antarctica():
+    """Fiji (across the antimeridian) and Antarctica (round the pole), 1:110m."""
+    return named_countries("Fiji", "Antarctica")
+
+
+@pytest.fixture(scope="module")
+def pieces():
+    """Countries of 1:10m with long, wiggly coasts: the United States (its Aleutians
+    across the antimeridian), Greece and the Philippines."""
+    return named_countries(
+        "United States", "Greece", "Philippines", path=DATA / "countries_10m.geojson"
+    )
+
+
+def field_and_codes(shape, grid, monkeypatch):
+    """The field's values and the shader's sign codes of every block, in order."""
+    codes = []
+    run = FieldPass.run
+
+    def keep(self, plan, probe=False):
+        out = run(self, plan, probe)
+        codes.append(None if plan.codes is None else plan.codes.copy())
+        return out
+
+    with monkeypatch.context() as m:
+        m.setattr(FieldPass, "run", keep)
+        values = gloffset.distance_field(shape, grid, radius=1.0).values
+    return values, codes
+
+
+def assert_pruning_changes_nothing(shape, grid, monkeypatch, tmp_path):
+    pruned, codes = field_and_codes(shape, grid, monkeypatch)
+    with monkeypatch.context() as m:
+        broken_field_pass(m, tmp_path, PRUNED, "false &&")
+        whole, whole_codes = field_and_codes(shape, grid, monkeypatch)
+    assert pruned.tobytes() == whole.tobytes()
+    assert len(codes) == len(whole_codes)
+    for a, b in zip(codes, whole_codes):
+        assert (a is None and b is None) or np.array_equal(a, b)
+    return pruned
+
+
+@pytest.mark.parametrize(
+    "grid", [Tile(3, 1, 3), Tile(5, 6, 13), Tile(7, 24, 55)], ids=["z3", "z5", "z7"]
+)
+def test_mexico_tiles_as_unpruned(mexico, grid, monkeypatch, tmp_path):
+    field = assert_pruning_changes_nothing(mexico, grid, monkeypatch, tmp_path)
+    assert (field < 0).any() and (field > 0).any()
+
+
+@pytest.mark.parametrize(
+    "grid",
+    [
+        Equirect(256, 128, (170.0, -22.0, -172.0, -12.0)),  # Fiji across the antimeridian
+        Equirect(512, 64, (-180.0, -90.0, 180.0, -60.0)),  # Antarctica round the pole
+    ],
+    ids=["antimeridian", "pole"],
+)
+def test_seams_and_the_pole_as_unpruned(fiji_antarctica, grid, monkeypatch, tmp_path):
+    assert_pruning_changes_nothing(fiji_antarctica, grid, monkeypatch, tmp_path)
+
+
+@pytest.mark.parametrize(
+    "grid",
+    [Tile(4, 0, 5), Tile(5, 17, 12), Tile(6, 53, 29)],
+    ids=["aleutians-z4", "greece-z5", "philippines-z6"],
+)
+def test_countries_pieces_as_unpruned(pieces, grid, monkeypatch, tmp_path):
+    assert_pruning_changes_nothing(pieces, grid, monkeypatch, tmp_path)
+
+
+@pytest.mark.parametrize(
+    "old, new",
+    [
+        ("float r = lim + cap.w;", "float r = lim;"),  # the caps taken for their centres
+        ("float lim = u + u_prune;", "float lim = 0.5 * u;"),  # a bound below the least
+    ],
+    ids=["no-radius", "half-bound"],
+)
+def test_a_broken_bound_is_off(mexico, monkeypatch, tmp_path, old, new):
+    """A pruning that drops arcs some pixel needs is off the CPU's values by more than
+    an ulp (so the pruning runs, and the tests above would see a broken one)."""
+    grid = Tile(5, 6, 13)
+    want = gloffset.distance_field(mexico, grid, radius=1.0, backend="cpu").values
+    broken_field_pass(monkeypatch, tmp_path, old, new)
+    bad = gloffset.distance_field(mexico, grid, radius=1.0).values
+    ulp = np.spacing(np.abs(want))
+    off = np.abs(bad.astype(np.float64) - want.astype(np.float64)) > ulp
+    assert off.sum() > 100
