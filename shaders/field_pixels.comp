@@ -8,8 +8,8 @@
 //    latitude and column's longitude (the host's products, bit for bit), cube faces from
 //    their rows' and columns' face coordinates (lib/cube64.glsl, cube_point), grids with a
 //    GLSL function from it (GRID_GLSL); other grids read the host's centres (GRID_TEXTURE).
-// 2. The ranking, in float32 (of the arcs of the list that the work group's pixels may
-//    need: prune_list, where the work group is one cell): each arc's nearest feature (the foot on the arc, or its
+// 2. The ranking, in float32 (of the arcs of the list that the pixel may need: its
+//    lists pruned, 2a): each arc's nearest feature (the foot on the arc, or its
 //    nearer end; the arc itself where its ends' chords lie within u_gap) as a chord
 //    2 sin(angle / 2), good to NEAREST_ERR (field_pass.py, with its derivation); an end
 //    shared by two arcs is one feature (its vertex id); the six least kept, with how
@@ -65,6 +65,9 @@ layout(std430, binding = 8) readonly buffer Flags {
 layout(std430, binding = 9) readonly buffer Seams {
     vec4 seams[];             // the seams' bounding caps: (mid, half angle)
 };
+layout(std430, binding = 11) readonly buffer Chunks {
+    vec4 chunks[];            // at each chunk's first pair: a cap holding its arcs' caps
+};                            // (centre, chord radius; field_pass.chunk_caps)
 layout(std430, binding = 10) writeonly buffer Sign {
     uint sign_code[];         // per pixel: FIELD_OUTSIDE, FIELD_INSIDE or FIELD_UNDECIDED
 };
@@ -205,39 +208,59 @@ void measure(vec3 p, uint k, uint pair) {
         vertex ? (pair << 2) | (at_a ? 1u : 2u) : pair << 2);
 }
 
-// ---- 2a. the pruning, per work group --------------------------------------------------
+// ---- 2a. the pruning, per pixel ------------------------------------------------------
 
-// The arcs of the cell's list that some pixel of the work group may need, as bits (bit
-// b of word w: pair list.x + 32 w + b), for lists of PRUNE_MIN to 32 PRUNE_WORDS arcs.
+// Lists of at least PRUNE_MIN arcs are pruned: each pixel ranks only the arcs whose
+// bounding caps come within U + PRUNE_MARGIN of it, U an upper bound of its nearest
+// arc's chord (its least chord to a chunk's cap, then to the first ends of the arcs
+// of the chunks that may hold a nearer one). Every arc that the ranking and the
+// finishing read at p has its cap within the least ranked chord + 2 u_gap (far_cap),
+// and the least ranked chord is at most U plus the ranking's error (NEAREST_ERR): the
+// arcs dropped change no value that is read (field_pass.py, PRUNE_MARGIN).
+// llvmpipe runs a loop as often as the most its lanes ask: a chunk's arcs are visited
+// only where some lane's test passes its cap.
 const uint PRUNE_MIN = 8u;
-const uint PRUNE_WORDS = 128u;
-shared uint kept[PRUNE_WORDS];
+const uint CHUNK = 8u;          // pairs per chunk (field_pass.CHUNK), dividing 32
 
-// Set the bits of the arcs of the list (its first `n` pairs: all, or none where it is
-// not pruned) whose bounding caps come within U + PRUNE_MARGIN of p, U the least chord
-// from p to the first end of an arc of the list (an upper bound of its nearest arc's
-// chord; the other ends are mostly the first ends of their neighbours).
-// Every arc that the ranking and the finishing measure at p has its cap within the
-// least ranked chord + 2 u_gap (far_cap), and the least ranked chord is at most U plus
-// the ranking's error (NEAREST_ERR): the arcs dropped for every pixel of the group
-// change no value that is read (field_pass.py, PRUNE_MARGIN).
-void prune_list(vec3 p, uvec2 list, uint n) {
+// U + PRUNE_MARGIN at p for the list's first n pairs (inf for none).
+float prune_limit(vec3 p, uvec2 list, uint n) {
+    uint nc = (n + CHUNK - 1u) / CHUNK;
     float u = uintBitsToFloat(0x7f800000u);
-    for (uint k = list.x; k < list.x + n; k++) {
-        u = min(u, length(p - arcs[5u * pairs[k]].xyz));
+    for (uint j = 0u; j < nc; j++) {
+        vec4 c = chunks[list.x + j * CHUNK];
+        u = min(u, length(p - c.xyz) + c.w);
     }
-    float lim = u + u_prune;
-    for (uint wd = 0u; wd < ((n + 31u) >> 5); wd++) {
-        uint base = list.x + (wd << 5);
-        uint bits = 0u;
-        for (uint b = 0u; b < min(32u, n - (wd << 5)); b++) {
-            vec4 cap = arcs[5u * pairs[base + b] + 4u];
+    for (uint j = 0u; j < nc; j++) {
+        uint k0 = list.x + j * CHUNK;
+        vec4 c = chunks[k0];
+        uint m = length(p - c.xyz) - c.w <= u ? min(CHUNK, n - j * CHUNK) : 0u;
+        for (uint i = 0u; i < m; i++) {
+            u = min(u, length(p - arcs[5u * pairs[k0 + i]].xyz));
+        }
+    }
+    return u + u_prune;
+}
+
+// The bits of word wd of the list (bit b: pair list.x + 32 wd + b) whose arcs' caps
+// come within lim of p.
+uint kept_bits(vec3 p, uvec2 list, uint wd, float lim) {
+    uint n = list.y;
+    uint nc = (n + CHUNK - 1u) / CHUNK;
+    uint bits = 0u;
+    for (uint j = 0u; j < min(32u / CHUNK, nc - wd * (32u / CHUNK)); j++) {
+        uint at = (wd << 5) + j * CHUNK;
+        vec4 c = chunks[list.x + at];
+        vec3 dc = p - c.xyz;
+        float rc = lim + c.w;
+        uint m = dot(dc, dc) <= rc * rc ? min(CHUNK, n - at) : 0u;
+        for (uint i = 0u; i < m; i++) {
+            vec4 cap = arcs[5u * pairs[list.x + at + i] + 4u];
             vec3 dm = p - cap.xyz;
             float r = lim + cap.w;
-            bits |= dot(dm, dm) <= r * r ? 1u << b : 0u;
+            bits |= dot(dm, dm) <= r * r ? 1u << (at + i - (wd << 5)) : 0u;
         }
-        atomicOr(kept[wd], bits);
     }
+    return bits;
 }
 
 // ---- 3. the finishing, in double -----------------------------------------------------
@@ -342,11 +365,10 @@ uint feature_sign(dvec3 pd, vec3 p, uint w, uint got, uint now, inout bool none)
 }
 
 void main() {
-    // a pixel past the block's edge takes its row's or column's last one (the same
-    // cell) through the pruning's barriers, and writes nothing
-    ivec2 gid = ivec2(gl_GlobalInvocationID.xy);
-    bool inside = gid.x < u_size.x && gid.y < u_size.y;
-    ivec2 px = min(gid, u_size - 1);
+    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    if (px.x >= u_size.x || px.y >= u_size.y) {
+        return;
+    }
     ivec2 cell = px >> u_shift;
     uvec2 list = cells[cell.y * u_cells_w + cell.x];
     dvec3 pd = pixel_centre(px);
@@ -357,31 +379,20 @@ void main() {
     w0 = NONE; w1 = NONE; w2 = NONE; w3 = NONE; w4 = NONE; w5 = NONE;
     dropped = inf;
     unsure = inf;
-    // 2a. the cell's list pruned by its work group (one cell: u_shift 3)
-    bool prune = u_shift == 3 && list.y >= PRUNE_MIN && list.y <= 32u * PRUNE_WORDS;
+    // the ranking of the list's arcs that p may need (2a), a word of the list at a time
+    bool prune = list.y >= PRUNE_MIN;
+    float lim = prune_limit(p, list, prune ? list.y : 0u);
     uint words = (list.y + 31u) >> 5;
-    for (uint wd = gl_LocalInvocationIndex; wd < (prune ? words : 0u); wd += 64u) {
-        kept[wd] = 0u;
-    }
-    memoryBarrierShared();
-    barrier();
-    prune_list(p, list, prune ? list.y : 0u);
-    memoryBarrierShared();
-    barrier();
-    // 2b. the ranking of the arcs kept (every arc where the list is not pruned)
     for (uint wd = 0u; wd < words; wd++) {
         uint tail = list.y - (wd << 5);
         uint bits = tail >= 32u ? 0xffffffffu : (1u << tail) - 1u;
-        bits = prune ? kept[min(wd, PRUNE_WORDS - 1u)] : bits;
+        bits = prune ? kept_bits(p, list, wd, lim) : bits;
         uint base = list.x + (wd << 5);
         while (bits != 0u) {
             uint b = uint(findLSB(bits));
             bits &= bits - 1u;
             measure(p, pairs[base + b], base + b);
         }
-    }
-    if (!inside) {
-        return;
     }
     uint at = uint(px.y * u_size.x + px.x);
     if (w0 == NONE) {

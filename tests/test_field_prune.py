@@ -1,6 +1,7 @@
 """The GPU field's pruning of its cells' lists (``shaders/field_pixels.comp``,
-``prune_list``): each work group (one cell) ranks only the arcs whose caps come within
-``U + PRUNE_MARGIN`` of one of its pixels, ``U`` the pixel's least chord to an arc's end.
+``prune_limit``, ``kept_bits``): each pixel ranks only the arcs whose caps come within
+``U + PRUNE_MARGIN`` of it, ``U`` its least chord to the caps of its list's chunks and
+to the ends of the arcs of the chunks that may hold a nearer one.
 It changes no value that is read: the field and the sign codes are those of the
 unpruned lists bit for bit, on real borders; a broken bound is off the CPU's values."""
 
@@ -14,8 +15,8 @@ import gloffset
 from gloffset.gl.field_pass import FieldPass
 from gloffset.grids import Equirect, Tile
 
-#: The shader's test that turns the pruning on (made ``false &&``: never pruned).
-PRUNED = "list.y >= PRUNE_MIN &&"
+#: The shader's test that turns the pruning on (made ``false``: never pruned).
+PRUNED = "bool prune = list.y >= PRUNE_MIN;"
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +58,7 @@ def field_and_codes(shape, grid, monkeypatch):
 def assert_pruning_changes_nothing(shape, grid, monkeypatch, tmp_path):
     pruned, codes = field_and_codes(shape, grid, monkeypatch)
     with monkeypatch.context() as m:
-        broken_field_pass(m, tmp_path, PRUNED, "false &&")
+        broken_field_pass(m, tmp_path, PRUNED, "bool prune = false;")
         whole, whole_codes = field_and_codes(shape, grid, monkeypatch)
     assert pruned.tobytes() == whole.tobytes()
     assert len(codes) == len(whole_codes)
@@ -99,9 +100,11 @@ def test_countries_pieces_as_unpruned(pieces, grid, monkeypatch, tmp_path):
     "old, new",
     [
         ("float r = lim + cap.w;", "float r = lim;"),  # the caps taken for their centres
-        ("float lim = u + u_prune;", "float lim = 0.5 * u;"),  # a bound below the least
+        ("return u + u_prune;", "return 0.5 * u;"),  # a bound below the least chord
+        # a chunk's arcs skipped where its cap passes
+        ("uint m = dot(dc, dc) <= rc * rc ?", "uint m = dot(dc, dc) <= 0.25 * rc * rc ?"),
     ],
-    ids=["no-radius", "half-bound"],
+    ids=["no-radius", "half-bound", "chunk-cap"],
 )
 def test_a_broken_bound_is_off(mexico, monkeypatch, tmp_path, old, new):
     """A pruning that drops arcs some pixel needs is off the CPU's values by more than
@@ -113,3 +116,28 @@ def test_a_broken_bound_is_off(mexico, monkeypatch, tmp_path, old, new):
     ulp = np.spacing(np.abs(want))
     off = np.abs(bad.astype(np.float64) - want.astype(np.float64)) > ulp
     assert off.sum() > 100
+
+
+def test_chunk_caps_hold_their_arcs_caps(mexico, monkeypatch):
+    """Each chunk's cap holds the float32 caps of its arcs (as the shader reads them),
+    in float64: a point beyond ``x + R`` of its centre is beyond ``x + r`` of each."""
+    from gloffset.gl.field_pass import CHUNK, chunk_caps
+
+    plans = []
+    run = FieldPass.run
+    monkeypatch.setattr(FieldPass, "run", lambda self, plan: plans.append(plan) or run(self, plan))
+    gloffset.distance_field(mexico, Tile(4, 3, 6), radius=1.0)
+    plan = plans[0]
+    caps = chunk_caps(plan.cells, plan.pairs, plan.arcs).astype(np.float64)
+    first, cnt = plan.cells[..., 0].ravel(), plan.cells[..., 1].ravel()
+    starts = []
+    for f, n in zip(first.tolist(), cnt.tolist()):
+        for s in range(f, f + n, CHUNK):
+            arc = plan.arcs[plan.pairs[s : min(s + CHUNK, f + n)], 4].astype(np.float64)
+            c, radius = caps[s, :3], caps[s, 3]
+            assert abs(np.linalg.norm(c) - 1.0) < 1e-6
+            assert (np.linalg.norm(arc[:, :3] - c, axis=1) + arc[:, 3] <= radius).all()
+            starts.append(s)
+    assert len(starts) > 1000 and cnt.max() > 4 * CHUNK
+    others = np.setdiff1d(np.arange(len(plan.pairs)), starts)
+    assert (caps[others] == 0).all()

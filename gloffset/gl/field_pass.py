@@ -8,7 +8,10 @@ cells' lists, the arcs (float32 records for the ranking, float64 ones for the
 finishing) and what the shader makes the pixel centres from. One compute dispatch
 makes each pixel's centre in double, ranks its cell's list in float32 and finishes the
 near-least features in double (the module notes of :mod:`gloffset.raster.fields.gpu`);
-it reads back one float64 distance per pixel. It knows no shape. Storage buffers
+it reads back one float64 distance per pixel. It knows no shape. Each pixel ranks only the
+arcs of its cell's list that come near enough (:data:`PRUNE_MARGIN`), found through
+chunks of the list (:func:`chunk_caps`): on llvmpipe a pixel's cost follows the loads it
+makes, about one per float read per arc. Storage buffers
 throughout: the float64 records read from a texture instead (RGBA32UI pairs) made the pass
 half as slow again on llvmpipe (measured).
 """
@@ -64,15 +67,16 @@ NEAREST_ERR = 4e-6
 #: or to a neighbour where the CPU's lies within 1.5e-15 of a rounding boundary.
 FIELD_ERR = 1.5e-15
 
-#: The margin (chord) of the work group's pruning of its cell's list
-#: (``shaders/field_pixels.comp``, ``prune_list``): an arc is kept where its bounding cap
-#: comes within ``U + PRUNE_MARGIN`` of some pixel, ``U`` the pixel's least float32 chord
-#: to an end of an arc of the list. The arcs the ranking and the finishing read at a
-#: pixel have caps within ``m + 2 gap`` of it (``far_cap``, ``gap = 2 NEAREST_ERR``),
-#: ``m`` its least ranked chord, at most ``U + NEAREST_ERR`` (the chord of that end's arc
-#: ranks no higher than the end's, within the ranking's error); this margin, 8
-#: NEAREST_ERR, covers those 5 NEAREST_ERR with room for the float32 roundings of the
-#: test (a few 1e-7), so that the pruning changes no value that is read.
+#: The margin (chord) of each pixel's pruning of its cell's list
+#: (``shaders/field_pixels.comp``, ``prune_limit``, ``kept_bits``): an arc is ranked where
+#: its bounding cap comes within ``U + PRUNE_MARGIN`` of the pixel, ``U`` an upper bound
+#: of its nearest arc's float32 chord (to a chunk's cap, :func:`chunk_caps`, or to an
+#: arc's end). The arcs the ranking and the finishing read at a pixel have caps within
+#: ``m + 2 gap`` of it (``far_cap``, ``gap = 2 NEAREST_ERR``), ``m`` its least ranked
+#: chord, at most ``U + NEAREST_ERR`` (an arc ranks no higher than a point of it, within
+#: the ranking's error); this margin, 8 NEAREST_ERR, covers those 5 NEAREST_ERR with room
+#: for the float32 roundings of the tests (a few 1e-7), so that the pruning changes no
+#: value that is read (``tests/test_field_prune.py``: the same bits as unpruned).
 PRUNE_MARGIN = 8.0 * NEAREST_ERR
 
 #: No feature (a cell with an empty list, or fewer features than asked for).
@@ -166,7 +170,7 @@ class FieldPass:
         storage buffers."""
         return (
             8 * h * w * (4 if texture else 1) <= self.max_bytes
-            and 4 * pairs <= self.max_bytes
+            and 16 * pairs <= self.max_bytes
             and 8 * EXACT_DOUBLES * arcs <= self.max_bytes
             and 4 * pairs < 1 << 30
         )
@@ -208,6 +212,7 @@ class FieldPass:
             buf(flags, np.uint32),
             buf(seams, np.float32),
             ctx.buffer(reserve=4 * h * w if signed else 16),
+            buf(chunk_caps(plan.cells, plan.pairs, plan.arcs), np.float32),
         ]
         try:
             for k, b in enumerate(bufs):
@@ -236,6 +241,53 @@ class FieldPass:
             for b in bufs:
                 b.release()
         return out
+
+
+#: Pairs of a cell's list per chunk of the pruning (``CHUNK`` in ``field_pixels.comp``).
+CHUNK = 8
+#: Slack (chord) on a chunk's radius: the float32 roundings of its centre and of the
+#: shader's chords (a few 1e-7).
+_CHUNK_SLACK = 1e-6
+
+
+def chunk_caps(cells: np.ndarray, pairs: np.ndarray, arcs: np.ndarray) -> np.ndarray:
+    """Return (len(pairs), 4) float32: at the first pair of each chunk of :data:`CHUNK`
+    consecutive pairs of a cell's list, a cap ``(centre, chord radius)`` holding the
+    caps of its arcs (``arcs[:, 4]``, as the shader reads them): the centre the
+    normalized sum of theirs, the radius the largest ``|centre - mid| + r`` (in
+    float64 from the float32 values, plus :data:`_CHUNK_SLACK`, rounded up); 0 elsewhere.
+    A point farther than ``x + R`` from the centre is farther than ``x + r`` from each
+    of the chunk's caps (the chord is a metric): ``prune_list`` tests a chunk's arcs
+    only where its cap passes."""
+    first = cells[..., 0].ravel().astype(np.int64)
+    cnt = cells[..., 1].ravel().astype(np.int64)
+    out = np.zeros((len(pairs), 4), np.float32)
+    nch = (cnt + CHUNK - 1) // CHUNK
+    total = int(nch.sum())
+    if total == 0:
+        return out
+    cell = np.repeat(np.arange(len(cnt)), nch)
+    j = np.arange(total) - np.repeat(np.cumsum(nch) - nch, nch)
+    start = first[cell] + CHUNK * j
+    size = np.minimum(CHUNK, first[cell] + cnt[cell] - start)
+    at = np.cumsum(size) - size
+    pos = np.repeat(start - at, size) + np.arange(int(size.sum()))
+    cap = arcs[pairs[pos].astype(np.int64), 4].astype(np.float64)
+    mid, r = cap[:, :3], cap[:, 3]
+    c = np.add.reduceat(mid, at, axis=0)
+    norm = np.sqrt(np.einsum("ij,ij->i", c, c))
+    flat = ~(norm > 1e-3)  # no direction: the whole sphere (chord 2)
+    c = c / np.where(flat, 1.0, norm)[:, None]
+    c[flat] = (1.0, 0.0, 0.0)
+    c32 = c.astype(np.float32)
+    d = mid - np.repeat(c32.astype(np.float64), size, axis=0)
+    radius = np.maximum.reduceat(np.sqrt(np.einsum("ij,ij->i", d, d)) + r, at)
+    radius = np.where(flat, 4.0, radius + _CHUNK_SLACK)
+    r32 = radius.astype(np.float32)
+    low = r32.astype(np.float64) < radius
+    r32[low] = np.nextafter(r32[low], np.float32(np.inf))
+    out[start, :3], out[start, 3] = c32, r32
+    return out
 
 
 def _set(prog, name: str, value) -> None:
