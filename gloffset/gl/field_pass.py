@@ -245,20 +245,19 @@ class FieldPass:
 
 #: Pairs of a cell's list per chunk of the pruning (``CHUNK`` in ``field_pixels.comp``).
 CHUNK = 8
-#: Slack (chord) on a chunk's radius: the float32 roundings of its centre and of the
-#: shader's chords (a few 1e-7).
-_CHUNK_SLACK = 1e-6
+#: Slack (chord) on a chunk's radius: the float32 roundings of its computation and of
+#: the shader's chords (each a few 1e-7 on values of at most 4).
+_CHUNK_SLACK = np.float32(2e-6)
 
 
 def chunk_caps(cells: np.ndarray, pairs: np.ndarray, arcs: np.ndarray) -> np.ndarray:
     """Return (len(pairs), 4) float32: at the first pair of each chunk of :data:`CHUNK`
     consecutive pairs of a cell's list, a cap ``(centre, chord radius)`` holding the
-    caps of its arcs (``arcs[:, 4]``, as the shader reads them): the centre the
-    normalized sum of theirs, the radius the largest ``|centre - mid| + r`` (in
-    float64 from the float32 values, plus :data:`_CHUNK_SLACK`, rounded up); 0 elsewhere.
-    A point farther than ``x + R`` from the centre is farther than ``x + r`` from each
-    of the chunk's caps (the chord is a metric): ``prune_list`` tests a chunk's arcs
-    only where its cap passes."""
+    caps of its arcs (``arcs[:, 4]``, as the shader reads them): the centre that of its
+    first arc's cap, the radius the largest ``|centre - mid| + r`` of its arcs' caps (in
+    float32, plus :data:`_CHUNK_SLACK`, more than its roundings); 0 elsewhere. A point farther than ``x + R`` from the centre is farther than ``x + r``
+    from each of the chunk's caps (the chord is a metric): ``kept_bits`` tests a chunk's
+    arcs only where its cap passes."""
     first = cells[..., 0].ravel().astype(np.int64)
     cnt = cells[..., 1].ravel().astype(np.int64)
     out = np.zeros((len(pairs), 4), np.float32)
@@ -267,26 +266,16 @@ def chunk_caps(cells: np.ndarray, pairs: np.ndarray, arcs: np.ndarray) -> np.nda
     if total == 0:
         return out
     cell = np.repeat(np.arange(len(cnt)), nch)
-    j = np.arange(total) - np.repeat(np.cumsum(nch) - nch, nch)
-    start = first[cell] + CHUNK * j
+    start = first[cell] + CHUNK * (np.arange(total) - np.repeat(np.cumsum(nch) - nch, nch))
     size = np.minimum(CHUNK, first[cell] + cnt[cell] - start)
-    at = np.cumsum(size) - size
+    at = np.cumsum(size) - size  # each chunk's first member
     pos = np.repeat(start - at, size) + np.arange(int(size.sum()))
-    cap = arcs[pairs[pos].astype(np.int64), 4].astype(np.float64)
-    mid, r = cap[:, :3], cap[:, 3]
-    c = np.add.reduceat(mid, at, axis=0)
-    norm = np.sqrt(np.einsum("ij,ij->i", c, c))
-    flat = ~(norm > 1e-3)  # no direction: the whole sphere (chord 2)
-    c = c / np.where(flat, 1.0, norm)[:, None]
-    c[flat] = (1.0, 0.0, 0.0)
-    c32 = c.astype(np.float32)
-    d = mid - np.repeat(c32.astype(np.float64), size, axis=0)
-    radius = np.maximum.reduceat(np.sqrt(np.einsum("ij,ij->i", d, d)) + r, at)
-    radius = np.where(flat, 4.0, radius + _CHUNK_SLACK)
-    r32 = radius.astype(np.float32)
-    low = r32.astype(np.float64) < radius
-    r32[low] = np.nextafter(r32[low], np.float32(np.inf))
-    out[start, :3], out[start, 3] = c32, r32
+    caps = np.ascontiguousarray(arcs[:, 4].T)  # float32, as read, by columns
+    cap = caps.take(pairs.take(pos), axis=1)
+    centre = cap[:3, at]
+    d = [cap[k] - np.repeat(centre[k], size) for k in range(3)]
+    far = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) + cap[3]
+    out[start, :3], out[start, 3] = centre.T, np.maximum.reduceat(far, at) + _CHUNK_SLACK
     return out
 
 
