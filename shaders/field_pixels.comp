@@ -208,7 +208,7 @@ void measure(vec3 p, uint k, uint pair) {
         vertex ? (pair << 2) | (at_a ? 1u : 2u) : pair << 2);
 }
 
-// ---- 2a. the pruning, per pixel ------------------------------------------------------
+// ---- 2a. the pruning, per pixel (PRUNE) ----------------------------------------------
 
 // Lists of at least PRUNE_MIN arcs are pruned: each pixel ranks only the arcs whose
 // bounding caps come within U + PRUNE_MARGIN of it, U an upper bound of its nearest
@@ -379,6 +379,7 @@ void main() {
     w0 = NONE; w1 = NONE; w2 = NONE; w3 = NONE; w4 = NONE; w5 = NONE;
     dropped = inf;
     unsure = inf;
+#ifdef PRUNE
     // the ranking of the list's arcs that p may need (2a), a word of the list at a time
     bool prune = list.y >= PRUNE_MIN;
     float lim = prune_limit(p, list, prune ? list.y : 0u);
@@ -394,6 +395,11 @@ void main() {
             measure(p, pairs[base + b], base + b);
         }
     }
+#else
+    for (uint k = list.x; k < list.x + list.y; k++) {
+        measure(p, pairs[k], k);
+    }
+#endif
     uint at = uint(px.y * u_size.x + px.x);
     if (w0 == NONE) {
         dist[at] = double(inf);

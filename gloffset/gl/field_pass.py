@@ -146,11 +146,14 @@ class FieldPass:
         #: where ``field_pixels.comp`` is read from (None: the shader folder)
         self.root = None
 
-    def program(self, kind: str, source: str | None = None, probe: bool = False):
+    def program(
+        self, kind: str, source: str | None = None, probe: bool = False, prune: bool = False
+    ):
         """The compiled program of a kind of centres (a grid's GLSL file for ``"glsl"``);
         with ``probe``, its variant that writes the ranking's least chord instead of the
-        distance (negated where the pixel takes its cell's whole list)."""
-        key = (kind, source, probe, self.root)
+        distance (negated where the pixel takes its cell's whole list); with ``prune``,
+        its variant that prunes the lists (:data:`PRUNE_MARGIN`)."""
+        key = (kind, source, probe, prune, self.root)
         prog = self._progs.get(key)
         if prog is None:
             variants: dict[str, dict] = {
@@ -161,6 +164,8 @@ class FieldPass:
             defines = variants.get(kind, {})
             if probe:
                 defines = {**defines, "PROBE_RANKING": 1}
+            if prune:
+                defines = {**defines, "PRUNE": 1}
             src, _ = load_source("field_pixels.comp", defines, root=self.root)
             prog = self._progs[key] = self.ctx.compute_shader(src)
         return prog
@@ -190,7 +195,8 @@ class FieldPass:
             )
         if (hc, wc) != (-(-h >> plan.shift), -(-w >> plan.shift)):
             raise ValueError(f"cells {plan.cells.shape} do not cover {h} x {w} pixels")
-        prog = self.program(plan.kind, plan.source, probe)
+        prune = len(plan.pairs) >= PRUNE_MEAN * hc * wc
+        prog = self.program(plan.kind, plan.source, probe, prune)
         ctx = self.ctx
 
         def buf(a, t):
@@ -212,7 +218,9 @@ class FieldPass:
             buf(flags, np.uint32),
             buf(seams, np.float32),
             ctx.buffer(reserve=4 * h * w if signed else 16),
-            buf(chunk_caps(plan.cells, plan.pairs, plan.arcs), np.float32),
+            buf(
+                chunk_caps(plan.cells, plan.pairs, plan.arcs) if prune else np.zeros(4), np.float32
+            ),
         ]
         try:
             for k, b in enumerate(bufs):
@@ -243,6 +251,10 @@ class FieldPass:
         return out
 
 
+#: The pruning's variant of the pass runs blocks whose lists hold at least this many
+#: pairs a cell on average (shorter lists rank as fast without it: measured on llvmpipe).
+PRUNE_MEAN = 8
+
 #: Pairs of a cell's list per chunk of the pruning (``CHUNK`` in ``field_pixels.comp``).
 CHUNK = 8
 #: Slack (chord) on a chunk's radius: the float32 roundings of its computation and of
@@ -255,9 +267,10 @@ def chunk_caps(cells: np.ndarray, pairs: np.ndarray, arcs: np.ndarray) -> np.nda
     consecutive pairs of a cell's list, a cap ``(centre, chord radius)`` holding the
     caps of its arcs (``arcs[:, 4]``, as the shader reads them): the centre that of its
     first arc's cap, the radius the largest ``|centre - mid| + r`` of its arcs' caps (in
-    float32, plus :data:`_CHUNK_SLACK`, more than its roundings); 0 elsewhere. A point farther than ``x + R`` from the centre is farther than ``x + r``
-    from each of the chunk's caps (the chord is a metric): ``kept_bits`` tests a chunk's
-    arcs only where its cap passes."""
+    float32, plus :data:`_CHUNK_SLACK`, more than its roundings); 0 elsewhere. A point
+    farther than ``x + R`` from the centre is farther than ``x + r`` from each of the
+    chunk's caps (the chord is a metric): ``kept_bits`` tests a chunk's arcs only where
+    its cap passes."""
     first = cells[..., 0].ravel().astype(np.int64)
     cnt = cells[..., 1].ravel().astype(np.int64)
     out = np.zeros((len(pairs), 4), np.float32)
