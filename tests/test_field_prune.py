@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import DATA, broken_field_pass, named_countries
+from conftest import DATA, named_countries
 
 import gloffset
 from gloffset.gl.field_pass import FieldPass
@@ -63,10 +63,31 @@ def field_and_codes(shape, grid, monkeypatch):
     return values, codes
 
 
+#: Every list pruned, however short (1:110m borders have short lists).
+EVERY = ("const uint PRUNE_MIN = 8u;", "const uint PRUNE_MIN = 1u;")
+
+
+def shader_with(monkeypatch, folder, *subs) -> None:
+    """Run the field's pass from a copy of ``shaders/field_pixels.comp`` in ``folder``
+    with each ``(old, new)`` of ``subs`` made."""
+    from gloffset.gl.field_pass import field_pass
+    from gloffset.gl.shaders import SHADER_DIR
+
+    src = (SHADER_DIR / "field_pixels.comp").read_text()
+    for old, new in subs:
+        assert src.count(old) == 1, old
+        src = src.replace(old, new)
+    folder.mkdir(exist_ok=True)
+    (folder / "field_pixels.comp").write_text(src)
+    monkeypatch.setattr(field_pass(), "root", folder)
+
+
 def assert_pruning_changes_nothing(shape, grid, monkeypatch, tmp_path):
-    pruned, codes = field_and_codes(shape, grid, monkeypatch)
     with monkeypatch.context() as m:
-        broken_field_pass(m, tmp_path, PRUNED, "bool prune = false;")
+        shader_with(m, tmp_path / "every", EVERY)
+        pruned, codes = field_and_codes(shape, grid, monkeypatch)
+    with monkeypatch.context() as m:
+        shader_with(m, tmp_path / "none", EVERY, (PRUNED, "bool prune = false;"))
         whole, whole_codes = field_and_codes(shape, grid, monkeypatch)
     assert pruned.tobytes() == whole.tobytes()
     assert len(codes) == len(whole_codes)
@@ -95,6 +116,17 @@ def test_seams_and_the_pole_as_unpruned(fiji_antarctica, grid, monkeypatch, tmp_
     assert_pruning_changes_nothing(fiji_antarctica, grid, monkeypatch, tmp_path)
 
 
+def test_cube_faces_and_a_polar_grid_as_unpruned(fiji_antarctica, monkeypatch, tmp_path):
+    """The centres made on the GPU from cube faces' coordinates and from a grid's GLSL
+    function (Antarctica on polar stereographic): pruned as the lon/lat grids."""
+    from gloffset.grids import Cube, Projected
+
+    polar = Projected(140, 120, crs="EPSG:3031", bounds=(-3.2e6, -2.8e6, 3.2e6, 3.2e6))
+    assert polar.centres == "glsl"
+    for grid in (Cube(32), polar):
+        assert_pruning_changes_nothing(fiji_antarctica, grid, monkeypatch, tmp_path)
+
+
 @pytest.mark.parametrize(
     "grid",
     [Tile(4, 0, 5), Tile(5, 17, 12), Tile(6, 53, 29)],
@@ -114,16 +146,18 @@ def test_countries_pieces_as_unpruned(pieces, grid, monkeypatch, tmp_path):
     ],
     ids=["no-radius", "half-bound", "chunk-cap"],
 )
-def test_a_broken_bound_is_off(mexico, monkeypatch, tmp_path, old, new):
+def test_a_broken_bound_is_off(mexico, fiji_antarctica, monkeypatch, tmp_path, old, new):
     """A pruning that drops arcs some pixel needs is off the CPU's values by more than
-    an ulp (so the pruning runs, and the tests above would see a broken one)."""
-    grid = Tile(5, 6, 13)
-    want = gloffset.distance_field(mexico, grid, radius=1.0, backend="cpu").values
-    broken_field_pass(monkeypatch, tmp_path, old, new)
-    bad = gloffset.distance_field(mexico, grid, radius=1.0).values
-    ulp = np.spacing(np.abs(want))
-    off = np.abs(bad.astype(np.float64) - want.astype(np.float64)) > ulp
-    assert off.sum() > 100
+    an ulp (so the pruning runs, and the tests above would see a broken one): on a
+    Mexico tile and round the pole."""
+    cases = [(mexico, Tile(5, 6, 13)), (fiji_antarctica, Equirect(512, 64, (-180, -90, 180, -60)))]
+    wants = [gloffset.distance_field(s, g, radius=1.0, backend="cpu").values for s, g in cases]
+    shader_with(monkeypatch, tmp_path, EVERY, (old, new))
+    for (shape, grid), want in zip(cases, wants):
+        bad = gloffset.distance_field(shape, grid, radius=1.0).values
+        ulp = np.spacing(np.abs(want))
+        off = np.abs(bad.astype(np.float64) - want.astype(np.float64)) > ulp
+        assert off.sum() > 100
 
 
 def test_chunk_caps_hold_their_arcs_caps(mexico, monkeypatch):
