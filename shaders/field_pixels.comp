@@ -8,7 +8,8 @@
 //    latitude and column's longitude (the host's products, bit for bit), cube faces from
 //    their rows' and columns' face coordinates (lib/cube64.glsl, cube_point), grids with a
 //    GLSL function from it (GRID_GLSL); other grids read the host's centres (GRID_TEXTURE).
-// 2. The ranking, in float32: each arc's nearest feature (the foot on the arc, or its
+// 2. The ranking, in float32 (of the arcs of the list that the pixel may need: its
+//    lists pruned, 2a): each arc's nearest feature (the foot on the arc, or its
 //    nearer end; the arc itself where its ends' chords lie within u_gap) as a chord
 //    2 sin(angle / 2), good to NEAREST_ERR (field_pass.py, with its derivation); an end
 //    shared by two arcs is one feature (its vertex id); the six least kept, with how
@@ -64,6 +65,9 @@ layout(std430, binding = 8) readonly buffer Flags {
 layout(std430, binding = 9) readonly buffer Seams {
     vec4 seams[];             // the seams' bounding caps: (mid, half angle)
 };
+layout(std430, binding = 11) readonly buffer Chunks {
+    vec4 chunks[];            // at each chunk's first pair: a cap holding its arcs' caps
+};                            // (centre, chord radius; field_pass.chunk_caps)
 layout(std430, binding = 10) writeonly buffer Sign {
     uint sign_code[];         // per pixel: FIELD_OUTSIDE, FIELD_INSIDE or FIELD_UNDECIDED
 };
@@ -73,6 +77,7 @@ uniform ivec2 u_origin;       // its first pixel in the grid (column, row)
 uniform int u_shift;          // output pixels per cell side: 1 << u_shift
 uniform int u_cells_w;        // cells per row of the block
 uniform float u_gap;          // 2 NEAREST_ERR: chords nearer than this to the least one
+uniform float u_prune;        // PRUNE_MARGIN: an arc's cap beyond U + this is dropped
 uniform float u_same;         // NEAREST_ERR / 8: an undecided arc's two chords, at most
 uniform int u_signed;         // 1: write the sign codes too
 uniform int u_seams;          // seams (rows of Seams)
@@ -203,6 +208,61 @@ void measure(vec3 p, uint k, uint pair) {
         vertex ? (pair << 2) | (at_a ? 1u : 2u) : pair << 2);
 }
 
+// ---- 2a. the pruning, per pixel (PRUNE) ----------------------------------------------
+
+// Lists of at least PRUNE_MIN arcs are pruned: each pixel ranks only the arcs whose
+// bounding caps come within U + PRUNE_MARGIN of it, U an upper bound of its nearest
+// arc's chord (its least chord to a chunk's cap, then to the first ends of the arcs
+// of the chunks that may hold a nearer one). Every arc that the ranking and the
+// finishing read at p has its cap within the least ranked chord + 2 u_gap (far_cap),
+// and the least ranked chord is at most U plus the ranking's error (NEAREST_ERR): the
+// arcs dropped change no value that is read (field_pass.py, PRUNE_MARGIN).
+// llvmpipe runs a loop as often as the most its lanes ask: a chunk's arcs are visited
+// only where some lane's test passes its cap.
+const uint PRUNE_MIN = 8u;
+const uint CHUNK = 8u;          // pairs per chunk (field_pass.CHUNK), dividing 32
+
+// U + PRUNE_MARGIN at p for the list's first n pairs (inf for none).
+float prune_limit(vec3 p, uvec2 list, uint n) {
+    uint nc = (n + CHUNK - 1u) / CHUNK;
+    float u = uintBitsToFloat(0x7f800000u);
+    for (uint j = 0u; j < nc; j++) {
+        vec4 c = chunks[list.x + j * CHUNK];
+        u = min(u, length(p - c.xyz) + c.w);
+    }
+    for (uint j = 0u; j < nc; j++) {
+        uint k0 = list.x + j * CHUNK;
+        vec4 c = chunks[k0];
+        uint m = length(p - c.xyz) - c.w <= u ? min(CHUNK, n - j * CHUNK) : 0u;
+        for (uint i = 0u; i < m; i++) {
+            u = min(u, length(p - arcs[5u * pairs[k0 + i]].xyz));
+        }
+    }
+    return u + u_prune;
+}
+
+// The bits of word wd of the list (bit b: pair list.x + 32 wd + b) whose arcs' caps
+// come within lim of p.
+uint kept_bits(vec3 p, uvec2 list, uint wd, float lim) {
+    uint n = list.y;
+    uint nc = (n + CHUNK - 1u) / CHUNK;
+    uint bits = 0u;
+    for (uint j = 0u; j < min(32u / CHUNK, nc - wd * (32u / CHUNK)); j++) {
+        uint at = (wd << 5) + j * CHUNK;
+        vec4 c = chunks[list.x + at];
+        vec3 dc = p - c.xyz;
+        float rc = lim + c.w;
+        uint m = dot(dc, dc) <= rc * rc ? min(CHUNK, n - at) : 0u;
+        for (uint i = 0u; i < m; i++) {
+            vec4 cap = arcs[5u * pairs[list.x + at + i] + 4u];
+            vec3 dm = p - cap.xyz;
+            float r = lim + cap.w;
+            bits |= dot(dm, dm) <= r * r ? 1u << (at + i - (wd << 5)) : 0u;
+        }
+    }
+    return bits;
+}
+
 // ---- 3. the finishing, in double -----------------------------------------------------
 
 // u . v summed as gloffset.geometry.sphere.dot sums: (u0 v0 + u1 v1) + u2 v2
@@ -319,9 +379,27 @@ void main() {
     w0 = NONE; w1 = NONE; w2 = NONE; w3 = NONE; w4 = NONE; w5 = NONE;
     dropped = inf;
     unsure = inf;
+#ifdef PRUNE
+    // the ranking of the list's arcs that p may need (2a), a word of the list at a time
+    bool prune = list.y >= PRUNE_MIN;
+    float lim = prune_limit(p, list, prune ? list.y : 0u);
+    uint words = (list.y + 31u) >> 5;
+    for (uint wd = 0u; wd < words; wd++) {
+        uint tail = list.y - (wd << 5);
+        uint bits = tail >= 32u ? 0xffffffffu : (1u << tail) - 1u;
+        bits = prune ? kept_bits(p, list, wd, lim) : bits;
+        uint base = list.x + (wd << 5);
+        while (bits != 0u) {
+            uint b = uint(findLSB(bits));
+            bits &= bits - 1u;
+            measure(p, pairs[base + b], base + b);
+        }
+    }
+#else
     for (uint k = list.x; k < list.x + list.y; k++) {
         measure(p, pairs[k], k);
     }
+#endif
     uint at = uint(px.y * u_size.x + px.x);
     if (w0 == NONE) {
         dist[at] = double(inf);

@@ -70,12 +70,12 @@ def test_grid_glsl_variants_compile(ctx, name):
 
 @pytest.mark.parametrize(
     "defines",
-    [{"GRID_CUBE": 1}, {"GRID_TEXTURE": 1}, {"PROBE_RANKING": 1}]
+    [{"GRID_CUBE": 1}, {"GRID_TEXTURE": 1}, {"PROBE_RANKING": 1}, {"PRUNE": 1}]
     + [{"GRID_GLSL": f'"{name}"'} for name in GRID_FUNCTIONS],
 )
 def test_field_pixels_variants_compile(ctx, defines):
     # the distance field's pass (gloffset/gl/field_pass.py): its centres per kind of grid,
-    # and the ranking's probe
+    # the ranking's probe and the pruning of the lists
     assert ctx.compute_shader(load_source("field_pixels.comp", defines)[0]) is not None
     assert ctx.error == "GL_NO_ERROR"
 

@@ -8,7 +8,10 @@ cells' lists, the arcs (float32 records for the ranking, float64 ones for the
 finishing) and what the shader makes the pixel centres from. One compute dispatch
 makes each pixel's centre in double, ranks its cell's list in float32 and finishes the
 near-least features in double (the module notes of :mod:`gloffset.raster.fields.gpu`);
-it reads back one float64 distance per pixel. It knows no shape. Storage buffers
+it reads back one float64 distance per pixel. It knows no shape. Each pixel ranks only the
+arcs of its cell's list that come near enough (:data:`PRUNE_MARGIN`), found through
+chunks of the list (:func:`chunk_caps`): on llvmpipe a pixel's cost follows the loads it
+makes, about one per float read per arc. Storage buffers
 throughout: the float64 records read from a texture instead (RGBA32UI pairs) made the pass
 half as slow again on llvmpipe (measured).
 """
@@ -27,6 +30,7 @@ from .vector_pass import set_grid_constants
 __all__ = [
     "FIELD_ERR",
     "NEAREST_ERR",
+    "PRUNE_MARGIN",
     "FieldPass",
     "FieldPlan",
     "field_pass",
@@ -62,6 +66,18 @@ NEAREST_ERR = 4e-6
 #: A float32 ulp is 6e-8 relative: the float64 values round to the CPU's float32 values
 #: or to a neighbour where the CPU's lies within 1.5e-15 of a rounding boundary.
 FIELD_ERR = 1.5e-15
+
+#: The margin (chord) of each pixel's pruning of its cell's list
+#: (``shaders/field_pixels.comp``, ``prune_limit``, ``kept_bits``): an arc is ranked where
+#: its bounding cap comes within ``U + PRUNE_MARGIN`` of the pixel, ``U`` an upper bound
+#: of its nearest arc's float32 chord (to a chunk's cap, :func:`chunk_caps`, or to an
+#: arc's end). The arcs the ranking and the finishing read at a pixel have caps within
+#: ``m + 2 gap`` of it (``far_cap``, ``gap = 2 NEAREST_ERR``), ``m`` its least ranked
+#: chord, at most ``U + NEAREST_ERR`` (an arc ranks no higher than a point of it, within
+#: the ranking's error); this margin, 8 NEAREST_ERR, covers those 5 NEAREST_ERR with room
+#: for the float32 roundings of the tests (a few 1e-7), so that the pruning changes no
+#: value that is read (``tests/test_field_prune.py``: the same bits as unpruned).
+PRUNE_MARGIN = 8.0 * NEAREST_ERR
 
 #: No feature (a cell with an empty list, or fewer features than asked for).
 NONE = 0xFFFFFFFF
@@ -130,11 +146,14 @@ class FieldPass:
         #: where ``field_pixels.comp`` is read from (None: the shader folder)
         self.root = None
 
-    def program(self, kind: str, source: str | None = None, probe: bool = False):
+    def program(
+        self, kind: str, source: str | None = None, probe: bool = False, prune: bool = False
+    ):
         """The compiled program of a kind of centres (a grid's GLSL file for ``"glsl"``);
         with ``probe``, its variant that writes the ranking's least chord instead of the
-        distance (negated where the pixel takes its cell's whole list)."""
-        key = (kind, source, probe, self.root)
+        distance (negated where the pixel takes its cell's whole list); with ``prune``,
+        its variant that prunes the lists (:data:`PRUNE_MARGIN`)."""
+        key = (kind, source, probe, prune, self.root)
         prog = self._progs.get(key)
         if prog is None:
             variants: dict[str, dict] = {
@@ -145,6 +164,8 @@ class FieldPass:
             defines = variants.get(kind, {})
             if probe:
                 defines = {**defines, "PROBE_RANKING": 1}
+            if prune:
+                defines = {**defines, "PRUNE": 1}
             src, _ = load_source("field_pixels.comp", defines, root=self.root)
             prog = self._progs[key] = self.ctx.compute_shader(src)
         return prog
@@ -154,7 +175,7 @@ class FieldPass:
         storage buffers."""
         return (
             8 * h * w * (4 if texture else 1) <= self.max_bytes
-            and 4 * pairs <= self.max_bytes
+            and 16 * pairs <= self.max_bytes
             and 8 * EXACT_DOUBLES * arcs <= self.max_bytes
             and 4 * pairs < 1 << 30
         )
@@ -174,7 +195,8 @@ class FieldPass:
             )
         if (hc, wc) != (-(-h >> plan.shift), -(-w >> plan.shift)):
             raise ValueError(f"cells {plan.cells.shape} do not cover {h} x {w} pixels")
-        prog = self.program(plan.kind, plan.source, probe)
+        prune = len(plan.pairs) >= PRUNE_MEAN * hc * wc
+        prog = self.program(plan.kind, plan.source, probe, prune)
         ctx = self.ctx
 
         def buf(a, t):
@@ -196,6 +218,9 @@ class FieldPass:
             buf(flags, np.uint32),
             buf(seams, np.float32),
             ctx.buffer(reserve=4 * h * w if signed else 16),
+            buf(
+                chunk_caps(plan.cells, plan.pairs, plan.arcs) if prune else np.zeros(4), np.float32
+            ),
         ]
         try:
             for k, b in enumerate(bufs):
@@ -206,6 +231,7 @@ class FieldPass:
             _set(prog, "u_cells_w", int(wc))
             _set(prog, "u_gap", 2.0 * NEAREST_ERR)
             _set(prog, "u_same", 0.125 * NEAREST_ERR)
+            _set(prog, "u_prune", PRUNE_MARGIN)
             _set(prog, "u_signed", int(signed))
             _set(prog, "u_seams", len(seams))
             if plan.kind == "cube":
@@ -223,6 +249,48 @@ class FieldPass:
             for b in bufs:
                 b.release()
         return out
+
+
+#: The pruning's variant of the pass runs blocks whose lists hold at least this many
+#: pairs a cell on average (shorter lists rank as fast without it, or faster by about a
+#: tenth: measured on llvmpipe at z7-z8, 8-12 pairs a cell).
+PRUNE_MEAN = 16
+
+#: Pairs of a cell's list per chunk of the pruning (``CHUNK`` in ``field_pixels.comp``).
+CHUNK = 8
+#: Slack (chord) on a chunk's radius: the float32 roundings of its computation and of
+#: the shader's chords (each a few 1e-7 on values of at most 4).
+_CHUNK_SLACK = np.float32(2e-6)
+
+
+def chunk_caps(cells: np.ndarray, pairs: np.ndarray, arcs: np.ndarray) -> np.ndarray:
+    """Return (len(pairs), 4) float32: at the first pair of each chunk of :data:`CHUNK`
+    consecutive pairs of a cell's list, a cap ``(centre, chord radius)`` holding the
+    caps of its arcs (``arcs[:, 4]``, as the shader reads them): the centre that of its
+    first arc's cap, the radius the largest ``|centre - mid| + r`` of its arcs' caps (in
+    float32, plus :data:`_CHUNK_SLACK`, more than its roundings); 0 elsewhere. A point
+    farther than ``x + R`` from the centre is farther than ``x + r`` from each of the
+    chunk's caps (the chord is a metric): ``kept_bits`` tests a chunk's arcs only where
+    its cap passes."""
+    first = cells[..., 0].ravel().astype(np.int64)
+    cnt = cells[..., 1].ravel().astype(np.int64)
+    out = np.zeros((len(pairs), 4), np.float32)
+    nch = (cnt + CHUNK - 1) // CHUNK
+    total = int(nch.sum())
+    if total == 0:
+        return out
+    cell = np.repeat(np.arange(len(cnt)), nch)
+    start = first[cell] + CHUNK * (np.arange(total) - np.repeat(np.cumsum(nch) - nch, nch))
+    size = np.minimum(CHUNK, first[cell] + cnt[cell] - start)
+    at = np.cumsum(size) - size  # each chunk's first member
+    pos = np.repeat(start - at, size) + np.arange(int(size.sum()))
+    caps = np.ascontiguousarray(arcs[:, 4].T)  # float32, as read, by columns
+    cap = caps.take(pairs.take(pos), axis=1)
+    centre = cap[:3, at]
+    d = [cap[k] - np.repeat(centre[k], size) for k in range(3)]
+    far = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) + cap[3]
+    out[start, :3], out[start, 3] = centre.T, np.maximum.reduceat(far, at) + _CHUNK_SLACK
+    return out
 
 
 def _set(prog, name: str, value) -> None:
