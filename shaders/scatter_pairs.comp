@@ -12,7 +12,8 @@
 // h the arc's cap radius) is the host's; here its threshold is cos(reach) cos(h) - sin(reach)
 // sin(h) - COS_SLACK from the host's float64 cosines and sines, within 1e-14 of the host's,
 // and a pair more than MARGIN (1e-9) above it passes, more than MARGIN below fails; the few
-// between, or with reach + h near pi (where the host clamps), are left to the host. The pair
+// between, and every pair of an arc whose h plus a reach comes near pi (where the host clamps
+// the sum; the host flags those arcs, u_arc[arc].w), are left to the host. The pair
 // is written (cell = j * width + i, arc, cm) unless it fails the test of the row's reach
 // (UNSURE set in arc where the host decides), and with u_near, NEAR set where it passes the
 // test of the row's second reach (the candidate lists'), NEAR_UNSURE where the host decides.
@@ -25,7 +26,8 @@ layout(local_size_x = 64) in;
 
 layout(std430, binding = 0) readonly buffer Boxes { ivec4 u_box[]; };    // j0, i0, nc, arc
 layout(std430, binding = 1) readonly buffer Chunks { ivec4 u_chunk[]; }; // box, start, count
-layout(std430, binding = 2) readonly buffer Arcs { dvec4 u_arc[]; };     // cos h, sin h, h, 0
+// cos h, sin h, h, and 1 where h plus a reach of a row is near pi (else 0)
+layout(std430, binding = 2) readonly buffer Arcs { dvec4 u_arc[]; };
 // two per row: cos lat, sin lat, reach, near reach; their cos, sin: reach's, near reach's
 layout(std430, binding = 3) readonly buffer Rows { dvec4 u_row[]; };
 layout(std430, binding = 4) readonly buffer Cols { dvec2 u_col[]; };     // cos, sin lon
@@ -46,8 +48,6 @@ const uint NEAR = 0x20000000u;
 const uint NEAR_UNSURE = 0x10000000u;
 const double MARGIN = 1e-9LF;  // gloffset.raster.gpu.GPU_PAIR_MARGIN
 const double COS_SLACK = 1e-12LF;  // gloffset.geometry.caps.COS_SLACK
-const double NEAR_PI = 3.1415916535897931LF;  // pi - 1e-6
-const uint FAIL = 0u, PASS = 1u, HOST = 2u;
 
 dvec3 centre(int j, int i) {
     dvec2 r = u_row[2 * j].xy;
@@ -90,18 +90,17 @@ double cell_cm(dvec3 a, int j, int i) {
     return cm;
 }
 
-// the cap test of cm against reach + h (h: cos h, sin h, h), cos and sin of reach given
-uint verdict(double cm, double reach, double cr, double sr, dvec3 h) {
-    precise double total = reach + h.z;
-    if (total >= NEAR_PI) {
-        return HOST;
+// The bounds of the row's cap tests, of its reach (xy) and of its second reach (zw): a cm at
+// or above x passes, one below y fails, those between are the host's (h: cos h, sin h, and
+// 1 where h plus a reach is near pi, the host's clamp, all of whose pairs are the host's)
+dvec4 row_bounds(int j, dvec3 h) {
+    if (h.z != 0.0LF) {
+        return dvec4(1e300LF, -1e300LF, 1e300LF, -1e300LF);
     }
-    precise double t = cr * h.x - sr * h.y - COS_SLACK;
-    return cm >= t + MARGIN ? PASS : (cm < t - MARGIN ? FAIL : HOST);
-}
-
-uint row_verdict(double cm, int j, dvec3 h) {
-    return verdict(cm, u_row[2 * j].z, u_row[2 * j + 1].x, u_row[2 * j + 1].y, h);
+    dvec4 q = u_row[2 * j + 1];
+    double t = q.x * h.x - q.y * h.y - COS_SLACK;
+    double u = q.z * h.x - q.w * h.y - COS_SLACK;
+    return dvec4(t + MARGIN, t - MARGIN, u + MARGIN, u - MARGIN);
 }
 
 void main() {
@@ -112,14 +111,20 @@ void main() {
     ivec4 c = u_chunk[k];
     ivec4 b = u_box[c.x];
     int arc = b.w;
-    dvec3 h = u_arc[arc].xyz;
+    dvec3 h = u_arc[arc].xyw;
     dvec3 m = arc_point(arc, 15);
-    int end = c.y + c.z;
+    // the chunk's cells, row by row: (j, i) from its first one, the bounds once per row
+    int j0 = b.x + c.y / b.z, i0 = b.y + c.y % b.z, stop = b.y + b.z;
+    int j = j0, i = i0;
+    dvec4 t = row_bounds(j, h);
     uint n = 0u;
-    for (int o = c.y; o < end; ++o) {
-        int j = b.x + o / b.z;
-        if (row_verdict(cell_cm(m, j, b.y + o % b.z), j, h) != FAIL) {
+    for (int o = 0; o < c.z; ++o) {
+        if (cell_cm(m, j, i) >= t.y) {
             ++n;
+        }
+        if (++i == stop && o + 1 < c.z) {
+            i = b.y;
+            t = row_bounds(++j, h);
         }
     }
     if (n == 0u) {
@@ -129,21 +134,23 @@ void main() {
     if (at + n > u_capacity) {
         return;  // the count tells the host the buffer was too small
     }
-    for (int o = c.y; o < end; ++o) {
-        int j = b.x + o / b.z;
-        int i = b.y + o % b.z;
+    j = j0;
+    i = i0;
+    t = row_bounds(j, h);
+    for (int o = 0; o < c.z; ++o) {
         double cm = cell_cm(m, j, i);
-        uint v = row_verdict(cm, j, h);
-        if (v != FAIL) {
-            uint flags = (v == HOST ? UNSURE : 0u) | (u_cross && crosses(arc, j, i) ? CROSS : 0u);
+        if (cm >= t.y) {
+            uint flags = (cm < t.x ? UNSURE : 0u) | (u_cross && crosses(arc, j, i) ? CROSS : 0u);
             if (u_near) {
-                dvec4 r = u_row[2 * j + 1];
-                uint w = verdict(cm, u_row[2 * j].w, r.z, r.w, h);
-                flags |= w == PASS ? NEAR : (w == HOST ? NEAR_UNSURE : 0u);
+                flags |= cm >= t.z ? NEAR : (cm >= t.w ? NEAR_UNSURE : 0u);
             }
             o_pair[at] = uvec2(uint(j * u_width + i), uint(arc) | flags);
             o_cm[at] = cm;
             ++at;
+        }
+        if (++i == stop && o + 1 < c.z) {
+            i = b.y;
+            t = row_bounds(++j, h);
         }
     }
 }

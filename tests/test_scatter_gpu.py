@@ -50,6 +50,15 @@ def _same_pairs(arcs, grid, e, level):
     return len(rj)
 
 
+def test_reach_near_pi_is_the_hosts(world):
+    # Fiji's caps plus a reach of 3.3 rad pass pi: cap_within clamps (every cell passes),
+    # the host decides
+    arcs = CurveArcs.from_shape(gloffset.read(world["Fiji"]))
+    grid = Equirect(128, 64)
+    level = grid.n_levels - 1
+    assert _same_pairs(arcs, grid, 3.3, level) == 128 * 64 * len(arcs.a)
+
+
 def test_mexico_10m_pairs_and_bits(mexico_path):
     # a finer level than the render at 127 km enters (level 2): more than 100,000 pairs
     arcs = CurveArcs.from_shape(gloffset.read(mexico_path))
@@ -75,7 +84,7 @@ def test_pairs_and_bits_on_borders(world, what, d, grid, level):
     assert _same_pairs(arcs, grid, abs(d), min(level, grid.n_levels - 1)) > 0
 
 
-def _one_arc_run(lat, lon, mid, half, reach, second, **kw):
+def _one_arc_run(lat, lon, mid, half, reach, second, host=0.0, **kw):
     """scatter_pass().run of one arc's box over every cell of the rows ``lat`` and
     columns ``lon``, with the rows' ``reach`` and ``second`` reach."""
     rows = np.column_stack(
@@ -88,7 +97,7 @@ def _one_arc_run(lat, lon, mid, half, reach, second, **kw):
     return scatter_pass().run(
         np.array([[0, h, 0, w]]),
         np.array([0]),
-        np.array([[np.cos(half), np.sin(half), half, 0.0]]),
+        np.array([[np.cos(half), np.sin(half), half, host]]),
         rows,
         np.column_stack([np.cos(lon), np.sin(lon)]),
         w,
@@ -199,7 +208,7 @@ def test_a_box_larger_than_a_shader_loop():
     lat = np.linspace(1.5, -1.5, h)
     lon = np.linspace(-3.0, 3.0, w)
     reach = np.full(h, np.pi)  # every cell passes, the test left to the host (reach ~ pi)
-    cell, ai, cm = _one_arc_run(lat, lon, np.array([1.0, 0.0, 0.0]), 0.0, reach, reach)
+    cell, ai, cm = _one_arc_run(lat, lon, np.array([1.0, 0.0, 0.0]), 0.0, reach, reach, 1.0)
     np.testing.assert_array_equal(np.sort(cell), np.arange(h * w))
     assert (ai == UNSURE).all()
     j, i = np.divmod(cell.astype(np.int64), w)
@@ -234,7 +243,6 @@ def test_shader_constants_are_the_hosts():
 
     assert float(const("MARGIN")) == GPU_PAIR_MARGIN
     assert float(const("COS_SLACK")) == COS_SLACK
-    assert float(const("NEAR_PI")) == pytest.approx(np.pi - 1e-6, abs=1e-15)
     for name in ("UNSURE", "CROSS", "NEAR", "NEAR_UNSURE"):
         assert int(const(name), 16) == getattr(sp, name)
 

@@ -96,7 +96,15 @@ def gpu_box_pairs(
         or len(lat) * w >= 1 << 31
     ):
         return box_pairs(arcs, lat, lon, row_reach, boxes, w, near=near)
-    terms = arc_buffer(_arc_terms(arcs))
+    terms = _arc_terms(arcs)
+    # arcs whose radius plus a reach comes near pi (where cap_within clamps): the host's
+    most = max(float(row_reach.max()), -1.0 if near is None else float(near.max()))
+    clamp = arcs.half + most >= math.pi - 1e-6
+    if clamp.any():
+        terms = terms.copy()
+        terms[clamp, 3] = 1.0
+    else:
+        terms = arc_buffer(terms)
     rows = np.empty((len(lat), 8))
     rows[:, 0], rows[:, 1] = np.cos(lat), np.sin(lat)
     rows[:, 2] = row_reach
@@ -133,7 +141,8 @@ def gpu_box_pairs(
 
 def _arc_terms(arcs: CurveArcs) -> np.ndarray:
     """(arcs, 4) float64 ``cos h, sin h, h, 0`` of the arcs' cap radii ``h``, read-only
-    (made once per set of arcs, what :func:`gpu_box_pairs`'s shader reads)."""
+    (made once per set of arcs, what :func:`gpu_box_pairs`'s shader reads; a 1 last
+    leaves all the arc's tests to the host)."""
 
     def build() -> np.ndarray:
         out = np.zeros((len(arcs.half), 4))
