@@ -112,10 +112,11 @@ class ScatterPass:
 
         ``boxes`` (n, 4) int ``j0, j1, i0, i1`` (non-empty); ``box_arc`` (n,) the arc of
         each box; ``arc_terms`` (m, 4) float64 ``cos h, sin h, h, f`` of each arc's cap
-        radius ``h``, ``f`` 1 where all its tests are the host's (``h`` plus a reach
-        near pi: ``cap_within`` clamps there), else 0 (an array or a GL buffer); ``rows`` (h, 8) float64 per row: ``cos``
-        and ``sin`` of the latitude, the reach, the second reach, then ``cos`` and ``sin``
-        of each reach; ``cols`` (w, 2) ``cos`` and ``sin`` of the column longitudes;
+        radius ``h``, ``f`` 1 where all its tests are the host's (``h`` plus a reach near
+        pi: ``cap_within`` clamps there), else 0 (an array or a GL buffer); ``rows`` (h,
+        8) float64 per row: ``cos`` and ``sin`` of the latitude, the reach, the second
+        reach, then ``cos`` and ``sin`` of each reach; ``cols`` (w, 2) ``cos`` and ``sin``
+        of the column longitudes;
         ``pairs`` the number of box cells (the output's capacity); ``ring_arcs`` the arcs'
         rows (:attr:`gloffset.edges.CurveArcs.rows`: the cap centres, the last column
         nonzero for ring edges) as an array or a GL buffer. The test of a row: ``cm >=

@@ -129,11 +129,12 @@ def gpu_box_pairs(
         near=near is not None,
     )
     cell, word, cm, ok = _settle(arcs, cell, word, cm, w, row_reach, near)
+    if near is not None:  # cells and arcs as uint32: the caller's sort widens them
+        hit = (word & CROSS) != 0 if crossings else None
+        return BoxPairs(cell, word & ARC_MASK, cm, hit, ok)
     ai = (word & ARC_MASK).astype(np.int64)
     cell = cell.astype(np.int64)
     hit = (word & CROSS) != 0
-    if near is not None:
-        return BoxPairs(cell, ai, cm, hit if crossings else None, ok)
     jj = cell // w  # floor division and a product: divmod's values, in less time
     ii = cell - jj * w
     return (jj, ii, ai, cm, hit) if crossings else (jj, ii, ai, cm)

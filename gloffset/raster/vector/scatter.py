@@ -142,8 +142,8 @@ class BoxPairs(NamedTuple):
     """The box pairs as :func:`scatter` takes them from a finder called with ``near``
     (:func:`box_pairs`, :func:`gloffset.raster.gpu.gpu_box_pairs`)."""
 
-    cell: np.ndarray  # (pairs,) int64: row * width + column
-    arc: np.ndarray  # (pairs,) int64
+    cell: np.ndarray  # (pairs,) int64 or uint32: row * width + column
+    arc: np.ndarray  # (pairs,) int64 or uint32
     cm: np.ndarray  # (pairs,) float64: c.m of the cell's centre and the arc's cap centre
     hit: np.ndarray | None  # which ring edges cross the short arc to the predecessor
     near: np.ndarray  # (pairs,) bool: within the cap test of the row's second reach
@@ -184,17 +184,19 @@ def box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, near=None)
 
 def _by_cell(cell, ai, cm, keep, cells: int, arcs: int):
     """``(cell, ai, cm)`` of the pairs ``keep``, sorted by cell, then arc (``cells``,
-    ``arcs``: bounds of the two). The keys are unique (no two pairs share a cell and an
-    arc), so any sort gives this order: where cell, arc and the pair's index fit 63 bits
-    together, one sort of those packed values (several times faster than an argsort of
-    the keys, and its cells and arcs read off the sorted values), else an argsort."""
+    ``arcs``: bounds of the two; cells and arcs int64, from any integer type). The keys
+    are unique (no two pairs share a cell and an arc), so any sort gives this order: where
+    cell, arc and the pair's index fit 63 bits together, one sort of those packed values
+    (several times faster than an argsort of the keys, and its cells and arcs read off the
+    sorted values), else an argsort."""
     bi = max(len(cell) - 1, 1).bit_length()
     ba = max(arcs - 1, 1).bit_length()
     if max(cells - 1, 1).bit_length() + ba + bi > 63:
-        order = keep[np.argsort(cell[keep] * arcs + ai[keep])]
-        return cell[order], ai[order], cm[order]
-    key = np.left_shift(cell[keep], ba + bi, dtype=np.int64)
-    key |= np.left_shift(ai[keep], bi, dtype=np.int64)
+        order = keep[np.argsort(cell[keep].astype(np.int64) * arcs + ai[keep])]
+        return cell[order].astype(np.int64), ai[order].astype(np.int64), cm[order]
+    every = len(keep) == len(cell)  # keep is then arange(len(cell))
+    key = np.left_shift(cell if every else cell[keep], ba + bi, dtype=np.int64)
+    key |= np.left_shift(ai if every else ai[keep], bi, dtype=np.int64)
     key |= keep
     key.sort()
     out_cell = key >> (ba + bi)
