@@ -105,11 +105,19 @@ def _boxes(arcs: CurveArcs, lat, lon, reach: float):
     for turn in (-2.0 * math.pi, 0.0, 2.0 * math.pi):
         # only the ranges that reach the columns are searched: one that ends before the
         # first column (or starts after the last) has i1 = 0 (i0 = w), so no column
-        lo, hi = west + turn, east + turn
-        reach_ = np.flatnonzero((hi >= lon[0]) & (lo <= lon[-1])) if len(lon) else part[:0]
+        if len(lon) == 0:
+            reach_ = part[:0]
+        elif turn == 0.0:
+            reach_ = np.flatnonzero((east >= lon[0]) & (west <= lon[-1]))
+        else:  # few ranges wrap: a superset unshifted (by far more than the roundings),
+            # then the test of the shifted ranges on it alone
+            wraps = east >= lon[0] - turn - 1e-9 if turn < 0 else west <= lon[-1] - turn + 1e-9
+            near = np.flatnonzero(wraps)
+            reach_ = near[(east[near] + turn >= lon[0]) & (west[near] + turn <= lon[-1])]
         k = part[reach_]
-        i0 = np.searchsorted(lon, lo[reach_], side="left")
-        i1 = np.searchsorted(lon, hi[reach_], side="right")
+        lo, hi = west[reach_] + turn, east[reach_] + turn
+        i0 = np.searchsorted(lon, lo, side="left")
+        i1 = np.searchsorted(lon, hi, side="right")
         ok = i1 > i0
         k = k[ok]
         out.append((idx[k], j0[k], j1[k], i0[ok], i1[ok]))
