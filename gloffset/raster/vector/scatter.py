@@ -271,15 +271,10 @@ def scatter(
     fr = np.flatnonzero(cls == FRONTIER)
     remap = np.full(h * w, -1)
     remap[fr] = np.arange(len(fr))
-    sel = remap[cell] >= 0
+    at = remap[cell]  # each pair's frontier cell, -1 for the others
+    sel = at >= 0
     fj, fi = fr // w, fr % w
     f = Frontier(
-        level,
-        np.column_stack([fj, fi]),
-        center(fj, fi),
-        rho[fj],
-        remap[cell[sel]],
-        ai[sel],
-        status[fr],
+        level, np.column_stack([fj, fi]), center(fj, fi), rho[fj], at[sel], ai[sel], status[fr]
     )
     return classes, prune(f, low[sel], dist[fr], e)
