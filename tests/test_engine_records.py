@@ -252,3 +252,25 @@ def test_cluster_culling_changes_no_class(monkeypatch, world, mexico_path, what,
     assert len(culled) == len(every)
     for x, y in zip(culled, every):
         assert np.array_equal(x, y)
+
+
+def test_cluster_starts_are_the_runs_cut_every_cluster_pairs(cases):
+    """The clusters made from the runs: a cut at every pair whose place in its run of
+    consecutive arcs of one bin is a multiple of the cluster size."""
+    rng = np.random.default_rng(5)
+    ci = np.sort(rng.integers(0, 40, 1500))
+    ai = np.concatenate(
+        [np.sort(rng.choice(80, np.sum(ci == b), replace=False)) for b in range(40)]
+    )
+    pairs = [(f.pair_cell, f.pair_arc) for (f, _), _ in cases] + [(ci, ai)]
+    pairs.append((np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)))
+    for ci, ai in pairs:
+        for cluster in (1, 3, 8, 16):
+            start = np.ones(len(ci), dtype=bool)
+            start[1:] = (ci[1:] != ci[:-1]) | (ai[1:] != ai[:-1] + 1)
+            run = np.cumsum(start) - 1
+            pos = np.arange(len(ci)) - np.flatnonzero(start)[run]
+            want = np.flatnonzero(pos % cluster == 0)
+            got, size = E._cluster_starts(ci, ai, cluster)
+            np.testing.assert_array_equal(got, want)
+            np.testing.assert_array_equal(size, np.diff(np.append(want, len(ci))))

@@ -171,3 +171,22 @@ def test_a_refined_level_hands_over_its_dot_products_bit_for_bit():
         assert levels.subset(g, np.arange(0, len(g.cells), 2)).cm is None
         dist, _, low = levels.cell_distances(g, arcs, lows=True)
         assert levels.prune(g, low, dist, e).cm is None
+
+
+def test_pairs_by_cell_packed_and_argsort_agree():
+    # the candidates' sort: packed (cell, arc, index) values, or an argsort where they
+    # do not fit 63 bits; both the order of (cell, arc) keys, from uint32 or int64 input
+    from gloffset.raster.vector.scatter import _by_cell
+
+    rng = np.random.default_rng(3)
+    key = rng.choice(5000 * 700, size=20_000, replace=False)
+    cell, ai = (key // 700).astype(np.uint32), (key % 700).astype(np.uint32)
+    cm = rng.random(len(key))
+    keep = np.flatnonzero(rng.random(len(key)) < 0.8)
+    order = keep[np.lexsort((ai[keep], cell[keep]))]
+    for cells in (5000, 1 << 40):  # the second one leaves no room: an argsort
+        for c, a in ((cell, ai), (cell.astype(np.int64), ai.astype(np.int64))):
+            got = _by_cell(c, a, cm, keep, cells, 700)
+            for x, want in zip(got, (cell[order], ai[order], cm[order])):
+                assert x.dtype != np.uint32
+                np.testing.assert_array_equal(x, want)

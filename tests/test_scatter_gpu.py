@@ -9,8 +9,9 @@ import pytest
 
 import gloffset
 from gloffset.edges import CurveArcs
+from gloffset.geometry.caps import cap_within
 from gloffset.geometry.sphere import arcs_cross
-from gloffset.gl.scatter_pass import UNSURE, scatter_pass
+from gloffset.gl.scatter_pass import ARC_MASK, NEAR, NEAR_UNSURE, UNSURE, scatter_pass
 from gloffset.grids import Equirect, Tile
 from gloffset.raster.gpu import GPU_MIN_PAIRS, gpu_box_pairs
 from gloffset.raster.vector.scatter import _plan, box_pairs, scatter, start_level
@@ -49,6 +50,15 @@ def _same_pairs(arcs, grid, e, level):
     return len(rj)
 
 
+def test_reach_near_pi_is_the_hosts(world):
+    # Fiji's caps plus a reach of 3.3 rad pass pi: cap_within clamps (every cell passes),
+    # the host decides
+    arcs = CurveArcs.from_shape(gloffset.read(world["Fiji"]))
+    grid = Equirect(128, 64)
+    level = grid.n_levels - 1
+    assert _same_pairs(arcs, grid, 3.3, level) == 128 * 64 * len(arcs.a)
+
+
 def test_mexico_10m_pairs_and_bits(mexico_path):
     # a finer level than the render at 127 km enters (level 2): more than 100,000 pairs
     arcs = CurveArcs.from_shape(gloffset.read(mexico_path))
@@ -74,29 +84,55 @@ def test_pairs_and_bits_on_borders(world, what, d, grid, level):
     assert _same_pairs(arcs, grid, abs(d), min(level, grid.n_levels - 1)) > 0
 
 
-def test_shader_marks_the_pairs_near_the_threshold(mexico_path):
-    # between the arc's lowest and highest thresholds the exact test is the host's: the
-    # shader marks those pairs, and drops none the exact test keeps
-    arcs = CurveArcs.from_shape(gloffset.read(mexico_path))
-    grid, e, level = Equirect(2048, 1024), 0.02, 3
-    (lat, lon, _, _, row_reach), (a_idx, j0, j1, i0, i1) = _plan(arcs, grid, e, level)
-    w = grid.level_shape(level)[1]
-    total = int(((j1 - j0) * (i1 - i0)).sum())
-    mid = np.cos(0.5 * (row_reach.max() + row_reach.min()) + arcs.half)
-    cell, ai, cm = scatter_pass().run(
-        np.column_stack([j0, j1, i0, i1]),
-        a_idx,
-        np.column_stack([arcs.mid, np.full(len(arcs.a), -2.0)]),  # every box cell
-        mid,
-        np.column_stack([np.cos(lat), np.sin(lat)]),
+def _one_arc_run(lat, lon, mid, half, reach, second, host=0.0, **kw):
+    """scatter_pass().run of one arc's box over every cell of the rows ``lat`` and
+    columns ``lon``, with the rows' ``reach`` and ``second`` reach."""
+    rows = np.column_stack(
+        [np.cos(lat), np.sin(lat), reach, second, np.cos(reach), np.sin(reach)]
+        + [np.cos(second), np.sin(second)]
+    )
+    ring = np.zeros((1, 20))
+    ring[0, 15:18] = mid
+    h, w = len(lat), len(lon)
+    return scatter_pass().run(
+        np.array([[0, h, 0, w]]),
+        np.array([0]),
+        np.array([[np.cos(half), np.sin(half), half, host]]),
+        rows,
         np.column_stack([np.cos(lon), np.sin(lon)]),
         w,
-        total,
+        h * w,
+        ring,
+        **kw,
     )
-    assert len(cell) == total
-    unsure = ai >= UNSURE
-    np.testing.assert_array_equal(unsure, cm < mid[ai & (UNSURE - 1)])
-    assert 0 < unsure.sum() < total
+
+
+def test_shader_leaves_the_pairs_at_the_threshold_to_the_host():
+    # each row's reach puts one cell's c.m on the threshold of the exact test (column 5
+    # for the row's reach, 7 for the second): the shader leaves those to the host, and
+    # decides every other cell as the exact test does
+    lat, lon = np.linspace(-0.6, 0.7, 20), np.linspace(-0.8, 0.9, 30)
+    mid, half = np.array([0.8, 0.36, 0.48]), 0.01
+    cphi, sphi, clam, slam = np.cos(lat), np.sin(lat), np.cos(lon), np.sin(lon)
+    cm = cphi[:, None] * (clam * mid[0] + slam * mid[1]) + sphi[:, None] * mid[2]
+    reach = np.arccos(cm[:, 5]) - half
+    near = np.arccos(cm[:, 7]) - half
+    cell, word, got = _one_arc_run(lat, lon, mid, half, reach, near, cross=False, near=True)
+    j, i = np.divmod(cell.astype(np.int64), len(lon))
+    np.testing.assert_array_equal(got.view(np.int64), cm[j, i].view(np.int64))
+    unsure = word >= UNSURE
+    assert ((word & ARC_MASK) == 0).all()
+    # every cell the exact test keeps comes back; those decided here, as it decides them
+    exact = cap_within(cm, reach[:, None] + half)
+    assert set(np.flatnonzero(exact)) <= set(cell.tolist())
+    assert exact[j[~unsure], i[~unsure]].all()
+    assert unsure[i == 5].all() and unsure.sum() < len(lat) + 5
+    near_unsure = (word & NEAR_UNSURE) != 0
+    assert near_unsure[i == 7].all() and near_unsure.sum() < len(lat) + 5
+    sure = ~near_unsure
+    want = cap_within(cm[j, i], near[j] + half)
+    np.testing.assert_array_equal((word[sure] & NEAR) != 0, want[sure])
+    assert 0 < want.sum() < len(want)
 
 
 def test_no_pairs():
@@ -157,8 +193,8 @@ def assert_scatter_on_gpu_same(shape, grid, d, level):
     arcs = CurveArcs.from_shape(shape)
     ref_cls, ref = scatter(shape, arcs, grid, d, level, False)
 
-    def on_gpu(*args):
-        return gpu_box_pairs(*args, min_pairs=0)
+    def on_gpu(*args, **kw):
+        return gpu_box_pairs(*args, min_pairs=0, **kw)
 
     cls, f = scatter(shape, arcs, grid, d, level, False, pairs=on_gpu)
     np.testing.assert_array_equal(cls, ref_cls)
@@ -171,16 +207,8 @@ def test_a_box_larger_than_a_shader_loop():
     h = w = 300
     lat = np.linspace(1.5, -1.5, h)
     lon = np.linspace(-3.0, 3.0, w)
-    cell, ai, cm = scatter_pass().run(
-        np.array([[0, h, 0, w]]),
-        np.array([0]),
-        np.array([[1.0, 0.0, 0.0, -2.0]]),  # every cell passes
-        np.array([2.0]),  # and is marked
-        np.column_stack([np.cos(lat), np.sin(lat)]),
-        np.column_stack([np.cos(lon), np.sin(lon)]),
-        w,
-        h * w,
-    )
+    reach = np.full(h, np.pi)  # every cell passes, the test left to the host (reach ~ pi)
+    cell, ai, cm = _one_arc_run(lat, lon, np.array([1.0, 0.0, 0.0]), 0.0, reach, reach, 1.0)
     np.testing.assert_array_equal(np.sort(cell), np.arange(h * w))
     assert (ai == UNSURE).all()
     j, i = np.divmod(cell.astype(np.int64), w)
@@ -198,3 +226,42 @@ def test_countries_render_is_the_numpy_paths(monkeypatch):
     on_gpu = gloffset.render(shape, 127e3, grid)
     monkeypatch.setattr(gpu, "gpu_box_pairs", box_pairs)
     np.testing.assert_array_equal(on_gpu, gloffset.render(shape, 127e3, grid))
+
+
+def test_shader_constants_are_the_hosts():
+    import re
+
+    from gloffset.geometry.caps import COS_SLACK
+    from gloffset.gl import scatter_pass as sp
+    from gloffset.gl.shaders import load_source
+    from gloffset.raster.gpu import GPU_PAIR_MARGIN
+
+    src = load_source("scatter_pairs.comp")[0]
+
+    def const(name):
+        return re.search(rf"const\s+\w+\s+{name}\s*=\s*([0-9.eE+-x]+?)(?:LF|u)?;", src).group(1)
+
+    assert float(const("MARGIN")) == GPU_PAIR_MARGIN
+    assert float(const("COS_SLACK")) == COS_SLACK
+    for name in ("UNSURE", "CROSS", "NEAR", "NEAR_UNSURE"):
+        assert int(const(name), 16) == getattr(sp, name)
+
+
+@pytest.mark.parametrize("what, d, grid, level", CASES)
+def test_near_flags_on_borders(world, what, d, grid, level):
+    # the second reach's tests (the candidate lists') are the numpy path's booleans
+    shape = gloffset.read(world[what] if isinstance(what, str) else what)
+    arcs = CurveArcs.from_shape(shape)
+    level = min(level, grid.n_levels - 1)
+    (lat, lon, rho, _, row_reach), boxes = _plan(arcs, grid, d, level)
+    w = grid.level_shape(level)[1]
+    ref = box_pairs(arcs, lat, lon, row_reach, boxes, w, near=d + rho)
+    got = gpu_box_pairs(arcs, lat, lon, row_reach, boxes, w, min_pairs=0, near=d + rho)
+    n = len(arcs.a)
+    r, g = np.argsort(ref.cell * n + ref.arc), np.argsort(got.cell * n + got.arc)
+    for name in ("cell", "arc", "near"):
+        np.testing.assert_array_equal(getattr(ref, name)[r], getattr(got, name)[g])
+    np.testing.assert_array_equal(ref.cm[r].view(np.int64), got.cm[g].view(np.int64))
+    assert ref.near.any()
+    if d == 0:  # the lists' reach (rho) below the rows' (the cell spacing): fewer pairs
+        assert not ref.near.all()

@@ -940,3 +940,35 @@ def test_batches_cut_to_the_records_buffer_give_the_same_tiles(tmp_path, monkeyp
     assert (
         read_mbtiles(tmp_path / "small.mbtiles")[0] == read_mbtiles(tmp_path / "whole.mbtiles")[0]
     )
+
+
+def test_palette_png_bytes_are_those_of_the_chunks_written_out():
+    # the chunks kept for a size and a palette give the bytes of writing them all anew
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        crc = struct.pack(">I", zlib.crc32(kind + data))
+        return struct.pack(">I", len(data)) + kind + data + crc
+
+    rng = np.random.default_rng(4)
+    for n, (h, w) in ((2, (256, 256)), (3, (17, 33)), (1, (5, 9)), (4, (256, 256)), (2, (5, 9))):
+        palette = [tuple(int(c) for c in rng.integers(0, 256, 4)) for _ in range(n)]
+        index = rng.integers(0, n, (h, w))
+        depth = 1 if n <= 2 else 2
+        bits = np.unpackbits(index.astype(np.uint8)[..., None], axis=-1)[..., 8 - depth :]
+        rows = np.concatenate(
+            [np.zeros((h, 1), np.uint8), np.packbits(bits.reshape(h, -1), axis=1)], 1
+        )
+        want = b"".join(
+            (
+                b"\x89PNG\r\n\x1a\n",
+                chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, depth, 3, 0, 0, 0)),
+                chunk(b"PLTE", bytes(c for rgba in palette for c in rgba[:3])),
+                chunk(b"tRNS", bytes(rgba[3] for rgba in palette)),
+                chunk(b"IDAT", zlib.compress(rows.tobytes(), 6)),
+                chunk(b"IEND", b""),
+            )
+        )
+        assert palette_png(index, palette) == want
+        assert palette_png(index, [list(c) for c in palette]) == want  # lists as well

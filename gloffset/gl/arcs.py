@@ -3,7 +3,7 @@
 The compute passes that read the arcs (:mod:`gloffset.gl.scatter_pass`'s crossings,
 :mod:`gloffset.gl.records_pass`'s records) bind the same buffer: a render uploads the
 arcs once, and a shape rendered again (at another distance, another grid) not again.
-The buffers of the last :data:`KEEP` sets of arcs are kept, each while its array lives.
+The buffers of the last :data:`KEEP` arrays are kept, each while its array lives.
 """
 
 from __future__ import annotations
@@ -17,8 +17,9 @@ from .context import get_context, shared
 
 __all__ = ["KEEP", "arc_buffer"]
 
-#: Sets of arcs whose buffers a thread keeps.
-KEEP = 2
+#: Arrays of arcs whose buffers a thread keeps (a set of arcs has two: its rows and the
+#: terms of its cap radii, :func:`gloffset.raster.gpu.gpu_box_pairs`'s).
+KEEP = 4
 
 
 class ArcBuffers:

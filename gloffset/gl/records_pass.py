@@ -36,6 +36,9 @@ _MAX_GROUPS = 65535  # work groups per dispatch dimension (the GL minimum of the
 #: llvmpipe ends a shader loop after 65535 iterations: the ORDER pass loops over a bin's
 #: clusters.
 MAX_BIN_CLUSTERS = 65535
+#: Largest buffer (bytes) the pass keeps for its next run: a fresh one costs its pages
+#: again (about 7 ms for 13 MB on llvmpipe; the records of a million pairs take 96 MB).
+KEEP_BYTES = 1 << 27
 
 
 @dataclass
@@ -47,6 +50,8 @@ class DeviceRecords:
     clusters: Any  # moderngl.Buffer, (clusters, 2) uvec4
     pairs: int
     n_clusters: int
+    #: the pass that made them, which keeps the buffers for its next run on release
+    pool: Any = None
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:
         """The records (pairs, 6, 4) float32 and headers (clusters, 2, 4) uint32, read
@@ -60,8 +65,10 @@ class DeviceRecords:
         return rec.reshape(-1, 6, 4), hdr.reshape(-1, 2, 4)
 
     def release(self) -> None:
-        for b in (self.records, self.clusters):
-            b.release()
+        pool, self.pool = self.pool, None
+        for slot, b in (("records", self.records), ("clusters", self.clusters)):
+            if pool is None or not pool.keep(slot, b):
+                b.release()
 
 
 class RecordsPass:
@@ -70,6 +77,9 @@ class RecordsPass:
     def __init__(self):
         self.ctx = get_context()
         self.max_bytes = context_info()["max_storage_block_size"]
+        #: buffers kept for the next run: the temporaries by binding, and the records and
+        #: headers that a drawing handed back (:meth:`DeviceRecords.release`)
+        self.kept: dict[Any, Any] = {}
         self.progs = {
             key: self.ctx.compute_shader(load_source("arc_records.comp", defines)[0])
             for key, defines in (
@@ -113,40 +123,27 @@ class RecordsPass:
         first record, records, the bin's first cluster and the end of its clusters.
         ``se`` and ``chord_e`` are ``sin(e)`` and ``chord(e)^2`` as the host computes
         them (``e`` the distance)."""
-        ctx = self.ctx
         n, m = len(pairs), len(ranges)
-
-        def buf(a, t):  # read in place where it is already contiguous and of type t
-            a = np.ascontiguousarray(a, dtype=t)
-            return ctx.buffer(a if a.size else bytes(16))
-
         cen = np.zeros((len(centres), 4))
         cen[:, :3] = centres
-        arcs = arc_buffer(rows)  # kept (arcs.py): not released here
-        temp = [buf(pairs, np.uint32), buf(codes, np.uint32), buf(cen, np.float64)]
-        recs = ctx.buffer(reserve=max(96 * n, 96))
+        recs = self._take("records", max(96 * n, 96))
         sorted_ = None
         try:
             p = self.progs["records"]
-            for k, b in enumerate(temp + [arcs]):
-                b.bind_to_storage_buffer(k)
+            self._temp(0, pairs, np.uint32)
+            self._temp(1, codes, np.uint32)
+            self._temp(2, cen, np.float64)
+            arc_buffer(rows).bind_to_storage_buffer(3)  # kept (arcs.py)
             recs.bind_to_storage_buffer(4)
             p["u_se"] = se
             p["u_chord_e"] = chord_e
             if n:
                 self._dispatch(p, n)
-            for b in temp:
-                b.release()
-            temp = []
-            temp = [
-                buf(ranges, np.uint32),
-                ctx.buffer(reserve=max(32 * m, 32)),
-                ctx.buffer(reserve=max(4 * m, 16)),
-            ]
-            sorted_ = ctx.buffer(reserve=max(32 * m, 32))
+            sorted_ = self._take("clusters", max(32 * m, 32))
             recs.bind_to_storage_buffer(0)
-            for k, b in enumerate(temp, start=1):
-                b.bind_to_storage_buffer(k)
+            self._temp(1, ranges, np.uint32)
+            self._temp(2, None, reserve=max(32 * m, 32))
+            self._temp(3, None, reserve=max(4 * m, 16))
             sorted_.bind_to_storage_buffer(4)
             if m:
                 self._dispatch(self.progs["clusters"], m)
@@ -157,9 +154,50 @@ class RecordsPass:
                 sorted_.release()
             raise
         finally:
-            for b in temp:
-                b.release()
-        return DeviceRecords(recs, sorted_, n, m)
+            self._trim()
+        return DeviceRecords(recs, sorted_, n, m, self)
+
+    def _temp(self, slot: int, a, t=None, reserve: int = 0) -> None:
+        """Binds to ``slot`` a kept buffer holding ``a`` as type ``t`` (or room for
+        ``reserve`` bytes), made anew where the kept one is too small."""
+        data = None if a is None else np.ascontiguousarray(a, dtype=t)
+        nbytes = max(reserve if data is None else data.nbytes, 16)
+        buf = self.kept.get(slot)
+        if buf is None or buf.size < nbytes:
+            if buf is not None:
+                buf.release()
+            buf = self.kept[slot] = self.ctx.buffer(reserve=nbytes)
+        if data is not None and data.size:
+            buf.write(data)
+        buf.bind_to_storage_buffer(slot)
+
+    def _take(self, name: str, nbytes: int):
+        """A buffer of at least ``nbytes`` for the records or headers (``name``): the one
+        kept from an earlier run where it is large enough, else a new one."""
+        buf = self.kept.pop(name, None)
+        if buf is not None and buf.size >= nbytes:
+            return buf
+        if buf is not None:
+            buf.release()
+        return self.ctx.buffer(reserve=nbytes)
+
+    def keep(self, name: str, buf) -> bool:
+        """Keeps ``buf``, the records or headers (``name``) of a finished drawing, for
+        the next run; False where it is too large to keep (the caller releases it)."""
+        if buf.size > KEEP_BYTES:
+            return False
+        old = self.kept.pop(name, None)
+        if old is not None:
+            old.release()
+        self.kept[name] = buf
+        return True
+
+    def _trim(self) -> None:
+        """Release the kept temporaries larger than :data:`KEEP_BYTES`."""
+        for key, buf in list(self.kept.items()):
+            if isinstance(key, int) and buf.size > KEEP_BYTES:
+                buf.release()
+                del self.kept[key]
 
 
 def records_pass() -> RecordsPass:

@@ -16,21 +16,23 @@ import math
 import numpy as np
 
 from ..edges import CurveArcs
-from ..geometry.caps import COS_SLACK, cap_within, chord2
+from ..geometry.caps import cap_within, chord2
 from ..gl.arcs import arc_buffer
 from ..gl.records_pass import DeviceRecords, records_pass, records_pass_made
-from ..gl.scatter_pass import CROSS, UNSURE, scatter_pass
+from ..gl.scatter_pass import ARC_MASK, CROSS, NEAR, NEAR_UNSURE, UNSURE, scatter_pass
 from ..gl.vector_pass import BinPlan, vector_passes
+from ..memo import once_attr
 from .layout import BinLayout
 from .records import ArcRecords, margins, record_inputs, records
 from .vector.levels import Frontier
-from .vector.scatter import box_pairs
+from .vector.scatter import BoxPairs, box_pairs
 
 __all__ = ["BinPasses", "bin_plan", "bin_passes", "device_records", "gpu_box_pairs"]
 
-#: Margin below the lowest exact threshold of an arc's cap test under which the compute
-#: shader drops a pair: far above the few ulp (1e-15) by which a device's float64 ``c.m``
-#: could differ from the host's, so no pair the exact test keeps is dropped.
+#: Margin about the threshold of a pair's cap test within which the compute shader leaves
+#: the test to the host (``shaders/scatter_pairs.comp``'s ``MARGIN``): far above the 1e-14
+#: by which its threshold may differ from the host's and the few ulp (1e-15) by which a
+#: device's float64 ``c.m`` could differ from the host's, so no pair is misjudged.
 GPU_PAIR_MARGIN = 1e-9
 #: Fewest candidate pairs for which :func:`bin_plan` makes the records on the GL context
 #: (``shaders/arc_records.comp``) rather than in numpy: below, numpy (about 1 us a pair)
@@ -52,18 +54,26 @@ GPU_MIN_PAIRS = 500_000
 
 
 def gpu_box_pairs(
-    arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, min_pairs=None, crossings=True
+    arcs: CurveArcs,
+    lat,
+    lon,
+    row_reach,
+    boxes,
+    w: int,
+    *,
+    min_pairs=None,
+    crossings=True,
+    near=None,
 ):
-    """:func:`gloffset.raster.vector.scatter.box_pairs` with the box cells enumerated and
-    their ``c.m`` computed by the compute shader of :mod:`gloffset.gl.scatter_pass`: the
-    same pairs and ``cm`` (in another order; the caller sorts them).
+    """:func:`gloffset.raster.vector.scatter.box_pairs` with the box cells enumerated, their
+    ``c.m`` computed and their cap tests made by the compute shader of
+    :mod:`gloffset.gl.scatter_pass`: the same pairs and ``cm`` (in another order; the
+    caller sorts them).
 
-    The shader keeps a pair when its ``cm`` reaches the arc's lowest threshold (that of
-    the greatest row reach), less :data:`GPU_PAIR_MARGIN`: a superset of the exact test's
-    pairs. It marks those below the arc's highest threshold (the least row reach), plus
-    the margin; the exact test (``cap_within``) runs on the host on those alone. ``cos``,
-    ``min`` and the sums are monotone and the margin is far above their rounding, so the
-    pairs above the highest threshold pass the exact test: the result is its booleans.
+    The shader decides each pair's cap test by a threshold within 1e-14 of the exact one
+    and leaves to the host those within :data:`GPU_PAIR_MARGIN` of it (``cos``, ``min``
+    and the sums are monotone and the margin is far above their rounding): the exact test
+    (``cap_within``) runs on the host on those alone, and the result is its booleans.
     Fewer box cells than ``min_pairs`` (default :data:`GPU_MIN_PAIRS`), or boxes beyond the
     GL limits, take the numpy path.
 
@@ -71,48 +81,99 @@ def gpu_box_pairs(
     short arc from each pair's cell centre to its predecessor's
     (:func:`gloffset.geometry.sphere.arcs_cross`, the same booleans; for every pair of a
     ring edge and a cell but the first): the result has a fifth array, those booleans,
-    where the shader ran.
+    where the shader ran. With ``near`` (per row, a second reach), the result is a
+    :class:`~gloffset.raster.vector.scatter.BoxPairs` (as :func:`box_pairs` gives it),
+    whose ``near`` the shader decides the same way.
     """
     a_idx, j0, j1, i0, i1 = boxes
     total = int(((j1 - j0) * (i1 - i0)).sum())
     least = GPU_MIN_PAIRS if min_pairs is None else min_pairs
-    if total < least:
-        return box_pairs(arcs, lat, lon, row_reach, boxes, w)
-    engine = scatter_pass()
+    engine = scatter_pass() if total >= least else None
     if (
-        not engine.fits(total, len(a_idx))
+        engine is None
+        or not engine.fits(total, len(a_idx))
         or not engine.fits_arcs(len(arcs.a))
         or len(lat) * w >= 1 << 31
     ):
-        return box_pairs(arcs, lat, lon, row_reach, boxes, w)
-    lo = np.cos(np.minimum(row_reach.max() + arcs.half, np.pi)) - COS_SLACK - GPU_PAIR_MARGIN
-    hi = np.cos(np.minimum(row_reach.min() + arcs.half, np.pi)) - COS_SLACK + GPU_PAIR_MARGIN
-    cell, ai, cm = engine.run(
-        np.column_stack([j0, j1, i0, i1]),
+        return box_pairs(arcs, lat, lon, row_reach, boxes, w, near=near)
+    terms = _arc_terms(arcs)
+    # arcs whose radius plus a reach comes near pi (where cap_within clamps): the host's
+    most = max(float(row_reach.max()), -1.0 if near is None else float(near.max()))
+    clamp = arcs.half + most >= math.pi - 1e-6
+    if clamp.any():
+        terms = terms.copy()
+        terms[clamp, 3] = 1.0
+    else:
+        terms = arc_buffer(terms)
+    rows = np.empty((len(lat), 8))
+    rows[:, 0], rows[:, 1] = np.cos(lat), np.sin(lat)
+    rows[:, 2] = row_reach
+    rows[:, 3] = row_reach if near is None else near
+    rows[:, 4], rows[:, 5] = np.cos(rows[:, 2]), np.sin(rows[:, 2])
+    rows[:, 6], rows[:, 7] = np.cos(rows[:, 3]), np.sin(rows[:, 3])
+    cols = np.empty((len(lon), 2))
+    cols[:, 0], cols[:, 1] = np.cos(lon), np.sin(lon)
+    boxes4 = np.empty((len(a_idx), 4), dtype=np.int64)
+    for k, x in enumerate((j0, j1, i0, i1)):
+        boxes4[:, k] = x
+    cell, word, cm = engine.run(
+        boxes4,
         a_idx,
-        np.column_stack([arcs.mid, lo]),
-        hi,
-        np.column_stack([np.cos(lat), np.sin(lat)]),
-        np.column_stack([np.cos(lon), np.sin(lon)]),
+        terms,
+        rows,
+        cols,
         w,
         total,
-        ring_arcs=arc_buffer(arcs.rows) if crossings else None,
+        arc_buffer(arcs.rows),
+        cross=crossings,
+        near=near is not None,
     )
-    # the exact test on the unsure pairs, those it fails dropped before decoding the rest
-    unsure = np.flatnonzero(ai >= UNSURE)
-    if len(unsure):
-        u = (ai[unsure] & (CROSS - 1)).astype(np.int64)
-        ok = cap_within(cm[unsure], row_reach[cell[unsure] // w] + arcs.half[u])
-        if not ok.all():
-            keep = np.ones(len(ai), dtype=bool)
-            keep[unsure[~ok]] = False
-            cell, ai, cm = cell[keep], ai[keep], cm[keep]
+    cell, word, cm, ok = _settle(arcs, cell, word, cm, w, row_reach, near)
+    if near is not None:  # cells and arcs as uint32: the caller's sort widens them
+        hit = (word & CROSS) != 0 if crossings else None
+        return BoxPairs(cell, word & ARC_MASK, cm, hit, ok)
+    ai = (word & ARC_MASK).astype(np.int64)
     cell = cell.astype(np.int64)
+    hit = (word & CROSS) != 0
     jj = cell // w  # floor division and a product: divmod's values, in less time
     ii = cell - jj * w
-    hit = (ai & CROSS) != 0
-    ai = (ai & (CROSS - 1)).astype(np.int64)
     return (jj, ii, ai, cm, hit) if crossings else (jj, ii, ai, cm)
+
+
+def _arc_terms(arcs: CurveArcs) -> np.ndarray:
+    """(arcs, 4) float64 ``cos h, sin h, h, 0`` of the arcs' cap radii ``h``, read-only
+    (made once per set of arcs, what :func:`gpu_box_pairs`'s shader reads; a 1 last
+    leaves all the arc's tests to the host)."""
+
+    def build() -> np.ndarray:
+        out = np.zeros((len(arcs.half), 4))
+        out[:, 0], out[:, 1], out[:, 2] = np.cos(arcs.half), np.sin(arcs.half), arcs.half
+        out.setflags(write=False)
+        return out
+
+    return once_attr(arcs, "_scatter_arc_terms", build)
+
+
+def _settle(arcs: CurveArcs, cell, word, cm, w: int, row_reach, near):
+    """The shader's pairs with the exact cap tests taken where it left them to the host:
+    those that fail the row's dropped; and the booleans of the test of ``near`` (None
+    without it)."""
+    unsure = np.flatnonzero(word >= UNSURE)
+    if len(unsure):
+        u = (word[unsure] & ARC_MASK).astype(np.int64)
+        ok = cap_within(cm[unsure], row_reach[cell[unsure] // w] + arcs.half[u])
+        if not ok.all():
+            keep = np.ones(len(word), dtype=bool)
+            keep[unsure[~ok]] = False
+            cell, word, cm = cell[keep], word[keep], cm[keep]
+    if near is None:
+        return cell, word, cm, None
+    ok = (word & NEAR) != 0
+    undecided = np.flatnonzero(word & NEAR_UNSURE)
+    if len(undecided):
+        u = (word[undecided] & ARC_MASK).astype(np.int64)
+        ok[undecided] = cap_within(cm[undecided], near[cell[undecided] // w] + arcs.half[u])
+    return cell, word, cm, ok
 
 
 def device_records(

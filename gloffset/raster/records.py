@@ -95,7 +95,7 @@ def record_inputs(f: Frontier, arcs: CurveArcs, cluster: int = CLUSTER) -> Recor
         raise ValueError(f"cluster must be 1..16, got {cluster}")
     ci, ai = _pairs(f)
     k = len(f.cells)
-    code = np.take(_arc_codes(arcs)[0], ai)
+    code = np.take(_arc_codes(arcs)[2], ai)
     _, bits = _components(f, arcs, ci, ai, code)
     cfirst, csize = _cluster_starts(ci, ai, cluster)
     cbin = ci[cfirst]
@@ -138,6 +138,7 @@ def records(f: Frontier, arcs: CurveArcs, e: float, cluster: int = CLUSTER) -> A
     ci, ai = _pairs(f)
     k, npair = len(f.cells), len(ci)
     out, code, cols = _arc_terms(f, arcs, ci, ai, e)
+    code += np.take(_arc_codes(arcs)[1], ai)
     ring, bits = _components(f, arcs, ci, ai, code)
     out[:, 1] = code
     hdr, first_cluster, n_clusters = _clusters(cols, ci, ai, ring, k, cluster)
@@ -219,15 +220,14 @@ def _arc_terms(f: Frontier, arcs: CurveArcs, ci, ai, e: float):
 
 
 def _components(f: Frontier, arcs: CurveArcs, ci, ai, code: np.ndarray):
-    """Completes ``code`` (in place): flags + 8 * local component id (31 for arcs of no
-    ring, at most :data:`MAX_LOCAL`). Returns which pairs are ring edges and the status
+    """Completes ``code`` (in place; the arcs' codes, :func:`_arc_codes`'s flags and id 31):
+    flags + 8 * local component id (31 for arcs of no ring, at most :data:`MAX_LOCAL`).
+    Returns which pairs are ring edges and the status
     bits at the bin centres (uint64, :data:`OTHER_BIT` for the components without an arc
     in the bin)."""
     k = len(f.cells)
     group = np.take(arcs.group, ai)
     ring = group >= 0
-    # the flags of each arc and the id 31, once per arc: one gather per pair
-    code += np.take(_arc_codes(arcs)[1], ai)
     ng = arcs.n_groups
     bits = np.zeros(k, dtype=np.uint64)
     # components the centre is inside: popcount of the first max(ng, 1) status bits
@@ -241,9 +241,9 @@ def _components(f: Frontier, arcs: CurveArcs, ci, ai, code: np.ndarray):
         new = np.empty(len(key), dtype=bool)
         new[:1] = True
         np.not_equal(key[1:], key[:-1], out=new[1:])
-        run = np.cumsum(new)
-        run -= 1
-        rkey = key[new]
+        first = np.flatnonzero(new)
+        rkey = key[first]
+        size = np.diff(np.append(first, len(key)))  # each run's pairs
         if k * ng <= _DENSE:
             present = np.zeros(k * ng, dtype=bool)
             present[rkey] = True
@@ -257,9 +257,9 @@ def _components(f: Frontier, arcs: CurveArcs, ci, ai, code: np.ndarray):
         rank = np.minimum(np.arange(len(ukey)) - np.searchsorted(ubin, ubin), MAX_LOCAL)
         shift = np.take(8 * (rank - 31), rinv)  # per run of one key
         if every:
-            code += np.take(shift, run)
+            code += np.repeat(shift, size)
         else:
-            code[ring] += np.take(shift, run)
+            code[ring] += np.repeat(shift, size)
         inside_g = ((f.status[ubin, ugrp >> 3] >> (ugrp & 7).astype(np.uint8)) & 1) == 1
         np.bitwise_or.at(bits, ubin[inside_g], np.uint64(1) << rank[inside_g].astype(np.uint64))
         # inside a component that has no arc here: one shared bit
@@ -270,23 +270,24 @@ def _components(f: Frontier, arcs: CurveArcs, ci, ai, code: np.ndarray):
     return ring, bits
 
 
-def _arc_codes(arcs: CurveArcs) -> tuple[np.ndarray, np.ndarray]:
+def _arc_codes(arcs: CurveArcs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per arc, the parts of a pair's code that depend on the arc alone: its flag
     :data:`ARC_IS_ARC` (``n`` a unit vector, not zero: the test of :func:`_arc_terms`);
     its flags :data:`ARC_RING` and :data:`ARC_HAS_DISTANCE` and the local id 31 (``+ 8 *
-    31``), which :func:`_components` then lowers for ring edges (made once per set of
-    arcs)."""
+    31``), which :func:`_components` then lowers for ring edges; and their sum (made once
+    per set of arcs)."""
 
-    def build() -> tuple[np.ndarray, np.ndarray]:
+    def build() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         is_arc = np.where(dot(arcs.n, arcs.n) > 0.5, ARC_IS_ARC, 0).astype(np.int64)
         rest = (
             np.where(arcs.group >= 0, ARC_RING, 0)
             + np.where(arcs.boundary, ARC_HAS_DISTANCE, 0)
             + 8 * 31
         ).astype(np.int64)
-        for a in (is_arc, rest):
+        both = is_arc + rest
+        for a in (is_arc, rest, both):
             a.setflags(write=False)
-        return is_arc, rest
+        return is_arc, rest, both
 
     return once_attr(arcs, "_record_codes", build)
 
@@ -340,22 +341,18 @@ def _clusters(cols: np.ndarray, ci, ai, ring, k: int, cluster: int):
 
 def _cluster_starts(ci, ai, cluster: int) -> tuple[np.ndarray, np.ndarray]:
     """The first pair and the size of each cluster: runs of consecutive arcs of a bin,
-    cut every ``cluster`` pairs."""
+    cut every ``cluster`` pairs (made from the runs: far fewer than the pairs)."""
     npair = len(ci)
     start = np.ones(npair, dtype=bool)
     np.not_equal(ci[1:], ci[:-1], out=start[1:])
     start[1:] |= ai[1:] != ai[:-1] + 1
     run_first = np.flatnonzero(start)
-    run = np.cumsum(start)
-    run -= 1
-    pos = np.arange(npair)
-    pos -= np.take(run_first, run)  # place in its run
-    if cluster & (cluster - 1) == 0:  # a power of two
-        cut = (pos & (cluster - 1)) == 0
-    else:
-        cut = pos % cluster == 0
-    cfirst = np.flatnonzero(cut)  # every run's first pair is a cut (its place is 0)
-    return cfirst, np.diff(np.append(cfirst, npair))
+    run_end = np.append(run_first[1:], npair)[: len(run_first)]  # none without pairs
+    per = (run_end - run_first + (cluster - 1)) // cluster  # clusters per run
+    first = np.repeat(run_first, per)
+    # each cluster's place in its run, times the cluster size
+    first += cluster * (np.arange(len(first)) - np.repeat(np.cumsum(per) - per, per))
+    return first, np.minimum(np.repeat(run_end, per) - first, cluster)
 
 
 def _balls(t4: np.ndarray, t5: np.ndarray, cfirst: np.ndarray, csize: np.ndarray):

@@ -29,6 +29,7 @@ decided by distance, keep the hierarchy from level 0. The derivation in full:
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -38,7 +39,7 @@ from ...geometry.sphere import angle, arcs_cross
 from ...memo import Memo, once_attr
 from .levels import FRONTIER, Frontier, decide, nearest, prune, row_statuses
 
-__all__ = ["start_level", "scatter", "box_pairs", "PAIRS_PER_ARC"]
+__all__ = ["start_level", "scatter", "box_pairs", "BoxPairs", "PAIRS_PER_ARC"]
 
 #: Most box-enumerated (cell, arc) pairs per arc for a level to be entered directly.
 PAIRS_PER_ARC = 48
@@ -104,11 +105,19 @@ def _boxes(arcs: CurveArcs, lat, lon, reach: float):
     for turn in (-2.0 * math.pi, 0.0, 2.0 * math.pi):
         # only the ranges that reach the columns are searched: one that ends before the
         # first column (or starts after the last) has i1 = 0 (i0 = w), so no column
-        lo, hi = west + turn, east + turn
-        reach_ = np.flatnonzero((hi >= lon[0]) & (lo <= lon[-1])) if len(lon) else part[:0]
+        if len(lon) == 0:
+            reach_ = part[:0]
+        elif turn == 0.0:
+            reach_ = np.flatnonzero((east >= lon[0]) & (west <= lon[-1]))
+        else:  # few ranges wrap: a superset unshifted (by far more than the roundings),
+            # then the test of the shifted ranges on it alone
+            wraps = east >= lon[0] - turn - 1e-9 if turn < 0 else west <= lon[-1] - turn + 1e-9
+            near = np.flatnonzero(wraps)
+            reach_ = near[(east[near] + turn >= lon[0]) & (west[near] + turn <= lon[-1])]
         k = part[reach_]
-        i0 = np.searchsorted(lon, lo[reach_], side="left")
-        i1 = np.searchsorted(lon, hi[reach_], side="right")
+        lo, hi = west[reach_] + turn, east[reach_] + turn
+        i0 = np.searchsorted(lon, lo, side="left")
+        i1 = np.searchsorted(lon, hi, side="right")
         ok = i1 > i0
         k = k[ok]
         out.append((idx[k], j0[k], j1[k], i0[ok], i1[ok]))
@@ -137,12 +146,26 @@ def start_level(arcs: CurveArcs, grid, e: float, finest: int):
     return None, None
 
 
-def box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int):
+class BoxPairs(NamedTuple):
+    """The box pairs as :func:`scatter` takes them from a finder called with ``near``
+    (:func:`box_pairs`, :func:`gloffset.raster.gpu.gpu_box_pairs`)."""
+
+    cell: np.ndarray  # (pairs,) int64 or uint32: row * width + column
+    arc: np.ndarray  # (pairs,) int64 or uint32
+    cm: np.ndarray  # (pairs,) float64: c.m of the cell's centre and the arc's cap centre
+    hit: np.ndarray | None  # which ring edges cross the short arc to the predecessor
+    near: np.ndarray  # (pairs,) bool: within the cap test of the row's second reach
+
+
+def box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, near=None):
     """``(row, column, arc, cm)`` of every cell of every box (:func:`_boxes`) that passes
     the cap test ``cap_within(cm, row_reach[row] + half[arc])``, ``cm`` the float64 dot
     product of the cell's centre and the arc's cap centre (``w``: the level's width; the
     numpy path, in box order; :func:`gloffset.raster.gpu.gpu_box_pairs` is the same pairs
-    from a compute shader, in any order). No two pairs share a cell and an arc."""
+    from a compute shader, in any order). No two pairs share a cell and an arc.
+
+    With ``near`` (per row, a second reach), a :class:`BoxPairs` instead (``hit`` None),
+    its ``near`` the same cap test with ``near`` for ``row_reach``."""
     a_idx, j0, j1, i0, i1 = boxes
     nc = i1 - i0
     count = (j1 - j0) * nc
@@ -160,7 +183,35 @@ def box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int):
     m0, m1, m2 = (np.repeat(m[:, k], count) for k in range(3))
     cm = cphi[jj] * (clam[ii] * m0 + slam[ii] * m1) + sphi[jj] * m2
     keep = np.flatnonzero(cap_within_pairs(cm, row_reach, jj, arcs.half, ai, runs=(a_idx, count)))
-    return jj[keep], ii[keep], ai[keep], cm[keep]
+    jj, ii, ai, cm = jj[keep], ii[keep], ai[keep], cm[keep]
+    if near is None:
+        return jj, ii, ai, cm
+    ok = cap_within_pairs(cm, near, jj, arcs.half, ai)
+    return BoxPairs(jj * w + ii, ai, cm, None, ok)
+
+
+def _by_cell(cell, ai, cm, keep, cells: int, arcs: int):
+    """``(cell, ai, cm)`` of the pairs ``keep``, sorted by cell, then arc (``cells``,
+    ``arcs``: bounds of the two; cells and arcs int64, from any integer type). The keys
+    are unique (no two pairs share a cell and an arc), so any sort gives this order: where
+    cell, arc and the pair's index fit 63 bits together, one sort of those packed values
+    (several times faster than an argsort of the keys, and its cells and arcs read off the
+    sorted values), else an argsort."""
+    bi = max(len(cell) - 1, 1).bit_length()
+    ba = max(arcs - 1, 1).bit_length()
+    if max(cells - 1, 1).bit_length() + ba + bi > 63:
+        order = keep[np.argsort(cell[keep].astype(np.int64) * arcs + ai[keep])]
+        return cell[order].astype(np.int64), ai[order].astype(np.int64), cm[order]
+    every = len(keep) == len(cell)  # keep is then arange(len(cell))
+    key = np.left_shift(cell if every else cell[keep], ba + bi, dtype=np.int64)
+    key |= np.left_shift(ai if every else ai[keep], bi, dtype=np.int64)
+    key |= keep
+    key.sort()
+    out_cell = key >> (ba + bi)
+    out_ai = key >> bi
+    out_ai &= (1 << ba) - 1
+    key &= (1 << bi) - 1
+    return out_cell, out_ai, cm[key]
 
 
 def scatter(
@@ -171,18 +222,19 @@ def scatter(
     ``final``: ``level`` is the output level (decided at the centres); ``plan``: what
     :func:`start_level` gave for this level and distance, if it chose it; ``pairs``: what
     finds the box pairs (:func:`box_pairs`, the default, or a function with its arguments
-    and results, such as :func:`gloffset.raster.gpu.gpu_box_pairs`; a fifth result, where
+    and results, such as :func:`gloffset.raster.gpu.gpu_box_pairs`), called with ``near``
+    (the candidate lists' reach, ``e + rho``) for a :class:`BoxPairs`; its ``hit``, where
     given, tells which pairs' ring edges cross the short arc from the cell's centre to its
-    predecessor's: the crossings the inside statuses take, found there instead of here).
+    predecessor's: the crossings the inside statuses take, found there instead of here.
     """
     e = abs(d)
     h, w = grid.level_shape(level)
     (lat, lon, rho, spacing, row_reach), boxes = plan or _plan(arcs, grid, e, level)
 
-    # every cell of every box within the exact cap test (in the finder's order)
-    found = (pairs or box_pairs)(arcs, lat, lon, row_reach, boxes, w)
-    jj, ii, ai, cm = found[:4]
-    cell = jj * w + ii
+    # every cell of every box within the exact cap test (in the finder's order), and
+    # which are within e + rho (the candidates)
+    found = (pairs or box_pairs)(arcs, lat, lon, row_reach, boxes, w, near=e + rho)
+    cell, ai, cm = found.cell, found.arc, found.cm
     cphi, sphi = np.cos(lat), np.sin(lat)
     clam, slam = np.cos(lon), np.sin(lon)
 
@@ -191,24 +243,23 @@ def scatter(
 
     # inside statuses: predecessor's, toggled by crossings of pred -> cell (in any order)
     status = status_bits(arcs.n_groups, h * w)
-    if arcs.n_groups and len(found) > 4:  # the finder's crossings
-        hit = np.flatnonzero(found[4])
+    if arcs.n_groups and found.hit is not None:  # the finder's crossings
+        hit = np.flatnonzero(found.hit)
         status = row_statuses(shape, arcs, h, w, center(0, 0), cell[hit], ai[hit])
     elif arcs.n_groups:
-        ring = (arcs.group[ai] >= 0) & (cell > 0)
-        ring &= cap_within_pairs(cm, spacing, jj, arcs.half, ai)
-        pj, pi_, pa = jj[ring], ii[ring], ai[ring]
+        ring = np.flatnonzero((arcs.group[ai] >= 0) & (cell > 0))
+        pj = cell[ring] // w
+        pi_ = cell[ring] - pj * w
+        pa = ai[ring]
+        within = cap_within_pairs(cm[ring], spacing, pj, arcs.half, pa)
+        ring, pj, pi_, pa = ring[within], pj[within], pi_[within], pa[within]
         qj = np.where(pi_ > 0, pj, pj - 1)
         qi = np.where(pi_ > 0, pi_ - 1, 0)
         hit = arcs_cross(center(pj, pi_), center(qj, qi), arcs.a[pa], arcs.b[pa], arcs.n[pa])
         status = row_statuses(shape, arcs, h, w, center(0, 0), cell[ring][hit], pa[hit])
 
-    # candidate lists (within e + rho), sorted by cell, then arc: the keys are unique (no
-    # two pairs share a cell and an arc), so any sort gives this order (the default one is
-    # several times faster than a stable sort on random keys)
-    cand = np.flatnonzero(cap_within_pairs(cm, e + rho, jj, arcs.half, ai))
-    order = cand[np.argsort(cell[cand] * len(arcs.a) + ai[cand])]
-    ai, cell, cm = (x[order] for x in (ai, cell, cm))
+    # candidate lists (within e + rho), sorted by cell, then arc
+    cell, ai, cm = _by_cell(cell, ai, cm, np.flatnonzero(found.near), h * w, len(arcs.a))
     dist = np.full(h * w, np.inf)
     dring = np.full(h * w, np.inf)
     low = nearest(arcs, cell, ai, cm, lambda k: center(*np.divmod(cell[k], w)), dist, dring)
@@ -220,15 +271,10 @@ def scatter(
     fr = np.flatnonzero(cls == FRONTIER)
     remap = np.full(h * w, -1)
     remap[fr] = np.arange(len(fr))
-    sel = remap[cell] >= 0
+    at = remap[cell]  # each pair's frontier cell, -1 for the others
+    sel = at >= 0
     fj, fi = fr // w, fr % w
     f = Frontier(
-        level,
-        np.column_stack([fj, fi]),
-        center(fj, fi),
-        rho[fj],
-        remap[cell[sel]],
-        ai[sel],
-        status[fr],
+        level, np.column_stack([fj, fi]), center(fj, fi), rho[fj], at[sel], ai[sel], status[fr]
     )
     return classes, prune(f, low[sel], dist[fr], e)
