@@ -35,6 +35,7 @@ __all__ = [
     "cap_range",
     "cap_within",
     "cap_within_pairs",
+    "cap_bounds",
     "cos_sum_lower",
 ]
 
@@ -172,8 +173,7 @@ def cap_within_pairs(cm, first, cell, half, arc, *, runs=None) -> np.ndarray:
     if len(cm) <= 4 * len(half):  # few pairs: the bounds of every arc would cost more
         return cap_within(cm, first[cell] + half[arc])
     out = np.zeros(len(cm), dtype=bool)
-    lo = np.cos(np.minimum(first.max() + half, np.pi)) - COS_SLACK - _PAIR_MARGIN
-    hi = np.cos(np.minimum(first.min() + half, np.pi)) - COS_SLACK + _PAIR_MARGIN
+    lo, hi = cap_bounds(first, half)
     may = np.flatnonzero(cm >= (lo[arc] if runs is None else np.repeat(lo[runs[0]], runs[1])))
     a, cmm = arc[may], cm[may]
     unsure = cmm < hi[a]
@@ -181,6 +181,16 @@ def cap_within_pairs(cm, first, cell, half, arc, *, runs=None) -> np.ndarray:
     u = may[unsure]
     out[u] = cap_within(cm[u], first[cell[u]] + half[arc[u]])
     return out
+
+
+def cap_bounds(first, half) -> tuple[np.ndarray, np.ndarray]:
+    """Per arc (radius ``half``), bounds ``(lo, hi)`` on the threshold of
+    ``cap_within(cm, first[cell] + half)`` over every ``first`` value: ``cm < lo`` fails
+    and ``cm >= hi`` passes for every cell (:func:`cap_within_pairs`' bounds, with
+    :data:`_PAIR_MARGIN` on either side); ``lo < hi``."""
+    lo = np.cos(np.minimum(first.max() + half, np.pi)) - COS_SLACK - _PAIR_MARGIN
+    hi = np.cos(np.minimum(first.min() + half, np.pi)) - COS_SLACK + _PAIR_MARGIN
+    return lo, hi
 
 
 def cos_sum_lower(total, cos_x, sin_x, cos_y, sin_y):

@@ -1,0 +1,121 @@
+"""The children of a level's cells and their candidate pairs, worked in the parents' order.
+
+A refined cell's candidates are its parent's, each tested again against the child's centre
+(:func:`gloffset.raster.vector.levels.refine`). Expanding every parent pair to its four
+children first and then gathering each pair's centre and arc cap costs seven gathers per
+child pair. Here the parent's pairs are walked once per child slot (top-left, top-right,
+bottom-left, bottom-right): the arcs' cap centres, radii and the cap tests' bounds are
+gathered once per parent pair and shared by the four children, the child's centre is
+spread along its parent's run, and only the pairs kept are placed, in the children's
+row-major order. The dot products are those of
+:func:`~gloffset.geometry.sphere.pair_dots` (same operands, same sum order) and the tests
+those of :func:`~gloffset.geometry.caps.cap_within`, so every list, ``c.m`` and status is
+the expanded pairs' bit for bit (the tests compare the two).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...geometry.caps import cap_bounds, cap_within
+from ...memo import once_attr
+
+__all__ = ["child_slots", "slot_pairs"]
+
+
+def child_slots(level_cells: np.ndarray, grid, lev: int):
+    """The children at level ``lev`` of the cells ``level_cells`` (rows, columns of level
+    ``lev - 1``), sorted row-major: ``(cells, parent, slot)``, ``parent`` each child's
+    cell index and ``slot`` (4, k) each parent's child index in slots (0, 0), (0, 1),
+    (1, 0), (1, 1) (row, column offsets), -1 where the child lies outside the level."""
+    h, w = grid.level_shape(lev)
+    k = len(level_cells)
+    r2, c2 = 2 * level_cells[:, 0], 2 * level_cells[:, 1]
+    rows = np.concatenate([r2, r2, r2 + 1, r2 + 1])
+    cols = np.concatenate([c2, c2 + 1, c2, c2 + 1])
+    idx = np.flatnonzero((rows < h) & (cols < w))
+    rows, cols = rows[idx], cols[idx]
+    order = np.lexsort((cols, rows))
+    idx = idx[order]
+    cells = np.column_stack([rows[order], cols[order]])
+    slot = np.full(4 * k, -1, dtype=np.int64)
+    slot[idx] = np.arange(len(idx))
+    return cells, idx % k if k else idx, slot.reshape(4, k)
+
+
+def _mid_columns(arcs):
+    """The arcs' cap centres as three contiguous columns (kept on the table)."""
+    return once_attr(
+        arcs, "_mid_columns", lambda: tuple(np.ascontiguousarray(arcs.mid[:, j]) for j in range(3))
+    )
+
+
+class _Test:
+    """A cap test of parent pairs against their children: ``cap_within(cm, first[child] +
+    half)``, its per-arc bounds gathered once per parent pair."""
+
+    def __init__(self, first, half_table, arc, half):
+        lo, hi = cap_bounds(first, half_table)
+        self.first, self.half = first, half
+        self.lo, self.hi = lo.take(arc), hi.take(arc)
+
+    def __call__(self, cm, ch, pair_cell) -> np.ndarray:
+        """The test of the pairs of slot children ``ch`` (by parent), ``c.m`` ``cm``."""
+        out = cm >= self.hi
+        u = np.flatnonzero((cm >= self.lo) & ~out)
+        if len(u):
+            reach = self.first.take(ch).take(pair_cell.take(u)) + self.half.take(u)
+            out[u] = cap_within(cm.take(u), reach)
+        return out
+
+
+def slot_pairs(pair_cell, pair_arc, arcs, c, slot, first, seg=None):
+    """The children's candidate pairs from their parents' (``pair_cell`` sorted, into the
+    parents; ``pair_arc`` into ``arcs``): those whose cap comes within ``first[child]``
+    of the child's centre ``c[child]`` (``cap_within(c.m, first + half)``).
+
+    Returns ``(cell, arc, cm, toggles)``: the kept pairs grouped by child (row-major, each
+    child's in its parent's order) with their ``c.m``, and, with ``seg`` (each child's
+    distance to its parent's centre), the ring edges whose cap comes within ``seg`` of
+    the child ``(child, parent, arc)``, else None."""
+    k, n = slot.shape[1], len(c)
+    bounds = np.searchsorted(pair_cell, np.arange(k + 1))
+    counts = np.diff(bounds)
+    m = [col.take(pair_arc) for col in _mid_columns(arcs)]
+    half = arcs.half.take(pair_arc)
+    keep = _Test(first, arcs.half, pair_arc, half)
+    near = None if seg is None else _Test(seg, arcs.half, pair_arc, half)
+    ring = None if seg is None else arcs.group.take(pair_arc) >= 0
+    kept, toggles = [], []
+    cnt = np.zeros(n, dtype=np.int64)
+    for s in range(4):
+        ch = slot[s]
+        valid = ch >= 0
+        chv = np.where(valid, ch, 0) if not valid.all() else ch
+        cm = np.repeat(c[:, 0].take(chv), counts) * m[0]
+        cm += np.repeat(c[:, 2].take(chv), counts) * m[2]
+        cm += np.repeat(c[:, 1].take(chv), counts) * m[1]
+        ok = keep(cm, chv, pair_cell)
+        inside = None if valid.all() else np.repeat(valid, counts)
+        if inside is not None:
+            ok &= inside
+        if near is not None:
+            hit = near(cm, chv, pair_cell) & ring
+            t = np.flatnonzero(hit if inside is None else hit & inside)
+            toggles.append((chv.take(pair_cell.take(t)), pair_cell.take(t), pair_arc.take(t)))
+        before = np.concatenate([[0], np.cumsum(ok)])  # kept pairs before each pair
+        at = before[bounds]
+        cnt[ch[valid]] = (at[1:] - at[:-1])[valid]
+        ks = np.flatnonzero(ok)
+        kept.append((ks, cm.take(ks), chv, at[:-1]))
+    start = np.cumsum(cnt) - cnt
+    arc = np.empty(int(cnt.sum()), dtype=pair_arc.dtype)
+    cmo = np.empty(len(arc))
+    for ks, cmk, chv, first_kept in kept:
+        pos = (start.take(chv) - first_kept).take(pair_cell.take(ks)) + np.arange(len(ks))
+        arc[pos] = pair_arc.take(ks)
+        cmo[pos] = cmk
+    cell = np.repeat(np.arange(n), cnt)
+    if seg is None:
+        return cell, arc, cmo, None
+    return cell, arc, cmo, tuple(np.concatenate(t) for t in zip(*toggles))
