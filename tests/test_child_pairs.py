@@ -144,3 +144,22 @@ def test_the_expanded_pairs_see_a_wrong_list(shapes, monkeypatch):
             want = _expanded(f, grid, cells.arcs, 0.002, shape)
             differs |= not np.array_equal(got.pair_arc, want[4])
     assert differs
+
+
+def test_levels_without_cells_or_pairs(shapes):
+    """A level with no cell, and cells with no pair (statuses carried alone)."""
+    shape, grid, d = shapes["mexico"], Equirect(1200, 600), 0.002
+    cells = CurveCells(shape, d, grid)
+    f = cells.kept(next(driver.walk(cells, 0)))
+    empty = levels._refine(
+        levels.subset(f, np.zeros(0, dtype=np.int64)), grid, cells.arcs, d, shape
+    )
+    assert len(empty.cells) == 0 and len(empty.pair_cell) == 0
+    bare = levels.Frontier(
+        f.level, f.cells, f.centers, f.rho, f.pair_cell[:0], f.pair_arc[:0], f.status
+    )
+    got = levels._refine(bare, grid, cells.arcs, d, shape)
+    want = _expanded(bare, grid, cells.arcs, d, shape)
+    names = ("cells", "centers", "rho", "pair_cell", "pair_arc", "status", "cm")
+    for k, w in zip(names, want):
+        assert _same(getattr(got, k), w), k

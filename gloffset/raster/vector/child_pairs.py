@@ -79,6 +79,9 @@ def slot_pairs(pair_cell, pair_arc, arcs, c, slot, first, seg=None):
     distance to its parent's centre), the ring edges whose cap comes within ``seg`` of
     the child ``(child, parent, arc)``, else None."""
     k, n = slot.shape[1], len(c)
+    if n == 0 or len(pair_cell) == 0:  # no pair: no bounds to make
+        none = np.zeros(0, dtype=np.int64)
+        return none, pair_arc[:0], np.zeros(0), None if seg is None else (none, none, none)
     bounds = np.searchsorted(pair_cell, np.arange(k + 1))
     counts = np.diff(bounds)
     m = [col.take(pair_arc) for col in _mid_columns(arcs)]
