@@ -180,7 +180,8 @@ def _split(nodes: NodeArcs, cell, node, c, reach, bound):
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     test = _Near(nodes, c, reach)
     leaves = bool(len(bound)) and bool((bound < 0).all())
-    done, whole = [], []
+    done: list = []
+    whole: list = []
     sure_cell = sure_node = np.zeros(0, dtype=np.int64)
     while len(cell) or len(sure_cell):
         near, every = test(cell, node)
