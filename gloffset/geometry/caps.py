@@ -183,14 +183,29 @@ def cap_within_pairs(cm, first, cell, half, arc, *, runs=None) -> np.ndarray:
     return out
 
 
-def cap_bounds(first, half) -> tuple[np.ndarray, np.ndarray]:
+def cap_bounds(first, half, trig=None) -> tuple[np.ndarray, np.ndarray]:
     """Per arc (radius ``half``), bounds ``(lo, hi)`` on the threshold of
     ``cap_within(cm, first[cell] + half)`` over every ``first`` value: ``cm < lo`` fails
     and ``cm >= hi`` passes for every cell (:func:`cap_within_pairs`' bounds, with
-    :data:`_PAIR_MARGIN` on either side); ``lo < hi``."""
-    lo = np.cos(np.minimum(first.max() + half, np.pi)) - COS_SLACK - _PAIR_MARGIN
-    hi = np.cos(np.minimum(first.min() + half, np.pi)) - COS_SLACK + _PAIR_MARGIN
-    return lo, hi
+    :data:`_PAIR_MARGIN` on either side); ``lo < hi``.
+
+    ``trig``: ``(cos(half), sin(half))`` where the caller keeps them: the cosines are then
+    ``cos f cos h - sin f sin h`` (within 1e-15 of ``cos(f + h)``, far inside the margin),
+    -1 where ``f + h >= pi``: no cosine per arc."""
+    if trig is None:
+        lo = np.cos(np.minimum(first.max() + half, np.pi))
+        hi = np.cos(np.minimum(first.min() + half, np.pi))
+    else:
+        lo, hi = (_cos_sum(f, half, trig) for f in (first.max(), first.min()))
+    return lo - COS_SLACK - _PAIR_MARGIN, hi - COS_SLACK + _PAIR_MARGIN
+
+
+def _cos_sum(f: float, half, trig) -> np.ndarray:
+    """``cos(min(f + half, pi))`` to 1e-15 from ``trig = (cos(half), sin(half))``."""
+    f = float(f)
+    out = np.cos(f) * trig[0] - np.sin(f) * trig[1]
+    out[f + half >= np.pi] = -1.0
+    return out
 
 
 def cos_sum_lower(total, cos_x, sin_x, cos_y, sin_y):

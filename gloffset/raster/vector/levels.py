@@ -36,9 +36,9 @@ import numpy as np
 from ...edges import CurveArcs, component_status, status_bits
 from ...geometry.caps import CAP_SLACK, arc_cap, cap_range, cap_within, pad
 from ...geometry.classes import CONTAINED, FRONTIER, OUTSIDE
-from ...geometry.sphere import angle, arc_distance, arcs_cross, pair_dots
+from ...geometry.sphere import angle, arc_distance, arcs_cross, column_dots, pair_dots
 from ...memo import once_attr
-from .child_pairs import child_slots, slot_pairs
+from .child_pairs import child_slots, mid_columns, slot_pairs
 
 __all__ = [
     "CurveArcs",
@@ -235,11 +235,23 @@ def cell_distances(f: Frontier, arcs: ArcTable, *, lows: bool = False):
     low = np.empty(len(f.pair_cell)) if lows else None
     for s in range(0, len(f.pair_cell), _PAIRS):
         ci, ai = f.pair_cell[s : s + _PAIRS], f.pair_arc[s : s + _PAIRS]
-        cm = pair_dots(f.centers, ci, arcs.mid, ai) if f.cm is None else f.cm[s : s + _PAIRS]
+        cm = _pair_cm(f, arcs, ci, ai) if f.cm is None else f.cm[s : s + _PAIRS]
         lo = nearest(arcs, ci, ai, cm, lambda idx, ci=ci: f.centers[ci[idx]], dist, dring)
         if low is not None:  # with lows
             low[s : s + len(ci)] = lo
     return (dist, dring, low) if lows else (dist, dring)
+
+
+def _pair_cm(f: Frontier, arcs: ArcTable, ci, ai) -> np.ndarray:
+    """``c.m`` of pairs ``(ci, ai)``: :func:`~gloffset.geometry.sphere.pair_dots`' bits,
+    from contiguous columns (the arcs' kept on the table), the centres spread along their
+    cells' runs where the pairs are sorted by cell."""
+    if len(ci) > 1 and (ci[1:] >= ci[:-1]).all():
+        counts = np.diff(np.searchsorted(ci, np.arange(len(f.cells) + 1)))
+        centers = [np.repeat(f.centers[:, j], counts) for j in range(3)]
+        return column_dots(centers, mid_columns(arcs), None, ai)
+    centers = [np.ascontiguousarray(f.centers[:, j]) for j in range(3)]
+    return column_dots(centers, mid_columns(arcs), ci, ai)
 
 
 #: Relative slack of :func:`prune` on the cell bound (the GPU levels' float32 work is
@@ -289,14 +301,13 @@ def nearest(arcs: ArcTable, cell, ai, cm, point, dist, dring) -> np.ndarray:
     new[0] = True
     np.not_equal(cell[1:], cell[:-1], out=new[1:])
     starts = np.flatnonzero(new)
-    seg = np.cumsum(new) - 1  # each pair's run
     owner = cell[starts]
     lo, hi = cap_range(cm, np.take(arcs.half, ai))
     kinds = _kinds(arcs, ai, dist, dring)
     measure = None
     for kind, _ in kinds:
         best = np.minimum.reduceat(hi if kind is None else np.where(kind, hi, np.inf), starts)
-        near = lo <= np.take(best + CAP_SLACK, seg)
+        near = lo <= _spread_runs(best + CAP_SLACK, new, owner, cell, len(dist))
         if kind is not None:
             near &= kind
         measure = near if measure is None else measure | near
@@ -309,6 +320,16 @@ def nearest(arcs: ArcTable, cell, ai, cm, point, dist, dring) -> np.ndarray:
         for out in outs:
             np.minimum.at(out, owner, low)
     return lo
+
+
+def _spread_runs(value, new, owner, cell, k: int) -> np.ndarray:
+    """Each pair's ``value`` of its run (``new`` where a run starts, ``owner`` its cell):
+    by cell where every cell has one run (cells sorted), by run otherwise."""
+    if len(owner) < 2 or (owner[1:] > owner[:-1]).all():
+        by_cell = np.empty(k)
+        by_cell[owner] = value
+        return by_cell.take(cell)
+    return value.take(np.cumsum(new) - 1)
 
 
 def _kinds(arcs: ArcTable, ai, dist, dring):
