@@ -18,9 +18,10 @@ from __future__ import annotations
 import numpy as np
 
 from ...geometry.caps import cap_bounds, cap_within
+from ...geometry.sphere import column_dots
 from ...memo import once_attr
 
-__all__ = ["child_slots", "mid_columns", "slot_pairs"]
+__all__ = ["child_slots", "columns", "dots", "mid_columns", "slot_pairs"]
 
 
 def child_slots(level_cells: np.ndarray, grid, lev: int):
@@ -43,12 +44,31 @@ def child_slots(level_cells: np.ndarray, grid, lev: int):
     return cells, idx % k if k else idx, slot.reshape(4, k)
 
 
-def mid_columns(arcs):
-    """The arcs' cap centres as three contiguous columns (kept on the table: they gather
-    several times faster than the columns of the (n, 3) array)."""
+def columns(table, name: str = "mid"):
+    """The (n, 3) array ``table.<name>`` as three contiguous columns, kept on the table
+    (they gather several times faster than the columns of the (n, 3) array)."""
     return once_attr(
-        arcs, "_mid_columns", lambda: tuple(np.ascontiguousarray(arcs.mid[:, j]) for j in range(3))
+        table,
+        f"_{name}_columns",
+        lambda: tuple(np.ascontiguousarray(getattr(table, name)[:, j]) for j in range(3)),
     )
+
+
+def mid_columns(arcs):
+    """The arcs' cap centres as three contiguous columns (:func:`columns`)."""
+    return columns(arcs, "mid")
+
+
+def dots(points, idx, table_columns, ai) -> np.ndarray:
+    """``points[idx] . table[ai]`` (``table_columns`` its :func:`columns`) with the bits of
+    :func:`~gloffset.geometry.sphere.pair_dots`, the points spread along their runs where
+    ``idx`` is sorted (a repeat, not a gather)."""
+    if len(idx) > 1 and (idx[1:] >= idx[:-1]).all():
+        counts = np.diff(np.searchsorted(idx, np.arange(len(points) + 1)))
+        spread = [np.repeat(points[:, j], counts) for j in range(3)]
+        return column_dots(spread, table_columns, None, ai)
+    cols = [np.ascontiguousarray(points[:, j]) for j in range(3)]
+    return column_dots(cols, table_columns, idx, ai)
 
 
 class _Test:

@@ -36,9 +36,9 @@ import numpy as np
 from ...edges import CurveArcs, component_status, status_bits
 from ...geometry.caps import CAP_SLACK, arc_cap, cap_range, cap_within, pad
 from ...geometry.classes import CONTAINED, FRONTIER, OUTSIDE
-from ...geometry.sphere import angle, arc_distance, arcs_cross, column_dots, pair_dots
+from ...geometry.sphere import angle, arc_distance, arcs_cross, pair_dots
 from ...memo import once_attr
-from .child_pairs import child_slots, mid_columns, slot_pairs
+from .child_pairs import child_slots, columns, dots, mid_columns, slot_pairs
 
 __all__ = [
     "CurveArcs",
@@ -235,23 +235,11 @@ def cell_distances(f: Frontier, arcs: ArcTable, *, lows: bool = False):
     low = np.empty(len(f.pair_cell)) if lows else None
     for s in range(0, len(f.pair_cell), _PAIRS):
         ci, ai = f.pair_cell[s : s + _PAIRS], f.pair_arc[s : s + _PAIRS]
-        cm = _pair_cm(f, arcs, ci, ai) if f.cm is None else f.cm[s : s + _PAIRS]
+        cm = dots(f.centers, ci, mid_columns(arcs), ai) if f.cm is None else f.cm[s : s + _PAIRS]
         lo = nearest(arcs, ci, ai, cm, lambda idx, ci=ci: f.centers[ci[idx]], dist, dring)
         if low is not None:  # with lows
             low[s : s + len(ci)] = lo
     return (dist, dring, low) if lows else (dist, dring)
-
-
-def _pair_cm(f: Frontier, arcs: ArcTable, ci, ai) -> np.ndarray:
-    """``c.m`` of pairs ``(ci, ai)``: :func:`~gloffset.geometry.sphere.pair_dots`' bits,
-    from contiguous columns (the arcs' kept on the table), the centres spread along their
-    cells' runs where the pairs are sorted by cell."""
-    if len(ci) > 1 and (ci[1:] >= ci[:-1]).all():
-        counts = np.diff(np.searchsorted(ci, np.arange(len(f.cells) + 1)))
-        centers = [np.repeat(f.centers[:, j], counts) for j in range(3)]
-        return column_dots(centers, mid_columns(arcs), None, ai)
-    centers = [np.ascontiguousarray(f.centers[:, j]) for j in range(3)]
-    return column_dots(centers, mid_columns(arcs), ci, ai)
 
 
 #: Relative slack of :func:`prune` on the cell bound (the GPU levels' float32 work is
@@ -495,7 +483,7 @@ def on_edge(p: np.ndarray, arcs, ai: np.ndarray, pi: np.ndarray | None = None) -
     """Whether each point ``p`` (or ``p[pi]``, with ``pi``) lies on its arc ``ai`` (to
     :data:`ON_EDGE`): on the great circle, and inside the arc's cap."""
     idx = np.arange(len(p)) if pi is None else pi
-    on = np.abs(pair_dots(p, idx, arcs.n, ai)) <= ON_EDGE
+    on = np.abs(dots(p, idx, columns(arcs, "n"), ai)) <= ON_EDGE
     k = np.flatnonzero(on)
     if len(k):
         ik, ak = idx[k], ai[k]

@@ -28,9 +28,10 @@ import numpy as np
 
 from ...edges import CurveArcs, component_status, inside_any, status_bits
 from ...geometry.caps import cap_bounds, cap_within, cap_within_pairs, pad
-from ...geometry.sphere import angle, arc_distance, arcs_cross, column_dots, pair_dots
+from ...geometry.sphere import angle, arc_distance, arcs_cross, column_dots
 from ...memo import once_attr
 from ...vector.multires import full_decomposition
+from .child_pairs import columns, dots
 from .levels import Frontier, cell_distances, children, decide, on_edge
 
 __all__ = ["KAPPA", "NodeArcs", "enter", "refine", "classify_nodes"]
@@ -140,7 +141,7 @@ class _Near:
     def __init__(self, nodes: NodeArcs, c, reach):
         self.nodes, self.reach = nodes, reach
         self.c = _columns(c)
-        self.mid = once_attr(nodes, "_mid_columns", lambda: _columns(nodes.mid))
+        self.mid = columns(nodes)
         trig = once_attr(nodes, "_reach_trig", lambda: (np.cos(nodes.reach), np.sin(nodes.reach)))
         self.lo, self.hi = cap_bounds(reach, nodes.reach, trig)
         self.all_lo = _whole_table(nodes, reach.max())
@@ -289,7 +290,7 @@ def refine(f: Frontier, grid, nodes: NodeArcs, e: float, shape, *, leaves: bool 
         near = np.flatnonzero(ring)
         near = near[
             cap_within(
-                pair_dots(c, cell[near], nodes.mid, node[near]),
+                dots(c, cell[near], columns(nodes), node[near]),
                 seg[cell[near]] + nodes.reach[node[near]],
             )
         ]
@@ -333,7 +334,7 @@ def _crossings(nodes: NodeArcs, c, pc, seg, cell, node):
         u = np.flatnonzero(~sure)
         cell = np.repeat(cell[u], 2)
         node = nodes.child[node[u]].ravel()
-        keep = cap_within_pairs(pair_dots(c, cell, nodes.mid, node), seg, cell, nodes.reach, node)
+        keep = cap_within_pairs(dots(c, cell, columns(nodes), node), seg, cell, nodes.reach, node)
         cell, node = cell[keep], node[keep]
     return (np.concatenate(hit_cell), np.concatenate(hit_node)), on
 
