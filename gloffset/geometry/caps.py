@@ -157,12 +157,13 @@ def cap_threshold(reach) -> np.ndarray:
 _PAIR_MARGIN = 1e-12
 
 
-def cap_within_pairs(cm, first, cell, half, arc, *, runs=None) -> np.ndarray:
+def cap_within_pairs(cm, first, cell, half, arc, *, runs=None, trig=None) -> np.ndarray:
     """``cap_within(cm, first[cell] + half[arc])`` for pairs ``(cell, arc)``: the same
     booleans, with ``cos`` evaluated only for the pairs near their threshold.
 
     ``runs``: ``(arcs, counts)`` where ``arc`` is ``np.repeat(arcs, counts)`` (pairs in
     runs of one arc): the arcs' bounds are then spread by run, not gathered by pair.
+    ``trig``: ``(cos(half), sin(half))`` where the caller keeps them (:func:`cap_bounds`).
 
     With ``first`` between its least and greatest value, each arc's reach lies between
     two values, so its threshold lies between two cosines computed once per arc; a pair
@@ -173,7 +174,7 @@ def cap_within_pairs(cm, first, cell, half, arc, *, runs=None) -> np.ndarray:
     if len(cm) <= 4 * len(half):  # few pairs: the bounds of every arc would cost more
         return cap_within(cm, first[cell] + half[arc])
     out = np.zeros(len(cm), dtype=bool)
-    lo, hi = cap_bounds(first, half)
+    lo, hi = cap_bounds(first, half, trig)
     may = np.flatnonzero(cm >= (lo[arc] if runs is None else np.repeat(lo[runs[0]], runs[1])))
     a, cmm = arc[may], cm[may]
     unsure = cmm < hi[a]

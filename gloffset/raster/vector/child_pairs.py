@@ -21,7 +21,7 @@ from ...geometry.caps import cap_bounds, cap_within
 from ...geometry.sphere import column_dots
 from ...memo import once_attr
 
-__all__ = ["child_slots", "columns", "dots", "mid_columns", "slot_pairs"]
+__all__ = ["child_slots", "columns", "dots", "half_trig", "mid_columns", "slot_pairs"]
 
 
 def child_slots(level_cells: np.ndarray, grid, lev: int):
@@ -59,6 +59,12 @@ def mid_columns(arcs):
     return columns(arcs, "mid")
 
 
+def half_trig(arcs):
+    """``(cos(half), sin(half))`` of the arcs' cap radii, kept on the table (the cap
+    tests' bounds without a cosine per arc, :func:`~gloffset.geometry.caps.cap_bounds`)."""
+    return once_attr(arcs, "_half_trig", lambda: (np.cos(arcs.half), np.sin(arcs.half)))
+
+
 def dots(points, idx, table_columns, ai) -> np.ndarray:
     """``points[idx] . table[ai]`` (``table_columns`` its :func:`columns`) with the bits of
     :func:`~gloffset.geometry.sphere.pair_dots`, the points spread along their runs where
@@ -76,8 +82,7 @@ class _Test:
     half)``, its per-arc bounds gathered once per parent pair."""
 
     def __init__(self, first, arcs, arc, half):
-        trig = once_attr(arcs, "_half_trig", lambda: (np.cos(arcs.half), np.sin(arcs.half)))
-        lo, hi = cap_bounds(first, arcs.half, trig)
+        lo, hi = cap_bounds(first, arcs.half, half_trig(arcs))
         self.first, self.half = first, half
         self.lo, self.hi = lo.take(arc), hi.take(arc)
 

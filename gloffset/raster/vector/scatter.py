@@ -36,6 +36,7 @@ from ...edges import CurveArcs, status_bits
 from ...geometry.caps import cap_within_pairs, pad
 from ...geometry.sphere import angle, arcs_cross
 from ...memo import Memo, once_attr
+from .child_pairs import half_trig
 from .levels import FRONTIER, Frontier, decide, nearest, prune, row_statuses
 
 __all__ = ["start_level", "scatter", "box_pairs", "PAIRS_PER_ARC"]
@@ -159,7 +160,10 @@ def box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int):
     m = arcs.mid[a_idx]
     m0, m1, m2 = (np.repeat(m[:, k], count) for k in range(3))
     cm = cphi[jj] * (clam[ii] * m0 + slam[ii] * m1) + sphi[jj] * m2
-    keep = np.flatnonzero(cap_within_pairs(cm, row_reach, jj, arcs.half, ai, runs=(a_idx, count)))
+    keep = cap_within_pairs(
+        cm, row_reach, jj, arcs.half, ai, runs=(a_idx, count), trig=half_trig(arcs)
+    )
+    keep = np.flatnonzero(keep)
     return jj[keep], ii[keep], ai[keep], cm[keep]
 
 
@@ -196,7 +200,7 @@ def scatter(
         status = row_statuses(shape, arcs, h, w, center(0, 0), cell[hit], ai[hit])
     elif arcs.n_groups:
         ring = (arcs.group[ai] >= 0) & (cell > 0)
-        ring &= cap_within_pairs(cm, spacing, jj, arcs.half, ai)
+        ring &= cap_within_pairs(cm, spacing, jj, arcs.half, ai, trig=half_trig(arcs))
         pj, pi_, pa = jj[ring], ii[ring], ai[ring]
         qj = np.where(pi_ > 0, pj, pj - 1)
         qi = np.where(pi_ > 0, pi_ - 1, 0)
@@ -206,7 +210,7 @@ def scatter(
     # candidate lists (within e + rho), sorted by cell, then arc: the keys are unique (no
     # two pairs share a cell and an arc), so any sort gives this order (the default one is
     # several times faster than a stable sort on random keys)
-    cand = np.flatnonzero(cap_within_pairs(cm, e + rho, jj, arcs.half, ai))
+    cand = np.flatnonzero(cap_within_pairs(cm, e + rho, jj, arcs.half, ai, trig=half_trig(arcs)))
     order = cand[np.argsort(cell[cand] * len(arcs.a) + ai[cand])]
     ai, cell, cm = (x[order] for x in (ai, cell, cm))
     dist = np.full(h * w, np.inf)
