@@ -10,7 +10,9 @@ spread along its parent's run, and only the pairs kept are placed, in the childr
 row-major order. The dot products are those of
 :func:`~gloffset.geometry.sphere.pair_dots` (same operands, same sum order) and the tests
 those of :func:`~gloffset.geometry.caps.cap_within`, so every list, ``c.m`` and status is
-the expanded pairs' bit for bit (the tests compare the two).
+the expanded pairs' bit for bit (the tests compare the two). The tables' contiguous
+coordinate columns and cap radii's cosines, which the levels' other pair passes gather
+from too, are kept here (:func:`columns`, :func:`dots`, :func:`half_trig`).
 """
 
 from __future__ import annotations
