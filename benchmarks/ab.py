@@ -47,6 +47,9 @@ WORKLOADS = {
     "tiles mexico z0-8 256": (
         "g.tiles.pyramid(mexico, 0.02 * 6371008.8, '0-8', tmp(), overwrite=True)"
     ),
+    "tiles countries z0-7 256": (
+        "g.tiles.pyramid(countries, 0.02 * 6371008.8, '0-7', tmp(), overwrite=True)"
+    ),
     "serve views mexico z4-14 (render_tiles)": (
         "[render_tiles(mexico, d, z, tiles) for d, z, tiles in views]"
     ),

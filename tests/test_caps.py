@@ -119,3 +119,27 @@ def test_cap_within_pairs_is_cap_within():
         runs, counts = np.unique(arc[o], return_counts=True)
         got = caps.cap_within_pairs(cm[o], first, cell[o], half, arc[o], runs=(runs, counts))
         assert np.array_equal(got, want[o])
+
+
+def test_cap_bounds_from_kept_cosines_hold_the_thresholds():
+    """The bounds made from the radii's cosines and sines bracket every pair's exact
+    threshold as the plain bounds do (reaches past pi included), and the bounded test
+    with them gives the plain test's booleans."""
+    rng = np.random.default_rng(7)
+    half = np.concatenate([rng.uniform(0.0, 0.2, 300), [0.0, 1.5, 3.1, np.pi]])
+    trig = (np.cos(half), np.sin(half))
+    for first in (0.3 + rng.uniform(0.0, 1e-3, 50), rng.uniform(0.0, 3.0, 50)):
+        lo, hi = caps.cap_bounds(first, half, trig)
+        thr = caps.cap_threshold(first[:, None] + half[None, :])
+        assert np.all(lo <= thr) and np.all(thr <= hi) and np.all(lo < hi)
+        plain = caps.cap_bounds(first, half)
+        assert np.allclose(lo, plain[0], rtol=0, atol=1e-14)
+        assert np.allclose(hi, plain[1], rtol=0, atol=1e-14)
+    mid = normalize(rng.normal(size=(len(half), 3)))
+    c = normalize(rng.normal(size=(50, 3)))
+    cell, arc = rng.integers(0, 50, 20_000), rng.integers(0, len(half), 20_000)
+    cm = np.einsum("ij,ij->i", c[cell], mid[arc])
+    thr = caps.cap_threshold(first[cell] + half[arc])
+    cm[::7] = thr[::7]
+    want = caps.cap_within(cm, first[cell] + half[arc])
+    assert np.array_equal(caps.cap_within_pairs(cm, first, cell, half, arc, trig=trig), want)

@@ -35,6 +35,7 @@ __all__ = [
     "cap_range",
     "cap_within",
     "cap_within_pairs",
+    "cap_bounds",
     "cos_sum_lower",
 ]
 
@@ -156,12 +157,13 @@ def cap_threshold(reach) -> np.ndarray:
 _PAIR_MARGIN = 1e-12
 
 
-def cap_within_pairs(cm, first, cell, half, arc, *, runs=None) -> np.ndarray:
+def cap_within_pairs(cm, first, cell, half, arc, *, runs=None, trig=None) -> np.ndarray:
     """``cap_within(cm, first[cell] + half[arc])`` for pairs ``(cell, arc)``: the same
     booleans, with ``cos`` evaluated only for the pairs near their threshold.
 
     ``runs``: ``(arcs, counts)`` where ``arc`` is ``np.repeat(arcs, counts)`` (pairs in
     runs of one arc): the arcs' bounds are then spread by run, not gathered by pair.
+    ``trig``: ``(cos(half), sin(half))`` where the caller keeps them (:func:`cap_bounds`).
 
     With ``first`` between its least and greatest value, each arc's reach lies between
     two values, so its threshold lies between two cosines computed once per arc; a pair
@@ -172,14 +174,38 @@ def cap_within_pairs(cm, first, cell, half, arc, *, runs=None) -> np.ndarray:
     if len(cm) <= 4 * len(half):  # few pairs: the bounds of every arc would cost more
         return cap_within(cm, first[cell] + half[arc])
     out = np.zeros(len(cm), dtype=bool)
-    lo = np.cos(np.minimum(first.max() + half, np.pi)) - COS_SLACK - _PAIR_MARGIN
-    hi = np.cos(np.minimum(first.min() + half, np.pi)) - COS_SLACK + _PAIR_MARGIN
+    lo, hi = cap_bounds(first, half, trig)
     may = np.flatnonzero(cm >= (lo[arc] if runs is None else np.repeat(lo[runs[0]], runs[1])))
     a, cmm = arc[may], cm[may]
     unsure = cmm < hi[a]
     out[may] = ~unsure
     u = may[unsure]
     out[u] = cap_within(cm[u], first[cell[u]] + half[arc[u]])
+    return out
+
+
+def cap_bounds(first, half, trig=None) -> tuple[np.ndarray, np.ndarray]:
+    """Per arc (radius ``half``), bounds ``(lo, hi)`` on the threshold of
+    ``cap_within(cm, first[cell] + half)`` over every ``first`` value: ``cm < lo`` fails
+    and ``cm >= hi`` passes for every cell (:func:`cap_within_pairs`' bounds, with
+    :data:`_PAIR_MARGIN` on either side); ``lo < hi``.
+
+    ``trig``: ``(cos(half), sin(half))`` where the caller keeps them: the cosines are then
+    ``cos f cos h - sin f sin h`` (within 1e-15 of ``cos(f + h)``, far inside the margin),
+    -1 where ``f + h >= pi``: no cosine per arc."""
+    if trig is None:
+        lo = np.cos(np.minimum(first.max() + half, np.pi))
+        hi = np.cos(np.minimum(first.min() + half, np.pi))
+    else:
+        lo, hi = (_cos_sum(f, half, trig) for f in (first.max(), first.min()))
+    return lo - COS_SLACK - _PAIR_MARGIN, hi - COS_SLACK + _PAIR_MARGIN
+
+
+def _cos_sum(f: float, half, trig) -> np.ndarray:
+    """``cos(min(f + half, pi))`` to 1e-15 from ``trig = (cos(half), sin(half))``."""
+    f = float(f)
+    out = np.cos(f) * trig[0] - np.sin(f) * trig[1]
+    out[f + half >= np.pi] = -1.0
     return out
 
 

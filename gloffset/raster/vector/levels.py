@@ -34,10 +34,11 @@ from typing import Protocol
 import numpy as np
 
 from ...edges import CurveArcs, component_status, status_bits
-from ...geometry.caps import CAP_SLACK, arc_cap, cap_range, cap_within, cap_within_pairs, pad
+from ...geometry.caps import CAP_SLACK, arc_cap, cap_range, cap_within, pad
 from ...geometry.classes import CONTAINED, FRONTIER, OUTSIDE
 from ...geometry.sphere import angle, arc_distance, arcs_cross, pair_dots
 from ...memo import once_attr
+from .child_pairs import child_slots, columns, dots, mid_columns, slot_pairs
 
 __all__ = [
     "CurveArcs",
@@ -234,7 +235,7 @@ def cell_distances(f: Frontier, arcs: ArcTable, *, lows: bool = False):
     low = np.empty(len(f.pair_cell)) if lows else None
     for s in range(0, len(f.pair_cell), _PAIRS):
         ci, ai = f.pair_cell[s : s + _PAIRS], f.pair_arc[s : s + _PAIRS]
-        cm = pair_dots(f.centers, ci, arcs.mid, ai) if f.cm is None else f.cm[s : s + _PAIRS]
+        cm = dots(f.centers, ci, mid_columns(arcs), ai) if f.cm is None else f.cm[s : s + _PAIRS]
         lo = nearest(arcs, ci, ai, cm, lambda idx, ci=ci: f.centers[ci[idx]], dist, dring)
         if low is not None:  # with lows
             low[s : s + len(ci)] = lo
@@ -288,14 +289,13 @@ def nearest(arcs: ArcTable, cell, ai, cm, point, dist, dring) -> np.ndarray:
     new[0] = True
     np.not_equal(cell[1:], cell[:-1], out=new[1:])
     starts = np.flatnonzero(new)
-    seg = np.cumsum(new) - 1  # each pair's run
     owner = cell[starts]
     lo, hi = cap_range(cm, np.take(arcs.half, ai))
     kinds = _kinds(arcs, ai, dist, dring)
     measure = None
     for kind, _ in kinds:
         best = np.minimum.reduceat(hi if kind is None else np.where(kind, hi, np.inf), starts)
-        near = lo <= np.take(best + CAP_SLACK, seg)
+        near = lo <= _spread_runs(best + CAP_SLACK, new, owner, cell, len(dist))
         if kind is not None:
             near &= kind
         measure = near if measure is None else measure | near
@@ -308,6 +308,16 @@ def nearest(arcs: ArcTable, cell, ai, cm, point, dist, dring) -> np.ndarray:
         for out in outs:
             np.minimum.at(out, owner, low)
     return lo
+
+
+def _spread_runs(value, new, owner, cell, k: int) -> np.ndarray:
+    """Each pair's ``value`` of its run (``new`` where a run starts, ``owner`` its cell):
+    by cell where every cell has one run (cells sorted), by run otherwise."""
+    if len(owner) < 2 or (owner[1:] > owner[:-1]).all():
+        by_cell = np.empty(k)
+        by_cell[owner] = value
+        return by_cell.take(cell)
+    return value.take(np.cumsum(new) - 1)
 
 
 def _kinds(arcs: ArcTable, ai, dist, dring):
@@ -407,17 +417,7 @@ def children(f: Frontier, grid):
     pair_arc)`` (``parent`` each child's index in ``f``; the pairs grouped by child, each
     child's in its parent's order)."""
     lev = f.level + 1
-    h, w = grid.level_shape(lev)
-    kids = []
-    for dj in (0, 1):
-        for di in (0, 1):
-            kids.append(np.column_stack([2 * f.cells[:, 0] + dj, 2 * f.cells[:, 1] + di]))
-    parent = np.tile(np.arange(len(f.cells)), 4)
-    cells = np.concatenate(kids)
-    ok = (cells[:, 0] < h) & (cells[:, 1] < w)
-    cells, parent = cells[ok], parent[ok]
-    order = np.lexsort((cells[:, 1], cells[:, 0]))
-    cells, parent = cells[order], parent[order]
+    cells, parent, _ = child_slots(f.cells, grid, lev)
     c = grid.centers(lev, cells[:, 0], cells[:, 1])
     rho = grid.rho_at(lev, cells[:, 0], cells[:, 1])
 
@@ -434,42 +434,28 @@ def children(f: Frontier, grid):
 
 
 def _refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
-    """:func:`refine` of all the cells of ``f`` at once."""
+    """:func:`refine` of all the cells of ``f`` at once (the pairs worked in the parents'
+    order, :func:`~gloffset.raster.vector.child_pairs.slot_pairs`)."""
     lev = f.level + 1
-    cells, parent, c, rho, child_of_pair, arc_of_pair = children(f, grid)
+    cells, parent, slot = child_slots(f.cells, grid, lev)
+    c = grid.centers(lev, cells[:, 0], cells[:, 1])
+    rho = grid.rho_at(lev, cells[:, 0], cells[:, 1])
 
-    # one dot product per pair serves both cap tests below
-    cm = pair_dots(c, child_of_pair, arcs.mid, arc_of_pair)
-
-    # statuses: parent's, toggled by crossings of child -> parent centre; an arc that
-    # crosses it has its bounding cap within angle(child, parent) of the child
-    status = f.status[parent].copy()
+    # candidates: arcs whose bounding cap comes within e + rho of the child's centre;
+    # statuses: parent's, toggled by crossings of child -> parent centre (an arc that
+    # crosses it has its bounding cap within angle(child, parent) of the child)
     seg = angle(c, f.centers[parent])
-    near = cap_within_pairs(cm, seg, child_of_pair, arcs.half, arc_of_pair)
-    ring = near & (arcs.group[arc_of_pair] >= 0)
-    if ring.any():
-        pc, pa = child_of_pair[ring], arc_of_pair[ring]
-        cr = arcs_cross(c[pc], f.centers[parent[pc]], arcs.a[pa], arcs.b[pa], arcs.n[pa])
+    cell, arc, cm, (pc, pp, pa) = slot_pairs(f.pair_cell, f.pair_arc, arcs, c, slot, e + rho, seg)
+    status = f.status[parent].copy()
+    if len(pc):
+        cr = arcs_cross(c[pc], f.centers[pp], arcs.a[pa], arcs.b[pa], arcs.n[pa])
         g = arcs.group[pa[cr]]
         np.bitwise_xor.at(status, (pc[cr], g >> 3), (1 << (g & 7)).astype(np.uint8))
 
     on = _on_ring(f, arcs)[parent]
     if on.any():  # a parent centre on a ring edge is no anchor: ask the reference points
         status[on] = component_status(shape, arcs, c[on])
-
-    # candidates: arcs whose bounding cap comes within e + rho of the child's centre
-    keep = cap_within_pairs(cm, e + rho, child_of_pair, arcs.half, arc_of_pair)
-    k = np.flatnonzero(keep)
-    return Frontier(
-        lev,
-        cells,
-        c,
-        rho,
-        np.take(child_of_pair, k),
-        np.take(arc_of_pair, k),
-        status,
-        np.take(cm, k),
-    )
+    return Frontier(lev, cells, c, rho, cell, arc, status, cm)
 
 
 #: A centre within this angle (rad) of a ring edge's great circle, inside the edge's cap,
@@ -497,7 +483,7 @@ def on_edge(p: np.ndarray, arcs, ai: np.ndarray, pi: np.ndarray | None = None) -
     """Whether each point ``p`` (or ``p[pi]``, with ``pi``) lies on its arc ``ai`` (to
     :data:`ON_EDGE`): on the great circle, and inside the arc's cap."""
     idx = np.arange(len(p)) if pi is None else pi
-    on = np.abs(pair_dots(p, idx, arcs.n, ai)) <= ON_EDGE
+    on = np.abs(dots(p, idx, columns(arcs, "n"), ai)) <= ON_EDGE
     k = np.flatnonzero(on)
     if len(k):
         ik, ak = idx[k], ai[k]

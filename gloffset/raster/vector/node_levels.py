@@ -27,9 +27,11 @@ from __future__ import annotations
 import numpy as np
 
 from ...edges import CurveArcs, component_status, inside_any, status_bits
-from ...geometry.caps import cap_within, cap_within_pairs, pad
-from ...geometry.sphere import angle, arc_distance, arcs_cross, pair_dots
+from ...geometry.caps import cap_bounds, cap_within, cap_within_pairs, pad
+from ...geometry.sphere import angle, arc_distance, arcs_cross, column_dots
+from ...memo import once_attr
 from ...vector.multires import full_decomposition
+from .child_pairs import columns, dots
 from .levels import Frontier, cell_distances, children, decide, on_edge
 
 __all__ = ["KAPPA", "NodeArcs", "enter", "refine", "classify_nodes"]
@@ -70,6 +72,13 @@ class NodeArcs:
             made = np.flatnonzero(tree.level == k)
             self.first[made] = self.first[tree.child[made, 0]]
         self.top = dec.level_nodes(dec.levels)
+        self.spread = _spread(self, tree.level)
+        self.leaf_start, self.leaf_count, self.leaf_order = _leaf_runs(self, tree.level)
+        #: whether every node's leaves are the edges ``first .. first + leaf_count - 1``
+        #: (no node spans a ring's start)
+        merged = ~self.leaf
+        left, right = self.child[merged, 0], self.child[merged, 1]
+        self.runs = bool(np.all(self.first[right] == self.first[left] + self.leaf_count[left]))
 
     @classmethod
     def from_shape(cls, shape) -> NodeArcs:
@@ -77,27 +86,174 @@ class NodeArcs:
         return shape.derived.once("node_arcs", lambda: cls(shape))
 
 
+def _spread(nodes: NodeArcs, level: np.ndarray) -> np.ndarray:
+    """Per node ``v``, an upper bound on ``angle(mid_v, mid_u) - reach_u`` over the nodes
+    ``u`` of its subtree (``v`` itself included): a point within ``R - spread_v`` of
+    ``mid_v`` is within ``R + reach_u`` of every ``mid_u``. Made leaves up (the triangle
+    inequality through each child), each step rounded up by 1e-14 rad (angles good to
+    1e-15)."""
+    out = -nodes.reach.copy()
+    for k in range(1, int(level.max(initial=0)) + 1):
+        made = np.flatnonzero(level == k)
+        for j in (0, 1):
+            w = nodes.child[made, j]
+            via = angle(nodes.mid[made], nodes.mid[w]) + out[w] + 1e-14
+            out[made] = np.maximum(out[made], via)
+    return out
+
+
+def _leaf_runs(nodes: NodeArcs, level: np.ndarray):
+    """The leaves in the order of a walk of the tree (left child first), and each node's
+    run of them: ``(start, count, order)``, ``order[start[v] : start[v] + count[v]]`` the
+    leaves of ``v``'s subtree."""
+    m, top = len(nodes.leaf), int(level.max(initial=0))
+    count = nodes.leaf.astype(np.int64)
+    for k in range(1, top + 1):
+        made = np.flatnonzero(level == k)
+        count[made] = count[nodes.child[made, 0]] + count[nodes.child[made, 1]]
+    root = np.ones(m, dtype=bool)
+    root[nodes.child[~nodes.leaf].ravel()] = False
+    start = np.zeros(m, dtype=np.int64)
+    roots = np.flatnonzero(root)
+    start[roots] = np.cumsum(count[roots]) - count[roots]
+    for k in range(top, 0, -1):
+        made = np.flatnonzero(level == k)
+        left, right = nodes.child[made, 0], nodes.child[made, 1]
+        start[left] = start[made]
+        start[right] = start[made] + count[left]
+    order = np.empty(int(count[roots].sum()), dtype=np.int64)
+    leaves = np.flatnonzero(nodes.leaf)
+    order[start[leaves]] = leaves
+    return start, count, order
+
+
+def _columns(v: np.ndarray):
+    return [np.ascontiguousarray(v[:, j]) for j in range(3)]
+
+
+class _Near:
+    """The cap test of :func:`_split`'s pairs, ``cap_within(c.m, reach[cell] +
+    nodes.reach[node])`` with its per-node bounds made once, and the test that every node
+    of the pair's subtree passes it (:func:`_spread`): ``c.m >= cos(reach[cell] - spread)
+    + 1e-12``, far beyond the rounding of either (decided by per-node bounds from the
+    least and greatest reach, by the pair's own reach between them)."""
+
+    def __init__(self, nodes: NodeArcs, c, reach):
+        self.nodes, self.reach = nodes, reach
+        self.c = _columns(c)
+        self.mid = columns(nodes)
+        trig = once_attr(nodes, "_reach_trig", lambda: (np.cos(nodes.reach), np.sin(nodes.reach)))
+        self.lo, self.hi = cap_bounds(reach, nodes.reach, trig)
+        self.all_lo = _whole_table(nodes, reach.max())
+        self.all_hi = _whole_table(nodes, reach.min())
+
+    def __call__(self, cell, node):
+        """``(near, whole)`` of the pairs: the test, and whether their whole subtree
+        passes it (only where it passes itself)."""
+        cm = column_dots(self.c, self.mid, cell, node)
+        near = cm >= self.hi.take(node)
+        u = np.flatnonzero((cm >= self.lo.take(node)) & ~near)
+        if len(u):
+            nu = node.take(u)
+            near[u] = cap_within(cm.take(u), self.reach.take(cell.take(u)) + self.nodes.reach[nu])
+        whole = (cm >= self.all_hi.take(node)) & near
+        u = np.flatnonzero((cm >= self.all_lo.take(node)) & near & ~whole)
+        if len(u):
+            x = self.reach.take(cell.take(u)) - self.nodes.spread.take(node.take(u))
+            whole[u] = cm.take(u) >= _whole(x)
+        return near, whole
+
+
+def _whole_table(nodes: NodeArcs, r: float) -> np.ndarray:
+    """:func:`_whole` of ``r - spread`` for every node, from the spreads' cosines and
+    sines kept on the table (``cos r cos s + sin r sin s``, within 1e-15 of the cosine,
+    far inside the 1e-12)."""
+    cs, ss = once_attr(nodes, "_spread_trig", lambda: (np.cos(nodes.spread), np.sin(nodes.spread)))
+    r = float(r)
+    x = r - nodes.spread
+    out = np.cos(r) * cs + np.sin(r) * ss + 1e-12
+    out[x >= np.pi] = -1.0 + 1e-12
+    out[x < 0.0] = 2.0
+    return out
+
+
+def _whole(x):
+    """The threshold on ``c.m`` above which ``c`` lies within ``x`` of a node's centre (by
+    1e-12 beyond the rounding), 2 (never) for ``x < 0``."""
+    return np.where(x < 0.0, 2.0, np.cos(np.minimum(x, np.pi)) + 1e-12)
+
+
 def _split(nodes: NodeArcs, cell, node, c, reach, bound):
     """Pairs ``(cell, node)`` with every node whose ``err`` exceeds ``bound[cell]`` (or,
     with ``bound < 0``, every merged node) replaced by the two it was made of, and every
     pair whose grown cap lies farther than ``reach[cell]`` from the centre ``c[cell]``
     dropped; sorted by cell, each cell's nodes in the order of the curves (by their first
-    original edge). Each round splits only the pairs left to split."""
-    done_cell, done_node = [], []
-    while len(cell):
-        near = cap_within_pairs(pair_dots(c, cell, nodes.mid, node), reach, cell, nodes.reach, node)
+    original edge). Each round splits only the pairs left to split, and tests only those
+    whose subtree may hold a node that fails (:class:`_Near`): the others are split
+    untested (or, with ``bound < 0``, replaced by their leaves at once)."""
+    if not len(cell):
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    test = _Near(nodes, c, reach)
+    leaves = bool(len(bound)) and bool((bound < 0).all())
+    done: list = []
+    whole: list = []
+    sure_cell = sure_node = np.zeros(0, dtype=np.int64)
+    while len(cell) or len(sure_cell):
+        near, every = test(cell, node)
+        if leaves:
+            whole.append((cell[every], node[every]))
+            near &= ~every
+        else:
+            sure_cell = np.concatenate([sure_cell, cell[every]])
+            sure_node = np.concatenate([sure_node, node[every]])
+            near &= ~every
         cell, node = cell[near], node[near]
-        bad = ~nodes.leaf[node] & (nodes.err[node] > bound[cell])
-        done_cell.append(cell[~bad])
-        done_node.append(node[~bad])
-        split = np.flatnonzero(bad)
-        cell = np.repeat(cell[split], 2)
-        node = nodes.child[node[split]].ravel()
-    cell = np.concatenate(done_cell) if done_cell else np.zeros(0, dtype=np.int64)
-    node = np.concatenate(done_node) if done_node else np.zeros(0, dtype=np.int64)
-    # each round's pairs come sorted: a stable sort merges the rounds
+        cell, node = _split_step(nodes, cell, node, bound, done)
+        sure_cell, sure_node = _split_step(nodes, sure_cell, sure_node, bound, done)
+    if leaves:
+        return _leaf_pairs(nodes, done, whole)
+    cell = np.concatenate([d[0] for d in done]) if done else np.zeros(0, dtype=np.int64)
+    node = np.concatenate([d[1] for d in done]) if done else np.zeros(0, dtype=np.int64)
+    # each cell's nodes are disjoint runs: (cell, first edge) is a unique key
     order = np.argsort(cell * len(nodes.first) + nodes.first[node], kind="stable")
     return cell[order], node[order]
+
+
+def _split_step(nodes: NodeArcs, cell, node, bound, done):
+    """One round's split: the pairs whose node is fine enough go to ``done``, the others
+    are returned as the pairs of their two halves."""
+    if not len(cell):
+        return cell, node
+    bad = ~nodes.leaf[node] & (nodes.err[node] > bound[cell])
+    done.append((cell[~bad], node[~bad]))
+    split = np.flatnonzero(bad)
+    return np.repeat(cell[split], 2), nodes.child[node[split]].ravel()
+
+
+def _leaf_pairs(nodes: NodeArcs, done, whole):
+    """:func:`_split`'s pairs with every node a leaf: the leaves reached (``done``) and
+    every leaf of the subtrees kept whole, sorted by cell and leaf (a leaf is its edge's
+    index, unique in a cell's list). Where every subtree's leaves are a run of edges (no
+    node spans a ring's start) the runs are sorted, not the leaves: each round's pairs come
+    sorted by cell and first edge, and a stable sort merges the rounds."""
+    parts = done + whole
+    if not parts:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    cell = np.concatenate([p[0] for p in parts])
+    node = np.concatenate([p[1] for p in parts])
+    count = nodes.leaf_count.take(node)
+    start = (nodes.first if nodes.runs else nodes.leaf_start).take(node)
+    n = len(nodes.first)
+    if nodes.runs:
+        order = np.argsort(cell * n + start, kind="stable")
+        cell, start, count = cell.take(order), start.take(order), count.take(order)
+    leaf = np.arange(int(count.sum())) + np.repeat(start - (np.cumsum(count) - count), count)
+    cell = np.repeat(cell, count)
+    if nodes.runs:
+        return cell, leaf
+    key = np.sort(cell * n + nodes.leaf_order.take(leaf))
+    cell = key // n
+    return cell, key - cell * n
 
 
 def enter(shape, nodes: NodeArcs, grid, e: float) -> Frontier:
@@ -134,7 +290,7 @@ def refine(f: Frontier, grid, nodes: NodeArcs, e: float, shape, *, leaves: bool 
         near = np.flatnonzero(ring)
         near = near[
             cap_within(
-                pair_dots(c, cell[near], nodes.mid, node[near]),
+                dots(c, cell[near], columns(nodes), node[near]),
                 seg[cell[near]] + nodes.reach[node[near]],
             )
         ]
@@ -178,7 +334,7 @@ def _crossings(nodes: NodeArcs, c, pc, seg, cell, node):
         u = np.flatnonzero(~sure)
         cell = np.repeat(cell[u], 2)
         node = nodes.child[node[u]].ravel()
-        keep = cap_within_pairs(pair_dots(c, cell, nodes.mid, node), seg, cell, nodes.reach, node)
+        keep = cap_within_pairs(dots(c, cell, columns(nodes), node), seg, cell, nodes.reach, node)
         cell, node = cell[keep], node[keep]
     return (np.concatenate(hit_cell), np.concatenate(hit_node)), on
 

@@ -37,6 +37,7 @@ from ...edges import CurveArcs, status_bits
 from ...geometry.caps import cap_within_pairs, pad
 from ...geometry.sphere import angle, arcs_cross
 from ...memo import Memo, once_attr
+from .child_pairs import half_trig
 from .levels import FRONTIER, Frontier, decide, nearest, prune, row_statuses
 
 __all__ = ["start_level", "scatter", "box_pairs", "BoxPairs", "PAIRS_PER_ARC"]
@@ -182,11 +183,15 @@ def box_pairs(arcs: CurveArcs, lat, lon, row_reach, boxes, w: int, *, near=None)
     m = arcs.mid[a_idx]
     m0, m1, m2 = (np.repeat(m[:, k], count) for k in range(3))
     cm = cphi[jj] * (clam[ii] * m0 + slam[ii] * m1) + sphi[jj] * m2
-    keep = np.flatnonzero(cap_within_pairs(cm, row_reach, jj, arcs.half, ai, runs=(a_idx, count)))
+    keep = np.flatnonzero(
+        cap_within_pairs(
+            cm, row_reach, jj, arcs.half, ai, runs=(a_idx, count), trig=half_trig(arcs)
+        )
+    )
     jj, ii, ai, cm = jj[keep], ii[keep], ai[keep], cm[keep]
     if near is None:
         return jj, ii, ai, cm
-    ok = cap_within_pairs(cm, near, jj, arcs.half, ai)
+    ok = cap_within_pairs(cm, near, jj, arcs.half, ai, trig=half_trig(arcs))
     return BoxPairs(jj * w + ii, ai, cm, None, ok)
 
 
@@ -251,7 +256,7 @@ def scatter(
         pj = cell[ring] // w
         pi_ = cell[ring] - pj * w
         pa = ai[ring]
-        within = cap_within_pairs(cm[ring], spacing, pj, arcs.half, pa)
+        within = cap_within_pairs(cm[ring], spacing, pj, arcs.half, pa, trig=half_trig(arcs))
         ring, pj, pi_, pa = ring[within], pj[within], pi_[within], pa[within]
         qj = np.where(pi_ > 0, pj, pj - 1)
         qi = np.where(pi_ > 0, pi_ - 1, 0)
