@@ -253,7 +253,9 @@ def test_every_grid_answers_the_protocol(grid):
             np.testing.assert_allclose(c.reshape(h, w, 3)[:, 0, 2], np.sin(lat), atol=1e-15)
 
 
-@pytest.mark.parametrize("grid", [g for g in GRIDS if isinstance(g, CellSet)], ids=str)
+@pytest.mark.parametrize(
+    "grid", [g for g in GRIDS if isinstance(g, CellSet)], ids=lambda g: type(g).__name__
+)
 def test_cell_set_neighbours_are_the_touching_cells(grid):
     """Neighbour tables agree with the geometry: two cells touch when their centres are
     within the sum of their area bounds plus one cell, and every listed neighbour is
