@@ -33,9 +33,26 @@ def named_countries(*names, path=DATA / "world_110m.geojson"):
     import gloffset
 
     fc = json.loads(Path(path).read_text())
-    feats = [f for f in fc["features"] if f["properties"]["name"] in names]
+    feats = [f for f in fc["features"] if f["properties"].get("name") in names]
     assert len(feats) == len(names)
     return gloffset.read({"type": "FeatureCollection", "features": feats})
+
+
+#: countries of 1:10m that share borders (France and the countries round it)
+NEIGHBOURS = {"France", "Spain", "Portugal", "Andorra", "Germany", "Belgium", "Luxembourg"}
+
+
+def border_shapes(neighbours=NEIGHBOURS) -> dict:
+    """Real borders for the levels' tests: ``neighbours`` (1:10m, borders shared by
+    neighbours, coasts and islands), the seams (1:110m: Russia and Fiji across the
+    antimeridian, Antarctica around the pole, Greenland) and Mexico (1:10m)."""
+    import gloffset
+
+    return {
+        "neighbours": named_countries(*neighbours, path=DATA / "countries_10m.geojson"),
+        "seams": named_countries("Russia", "Fiji", "Antarctica", "Greenland"),
+        "mexico": gloffset.read(DATA / "mexico_10m.geojson"),
+    }
 
 
 def frontier_without_pairs(k: int):

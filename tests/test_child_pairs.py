@@ -6,13 +6,10 @@ lon/lat grids whose odd level sizes leave some parents without some children."""
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
-from conftest import DATA
+from conftest import NEIGHBOURS, border_shapes
 
-import gloffset
 from gloffset.edges import component_status
 from gloffset.geometry.caps import cap_within
 from gloffset.geometry.sphere import angle, arcs_cross, pair_dots
@@ -22,25 +19,10 @@ from gloffset.raster import driver
 from gloffset.raster.vector import levels
 from gloffset.raster.vector.curves import CurveCells
 
-NEIGHBOURS = {"France", "Spain", "Portugal", "Andorra", "Germany", "Belgium", "Luxembourg"}
-
-
-def _features(path, names):
-    fc = json.loads((DATA / path).read_text())
-    feats = [f for f in fc["features"] if f["properties"].get("name") in names]
-    assert len(feats) == len(names)
-    return {"type": "FeatureCollection", "features": feats}
-
 
 @pytest.fixture(scope="module")
 def shapes():
-    return {
-        "neighbours": gloffset.read(_features("countries_10m.geojson", NEIGHBOURS)),
-        "seams": gloffset.read(
-            _features("world_110m.geojson", {"Russia", "Fiji", "Antarctica", "Greenland"})
-        ),
-        "mexico": gloffset.read(DATA / "mexico_10m.geojson"),
-    }
+    return border_shapes(NEIGHBOURS)
 
 
 def _expanded(f, grid, arcs, e, shape):

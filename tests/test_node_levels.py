@@ -4,14 +4,13 @@ the original arcs, the same pixels below the hand-over, on real borders."""
 
 from __future__ import annotations
 
-import json
 import sqlite3
 
+import conftest
 import numpy as np
 import pytest
-from conftest import DATA
+from conftest import border_shapes
 
-import gloffset
 from gloffset.edges import CurveArcs, component_status
 from gloffset.grids.mercator import TilePyramid
 from gloffset.raster import driver
@@ -20,28 +19,14 @@ from gloffset.raster.vector import node_levels
 from gloffset.raster.vector.curves import CurveCells
 from gloffset.tiles.tiling import driver as tl
 
-NEIGHBOURS = {"France", "Spain", "Portugal", "Andorra", "Germany", "Belgium", "Luxembourg"}
-NEIGHBOURS |= {"Netherlands", "Austria", "Czechia", "Poland", "Croatia", "Denmark"}
-
-
-def _features(path, names):
-    fc = json.loads((DATA / path).read_text())
-    feats = [f for f in fc["features"] if f["properties"].get("name") in names]
-    assert len(feats) == len(names)
-    return {"type": "FeatureCollection", "features": feats}
+#: France's neighbours and theirs
+NEIGHBOURS = conftest.NEIGHBOURS | {"Netherlands", "Austria", "Czechia", "Poland", "Croatia"}
+NEIGHBOURS |= {"Denmark"}
 
 
 @pytest.fixture(scope="module")
 def shapes():
-    return {
-        # borders shared by neighbours, coasts and islands at 1:10m
-        "neighbours": gloffset.read(_features("countries_10m.geojson", NEIGHBOURS)),
-        # across the antimeridian (Russia, Fiji) and around the pole (Antarctica)
-        "seams": gloffset.read(
-            _features("world_110m.geojson", {"Russia", "Fiji", "Antarctica", "Greenland"})
-        ),
-        "mexico": gloffset.read(DATA / "mexico_10m.geojson"),
-    }
+    return border_shapes(NEIGHBOURS)
 
 
 CASES = [
