@@ -36,6 +36,7 @@ __all__ = [
     "cap_within",
     "cap_within_pairs",
     "cap_bounds",
+    "decide_between",
     "cos_sum_lower",
 ]
 
@@ -181,6 +182,18 @@ def cap_within_pairs(cm, first, cell, half, arc, *, runs=None, trig=None) -> np.
     out[may] = ~unsure
     u = may[unsure]
     out[u] = cap_within(cm[u], first[cell[u]] + half[arc[u]])
+    return out
+
+
+def decide_between(value, lo, hi, exact) -> np.ndarray:
+    """A test ``value >= threshold`` from bounds ``lo < hi`` on each threshold: True at
+    or above ``hi``, False below ``lo``, and ``exact(u)`` (the exact test of the entries
+    ``u``) for the few in between. The bounded tests of the levels' pairs take this form
+    (:func:`cap_bounds`)."""
+    out = value >= hi
+    u = np.flatnonzero((value >= lo) & ~out)
+    if len(u):
+        out[u] = exact(u)
     return out
 
 

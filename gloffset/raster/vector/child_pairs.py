@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...geometry.caps import cap_bounds, cap_within
+from ...geometry.caps import cap_bounds, cap_within, decide_between
 from ...geometry.sphere import column_dots
 from ...memo import once_attr
 
@@ -90,12 +90,12 @@ class _Test:
 
     def __call__(self, cm, ch, pair_cell) -> np.ndarray:
         """The test of the pairs of slot children ``ch`` (by parent), ``c.m`` ``cm``."""
-        out = cm >= self.hi
-        u = np.flatnonzero((cm >= self.lo) ^ out)  # lo < hi: between the two
-        if len(u):
+
+        def exact(u):
             reach = self.first.take(ch).take(pair_cell.take(u)) + self.half.take(u)
-            out[u] = cap_within(cm.take(u), reach)
-        return out
+            return cap_within(cm.take(u), reach)
+
+        return decide_between(cm, self.lo, self.hi, exact)
 
 
 def slot_pairs(pair_cell, pair_arc, arcs, c, slot, first, seg=None):

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...edges import CurveArcs, component_status, inside_any, status_bits
-from ...geometry.caps import cap_bounds, cap_within, cap_within_pairs, pad
+from ...geometry.caps import cap_bounds, cap_within, cap_within_pairs, decide_between, pad
 from ...geometry.sphere import angle, arc_distance, arcs_cross, column_dots
 from ...memo import once_attr
 from ...vector.multires import full_decomposition
@@ -151,17 +151,24 @@ class _Near:
         """``(near, whole)`` of the pairs: the test, and whether their whole subtree
         passes it (only where it passes itself)."""
         cm = column_dots(self.c, self.mid, cell, node)
-        near = cm >= self.hi.take(node)
-        u = np.flatnonzero((cm >= self.lo.take(node)) & ~near)
-        if len(u):
-            nu = node.take(u)
-            near[u] = cap_within(cm.take(u), self.reach.take(cell.take(u)) + self.nodes.reach[nu])
-        whole = (cm >= self.all_hi.take(node)) & near
-        u = np.flatnonzero((cm >= self.all_lo.take(node)) & near & ~whole)
-        if len(u):
-            x = self.reach.take(cell.take(u)) - self.nodes.spread.take(node.take(u))
-            whole[u] = cm.take(u) >= _whole(x)
-        return near, whole
+        near = decide_between(
+            cm,
+            self.lo.take(node),
+            self.hi.take(node),
+            lambda u: cap_within(
+                cm.take(u), self.reach.take(cell.take(u)) + self.nodes.reach.take(node.take(u))
+            ),
+        )
+        whole = decide_between(
+            cm,
+            self.all_lo.take(node),
+            self.all_hi.take(node),
+            lambda u: (
+                cm.take(u)
+                >= _whole(self.reach.take(cell.take(u)) - self.nodes.spread.take(node.take(u)))
+            ),
+        )
+        return near, whole & near
 
 
 def _whole_table(nodes: NodeArcs, r: float) -> np.ndarray:
