@@ -24,6 +24,7 @@ from ..gl.vector_pass import BinPlan, vector_passes
 from ..memo import once_attr
 from .layout import BinLayout
 from .records import ArcRecords, margins, record_inputs, records
+from .vector.child_pairs import half_trig
 from .vector.levels import Frontier
 from .vector.scatter import BoxPairs, box_pairs
 
@@ -141,13 +142,15 @@ def gpu_box_pairs(
 
 
 def _arc_terms(arcs: CurveArcs) -> np.ndarray:
-    """(arcs, 4) float64 ``cos h, sin h, h, 0`` of the arcs' cap radii ``h``, read-only
+    """(arcs, 4) float64 ``cos h, sin h, h, 0`` of the arcs' cap radii ``h`` (the cosines and
+    sines kept on the table, :func:`~gloffset.raster.vector.child_pairs.half_trig`), read-only
     (made once per set of arcs, what :func:`gpu_box_pairs`'s shader reads; a 1 last
     leaves all the arc's tests to the host)."""
 
     def build() -> np.ndarray:
         out = np.zeros((len(arcs.half), 4))
-        out[:, 0], out[:, 1], out[:, 2] = np.cos(arcs.half), np.sin(arcs.half), arcs.half
+        out[:, 0], out[:, 1] = half_trig(arcs)
+        out[:, 2] = arcs.half
         out.setflags(write=False)
         return out
 
