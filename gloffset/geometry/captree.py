@@ -43,6 +43,8 @@ _ALONG_BLOCK = 2048
 
 # CapTree.self_pairs puts the nodes of this level in its grid (pairs of items: fewer balls)
 _PAIR_LEVEL = 1
+# CapTree.self_pairs tests the pairs of items this many at a time
+_PAIR_BLOCK = 1 << 16
 
 
 def _chord2_at(u_t: _Rows, ui: np.ndarray, v_t: _Rows, vi: np.ndarray) -> np.ndarray:
@@ -376,10 +378,15 @@ class CapTree:
         out_i.append((start[:m, None] + tu).ravel())
         out_j.append((start[:m, None] + tv).ravel())
         i, j = np.concatenate(out_i), np.concatenate(out_j)
-        i, j = np.minimum(i, j), np.maximum(i, j)
-        lim = pad(chord(r[i] + r[j] + slack))
         rows = self._rows(0)
-        keep = _chord2_at(rows, i, rows, j) <= lim * lim
+        keep = np.empty(len(i), bool)
+        # the test a block of pairs at a time: its temporaries stay in the caches (and
+        # are not fresh memory for each of its steps)
+        for s0 in range(0, len(i), _PAIR_BLOCK):
+            x, y = i[s0 : s0 + _PAIR_BLOCK], j[s0 : s0 + _PAIR_BLOCK]
+            x[:], y[:] = np.minimum(x, y), np.maximum(x, y)
+            lim = pad(chord(r[x] + r[y] + slack))
+            keep[s0 : s0 + _PAIR_BLOCK] = _chord2_at(rows, x, rows, y) <= lim * lim
         return i[keep], j[keep]
 
     def near(self, points, reach, *, stop=None, lo=None, hi=None):
