@@ -15,8 +15,9 @@ answer, to be confirmed by an exact test.
 Cost: building is O(n). A query costs O(log n) levels; the work per level is the
 number of surviving pairs, about the size of the answer plus the number of nodes
 the query's cap touches on each level. The pairs of items among themselves
-(:meth:`CapTree.self_pairs`) come instead from a grid of cubes over the items' caps
-(:func:`_grid_pairs`): a few sorts and searches, with the same chord test per pair.
+(:meth:`CapTree.self_pairs`) come instead from a grid of cubes over the caps of the
+nodes of level 1 (:func:`_grid_pairs`): a few sorts and searches, then the same chord
+test per pair of items.
 """
 
 from __future__ import annotations
