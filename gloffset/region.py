@@ -49,6 +49,7 @@ from .geometry.sphere import (
     angle,
     arc_distance,
     arcs_cross,
+    column_dots,
     cross,
     crossing_rule,
     normalize,
@@ -125,11 +126,15 @@ def _sides(v, n, ai, bi, aj, bj):
     """The four side values of the pairs of edges ``i``: ``v[ai] -> v[bi]`` and ``j``:
     ``v[aj] -> v[bj]`` (normals ``n[ai]``, ``n[aj]``): ``aj.ni``, ``bj.ni``, ``ai.nj``,
     ``bi.nj`` (einsum's sums, so the same bits wherever they are computed)."""
+    # pair_dots' sums, from the coordinates as contiguous columns (made once for the
+    # four: they gather faster than the columns of (n, 3) arrays)
+    vc = [np.ascontiguousarray(v[:, k], dtype=np.float64) for k in range(3)]
+    nc = [np.ascontiguousarray(n[:, k], dtype=np.float64) for k in range(3)]
     return (
-        pair_dots(v, aj, n, ai),
-        pair_dots(v, bj, n, ai),
-        pair_dots(v, ai, n, aj),
-        pair_dots(v, bi, n, aj),
+        column_dots(vc, nc, aj, ai),
+        column_dots(vc, nc, bj, ai),
+        column_dots(vc, nc, ai, aj),
+        column_dots(vc, nc, bi, aj),
     )
 
 

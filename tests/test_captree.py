@@ -30,9 +30,16 @@ def mixed_caps(n, seed):
     return c, r
 
 
+@pytest.fixture(params=[0, 1, 2], ids=["items", "pairs", "fours"])
+def pair_level(request, monkeypatch):
+    """self_pairs with its grid over the items, or over the nodes of level 1 or 2."""
+    monkeypatch.setattr(captree, "_PAIR_LEVEL", request.param)
+    return request.param
+
+
 @pytest.mark.parametrize("slack", [0.0, 2e-12, 1e-3, 0.5])
 @pytest.mark.parametrize("seed", [0, 1])
-def test_self_pairs_equal_the_chord_test_of_every_pair(slack, seed):
+def test_self_pairs_equal_the_chord_test_of_every_pair(slack, seed, pair_level):
     c, r = mixed_caps(1500, seed)
     tree = CapTree(c, r)
     i, j = tree.self_pairs(slack)
@@ -42,7 +49,7 @@ def test_self_pairs_equal_the_chord_test_of_every_pair(slack, seed):
     assert len(i) > 0
 
 
-def test_self_pairs_hold_every_pair_of_caps_that_meet():
+def test_self_pairs_hold_every_pair_of_caps_that_meet(pair_level):
     c, r = mixed_caps(1200, 5)
     i, j = CapTree(c, r).self_pairs()
     got = set(zip(i.tolist(), j.tolist()))
@@ -68,7 +75,7 @@ def test_grid_pairs_find_balls_that_touch_across_cell_faces():
     assert (ii < jj).all() and len(got) == len(ii)  # each pair once
 
 
-def test_self_pairs_of_real_borders_hold_every_crossing_and_shared_vertex():
+def test_self_pairs_of_real_borders_hold_every_crossing_and_shared_vertex(pair_level):
     shape = gloffset.read(DATA / "world_110m.geojson")
     rings = shape.rings[:30]  # about 1500 edges: all their pairs fit in memory
     a = np.concatenate(rings)
@@ -164,3 +171,51 @@ def test_along_in_blocks_of_segments_returns_the_pairs_of_one_walk_in_its_order(
         assert np.array_equal(si, sj) and np.array_equal(ni, nj)
         assert (np.diff(si) >= 0).all()
     assert set(zip(*blocks[1])) == brute_along(tree, a, b, lo, hi)
+
+
+def input_edges(names):
+    """The edges of the input rings of the countries ``names`` of 1:10m, before the union:
+    each border shared by two neighbours is there twice, once from each side."""
+    import json
+
+    from conftest import NEIGHBOURS
+
+    from gloffset.geometry.lonlat import prepare_rings
+    from gloffset.io import geojson
+
+    fc = json.loads((DATA / "countries_10m.geojson").read_text())
+    names = names or NEIGHBOURS
+    feats = [f for f in fc["features"] if f["properties"].get("name") in names]
+    assert len(feats) == len(names)
+    parts = geojson.parse({"type": "FeatureCollection", "features": feats})
+    ll = [ring for poly in parts.polygons for ring in poly]
+    rings = prepare_rings(ll, ["r"] * len(ll), [True] * len(ll))[0]
+    a = np.concatenate(rings)
+    sizes = np.array([len(x) for x in rings])
+    starts = np.repeat(np.concatenate([[0], np.cumsum(sizes)[:-1]]), sizes)
+    return a, a[starts + (np.arange(len(a)) - starts + 1) % np.repeat(sizes, sizes)]
+
+
+def test_self_pairs_of_a_union_input_equal_every_pair_of_sampled_edges(monkeypatch):
+    # the union's broad phase on real input (France and its neighbours at 1:10m, ~30k
+    # edges, shared borders twice): the pairs of 400 sampled edges with every edge,
+    # by brute force, are those self_pairs returns, from its grid over pairs of edges,
+    # over fours, and over the edges themselves
+    a, b = input_edges(None)
+    tree = CapTree(*arc_cap(a, b))
+    c, r, slack = tree.centers[0], tree.radii[0], 2e-12
+    sample = np.random.default_rng(0).choice(len(a), 400, replace=False)
+    si, sj = np.repeat(sample, len(a)), np.tile(np.arange(len(a)), len(sample))
+    d2 = np.einsum("ij,ij->i", c[si] - c[sj], c[si] - c[sj])
+    near = (d2 <= pad(chord(r[si] + r[sj] + slack)) ** 2) & (si != sj)
+    want = {(min(x, y), max(x, y)) for x, y in zip(si[near].tolist(), sj[near].tolist())}
+    assert len(want) > 3 * len(sample)  # next edges and the other side of shared borders
+    got = []
+    for level in (0, 1, 2):
+        monkeypatch.setattr(captree, "_PAIR_LEVEL", level)
+        i, j = tree.self_pairs(slack)
+        got.append((i, j))
+        mine = np.isin(i, sample) | np.isin(j, sample)
+        assert set(zip(i[mine].tolist(), j[mine].tolist())) == want
+    for i, j in got[1:]:  # all the pairs, in one order
+        assert np.array_equal(i, got[0][0]) and np.array_equal(j, got[0][1])

@@ -664,3 +664,38 @@ def test_left_areas_of_many_rings_are_those_of_each_ring():
     # the union's holes are the rings with more than a hemisphere on their left
     assert np.array_equal(got > 2.0 * np.pi, world.ring_holes)
     assert (got > 0.0).all() and len(got) > 100
+
+
+def assert_same_union(a, b):
+    """Two shapes with the same union, bit for bit: rings, seams, groups, holes, labels."""
+    assert len(a.rings) == len(b.rings) > 0
+    for x, y in zip(a.rings, b.rings):
+        assert x.shape == y.shape and x.tobytes() == y.tobytes()
+    for x, y in zip(a.ring_seams, b.ring_seams):
+        assert np.array_equal(x, y)
+    assert np.array_equal(a.ring_groups, b.ring_groups)
+    assert np.array_equal(a.ring_holes, b.ring_holes)
+    assert a.labels == b.labels
+
+
+@pytest.mark.parametrize(
+    "path",
+    [
+        pytest.param("neighbours", id="france-and-neighbours-10m"),
+        pytest.param("countries_10m.geojson", id="countries-10m", marks=pytest.mark.slow),
+    ],
+)
+def test_union_is_the_same_whichever_grid_finds_the_edge_pairs(countries, path, monkeypatch):
+    # the broad phase of the union's edge pairs (CapTree.self_pairs) puts pairs of
+    # edges in its grid: the union is the one of the grid over single edges, bit for bit
+    from conftest import NEIGHBOURS as FRANCE
+
+    from gloffset.geometry import captree
+
+    if path == "neighbours":
+        src = {"type": "FeatureCollection", "features": [countries[n] for n in FRANCE]}
+    else:
+        src = DATA / path
+    got = gloffset.read(src)
+    monkeypatch.setattr(captree, "_PAIR_LEVEL", 0)
+    assert_same_union(got, gloffset.read(src))

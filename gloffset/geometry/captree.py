@@ -15,8 +15,9 @@ answer, to be confirmed by an exact test.
 Cost: building is O(n). A query costs O(log n) levels; the work per level is the
 number of surviving pairs, about the size of the answer plus the number of nodes
 the query's cap touches on each level. The pairs of items among themselves
-(:meth:`CapTree.self_pairs`) come instead from a grid of cubes over the items' caps
-(:func:`_grid_pairs`): a few sorts and searches, with the same chord test per pair.
+(:meth:`CapTree.self_pairs`) come instead from a grid of cubes over the caps of the
+nodes of level 1 (:func:`_grid_pairs`): a few sorts and searches, then the same chord
+test per pair of items.
 """
 
 from __future__ import annotations
@@ -40,6 +41,11 @@ _PAD = 1e-14
 
 # CapTree.along walks this many segments at a time (a few 100k pairs per level at most)
 _ALONG_BLOCK = 2048
+
+# CapTree.self_pairs puts the nodes of this level in its grid (pairs of items: fewer balls)
+_PAIR_LEVEL = 1
+# CapTree.self_pairs tests the pairs of items this many at a time
+_PAIR_BLOCK = 1 << 16
 
 
 def _chord2_at(u_t: _Rows, ui: np.ndarray, v_t: _Rows, vi: np.ndarray) -> np.ndarray:
@@ -312,15 +318,77 @@ class CapTree:
         The broad phase is a grid of cubes over the unit vectors (:func:`_grid_pairs`),
         not the hierarchy: a hash of cells finds the nearby pairs of 300k edges in a
         few numpy passes, where a walk down the levels makes one pass per level over
-        all the surviving node pairs.
+        all the surviving node pairs. The grid holds the nodes of level
+        :data:`_PAIR_LEVEL` (runs of consecutive items, whose caps hold their items'):
+        half as many balls for the edges of a curve, each next to the one after it
+        (:func:`_node_pairs`).
         """
         if self.n < 2:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
-        c, r = self.centers[0], self.radii[0]
-        ext = chord(r) + 0.5 * chord(min(max(slack, 0.0), np.pi))
-        ci, cj = _grid_pairs(c, ext, r, slack)  # the chord test taken in the grid
+        k = min(_PAIR_LEVEL, self.depth - 1)
+        if k > 0:
+            ci, cj = self._node_pairs(k, slack)
+        else:
+            c, r = self.centers[0], self.radii[0]
+            ext = chord(r) + 0.5 * chord(min(max(slack, 0.0), np.pi))
+            ci, cj = _grid_pairs(c, ext, r, slack)  # the chord test taken in the grid
         order = np.argsort(ci * self.n + cj)  # by i, then j (n^2 < 2^63)
         return ci[order], cj[order]
+
+    def _node_pairs(self, k: int, slack: float) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`self_pairs`'s pairs (unsorted) from a grid over the nodes of level ``k``.
+
+        A node of ``2^k`` items whose cap is no larger than 1.5 times the sum of its
+        items' radii (consecutive edges of one ring: not two rings' ends) is one ball of
+        the grid; the items of the other nodes are balls of their own. The pairs of
+        balls that may hold a pair of items within ``slack``, by the grid's chord test
+        on radii padded by ``1e-9`` relative and ``1e-11`` rad: a node's cap holds its
+        items' caps (:func:`_merge_caps` pads them), so by the triangle inequality on
+        angles two items within ``r_i + r_j + slack`` of each other lie in two balls
+        within ``R_a + R_b + slack``, and the padding is far above the roundings of
+        those radii and of the items' chord test (a few ulp, 1e-14 rad absolute). Each
+        pair of balls gives all the pairs of their items, and each node the pairs of its
+        own items; every such pair takes the chord test of the items (the same bits as
+        in the grid: its terms commute), which decides.
+        """
+        n, s = self.n, 1 << k
+        r = self.radii[0]
+        big = self.radii[k]
+        full = n >> k  # the nodes 0 .. full - 1 hold 2^k items each
+        node = np.zeros(len(big), bool)
+        node[:full] = big[:full] <= 1.5 * r[: full << k].reshape(full, s).sum(axis=1)
+        nodes = np.flatnonzero(node)
+        items = np.flatnonzero(~np.repeat(node, s)[:n])
+        m = len(nodes)
+        start = np.concatenate([nodes << k, items])
+        c = np.concatenate([self.centers[k][nodes], self.centers[0][items]])
+        rb = np.concatenate([big[nodes], r[items]]) * (1.0 + 1e-9) + 1e-11
+        ext = chord(rb) + 0.5 * chord(min(max(slack, 0.0), np.pi))
+        a, b = _grid_pairs(c, ext, rb, slack)
+        # the pairs of items of each pair of balls: node-node, node-item, item-node,
+        # item-item, then those within each node
+        off = np.arange(s)
+        an, bn = a < m, b < m
+        out_i, out_j = [], []
+        for sel, wa, wb in ((an & bn, s, s), (an & ~bn, s, 1), (~an & bn, 1, s), (~an & ~bn, 1, 1)):
+            sa, sb = start[a[sel]], start[b[sel]]
+            shape = (len(sa), wa, wb)
+            out_i.append(np.broadcast_to(sa[:, None, None] + off[:wa, None], shape).ravel())
+            out_j.append(np.broadcast_to(sb[:, None, None] + off[:wb], shape).ravel())
+        tu, tv = np.triu_indices(s, 1)
+        out_i.append((start[:m, None] + tu).ravel())
+        out_j.append((start[:m, None] + tv).ravel())
+        i, j = np.concatenate(out_i), np.concatenate(out_j)
+        rows = self._rows(0)
+        keep = np.empty(len(i), bool)
+        # the test a block of pairs at a time: its temporaries stay in the caches (and
+        # are not fresh memory for each of its steps)
+        for s0 in range(0, len(i), _PAIR_BLOCK):
+            x, y = i[s0 : s0 + _PAIR_BLOCK], j[s0 : s0 + _PAIR_BLOCK]
+            x[:], y[:] = np.minimum(x, y), np.maximum(x, y)
+            lim = pad(chord(r[x] + r[y] + slack))
+            keep[s0 : s0 + _PAIR_BLOCK] = _chord2_at(rows, x, rows, y) <= lim * lim
+        return i[keep], j[keep]
 
     def near(self, points, reach, *, stop=None, lo=None, hi=None):
         """Items whose cap comes within ``reach`` of each point.

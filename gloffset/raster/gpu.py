@@ -236,7 +236,9 @@ def bin_plan(layout: BinLayout, d: float, f: Frontier, arcs: CurveArcs, passes=N
         device = None
     else:
         (rec, first, bits, hdr, cfirst, ccount), device = made
-    counts = np.bincount(f.pair_cell, minlength=len(f.cells)).astype(np.uint32)
+    # each bin's pairs: the records of a bin are its pairs, from its first on (the pairs
+    # come by bin), so the steps between the bins' first records, without a count
+    counts = np.diff(first, append=np.uint32(len(f.pair_cell))).astype(np.uint32)
     shifts = range(1, layout.stop + 1)
     rho = layout.rho
     plan = BinPlan(
