@@ -38,6 +38,7 @@ import math
 import os
 import re
 import threading
+import time
 from pathlib import Path
 from typing import NoReturn
 from urllib.parse import urlencode
@@ -79,6 +80,7 @@ from .bounds import region_bounds
 from .service import (
     UNKNOWN,
     FieldKey,
+    Job,
     QueueFull,
     TileKey,
     TileService,
@@ -100,7 +102,7 @@ STATIC = Path(__file__).resolve().parent / "static"
 _ORIGIN = re.compile(r"[a-z][a-z0-9+.-]*://(\[[0-9a-f:.]+\]|[^/?#:@\[\]\s]+)(:[0-9]{1,5})?")
 
 #: the response headers a cross-origin script may read beside the safelisted ones
-_EXPOSED = ("ETag", "Retry-After", "X-Gloffset-Tile")
+_EXPOSED = ("ETag", "Retry-After", "X-Gloffset-Tile", "Server-Timing")
 
 
 def cors_origins(text: str) -> tuple[str, ...] | None:
@@ -185,6 +187,7 @@ class _Server:
     async def _tile_answer(self, request: Request, key: TileKey) -> Response:
         """The tile ``key`` (web mercator's or another TileMatrixSet's): cached, decided
         from its centre, the threshold of its kept field, or rendered."""
+        seen = self.tiles.seen(key)  # a view asked for before: its renders go first
         found = self.tiles.answer(key, measure=False)  # the cache, a known centre
         if found is UNKNOWN:
             await self._measured(key)
@@ -194,23 +197,30 @@ class _Server:
         if found is None and await self._field_kept(key):
             thresholded = await asyncio.to_thread(self.tiles.from_field, key)
             found = None if thresholded is None else (thresholded, "field")
+        timing = ""
         if found is None and key.style.outline is None and self.tiles.at_once(key.layer):
-            made = await self._wait(lambda: self.tiles.submit_from_field(key), "tile")
+            fut = self._submit(lambda: self.tiles.submit_from_field(key, urgent=seen))
+            made = await self._wait(fut, "tile")
             if isinstance(made, Response):
                 return made
-            found = (made, "field")
+            found, timing = (made, "field"), server_timing(fut)
         if found is not None:
             data, how = found
         else:
-            rendered = await self._render(key)
+            why = self.tiles.why_rendered(key, seen)
+            fut = self._submit(lambda: self.tiles.submit(key, urgent=seen))
+            rendered = await self._wait(fut, "tile")
             if isinstance(rendered, Response):
                 return rendered
             data, how = rendered, "rendered"
-        return self._png(request, data, how)
+            timing = server_timing(fut, why)
+        return self._png(request, data, how, timing)
 
-    def _png(self, request: Request, data: bytes, how: str) -> Response:
+    def _png(self, request: Request, data: bytes, how: str, timing: str = "") -> Response:
         tag = etag(data)
         headers = {"ETag": tag, "Cache-Control": self.cache_control, "X-Gloffset-Tile": how}
+        if timing:
+            headers["Server-Timing"] = timing
         if not_modified(request.headers.get("if-none-match"), tag):
             return Response(status_code=304, headers=headers)
         return Response(data, media_type="image/png", headers=headers)
@@ -226,10 +236,11 @@ class _Server:
         kept = self.tiles.cached(fkey)
         if kept is not None:
             return self._png(request, kept, "cached")
-        made = await self._wait(lambda: self.tiles.submit_field(fkey), "field")
+        fut = self._submit(lambda: self.tiles.submit_field(fkey))
+        made = await self._wait(fut, "field")
         if isinstance(made, Response):
             return made
-        return self._png(request, made, "computed")
+        return self._png(request, made, "computed", server_timing(fut))
 
     async def field_tilejson(self, request: Request) -> Response:
         name = request.path_params["layer"]
@@ -281,24 +292,26 @@ class _Server:
             await asyncio.wait_for(asyncio.wrap_future(fut), self.render_timeout)
         return self.tiles.field(key.field()) is not None
 
-    async def _render(self, key: TileKey) -> bytes | Response:
-        """The tile rendered on the render thread, or the 503 that says why not."""
-        return await self._wait(lambda: self.tiles.submit(key), "tile")
-
-    async def _wait(self, submit, what: str) -> bytes | Response:
-        """The bytes of ``submit()``'s future (work on the render thread), or the 503 that
-        says why not."""
-        busy = {"Retry-After": "1"}
+    @staticmethod
+    def _submit(submit):
+        """``submit()``'s future (work queued for the render thread), or the 503 that says
+        the queue is full."""
         try:
-            fut = submit()
+            return submit()
         except QueueFull:
             detail = "the render queue is full; try again"
-            return JSONResponse({"detail": detail}, status_code=503, headers=busy)
+            return JSONResponse({"detail": detail}, status_code=503, headers={"Retry-After": "1"})
+
+    async def _wait(self, fut, what: str) -> bytes | Response:
+        """The bytes of ``fut`` (work on the render thread, or the 503 of :meth:`_submit`),
+        or the 503 that says why not."""
+        if isinstance(fut, Response):
+            return fut
         try:
             return await asyncio.wait_for(asyncio.wrap_future(fut), self.render_timeout)
         except asyncio.TimeoutError:
             detail = f"the {what} was not rendered within {self.render_timeout:g} s; try again"
-            return JSONResponse({"detail": detail}, status_code=503, headers=busy)
+            return JSONResponse({"detail": detail}, status_code=503, headers={"Retry-After": "1"})
         except GloffsetError as exc:
             _bad(str(exc))
 
@@ -518,6 +531,22 @@ class _Server:
 #: a tile number: ASCII digits only (``int()`` also takes ``1_0``, ``+1``, `` 1`` and the
 #: digits of other scripts), at most 8 of them (zooms stop at 22)
 _NUMBER = re.compile(r"[0-9]{1,8}")
+
+
+def server_timing(fut, why: str | None = None) -> str:
+    """The ``Server-Timing`` header of an answer made on the render thread (``fut``, a
+    :class:`~gloffset.serve.service.Job`): ``queue`` the milliseconds it waited for the
+    render thread, ``render`` those from then to the answer (its group's render, or field),
+    and ``why`` a tile was rendered (:meth:`~gloffset.serve.service.TileService.why_rendered`).
+    Empty for an answer that was cached by then."""
+    if not isinstance(fut, Job) or fut.began is None:
+        return ""
+    now = time.monotonic()
+    parts = [f"queue;dur={1e3 * (fut.began - fut.queued):.1f}"]
+    parts.append(f"render;dur={1e3 * (now - fut.began):.1f}")
+    if why is not None:
+        parts.append(f'why;desc="{why}"')
+    return ", ".join(parts)
 
 
 def _zxy(z: str, x: str, y: str) -> tuple[int, int, int, int]:

@@ -13,10 +13,12 @@ The answer is one shared PNG per size and style (empty: fully transparent).
 A moderngl context is current on one thread only, so every other tile is rendered on one
 render thread. Requests wait on a :class:`concurrent.futures.Future`; the queue holds at
 most ``queue_size`` pending tiles (a full queue raises :class:`QueueFull`, which the
-server answers with 503 and ``Retry-After``). The render thread takes every pending
-request at once and renders those of one layer, distance, zoom, size and style together
+server answers with 503 and ``Retry-After``). The render thread takes the pending
+requests of one layer, distance, zoom, size and style at once and renders them together
 (:func:`gloffset.tiles.tiling.render_tiles`: one walk down the zooms and batched GPU
-runs), so throughput grows with load. Rendered tiles are kept in an LRU bounded in
+runs), so throughput grows with load; the tiles of a view asked for before at another
+distance (a distance slider) go before those of new views (:class:`_Pending`), which wait
+at most :data:`AGE` seconds behind them. Rendered tiles are kept in an LRU bounded in
 bytes. A request whose client went away is still rendered when its batch had started
 (the tile is cached, the answer dropped); one cancelled before is skipped.
 
@@ -35,7 +37,6 @@ import functools
 import hashlib
 import io
 import logging
-import queue
 import threading
 import time
 from collections import OrderedDict
@@ -60,6 +61,7 @@ __all__ = [
     "TileKey",
     "FieldKey",
     "TileService",
+    "Job",
     "QueueFull",
     "EMPTY_PNG",
     "UNKNOWN",
@@ -95,6 +97,10 @@ COST_WEIGHT = 0.3
 #: a new tile has its field at once, and is answered by its threshold, where a field of
 #: its layer costs at most this many of its renders (the running means): a GPU field
 AT_ONCE = 2.0
+
+#: seconds a request of a new view waits, at most, behind the tiles of views seen before
+#: (:class:`_Pending`): then it goes first too (no view starves)
+AGE = 1.0
 
 #: seconds between two hand-backs of the freed heap to the system (after a render batch:
 #: the RSS then follows the memory in use, not the largest batch so far)
@@ -183,7 +189,7 @@ class TileService:
         field_mb: float = 256.0,
     ):
         self.layers = layers
-        self.queue: queue.Queue = queue.Queue(maxsize=max(1, int(queue_size)))
+        self.queue = _Pending(max(1, int(queue_size)))
         self.cache: OrderedDict = OrderedDict()
         self.cache_bytes, self.cache_limit = 0, int(cache_mb * (1 << 20))
         self.centres: OrderedDict = OrderedDict()  # (layer, z, x, y) -> what triage needs
@@ -336,12 +342,10 @@ class TileService:
         (:func:`~gloffset.tiles.tiling.fieldtiles.encode_field` of the field in metres on
         the Earth's sphere), the field computed on the render thread and kept (raises
         :class:`QueueFull`)."""
-        fut: Future = Future()
         data = self.cached(fkey)
         if data is not None:
-            fut.set_result(data)
-            return fut
-        return self._put(fkey, fut)
+            return _done(data)
+        return self._put(fkey, Job())
 
     def at_once(self, layer: str) -> bool:
         """Whether a new tile of ``layer`` is answered from its field, computed at once: a
@@ -351,38 +355,62 @@ class TileService:
             cost, render = self.field_cost.get(layer), self.render_cost.get(layer)
         return cost is not None and render is not None and cost <= AT_ONCE * render
 
-    def submit_from_field(self, key: TileKey) -> Future:
+    def submit_from_field(self, key: TileKey, *, urgent: bool = False) -> Future:
         """A future of the tile's PNG bytes from its field (:meth:`from_field`), the field
         computed on the render thread first where it is not kept, the requests of a batch
-        that share a field with one computation (raises :class:`QueueFull`)."""
-        fut: Future = Future()
+        that share a field with one computation (raises :class:`QueueFull`). ``urgent``:
+        as :meth:`submit`'s."""
         data = self.cached(key)
         if data is not None:
-            fut.set_result(data)
-            return fut
-        return self._put(_FromField(key), fut)
+            return _done(data)
+        return self._put(_FromField(key), Job(), urgent)
 
-    def submit(self, key: TileKey) -> Future:
+    def submit(self, key: TileKey, *, urgent: bool = False) -> Future:
         """A future of the tile's PNG bytes, rendered on the render thread (raises
-        :class:`QueueFull`)."""
-        fut: Future = Future()
+        :class:`QueueFull`); a :class:`Job` unless the tile is cached. ``urgent``: a tile
+        of a view seen before (:meth:`seen`: a distance slider moves), taken before the
+        tiles of new views (:class:`_Pending`)."""
         data = self.cached(key)
         if data is not None:
-            fut.set_result(data)
-            return fut
-        return self._put(key, fut)
+            return _done(data)
+        return self._put(key, Job(), urgent)
+
+    def seen(self, key: TileKey) -> bool:
+        """Whether the tile's place was asked for before (at any distance): its centre is
+        measured, or it was rendered. A tile of a view seen before is asked for again as a
+        distance slider moves; its renders go before those of new views (``urgent``)."""
+        with self.lock:
+            return key.where() in self.centres or key.field() in self.later
+
+    def why_rendered(self, key: TileKey, seen: bool) -> str:
+        """Why tile ``key`` is rendered rather than answered from a field (the
+        ``Server-Timing`` header's ``why``): ``outline`` (a style with an outline: always
+        rendered), ``new`` (its place not asked for before: a new view), ``frontier`` (its
+        place asked for before, decided inside or outside there: no renders yet to pay for a
+        field), ``rent`` (rendered before, those renders cost less than a field so far:
+        :meth:`_again`), ``busy`` (its field is due but would come later than a render:
+        :meth:`_sooner`), or ``closed`` (the server is stopping)."""
+        if key.style.outline is not None:
+            return "outline"
+        fkey = key.field()
+        with self.lock:
+            if self.closed:
+                return "closed"
+            if fkey not in self.later:
+                return "frontier" if seen else "new"
+            if fkey in self.wanted or self._again(fkey, key.d):
+                return "busy"
+            return "rent"
 
     def call(self, fn) -> Future:
         """A future of ``fn()`` run on the render thread (GL work must run there: the
         context is current on that thread only). Raises :class:`QueueFull`."""
-        return self._put(fn, Future())
+        return self._put(fn, Job())
 
-    def _put(self, item, fut: Future) -> Future:
+    def _put(self, item, fut: Future, urgent: bool = False) -> Future:
         self.last_put = time.monotonic()
-        try:
-            self.queue.put_nowait((item, fut))
-        except queue.Full:
-            raise QueueFull("the render queue is full") from None
+        if not self.queue.put(item, fut, urgent):
+            raise QueueFull("the render queue is full")
         return fut
 
     def _keep(self, key: TileKey | FieldKey, data: bytes) -> None:
@@ -526,14 +554,13 @@ class TileService:
     # ------------------------------------------------------------------ the render thread
     def _loop(self) -> None:
         while True:
-            batch = [self.queue.get()]
+            batch = self.queue.take()
             self.gate.wait()
-            while True:
-                try:
-                    batch.append(self.queue.get_nowait())
-                except queue.Empty:
-                    break
             self.busy = True
+            began = time.monotonic()
+            for _, fut in batch:
+                if isinstance(fut, Job):
+                    fut.began = began
             try:
                 self._run(batch)
             except Exception:  # noqa: BLE001 - the thread must outlive any one batch
@@ -652,6 +679,78 @@ class _FromField:
     """A render-queue item: the tile ``key`` answered from its field (made if need be)."""
 
     key: TileKey
+
+
+class Job(Future):
+    """The future of a render-queue request, with when it was queued and when the render
+    thread took it (:func:`time.monotonic` seconds; ``began`` None until then): what the
+    ``Server-Timing`` header reports (the wait in the queue, then the work)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.queued = time.monotonic()
+        self.began: float | None = None
+
+
+def _done(data) -> Future:
+    fut: Future = Future()
+    fut.set_result(data)
+    return fut
+
+
+def _group(item) -> tuple:
+    """What requests the render thread runs together: tiles of one layer, distance, zoom,
+    size and style (one :func:`~gloffset.tiles.tiling.render_tiles`), a field and the
+    tiles answered from it, or one call."""
+    if isinstance(item, TileKey):
+        return ("tiles", *item.group())
+    if isinstance(item, FieldKey):
+        return ("field", item)
+    if isinstance(item, _FromField):
+        return ("field", item.key.field())
+    return ("call", id(item))
+
+
+class _Pending:
+    """The render thread's queue: at most ``maxsize`` requests, taken a group at a time
+    (:func:`_group`), the most pressing group first: one with an urgent request (a tile of a
+    view seen before, as a distance slider asks) or with a request that waited :data:`AGE`
+    seconds, before the others; among equals the group of the oldest request. So the tiles
+    of a slider's view wait for the group being run and the other slider tiles, not behind
+    the new views' renders, and no request waits for ever."""
+
+    def __init__(self, maxsize: int):
+        self.maxsize = maxsize
+        self.items: list = []  # [group, urgent, queued at, item, future], oldest first
+        self.cond = threading.Condition()
+
+    def put(self, item, fut: Future, urgent: bool = False) -> bool:
+        """Queue ``item``; False, and nothing queued, when the queue is full."""
+        with self.cond:
+            if len(self.items) >= self.maxsize:
+                return False
+            self.items.append((_group(item), urgent, time.monotonic(), item, fut))
+            self.cond.notify()
+            return True
+
+    def take(self) -> list:
+        """The ``(item, future)`` pairs of the most pressing group, taken off the queue
+        (waits for a request)."""
+        with self.cond:
+            while not self.items:
+                self.cond.wait()
+            late = time.monotonic() - AGE
+            first = min(self.items, key=lambda e: (not (e[1] or e[2] <= late), e[2]))
+            taken = [e for e in self.items if e[0] == first[0]]
+            self.items = [e for e in self.items if e[0] != first[0]]
+            return [(e[3], e[4]) for e in taken]
+
+    def qsize(self) -> int:
+        with self.cond:
+            return len(self.items)
+
+    def empty(self) -> bool:
+        return not self.qsize()
 
 
 def _tms_tiles(shape, key: TileKey, tiles) -> dict:
