@@ -137,3 +137,37 @@ def test_a_rendered_tile_says_what_it_waited_for_and_why_it_was_rendered(shape, 
         assert TIMING.fullmatch(r.headers["server-timing"])[3] == "new"
         assert urgent == [True, True, False]
         assert "server-timing" in r.headers["access-control-expose-headers"].lower()
+
+
+def test_a_seen_views_decided_tiles_have_their_fields_ahead_where_fields_are_cheap(shape):
+    """Where a field costs at most ``AT_ONCE`` renders, a tile of a view seen before that
+    is decided at the distance asked has its field made ahead on the field thread; at a
+    later distance that brings it to the frontier it is that field's threshold (no render,
+    no field made while the slider waits), byte-identical to the rendered tile. Where
+    fields are dear, nothing is made ahead."""
+    app = create_app({"mexico": shape}, render_timeout=120)
+    z, x, y = 6, 13, 27
+    path = "/tiles/mexico/{}/6/13/27.png"
+    with TestClient(app) as c:
+        tiles = app.state.server.tiles
+        tiles.render_cost["mexico"], tiles.field_cost["mexico"] = 1.0, 50.0  # dear fields
+        assert c.get(path.format("-2000km")).headers["x-gloffset-tile"] == "outside"
+        assert c.get(path.format("-1500km")).headers["x-gloffset-tile"] == "outside"
+        time.sleep(0.3)
+        assert not tiles.ahead and tiles.computed == 0
+        tiles.field_cost["mexico"] = 1.0  # as cheap as a render: fields at once
+        assert c.get(path.format("-1800km")).headers["x-gloffset-tile"] == "outside"
+        end = time.monotonic() + 120
+        while tiles.field(svc.FieldKey("mexico", z, x, y, 256)) is None:
+            assert time.monotonic() < end, "the field made ahead never came"
+            time.sleep(0.05)
+        assert tiles.computed == 1 and tiles.rendered == 0
+        for dist in ("127km", "-20km"):
+            r = c.get(path.format(dist))
+            assert r.headers["x-gloffset-tile"] == "field", r.headers
+            want = render_tiles(shape, parse_distance(dist, EARTH_RADIUS), z, [(x, y)])
+            assert r.content == want[(x, y)]
+        assert tiles.computed == 1 and tiles.rendered == 0
+        # a new view's decided tile: nothing ahead
+        assert c.get("/tiles/mexico/-2000km/6/14/27.png").headers["x-gloffset-tile"] == "outside"
+        assert not tiles.ahead

@@ -194,6 +194,8 @@ class _Server:
             found = self.tiles.answer(key, measure=False)
         if found is UNKNOWN:  # measured but since forgotten: measure it alone
             found = await asyncio.to_thread(self.tiles.answer, key)
+        if seen and found is not None and found[1] in ("inside", "outside"):
+            self.tiles.ahead_of(key)  # a slider's next distance may need its field
         if found is None and await self._field_kept(key):
             thresholded = await asyncio.to_thread(self.tiles.from_field, key)
             found = None if thresholded is None else (thresholded, "field")

@@ -26,7 +26,9 @@ A new tile is answered from its field, computed on the render thread in the batc
 field costs at most :data:`AT_ONCE` renders (:meth:`TileService.submit_from_field`). Else
 fields are computed on a field thread (its own GL context): first for a tile asked for
 again at a new distance once its renders took as long as a field does (a distance slider:
-:meth:`TileService._again`, rent or buy), newest first; the others when idle. They are
+:meth:`TileService._again`, rent or buy), newest first; then, where fields are that cheap,
+those of a seen view's tiles decided at the distance asked, which a later distance may
+bring to the frontier (:meth:`TileService.ahead_of`); the others when idle. They are
 kept in a second LRU bounded in bytes (``field_mb``); a tile whose field is kept is answered
 at any distance by :meth:`TileService.from_field`, the field's threshold.
 """
@@ -198,6 +200,9 @@ class TileService:
         #: FieldKey -> (the distances a tile was rendered at, the seconds its renders
         #: took): its field when idle, or first once the renders cost what the field does
         self.later: OrderedDict = OrderedDict()
+        #: FieldKey -> None: tiles of views seen before, decided inside or outside at the
+        #: distance asked, whose fields are made ahead where fields are cheap (ahead_of)
+        self.ahead: OrderedDict = OrderedDict()
         self.field_cost: dict = {}  # layer -> running mean of its fields' seconds
         self.render_cost: dict = {}  # layer -> running mean of a rendered tile's seconds
         self.wanted: OrderedDict = OrderedDict()  # FieldKey -> Future, tiles asked again: at once
@@ -306,6 +311,7 @@ class TileService:
         with self.lock:
             self.closed = True
             self.later.clear()
+            self.ahead.clear()
             for fut in self.wanted.values():
                 fut.set_result(None)
             self.wanted.clear()
@@ -454,7 +460,8 @@ class TileService:
     def field_future(self, key: TileKey) -> Future | None:
         """A future that is done when the field of tile ``key`` is kept (its result None
         when it could not be made), for a tile whose field is due (:meth:`_again`: a view
-        seen before at another distance, as a distance slider asks) when waiting for the
+        seen before at another distance, as a distance slider asks; or queued ahead,
+        :meth:`ahead_of`) when waiting for the
         field is expected to be no longer than waiting for a render (:meth:`_sooner`); the
         field is then queued first. Else None: render the tile. None too for styles with
         an outline (those tiles are rendered)."""
@@ -464,11 +471,34 @@ class TileService:
         with self.lock:
             if fkey in self.computing:
                 return self.computing[fkey]
-            if self.closed or not (fkey in self.wanted or self._again(fkey, key.d)):
+            due = fkey in self.wanted or fkey in self.ahead or self._again(fkey, key.d)
+            if self.closed or not due:
                 return None
             if not self._sooner(fkey.layer):
                 return None
             return self._want(fkey)
+
+    def ahead_of(self, key: TileKey) -> None:
+        """Queue the field of tile ``key`` ahead on the field thread: a tile of a view seen
+        before (a distance slider moves), decided inside or outside at ``key.d``, that may
+        reach the frontier at a later distance, where fields cost at most :data:`AT_ONCE`
+        renders (:meth:`at_once`: a new frontier tile is answered from its field anyway).
+        That distance is then the threshold of a kept field, not a field made while the
+        slider waits. Nothing where fields are dearer (the renders pay, rent or buy), and
+        nothing for styles with an outline (always rendered)."""
+        if key.style.outline is not None or not self.at_once(key.layer):
+            return
+        fkey = key.field()
+        with self.lock:
+            if self.closed or fkey in self.fields or fkey in self.computing:
+                return
+            if fkey in self.wanted:
+                return
+            self.ahead[fkey] = None
+            self.ahead.move_to_end(fkey)
+            while len(self.ahead) > LATER:
+                self.ahead.popitem(last=False)
+            self.wake.notify()
 
     def _sooner(self, layer: str) -> bool:
         """Whether a field queued first now comes no later than a render (holding the
@@ -503,6 +533,7 @@ class TileService:
     def _want(self, fkey: FieldKey) -> Future:
         """Queue the field of ``fkey`` first (holding the lock); its future."""
         self.later.pop(fkey, None)
+        self.ahead.pop(fkey, None)
         fut = self.wanted.get(fkey) or self.computing.get(fkey)
         if fut is None:
             fut = Future()
@@ -517,12 +548,16 @@ class TileService:
 
     def _next_field(self) -> tuple[FieldKey, Future] | None:
         """The next field to compute and its future (None once closed): the newest tile
-        asked for again at a new distance, else, when no render was asked for in
-        :data:`IDLE` seconds, the newest tile rendered once."""
+        asked for again at a new distance, else the newest tile queued ahead
+        (:meth:`ahead_of`), else, when no render was asked for in :data:`IDLE` seconds,
+        the newest tile rendered once."""
         with self.lock:
             while not self.closed:
                 if self.wanted:
                     fkey, fut = self.wanted.popitem(last=True)
+                elif self.ahead:
+                    fkey, fut = self.ahead.popitem(last=True)[0], Future()
+                    fut.set_running_or_notify_cancel()
                 elif self.later and self._idle():
                     fkey, fut = self.later.popitem(last=True)[0], Future()
                     fut.set_running_or_notify_cancel()
