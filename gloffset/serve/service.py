@@ -28,7 +28,8 @@ fields are computed on a field thread (its own GL context): first for a tile ask
 again at a new distance once its renders took as long as a field does (a distance slider:
 :meth:`TileService._again`, rent or buy), newest first; then, where fields are that cheap,
 those of a seen view's tiles decided at the distance asked, which a later distance may
-bring to the frontier (:meth:`TileService.ahead_of`); the others when idle. They are
+bring to the frontier, while the render thread has nothing to do (:meth:`TileService.ahead_of`);
+the others when idle. They are
 kept in a second LRU bounded in bytes (``field_mb``); a tile whose field is kept is answered
 at any distance by :meth:`TileService.from_field`, the field's threshold.
 """
@@ -88,6 +89,9 @@ EMPTY_PNG = {256: empty_png(256), 512: empty_png(512)}
 #: seconds without a render request after which the field thread computes the field of a
 #: tile rendered once (a pause in the requests, not the gap between two views)
 IDLE = 0.5
+#: seconds between two looks of the field thread at the render thread, while fields queued
+#: ahead (:meth:`TileService.ahead_of`) wait for it to have nothing to do
+POLL = 0.05
 #: rendered tiles whose fields wait, at most, in each of the two queues (the oldest go)
 LATER = 4096
 #: before any field's cost is known: a tile asked for after renders at this many other
@@ -479,7 +483,8 @@ class TileService:
             return self._want(fkey)
 
     def ahead_of(self, key: TileKey) -> None:
-        """Queue the field of tile ``key`` ahead on the field thread: a tile of a view seen
+        """Queue the field of tile ``key`` ahead on the field thread (made while the render
+        thread has nothing to do, :meth:`_next_field`): a tile of a view seen
         before (a distance slider moves), decided inside or outside at ``key.d``, that may
         reach the frontier at a later distance, where fields cost at most :data:`AT_ONCE`
         renders (:meth:`at_once`: a new frontier tile is answered from its field anyway).
@@ -548,21 +553,22 @@ class TileService:
 
     def _next_field(self) -> tuple[FieldKey, Future] | None:
         """The next field to compute and its future (None once closed): the newest tile
-        asked for again at a new distance, else the newest tile queued ahead
-        (:meth:`ahead_of`), else, when no render was asked for in :data:`IDLE` seconds,
-        the newest tile rendered once."""
+        asked for again at a new distance, else, while the render thread has nothing to do,
+        the newest tile queued ahead (:meth:`ahead_of`: low priority, so that they never
+        slow the renders a client waits for), else, when no render was asked for in
+        :data:`IDLE` seconds, the newest tile rendered once."""
         with self.lock:
             while not self.closed:
                 if self.wanted:
                     fkey, fut = self.wanted.popitem(last=True)
-                elif self.ahead:
+                elif self.ahead and not self.busy and self.queue.empty():
                     fkey, fut = self.ahead.popitem(last=True)[0], Future()
                     fut.set_running_or_notify_cancel()
                 elif self.later and self._idle():
                     fkey, fut = self.later.popitem(last=True)[0], Future()
                     fut.set_running_or_notify_cancel()
-                else:  # polled while fields of tiles rendered once wait for an idle server
-                    self.wake.wait(IDLE if self.later else None)
+                else:  # polled while fields wait for a free render thread or an idle server
+                    self.wake.wait(POLL if self.ahead else IDLE if self.later else None)
                     continue
                 if fkey in self.fields:
                     fut.set_result(None)
