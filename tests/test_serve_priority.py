@@ -41,6 +41,7 @@ def _key(d_km: float, z: int, x: int, y: int) -> svc.TileKey:
 
 
 def test_the_most_pressing_group_is_taken_first_and_whole(monkeypatch):
+    monkeypatch.setattr(svc, "AGE", 60.0)  # no request waits that long here
     q = svc._Pending(5)
     new_a, new_b = _key(100, 6, 13, 27), _key(100, 6, 14, 27)  # one group
     other = _key(50, 5, 7, 13)
@@ -69,7 +70,8 @@ def test_the_most_pressing_group_is_taken_first_and_whole(monkeypatch):
     assert q.take()[0][0] == seen and q.empty()
 
 
-def test_a_seen_views_tile_is_rendered_before_new_views_tiles(shape):
+def test_a_seen_views_tile_is_rendered_before_new_views_tiles(shape, monkeypatch):
+    monkeypatch.setattr(svc, "AGE", 60.0)  # however long the first render takes here
     tiles = svc.TileService({"mexico": shape})
     done: list = []
     try:

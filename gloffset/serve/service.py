@@ -105,8 +105,10 @@ COST_WEIGHT = 0.3
 AT_ONCE = 2.0
 
 #: seconds a request of a new view waits, at most, behind the tiles of views seen before
-#: (:class:`_Pending`): then it goes first too (no view starves)
-AGE = 1.0
+#: (:class:`_Pending`): then it goes first too (no view starves). Short, so that a saturated
+#: server serves in turn (fair) and the seen views go first while waits are short, where a
+#: slider's target of tens of milliseconds is within reach
+AGE = 0.25
 
 #: seconds between two hand-backs of the freed heap to the system (after a render batch:
 #: the RSS then follows the memory in use, not the largest batch so far)
