@@ -1,4 +1,4 @@
-"""The render queue of ``gloffset serve`` (:class:`gloffset.serve.service._Pending`): the
+"""The render queue of ``gloffset serve`` (:class:`gloffset.serve.renderqueue.RenderQueue`): the
 tiles of a view seen before (a distance slider) are rendered before those of new views,
 which wait at most ``AGE`` seconds behind them; requests of one group are taken together;
 the queue stays bounded. And the ``Server-Timing`` header of a rendered tile: the wait in
@@ -22,6 +22,7 @@ pytest.importorskip("starlette")
 pytest.importorskip("httpx")
 from starlette.testclient import TestClient  # noqa: E402
 
+from gloffset.serve import renderqueue as rq  # noqa: E402
 from gloffset.serve import service as svc  # noqa: E402
 from gloffset.serve.app import create_app  # noqa: E402
 
@@ -41,16 +42,16 @@ def _key(d_km: float, z: int, x: int, y: int) -> svc.TileKey:
 
 
 def test_the_most_pressing_group_is_taken_first_and_whole(monkeypatch):
-    monkeypatch.setattr(svc, "AGE", 60.0)  # no request waits that long here
-    q = svc._Pending(5)
+    monkeypatch.setattr(rq, "AGE", 60.0)  # no request waits that long here
+    q = rq.RenderQueue(5, svc._group)
     new_a, new_b = _key(100, 6, 13, 27), _key(100, 6, 14, 27)  # one group
     other = _key(50, 5, 7, 13)
     seen = _key(30, 6, 13, 27)
-    futs = [svc.Job() for _ in range(5)]
+    futs = [rq.Job() for _ in range(5)]
     assert q.put(new_a, futs[0]) and q.put(other, futs[1]) and q.put(new_b, futs[2])
     assert q.put(seen, futs[3], urgent=True)
     assert q.put(svc.FieldKey("mexico", 6, 13, 27, 256), futs[4])
-    assert not q.put(_key(10, 4, 3, 6), svc.Job())  # full: nothing queued
+    assert not q.put(_key(10, 4, 3, 6), rq.Job())  # full: nothing queued
     assert q.qsize() == 5
     assert q.take() == [(seen, futs[3])]  # urgent, though the newest tile
     assert q.take() == [(new_a, futs[0]), (new_b, futs[2])]  # the oldest group, whole
@@ -65,13 +66,13 @@ def test_the_most_pressing_group_is_taken_first_and_whole(monkeypatch):
     assert q.put(seen, futs[1], urgent=True)
     assert q.take()[0][0] == seen
     assert q.put(seen, futs[1], urgent=True)
-    monkeypatch.setattr(svc, "AGE", 0.0)
+    monkeypatch.setattr(rq, "AGE", 0.0)
     assert q.take()[0][0] == new_a  # older than the urgent one, and waited AGE
     assert q.take()[0][0] == seen and q.empty()
 
 
 def test_a_seen_views_tile_is_rendered_before_new_views_tiles(shape, monkeypatch):
-    monkeypatch.setattr(svc, "AGE", 60.0)  # however long the first render takes here
+    monkeypatch.setattr(rq, "AGE", 60.0)  # however long the first render takes here
     tiles = svc.TileService({"mexico": shape})
     done: list = []
     try:

@@ -38,7 +38,6 @@ import math
 import os
 import re
 import threading
-import time
 from pathlib import Path
 from typing import NoReturn
 from urllib.parse import urlencode
@@ -77,10 +76,10 @@ from ..vector.arcrings import DEFAULT_TOLERANCE
 from ..vector.offset import offset
 from .accesslog import AccessLog, open_log
 from .bounds import region_bounds
+from .renderqueue import server_timing
 from .service import (
     UNKNOWN,
     FieldKey,
-    Job,
     QueueFull,
     TileKey,
     TileService,
@@ -533,22 +532,6 @@ class _Server:
 #: a tile number: ASCII digits only (``int()`` also takes ``1_0``, ``+1``, `` 1`` and the
 #: digits of other scripts), at most 8 of them (zooms stop at 22)
 _NUMBER = re.compile(r"[0-9]{1,8}")
-
-
-def server_timing(fut, why: str | None = None) -> str:
-    """The ``Server-Timing`` header of an answer made on the render thread (``fut``, a
-    :class:`~gloffset.serve.service.Job`): ``queue`` the milliseconds it waited for the
-    render thread, ``render`` those from then to the answer (its group's render, or field),
-    and ``why`` a tile was rendered (:meth:`~gloffset.serve.service.TileService.why_rendered`).
-    Empty for an answer that was cached by then."""
-    if not isinstance(fut, Job) or fut.began is None:
-        return ""
-    now = time.monotonic()
-    parts = [f"queue;dur={1e3 * (fut.began - fut.queued):.1f}"]
-    parts.append(f"render;dur={1e3 * (now - fut.began):.1f}")
-    if why is not None:
-        parts.append(f'why;desc="{why}"')
-    return ", ".join(parts)
 
 
 def _zxy(z: str, x: str, y: str) -> tuple[int, int, int, int]:

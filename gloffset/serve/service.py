@@ -11,34 +11,26 @@ distance, so they are measured once per tile.
 The answer is one shared PNG per size and style (empty: fully transparent).
 
 A moderngl context is current on one thread only, so every other tile is rendered on one
-render thread. Requests wait on a :class:`concurrent.futures.Future`; the queue holds at
-most ``queue_size`` pending tiles (a full queue raises :class:`QueueFull`, which the
-server answers with 503 and ``Retry-After``). The render thread takes the pending
-requests of one layer, distance, zoom, size and style at once and renders them together
-(:func:`gloffset.tiles.tiling.render_tiles`: one walk down the zooms and batched GPU
-runs), so throughput grows with load; the tiles of a view asked for before at another
-distance (a distance slider) go before those of new views (:class:`_Pending`), which wait
-at most :data:`AGE` seconds behind them. Rendered tiles are kept in an LRU bounded in
-bytes. A request whose client went away is still rendered when its batch had started
-(the tile is cached, the answer dropped); one cancelled before is skipped.
+render thread. Requests wait on a :class:`~gloffset.serve.renderqueue.Job`; the queue
+(:class:`~gloffset.serve.renderqueue.RenderQueue`: a seen view's tiles first) holds at most
+``queue_size`` of them (full, it raises :class:`QueueFull`: 503 and ``Retry-After``). The
+render thread renders the pending tiles of one layer, distance, zoom, size and style
+together (:func:`gloffset.tiles.tiling.render_tiles`), so throughput grows with load.
+Rendered tiles are kept in an LRU bounded in bytes. A request whose client went away is
+still rendered when its batch had started; one cancelled before is skipped.
 
-A new tile is answered from its field, computed on the render thread in the batch, where a
-field costs at most :data:`AT_ONCE` renders (:meth:`TileService.submit_from_field`). Else
-fields are computed on a field thread (its own GL context): first for a tile asked for
-again at a new distance once its renders took as long as a field does (a distance slider:
-:meth:`TileService._again`, rent or buy), newest first; then, where fields are that cheap,
-those of a seen view's tiles decided at the distance asked, which a later distance may
-bring to the frontier, while the render thread has nothing to do (:meth:`TileService.ahead_of`);
-the others when idle. They are
-kept in a second LRU bounded in bytes (``field_mb``); a tile whose field is kept is answered
-at any distance by :meth:`TileService.from_field`, the field's threshold.
+A new tile is answered from its field, computed on the render thread, where a field costs
+at most :data:`AT_ONCE` renders (:meth:`TileService.submit_from_field`). Else fields are
+computed on a field thread (its own GL context): first for a tile asked for again at a new
+distance once its renders cost a field (rent or buy, :meth:`TileService._again`); then,
+where fields are that cheap, those of a seen view's decided tiles
+(:meth:`TileService.ahead_of`); the others when idle. They are kept in a second LRU
+(``field_mb``); a tile whose field is kept is answered at any distance by its threshold
+(:meth:`TileService.from_field`).
 """
 
 from __future__ import annotations
 
-import functools
-import hashlib
-import io
 import logging
 import threading
 import time
@@ -46,25 +38,21 @@ from collections import OrderedDict
 from concurrent.futures import Future
 from dataclasses import dataclass
 
-import numpy as np
-from PIL import Image
-
 from ..errors import QueueFullError as QueueFull
 from ..geometry.classes import CONTAINED, OUTSIDE
-from ..grids.tms import tms_quad
 from ..raster.render import render_angle
 from ..tiles.tiling import measure_tiles, render_tiles
 from ..tiles.tiling.fieldtiles import encode_field, field_tile
 from ..tiles.tiling.malloc import give_back_freed_memory
 from ..tiles.tiling.ondemand import tms_levels
-from ..tiles.tiling.tilepaint import TileStyle
 from ..units import EARTH_RADIUS
+from .renderqueue import Job, RenderQueue
+from .tilekeys import EMPTY_PNG, FieldKey, TileKey, empty_tile, etag, full_png, quad_of
 
 __all__ = [
     "TileKey",
     "FieldKey",
     "TileService",
-    "Job",
     "QueueFull",
     "EMPTY_PNG",
     "UNKNOWN",
@@ -74,16 +62,6 @@ __all__ = [
 ]
 
 log = logging.getLogger("gloffset.serve")
-
-
-def empty_png(size: int) -> bytes:
-    buf = io.BytesIO()
-    Image.fromarray(np.zeros((size, size, 4), np.uint8), mode="RGBA").save(buf, format="PNG")
-    return buf.getvalue()
-
-
-#: A fully transparent tile of 256 and 512 pixels (every tile with nothing in it).
-EMPTY_PNG = {256: empty_png(256), 512: empty_png(512)}
 
 
 #: seconds without a render request after which the field thread computes the field of a
@@ -104,12 +82,6 @@ COST_WEIGHT = 0.3
 #: its layer costs at most this many of its renders (the running means): a GPU field
 AT_ONCE = 2.0
 
-#: seconds a request of a new view waits, at most, behind the tiles of views seen before
-#: (:class:`_Pending`): then it goes first too (no view starves). Short, so that a saturated
-#: server serves in turn (fair) and the seen views go first while waits are short, where a
-#: slider's target of tens of milliseconds is within reach
-AGE = 0.25
-
 #: seconds between two hand-backs of the freed heap to the system (after a render batch:
 #: the RSS then follows the memory in use, not the largest batch so far)
 TRIM = 5.0
@@ -121,67 +93,6 @@ CENTRES = 200_000
 ENTRY = 512
 #: :meth:`TileService.answer` without ``measure``: the tile's centre is not measured yet
 UNKNOWN = object()
-
-
-@functools.lru_cache(maxsize=64)
-def full_png(size: int, style: TileStyle) -> bytes:
-    """The one PNG of a tile wholly inside the region, per size and style."""
-    png = style.encode(np.ones((size, size), dtype=bool))
-    assert png is not None  # every pixel inside shows
-    return png
-
-
-@dataclass(frozen=True)
-class TileKey:
-    """What a tile is: layer, distance (radians), z/x/y, pixel size, style and
-    TileMatrixSet (``tms``: its id, None for web mercator)."""
-
-    layer: str
-    d: float
-    z: int
-    x: int
-    y: int
-    size: int
-    style: TileStyle
-    tms: str | None = None
-
-    def group(self) -> tuple:
-        return (self.layer, self.d, self.z, self.size, self.style, self.tms)
-
-    def where(self) -> tuple:
-        """The tile's place, whose centre decides it at any distance (any size, style)."""
-        return (self.layer, self.z, self.x, self.y, self.tms)
-
-    def field(self) -> FieldKey:
-        """The key of the tile's distance field."""
-        return FieldKey(self.layer, self.z, self.x, self.y, self.size, self.tms)
-
-
-@dataclass(frozen=True)
-class FieldKey:
-    """A tile's distance field: layer, z/x/y, pixel size and TileMatrixSet (any
-    distance, any style)."""
-
-    layer: str
-    z: int
-    x: int
-    y: int
-    size: int
-    tms: str | None = None
-
-    def grid_quad(self):
-        """The :class:`~gloffset.grids.tms.TmsQuad` of the tile's TMS (None: web mercator)."""
-        return _quad(self.tms)
-
-
-def _quad(tms: str | None):
-    return None if tms is None else tms_quad(tms)
-
-
-@functools.lru_cache(maxsize=16)
-def empty_tile(size: int) -> bytes:
-    """The fully transparent tile of ``size`` pixels (:data:`EMPTY_PNG`'s where it has one)."""
-    return EMPTY_PNG.get(size) or empty_png(size)
 
 
 class TileService:
@@ -197,7 +108,7 @@ class TileService:
         field_mb: float = 256.0,
     ):
         self.layers = layers
-        self.queue = _Pending(max(1, int(queue_size)))
+        self.queue = RenderQueue(max(1, int(queue_size)), _group)
         self.cache: OrderedDict = OrderedDict()
         self.cache_bytes, self.cache_limit = 0, int(cache_mb * (1 << 20))
         self.centres: OrderedDict = OrderedDict()  # (layer, z, x, y) -> what triage needs
@@ -269,7 +180,7 @@ class TileService:
         those of a TileMatrixSet without a bound of its tiles (:func:`tms_levels`)."""
         if key.style.outline is not None:
             return None
-        if key.tms is not None and tms_levels(_quad(key.tms), key.z) is None:
+        if key.tms is not None and tms_levels(quad_of(key.tms), key.z) is None:
             return None
         where = key.where()
         with self.lock:
@@ -289,7 +200,7 @@ class TileService:
         with every arc that can be its centre's nearest as candidates (no distance
         limit): the exact distances to the nearest boundary arc and ring edge, the
         centre's inside status and the tile's decision bound (1-element arrays)."""
-        shape, quad = self.layers[key.layer], _quad(key.tms)
+        shape, quad = self.layers[key.layer], quad_of(key.tms)
         return measure_tiles(shape, key.z, [(key.x, key.y)], quad)[(key.x, key.y)]
 
     def measure(self, keys) -> None:
@@ -302,9 +213,9 @@ class TileService:
                 if k.where() not in self.centres:
                     groups.setdefault((k.layer, k.z, k.tms), set()).add((k.x, k.y))
         for (layer, z, tms), tiles in groups.items():
-            if tms is not None and tms_levels(_quad(tms), z) is None:
+            if tms is not None and tms_levels(quad_of(tms), z) is None:
                 continue  # rendered, never decided (triage)
-            got = measure_tiles(self.layers[layer], z, sorted(tiles), _quad(tms))
+            got = measure_tiles(self.layers[layer], z, sorted(tiles), quad_of(tms))
             with self.lock:
                 for (x, y), geo in got.items():
                     self.centres[(layer, z, x, y, tms)] = geo
@@ -381,7 +292,7 @@ class TileService:
         """A future of the tile's PNG bytes, rendered on the render thread (raises
         :class:`QueueFull`); a :class:`Job` unless the tile is cached. ``urgent``: a tile
         of a view seen before (:meth:`seen`: a distance slider moves), taken before the
-        tiles of new views (:class:`_Pending`)."""
+        tiles of new views (:class:`~gloffset.serve.renderqueue.RenderQueue`)."""
         data = self.cached(key)
         if data is not None:
             return _done(data)
@@ -453,7 +364,7 @@ class TileService:
         if f is None:
             t0 = time.perf_counter()
             shape = self.layers[fkey.layer]
-            f = field_tile(shape, fkey.z, fkey.x, fkey.y, fkey.size, fkey.grid_quad())
+            f = field_tile(shape, fkey.z, fkey.x, fkey.y, fkey.size, fkey.gridquad_of())
             took = time.perf_counter() - t0
             with self.lock:
                 self.computed += 1
@@ -724,17 +635,6 @@ class _FromField:
     key: TileKey
 
 
-class Job(Future):
-    """The future of a render-queue request, with when it was queued and when the render
-    thread took it (:func:`time.monotonic` seconds; ``began`` None until then): what the
-    ``Server-Timing`` header reports (the wait in the queue, then the work)."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.queued = time.monotonic()
-        self.began: float | None = None
-
-
 def _done(data) -> Future:
     fut: Future = Future()
     fut.set_result(data)
@@ -754,52 +654,10 @@ def _group(item) -> tuple:
     return ("call", id(item))
 
 
-class _Pending:
-    """The render thread's queue: at most ``maxsize`` requests, taken a group at a time
-    (:func:`_group`), the most pressing group first: one with an urgent request (a tile of a
-    view seen before, as a distance slider asks) or with a request that waited :data:`AGE`
-    seconds, before the others; among equals the group of the oldest request. So the tiles
-    of a slider's view wait for the group being run and the other slider tiles, not behind
-    the new views' renders, and no request waits for ever."""
-
-    def __init__(self, maxsize: int):
-        self.maxsize = maxsize
-        self.items: list = []  # [group, urgent, queued at, item, future], oldest first
-        self.cond = threading.Condition()
-
-    def put(self, item, fut: Future, urgent: bool = False) -> bool:
-        """Queue ``item``; False, and nothing queued, when the queue is full."""
-        with self.cond:
-            if len(self.items) >= self.maxsize:
-                return False
-            self.items.append((_group(item), urgent, time.monotonic(), item, fut))
-            self.cond.notify()
-            return True
-
-    def take(self) -> list:
-        """The ``(item, future)`` pairs of the most pressing group, taken off the queue
-        (waits for a request)."""
-        with self.cond:
-            while not self.items:
-                self.cond.wait()
-            late = time.monotonic() - AGE
-            first = min(self.items, key=lambda e: (not (e[1] or e[2] <= late), e[2]))
-            taken = [e for e in self.items if e[0] == first[0]]
-            self.items = [e for e in self.items if e[0] != first[0]]
-            return [(e[3], e[4]) for e in taken]
-
-    def qsize(self) -> int:
-        with self.cond:
-            return len(self.items)
-
-    def empty(self) -> bool:
-        return not self.qsize()
-
-
 def _tms_tiles(shape, key: TileKey, tiles) -> dict:
     """The styled PNG bytes (None: nothing to draw) of tiles ``(x, y)`` of ``key``'s zoom
     of its TileMatrixSet, each rendered on its own grid (:func:`gloffset.grids.TmsTile`)."""
-    quad = tms_quad(key.tms)
+    quad = quad_of(key.tms)
     return {
         (x, y): key.style.encode(render_angle(shape, key.d, quad.tile(key.z, x, y)) > 0)
         for x, y in sorted(tiles)
@@ -811,8 +669,3 @@ def _run_call(fn, fut: Future) -> None:
         fut.set_result(fn())
     except Exception as exc:  # noqa: BLE001 - handed to the caller
         fut.set_exception(exc)
-
-
-def etag(data: bytes) -> str:
-    """A strong ETag: the same bytes, the same tag."""
-    return '"' + hashlib.sha256(data).hexdigest()[:32] + '"'
