@@ -22,6 +22,11 @@ Two more workloads (``--workload``, issue 29, the live map):
   new distance: what the slider's target is about).
 - ``pan``: new views (never asked by any client) at one distance (:data:`PAN_KM`).
 
+For these two, the ``Server-Timing`` header of each tile made on the render thread (its
+wait for that thread, the work there, and why a tile was rendered rather than thresholded
+from a kept field) is summed up per phase, kind, reason and zoom (``server_timing`` in the
+record, printed after each run).
+
 With ``--pause S`` a slider or pan client waits S seconds after each view's tiles came (a
 user's pace; 0, the default, is a closed loop: the clients then measure the server's
 saturation, their latency the queue).
@@ -203,14 +208,23 @@ def new_view(rng, bounds, taken: set):
     raise SystemExit("no new view left near the input")
 
 
-async def view(conns, paths, out, phase):
-    """The tiles ``paths`` over the connections at once; each sample tagged ``phase``."""
+async def view(conns, paths, out, phase, timings=None):
+    """The tiles ``paths`` over the connections at once; each sample tagged ``phase``
+    (and each ``Server-Timing`` of a tile made on the render thread added to ``timings``
+    as ``(phase, zoom, kind, queue ms, render ms, why)``)."""
     got: list = []
-    await asyncio.gather(*(fetch(c, paths[i :: len(conns)], got) for i, c in enumerate(conns)))
+    made: list = []
+    await asyncio.gather(
+        *(fetch(c, paths[i :: len(conns)], got, made) for i, c in enumerate(conns))
+    )
     out += [(kind, dt, phase) for kind, dt in got]
+    if timings is not None:
+        timings += [(phase, *t) for t in made]
 
 
-async def slider_client(host, port, layer, bounds, seed, stop_at, out, taken, pause=0.0):
+async def slider_client(
+    host, port, layer, bounds, seed, stop_at, out, taken, pause=0.0, timings=None
+):
     """A map page whose user drags the distance slider: a view of its own at each of
     :data:`SLIDER_KM` in turn (the first distance ``first``, the others ``seen``), then a
     new view; ``pause`` seconds after each distance's tiles came (0: a closed loop)."""
@@ -223,14 +237,14 @@ async def slider_client(host, port, layer, bounds, seed, stop_at, out, taken, pa
                 if time.perf_counter() >= stop_at:
                     break
                 paths = [f"/tiles/{layer}/{km}km/{z}/{x}/{y}.png" for x, y in tiles]
-                await view(conns, paths, out, "first" if i == 0 else "seen")
+                await view(conns, paths, out, "first" if i == 0 else "seen", timings)
                 await asyncio.sleep(pause)
     finally:
         for c in conns:
             await c.close()
 
 
-async def pan_client(host, port, layer, bounds, seed, stop_at, out, taken, pause=0.0):
+async def pan_client(host, port, layer, bounds, seed, stop_at, out, taken, pause=0.0, timings=None):
     """A map page panned and zoomed at one distance (:data:`PAN_KM`): every view new."""
     rng = np.random.default_rng(seed)
     conns = [Connection(host, port) for _ in range(6)]
@@ -238,14 +252,16 @@ async def pan_client(host, port, layer, bounds, seed, stop_at, out, taken, pause
         while time.perf_counter() < stop_at:
             z, tiles = new_view(rng, bounds, taken)
             paths = [f"/tiles/{layer}/{PAN_KM}km/{z}/{x}/{y}.png" for x, y in tiles]
-            await view(conns, paths, out, "new")
+            await view(conns, paths, out, "new", timings)
             await asyncio.sleep(pause)
     finally:
         for c in conns:
             await c.close()
 
 
-async def fetch(conn, paths, out):
+async def fetch(conn, paths, out, made=None):
+    """GET each of ``paths`` in turn: ``(kind, seconds)`` to ``out``; with ``made``, the
+    ``Server-Timing`` of each tile made on the render thread (:func:`server_timing`)."""
     for path in paths:
         t = time.perf_counter()
         try:
@@ -254,8 +270,57 @@ async def fetch(conn, paths, out):
             kind = headers.get("x-gloffset-tile", "?") if ok else f"error {status}"
         except (OSError, asyncio.IncompleteReadError, ValueError) as exc:
             kind = f"error {type(exc).__name__}"
+            headers = {}
             await conn.close()
         out.append((kind, time.perf_counter() - t))
+        timing = server_timing(headers.get("server-timing"))
+        if made is not None and timing is not None:
+            made.append((int(path.split("/")[-3]), kind, *timing))
+
+
+def server_timing(header: str | None):
+    """``(queue ms, render ms, why)`` of a ``Server-Timing`` header (the server's wait for
+    its render thread, the work there, why a tile was rendered: None for a field), or None."""
+    if not header:
+        return None
+    got: dict = {}
+    for part in header.split(","):
+        name, *params = (p.strip() for p in part.split(";"))
+        for param in params:
+            k, _, v = param.partition("=")
+            got[name] = float(v) if k == "dur" else v.strip('"')
+    if "queue" not in got:
+        return None
+    return got["queue"], got.get("render"), got.get("why")
+
+
+def timing_summary(timings) -> dict:
+    """Per phase and kind of tile made on the render thread: the count, the wait for the
+    render thread and the work there (p50 / p99 ms), the count of each reason for a
+    rendered tile, and per zoom the count and the p99 of queue + render."""
+    out: dict = {}
+    for phase, kind in sorted({(t[0], t[2]) for t in timings}):
+        got = [t for t in timings if t[0] == phase and t[2] == kind]
+        q = np.asarray([t[3] for t in got])
+        w = np.asarray([t[4] for t in got])
+        whys: dict = {}
+        zooms: dict = {}
+        for t in got:
+            whys[str(t[5])] = whys.get(str(t[5]), 0) + 1
+            zooms.setdefault(t[1], []).append(t[3] + t[4])
+        out.setdefault(phase, {})[kind] = {
+            "count": len(got),
+            "queue_p50_ms": float(np.percentile(q, 50)),
+            "queue_p99_ms": float(np.percentile(q, 99)),
+            "render_p50_ms": float(np.percentile(w, 50)),
+            "render_p99_ms": float(np.percentile(w, 99)),
+            "why": whys,
+            "zooms": {
+                str(z): {"count": len(v), "p99_ms": float(np.percentile(v, 99))}
+                for z, v in sorted(zooms.items())
+            },
+        }
+    return out
 
 
 def start_server(path: Path, port: int, log, workers: int = 1, caches=None):
@@ -308,12 +373,13 @@ async def load(host, port, layer, bounds, n_clients, seconds, pid, workload="ran
     t0 = time.perf_counter()
     stop_at = t0 + seconds
     taken: set = set()
+    timings: list = []
     if workload == "random":
         runs = [client(host, port, layer, bounds, 1000 + i, stop_at, out) for i in range(n_clients)]
     else:
         fn = slider_client if workload == "slider" else pan_client
         runs = [
-            fn(host, port, layer, bounds, 1000 + i, stop_at, out, taken, pause)
+            fn(host, port, layer, bounds, 1000 + i, stop_at, out, taken, pause, timings)
             for i in range(n_clients)
         ]
     tasks = [asyncio.create_task(r) for r in runs]
@@ -331,6 +397,7 @@ async def load(host, port, layer, bounds, n_clients, seconds, pid, workload="ran
         for phase in sorted({p for _, _, p in out}):
             got = [(k, dt) for k, dt, p in out if p == phase]
             rec["phases"][phase] = summary(got, elapsed) | {"all": overall([dt for _, dt in got])}
+        rec["server_timing"] = timing_summary(timings)
     rec["seconds"] = elapsed
     cpu1 = cpu_s(pid)
     rec["cpu_s"] = {
@@ -462,6 +529,14 @@ def run_input(args, path: Path, workload: str) -> str:
                 proc.wait(timeout=60)
         runs[str(n_clients)] = rec
         print(f"{n_clients:>3} clients: {json.dumps(rec)}", flush=True)
+        for phase, kinds in rec.get("server_timing", {}).items():
+            for kind, t in kinds.items():
+                print(
+                    f"    {phase} {kind}: {t['count']} tiles, queue p50 / p99 "
+                    f"{t['queue_p50_ms']:.0f} / {t['queue_p99_ms']:.0f} ms, render "
+                    f"{t['render_p50_ms']:.0f} / {t['render_p99_ms']:.0f} ms, why {t['why']}",
+                    flush=True,
+                )
     (RESULTS / "serve.log.tmp").unlink(missing_ok=True)
     record = load_previous()
     key = layer if workload == "random" else f"{layer} {workload}"

@@ -76,6 +76,7 @@ from ..vector.arcrings import DEFAULT_TOLERANCE
 from ..vector.offset import offset
 from .accesslog import AccessLog, open_log
 from .bounds import region_bounds
+from .renderqueue import server_timing
 from .service import (
     UNKNOWN,
     FieldKey,
@@ -100,7 +101,7 @@ STATIC = Path(__file__).resolve().parent / "static"
 _ORIGIN = re.compile(r"[a-z][a-z0-9+.-]*://(\[[0-9a-f:.]+\]|[^/?#:@\[\]\s]+)(:[0-9]{1,5})?")
 
 #: the response headers a cross-origin script may read beside the safelisted ones
-_EXPOSED = ("ETag", "Retry-After", "X-Gloffset-Tile")
+_EXPOSED = ("ETag", "Retry-After", "X-Gloffset-Tile", "Server-Timing")
 
 
 def cors_origins(text: str) -> tuple[str, ...] | None:
@@ -185,32 +186,42 @@ class _Server:
     async def _tile_answer(self, request: Request, key: TileKey) -> Response:
         """The tile ``key`` (web mercator's or another TileMatrixSet's): cached, decided
         from its centre, the threshold of its kept field, or rendered."""
+        seen = self.tiles.seen(key)  # a view asked for before: its renders go first
         found = self.tiles.answer(key, measure=False)  # the cache, a known centre
         if found is UNKNOWN:
             await self._measured(key)
             found = self.tiles.answer(key, measure=False)
         if found is UNKNOWN:  # measured but since forgotten: measure it alone
             found = await asyncio.to_thread(self.tiles.answer, key)
+        if seen and found is not None and found[1] in ("inside", "outside"):
+            self.tiles.ahead_of(key)  # a slider's next distance may need its field
         if found is None and await self._field_kept(key):
             thresholded = await asyncio.to_thread(self.tiles.from_field, key)
             found = None if thresholded is None else (thresholded, "field")
+        timing = ""
         if found is None and key.style.outline is None and self.tiles.at_once(key.layer):
-            made = await self._wait(lambda: self.tiles.submit_from_field(key), "tile")
+            fut = self._submit(lambda: self.tiles.submit_from_field(key, urgent=seen))
+            made = await self._wait(fut, "tile")
             if isinstance(made, Response):
                 return made
-            found = (made, "field")
+            found, timing = (made, "field"), server_timing(fut)
         if found is not None:
             data, how = found
         else:
-            rendered = await self._render(key)
+            why = self.tiles.why_rendered(key, seen)
+            fut = self._submit(lambda: self.tiles.submit(key, urgent=seen))
+            rendered = await self._wait(fut, "tile")
             if isinstance(rendered, Response):
                 return rendered
             data, how = rendered, "rendered"
-        return self._png(request, data, how)
+            timing = server_timing(fut, why)
+        return self._png(request, data, how, timing)
 
-    def _png(self, request: Request, data: bytes, how: str) -> Response:
+    def _png(self, request: Request, data: bytes, how: str, timing: str = "") -> Response:
         tag = etag(data)
         headers = {"ETag": tag, "Cache-Control": self.cache_control, "X-Gloffset-Tile": how}
+        if timing:
+            headers["Server-Timing"] = timing
         if not_modified(request.headers.get("if-none-match"), tag):
             return Response(status_code=304, headers=headers)
         return Response(data, media_type="image/png", headers=headers)
@@ -226,10 +237,11 @@ class _Server:
         kept = self.tiles.cached(fkey)
         if kept is not None:
             return self._png(request, kept, "cached")
-        made = await self._wait(lambda: self.tiles.submit_field(fkey), "field")
+        fut = self._submit(lambda: self.tiles.submit_field(fkey))
+        made = await self._wait(fut, "field")
         if isinstance(made, Response):
             return made
-        return self._png(request, made, "computed")
+        return self._png(request, made, "computed", server_timing(fut))
 
     async def field_tilejson(self, request: Request) -> Response:
         name = request.path_params["layer"]
@@ -281,24 +293,26 @@ class _Server:
             await asyncio.wait_for(asyncio.wrap_future(fut), self.render_timeout)
         return self.tiles.field(key.field()) is not None
 
-    async def _render(self, key: TileKey) -> bytes | Response:
-        """The tile rendered on the render thread, or the 503 that says why not."""
-        return await self._wait(lambda: self.tiles.submit(key), "tile")
-
-    async def _wait(self, submit, what: str) -> bytes | Response:
-        """The bytes of ``submit()``'s future (work on the render thread), or the 503 that
-        says why not."""
-        busy = {"Retry-After": "1"}
+    @staticmethod
+    def _submit(submit):
+        """``submit()``'s future (work queued for the render thread), or the 503 that says
+        the queue is full."""
         try:
-            fut = submit()
+            return submit()
         except QueueFull:
             detail = "the render queue is full; try again"
-            return JSONResponse({"detail": detail}, status_code=503, headers=busy)
+            return JSONResponse({"detail": detail}, status_code=503, headers={"Retry-After": "1"})
+
+    async def _wait(self, fut, what: str) -> bytes | Response:
+        """The bytes of ``fut`` (work on the render thread, or the 503 of :meth:`_submit`),
+        or the 503 that says why not."""
+        if isinstance(fut, Response):
+            return fut
         try:
             return await asyncio.wait_for(asyncio.wrap_future(fut), self.render_timeout)
         except asyncio.TimeoutError:
             detail = f"the {what} was not rendered within {self.render_timeout:g} s; try again"
-            return JSONResponse({"detail": detail}, status_code=503, headers=busy)
+            return JSONResponse({"detail": detail}, status_code=503, headers={"Retry-After": "1"})
         except GloffsetError as exc:
             _bad(str(exc))
 

@@ -11,50 +11,43 @@ distance, so they are measured once per tile.
 The answer is one shared PNG per size and style (empty: fully transparent).
 
 A moderngl context is current on one thread only, so every other tile is rendered on one
-render thread. Requests wait on a :class:`concurrent.futures.Future`; the queue holds at
-most ``queue_size`` pending tiles (a full queue raises :class:`QueueFull`, which the
-server answers with 503 and ``Retry-After``). The render thread takes every pending
-request at once and renders those of one layer, distance, zoom, size and style together
-(:func:`gloffset.tiles.tiling.render_tiles`: one walk down the zooms and batched GPU
-runs), so throughput grows with load. Rendered tiles are kept in an LRU bounded in
-bytes. A request whose client went away is still rendered when its batch had started
-(the tile is cached, the answer dropped); one cancelled before is skipped.
+render thread. Requests wait on a :class:`~gloffset.serve.renderqueue.Job`; the queue
+(:class:`~gloffset.serve.renderqueue.RenderQueue`: a seen view's tiles first) holds at most
+``queue_size`` of them (full, it raises :class:`QueueFull`: 503 and ``Retry-After``). The
+render thread renders the pending tiles of one layer, distance, zoom, size and style
+together (:func:`gloffset.tiles.tiling.render_tiles`), so throughput grows with load.
+Rendered tiles are kept in an LRU bounded in bytes. A request whose client went away is
+still rendered when its batch had started; one cancelled before is skipped.
 
-A new tile is answered from its field, computed on the render thread in the batch, where a
-field costs at most :data:`AT_ONCE` renders (:meth:`TileService.submit_from_field`). Else
-fields are computed on a field thread (its own GL context): first for a tile asked for
-again at a new distance once its renders took as long as a field does (a distance slider:
-:meth:`TileService._again`, rent or buy), newest first; the others when idle. They are
-kept in a second LRU bounded in bytes (``field_mb``); a tile whose field is kept is answered
-at any distance by :meth:`TileService.from_field`, the field's threshold.
+A new tile is answered from its field, computed on the render thread, where a field costs
+at most :data:`AT_ONCE` renders (:meth:`TileService.submit_from_field`). Else fields are
+computed on a field thread (its own GL context): first for a tile asked for again at a new
+distance once its renders cost a field (rent or buy, :meth:`TileService._again`); then,
+where fields are that cheap, those of a seen view's decided tiles
+(:meth:`TileService.ahead_of`); the others when idle. They are kept in a second LRU
+(``field_mb``); a tile whose field is kept is answered at any distance by its threshold
+(:meth:`TileService.from_field`).
 """
 
 from __future__ import annotations
 
-import functools
-import hashlib
-import io
 import logging
-import queue
 import threading
 import time
 from collections import OrderedDict
 from concurrent.futures import Future
 from dataclasses import dataclass
 
-import numpy as np
-from PIL import Image
-
 from ..errors import QueueFullError as QueueFull
 from ..geometry.classes import CONTAINED, OUTSIDE
-from ..grids.tms import tms_quad
 from ..raster.render import render_angle
 from ..tiles.tiling import measure_tiles, render_tiles
 from ..tiles.tiling.fieldtiles import encode_field, field_tile
 from ..tiles.tiling.malloc import give_back_freed_memory
 from ..tiles.tiling.ondemand import tms_levels
-from ..tiles.tiling.tilepaint import TileStyle
 from ..units import EARTH_RADIUS
+from .renderqueue import Job, RenderQueue
+from .tilekeys import EMPTY_PNG, FieldKey, TileKey, empty_tile, etag, full_png, quad_of
 
 __all__ = [
     "TileKey",
@@ -71,19 +64,12 @@ __all__ = [
 log = logging.getLogger("gloffset.serve")
 
 
-def empty_png(size: int) -> bytes:
-    buf = io.BytesIO()
-    Image.fromarray(np.zeros((size, size, 4), np.uint8), mode="RGBA").save(buf, format="PNG")
-    return buf.getvalue()
-
-
-#: A fully transparent tile of 256 and 512 pixels (every tile with nothing in it).
-EMPTY_PNG = {256: empty_png(256), 512: empty_png(512)}
-
-
 #: seconds without a render request after which the field thread computes the field of a
 #: tile rendered once (a pause in the requests, not the gap between two views)
 IDLE = 0.5
+#: seconds between two looks of the field thread at the render thread, while fields queued
+#: ahead (:meth:`TileService.ahead_of`) wait for it to have nothing to do
+POLL = 0.05
 #: rendered tiles whose fields wait, at most, in each of the two queues (the oldest go)
 LATER = 4096
 #: before any field's cost is known: a tile asked for after renders at this many other
@@ -109,67 +95,6 @@ ENTRY = 512
 UNKNOWN = object()
 
 
-@functools.lru_cache(maxsize=64)
-def full_png(size: int, style: TileStyle) -> bytes:
-    """The one PNG of a tile wholly inside the region, per size and style."""
-    png = style.encode(np.ones((size, size), dtype=bool))
-    assert png is not None  # every pixel inside shows
-    return png
-
-
-@dataclass(frozen=True)
-class TileKey:
-    """What a tile is: layer, distance (radians), z/x/y, pixel size, style and
-    TileMatrixSet (``tms``: its id, None for web mercator)."""
-
-    layer: str
-    d: float
-    z: int
-    x: int
-    y: int
-    size: int
-    style: TileStyle
-    tms: str | None = None
-
-    def group(self) -> tuple:
-        return (self.layer, self.d, self.z, self.size, self.style, self.tms)
-
-    def where(self) -> tuple:
-        """The tile's place, whose centre decides it at any distance (any size, style)."""
-        return (self.layer, self.z, self.x, self.y, self.tms)
-
-    def field(self) -> FieldKey:
-        """The key of the tile's distance field."""
-        return FieldKey(self.layer, self.z, self.x, self.y, self.size, self.tms)
-
-
-@dataclass(frozen=True)
-class FieldKey:
-    """A tile's distance field: layer, z/x/y, pixel size and TileMatrixSet (any
-    distance, any style)."""
-
-    layer: str
-    z: int
-    x: int
-    y: int
-    size: int
-    tms: str | None = None
-
-    def grid_quad(self):
-        """The :class:`~gloffset.grids.tms.TmsQuad` of the tile's TMS (None: web mercator)."""
-        return _quad(self.tms)
-
-
-def _quad(tms: str | None):
-    return None if tms is None else tms_quad(tms)
-
-
-@functools.lru_cache(maxsize=16)
-def empty_tile(size: int) -> bytes:
-    """The fully transparent tile of ``size`` pixels (:data:`EMPTY_PNG`'s where it has one)."""
-    return EMPTY_PNG.get(size) or empty_png(size)
-
-
 class TileService:
     """Tiles of ``layers`` (name -> Shape): decided at once, cached, or rendered on one
     thread in batches (see the module notes)."""
@@ -183,7 +108,7 @@ class TileService:
         field_mb: float = 256.0,
     ):
         self.layers = layers
-        self.queue: queue.Queue = queue.Queue(maxsize=max(1, int(queue_size)))
+        self.queue = RenderQueue(max(1, int(queue_size)), _group)
         self.cache: OrderedDict = OrderedDict()
         self.cache_bytes, self.cache_limit = 0, int(cache_mb * (1 << 20))
         self.centres: OrderedDict = OrderedDict()  # (layer, z, x, y) -> what triage needs
@@ -192,6 +117,9 @@ class TileService:
         #: FieldKey -> (the distances a tile was rendered at, the seconds its renders
         #: took): its field when idle, or first once the renders cost what the field does
         self.later: OrderedDict = OrderedDict()
+        #: FieldKey -> None: tiles of views seen before, decided inside or outside at the
+        #: distance asked, whose fields are made ahead where fields are cheap (ahead_of)
+        self.ahead: OrderedDict = OrderedDict()
         self.field_cost: dict = {}  # layer -> running mean of its fields' seconds
         self.render_cost: dict = {}  # layer -> running mean of a rendered tile's seconds
         self.wanted: OrderedDict = OrderedDict()  # FieldKey -> Future, tiles asked again: at once
@@ -252,7 +180,7 @@ class TileService:
         those of a TileMatrixSet without a bound of its tiles (:func:`tms_levels`)."""
         if key.style.outline is not None:
             return None
-        if key.tms is not None and tms_levels(_quad(key.tms), key.z) is None:
+        if key.tms is not None and tms_levels(quad_of(key.tms), key.z) is None:
             return None
         where = key.where()
         with self.lock:
@@ -272,7 +200,7 @@ class TileService:
         with every arc that can be its centre's nearest as candidates (no distance
         limit): the exact distances to the nearest boundary arc and ring edge, the
         centre's inside status and the tile's decision bound (1-element arrays)."""
-        shape, quad = self.layers[key.layer], _quad(key.tms)
+        shape, quad = self.layers[key.layer], quad_of(key.tms)
         return measure_tiles(shape, key.z, [(key.x, key.y)], quad)[(key.x, key.y)]
 
     def measure(self, keys) -> None:
@@ -285,9 +213,9 @@ class TileService:
                 if k.where() not in self.centres:
                     groups.setdefault((k.layer, k.z, k.tms), set()).add((k.x, k.y))
         for (layer, z, tms), tiles in groups.items():
-            if tms is not None and tms_levels(_quad(tms), z) is None:
+            if tms is not None and tms_levels(quad_of(tms), z) is None:
                 continue  # rendered, never decided (triage)
-            got = measure_tiles(self.layers[layer], z, sorted(tiles), _quad(tms))
+            got = measure_tiles(self.layers[layer], z, sorted(tiles), quad_of(tms))
             with self.lock:
                 for (x, y), geo in got.items():
                     self.centres[(layer, z, x, y, tms)] = geo
@@ -300,6 +228,7 @@ class TileService:
         with self.lock:
             self.closed = True
             self.later.clear()
+            self.ahead.clear()
             for fut in self.wanted.values():
                 fut.set_result(None)
             self.wanted.clear()
@@ -336,12 +265,10 @@ class TileService:
         (:func:`~gloffset.tiles.tiling.fieldtiles.encode_field` of the field in metres on
         the Earth's sphere), the field computed on the render thread and kept (raises
         :class:`QueueFull`)."""
-        fut: Future = Future()
         data = self.cached(fkey)
         if data is not None:
-            fut.set_result(data)
-            return fut
-        return self._put(fkey, fut)
+            return _done(data)
+        return self._put(fkey, Job())
 
     def at_once(self, layer: str) -> bool:
         """Whether a new tile of ``layer`` is answered from its field, computed at once: a
@@ -351,38 +278,62 @@ class TileService:
             cost, render = self.field_cost.get(layer), self.render_cost.get(layer)
         return cost is not None and render is not None and cost <= AT_ONCE * render
 
-    def submit_from_field(self, key: TileKey) -> Future:
+    def submit_from_field(self, key: TileKey, *, urgent: bool = False) -> Future:
         """A future of the tile's PNG bytes from its field (:meth:`from_field`), the field
         computed on the render thread first where it is not kept, the requests of a batch
-        that share a field with one computation (raises :class:`QueueFull`)."""
-        fut: Future = Future()
+        that share a field with one computation (raises :class:`QueueFull`). ``urgent``:
+        as :meth:`submit`'s."""
         data = self.cached(key)
         if data is not None:
-            fut.set_result(data)
-            return fut
-        return self._put(_FromField(key), fut)
+            return _done(data)
+        return self._put(_FromField(key), Job(), urgent)
 
-    def submit(self, key: TileKey) -> Future:
+    def submit(self, key: TileKey, *, urgent: bool = False) -> Future:
         """A future of the tile's PNG bytes, rendered on the render thread (raises
-        :class:`QueueFull`)."""
-        fut: Future = Future()
+        :class:`QueueFull`); a :class:`Job` unless the tile is cached. ``urgent``: a tile
+        of a view seen before (:meth:`seen`: a distance slider moves), taken before the
+        tiles of new views (:class:`~gloffset.serve.renderqueue.RenderQueue`)."""
         data = self.cached(key)
         if data is not None:
-            fut.set_result(data)
-            return fut
-        return self._put(key, fut)
+            return _done(data)
+        return self._put(key, Job(), urgent)
+
+    def seen(self, key: TileKey) -> bool:
+        """Whether the tile's place was asked for before (at any distance): its centre is
+        measured, or it was rendered. A tile of a view seen before is asked for again as a
+        distance slider moves; its renders go before those of new views (``urgent``)."""
+        with self.lock:
+            return key.where() in self.centres or key.field() in self.later
+
+    def why_rendered(self, key: TileKey, seen: bool) -> str:
+        """Why tile ``key`` is rendered rather than answered from a field (the
+        ``Server-Timing`` header's ``why``): ``outline`` (a style with an outline: always
+        rendered), ``new`` (its place not asked for before: a new view), ``frontier`` (its
+        place asked for before, decided inside or outside there: no renders yet to pay for a
+        field), ``rent`` (rendered before, those renders cost less than a field so far:
+        :meth:`_again`), ``busy`` (its field is due but would come later than a render:
+        :meth:`_sooner`), or ``closed`` (the server is stopping)."""
+        if key.style.outline is not None:
+            return "outline"
+        fkey = key.field()
+        with self.lock:
+            if self.closed:
+                return "closed"
+            if fkey not in self.later:
+                return "frontier" if seen else "new"
+            if fkey in self.wanted or self._again(fkey, key.d):
+                return "busy"
+            return "rent"
 
     def call(self, fn) -> Future:
         """A future of ``fn()`` run on the render thread (GL work must run there: the
         context is current on that thread only). Raises :class:`QueueFull`."""
-        return self._put(fn, Future())
+        return self._put(fn, Job())
 
-    def _put(self, item, fut: Future) -> Future:
+    def _put(self, item, fut: Future, urgent: bool = False) -> Future:
         self.last_put = time.monotonic()
-        try:
-            self.queue.put_nowait((item, fut))
-        except queue.Full:
-            raise QueueFull("the render queue is full") from None
+        if not self.queue.put(item, fut, urgent):
+            raise QueueFull("the render queue is full")
         return fut
 
     def _keep(self, key: TileKey | FieldKey, data: bytes) -> None:
@@ -413,7 +364,7 @@ class TileService:
         if f is None:
             t0 = time.perf_counter()
             shape = self.layers[fkey.layer]
-            f = field_tile(shape, fkey.z, fkey.x, fkey.y, fkey.size, fkey.grid_quad())
+            f = field_tile(shape, fkey.z, fkey.x, fkey.y, fkey.size, fkey.gridquad_of())
             took = time.perf_counter() - t0
             with self.lock:
                 self.computed += 1
@@ -426,7 +377,8 @@ class TileService:
     def field_future(self, key: TileKey) -> Future | None:
         """A future that is done when the field of tile ``key`` is kept (its result None
         when it could not be made), for a tile whose field is due (:meth:`_again`: a view
-        seen before at another distance, as a distance slider asks) when waiting for the
+        seen before at another distance, as a distance slider asks; or queued ahead,
+        :meth:`ahead_of`) when waiting for the
         field is expected to be no longer than waiting for a render (:meth:`_sooner`); the
         field is then queued first. Else None: render the tile. None too for styles with
         an outline (those tiles are rendered)."""
@@ -436,11 +388,35 @@ class TileService:
         with self.lock:
             if fkey in self.computing:
                 return self.computing[fkey]
-            if self.closed or not (fkey in self.wanted or self._again(fkey, key.d)):
+            due = fkey in self.wanted or fkey in self.ahead or self._again(fkey, key.d)
+            if self.closed or not due:
                 return None
             if not self._sooner(fkey.layer):
                 return None
             return self._want(fkey)
+
+    def ahead_of(self, key: TileKey) -> None:
+        """Queue the field of tile ``key`` ahead on the field thread (made while the render
+        thread has nothing to do, :meth:`_next_field`): a tile of a view seen
+        before (a distance slider moves), decided inside or outside at ``key.d``, that may
+        reach the frontier at a later distance, where fields cost at most :data:`AT_ONCE`
+        renders (:meth:`at_once`: a new frontier tile is answered from its field anyway).
+        That distance is then the threshold of a kept field, not a field made while the
+        slider waits. Nothing where fields are dearer (the renders pay, rent or buy), and
+        nothing for styles with an outline (always rendered)."""
+        if key.style.outline is not None or not self.at_once(key.layer):
+            return
+        fkey = key.field()
+        with self.lock:
+            if self.closed or fkey in self.fields or fkey in self.computing:
+                return
+            if fkey in self.wanted:
+                return
+            self.ahead[fkey] = None
+            self.ahead.move_to_end(fkey)
+            while len(self.ahead) > LATER:
+                self.ahead.popitem(last=False)
+            self.wake.notify()
 
     def _sooner(self, layer: str) -> bool:
         """Whether a field queued first now comes no later than a render (holding the
@@ -475,6 +451,7 @@ class TileService:
     def _want(self, fkey: FieldKey) -> Future:
         """Queue the field of ``fkey`` first (holding the lock); its future."""
         self.later.pop(fkey, None)
+        self.ahead.pop(fkey, None)
         fut = self.wanted.get(fkey) or self.computing.get(fkey)
         if fut is None:
             fut = Future()
@@ -489,17 +466,22 @@ class TileService:
 
     def _next_field(self) -> tuple[FieldKey, Future] | None:
         """The next field to compute and its future (None once closed): the newest tile
-        asked for again at a new distance, else, when no render was asked for in
+        asked for again at a new distance, else, while the render thread has nothing to do,
+        the newest tile queued ahead (:meth:`ahead_of`: low priority, so that they never
+        slow the renders a client waits for), else, when no render was asked for in
         :data:`IDLE` seconds, the newest tile rendered once."""
         with self.lock:
             while not self.closed:
                 if self.wanted:
                     fkey, fut = self.wanted.popitem(last=True)
+                elif self.ahead and not self.busy and self.queue.empty():
+                    fkey, fut = self.ahead.popitem(last=True)[0], Future()
+                    fut.set_running_or_notify_cancel()
                 elif self.later and self._idle():
                     fkey, fut = self.later.popitem(last=True)[0], Future()
                     fut.set_running_or_notify_cancel()
-                else:  # polled while fields of tiles rendered once wait for an idle server
-                    self.wake.wait(IDLE if self.later else None)
+                else:  # polled while fields wait for a free render thread or an idle server
+                    self.wake.wait(POLL if self.ahead else IDLE if self.later else None)
                     continue
                 if fkey in self.fields:
                     fut.set_result(None)
@@ -526,14 +508,13 @@ class TileService:
     # ------------------------------------------------------------------ the render thread
     def _loop(self) -> None:
         while True:
-            batch = [self.queue.get()]
+            batch = self.queue.take()
             self.gate.wait()
-            while True:
-                try:
-                    batch.append(self.queue.get_nowait())
-                except queue.Empty:
-                    break
             self.busy = True
+            began = time.monotonic()
+            for _, fut in batch:
+                if isinstance(fut, Job):
+                    fut.began = began
             try:
                 self._run(batch)
             except Exception:  # noqa: BLE001 - the thread must outlive any one batch
@@ -654,10 +635,29 @@ class _FromField:
     key: TileKey
 
 
+def _done(data) -> Future:
+    fut: Future = Future()
+    fut.set_result(data)
+    return fut
+
+
+def _group(item) -> tuple:
+    """What requests the render thread runs together: tiles of one layer, distance, zoom,
+    size and style (one :func:`~gloffset.tiles.tiling.render_tiles`), a field and the
+    tiles answered from it, or one call."""
+    if isinstance(item, TileKey):
+        return ("tiles", *item.group())
+    if isinstance(item, FieldKey):
+        return ("field", item)
+    if isinstance(item, _FromField):
+        return ("field", item.key.field())
+    return ("call", id(item))
+
+
 def _tms_tiles(shape, key: TileKey, tiles) -> dict:
     """The styled PNG bytes (None: nothing to draw) of tiles ``(x, y)`` of ``key``'s zoom
     of its TileMatrixSet, each rendered on its own grid (:func:`gloffset.grids.TmsTile`)."""
-    quad = tms_quad(key.tms)
+    quad = quad_of(key.tms)
     return {
         (x, y): key.style.encode(render_angle(shape, key.d, quad.tile(key.z, x, y)) > 0)
         for x, y in sorted(tiles)
@@ -669,8 +669,3 @@ def _run_call(fn, fut: Future) -> None:
         fut.set_result(fn())
     except Exception as exc:  # noqa: BLE001 - handed to the caller
         fut.set_exception(exc)
-
-
-def etag(data: bytes) -> str:
-    """A strong ETag: the same bytes, the same tag."""
-    return '"' + hashlib.sha256(data).hexdigest()[:32] + '"'
