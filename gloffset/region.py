@@ -126,16 +126,10 @@ def _sides(v, n, ai, bi, aj, bj):
     """The four side values of the pairs of edges ``i``: ``v[ai] -> v[bi]`` and ``j``:
     ``v[aj] -> v[bj]`` (normals ``n[ai]``, ``n[aj]``): ``aj.ni``, ``bj.ni``, ``ai.nj``,
     ``bi.nj`` (einsum's sums, so the same bits wherever they are computed)."""
-    # pair_dots' sums, from the coordinates as contiguous columns (made once for the
-    # four: they gather faster than the columns of (n, 3) arrays)
-    vc = [np.ascontiguousarray(v[:, k], dtype=np.float64) for k in range(3)]
-    nc = [np.ascontiguousarray(n[:, k], dtype=np.float64) for k in range(3)]
-    return (
-        column_dots(vc, nc, aj, ai),
-        column_dots(vc, nc, bj, ai),
-        column_dots(vc, nc, ai, aj),
-        column_dots(vc, nc, bi, aj),
-    )
+    # pair_dots' sums, from contiguous columns made once for the four (faster gathers)
+    vc, nc = ([np.ascontiguousarray(a[:, k], dtype=np.float64) for k in range(3)] for a in (v, n))
+    pairs = ((aj, ai), (bj, ai), (ai, aj), (bi, aj))
+    return tuple(column_dots(vc, nc, p, q) for p, q in pairs)
 
 
 def _proper(o1, o2, o3, o4) -> np.ndarray:
