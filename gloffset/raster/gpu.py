@@ -210,8 +210,6 @@ def gpu_refine_pairs(f: Frontier, arcs: CurveArcs, c, slot, first, seg, *, min_p
             keep = np.ones(len(arc), dtype=bool)
             keep[unsure[~ok]] = False
             cell, arc, cm = cell[keep], arc[keep], cm[keep]
-    else:
-        cm = cm.copy()  # owned and writable, as numpy's
     tc = toggles[:, 0].astype(np.int64)
     ta = (toggles[:, 1] & REFINE_ARC_MASK).astype(np.int64)
     u = np.flatnonzero(toggles[:, 1] & REFINE_NEAR_UNSURE)
