@@ -181,15 +181,17 @@ class RefinePass:
             out_cm = self._buffer(10, reserve=8 * total)
             self._run("write", nch)
 
-            def read(buf, size, dtype, shape=(-1,)):
-                if size == 0:
-                    return np.zeros(0, dtype=dtype).reshape(shape)
-                return np.frombuffer(buf.read(size=size), dtype=dtype).reshape(shape)
+            def read(buf, n, dtype, width=1):
+                """``n`` rows read straight into a new array (no bytes object between)."""
+                out = np.empty((n, width) if width > 1 else n, dtype=dtype)
+                if n:
+                    buf.read_into(out, size=out.nbytes)
+                return out
 
-            arc = read(out_arc, 4 * total, np.uint32)
-            cm = read(out_cm, 8 * total, np.float64)
-            tog = read(toggles, 8 * nt, np.uint32, (-1, 2))
-            ons = read(on, 8 * non, np.uint32, (-1, 2))
+            arc = read(out_arc, total, np.uint32)
+            cm = read(out_cm, total, np.float64)
+            tog = read(toggles, nt, np.uint32, 2)
+            ons = read(on, non, np.uint32, 2)
         finally:
             self._trim()
         return counts, arc, cm, tog, ons

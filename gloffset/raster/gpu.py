@@ -202,8 +202,10 @@ def gpu_refine_pairs(f: Frontier, arcs: CurveArcs, c, slot, first, seg, *, min_p
         return None
     counts, word, cm, toggles, on_pairs = got
     cell = np.repeat(np.arange(n), counts)
-    arc = (word & REFINE_ARC_MASK).astype(f.pair_arc.dtype)
     unsure = np.flatnonzero(word >= REFINE_UNSURE)
+    if len(unsure):
+        np.bitwise_and(word, REFINE_ARC_MASK, out=word)  # the pass's own array
+    arc = word.astype(f.pair_arc.dtype)
     if len(unsure):
         ok = cap_within(cm[unsure], first[cell[unsure]] + arcs.half[arc[unsure]])
         if not ok.all():
