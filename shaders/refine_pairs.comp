@@ -1,7 +1,7 @@
 #version 430
 // A refined level's children and their candidate pairs (gloffset/raster/vector/levels.py
 // refine, gloffset/gl/refine_pass.py): the work of child_pairs.slot_pairs, arcs_cross and
-// levels._on_ring in one invocation per parent cell.
+// levels._on_ring.
 //
 // One invocation per chunk of a parent's candidate pairs (u_chunk: the parent k, the chunk's
 // first pair and its count, at most CHUNK: the work of the invocations alike). The parent's
@@ -16,9 +16,8 @@
 // the arc: the host takes its exact test on those alone.
 //
 // COUNT (the first dispatch): each chunk's number of pairs written per child slot (o_count),
-// and two lists
-// that the host reads back whole:
-// * the ring edges (u_rows[arc * 20 + 19] != 0) whose cap comes within seg (the child's
+// and two lists that the host reads back whole:
+// * the ring edges (u_term[3 * arc + 1].z != 0) whose cap comes within seg (the child's
 //   distance to its parent's centre) of the child (the same bounded test, NEAR_UNSURE where
 //   the host decides) and that cross the short arc child -> parent centre (arcs_cross, its
 //   products and sums each rounded once, in its order): (child, arc | flags) in o_toggle;
@@ -39,7 +38,8 @@ layout(std430, binding = 3) readonly buffer Children { dvec4 u_child[]; };
 layout(std430, binding = 4) readonly buffer Parents { dvec4 u_parent[]; }; // centre, 0
 // per arc: (m, h), (cos h, sin h, 1 for a ring edge else 0, 0), (n, 0)
 layout(std430, binding = 5) readonly buffer Terms { dvec4 u_term[]; };
-layout(std430, binding = 6) readonly buffer Rows { double u_rows[]; };     // (arcs, 20)
+// the arcs' rows (gloffset.edges.CurveArcs.rows: a, b, n at 0, 3, 6): the crossing tests'
+layout(std430, binding = 6) readonly buffer Rows { double u_rows[]; };
 layout(std430, binding = 7) writeonly buffer Counts { uvec4 o_count[]; };   // per chunk
 layout(std430, binding = 8) readonly buffer FirstOut { uvec4 u_first_out[]; };
 layout(std430, binding = 9) writeonly buffer OutArc { uint o_arc[]; };
