@@ -36,6 +36,12 @@ def test_every_shader_file_compiles(ctx, name):
     assert ctx.error == "GL_NO_ERROR"
 
 
+def test_refine_pairs_count_variant_compiles(ctx):
+    prog = ctx.compute_shader(load_source("refine_pairs.comp", {"COUNT": 1})[0])
+    assert prog is not None
+    assert ctx.error == "GL_NO_ERROR"
+
+
 @pytest.mark.parametrize("define", ["CLUSTERS", "ORDER"])
 def test_arc_records_variants_compile(ctx, define):
     prog = ctx.compute_shader(load_source("arc_records.comp", {define: 1})[0])

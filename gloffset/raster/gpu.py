@@ -17,18 +17,30 @@ import numpy as np
 
 from ..edges import CurveArcs
 from ..geometry.caps import cap_within, chord2
+from ..geometry.sphere import pair_dots
 from ..gl.arcs import arc_buffer
 from ..gl.records_pass import DeviceRecords, records_pass, records_pass_made
+from ..gl.refine_pass import ARC_MASK as REFINE_ARC_MASK
+from ..gl.refine_pass import NEAR_UNSURE as REFINE_NEAR_UNSURE
+from ..gl.refine_pass import UNSURE as REFINE_UNSURE
+from ..gl.refine_pass import refine_pass
 from ..gl.scatter_pass import ARC_MASK, CROSS, NEAR, NEAR_UNSURE, UNSURE, scatter_pass
 from ..gl.vector_pass import BinPlan, vector_passes
 from ..memo import once_attr
 from .layout import BinLayout
 from .records import ArcRecords, margins, record_inputs, records
 from .vector.child_pairs import half_trig
-from .vector.levels import Frontier
+from .vector.levels import ON_EDGE, Frontier
 from .vector.scatter import BoxPairs, box_pairs
 
-__all__ = ["BinPasses", "bin_plan", "bin_passes", "device_records", "gpu_box_pairs"]
+__all__ = [
+    "BinPasses",
+    "bin_plan",
+    "bin_passes",
+    "device_records",
+    "gpu_box_pairs",
+    "gpu_refine_pairs",
+]
 
 #: Margin about the threshold of a pair's cap test within which the compute shader leaves
 #: the test to the host (``shaders/scatter_pairs.comp``'s ``MARGIN``): far above the 1e-14
@@ -52,6 +64,9 @@ GPU_WARM_SHARE = 0.2
 #: s measured; numpy took 0.3-0.5 us a box cell, the shader about half). See
 #: ``benchmarks/README.md``, ab.py.
 GPU_MIN_PAIRS = 500_000
+#: Fewest parent pairs for which :func:`gpu_refine_pairs` runs the shader: below, numpy
+#: (about 0.15 us a parent pair) costs less than the shader's first run in a process.
+GPU_MIN_REFINE = 200_000
 
 
 def gpu_box_pairs(
@@ -139,6 +154,97 @@ def gpu_box_pairs(
     jj = cell // w  # floor division and a product: divmod's values, in less time
     ii = cell - jj * w
     return (jj, ii, ai, cm, hit) if crossings else (jj, ii, ai, cm)
+
+
+def gpu_refine_pairs(f: Frontier, arcs: CurveArcs, c, slot, first, seg, *, min_pairs=None):
+    """The per-pair work of :func:`gloffset.raster.vector.levels.refine` on the GL context
+    (:mod:`gloffset.gl.refine_pass`): the children's candidate pairs and ``c.m``
+    (:func:`~gloffset.raster.vector.child_pairs.slot_pairs`'s, grouped by child, each
+    child's in its parent's order), the ring edges that cross the short arc from each
+    child ``c`` to its parent's centre (``arcs_cross`` of the pairs whose cap comes within
+    ``seg`` of the child) and which parents' centres lie on one of their ring edges
+    (:func:`~gloffset.raster.vector.levels.on_edge`).
+
+    Returns ``(cell, arc, cm, (child, arc), on)``, the same pairs, ``c.m`` bits, crossings
+    and booleans as the numpy path, or None where numpy takes the level (fewer parent
+    pairs than ``min_pairs``, default :data:`GPU_MIN_REFINE`; beyond the GL limits).
+
+    The shader's cap tests are within 1e-14 of the host's thresholds and leave those
+    within :data:`GPU_PAIR_MARGIN` of them to the exact test here; its ``c.m``, crossing
+    tests and on-edge dot products are the host's float64 expressions (see the pass).
+    """
+    npair, k, n = len(f.pair_cell), len(f.cells), len(c)
+    least = GPU_MIN_REFINE if min_pairs is None else min_pairs
+    if npair < least or n == 0:
+        return None
+    starts = np.searchsorted(f.pair_cell, np.arange(k + 1))
+    engine = refine_pass()
+    if not engine.fits(k, npair, n, len(arcs.a)):
+        return None
+    kids = np.zeros((n, 12))
+    kids[:, :3] = c
+    kids[:, 3] = first
+    kids[:, 4], kids[:, 5] = np.cos(first), np.sin(first)
+    kids[:, 6], kids[:, 7] = np.cos(seg), np.sin(seg)
+    kids[:, 8] = seg
+    parents = np.zeros((k, 4))
+    parents[:, :3] = f.centers
+    got = engine.run(
+        starts,
+        f.pair_arc,
+        slot.T,
+        kids,
+        parents,
+        arc_buffer(_refine_terms(arcs)),
+        arc_buffer(arcs.rows),
+    )
+    if got is None:
+        return None
+    counts, word, cm, toggles, on_pairs = got
+    cell = np.repeat(np.arange(n), counts)
+    unsure = np.flatnonzero(word >= REFINE_UNSURE)
+    if len(unsure):
+        np.bitwise_and(word, REFINE_ARC_MASK, out=word)  # the pass's own array
+    arc = word.astype(f.pair_arc.dtype)
+    if len(unsure):
+        ok = cap_within(cm[unsure], first[cell[unsure]] + arcs.half[arc[unsure]])
+        if not ok.all():
+            keep = np.ones(len(arc), dtype=bool)
+            keep[unsure[~ok]] = False
+            cell, arc, cm = cell[keep], arc[keep], cm[keep]
+    tc = toggles[:, 0].astype(np.int64)
+    ta = (toggles[:, 1] & REFINE_ARC_MASK).astype(np.int64)
+    u = np.flatnonzero(toggles[:, 1] & REFINE_NEAR_UNSURE)
+    if len(u):
+        ok = np.ones(len(tc), dtype=bool)
+        ok[u] = cap_within(pair_dots(c, tc[u], arcs.mid, ta[u]), seg[tc[u]] + arcs.half[ta[u]])
+        tc, ta = tc[ok], ta[ok]
+    on = np.zeros(k, dtype=bool)
+    if len(on_pairs):
+        op = on_pairs[:, 0].astype(np.int64)
+        oa = on_pairs[:, 1].astype(np.int64)
+        hit = cap_within(pair_dots(f.centers, op, arcs.mid, oa), arcs.half[oa] + ON_EDGE)
+        on[op[hit]] = True
+    return cell, arc, cm, (tc, ta), on
+
+
+def _refine_terms(arcs: CurveArcs) -> np.ndarray:
+    """(arcs, 12) float64, read-only, what :func:`gpu_refine_pairs`'s shader reads per
+    arc: the cap centre ``m`` and radius ``h``; ``cos h``, ``sin h`` (the ones kept on the
+    table, :func:`~gloffset.raster.vector.child_pairs.half_trig`), 1 for a ring edge (else
+    0), 0; the normal ``n``, 0 (made once per set of arcs)."""
+
+    def build() -> np.ndarray:
+        out = np.zeros((len(arcs.half), 12))
+        out[:, :3] = arcs.mid
+        out[:, 3] = arcs.half
+        out[:, 4], out[:, 5] = half_trig(arcs)
+        out[:, 6] = arcs.group >= 0
+        out[:, 8:11] = arcs.n
+        out.setflags(write=False)
+        return out
+
+    return once_attr(arcs, "_refine_terms", build)
 
 
 def _arc_terms(arcs: CurveArcs) -> np.ndarray:

@@ -45,6 +45,7 @@ class CurveCells:
         start: str | int = "coarse",
         nodes_until: int | None = None,
         pairs=None,
+        refine_pairs=None,
     ):
         self.shape, self.d, self.grid = shape, d, grid
         self.arcs = CurveArcs.from_shape(shape)
@@ -53,6 +54,8 @@ class CurveCells:
         self.start = start
         #: what finds a directly entered level's box pairs (``scatter``'s ``pairs``)
         self.pairs = pairs
+        #: what may do a refined level's per-pair work (``refine``'s ``pairs``)
+        self.refine_pairs = refine_pairs
         if nodes_until is not None and not 0 <= nodes_until < self.last:
             nodes_until = None
         #: the last level whose lists hold arcs of the multiresolution curve
@@ -144,7 +147,9 @@ class CurveCells:
             nodes = self._nodes()
             f = node_levels.refine(parent, self.grid, nodes, self.e, self.shape, leaves=True)
             return self._level(f)
-        return self._level(refine(parent, self.grid, self.arcs, self.e, self.shape))
+        return self._level(
+            refine(parent, self.grid, self.arcs, self.e, self.shape, pairs=self.refine_pairs)
+        )
 
     def kept(self, lev: Level) -> Frontier:
         """The :class:`Frontier` of the cells ``lev`` keeps (its frontier by default)."""

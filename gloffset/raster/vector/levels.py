@@ -376,28 +376,36 @@ def decide(dist, dring, inside, rho, d: float, final: bool) -> np.ndarray:
 _REFINE_PAIRS = 1 << 19
 
 
-def refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
+def refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape, *, pairs=None) -> Frontier:
     """Children of the cells of ``f`` (all assumed frontier) with refined lists and
     statuses (``shape``: the shape of ``arcs``, for its reference points).
 
     Refined in parts of whole rows of parents (their children are whole rows too, so
     the parts' results follow each other in row-major order): the same result, with
-    temporaries of a few million pairs at most."""
+    temporaries of a few million pairs at most.
+
+    ``pairs``: what may do the per-pair work of the whole level instead
+    (:func:`gloffset.raster.gpu.gpu_refine_pairs`, on the GL context: the same lists,
+    ``c.m`` and statuses), returning None where it leaves the level to numpy."""
     k = len(f.cells)
+    if pairs is not None:
+        out = _refine(f, grid, arcs, e, shape, pairs)
+        if out is not None:
+            return out
     if len(f.pair_cell) <= _REFINE_PAIRS or k < 2:
-        return _refine(f, grid, arcs, e, shape)
+        return _numpy_refine(f, grid, arcs, e, shape)
     rows = f.cells[:, 0]
     row_start = np.flatnonzero(np.r_[True, rows[1:] != rows[:-1]])
     before = np.searchsorted(f.pair_cell, row_start)  # pairs before each row
     part = before // _REFINE_PAIRS
     cuts = row_start[np.flatnonzero(np.r_[True, part[1:] != part[:-1]])]
     if len(cuts) < 2:
-        return _refine(f, grid, arcs, e, shape)
+        return _numpy_refine(f, grid, arcs, e, shape)
     bounds = np.asarray(np.r_[cuts, k])
     pair_at = np.searchsorted(f.pair_cell, bounds)
     outs = []
     for (a, b), (pa, pb) in zip(zip(bounds[:-1], bounds[1:]), zip(pair_at[:-1], pair_at[1:])):
-        outs.append(_refine(f.part(a, b, pa, pb), grid, arcs, e, shape))
+        outs.append(_numpy_refine(f.part(a, b, pa, pb), grid, arcs, e, shape))
     offsets = np.cumsum([0] + [len(o.cells) for o in outs[:-1]])
     return Frontier(
         f.level + 1,
@@ -409,6 +417,12 @@ def refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
         np.concatenate([o.status for o in outs]),
         np.concatenate([o.cm for o in outs]),  # _refine's, all set
     )
+
+
+def _numpy_refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
+    out = _refine(f, grid, arcs, e, shape)
+    assert out is not None  # numpy's: always made
+    return out
 
 
 def children(f: Frontier, grid):
@@ -433,9 +447,10 @@ def children(f: Frontier, grid):
     return cells, parent, c, rho, child_of_pair, np.take(f.pair_arc, src)
 
 
-def _refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
+def _refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape, pairs=None) -> Frontier | None:
     """:func:`refine` of all the cells of ``f`` at once (the pairs worked in the parents'
-    order, :func:`~gloffset.raster.vector.child_pairs.slot_pairs`)."""
+    order, :func:`~gloffset.raster.vector.child_pairs.slot_pairs`, or by ``pairs``: None
+    where that leaves the level to numpy)."""
     lev = f.level + 1
     cells, parent, slot = child_slots(f.cells, grid, lev)
     c = grid.centers(lev, cells[:, 0], cells[:, 1])
@@ -445,14 +460,26 @@ def _refine(f: Frontier, grid, arcs: CurveArcs, e: float, shape) -> Frontier:
     # statuses: parent's, toggled by crossings of child -> parent centre (an arc that
     # crosses it has its bounding cap within angle(child, parent) of the child)
     seg = angle(c, f.centers[parent])
-    cell, arc, cm, (pc, pp, pa) = slot_pairs(f.pair_cell, f.pair_arc, arcs, c, slot, e + rho, seg)
+    if pairs is not None:
+        got = pairs(f, arcs, c, slot, e + rho, seg)
+        if got is None:
+            return None
+        cell, arc, cm, (tc, ta), on_parent = got
+    else:
+        cell, arc, cm, (pc, pp, pa) = slot_pairs(
+            f.pair_cell, f.pair_arc, arcs, c, slot, e + rho, seg
+        )
+        tc = ta = pc[:0]
+        if len(pc):
+            cr = arcs_cross(c[pc], f.centers[pp], arcs.a[pa], arcs.b[pa], arcs.n[pa])
+            tc, ta = pc[cr], pa[cr]
+        on_parent = _on_ring(f, arcs)
     status = f.status[parent].copy()
-    if len(pc):
-        cr = arcs_cross(c[pc], f.centers[pp], arcs.a[pa], arcs.b[pa], arcs.n[pa])
-        g = arcs.group[pa[cr]]
-        np.bitwise_xor.at(status, (pc[cr], g >> 3), (1 << (g & 7)).astype(np.uint8))
+    if len(tc):
+        g = arcs.group[ta]
+        np.bitwise_xor.at(status, (tc, g >> 3), (1 << (g & 7)).astype(np.uint8))
 
-    on = _on_ring(f, arcs)[parent]
+    on = on_parent[parent]
     if on.any():  # a parent centre on a ring edge is no anchor: ask the reference points
         status[on] = component_status(shape, arcs, c[on])
     return Frontier(lev, cells, c, rho, cell, arc, status, cm)

@@ -42,6 +42,7 @@ from ...grids.mercator import MAX_ZOOM, TilePyramid, check_tile_size
 from ...grids.tms import ProjectedQuadLevels, tms_quad
 from ...raster import driver
 from ...raster.driver import Level
+from ...raster.gpu import gpu_refine_pairs
 from ...raster.vector.curves import CurveCells
 from ...raster.vector.levels import subset
 from ...shape import read
@@ -410,7 +411,11 @@ def run_pyramid(job: PyramidJob, store, have, progress, stats, *, part=None):
     # the levels no tile is rendered from (bins of zooms drawn alone or not written)
     # classify with the multiresolution curve: their lists follow the cells' size
     until = None if style.outline is not None else max(PYRAMID_ALONE_ZOOM, zlo - 1) + nb
-    cells = CurveCells(shape, d, levels, nodes_until=until)
+    split = part is not None and part.split is not None
+    # a run that renders refines its levels' pairs on its GL context
+    cells = CurveCells(
+        shape, d, levels, nodes_until=until, refine_pairs=None if split else gpu_refine_pairs
+    )
     chain = BinChain(cells, nb)
     cells.remember(chain.nb)  # the walk reaches the chain's levels later: computed once
     track = Tracker(zlo, zhi, progress)
@@ -419,7 +424,6 @@ def run_pyramid(job: PyramidJob, store, have, progress, stats, *, part=None):
     if part is not None and part.root is not None and start is None:
         raise ValueError("a run of one tile's subtree starts from the tile's level")
     stop = zhi if part is None or part.last is None else min(zhi, part.last)
-    split = part is not None and part.split is not None
     tasks = []  # a split run's: (tile, forced class, its one-cell level, last zoom)
     for lev in driver.walk(cells, stop, start=start):
         if len(lev.cells) == 0:
