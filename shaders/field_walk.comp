@@ -8,12 +8,15 @@
 //   lower bound of a node: max(angle(c, mid) - reach, distance to its arc - err),
 //   upper bound:           min(angle(c, mid) + reach, distance to its arc + err),
 // kept where lo <= min(best + 2 reach_c, m + reach_c) + u_sum_err (best: the least upper
-// bound of the cell) and, kept for the slack alone, where maybe_nearer (the bisector test
-// against the nearest end of the parent's nodes), split (depth first) where err > bound.
-// Pass 1 counts the nodes kept against the least upper bound found so far (from the
-// parent's nodes on), the cell reserves that many slots with atomicAdd and pass 2 writes
-// those kept against the final one (a subset). A full pool (the host retries with a larger
-// one), a full stack or a loop too long raise a flag.
+// bound of the cell found so far, from the parent's nodes on, which only falls: the list
+// is a superset of the one kept against the final bound) and, kept for the slack alone,
+// where maybe_nearer (the bisector test against the nearest end of the parent's nodes),
+// split (depth first) where err > bound. One walk: each node kept is written as it is
+// found, into chunks of CHUNK slots of the pool reserved with atomicAdd (CHUNK - 1 ids,
+// then the start of the cell's next chunk); the cell's (first chunk, count) is its list.
+// The parents' lists are read the same way (u_pchunk ids a chunk; or contiguous).
+// A full pool (the walk goes on counting; the host retries with o_total), a full stack
+// or a loop too long raise a flag.
 layout(local_size_x = 64) in;
 
 struct Node {
@@ -29,7 +32,7 @@ layout(std430, binding = 1) readonly buffer Child { ivec2 u_child[]; };
 layout(std430, binding = 2) readonly buffer Cells { vec4 u_cell[]; };  // c, reach; bound, cos, sin reach
 layout(std430, binding = 3) readonly buffer Parents { uvec2 u_parent[]; };  // start, count
 layout(std430, binding = 4) readonly buffer ParentPool { uint u_ppool[]; };
-layout(std430, binding = 5) writeonly buffer Out { uvec2 o_cell[]; };  // start, count
+layout(std430, binding = 5) writeonly buffer Out { uvec2 o_cell[]; };  // first chunk, count
 layout(std430, binding = 6) writeonly buffer Pool { uint o_pool[]; };
 layout(std430, binding = 7) buffer Count { uint o_total; uint o_flags; };
 
@@ -38,6 +41,7 @@ uniform uint u_cells;
 uniform int u_width;
 uniform int u_pwidth;  // the parent level's width (0: every cell takes parent 0)
 uniform uint u_capacity;
+uniform uint u_pchunk;  // ids a chunk of the parents' pool (0xffffffff: contiguous lists)
 uniform int u_bisector;  // 0: no bisector test
 // Most steps of an invocation (llvmpipe silently ends the loops of a shader once they have
 // run 65535 iterations in all, counted per SIMD vector)
@@ -51,6 +55,7 @@ uniform float u_sum_err;   // the roundings of the sums compared
 uniform float u_bis_abs;   // error of the bisector test's least q.v: absolute ...
 uniform float u_bis_rel;   // ... and relative to |vtx - mid| + 1 - cos r
 
+const uint CHUNK = 16u;  // slots a chunk of the pool written (gloffset/gl/walk_pass.py's CHUNK)
 const uint FLAG_POOL = 1u;   // the pool was too small (the host retries with o_total)
 const uint FLAG_LIMIT = 2u;  // a stack or loop limit (the host walks in float64)
 const int STACK = 64;
@@ -165,15 +170,19 @@ void main() {
     float vch = 4.0;  // the chord to the nearest vertex vtx (an end of the parent's nodes)
     vec3 vtx = c;
     bool test = false;
-    uint at = 0u;
+    uint first = 0u;  // the cell's first chunk
+    uint at = 0u;  // its next slot
     uint kept = 0u;
+    bool full = false;  // a chunk beyond the pool's capacity (the ids are no longer written)
     // One loop, a step each (llvmpipe counts the iterations of all loops together; one
     // loop's, the most steps of a lane of the SIMD vector, stays within u_max_steps):
     // phase 0 the parent's nodes (a first least upper bound, the nearest vertex), phase 1
-    // the count, phase 2 the write; in phases 1 and 2 a step takes the next parent node
-    // onto the stack where it is empty, else pops and measures a node.
+    // the walk: a step takes the next parent node onto the stack where it is empty, else
+    // pops and measures a node.
     int phase = 0;
-    uint e = 0u;
+    uint e = 0u;  // the parent's nodes taken
+    uint pa = par.x;  // the place of the next one in the parents' pool
+    uint pi = 0u;  // and in its chunk
     int sp = 0;
     for (int steps = 0;; ++steps) {
         if (steps > u_max_steps) {
@@ -181,9 +190,20 @@ void main() {
             o_cell[o] = uvec2(0u);
             return;
         }
+        int nd = 0;
+        bool take = e < par.y && (phase == 0 || sp == 0);
+        if (take) {  // the parent's next node
+            nd = int(u_ppool[pa]);
+            ++e;
+            ++pa;
+            ++pi;
+            if (pi == u_pchunk && e < par.y) {
+                pa = u_ppool[pa];
+                pi = 0u;
+            }
+        }
         if (phase == 0) {
-            if (e < par.y) {
-                int nd = int(u_ppool[par.x + e]);
+            if (take) {
                 best = min(best, bounds(c, nd, 1e30).y);
                 vec3 a = u_node[nd].a.xyz;
                 vec3 b = u_node[nd].b.xyz;
@@ -197,41 +217,27 @@ void main() {
                     vch = cb2;
                     vtx = b;
                 }
-                ++e;
             } else {
                 test = u_bisector != 0 && vch < 4.0;
                 phase = 1;
                 e = 0u;
+                pa = par.x;
+                pi = 0u;
             }
             continue;
         }
         if (sp == 0) {
-            if (e < par.y) {  // the next parent node
-                stack[base] = int(u_ppool[par.x + e]);
-                sp = 1;
-                ++e;
-                continue;
-            }
-            if (phase == 2 || kept == 0u) {
+            if (!take) {
                 break;
             }
-            at = atomicAdd(o_total, kept);
-            if (at + kept > u_capacity) {
-                atomicOr(o_flags, FLAG_POOL);
-                o_cell[o] = uvec2(0u);
-                return;
-            }
-            phase = 2;
-            e = 0u;
-            kept = 0u;
+            stack[base] = nd;
+            sp = 1;
             continue;
         }
         sp -= 1;
-        int nd = stack[base + uint(sp)];
+        nd = stack[base + uint(sp)];
         vec2 b = bounds(c, nd, min(best + slack, far) + u_sum_err);
-        if (phase == 1) {
-            best = min(best, b.y);
-        }
+        best = min(best, b.y);
         // kept for the slack alone: the bisector test against vtx too
         if (b.x <= min(best + slack, far) + u_sum_err
             && (b.x <= best + u_sum_err || !test || maybe_nearer(c, cr.w, cb.yz, vtx, nd))) {
@@ -246,12 +252,26 @@ void main() {
                 stack[base + uint(sp) + 1u] = ch.x;
                 sp += 2;
             } else {
-                if (phase == 2) {
-                    o_pool[at + kept] = uint(nd);
+                if (kept % (CHUNK - 1u) == 0u) {  // a new chunk
+                    uint next = atomicAdd(o_total, CHUNK);
+                    full = full || next + CHUNK > u_capacity;
+                    if (kept == 0u) {
+                        first = next;
+                    } else if (!full) {
+                        o_pool[at] = next;  // the link in the last slot of the chunk
+                    }
+                    at = next;
                 }
+                if (!full) {
+                    o_pool[at] = uint(nd);
+                }
+                ++at;
                 ++kept;
             }
         }
     }
-    o_cell[o] = uvec2(at, kept);
+    if (full) {
+        atomicOr(o_flags, FLAG_POOL);
+    }
+    o_cell[o] = uvec2(first, kept);
 }

@@ -71,6 +71,11 @@ BISECTOR = True
 _LOCAL = 64
 #: Bits of the shader's flags: the pool was too small; a stack or loop limit was hit.
 FLAG_POOL, FLAG_LIMIT = 1, 2
+#: Slots of a chunk of a level's pool: ``CHUNK - 1`` node ids, then the start of the
+#: list's next chunk (``shaders/field_walk.comp``'s ``CHUNK``).
+CHUNK = 16
+#: The chunk size that says the parents' lists are contiguous (the first level's).
+CONTIGUOUS = 0xFFFFFFFF
 
 
 @dataclass
@@ -86,16 +91,17 @@ class WalkLevel:
 
 
 class WalkPass:
-    """The compiled program and its runs (one per GL thread)."""
+    """The compiled programs and their runs (one per GL thread)."""
 
     def __init__(self):
         self.ctx = get_context()
         self.max_bytes = context_info()["max_storage_block_size"]
-        self.max_pool = self.max_bytes // 4  # node ids in a pool
+        self.max_pool = self.max_bytes // 4  # slots of a pool (node ids and links)
         # llvmpipe ends all loops of an invocation after 65535 iterations in all, silently
         self.max_steps = 60000 if context_info()["software"] else 1 << 30
-        src, _ = load_source("field_walk.comp")
-        self.prog = self.ctx.compute_shader(src)
+        self.prog = self.ctx.compute_shader(load_source("field_walk.comp")[0])
+        self.gather = self.ctx.compute_shader(load_source("field_walk_gather.comp")[0])
+        self._table: list = []
 
     def run(self, table, parents, levels, m: float):
         """Walk ``levels`` from the ``parents``' lists; return the last level's count per
@@ -111,12 +117,11 @@ class WalkPass:
         sc, ids = parents
         if max(nodes.nbytes, ids.nbytes, sc.nbytes) > self.max_bytes:
             return None
-        bufs = [ctx.buffer(nodes.tobytes()), ctx.buffer(child.tobytes())]
+        self._table = [ctx.buffer(nodes.tobytes()), ctx.buffer(child.tobytes())]
         par = ctx.buffer(np.ascontiguousarray(sc, np.uint32).tobytes())
         pool = ctx.buffer(np.ascontiguousarray(ids, np.uint32).tobytes() or bytes(4))
+        chunk = CONTIGUOUS
         try:
-            for k, b in enumerate(bufs):
-                b.bind_to_storage_buffer(k)
             self.prog["u_m"] = float(m)
             self.prog["u_bisector"] = int(BISECTOR)
             self.prog["u_max_steps"] = self.max_steps
@@ -130,46 +135,50 @@ class WalkPass:
                 ("u_bis_rel", BIS_REL),
             ):
                 self.prog[name] = v
-            cap = 4 * max(len(ids), 1)
+            slots = len(ids)
             for lev in levels[:-1]:
-                got = self._level(lev, par, pool, cap)
+                got = self._level(lev, (par, pool, chunk), _estimate(lev, slots))
                 if got is None:
                     return None
-                out, new, cap = got
+                out, new, slots = got
                 par.release()
                 pool.release()
-                par, pool = out, new
-            return self._last(levels[-1], par, pool, cap)
+                par, pool, chunk = out, new, CHUNK - 1
+            return self._last(levels[-1], (par, pool, chunk), _estimate(levels[-1], slots))
         finally:
-            for b in bufs + [par, pool]:
+            for b in self._table + [par, pool]:
                 b.release()
+            self._table = []
 
-    def _level(self, lev: WalkLevel, par, pool, cap: int):
-        """Run a level above the last: its ``(start, count)`` and pool buffers, and a
-        capacity for the next level's pool (None where a limit is hit)."""
+    def _level(self, lev: WalkLevel, parents, cap: int):
+        """Run a level above the last: its ``(first chunk, count)`` and pool buffers, and
+        the pool's slots used (None where a limit is hit)."""
+        par, pool, chunk = parents
         k = len(lev.cells)
+        if 32 * k > self.max_bytes:
+            return None
         cells = self.ctx.buffer(np.ascontiguousarray(lev.cells, np.float32).tobytes())
         out = self.ctx.buffer(reserve=8 * k)
         try:
-            while True:
-                if cap > self.max_pool or 32 * k > self.max_bytes:
-                    out.release()
-                    return None
-                new, total, flags = self._run(lev, (cells, par, pool, out), (0, k), cap)
-                if flags & FLAG_LIMIT:
-                    new.release()
-                    out.release()
-                    return None
-                if not flags & FLAG_POOL:
-                    return out, new, max(cap, 4 * total)
+            while cap <= self.max_pool:
+                new, total, flags = self._run(lev, (cells, par, pool, out), (0, k), cap, chunk)
+                if not flags:
+                    out, done = None, out  # handed over
+                    return done, new, total
                 new.release()
-                cap = total + total // 4
+                if flags & FLAG_LIMIT:
+                    return None
+                cap = total  # the exact need (the walk counts on past a full pool)
+            return None
         finally:
             cells.release()
+            if out is not None:
+                out.release()
 
-    def _last(self, lev: WalkLevel, par, pool, cap: int):
+    def _last(self, lev: WalkLevel, parents, cap: int):
         """Run the last level in runs of cells whose pools fit: each cell's count and
         the arcs by cell (row-major), or None where a limit is hit."""
+        par, pool, chunk = parents
         k = len(lev.cells)
         most = self.max_pool
         if 32 * k > self.max_bytes:
@@ -182,7 +191,7 @@ class WalkPass:
             while k0 < k:
                 k1 = min(k, k0 + step)
                 want = min(most, max(1024, cap * (k1 - k0) // k))
-                new, total, flags = self._run(lev, (cells, par, pool, out), (k0, k1), want)
+                new, total, flags = self._run(lev, (cells, par, pool, out), (k0, k1), want, chunk)
                 if flags & FLAG_LIMIT:
                     new.release()
                     return None
@@ -195,39 +204,70 @@ class WalkPass:
                     else:
                         return None
                     continue
-                sc = np.frombuffer(out.read(size=8 * (k1 - k0)), np.uint32).reshape(-1, 2)
-                ids = np.frombuffer(new.read(size=4 * max(total, 1)), np.uint32)
-                new.release()
-                start, count = sc[:, 0].astype(np.int64), sc[:, 1].astype(np.int64)
-                lead = np.cumsum(count) - count
+                try:
+                    count, ids = self._gather(out, new, k1 - k0)
+                finally:
+                    new.release()
                 counts.append(count)
-                arcs.append(ids[np.repeat(start - lead, count) + np.arange(int(count.sum()))])
+                arcs.append(ids)
                 k0 = k1
             return np.concatenate(counts), np.concatenate(arcs)
         finally:
             cells.release()
             out.release()
 
-    def _run(self, lev: WalkLevel, bound, span, cap: int):
-        """One dispatch over cells ``span`` of ``lev`` with a new pool of ``cap`` ids:
-        the pool, the ids asked for and the flags."""
+    def _run(self, lev: WalkLevel, bound, span, cap: int, chunk: int):
+        """One dispatch over cells ``span`` of ``lev`` with a new pool of ``cap`` slots,
+        the parents' lists in chunks of ``chunk`` ids: the pool, the slots asked for and
+        the flags."""
         k0, k1 = span
         new = self.ctx.buffer(reserve=4 * cap)
         count = self.ctx.buffer(bytes(8))
         try:
-            for b, at in zip((*bound, new, count), range(2, 8)):
+            for b, at in zip((*self._table, *bound, new, count), range(8)):
                 b.bind_to_storage_buffer(at)
             self.prog["u_first"] = k0
             self.prog["u_cells"] = k1
             self.prog["u_width"] = lev.width
             self.prog["u_pwidth"] = lev.pwidth
             self.prog["u_capacity"] = cap
+            self.prog["u_pchunk"] = chunk
             self.prog.run(group_x=max(1, -(-(k1 - k0) // _LOCAL)))
             self.ctx.memory_barrier()
             total, flags = (int(x) for x in np.frombuffer(count.read(), np.uint32))
         finally:
             count.release()
         return new, total, flags
+
+    def _gather(self, out, pool, k: int):
+        """The lists of the ``k`` cells of ``out`` (their first chunk and count), in
+        chunks of ``pool``, gathered by cell (``shaders/field_walk_gather.comp``): the
+        counts and the ids."""
+        fc = np.frombuffer(out.read(size=8 * k), np.uint32).reshape(-1, 2)
+        count = fc[:, 1].astype(np.int64)
+        total = int(count.sum())
+        if total == 0:
+            return count, np.zeros(0, np.uint32)
+        start = self.ctx.buffer((np.cumsum(count) - count).astype(np.uint32).tobytes())
+        ids = self.ctx.buffer(reserve=4 * total)
+        try:
+            for b, at in zip((out, start, pool, ids), range(4)):
+                b.bind_to_storage_buffer(at)
+            self.gather["u_cells"] = k
+            self.gather["u_chunk"] = CHUNK - 1
+            self.gather.run(group_x=max(1, -(-k // _LOCAL)))
+            self.ctx.memory_barrier()
+            return count, np.frombuffer(ids.read(), np.uint32)
+        finally:
+            start.release()
+            ids.release()
+
+
+def _estimate(lev: WalkLevel, slots: int) -> int:
+    """A first pool for ``lev`` from the slots of its parents' pool: a list about four
+    times as long as its parent's (each cell its first chunk); a pool too small costs a
+    second run (told the exact need), one too large only memory."""
+    return 5 * slots + CHUNK * len(lev.cells)
 
 
 def walk_pass() -> WalkPass:
