@@ -90,45 +90,44 @@ float ang_hi(float ch) {
     return 2.0 * asin_f(0.5 * c) * (1.0 + u_asin_rel) + u_ch_abs;
 }
 
-// lower and upper bounds on the distance from c to the run of node k (the cap's lower
-// bound alone, and 1e30, where that exceeds lim: the node is pruned whatever its arc)
-vec2 bounds(vec3 c, int k, float lim) {
-    Node nd = u_node[k];
-    float ch = length(c - nd.cap.xyz);
+// Lower and upper bounds on the distance from c to the run of node nd; ch the chord to
+// its cap's centre, ca and cb those to its ends. The distance to the arc: between the
+// distance to its great circle and that to its nearer end, the former where the foot is
+// surely on the arc (upper bound), the latter where surely off it (lower bound): one
+// asin_f each way (both sides of a branch cost the same on a SIMD GPU).
+vec2 bounds(vec3 c, Node nd, out float ch, out float ca, out float cb) {
+    ch = length(c - nd.cap.xyz);
     float lo = ang_lo(ch) - nd.cap.w;
-    if (lo > lim) {
-        return vec2(lo, 1e30);
-    }
     float hi = ang_hi(ch) + nd.cap.w;
-    float ce = min(length(c - nd.a.xyz), length(c - nd.b.xyz));
-    float dhi = ang_hi(ce);
-    float dlo = 0.0;
+    ca = length(c - nd.a.xyz);
+    cb = length(c - nd.b.xyz);
+    float ce = min(ca, cb);
+    bool on = false;  // the foot surely on the arc
+    bool off = true;  // surely off it: an end is nearest
+    float y = 0.0;
     if (nd.b.w >= 2.0) {
         vec3 n = nd.n.xyz;
-        float y = abs(dot(c, n));
+        y = abs(dot(c, n));
         float s1 = dot(c, cross(n, nd.a.xyz));
         float s2 = dot(c, cross(nd.b.xyz, n));
-        if (s1 > u_dot_err && s2 > u_dot_err) {  // the foot surely on the arc
-            dhi = min(dhi, asin_f(min(y + u_dot_err, 1.0)) * (1.0 + u_asin_rel) + u_ch_abs);
-        }
-        if (s1 < -u_dot_err || s2 < -u_dot_err) {  // surely off it: an end is nearest
-            dlo = ang_lo(ce);
-        } else {  // the great circle is no nearer than the arc
-            dlo = asin_f(clamp(y - u_dot_err, 0.0, 1.0)) * (1.0 - u_asin_rel);
-        }
+        on = s1 > u_dot_err && s2 > u_dot_err;
+        off = s1 < -u_dot_err || s2 < -u_dot_err;
     }
+    // upper: asin(y) rounded up where on, else 2 asin(ce / 2) rounded up (ang_hi)
+    float xh = on ? min(y + u_dot_err, 1.0) : 0.5 * min(ce * (1.0 + u_ch_rel) + u_ch_abs, 2.0);
+    float dhi = (on ? 1.0 : 2.0) * asin_f(xh) * (1.0 + u_asin_rel) + u_ch_abs;
+    // lower: 2 asin(ce / 2) rounded down where off (ang_lo), else asin(y) rounded down
+    float xl = off ? min(0.5 * max(ce * (1.0 - u_ch_rel) - u_ch_abs, 0.0), 1.0)
+                   : clamp(y - u_dot_err, 0.0, 1.0);
+    float dlo = nd.b.w >= 2.0 ? (off ? 2.0 : 1.0) * asin_f(xl) * (1.0 - u_asin_rel) : 0.0;
     return vec2(max(lo, dlo - nd.a.w), min(hi, dhi + nd.a.w));
 }
 
-// Whether node k's run can be as near as the vertex v to some point within the cell's
+// Whether node nd's run can be as near as the vertex v to some point within the cell's
 // reach of c (gloffset/raster/fields/walk.py's _maybe_nearer, in float32 with its error
 // bound: false only where every such point is surely nearer to v than to the node's cap).
-// cs: cos and sin of the cell's reach, R its reach.
-bool maybe_nearer(vec3 c, float R, vec2 cs, vec3 v, int k) {
-    Node nd = u_node[k];
-    if (nd.cap.w >= 1.0 || R >= 1.0) {
-        return true;
-    }
+// cs: cos and sin of the cell's reach, R its reach; chm the chord from c to the cap's centre.
+bool maybe_nearer(vec3 c, float R, vec2 cs, vec3 v, Node nd, float chm) {
     vec3 mid = nd.cap.xyz;
     float kk = nd.r.x;
     vec3 w = v - mid;
@@ -138,7 +137,7 @@ bool maybe_nearer(vec3 c, float R, vec2 cs, vec3 v, int k) {
     float least = cv * cs.x - sx * cs.y;
     float err = u_bis_abs + u_bis_rel * (length(w) + kk);
     // S >= sin(min(t + R, pi / 2)), t the angle to the cap's centre (from a chord rounded up)
-    float ch = min(length(c - mid) * (1.0 + u_ch_rel) + u_ch_abs, 2.0);
+    float ch = min(chm * (1.0 + u_ch_rel) + u_ch_abs, 2.0);
     float ct = 1.0 - 0.5 * ch * ch;
     float st = ch * sqrt(max(1.0 - 0.25 * ch * ch, 0.0));
     float s = 1.0;
@@ -146,7 +145,7 @@ bool maybe_nearer(vec3 c, float R, vec2 cs, vec3 v, int k) {
         s = min(st * cs.x + ct * cs.y + u_bis_abs, 1.0);
     }
     float sr = nd.r.y;
-    return least - err <= sr * max(s, sr) * (1.0 + u_bis_abs);
+    return nd.cap.w >= 1.0 || R >= 1.0 || least - err <= sr * max(s, sr) * (1.0 + u_bis_abs);
 }
 
 void main() {
@@ -174,11 +173,11 @@ void main() {
     uint at = 0u;  // its next slot
     uint kept = 0u;
     bool full = false;  // a chunk beyond the pool's capacity (the ids are no longer written)
-    // One loop, a step each (llvmpipe counts the iterations of all loops together; one
-    // loop's, the most steps of a lane of the SIMD vector, stays within u_max_steps):
-    // phase 0 the parent's nodes (a first least upper bound, the nearest vertex), phase 1
-    // the walk: a step takes the next parent node onto the stack where it is empty, else
-    // pops and measures a node.
+    // One loop, a node measured each step (llvmpipe counts the iterations of all loops
+    // together; one loop's, the most steps of a lane of the SIMD vector, stays within
+    // u_max_steps): phase 0 the parent's nodes (a first least upper bound, the nearest
+    // vertex), phase 1 the walk: the parent's next node where the stack is empty, else
+    // the node popped.
     int phase = 0;
     uint e = 0u;  // the parent's nodes taken
     uint pa = par.x;  // the place of the next one in the parents' pool
@@ -190,10 +189,21 @@ void main() {
             o_cell[o] = uvec2(0u);
             return;
         }
-        int nd = 0;
         bool take = e < par.y && (phase == 0 || sp == 0);
+        if (!take && sp == 0) {
+            if (phase == 1) {
+                break;
+            }
+            test = u_bisector != 0 && vch < 4.0;
+            phase = 1;
+            e = 0u;
+            pa = par.x;
+            pi = 0u;
+            continue;
+        }
+        int id;
         if (take) {  // the parent's next node
-            nd = int(u_ppool[pa]);
+            id = int(u_ppool[pa]);
             ++e;
             ++pa;
             ++pi;
@@ -201,53 +211,35 @@ void main() {
                 pa = u_ppool[pa];
                 pi = 0u;
             }
+        } else {
+            sp -= 1;
+            id = stack[base + uint(sp)];
         }
-        if (phase == 0) {
-            if (take) {
-                best = min(best, bounds(c, nd, 1e30).y);
-                vec3 a = u_node[nd].a.xyz;
-                vec3 b = u_node[nd].b.xyz;
-                float ca = length(c - a);
-                float cb2 = length(c - b);
-                if (ca < vch) {
-                    vch = ca;
-                    vtx = a;
-                }
-                if (cb2 < vch) {
-                    vch = cb2;
-                    vtx = b;
-                }
-            } else {
-                test = u_bisector != 0 && vch < 4.0;
-                phase = 1;
-                e = 0u;
-                pa = par.x;
-                pi = 0u;
-            }
-            continue;
-        }
-        if (sp == 0) {
-            if (!take) {
-                break;
-            }
-            stack[base] = nd;
-            sp = 1;
-            continue;
-        }
-        sp -= 1;
-        nd = stack[base + uint(sp)];
-        vec2 b = bounds(c, nd, min(best + slack, far) + u_sum_err);
+        Node nd = u_node[id];
+        float chm, ca, cb2;
+        vec2 b = bounds(c, nd, chm, ca, cb2);
         best = min(best, b.y);
+        if (phase == 0) {
+            if (ca < vch) {
+                vch = ca;
+                vtx = nd.a.xyz;
+            }
+            if (cb2 < vch) {
+                vch = cb2;
+                vtx = nd.b.xyz;
+            }
+            continue;
+        }
         // kept for the slack alone: the bisector test against vtx too
         if (b.x <= min(best + slack, far) + u_sum_err
-            && (b.x <= best + u_sum_err || !test || maybe_nearer(c, cr.w, cb.yz, vtx, nd))) {
-            if (mod(u_node[nd].b.w, 2.0) < 1.0 && u_node[nd].a.w > bound) {  // split
+            && (b.x <= best + u_sum_err || !test || maybe_nearer(c, cr.w, cb.yz, vtx, nd, chm))) {
+            if (mod(nd.b.w, 2.0) < 1.0 && nd.a.w > bound) {  // split
                 if (sp + 2 > STACK) {
                     atomicOr(o_flags, FLAG_LIMIT);
                     o_cell[o] = uvec2(0u);
                     return;
                 }
-                ivec2 ch = u_child[nd];
+                ivec2 ch = u_child[id];
                 stack[base + uint(sp)] = ch.y;
                 stack[base + uint(sp) + 1u] = ch.x;
                 sp += 2;
@@ -263,7 +255,7 @@ void main() {
                     at = next;
                 }
                 if (!full) {
-                    o_pool[at] = uint(nd);
+                    o_pool[at] = uint(id);
                 }
                 ++at;
                 ++kept;
