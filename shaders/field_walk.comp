@@ -166,7 +166,7 @@ void main() {
     float bound = cb.x;
     uint base = gl_LocalInvocationIndex * uint(STACK);
     float best = 1e30;
-    float vch = 4.0;  // the chord to the nearest vertex vtx (an end of the parent's nodes)
+    float vch = 4.0;  // the chord to the nearest vertex vtx (an end of the nodes measured)
     vec3 vtx = c;
     bool test = false;
     uint first = 0u;  // the cell's first chunk
@@ -219,15 +219,15 @@ void main() {
         float chm, ca, cb2;
         vec2 b = bounds(c, nd, chm, ca, cb2);
         best = min(best, b.y);
+        if (ca < vch) {
+            vch = ca;
+            vtx = nd.a.xyz;
+        }
+        if (cb2 < vch) {
+            vch = cb2;
+            vtx = nd.b.xyz;
+        }
         if (phase == 0) {
-            if (ca < vch) {
-                vch = ca;
-                vtx = nd.a.xyz;
-            }
-            if (cb2 < vch) {
-                vch = cb2;
-                vtx = nd.b.xyz;
-            }
             continue;
         }
         // kept for the slack alone: the bisector test against vtx too
