@@ -1,7 +1,9 @@
 #version 430
 // One level of a distance field's walk (gloffset/gl/walk_pass.py, gloffset/raster/fields/lists.py).
 //
-// One invocation per cell of the level (row-major, u_width cells a row): the cell's list
+// One invocation per cell of the level (u_width cells a row; the invocations take the cells
+// in the order the host gives, cells of like parents' list lengths side by side: the lanes
+// of a SIMD vector then run about as many steps each): the cell's list
 // starts as its parent's (cell j >> 1, i >> 1 of the level above; the root list for every
 // cell at level 0) and is pruned and split as gloffset/raster/fields/walk.py's _bound does,
 // in float32 with every bound widened (the derivation: gloffset/gl/walk_pass.py):
@@ -29,14 +31,20 @@ struct Node {
 
 layout(std430, binding = 0) readonly buffer Nodes { Node u_node[]; };
 layout(std430, binding = 1) readonly buffer Child { ivec2 u_child[]; };
-layout(std430, binding = 2) readonly buffer Cells { vec4 u_cell[]; };  // c, reach; bound, cos, sin reach
+struct Cell {
+    vec4 c;   // c.xyz, reach (rounded up)
+    vec3 b;   // the split bound; cos, sin of the reach
+    uint id;  // the cell (row-major)
+};
+
+layout(std430, binding = 2) readonly buffer Cells { Cell u_cell[]; };  // in the order run
 layout(std430, binding = 3) readonly buffer Parents { uvec2 u_parent[]; };  // start, count
 layout(std430, binding = 4) readonly buffer ParentPool { uint u_ppool[]; };
 layout(std430, binding = 5) writeonly buffer Out { uvec2 o_cell[]; };  // first chunk, count
 layout(std430, binding = 6) writeonly buffer Pool { uint o_pool[]; };
 layout(std430, binding = 7) buffer Count { uint o_total; uint o_flags; };
 
-uniform uint u_first;  // the cells u_first .. u_cells - 1, written from o_cell[0]
+uniform uint u_first;  // the invocations u_first .. u_cells - 1 (o_cell by cell)
 uniform uint u_cells;
 uniform int u_width;
 uniform int u_pwidth;  // the parent level's width (0: every cell takes parent 0)
@@ -149,20 +157,22 @@ bool maybe_nearer(vec3 c, float R, vec2 cs, vec3 v, Node nd, float chm) {
 }
 
 void main() {
-    uint k = gl_GlobalInvocationID.x + u_first;
-    if (k >= u_cells) {
+    uint inv = gl_GlobalInvocationID.x + u_first;
+    if (inv >= u_cells) {
         return;
     }
-    uint o = k - u_first;
+    Cell cell = u_cell[inv];
+    uint k = cell.id;
+    uint o = k;
     int j = int(k) / u_width;
     int i = int(k) - j * u_width;
     uint p = u_pwidth > 0 ? uint((j >> 1) * u_pwidth + (i >> 1)) : 0u;
     uvec2 par = u_parent[p];
-    vec4 cr = u_cell[2u * k];
+    vec4 cr = cell.c;
     vec3 c = cr.xyz;
     float slack = 2.0 * cr.w;
     float far = u_m + cr.w;
-    vec4 cb = u_cell[2u * k + 1u];
+    vec3 cb = cell.b;
     float bound = cb.x;
     uint base = gl_LocalInvocationIndex * uint(STACK);
     float best = 1e30;

@@ -137,31 +137,34 @@ class WalkPass:
                 self.prog[name] = v
             slots = len(ids)
             for lev in levels[:-1]:
-                got = self._level(lev, (par, pool, chunk), _estimate(lev, slots))
+                cells = _ordered(lev)
+                got = self._level(lev, cells, (par, pool, chunk), _estimate(lev, slots))
                 if got is None:
                     return None
                 out, new, slots = got
                 par.release()
                 pool.release()
                 par, pool, chunk = out, new, CHUNK - 1
-            return self._last(levels[-1], (par, pool, chunk), _estimate(levels[-1], slots))
+            cells = _ordered(levels[-1])
+            return self._last(levels[-1], cells, (par, pool, chunk), _estimate(levels[-1], slots))
         finally:
             for b in self._table + [par, pool]:
                 b.release()
             self._table = []
 
-    def _level(self, lev: WalkLevel, parents, cap: int):
-        """Run a level above the last: its ``(first chunk, count)`` and pool buffers, and
-        the pool's slots used (None where a limit is hit)."""
+    def _level(self, lev: WalkLevel, cells: np.ndarray, parents, cap: int):
+        """Run a level above the last (its ``cells`` as :func:`_ordered` gives them): its
+        ``(first chunk, count)`` and pool buffers and the pool's slots used (None where a
+        limit is hit)."""
         par, pool, chunk = parents
-        k = len(lev.cells)
+        k = len(cells)
         if 32 * k > self.max_bytes:
             return None
-        cells = self.ctx.buffer(np.ascontiguousarray(lev.cells, np.float32).tobytes())
+        buf = self.ctx.buffer(cells.tobytes())
         out = self.ctx.buffer(reserve=8 * k)
         try:
             while cap <= self.max_pool:
-                new, total, flags = self._run(lev, (cells, par, pool, out), (0, k), cap, chunk)
+                new, total, flags = self._run(lev, (buf, par, pool, out), (0, k), cap, chunk)
                 if not flags:
                     out, done = None, out  # handed over
                     return done, new, total
@@ -171,27 +174,28 @@ class WalkPass:
                 cap = total  # the exact need (the walk counts on past a full pool)
             return None
         finally:
-            cells.release()
+            buf.release()
             if out is not None:
                 out.release()
 
-    def _last(self, lev: WalkLevel, parents, cap: int):
+    def _last(self, lev: WalkLevel, cells: np.ndarray, parents, cap: int):
         """Run the last level in runs of cells whose pools fit: each cell's count and
         the arcs by cell (row-major), or None where a limit is hit."""
         par, pool, chunk = parents
-        k = len(lev.cells)
+        k = len(cells)
         most = self.max_pool
         if 32 * k > self.max_bytes:
             return None
-        cells = self.ctx.buffer(np.ascontiguousarray(lev.cells, np.float32).tobytes())
+        order = cells.view(np.uint32)[:, 7]
+        buf = self.ctx.buffer(cells.tobytes())
         out = self.ctx.buffer(reserve=8 * k)
-        counts, arcs = [], []
+        runs = []
         try:
             k0, step = 0, k
             while k0 < k:
                 k1 = min(k, k0 + step)
                 want = min(most, max(1024, cap * (k1 - k0) // k))
-                new, total, flags = self._run(lev, (cells, par, pool, out), (k0, k1), want, chunk)
+                new, total, flags = self._run(lev, (buf, par, pool, out), (k0, k1), want, chunk)
                 if flags & FLAG_LIMIT:
                     new.release()
                     return None
@@ -204,22 +208,21 @@ class WalkPass:
                     else:
                         return None
                     continue
+                which = np.sort(order[k0:k1])
                 try:
-                    count, ids = self._gather(out, new, k1 - k0)
+                    runs.append((which, *self._gather(out, new, which)))
                 finally:
                     new.release()
-                counts.append(count)
-                arcs.append(ids)
                 k0 = k1
-            return np.concatenate(counts), np.concatenate(arcs)
+            return _by_cell(k, runs)
         finally:
-            cells.release()
+            buf.release()
             out.release()
 
     def _run(self, lev: WalkLevel, bound, span, cap: int, chunk: int):
-        """One dispatch over cells ``span`` of ``lev`` with a new pool of ``cap`` slots,
-        the parents' lists in chunks of ``chunk`` ids: the pool, the slots asked for and
-        the flags."""
+        """One dispatch over the invocations ``span`` of ``lev`` with a new pool of ``cap``
+        slots, the parents' lists in chunks of ``chunk`` ids: the pool, the slots asked
+        for and the flags."""
         k0, k1 = span
         new = self.ctx.buffer(reserve=4 * cap)
         count = self.ctx.buffer(bytes(8))
@@ -239,27 +242,28 @@ class WalkPass:
             count.release()
         return new, total, flags
 
-    def _gather(self, out, pool, k: int):
-        """The lists of the ``k`` cells of ``out`` (their first chunk and count), in
-        chunks of ``pool``, gathered by cell (``shaders/field_walk_gather.comp``): the
-        counts and the ids."""
-        fc = np.frombuffer(out.read(size=8 * k), np.uint32).reshape(-1, 2)
-        count = fc[:, 1].astype(np.int64)
+    def _gather(self, out, pool, which: np.ndarray):
+        """The lists of the cells ``which`` (ascending) of ``out`` (their first chunk and
+        count, by cell), in chunks of ``pool``, gathered by cell
+        (``shaders/field_walk_gather.comp``): the counts and the ids."""
+        fc = np.frombuffer(out.read(), np.uint32).reshape(-1, 2)
+        count = fc[which, 1].astype(np.int64)
         total = int(count.sum())
         if total == 0:
             return count, np.zeros(0, np.uint32)
-        start = self.ctx.buffer((np.cumsum(count) - count).astype(np.uint32).tobytes())
+        start = np.column_stack([which, np.cumsum(count) - count]).astype(np.uint32)
+        sb = self.ctx.buffer(start.tobytes())
         ids = self.ctx.buffer(reserve=4 * total)
         try:
-            for b, at in zip((out, start, pool, ids), range(4)):
+            for b, at in zip((out, sb, pool, ids), range(4)):
                 b.bind_to_storage_buffer(at)
-            self.gather["u_cells"] = k
+            self.gather["u_cells"] = len(which)
             self.gather["u_chunk"] = CHUNK - 1
-            self.gather.run(group_x=max(1, -(-k // _LOCAL)))
+            self.gather.run(group_x=max(1, -(-len(which) // _LOCAL)))
             self.ctx.memory_barrier()
             return count, np.frombuffer(ids.read(), np.uint32)
         finally:
-            start.release()
+            sb.release()
             ids.release()
 
 
@@ -268,6 +272,42 @@ def _estimate(lev: WalkLevel, slots: int) -> int:
     times as long as its parent's (each cell its first chunk); a pool too small costs a
     second run (told the exact need), one too large only memory."""
     return 5 * slots + CHUNK * len(lev.cells)
+
+
+def _ordered(lev: WalkLevel) -> np.ndarray:
+    """The cells of ``lev`` as ``shaders/field_walk.comp`` reads them, (k, 8) float32
+    (centre, reach; bound, cos and sin of the reach; the cell's index as uint32), in the
+    order they are run: by parent (row-major), a parent's cells together. The lanes of a
+    SIMD vector (neighbours in that order) then start from the same lists, about as long,
+    and read the same nodes."""
+    k = len(lev.cells)
+    cell = np.arange(k)
+    if lev.pwidth:
+        w = lev.width
+        h = k // w
+        pj, pi = np.divmod(np.arange(((h + 1) // 2) * lev.pwidth), lev.pwidth)
+        j = 2 * pj[:, None] + np.array([0, 0, 1, 1])
+        i = 2 * pi[:, None] + np.array([0, 1, 0, 1])
+        cell = (j * w + i)[(j < h) & (i < w)]
+    out = np.ascontiguousarray(lev.cells.reshape(k, 8)[cell], np.float32)
+    out.view(np.uint32)[:, 7] = cell
+    return out
+
+
+def _by_cell(k: int, runs) -> tuple[np.ndarray, np.ndarray]:
+    """The runs' lists, ``(cells ascending, counts, ids)`` each, by cell (row-major):
+    each cell's count and the ids."""
+    if len(runs) == 1 and len(runs[0][0]) == k:
+        return runs[0][1], runs[0][2]
+    count = np.zeros(k, np.int64)
+    for which, n, _ in runs:
+        count[which] = n
+    start = np.cumsum(count) - count
+    ids = np.empty(int(count.sum()), np.uint32)
+    for which, n, got in runs:
+        at = np.repeat(start[which] - (np.cumsum(n) - n), n) + np.arange(len(got))
+        ids[at] = got
+    return count, ids
 
 
 def walk_pass() -> WalkPass:
