@@ -30,6 +30,7 @@ The float64 rule's own rounding (1e-14) is far below these margins. The slack is
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -69,6 +70,10 @@ BIS_ABS, BIS_REL = 2e-6, 1e-5
 #: Whether the lists are shortened by the bisector test (as the float64 walk's are).
 BISECTOR = True
 _LOCAL = 64
+#: Node tables whose buffers a :class:`WalkPass` keeps (the oldest dropped first).
+KEEP_TABLES = 2
+#: Slots of a pool at least (4 bytes each): a pool too small costs a second run.
+MIN_POOL = 1 << 21
 #: Bits of the shader's flags: the pool was too small; a stack or loop limit was hit.
 FLAG_POOL, FLAG_LIMIT = 1, 2
 #: Slots of a chunk of a level's pool: ``CHUNK - 1`` node ids, then the start of the
@@ -101,7 +106,8 @@ class WalkPass:
         self.max_steps = 60000 if context_info()["software"] else 1 << 30
         self.prog = self.ctx.compute_shader(load_source("field_walk.comp")[0])
         self.gather = self.ctx.compute_shader(load_source("field_walk_gather.comp")[0])
-        self._table: list = []
+        self._table: list = []  # the node table's buffers of the run
+        self._kept: dict = {}  # id of a table's nodes: (weak reference, buffers)
 
     def run(self, table, parents, levels, m: float):
         """Walk ``levels`` from the ``parents``' lists; return the last level's count per
@@ -117,7 +123,7 @@ class WalkPass:
         sc, ids = parents
         if max(nodes.nbytes, ids.nbytes, sc.nbytes) > self.max_bytes:
             return None
-        self._table = [ctx.buffer(nodes.tobytes()), ctx.buffer(child.tobytes())]
+        self._table = self._buffers(nodes, child)
         par = ctx.buffer(np.ascontiguousarray(sc, np.uint32).tobytes())
         pool = ctx.buffer(np.ascontiguousarray(ids, np.uint32).tobytes() or bytes(4))
         chunk = CONTIGUOUS
@@ -148,9 +154,27 @@ class WalkPass:
             cells = _ordered(levels[-1])
             return self._last(levels[-1], cells, (par, pool, chunk), _estimate(levels[-1], slots))
         finally:
-            for b in self._table + [par, pool]:
+            for b in (par, pool):
                 b.release()
             self._table = []
+
+    def _buffers(self, nodes: np.ndarray, child: np.ndarray) -> list:
+        """The buffers of a node table, uploaded once while ``nodes`` lives (the last
+        :data:`KEEP_TABLES` tables kept)."""
+        got = self._kept.get(id(nodes))
+        if got is not None and got[0]() is nodes:
+            return got[1]
+        for key in [k for k, (ref, _) in self._kept.items() if ref() is None]:
+            self._drop(key)
+        while len(self._kept) >= KEEP_TABLES:
+            self._drop(next(iter(self._kept)))
+        bufs = [self.ctx.buffer(nodes.tobytes()), self.ctx.buffer(child.tobytes())]
+        self._kept[id(nodes)] = (weakref.ref(nodes), bufs)
+        return bufs
+
+    def _drop(self, key: int) -> None:
+        for b in self._kept.pop(key)[1]:
+            b.release()
 
     def _level(self, lev: WalkLevel, cells: np.ndarray, parents, cap: int):
         """Run a level above the last (its ``cells`` as :func:`_ordered` gives them): its
@@ -162,6 +186,7 @@ class WalkPass:
             return None
         buf = self.ctx.buffer(cells.tobytes())
         out = self.ctx.buffer(reserve=8 * k)
+        cap = min(cap, self.max_pool)
         try:
             while cap <= self.max_pool:
                 new, total, flags = self._run(lev, (buf, par, pool, out), (0, k), cap, chunk)
@@ -269,9 +294,10 @@ class WalkPass:
 
 def _estimate(lev: WalkLevel, slots: int) -> int:
     """A first pool for ``lev`` from the slots of its parents' pool: a list about four
-    times as long as its parent's (each cell its first chunk); a pool too small costs a
-    second run (told the exact need), one too large only memory."""
-    return 5 * slots + CHUNK * len(lev.cells)
+    times as long as its parent's (each cell its first chunk), at least
+    :data:`MIN_POOL`; a pool too small costs a second run (told the exact need), one
+    too large only memory."""
+    return max(MIN_POOL, 5 * slots + CHUNK * len(lev.cells))
 
 
 def _ordered(lev: WalkLevel) -> np.ndarray:
