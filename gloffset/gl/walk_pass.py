@@ -203,7 +203,7 @@ class WalkPass:
                     out, done = None, out  # handed over
                     return done, new, total
                 new.release()
-                if flags & FLAG_LIMIT:
+                if flags & FLAG_LIMIT or total <= cap:  # (a count past 2^32 wrapped)
                     return None
                 cap = total  # the exact need (the walk counts on past a full pool)
             return None
@@ -235,6 +235,8 @@ class WalkPass:
                     return None
                 if flags & FLAG_POOL:
                     new.release()
+                    if total <= want:  # (a count past 2^32 wrapped)
+                        return None
                     if total <= most:
                         cap = max(cap, total * k // (k1 - k0) + 1)
                     elif step > 1:
