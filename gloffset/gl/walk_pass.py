@@ -2,19 +2,10 @@
 
 Each cell's list of multiresolution nodes is its parent's pruned and split in float32 by
 the rule of :func:`gloffset.raster.fields.walk._bound` (the bisector test against the
-nearest boundary vertex of the nodes measured so far), every bound widened: each list is
-a superset of the float64 rule's. One walk per cell (one invocation, depth first): a
-node is kept against the least upper bound found so far, which only falls, so the list
-is a superset of the one the final bound keeps. The lists are written as they are found,
-in chunks of :data:`CHUNK` slots reserved with an atomic counter; the next level reads
-its parents' lists from those chunks, and the last level's are gathered by cell
-(``shaders/field_walk_gather.comp``) before they are read back. The cells run in their
-parents' order (:func:`_ordered`: a SIMD vector's lanes start from the same lists). A
-pool too small is run again with the exact need (the walk counts on past its end).
-
-Inputs are float64 unit
-vectors rounded once to float32 (off by at most u = 2^-24 in norm); radii (``reach``,
-``err``, the cells' reach, ``m``) are rounded up. The bounds:
+nearest boundary vertex of the nodes measured), every bound widened: each list is a
+superset of the float64 rule's (one walk per cell, written in chunks: :class:`WalkPass`).
+Inputs are float64 unit vectors rounded once to float32 (off by at most u = 2^-24 in
+norm); radii (``reach``, ``err``, the cells' reach, ``m``) are rounded up. The bounds:
 
 * a chord ``|c - p|`` is off by 2u from its inputs and 8u relative from its rounding
   (differences, squares, sum: 4u; a square root two ulp off: 4u): :data:`CH_ABS` +
@@ -105,7 +96,17 @@ class WalkLevel:
 
 
 class WalkPass:
-    """The compiled programs and their runs (one per GL thread)."""
+    """The compiled programs and their runs (one per GL thread).
+
+    One walk per cell (one invocation, depth first): a node is kept against the least
+    upper bound found so far, which only falls, so the list is a superset of the one the
+    final bound keeps. The lists are written as they are found, in chunks of
+    :data:`CHUNK` slots reserved with an atomic counter; the next level reads its
+    parents' lists from those chunks, and the last level's are gathered by cell
+    (``shaders/field_walk_gather.comp``) before they are read back. The cells run in
+    their parents' order (:func:`_ordered`). A pool too small is run again with the
+    exact need (the walk counts on past its end).
+    """
 
     def __init__(self):
         self.ctx = get_context()
