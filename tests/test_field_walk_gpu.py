@@ -254,3 +254,20 @@ def test_levels_walked_on_the_gpu_read_their_parents_lists_in_chunks(world, monk
     monkeypatch.setattr(field_gpu, "WALK", "gpu")
     got = gloffset.distance_field(world, grid).values
     assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+
+
+@pytest.mark.parametrize("walk", ["cpu", "gpu"])
+def test_each_cells_arcs_come_ascending_to_the_field_pass(world, walk):
+    """Either walk's lists, as a block hands them to the field pass: each cell's arcs
+    ascending, distinct (the pass reads the arcs' records in order), the lists' own."""
+    nodes = NodeArcs.from_shape(world)
+    grid = Equirect(512, 256)
+    lists = _Lists(nodes, grid, math.inf, grid.n_levels - 1 - SHIFT, walk=walk)
+    hc, wc = lists.shape
+    first, cnt, node = lists.block(range(hc), range(wc))
+    assert np.array_equal(cnt, lists.count)
+    cell = np.repeat(np.arange(len(cnt)), cnt)
+    same = cell[1:] == cell[:-1]
+    assert same.sum() > 10000 and (np.diff(node)[same] > 0).all()
+    key = cell * len(nodes.a)
+    assert np.array_equal(node + key, np.sort(lists.node + key))

