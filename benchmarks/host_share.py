@@ -24,11 +24,10 @@ with them, gives the GL time and its own wall time: the host share is ``1 - gl /
 of that run (on a loaded machine two runs differ more than the GL part of one), and the
 host time is the best wall time times that share.
 
-``--walk gpu`` makes a field's lists with the GPU walk, as the field does by default on
-a hardware GL (``gloffset.raster.fields.gpu.WALK = "auto"``; on llvmpipe "auto" is the
-float64 host walk, since llvmpipe runs the GPU walk slower than numpy runs it): on
-llvmpipe that run is slower, but its host time is the host time a hardware GPU is left
-with.
+``--walk gpu`` (or ``cpu``) makes a field's lists with the GPU walk (or the float64 host
+walk). By default (``gloffset.raster.fields.gpu.WALK = "auto"``) a hardware GL walks on
+the GPU, and so does llvmpipe where the lists' level has at least
+``SOFTWARE_CELLS`` cells (the 4096 x 2048 field here); a tile's field walks on the host.
 
 Run: python benchmarks/host_share.py [--quick] [-k NAME] [--walk auto|cpu|gpu]
 Writes benchmarks/results/host_share.json (host_share_walk_WALK.json for another walk).

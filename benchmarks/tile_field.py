@@ -10,8 +10,11 @@ seeded boundary vertices of Mexico, each timed warm (best of ``--repeat``):
 crosses such a tile at every zoom). Printed and recorded: both times and their ratio,
 per tile, and the largest ratio per input.
 
-Run: python benchmarks/tile_field.py [--tiles 3] [--repeat 5] [-k mexico]
-Writes benchmarks/results/tile_field.json.
+``--walk cpu`` or ``gpu`` sets the fields' walk (``gloffset.raster.fields.gpu.WALK``;
+default ``auto``).
+
+Run: python benchmarks/tile_field.py [--tiles 3] [--repeat 5] [-k mexico] [--walk auto]
+Writes benchmarks/results/tile_field.json (tile_field_walk_WALK.json for another walk).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from common import DATA, best_of, write
 
 import gloffset
 from gloffset.grids import Tile
+from gloffset.raster.fields import gpu as field_gpu
 
 D = 20e3  # metres
 
@@ -50,9 +54,11 @@ def main(argv=None):
     ap.add_argument("--tiles", type=int, default=3, help="boundary vertices (tiles) per zoom")
     ap.add_argument("--repeat", type=int, default=5, help="warm runs, the best kept")
     ap.add_argument("-k", default="", help="only the inputs whose name contains this")
+    ap.add_argument("--walk", default="auto", choices=("auto", "cpu", "gpu"), help="the walk")
     args = ap.parse_args(argv)
+    field_gpu.WALK = args.walk
     points = boundary_points(args.tiles)
-    record: dict = {"distance_m": D, "repeat": args.repeat, "inputs": {}}
+    record: dict = {"distance_m": D, "repeat": args.repeat, "walk": args.walk, "inputs": {}}
     for name in ("mexico_10m", "countries_10m"):
         if args.k not in name:
             continue
@@ -79,7 +85,7 @@ def main(argv=None):
         worst = max(r["ratio"] for r in rows)
         print(f"{name}: largest field / render ratio {worst:.1f}", flush=True)
         record["inputs"][name] = {"tiles": rows, "largest_ratio": worst}
-    write("tile_field", record)
+    write("tile_field" if args.walk == "auto" else f"tile_field_walk_{args.walk}", record)
 
 
 if __name__ == "__main__":

@@ -228,3 +228,46 @@ def test_the_float32_asin_is_within_its_bound():
     want = np.arcsin(x.astype(np.float64))
     rel = np.abs(_asin_f(x).astype(np.float64) - want) / np.maximum(want, 1e-300)
     assert rel.max() < walk_pass.ASIN_REL / 4
+
+
+def test_levels_walked_on_the_gpu_read_their_parents_lists_in_chunks(world, monkeypatch):
+    """Every level walked on the GPU (level 0 from the root list), each reading its parents' lists
+    from the chunks the level above wrote, from pools too small at first (each level
+    run again with the exact need): no pixel's nearest arc missing, the CPU's field."""
+    from gloffset.raster.fields import lists
+
+    monkeypatch.setattr(lists, "GPU_CELLS", 16)
+    monkeypatch.setattr(walk_pass, "MIN_POOL", 64)
+    monkeypatch.setattr(walk_pass, "_estimate", lambda lev, slots: 64)
+    runs = []
+    real = walk_pass.WalkPass._run
+    monkeypatch.setattr(
+        walk_pass.WalkPass, "_run", lambda *a: runs.append(a) or (r := real(*a)) and r
+    )
+    grid = Equirect(512, 256)
+    missing, _, gpu = _check(world, grid)
+    assert not missing
+    sizes = [len(a[1].cells) for a in runs]
+    assert len(set(sizes)) >= 2 and len(runs) > len(set(sizes))  # levels, retries
+    assert {a[5] for a in runs} == {walk_pass.CONTIGUOUS, walk_pass.CHUNK - 1}
+    want = gloffset.distance_field(world, grid, backend="cpu").values
+    monkeypatch.setattr(field_gpu, "WALK", "gpu")
+    got = gloffset.distance_field(world, grid).values
+    assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+
+
+@pytest.mark.parametrize("walk", ["cpu", "gpu"])
+def test_each_cells_arcs_come_ascending_to_the_field_pass(world, walk):
+    """Either walk's lists, as a block hands them to the field pass: each cell's arcs
+    ascending, distinct (the pass reads the arcs' records in order), the lists' own."""
+    nodes = NodeArcs.from_shape(world)
+    grid = Equirect(512, 256)
+    lists = _Lists(nodes, grid, math.inf, grid.n_levels - 1 - SHIFT, walk=walk)
+    hc, wc = lists.shape
+    first, cnt, node = lists.block(range(hc), range(wc))
+    assert np.array_equal(cnt, lists.count)
+    cell = np.repeat(np.arange(len(cnt)), cnt)
+    same = cell[1:] == cell[:-1]
+    assert same.sum() > 10000 and (np.diff(node)[same] > 0).all()
+    key = cell * len(nodes.a)
+    assert np.array_equal(node + key, np.sort(lists.node + key))

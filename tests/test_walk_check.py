@@ -76,3 +76,30 @@ def test_auto_uses_the_float64_walk_where_the_check_fails(mexico_path, monkeypat
     with warnings.catch_warnings():  # once per thread
         warnings.simplefilter("error")
         gloffset.distance_field(shape, grid)
+
+
+def _llvmpipe(monkeypatch):
+    """The GPU walk's calls (this thread's GL llvmpipe, else the test is skipped)."""
+    if "llvmpipe" not in str(gl_context.context_info().get("renderer", "")):
+        pytest.skip("not llvmpipe")
+    calls: list = []
+    lists = field_gpu.gpu_lists
+    monkeypatch.setattr(field_gpu, "gpu_lists", lambda *a: calls.append(1) or lists(*a))
+    return calls
+
+
+def test_auto_on_llvmpipe_walks_grids_of_many_cells_on_the_gpu(mexico_path, monkeypatch):
+    """On llvmpipe "auto" walks on the GPU where the lists' level has at least
+    SOFTWARE_CELLS cells (here lowered to a tile's 1,024), unchecked: the float64
+    walk's field, bit for bit; in float64 below that."""
+    shape, grid = gloffset.read(mexico_path), Tile(5, 6, 13)
+    want = gloffset.distance_field(shape, grid, backend="cpu").values
+    calls = _llvmpipe(monkeypatch)
+    monkeypatch.setattr(field_gpu, "walk_check", lambda grid=None: 1 / 0)  # not asked
+    monkeypatch.setattr(field_gpu, "SOFTWARE_CELLS", 1024)
+    got = gloffset.distance_field(shape, grid).values
+    assert calls and np.array_equal(got.view(np.uint32), want.view(np.uint32))
+    calls.clear()
+    monkeypatch.setattr(field_gpu, "SOFTWARE_CELLS", 1025)
+    gloffset.distance_field(shape, grid)
+    assert not calls

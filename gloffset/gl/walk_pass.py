@@ -2,10 +2,10 @@
 
 Each cell's list of multiresolution nodes is its parent's pruned and split in float32 by
 the rule of :func:`gloffset.raster.fields.walk._bound` (the bisector test against the
-nearest end of the parent's nodes), every bound widened: each list is a superset of
-the float64 rule's. Inputs are float64 unit
-vectors rounded once to float32 (off by at most u = 2^-24 in norm); radii (``reach``,
-``err``, the cells' reach, ``m``) are rounded up. The bounds:
+nearest boundary vertex of the nodes measured), every bound widened: each list is a
+superset of the float64 rule's (one walk per cell, written in chunks: :class:`WalkPass`).
+Inputs are float64 unit vectors rounded once to float32 (off by at most u = 2^-24 in
+norm); radii (``reach``, ``err``, the cells' reach, ``m``) are rounded up. The bounds:
 
 * a chord ``|c - p|`` is off by 2u from its inputs and 8u relative from its rounding
   (differences, squares, sum: 4u; a square root two ulp off: 4u): :data:`CH_ABS` +
@@ -30,6 +30,7 @@ The float64 rule's own rounding (1e-14) is far below these margins. The slack is
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -69,8 +70,17 @@ BIS_ABS, BIS_REL = 2e-6, 1e-5
 #: Whether the lists are shortened by the bisector test (as the float64 walk's are).
 BISECTOR = True
 _LOCAL = 64
+#: Node tables whose buffers a :class:`WalkPass` keeps (the oldest dropped first).
+KEEP_TABLES = 2
+#: Slots of a pool at least (4 bytes each): a pool too small costs a second run.
+MIN_POOL = 1 << 21
 #: Bits of the shader's flags: the pool was too small; a stack or loop limit was hit.
 FLAG_POOL, FLAG_LIMIT = 1, 2
+#: Slots of a chunk of a level's pool: ``CHUNK - 1`` node ids, then the start of the
+#: list's next chunk (``shaders/field_walk.comp``'s ``CHUNK``).
+CHUNK = 16
+#: The chunk size that says the parents' lists are contiguous (the first level's).
+CONTIGUOUS = 0xFFFFFFFF
 
 
 @dataclass
@@ -86,16 +96,28 @@ class WalkLevel:
 
 
 class WalkPass:
-    """The compiled program and its runs (one per GL thread)."""
+    """The compiled programs and their runs (one per GL thread).
+
+    One walk per cell (one invocation, depth first): a node is kept against the least
+    upper bound found so far, which only falls, so the list is a superset of the one the
+    final bound keeps. The lists are written as they are found, in chunks of
+    :data:`CHUNK` slots reserved with an atomic counter; the next level reads its
+    parents' lists from those chunks, and the last level's are gathered by cell
+    (``shaders/field_walk_gather.comp``) before they are read back. The cells run in
+    their parents' order (:func:`_ordered`). A pool too small is run again with the
+    exact need (the walk counts on past its end).
+    """
 
     def __init__(self):
         self.ctx = get_context()
         self.max_bytes = context_info()["max_storage_block_size"]
-        self.max_pool = self.max_bytes // 4  # node ids in a pool
+        self.max_pool = self.max_bytes // 4  # slots of a pool (node ids and links)
         # llvmpipe ends all loops of an invocation after 65535 iterations in all, silently
         self.max_steps = 60000 if context_info()["software"] else 1 << 30
-        src, _ = load_source("field_walk.comp")
-        self.prog = self.ctx.compute_shader(src)
+        self.prog = self.ctx.compute_shader(load_source("field_walk.comp")[0])
+        self.gather = self.ctx.compute_shader(load_source("field_walk_gather.comp")[0])
+        self._table: list = []  # the node table's buffers of the run
+        self._kept: dict = {}  # id of a table's nodes: (weak reference, buffers)
 
     def run(self, table, parents, levels, m: float):
         """Walk ``levels`` from the ``parents``' lists; return the last level's count per
@@ -111,12 +133,11 @@ class WalkPass:
         sc, ids = parents
         if max(nodes.nbytes, ids.nbytes, sc.nbytes) > self.max_bytes:
             return None
-        bufs = [ctx.buffer(nodes.tobytes()), ctx.buffer(child.tobytes())]
+        self._table = self._buffers(nodes, child)
         par = ctx.buffer(np.ascontiguousarray(sc, np.uint32).tobytes())
         pool = ctx.buffer(np.ascontiguousarray(ids, np.uint32).tobytes() or bytes(4))
+        chunk = CONTIGUOUS
         try:
-            for k, b in enumerate(bufs):
-                b.bind_to_storage_buffer(k)
             self.prog["u_m"] = float(m)
             self.prog["u_bisector"] = int(BISECTOR)
             self.prog["u_max_steps"] = self.max_steps
@@ -130,64 +151,93 @@ class WalkPass:
                 ("u_bis_rel", BIS_REL),
             ):
                 self.prog[name] = v
-            cap = 4 * max(len(ids), 1)
+            slots = len(ids)
             for lev in levels[:-1]:
-                got = self._level(lev, par, pool, cap)
+                cells = _ordered(lev)
+                got = self._level(lev, cells, (par, pool, chunk), _estimate(lev, slots))
                 if got is None:
                     return None
-                out, new, cap = got
+                out, new, slots = got
                 par.release()
                 pool.release()
-                par, pool = out, new
-            return self._last(levels[-1], par, pool, cap)
+                par, pool, chunk = out, new, CHUNK - 1
+            cells = _ordered(levels[-1])
+            return self._last(levels[-1], cells, (par, pool, chunk), _estimate(levels[-1], slots))
         finally:
-            for b in bufs + [par, pool]:
+            for b in (par, pool):
                 b.release()
+            self._table = []
 
-    def _level(self, lev: WalkLevel, par, pool, cap: int):
-        """Run a level above the last: its ``(start, count)`` and pool buffers, and a
-        capacity for the next level's pool (None where a limit is hit)."""
-        k = len(lev.cells)
-        cells = self.ctx.buffer(np.ascontiguousarray(lev.cells, np.float32).tobytes())
+    def _buffers(self, nodes: np.ndarray, child: np.ndarray) -> list:
+        """The buffers of a node table, uploaded once while ``nodes`` lives (the last
+        :data:`KEEP_TABLES` tables kept)."""
+        got = self._kept.get(id(nodes))
+        if got is not None and got[0]() is nodes:
+            return got[1]
+        for key in [k for k, (ref, _) in self._kept.items() if ref() is None]:
+            self._drop(key)
+        while len(self._kept) >= KEEP_TABLES:
+            self._drop(next(iter(self._kept)))
+        bufs = [self.ctx.buffer(nodes.tobytes()), self.ctx.buffer(child.tobytes())]
+        self._kept[id(nodes)] = (weakref.ref(nodes), bufs)
+        return bufs
+
+    def _drop(self, key: int) -> None:
+        for b in self._kept.pop(key)[1]:
+            b.release()
+
+    def _level(self, lev: WalkLevel, cells: np.ndarray, parents, cap: int):
+        """Run a level above the last (its ``cells`` as :func:`_ordered` gives them): its
+        ``(first chunk, count)`` and pool buffers and the pool's slots used (None where a
+        limit is hit)."""
+        par, pool, chunk = parents
+        k = len(cells)
+        if 32 * k > self.max_bytes:
+            return None
+        buf = self.ctx.buffer(cells.tobytes())
         out = self.ctx.buffer(reserve=8 * k)
+        cap = min(cap, self.max_pool)
         try:
-            while True:
-                if cap > self.max_pool or 32 * k > self.max_bytes:
-                    out.release()
-                    return None
-                new, total, flags = self._run(lev, (cells, par, pool, out), (0, k), cap)
-                if flags & FLAG_LIMIT:
-                    new.release()
-                    out.release()
-                    return None
-                if not flags & FLAG_POOL:
-                    return out, new, max(cap, 4 * total)
+            while cap <= self.max_pool:
+                new, total, flags = self._run(lev, (buf, par, pool, out), (0, k), cap, chunk)
+                if not flags:
+                    out, done = None, out  # handed over
+                    return done, new, total
                 new.release()
-                cap = total + total // 4
+                if flags & FLAG_LIMIT or total <= cap:  # (a count past 2^32 wrapped)
+                    return None
+                cap = total  # the exact need (the walk counts on past a full pool)
+            return None
         finally:
-            cells.release()
+            buf.release()
+            if out is not None:
+                out.release()
 
-    def _last(self, lev: WalkLevel, par, pool, cap: int):
+    def _last(self, lev: WalkLevel, cells: np.ndarray, parents, cap: int):
         """Run the last level in runs of cells whose pools fit: each cell's count and
         the arcs by cell (row-major), or None where a limit is hit."""
-        k = len(lev.cells)
+        par, pool, chunk = parents
+        k = len(cells)
         most = self.max_pool
         if 32 * k > self.max_bytes:
             return None
-        cells = self.ctx.buffer(np.ascontiguousarray(lev.cells, np.float32).tobytes())
+        order = cells.view(np.uint32)[:, 7]
+        buf = self.ctx.buffer(cells.tobytes())
         out = self.ctx.buffer(reserve=8 * k)
-        counts, arcs = [], []
+        runs = []
         try:
             k0, step = 0, k
             while k0 < k:
                 k1 = min(k, k0 + step)
                 want = min(most, max(1024, cap * (k1 - k0) // k))
-                new, total, flags = self._run(lev, (cells, par, pool, out), (k0, k1), want)
+                new, total, flags = self._run(lev, (buf, par, pool, out), (k0, k1), want, chunk)
                 if flags & FLAG_LIMIT:
                     new.release()
                     return None
                 if flags & FLAG_POOL:
                     new.release()
+                    if total <= want:  # (a count past 2^32 wrapped)
+                        return None
                     if total <= most:
                         cap = max(cap, total * k // (k1 - k0) + 1)
                     elif step > 1:
@@ -195,39 +245,107 @@ class WalkPass:
                     else:
                         return None
                     continue
-                sc = np.frombuffer(out.read(size=8 * (k1 - k0)), np.uint32).reshape(-1, 2)
-                ids = np.frombuffer(new.read(size=4 * max(total, 1)), np.uint32)
-                new.release()
-                start, count = sc[:, 0].astype(np.int64), sc[:, 1].astype(np.int64)
-                lead = np.cumsum(count) - count
-                counts.append(count)
-                arcs.append(ids[np.repeat(start - lead, count) + np.arange(int(count.sum()))])
+                which = np.sort(order[k0:k1])
+                try:
+                    runs.append((which, *self._gather(out, new, which)))
+                finally:
+                    new.release()
                 k0 = k1
-            return np.concatenate(counts), np.concatenate(arcs)
+            return _by_cell(k, runs)
         finally:
-            cells.release()
+            buf.release()
             out.release()
 
-    def _run(self, lev: WalkLevel, bound, span, cap: int):
-        """One dispatch over cells ``span`` of ``lev`` with a new pool of ``cap`` ids:
-        the pool, the ids asked for and the flags."""
+    def _run(self, lev: WalkLevel, bound, span, cap: int, chunk: int):
+        """One dispatch over the invocations ``span`` of ``lev`` with a new pool of ``cap``
+        slots, the parents' lists in chunks of ``chunk`` ids: the pool, the slots asked
+        for and the flags."""
         k0, k1 = span
         new = self.ctx.buffer(reserve=4 * cap)
         count = self.ctx.buffer(bytes(8))
         try:
-            for b, at in zip((*bound, new, count), range(2, 8)):
+            for b, at in zip((*self._table, *bound, new, count), range(8)):
                 b.bind_to_storage_buffer(at)
             self.prog["u_first"] = k0
             self.prog["u_cells"] = k1
             self.prog["u_width"] = lev.width
             self.prog["u_pwidth"] = lev.pwidth
             self.prog["u_capacity"] = cap
+            self.prog["u_pchunk"] = chunk
             self.prog.run(group_x=max(1, -(-(k1 - k0) // _LOCAL)))
             self.ctx.memory_barrier()
             total, flags = (int(x) for x in np.frombuffer(count.read(), np.uint32))
         finally:
             count.release()
         return new, total, flags
+
+    def _gather(self, out, pool, which: np.ndarray):
+        """The lists of the cells ``which`` (ascending) of ``out`` (their first chunk and
+        count, by cell), in chunks of ``pool``, gathered by cell
+        (``shaders/field_walk_gather.comp``): the counts and the ids."""
+        fc = np.frombuffer(out.read(), np.uint32).reshape(-1, 2)
+        count = fc[which, 1].astype(np.int64)
+        total = int(count.sum())
+        if total == 0:
+            return count, np.zeros(0, np.uint32)
+        start = np.column_stack([which, np.cumsum(count) - count]).astype(np.uint32)
+        sb = self.ctx.buffer(start.tobytes())
+        ids = self.ctx.buffer(reserve=4 * total)
+        try:
+            for b, at in zip((out, sb, pool, ids), range(4)):
+                b.bind_to_storage_buffer(at)
+            self.gather["u_cells"] = len(which)
+            self.gather["u_chunk"] = CHUNK - 1
+            self.gather.run(group_x=max(1, -(-len(which) // _LOCAL)))
+            self.ctx.memory_barrier()
+            return count, np.frombuffer(ids.read(), np.uint32)
+        finally:
+            sb.release()
+            ids.release()
+
+
+def _estimate(lev: WalkLevel, slots: int) -> int:
+    """A first pool for ``lev`` from the slots of its parents' pool: a list about four
+    times as long as its parent's (each cell its first chunk), at least
+    :data:`MIN_POOL`; a pool too small costs a second run (told the exact need), one
+    too large only memory."""
+    return max(MIN_POOL, 5 * slots + CHUNK * len(lev.cells))
+
+
+def _ordered(lev: WalkLevel) -> np.ndarray:
+    """The cells of ``lev`` as ``shaders/field_walk.comp`` reads them, (k, 8) float32
+    (centre, reach; bound, cos and sin of the reach; the cell's index as uint32), in the
+    order they are run: by parent (row-major), a parent's cells together. The lanes of a
+    SIMD vector (neighbours in that order) then start from the same lists, about as long,
+    and read the same nodes."""
+    k = len(lev.cells)
+    cell = np.arange(k)
+    if lev.pwidth:
+        w = lev.width
+        h = k // w
+        pj, pi = np.divmod(np.arange(((h + 1) // 2) * lev.pwidth), lev.pwidth)
+        j = 2 * pj[:, None] + np.array([0, 0, 1, 1])
+        i = 2 * pi[:, None] + np.array([0, 1, 0, 1])
+        cell = (j * w + i)[(j < h) & (i < w)]
+    out = np.ascontiguousarray(lev.cells.reshape(k, 8)[cell], np.float32)
+    out.view(np.uint32)[:, 7] = cell
+    return out
+
+
+def _by_cell(k: int, runs) -> tuple[np.ndarray, np.ndarray]:
+    """The runs' lists, ``(cells ascending, counts, ids)`` each, by cell (row-major):
+    each cell's count and the ids."""
+    if len(runs) == 1 and len(runs[0][0]) == k:
+        return runs[0][1], runs[0][2]
+    count = np.zeros(k, np.int64)
+    for which, n, _ in runs:
+        count[which] = n
+    start = np.cumsum(count) - count
+    ids = np.empty(int(count.sum()), np.uint32)
+    for which, n, got in runs:
+        at = np.repeat(start[which] - (np.cumsum(n) - n), n) + np.arange(len(got))
+        ids[at] = got
+    return count, ids
 
 
 def walk_pass() -> WalkPass:

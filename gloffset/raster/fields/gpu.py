@@ -84,10 +84,28 @@ def _records(nodes: NodeArcs) -> tuple[np.ndarray, np.ndarray]:
 
 #: Which walk makes the lists: ``"gpu"`` (:func:`~gloffset.raster.fields.lists.gpu_lists`,
 #: the float64 walk where it does not apply), ``"cpu"`` (the float64 walk), or ``"auto"``:
-#: the GPU's on a hardware GL whose GPU walk passes :func:`walk_check` (once per thread),
-#: the float64 walk on a software one (Mesa's llvmpipe runs the GPU walk's divergent
-#: loops slower than numpy runs the float64 walk) or where the check fails.
+#: the GPU's on a hardware GL whose GPU walk passes :func:`walk_check` (once per thread);
+#: on Mesa's llvmpipe (the GL the tests run on, not checked) the GPU's where the lists'
+#: level has at least :data:`SOFTWARE_CELLS` cells, else the float64 walk; the float64
+#: walk on other software GLs and where the check fails.
 WALK = "auto"
+
+#: On llvmpipe, "auto" walks on the GPU from this many cells at the lists' level (the
+#: 8 x 8-pixel cells): there many short lists run on its SIMD lanes at about twice the
+#: float64 walk's speed (all of ``countries_10m`` at 4096 x 2048, 131,072 cells), while a
+#: few cells with long lists (a 256 px tile's 1,024; the globe at 2048 x 1024) run
+#: slower than numpy runs them (``benchmarks/field_walk.py``).
+SOFTWARE_CELLS = 1 << 16
+
+
+def _auto(grid, level: int) -> str:
+    """The walk ``"auto"`` means for the lists of ``level`` of ``grid`` (see :data:`WALK`)."""
+    info = context_info()
+    if not info["software"]:
+        return "gpu" if shared(_WalkCheck).ok else "cpu"
+    h, w = grid.level_shape(level)
+    llvmpipe = "llvmpipe" in str(info.get("renderer", ""))
+    return "gpu" if llvmpipe and h * w >= SOFTWARE_CELLS else "cpu"
 
 
 class _Lists:
@@ -99,7 +117,7 @@ class _Lists:
         self.shape = hc, wc = grid.level_shape(level)
         walk = WALK if walk is None else walk
         if walk == "auto":
-            walk = "cpu" if context_info()["software"] or not shared(_WalkCheck).ok else "gpu"
+            walk = _auto(grid, level)
         got = gpu_lists(nodes, grid, m, level) if walk == "gpu" else None
         if got is not None:
             self.count, self.node = got
@@ -118,13 +136,24 @@ class _Lists:
 
     def block(self, rows: range, cols: range):
         """The cells ``rows x cols``: their first pair and count in the block's own list,
-        and that list's nodes."""
+        and that list's nodes, each cell's ascending (the field pass then reads the
+        arcs' records in order: a quarter faster on llvmpipe than in the walk's order)."""
         jj, ii = np.meshgrid(np.asarray(rows), np.asarray(cols), indexing="ij")
         flat = (jj * self.shape[1] + ii).ravel()
         cnt, st = self.count[flat], self.start[flat]
         first = np.cumsum(cnt) - cnt
         at = np.repeat(st - first, cnt) + np.arange(int(cnt.sum()))
-        return first, cnt, self.node[at]
+        return first, cnt, _ascending(cnt, self.node[at])
+
+
+def _ascending(count: np.ndarray, node: np.ndarray) -> np.ndarray:
+    """``node`` (by cell, ``count`` a cell) with each cell's nodes ascending: one sort of
+    ``cell << 32 | node``."""
+    key = np.repeat(np.arange(len(count), dtype=np.int64) << 32, count)
+    key |= node
+    key.sort()
+    key &= 0xFFFFFFFF
+    return key
 
 
 def _by_key(key: np.ndarray) -> np.ndarray:

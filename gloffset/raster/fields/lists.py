@@ -3,7 +3,7 @@
 The cells of a level (``SHIFT`` above the output) with every original arc that can be the
 nearest of one of their pixels (within ``max_distance``): the walk of
 :func:`~gloffset.raster.fields.walk.walk_levels` (its branch and bound; the bisector test
-against the nearest end of the parent cell's nodes), level by level on the GL context
+against the nearest boundary vertex of the nodes measured), level by level on the GL context
 (:mod:`gloffset.gl.walk_pass`, ``shaders/field_walk.comp``) from the first level of
 :data:`GPU_CELLS` cells (the float64 walk the coarser ones), in float32 with every bound
 widened by its float32 error bound, so that each list is a superset of what can be
