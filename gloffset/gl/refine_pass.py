@@ -22,13 +22,12 @@ NVIDIA; ``tests/test_refine_gpu.py`` checks the pairs, ``c.m`` and statuses agai
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from ..errors import GLContextError
 from .context import context_info, get_context, shared
 from .shaders import load_source
+from .storage import SlotBuffers
 
 __all__ = ["NEAR_UNSURE", "UNSURE", "ARC_MASK", "RefinePass", "refine_pass"]
 
@@ -61,7 +60,7 @@ class RefinePass:
             for key, defines in (("count", {"COUNT": 1}), ("write", None))
         }
         #: the storage buffers kept for the next run, by binding
-        self.kept: dict[int, Any] = {}
+        self.buffers = SlotBuffers(self.ctx, KEEP_BYTES)
 
     def fits(self, parents: int, pairs: int, children: int, arcs: int) -> bool:
         """Whether a level of ``parents`` cells with ``pairs`` pairs and ``children``
@@ -75,26 +74,6 @@ class RefinePass:
             and arcs <= ARC_MASK
             and 4 * pairs < 1 << 31
         )
-
-    def _buffer(self, slot: int, data=None, reserve: int = 0):
-        """The kept buffer of ``slot`` holding ``data`` (or room for ``reserve`` bytes),
-        made anew where the kept one is too small; bound to ``slot``."""
-        nbytes = reserve if data is None else data.nbytes
-        buf = self.kept.get(slot)
-        if buf is None or buf.size < nbytes:
-            if buf is not None:
-                buf.release()
-            buf = self.kept[slot] = self.ctx.buffer(reserve=max(nbytes, 16))
-        if data is not None and data.size:
-            buf.write(data)
-        buf.bind_to_storage_buffer(slot)
-        return buf
-
-    def _trim(self) -> None:
-        for slot, buf in list(self.kept.items()):
-            if buf.size > KEEP_BYTES:
-                buf.release()
-                del self.kept[slot]
 
     def _run(self, key: str, chunks: int) -> None:
         groups = max(1, -(-chunks // _LOCAL))
@@ -136,22 +115,22 @@ class RefinePass:
         first_pair = starts[:-1][chunk_parent] + CHUNK * within
         chunks[:, 1] = first_pair
         chunks[:, 2] = np.minimum(starts[1:][chunk_parent] - first_pair, CHUNK)
-        self._buffer(0, chunks)
-        self._buffer(1, np.ascontiguousarray(pair_arc, dtype=np.int32))
-        self._buffer(2, np.ascontiguousarray(slot, dtype=np.int32))
-        self._buffer(3, np.ascontiguousarray(children, dtype=np.float64))
-        self._buffer(4, np.ascontiguousarray(parents, dtype=np.float64))
+        self.buffers.bind(0, chunks)
+        self.buffers.bind(1, np.ascontiguousarray(pair_arc, dtype=np.int32))
+        self.buffers.bind(2, np.ascontiguousarray(slot, dtype=np.int32))
+        self.buffers.bind(3, np.ascontiguousarray(children, dtype=np.float64))
+        self.buffers.bind(4, np.ascontiguousarray(parents, dtype=np.float64))
         for at, given in ((5, terms), (6, rows)):
             if isinstance(given, np.ndarray):
-                self._buffer(at, np.ascontiguousarray(given, dtype=np.float64))
+                self.buffers.bind(at, np.ascontiguousarray(given, dtype=np.float64))
             else:
                 given.bind_to_storage_buffer(at)
-        counts_buf = self._buffer(7, reserve=16 * nch)
-        toggles = self._buffer(11, reserve=8 * max(toggle_cap, 1))
-        on = self._buffer(12, reserve=8 * max(on_cap, 1))
-        lists = self._buffer(13, np.zeros(4, dtype=np.uint32))
+        counts_buf = self.buffers.bind(7, reserve=16 * nch)
+        toggles = self.buffers.bind(11, reserve=8 * max(toggle_cap, 1))
+        on = self.buffers.bind(12, reserve=8 * max(on_cap, 1))
+        lists = self.buffers.bind(13, np.zeros(4, dtype=np.uint32))
         for at in (8, 9, 10):  # the second dispatch's, bound before the first too
-            self._buffer(at, reserve=16)
+            self.buffers.bind(at, reserve=16)
         try:
             count = self.progs["count"]
             count["u_toggle_capacity"] = toggle_cap
@@ -176,9 +155,9 @@ class RefinePass:
             first = np.cumsum(counts) - counts
             child_first = np.where(has, first[np.where(has, slot, 0)], 0)  # (k, 4)
             out_first = before[:-1] - base[chunk_parent] + child_first[chunk_parent]
-            self._buffer(8, out_first.astype(np.uint32))
-            out_arc = self._buffer(9, reserve=4 * total)
-            out_cm = self._buffer(10, reserve=8 * total)
+            self.buffers.bind(8, out_first.astype(np.uint32))
+            out_arc = self.buffers.bind(9, reserve=4 * total)
+            out_cm = self.buffers.bind(10, reserve=8 * total)
             self._run("write", nch)
 
             def read(buf, n, dtype, width=1):
@@ -193,7 +172,7 @@ class RefinePass:
             tog = read(toggles, nt, np.uint32, 2)
             ons = read(on, non, np.uint32, 2)
         finally:
-            self._trim()
+            self.buffers.trim()
         return counts, arc, cm, tog, ons
 
 

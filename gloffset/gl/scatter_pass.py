@@ -21,13 +21,12 @@ enough): a fresh buffer costs its pages again (about 7 ms for 13 MB on llvmpipe)
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from ..errors import GLContextError
 from .context import context_info, get_context, shared
 from .shaders import load_source
+from .storage import SlotBuffers
 
 __all__ = ["ARC_MASK", "CROSS", "NEAR", "NEAR_UNSURE", "UNSURE", "ScatterPass", "scatter_pass"]
 
@@ -61,7 +60,7 @@ class ScatterPass:
         src, _ = load_source("scatter_pairs.comp")
         self.prog = self.ctx.compute_shader(src)
         #: the storage buffers kept for the next run, by binding
-        self.kept: dict[int, Any] = {}
+        self.buffers = SlotBuffers(self.ctx, KEEP_BYTES)
 
     def fits(self, pairs: int, boxes: int) -> bool:
         """Whether ``pairs`` box cells and ``boxes`` boxes fit the storage buffers."""
@@ -71,27 +70,6 @@ class ScatterPass:
     def fits_arcs(self, arcs: int) -> bool:
         """Whether ``arcs`` arcs' rows fit a storage buffer and their indices the flags."""
         return 160 * arcs <= self.max_bytes and arcs <= ARC_MASK
-
-    def _buffer(self, slot: int, data=None, reserve: int = 0):
-        """The kept buffer of ``slot`` holding ``data`` (or room for ``reserve`` bytes),
-        made anew where the kept one is too small; bound to ``slot``."""
-        nbytes = reserve if data is None else data.nbytes
-        buf = self.kept.get(slot)
-        if buf is None or buf.size < nbytes:
-            if buf is not None:
-                buf.release()
-            buf = self.kept[slot] = self.ctx.buffer(reserve=max(nbytes, 16))
-        if data is not None and data.size:
-            buf.write(data)
-        buf.bind_to_storage_buffer(slot)
-        return buf
-
-    def _trim(self) -> None:
-        """Release the kept buffers larger than :data:`KEEP_BYTES`."""
-        for slot, buf in list(self.kept.items()):
-            if buf.size > KEEP_BYTES:
-                buf.release()
-                del self.kept[slot]
 
     def run(
         self,
@@ -151,18 +129,18 @@ class ScatterPass:
         def f64(a):
             return np.ascontiguousarray(a, dtype=np.float64)
 
-        self._buffer(0, box_rows)
-        self._buffer(1, chunks)
+        self.buffers.bind(0, box_rows)
+        self.buffers.bind(1, chunks)
         for slot, given in ((2, arc_terms), (9, ring_arcs)):
             if isinstance(given, np.ndarray):
-                self._buffer(slot, f64(given))
+                self.buffers.bind(slot, f64(given))
             else:
                 given.bind_to_storage_buffer(slot)
-        self._buffer(3, f64(rows))
-        self._buffer(4, f64(cols))
-        out_pairs = self._buffer(5, reserve=8 * cap)
-        out_cm = self._buffer(6, reserve=8 * cap)
-        counter = self._buffer(7, np.zeros(4, dtype=np.uint32))
+        self.buffers.bind(3, f64(rows))
+        self.buffers.bind(4, f64(cols))
+        out_pairs = self.buffers.bind(5, reserve=8 * cap)
+        out_cm = self.buffers.bind(6, reserve=8 * cap)
+        counter = self.buffers.bind(7, np.zeros(4, dtype=np.uint32))
         try:
             self.prog["u_cross"] = bool(cross)
             self.prog["u_near"] = bool(near)
@@ -180,7 +158,7 @@ class ScatterPass:
                 pair = np.frombuffer(out_pairs.read(size=8 * n), dtype=np.uint32).reshape(n, 2)
                 cm = np.frombuffer(out_cm.read(size=8 * n), dtype=np.float64)
         finally:
-            self._trim()
+            self.buffers.trim()
         return pair[:, 0], pair[:, 1], cm
 
 
