@@ -55,6 +55,36 @@ def border_shapes(neighbours=NEIGHBOURS) -> dict:
     }
 
 
+def same_bits(got, want) -> bool:
+    """Whether two arrays have the same dtype and the same values, floats bit for bit."""
+    assert got.dtype == want.dtype
+    if got.dtype.kind == "f":
+        return np.array_equal(got.view(np.uint64), want.view(np.uint64))
+    return np.array_equal(got, want)
+
+
+def level_grid(name: str):
+    """The grids of the refined levels' tests: a tile pyramid, an odd and an even lon/lat."""
+    from gloffset.grids import Equirect
+    from gloffset.grids.mercator import TilePyramid
+
+    return {
+        "pyramid": lambda: TilePyramid(7),
+        "lonlat-odd": lambda: Equirect(1200, 600),
+        "lonlat": lambda: Equirect(2048, 1024),
+    }[name]()
+
+
+#: (shape of :func:`border_shapes`, distance, :func:`level_grid`) of the refined levels' tests
+LEVEL_CASES = [
+    ("neighbours", 0.01, "pyramid"),
+    ("neighbours", -0.004, "lonlat-odd"),
+    ("seams", 0.02, "lonlat"),
+    ("seams", -0.01, "pyramid"),
+    ("mexico", 0.002, "lonlat-odd"),
+]
+
+
 def frontier_without_pairs(k: int):
     """A level-0 frontier of ``k`` cells and no (cell, arc) pair, the second cell inside."""
     from gloffset.raster.vector.levels import Frontier

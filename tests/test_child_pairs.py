@@ -8,13 +8,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import NEIGHBOURS, border_shapes
+from conftest import LEVEL_CASES, NEIGHBOURS, border_shapes, level_grid, same_bits
 
 from gloffset.edges import component_status
 from gloffset.geometry.caps import cap_within
 from gloffset.geometry.sphere import angle, arcs_cross, pair_dots
 from gloffset.grids import Equirect
-from gloffset.grids.mercator import TilePyramid
 from gloffset.raster import driver
 from gloffset.raster.vector import levels
 from gloffset.raster.vector.curves import CurveCells
@@ -61,32 +60,9 @@ def _expanded(f, grid, arcs, e, shape):
     return cells, c, rho, cell[keep], arc[keep], status, cm[keep]
 
 
-def _same(got, want):
-    assert got.dtype == want.dtype
-    if got.dtype.kind == "f":
-        return np.array_equal(got.view(np.uint64), want.view(np.uint64))
-    return np.array_equal(got, want)
-
-
-GRIDS = {
-    "pyramid": lambda: TilePyramid(7),
-    "lonlat-odd": lambda: Equirect(1200, 600),
-    "lonlat": lambda: Equirect(2048, 1024),
-}
-
-
-@pytest.mark.parametrize(
-    "name, d, grid",
-    [
-        ("neighbours", 0.01, "pyramid"),
-        ("neighbours", -0.004, "lonlat-odd"),
-        ("seams", 0.02, "lonlat"),
-        ("seams", -0.01, "pyramid"),
-        ("mexico", 0.002, "lonlat-odd"),
-    ],
-)
+@pytest.mark.parametrize("name, d, grid", LEVEL_CASES)
 def test_refined_levels_are_the_expanded_pairs(shapes, name, d, grid):
-    shape, grid = shapes[name], GRIDS[grid]()
+    shape, grid = shapes[name], level_grid(grid)
     cells = CurveCells(shape, d, grid)
     arcs = cells.arcs
     compared = 0
@@ -98,7 +74,7 @@ def test_refined_levels_are_the_expanded_pairs(shapes, name, d, grid):
         want = _expanded(f, grid, arcs, abs(d), shape)
         names = ("cells", "centers", "rho", "pair_cell", "pair_arc", "status", "cm")
         for k, w in zip(names, want):
-            assert _same(getattr(got, k), w), (lev.level, k)
+            assert same_bits(getattr(got, k), w), (lev.level, k)
         compared += len(got.pair_cell)
     assert compared > 1000
 
@@ -144,4 +120,4 @@ def test_levels_without_cells_or_pairs(shapes):
     want = _expanded(bare, grid, cells.arcs, d, shape)
     names = ("cells", "centers", "rho", "pair_cell", "pair_arc", "status", "cm")
     for k, w in zip(names, want):
-        assert _same(getattr(got, k), w), k
+        assert same_bits(getattr(got, k), w), k

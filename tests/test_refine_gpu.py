@@ -12,7 +12,7 @@ import sqlite3
 
 import numpy as np
 import pytest
-from conftest import NEIGHBOURS, border_shapes
+from conftest import LEVEL_CASES, NEIGHBOURS, border_shapes, level_grid, same_bits
 
 import gloffset
 from gloffset.edges import CurveArcs
@@ -35,41 +35,18 @@ def shapes():
     return border_shapes(NEIGHBOURS)
 
 
-def _same(got, want):
-    assert got.dtype == want.dtype
-    if got.dtype.kind == "f":
-        return np.array_equal(got.view(np.uint64), want.view(np.uint64))
-    return np.array_equal(got, want)
-
-
 def _compare(f, grid, arcs, e, shape):
     want = levels._refine(f, grid, arcs, e, shape)
     got = levels._refine(f, grid, arcs, e, shape, ON_GPU)
     assert got is not None
     for k in NAMES:
-        assert _same(getattr(got, k), getattr(want, k)), (f.level, k)
+        assert same_bits(getattr(got, k), getattr(want, k)), (f.level, k)
     return got
 
 
-GRIDS = {
-    "pyramid": lambda: TilePyramid(7),
-    "lonlat-odd": lambda: Equirect(1200, 600),
-    "lonlat": lambda: Equirect(2048, 1024),
-}
-
-
-@pytest.mark.parametrize(
-    "name, d, grid",
-    [
-        ("neighbours", 0.01, "pyramid"),
-        ("neighbours", -0.004, "lonlat-odd"),
-        ("seams", 0.02, "lonlat"),
-        ("seams", -0.01, "pyramid"),
-        ("mexico", 0.002, "lonlat-odd"),
-    ],
-)
+@pytest.mark.parametrize("name, d, grid", LEVEL_CASES)
 def test_refined_levels_are_numpys(shapes, name, d, grid):
-    shape, grid = shapes[name], GRIDS[grid]()
+    shape, grid = shapes[name], level_grid(grid)
     cells = CurveCells(shape, d, grid)
     compared = toggled = 0
     for lev in driver.walk(cells, grid.n_levels - 2):
@@ -165,7 +142,7 @@ def test_a_list_past_its_room_leaves_the_level_to_numpy(shapes, monkeypatch):
     got = levels.refine(f, grid, cells.arcs, d, shape, pairs=ON_GPU)
     want = levels._refine(f, grid, cells.arcs, d, shape)
     for k in NAMES:
-        assert _same(getattr(got, k), getattr(want, k)), k
+        assert same_bits(getattr(got, k), getattr(want, k)), k
 
 
 def _tiles(path):
