@@ -119,6 +119,12 @@ def root_list(nodes: NodeArcs, m: float, c: np.ndarray, rho: np.ndarray, top):
     return g.pair_arc
 
 
+#: :func:`start_pairs` walks the quadtree where level 0 would start from at least this
+#: many pairs (its cells times the root's list; below it the quadtree's own rounds cost
+#: more than they save: 2-10 ms more on z8-z10 tiles of 20-40 nodes a root list, measured).
+_QUAD_PAIRS = 1 << 17
+
+
 def start_pairs(nodes: NodeArcs, m: float, shape: tuple[int, int], c, rho, top):
     """Return the pairs (cells, nodes) level 0 starts from, sorted by cell.
 
@@ -133,14 +139,15 @@ def start_pairs(nodes: NodeArcs, m: float, shape: tuple[int, int], c, rho, top):
     that can be nearest to a point of its own disc among that list: the cells' discs
     lie in every ancestor's), so the walk below finds the same nearest arcs (the
     values bit for bit) from lists a level of the quadtree shorter: a 256 px tile's
-    1,024 cells bound a few times their lists' pairs instead of each the root's. Else
-    every cell starts from ``top`` (the top boundary nodes).
+    1,024 cells bound a few times their lists' pairs instead of each the root's. Where
+    that would be fewer than :data:`_QUAD_PAIRS` pairs, every cell starts from the
+    root's list; on a larger grid, from ``top`` (the top boundary nodes).
     """
     k = len(c)
     root = root_list(nodes, m, c, rho, top)
     h, w = shape
     side = 1 << max(0, max(h, w) - 1).bit_length()  # the root's block
-    if root is top or len(root) == 0 or side < 4:
+    if root is top or len(root) * k < _QUAD_PAIRS or side < 4:
         return np.repeat(np.arange(k), len(root)), np.tile(root, k)
     j, i = np.divmod(np.arange(k), w)
     start, count, node = np.zeros(1, np.int64), np.array([len(root)]), np.asarray(root)
