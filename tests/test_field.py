@@ -653,3 +653,68 @@ def test_a_small_grid_starts_from_its_own_list(which, grid, request, monkeypatch
     monkeypatch.setattr(field_walk, "_ROOT_REACH", 0.0)  # every grid from the top
     want = gloffset.distance_field(shape, grid, radius=1.0).values
     assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+
+
+@pytest.mark.parametrize(
+    "which, grid",
+    [
+        ("mexico", Tile(5, 6, 13)),
+        ("countries", Tile(3, 1, 3)),  # the US, Mexico and the Caribbean: long lists
+        ("world", Equirect(256, 256, (170, -30, -170, -10))),  # across 180 degrees
+    ],
+)
+def test_start_lists_hold_the_nearest_arcs(which, grid, request, monkeypatch):
+    """A small grid's level-0 cells start from the lists of a quadtree of blocks of
+    cells (``start_pairs``), each bounded from its parent's: shorter than the root's
+    list, and each still holds the nearest arc of every point of its cell: at the corner
+    pixels of sampled cells, the least exact distance over the leaves of the cell's
+    list is that over all arcs, bit for bit."""
+    from gloffset.raster.fields import walk as field_walk
+    from gloffset.raster.vector.node_levels import NodeArcs
+
+    if which == "mexico":
+        shape = request.getfixturevalue("mexico")
+    else:
+        shape = gloffset.read(
+            DATA / f"{'countries_10m' if which == 'countries' else 'world_110m'}.geojson"
+        )
+    nodes = NodeArcs.from_shape(shape)
+    top = nodes.top[nodes.boundary[nodes.top]]
+    h, w = grid.level_shape(0)
+    j, i = np.divmod(np.arange(h * w), w)
+    c, rho = grid.centers(0, j, i), grid.rho_at(0, j, i)
+    root = field_walk.root_list(nodes, np.inf, c, rho, top)
+    if which == "countries":  # long enough a root list for the quadtree
+        assert len(root) * h * w >= field_walk._QUAD_PAIRS
+    monkeypatch.setattr(field_walk, "_QUAD_PAIRS", 0)  # the quadtree, however short
+    pc, pn = field_walk.start_pairs(nodes, np.inf, (h, w), c, rho, top)
+    assert np.all(np.diff(pc) >= 0)  # sorted by cell
+    assert len(pn) < 0.5 * h * w * len(root)
+    last = grid.n_levels - 1
+    side = 1 << last  # output pixels per level-0 cell side
+    hp, wp = grid.level_shape(last)
+    rng = np.random.default_rng(3)
+    leaves = np.flatnonzero(nodes.leaf)
+    for cell in rng.choice(h * w, 24, replace=False):
+        mine = pn[pc == cell]
+        own = np.concatenate(
+            [
+                nodes.leaf_order[s : s + n]
+                for s, n in zip(nodes.leaf_start[mine], nodes.leaf_count[mine])
+            ]
+        )
+        cj, ci = divmod(int(cell), w)
+        rows = np.minimum(
+            [cj * side, cj * side, cj * side + side - 1, cj * side + side - 1], hp - 1
+        )
+        cols = np.minimum(
+            [ci * side, ci * side + side - 1, ci * side, ci * side + side - 1], wp - 1
+        )
+        p = grid.centers(last, rows, cols)
+        for q in p:
+            one = q[None, :]
+            got = field_walk.exact_distances(one, np.zeros(len(own), np.int64), nodes, own).min()
+            want = field_walk.exact_distances(
+                one, np.zeros(len(leaves), np.int64), nodes, leaves
+            ).min()
+            assert got.view(np.uint64) == want.view(np.uint64), (cell, q)

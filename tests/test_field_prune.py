@@ -183,3 +183,37 @@ def test_chunk_caps_hold_their_arcs_caps(mexico, monkeypatch):
     assert len(starts) > 1000 and cnt.max() > 4 * CHUNK
     others = np.setdiff1d(np.arange(len(plan.pairs)), starts)
     assert (caps[others] == 0).all()
+
+
+def test_deep_blocks_with_short_lists_run_unpruned(mexico, monkeypatch):
+    """A block whose cells lie deep (their median distance to the nearest arc at least
+    ``PRUNE_DEPTH`` of their ``rho``) with short lists runs the unpruned program, one
+    near the coast the pruned one (``pruned``, the depth from the float64 walk): the
+    same values either way. Mexico's lists are short: here the rule from 2 pairs a cell."""
+    from gloffset.gl import field_pass
+    from gloffset.gl.field_pass import PRUNE_DEPTH, pruned
+    from gloffset.raster.fields import gpu as field_gpu
+
+    monkeypatch.setattr(field_gpu, "WALK", "cpu")
+    assert pruned(100, 10, None) and pruned(100, 10, 1.0) and pruned(100, 10, PRUNE_DEPTH)
+    monkeypatch.setattr(field_pass, "PRUNE_MEAN", 16)
+    assert not pruned(200, 10, PRUNE_DEPTH) and not pruned(100, 10, None)
+    assert pruned(200, 10, 0.5 * PRUNE_DEPTH) and pruned(400, 10, 10 * PRUNE_DEPTH)
+    monkeypatch.setattr(field_pass, "PRUNE_MEAN", 2)
+    seen = []
+    program = FieldPass.program
+
+    def record(self, kind, source=None, probe=False, prune=False):
+        seen.append(prune)
+        return program(self, kind, source, probe, prune)
+
+    monkeypatch.setattr(FieldPass, "program", record)
+    deep, coast = Tile(8, 57, 113), Tile(5, 7, 14)  # about Mexico City; the Pacific coast
+    got = gloffset.distance_field(mexico, deep, radius=1.0).values
+    assert seen == [False]
+    gloffset.distance_field(mexico, coast, radius=1.0)
+    assert seen == [False, True]
+    monkeypatch.setattr(field_pass, "PRUNE_DEPTH", np.inf)
+    want = gloffset.distance_field(mexico, deep, radius=1.0).values
+    assert seen == [False, True, True]
+    assert got.tobytes() == want.tobytes()

@@ -34,6 +34,7 @@ __all__ = [
     "FieldPass",
     "FieldPlan",
     "field_pass",
+    "pruned",
 ]
 
 #: Bound on |float32 chord - chord of the float64 distance| of the shader's ranking
@@ -113,6 +114,10 @@ class FieldPlan:
     ``flags``, :meth:`FieldPass.run` fills ``codes`` (h, w) uint32 with each pixel's
     answer from its nearest features (0 outside, 1 inside, 2 undecided;
     ``shaders/field_pixels.comp``).
+
+    ``depth`` (optional): the median over the block's cells of their distance to their
+    nearest arc in units of their ``rho`` (the choice of the pruned program,
+    :func:`pruned`; None: unknown).
     """
 
     size: tuple[int, int]
@@ -132,6 +137,7 @@ class FieldPlan:
     flags: np.ndarray | None = None
     seams: np.ndarray | None = None
     codes: np.ndarray | None = None
+    depth: float | None = None
 
 
 class FieldPass:
@@ -195,7 +201,7 @@ class FieldPass:
             )
         if (hc, wc) != (-(-h >> plan.shift), -(-w >> plan.shift)):
             raise ValueError(f"cells {plan.cells.shape} do not cover {h} x {w} pixels")
-        prune = len(plan.pairs) >= PRUNE_MEAN * hc * wc
+        prune = pruned(len(plan.pairs), hc * wc, plan.depth)
         prog = self.program(plan.kind, plan.source, probe, prune)
         ctx = self.ctx
 
@@ -255,6 +261,31 @@ class FieldPass:
 #: pairs a cell on average (shorter lists rank as fast without it, or faster by about a
 #: tenth: measured on llvmpipe at z7-z8, 8-12 pairs a cell).
 PRUNE_MEAN = 16
+
+#: Blocks whose cells lie deep, their median distance to the nearest arc at least this
+#: many of their ``rho`` (:attr:`FieldPlan.depth`), with fewer than
+#: :data:`PRUNE_DEEP_MEAN` pairs a cell, run the unpruned program: there a cell's list
+#: holds arcs all about as near to each of its pixels (a coast seen from afar), the
+#: pruning keeps most of them and costs more than it saves. Measured on llvmpipe (CPU
+#: time of the pass, best of 7 alternating rounds, 256 px tiles of all the countries):
+#: 16-25 pairs a cell at a median depth of 57-1,026 ``rho`` (z6-z10 inland tiles) ran in
+#: 52-64 ms unpruned against 76-89 ms pruned, while 24-31 pairs a cell at depths of 4-14
+#: (Mexico z5-z6, countries z5) ran in 52-61 ms pruned against 60-74 ms unpruned.
+PRUNE_DEPTH = 32.0
+#: See :data:`PRUNE_DEPTH`: deep blocks with at least this many pairs a cell stay pruned.
+PRUNE_DEEP_MEAN = 32
+
+
+def pruned(pairs: int, cells: int, depth: float | None) -> bool:
+    """Whether a block of ``cells`` cells with ``pairs`` pairs runs the pruned program:
+    at least :data:`PRUNE_MEAN` pairs a cell, unless it lies deep (:data:`PRUNE_DEPTH`)
+    with fewer than :data:`PRUNE_DEEP_MEAN`; every block where ``PRUNE_MEAN`` is 0."""
+    if PRUNE_MEAN == 0:
+        return True
+    if pairs < PRUNE_MEAN * cells:
+        return False
+    return depth is None or depth < PRUNE_DEPTH or pairs >= PRUNE_DEEP_MEAN * cells
+
 
 #: Pairs of a cell's list per chunk of the pruning (``CHUNK`` in ``field_pixels.comp``).
 CHUNK = 8

@@ -118,21 +118,32 @@ class _Lists:
         walk = WALK if walk is None else walk
         if walk == "auto":
             walk = _auto(grid, level)
+        #: each cell's distance to its nearest arc over its rho (None: not known)
+        self.depth: np.ndarray | None = None
         got = gpu_lists(nodes, grid, m, level) if walk == "gpu" else None
         if got is not None:
             self.count, self.node = got
             self.start = np.cumsum(self.count) - self.count
             return
         keys, vals = [], []
-        for f, _ in walk_levels(nodes, grid, m, level):
+        self.depth = np.full(hc * wc, np.inf)
+        for f, dist in walk_levels(nodes, grid, m, level):
             flat = f.cells[:, 0].astype(np.int64) * wc + f.cells[:, 1]
             keys.append(flat[f.pair_cell])
             vals.append(f.pair_arc)
+            self.depth[flat] = dist / f.rho
         key = np.concatenate(keys) if keys else np.zeros(0, np.int64)
         val = np.concatenate(vals) if vals else np.zeros(0, np.int64)
         self.node = val[_by_key(key)]
         self.count = np.bincount(key, minlength=hc * wc)
         self.start = np.cumsum(self.count) - self.count
+
+    def block_depth(self, rows: range, cols: range) -> float | None:
+        """The median depth of the cells ``rows x cols`` (:attr:`FieldPlan.depth`)."""
+        if self.depth is None:
+            return None
+        d = self.depth.reshape(self.shape)[rows.start : rows.stop, cols.start : cols.stop]
+        return float(np.median(d))
 
     def block(self, rows: range, cols: range):
         """The cells ``rows x cols``: their first pair and count in the block's own list,
@@ -261,6 +272,7 @@ def _block(nodes: NodeArcs, grid, lists: _Lists, where, out: np.ndarray, t: dict
         exact[arcs],
         **_centres(grid, range(j0, j1), range(i0, i1)),
     )
+    plan.depth = lists.block_depth(rows, cols)
     if sign is not None:
         plan.flags, plan.seams = sign[0][arcs], sign[1]
     t1 = time.perf_counter()

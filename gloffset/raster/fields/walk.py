@@ -24,7 +24,14 @@ from ...geometry.sphere import angle, column_dots, cross, dot
 from ..vector.levels import Frontier, children
 from ..vector.node_levels import NodeArcs
 
-__all__ = ["end_distances", "exact_distances", "kids_reach", "root_list", "walk_levels"]
+__all__ = [
+    "end_distances",
+    "exact_distances",
+    "kids_reach",
+    "root_list",
+    "start_pairs",
+    "walk_levels",
+]
 
 #: Cells and candidate pairs of one part of a level (a larger level is walked in parts
 #: of contiguous cells: the next level has about four times as many of each).
@@ -59,8 +66,7 @@ def walk_levels(
     k = len(cells)
     c = grid.centers(0, cells[:, 0], cells[:, 1])
     rho = grid.rho_at(0, cells[:, 0], cells[:, 1])
-    top = root_list(nodes, m, c, rho, top)
-    pc, pn = np.repeat(np.arange(k), len(top)), np.tile(top, k)
+    pc, pn = start_pairs(nodes, m, (h0, w0), c, rho, top)
     stack = [(Frontier(0, cells, c, rho, pc, pn, np.zeros((k, 0), np.uint8)), False)]
     leaves = min(stop if split else last, last - 1)  # the level whose nodes are split to the arcs
     while stack:  # depth first: one part of each level at a time
@@ -111,6 +117,85 @@ def root_list(nodes: NodeArcs, m: float, c: np.ndarray, rho: np.ndarray, top):
     )
     g, _ = _bound(root, nodes, m, np.array([reach]), final=False)
     return g.pair_arc
+
+
+#: :func:`start_pairs` walks the quadtree where level 0 would start from at least this
+#: many pairs (its cells times the root's list; below it the quadtree's own rounds cost
+#: more than they save: 2-10 ms more on z8-z10 tiles of 20-40 nodes a root list, measured).
+_QUAD_PAIRS = 1 << 17
+
+
+def start_pairs(nodes: NodeArcs, m: float, shape: tuple[int, int], c, rho, top):
+    """Return the pairs (cells, nodes) level 0 starts from, sorted by cell.
+
+    ``shape`` (h, w) the cells of level 0 (row-major), ``c`` and ``rho`` their centres
+    and radii. A grid that :func:`root_list` walks as one cell (a tile, a regional box)
+    is then walked down a quadtree of blocks of its level-0 cells, halving the block's
+    side each step (blocks of ``2^s x 2^s`` cells from the root's down to 2 x 2): each
+    block bounds its parent's list (the same rigorous :func:`_bound`) on a disc about
+    its cells' mean direction that holds each of its cells' discs, and each cell starts
+    from its 2 x 2 block's list. A list holds every node that can hold the nearest arc
+    of a point of its cells' discs (a block keeps, from its parent's list, the nodes
+    that can be nearest to a point of its own disc among that list: the cells' discs
+    lie in every ancestor's), so the walk below finds the same nearest arcs (the
+    values bit for bit) from lists a level of the quadtree shorter: a 256 px tile's
+    1,024 cells bound a few times their lists' pairs instead of each the root's. Where
+    that would be fewer than :data:`_QUAD_PAIRS` pairs, every cell starts from the
+    root's list; on a larger grid, from ``top`` (the top boundary nodes).
+    """
+    k = len(c)
+    root = root_list(nodes, m, c, rho, top)
+    h, w = shape
+    side = 1 << max(0, max(h, w) - 1).bit_length()  # the root's block
+    if root is top or len(root) * k < _QUAD_PAIRS or side < 4:
+        return np.repeat(np.arange(k), len(root)), np.tile(root, k)
+    j, i = np.divmod(np.arange(k), w)
+    start, count, node = np.zeros(1, np.int64), np.array([len(root)]), np.asarray(root)
+    nw = 1  # blocks per row of the level above
+    while side > 2:
+        side >>= 1
+        bw = -(-w // side)
+        block = (j // side) * bw + i // side
+        nb = -(-h // side) * bw
+        has = np.bincount(block, minlength=nb) > 0
+        up = (np.arange(nb) // bw // 2) * nw + (np.arange(nb) % bw) // 2  # the parent
+        cnt = np.where(has, count[up], 0)
+        at = np.cumsum(cnt) - cnt
+        pn = node[np.repeat(start[up] - at, cnt) + np.arange(int(cnt.sum()))]
+        pc = np.repeat(np.arange(nb), cnt)
+        sums = np.stack([np.bincount(block, c[:, x], minlength=nb) for x in range(3)], -1)
+        size = np.sqrt(dot(sums, sums))
+        bound = has & (size > 0.5 * np.bincount(block, minlength=nb))
+        centre = sums / np.where(bound, size, 1.0)[:, None]
+        reach = np.zeros(nb)
+        np.maximum.at(reach, block, angle(c, centre[block]) + rho)
+        reach = pad(reach)
+        sel = np.flatnonzero(bound & (cnt > 0))  # the others keep their parent's list
+        keep = ~bound[pc]
+        if len(sel):
+            pick = np.flatnonzero(bound[pc])
+            f = Frontier(
+                0,
+                np.zeros((len(sel), 2), np.int64),
+                centre[sel],
+                reach[sel],
+                np.searchsorted(sel, pc[pick]),
+                pn[pick],
+                np.zeros((len(sel), 0), np.uint8),
+            )
+            g, _ = _bound(f, nodes, m, reach[sel], final=False)
+            pc = np.concatenate([pc[keep], sel[g.pair_cell]])
+            pn = np.concatenate([pn[keep], g.pair_arc])
+            order = np.argsort(pc, kind="stable")
+            pc, pn = pc[order], pn[order]
+        count = np.bincount(pc, minlength=nb)
+        start, node, nw = np.cumsum(count) - count, pn, bw
+    b = (j // 2) * nw + i // 2  # each cell's 2 x 2 block
+    cnt = count[b]
+    at = np.cumsum(cnt) - cnt
+    return np.repeat(np.arange(k), cnt), node[
+        np.repeat(start[b] - at, cnt) + np.arange(int(cnt.sum()))
+    ]
 
 
 #: Above the output level a cell's nodes have error bounds of at most this fraction of
