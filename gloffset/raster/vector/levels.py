@@ -229,17 +229,18 @@ def cell_distances(f: Frontier, arcs: ArcTable, *, lows: bool = False):
     cell's nearest are measured (:func:`nearest`). With ``lows``, also each pair's
     lower bound on its distance (:func:`~gloffset.geometry.caps.cap_range`), for :func:`prune`.
     """
-    k = len(f.cells)
+    k, n = len(f.cells), len(f.pair_cell)
     dist = np.full(k, np.inf)  # to boundary arcs (distance)
     dring = np.full(k, np.inf)  # to ring edges including seams (inside uniformity)
-    low = np.empty(len(f.pair_cell)) if lows else None
-    for s in range(0, len(f.pair_cell), _PAIRS):
-        ci, ai = f.pair_cell[s : s + _PAIRS], f.pair_arc[s : s + _PAIRS]
-        cm = dots(f.centers, ci, mid_columns(arcs), ai) if f.cm is None else f.cm[s : s + _PAIRS]
-        lo = nearest(arcs, ci, ai, cm, lambda idx, ci=ci: f.centers[ci[idx]], dist, dring)
-        if low is not None:  # with lows
-            low[s : s + len(ci)] = lo
-    return (dist, dring, low) if lows else (dist, dring)
+    step = _PAIRS if f.cm is None else max(n, 1)  # c.m to compute: in chunks
+    parts = []
+    for s in range(0, n, step):
+        ci, ai = f.pair_cell[s : s + step], f.pair_arc[s : s + step]
+        cm = dots(f.centers, ci, mid_columns(arcs), ai) if f.cm is None else f.cm[s : s + step]
+        parts.append(nearest(arcs, ci, ai, cm, lambda idx, ci=ci: f.centers[ci[idx]], dist, dring))
+    if not lows:
+        return dist, dring
+    return dist, dring, parts[0] if len(parts) == 1 else np.concatenate(parts or [np.zeros(0)])
 
 
 #: Relative slack of :func:`prune` on the cell bound (the GPU levels' float32 work is
