@@ -8,10 +8,12 @@ import pytest
 from conftest import LINES, SQUARE_WITH_HOLE, assert_cluster_headers, frontier_without_pairs
 
 import gloffset
-from gloffset.geometry.sphere import arc_distance, dot
+from gloffset.geometry.caps import cap_range
+from gloffset.geometry.sphere import arc_distance, dot, pair_dots
 from gloffset.grids import Cube, Equirect, Tile
 from gloffset.raster import gpu
 from gloffset.raster import records as E
+from gloffset.raster.vector import levels
 from gloffset.raster.vector.curves import classify_curves as classify
 from gloffset.raster.vector.levels import cell_distances
 
@@ -144,16 +146,23 @@ def pair_distances(f, arcs):
     return arc_distance(f.centers[ci], arcs.a[ai], arcs.b[ai], arcs.n[ai])
 
 
-def test_cell_distances_are_the_minima_over_all_pairs(cases):
+@pytest.mark.parametrize("block", [None, 5, 64])
+def test_cell_distances_are_the_minima_over_all_pairs(cases, block, monkeypatch):
     """cell_distances measures only the pairs that can be nearest: the minima are
-    those over every pair, bit for bit."""
+    those over every pair, bit for bit, and the pairs' lower bounds those of
+    ``cap_range`` over the whole level, in blocks of any size (runs of a cell longer
+    than a block included)."""
+    if block is not None:
+        monkeypatch.setattr(levels, "_BLOCK", block)
     for (f, arcs), _ in cases:
         dist = pair_distances(f, arcs)
-        near, ring = cell_distances(f, arcs)
+        near, ring, low = cell_distances(f, arcs, lows=True)
         for kind, got in ((arcs.boundary[f.pair_arc], near), (arcs.group[f.pair_arc] >= 0, ring)):
             want = np.full(len(f.cells), np.inf)
             np.minimum.at(want, f.pair_cell[kind], dist[kind])
             assert np.array_equal(want, got)
+        cm = pair_dots(f.centers, f.pair_cell, arcs.mid, f.pair_arc)
+        assert np.array_equal(low, cap_range(cm, arcs.half[f.pair_arc])[0])
 
 
 def test_cluster_headers_order_and_bounds(cases):

@@ -229,17 +229,18 @@ def cell_distances(f: Frontier, arcs: ArcTable, *, lows: bool = False):
     cell's nearest are measured (:func:`nearest`). With ``lows``, also each pair's
     lower bound on its distance (:func:`~gloffset.geometry.caps.cap_range`), for :func:`prune`.
     """
-    k = len(f.cells)
+    k, n = len(f.cells), len(f.pair_cell)
     dist = np.full(k, np.inf)  # to boundary arcs (distance)
     dring = np.full(k, np.inf)  # to ring edges including seams (inside uniformity)
-    low = np.empty(len(f.pair_cell)) if lows else None
-    for s in range(0, len(f.pair_cell), _PAIRS):
-        ci, ai = f.pair_cell[s : s + _PAIRS], f.pair_arc[s : s + _PAIRS]
-        cm = dots(f.centers, ci, mid_columns(arcs), ai) if f.cm is None else f.cm[s : s + _PAIRS]
-        lo = nearest(arcs, ci, ai, cm, lambda idx, ci=ci: f.centers[ci[idx]], dist, dring)
-        if low is not None:  # with lows
-            low[s : s + len(ci)] = lo
-    return (dist, dring, low) if lows else (dist, dring)
+    step = _PAIRS if f.cm is None else max(n, 1)  # c.m to compute: in chunks
+    parts = []
+    for s in range(0, n, step):
+        ci, ai = f.pair_cell[s : s + step], f.pair_arc[s : s + step]
+        cm = dots(f.centers, ci, mid_columns(arcs), ai) if f.cm is None else f.cm[s : s + step]
+        parts.append(nearest(arcs, ci, ai, cm, lambda idx, ci=ci: f.centers[ci[idx]], dist, dring))
+    if not lows:
+        return dist, dring
+    return dist, dring, parts[0] if len(parts) == 1 else np.concatenate(parts or [np.zeros(0)])
 
 
 #: Relative slack of :func:`prune` on the cell bound (the GPU levels' float32 work is
@@ -282,42 +283,66 @@ def nearest(arcs: ArcTable, cell, ai, cm, point, dist, dring) -> np.ndarray:
     so a pair whose lower bound exceeds the cell's least upper bound is skipped.
     The comparison allows :data:`CAP_SLACK` (:func:`cap_range`), so the minima are
     those of all pairs, bit for bit. Returns each pair's lower bound ``t - h``.
+
+    The per-pair work runs in blocks of whole runs of about :data:`_BLOCK` pairs
+    (:func:`_near_pairs`), its temporaries in the cache: the same values, element for
+    element.
     """
-    if len(cell) == 0:
+    n = len(cell)
+    if n == 0:
         return np.zeros(0)
-    new = np.empty(len(cell), dtype=bool)
+    new = np.empty(n, dtype=bool)
     new[0] = True
     np.not_equal(cell[1:], cell[:-1], out=new[1:])
     starts = np.flatnonzero(new)
-    owner = cell[starts]
-    lo, hi = cap_range(cm, np.take(arcs.half, ai))
     kinds = _kinds(arcs, ai, dist, dring)
-    measure = None
-    for kind, _ in kinds:
-        best = np.minimum.reduceat(hi if kind is None else np.where(kind, hi, np.inf), starts)
-        near = lo <= _spread_runs(best + CAP_SLACK, new, owner, cell, len(dist))
-        if kind is not None:
-            near &= kind
-        measure = near if measure is None else measure | near
-    k = np.flatnonzero(measure) if measure is not None else np.zeros(0, dtype=np.int64)
-    dd = np.full(len(cell), np.inf)
-    ak = np.take(ai, k)
-    dd[k] = arc_distance(point(k), arcs.a[ak], arcs.b[ak], arcs.n[ak])
+    lo = np.empty(n)
+    measure = np.zeros(n, dtype=bool)
+    first = np.searchsorted(starts, np.arange(0, n, _BLOCK))  # each block's first run
+    first = np.unique(first[first < len(starts)])
+    at = np.r_[starts[first], n]
+    runs = np.r_[first, len(starts)]
+    for s, e, r0, r1 in zip(
+        at[:-1].tolist(), at[1:].tolist(), runs[:-1].tolist(), runs[1:].tolist()
+    ):
+        _near_pairs(arcs, ai[s:e], cm[s:e], starts[r0:r1] - s, kinds, s, lo[s:e], measure[s:e])
+    k = np.flatnonzero(measure)
+    if len(k) == 0:
+        return lo
+    dd = np.empty(len(k))
+    for s in range(0, len(k), _BLOCK):
+        kb = k[s : s + _BLOCK]
+        ak = np.take(ai, kb)
+        dd[s : s + len(kb)] = arc_distance(point(kb), arcs.a[ak], arcs.b[ak], arcs.n[ak])
+    ck = np.take(cell, k)
+    runs = np.flatnonzero(np.r_[True, ck[1:] != ck[:-1]])  # the measured pairs' runs
     for kind, outs in kinds:
-        low = np.minimum.reduceat(dd if kind is None else np.where(kind, dd, np.inf), starts)
+        mk = dd if kind is None else np.where(np.take(kind, k), dd, np.inf)
+        low = np.minimum.reduceat(mk, runs)
         for out in outs:
-            np.minimum.at(out, owner, low)
+            np.minimum.at(out, ck[runs], low)
     return lo
 
 
-def _spread_runs(value, new, owner, cell, k: int) -> np.ndarray:
-    """Each pair's ``value`` of its run (``new`` where a run starts, ``owner`` its cell):
-    by cell where every cell has one run (cells sorted), by run otherwise."""
-    if len(owner) < 2 or (owner[1:] > owner[:-1]).all():
-        by_cell = np.empty(k)
-        by_cell[owner] = value
-        return by_cell.take(cell)
-    return value.take(np.cumsum(new) - 1)
+#: Pairs per block of :func:`nearest` (its temporaries of a block stay in the cache).
+_BLOCK = 1 << 15
+
+
+def _near_pairs(arcs: ArcTable, ai, cm, starts, kinds, s: int, lo, measure) -> None:
+    """One block of :func:`nearest`: whole runs of pairs (arcs ``ai``, ``c.m`` ``cm``,
+    ``starts`` where each run begins in the block), the level's pairs from ``s`` on
+    (``kinds``: the level's masks). Writes each pair's lower bound into ``lo`` and sets
+    ``measure`` where a pair's bound is within :data:`CAP_SLACK` of its run's least upper
+    bound among the pairs of its kind."""
+    lo[:], hi = cap_range(cm, np.take(arcs.half, ai))
+    counts = np.diff(starts, append=len(ai))
+    for kind, _ in kinds:
+        mask = None if kind is None else kind[s : s + len(ai)]
+        best = np.minimum.reduceat(hi if mask is None else np.where(mask, hi, np.inf), starts)
+        near = lo <= (best + CAP_SLACK).repeat(counts)
+        if mask is not None:
+            near &= mask
+        measure |= near
 
 
 def _kinds(arcs: ArcTable, ai, dist, dring):
