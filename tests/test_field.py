@@ -616,6 +616,13 @@ def test_threshold_cuts_compare_float32_values_as_float64_does():
         assert ((x >= lo) & (x <= hi))[near].all(), d
 
 
+def _level0(grid):
+    """The level-0 shape of ``grid`` and its cells' centres and radii, row by row."""
+    h, w = grid.level_shape(0)
+    j, i = np.divmod(np.arange(h * w), w)
+    return h, w, grid.centers(0, j, i), grid.rho_at(0, j, i)
+
+
 @pytest.mark.parametrize(
     "which, grid",
     [
@@ -639,15 +646,11 @@ def test_a_small_grid_starts_from_its_own_list(which, grid, request, monkeypatch
         shape = gloffset.read(DATA / "world_110m.geojson")
     nodes = NodeArcs.from_shape(shape)
     top = nodes.top[nodes.boundary[nodes.top]]
-    h, w = grid.level_shape(0)
-    j, i = np.divmod(np.arange(h * w), w)
-    c, rho = grid.centers(0, j, i), grid.rho_at(0, j, i)
+    h, w, c, rho = _level0(grid)
     own = field_walk.root_list(nodes, np.inf, c, rho, top)
     assert not np.array_equal(np.sort(own), np.sort(top))
     world = Equirect(64, 32)
-    h, w = world.level_shape(0)
-    j, i = np.divmod(np.arange(h * w), w)
-    c, rho = world.centers(0, j, i), world.rho_at(0, j, i)
+    h, w, c, rho = _level0(world)
     assert field_walk.root_list(nodes, np.inf, c, rho, top) is top
     got = gloffset.distance_field(shape, grid, radius=1.0).values
     monkeypatch.setattr(field_walk, "_ROOT_REACH", 0.0)  # every grid from the top
@@ -680,9 +683,7 @@ def test_start_lists_hold_the_nearest_arcs(which, grid, request, monkeypatch):
         )
     nodes = NodeArcs.from_shape(shape)
     top = nodes.top[nodes.boundary[nodes.top]]
-    h, w = grid.level_shape(0)
-    j, i = np.divmod(np.arange(h * w), w)
-    c, rho = grid.centers(0, j, i), grid.rho_at(0, j, i)
+    h, w, c, rho = _level0(grid)
     root = field_walk.root_list(nodes, np.inf, c, rho, top)
     if which == "countries":  # long enough a root list for the quadtree
         assert len(root) * h * w >= field_walk._QUAD_PAIRS
