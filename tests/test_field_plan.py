@@ -87,9 +87,10 @@ def test_lists_are_the_stable_sort_of_the_walks_pairs(nodes):
     lists = field_gpu._Lists(nodes, grid, np.inf, level, "cpu")
     wc = lists.shape[1]
     keys, vals = [], []
-    for f, _ in field_gpu.walk_levels(nodes, grid, np.inf, level):
-        keys.append((f.cells[:, 0].astype(np.int64) * wc + f.cells[:, 1])[f.pair_cell])
-        vals.append(f.pair_arc)
+    for f, dist in field_gpu.walk_levels(nodes, grid, np.inf, level):
+        keep = field_gpu._undominated(f, dist, nodes)  # the dominated pairs cut
+        keys.append((f.cells[:, 0].astype(np.int64) * wc + f.cells[:, 1])[f.pair_cell[keep]])
+        vals.append(f.pair_arc[keep])
     key, val = np.concatenate(keys), np.concatenate(vals)
     assert np.array_equal(lists.node, val[np.argsort(key, kind="stable")])
     assert np.array_equal(lists.count, np.bincount(key, minlength=lists.count.size))

@@ -42,9 +42,10 @@ from ...geometry.sphere import cross, dot
 from ...gl.context import context_info, shared
 from ...gl.field_pass import ARC_TEXELS, EXACT_DOUBLES, FieldPlan, field_pass
 from ..vector.node_levels import NodeArcs
+from . import dominance
 from .lists import gpu_lists
 from .sign import UNDECIDED, Corners
-from .walk import walk_levels
+from .walk import exact_distances, walk_levels
 
 __all__ = ["SHIFT", "gpu_distances"]
 
@@ -129,8 +130,9 @@ class _Lists:
         self.depth = np.full(hc * wc, np.inf)
         for f, dist in walk_levels(nodes, grid, m, level):
             flat = f.cells[:, 0].astype(np.int64) * wc + f.cells[:, 1]
-            keys.append(flat[f.pair_cell])
-            vals.append(f.pair_arc)
+            keep = _undominated(f, dist, nodes)
+            keys.append(flat[f.pair_cell[keep]])
+            vals.append(f.pair_arc[keep])
             self.depth[flat] = dist / f.rho
         key = np.concatenate(keys) if keys else np.zeros(0, np.int64)
         val = np.concatenate(vals) if vals else np.zeros(0, np.int64)
@@ -155,6 +157,22 @@ class _Lists:
         first = np.cumsum(cnt) - cnt
         at = np.repeat(st - first, cnt) + np.arange(int(cnt.sum()))
         return first, cnt, _ascending(cnt, self.node[at])
+
+
+def _undominated(f, dist: np.ndarray, nodes: NodeArcs):
+    """The pairs of ``f`` that :func:`~gloffset.raster.fields.dominance.undominated`
+    keeps (all without :data:`~gloffset.raster.fields.dominance.DOMINANCE`)."""
+    if not dominance.DOMINANCE:
+        return slice(None)
+    deep = dist >= dominance.DEEP * f.rho
+    on = np.flatnonzero(deep[f.pair_cell])
+    if len(on) == 0:
+        return slice(None)
+    cell, arc = f.pair_cell[on], f.pair_arc[on]
+    keep = np.ones(len(f.pair_cell), dtype=bool)
+    d = exact_distances(f.centers, cell, nodes, arc)
+    keep[on] = dominance.undominated(f.centers, f.rho, cell, arc, nodes, d)
+    return keep
 
 
 def _ascending(count: np.ndarray, node: np.ndarray) -> np.ndarray:

@@ -23,6 +23,7 @@ from ...geometry.caps import CAP_SLACK, cap_range, pad
 from ...geometry.sphere import angle, column_dots, cross, dot
 from ..vector.levels import Frontier, children
 from ..vector.node_levels import NodeArcs
+from . import dominance
 
 __all__ = [
     "end_distances",
@@ -418,6 +419,17 @@ def _round(st: _Cells, tab: _Table, cell, node):
                 (cm.take(kept), t.take(kept), st.vcos.take(ck), vm),
                 (r.take(kept), tab.cos_r.take(nk), tab.sin_r.take(nk)),
                 [x.take(ck) for x in disc],
+            )
+        if dominance.DOMINANCE and n_kept:  # the cell's vertex dominates them
+            deep = keep & is_kept & (lo >= _per_pair(runs, dominance.DEEP * st.reach))
+            kept = np.flatnonzero(deep & (_per_pair(runs, st.vcos) > -1.5))
+            ck = cell.take(kept)
+            keep[kept] = ~dominance.vertex_dominates(
+                *([x.take(ck) for x in cols] for cols in (st.cc, st.vtx)),
+                [x.take(kept) for x in mid],
+                lo.take(kept),
+                r.take(kept),
+                st.reach.take(ck),
             )
     split = tab.cut.take(node)
     split = split > (0.0 if st.bound is None else _per_pair(runs, st.bound))
