@@ -425,7 +425,8 @@ def _round(st: _Cells, tab: _Table, cell, node):
             kept = np.flatnonzero(deep & (_per_pair(runs, st.vcos) > -1.5))
             ck = cell.take(kept)
             keep[kept] = ~dominance.vertex_dominates(
-                *([x.take(ck) for x in cols] for cols in (st.cc, st.vtx)),
+                [x.take(ck) for x in st.cc],
+                [x.take(ck) for x in st.vtx],
                 [x.take(kept) for x in mid],
                 lo.take(kept),
                 r.take(kept),
