@@ -558,7 +558,7 @@ def test_bisector_pruning_is_rigorous():
     included), caps large and small, near and far."""
 
     from gloffset.geometry.sphere import angle, normalize, rotate
-    from gloffset.raster.fields.walk import _maybe_nearer
+    from gloffset.raster.fields.dominance import maybe_nearer
 
     rng = np.random.default_rng(11)
     n = 4000
@@ -577,7 +577,7 @@ def test_bisector_pruning_is_rigorous():
     t = np.arccos(np.clip(cm, -1, 1))
     vcos = np.einsum("ij,ij->i", c, x)
     vm = np.einsum("ij,ij->i", x, mid)
-    keep = _maybe_nearer(
+    keep = maybe_nearer(
         (cm, t, vcos, vm), (r, np.cos(r), np.sin(r)), (reach, np.cos(reach), np.sin(reach))
     )
     dropped = np.flatnonzero(~keep)

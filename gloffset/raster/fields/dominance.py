@@ -1,43 +1,36 @@
-"""The cells' lists cut to the arcs that can be nearest: a pair dominated over its cell's
-disc by the cell's nearest arc is dropped.
+"""The walk's tests that cut a cell's list by the cell's nearest boundary vertex or arc:
+a node whose run is nearer to no point of the cell's disc (centre ``c``, radius
+``rho``) is dropped. :func:`maybe_nearer`: the bisector of the vertex and the node's
+cap. :func:`vertex_dominates`, :func:`undominated`: far from the boundary (a coast
+seen from hundreds of cells away) the walk's ``2 rho`` band holds tens of arcs all
+about as near, but two distances move together over the disc; this bounds how much.
 
-The walk (:mod:`gloffset.raster.fields.walk`) keeps, for a cell of centre ``c`` and
-radius ``rho``, every arc ``j`` whose distance at ``c`` lies within ``2 rho`` of the
-least, ``d_i(c)``: each distance moves by at most ``rho`` over the disc. Far from the
-boundary (a coast seen from a few hundred cells away) that band holds tens of arcs, all
-about as near, and each pixel of the cell ranks them all. But the two distances move
-together there: over the disc, ``d_j - d_i`` moves by much less than ``2 rho``.
+The bound, rigorous: let ``q*`` be a point of the boundary (the nearest point of the
+cell's nearest arc, or a vertex) and ``D > 0`` a lower bound of every angle from the
+disc to ``q*`` and to the node's run. For ``p`` in the disc, ``d_i(p) <=
+angle(p, q*)``, and for ``q`` in the run, ``f_q(p) = angle(p, q) - angle(p, q*)`` has
+the gradient ``g_q - g_q*``, the unit tangents at ``p`` away from ``q`` and ``q*``:
+the normalised projections ``u``, ``u*`` of ``q``, ``q*`` on the tangent plane, ``|u|
+>= sin D`` while the angles lie in ``[D, pi - D]``, ``|u - u*| <= |q - q*|``; so
+(Dunkl-Williams) ``|g_q - g_q*| <= L = chord(delta) / sin D``, ``delta`` at least
+``angle(q*, mid) + r`` (the run's cap). The disc is convex, so
 
-The bound, rigorous: let ``q*`` be the point of arc ``i`` nearest to ``c`` and ``D =
-d_i(c) - rho > 0``. For a point ``p`` of the disc, ``d_i(p) <= angle(p, q*)``, and for
-each point ``q`` of arc ``j``, ``f_q(p) = angle(p, q) - angle(p, q*)`` has the gradient
-``g_q - g_q*``, the difference of the unit tangents at ``p`` away from ``q`` and ``q*``.
-They are the normalised projections ``u = q - (p.q) p`` and ``u* = q* - (p.q*) p`` on the
-tangent plane, ``|u| = sin angle(p, q) >= sin D`` where both angles lie in ``[D, pi -
-D]``, and ``|u - u*| <= |q - q*|``; so (Dunkl-Williams, ``|x/|x| - y/|y|| <= 2 |x - y| /
-(|x| + |y|)``) ``|g_q - g_q*| <= L = chord(delta) / sin D``, ``delta >= angle(q, q*)``
-over arc ``j``: ``angle(q*, mid_j) + reach_j`` (its cap). Along the geodesic from ``c``
-(the disc is convex), ``f_q(p) >= f_q(c) - rho L``, and ``f_q(c) >= d_j(c) - d_i(c)``:
+    d_j(p) - d_i(p) >= d_j(c) - angle(c, q*) - rho L.
 
-    d_j(p) - d_i(p) >= d_j(c) - d_i(c) - rho L.
-
-Where that is above :data:`ETA`, arc ``j`` is farther than arc ``i`` at every point of
-the disc, by more than the float64 distances' error: it is never a pixel's nearest arc,
-nor within the shader's reach of the least (:mod:`gloffset.gl.field_pass`: the features
-finished and the sign's ``FIELD_ETA`` set are read from the exact distances), so the
-field's values and sign codes are the same bits without it. The angles' upper end: each
-``angle(p, q) <= d_i(c) + rho + delta`` (through ``q*``), asked to be at most ``pi - D``;
-a pair where it is not, or a cell with ``D <= 0``, is kept.
+Where that is above :data:`ETA`, the node is farther than ``q*`` at every point of the
+disc by more than the float64 distances' error: it holds no pixel's nearest arc nor a
+feature within the shader's reach of it (the features finished and the sign's
+``FIELD_ETA`` set come from exact distances), so fields and sign codes keep their bits.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ...geometry.caps import pad
-from ...geometry.sphere import angle
+from ...geometry.caps import CAP_SLACK, pad
+from ...geometry.sphere import angle, column_dots
 
-__all__ = ["ETA", "undominated", "vertex_dominates"]
+__all__ = ["ETA", "maybe_nearer", "nearest_vertices", "undominated", "vertex_dominates"]
 
 #: Whether the walk's lists are cut by these bounds (:func:`vertex_dominates` in each
 #: round of the walk, :func:`undominated` on the GPU field's lists).
@@ -129,3 +122,62 @@ def vertex_dominates(c, v, mid, lo, r, reach) -> np.ndarray:
     out &= av + reach + delta <= np.pi - low
     out &= lo - av - reach * lip > ETA
     return out
+
+
+#: Slack on the dot products of :func:`maybe_nearer` (unit vectors and sums of two: each
+#: computed to a few 1e-16).
+DOT_SLACK = 1e-12
+#: Slack under the square root of :func:`maybe_nearer` (its argument is a difference of
+#: values of at most 4, each good to 1e-15).
+SQ_SLACK = 1e-13
+
+
+def nearest_vertices(cc, cell, node, tab, vcos, vtx) -> None:
+    """Update each cell's nearest boundary vertex with the ends of the nodes ``node``
+    (``tab`` the walk's node table: their ends ``a``, ``b`` as columns).
+
+    ``cc`` the cells' centres, ``vcos`` the cosine of the vertex's angle to the centre,
+    ``vtx`` the point (as coordinate columns); the ends of a boundary node are original
+    vertices of the boundary, bit for bit.
+    """
+    for ends in (tab.a, tab.b):
+        cos = column_dots(cc, ends, cell, node)
+        np.maximum.at(vcos, cell, cos)
+        win = np.flatnonzero(cos == vcos.take(cell))
+        cw, nw = cell.take(win), node.take(win)
+        for k in range(3):
+            vtx[k][cw] = ends[k].take(nw)
+
+
+def maybe_nearer(centre, cap, disc) -> np.ndarray:
+    """Return whether a node's run can be as near as the cell's vertex to some point.
+
+    Whether it can be as near as the cell's vertex ``vtx`` to some point
+    within ``reach`` of the cell's centre ``c``: False only where every such point is
+    nearer to the vertex than to every point of the node's cap (centre ``mid``, radius
+    ``r`` = ``nodes.reach``, which holds its run), so that the run holds no nearest point.
+    Per pair: ``centre`` is ``(c.mid, t, c.vtx, vtx.mid)`` (``t`` the angle of ``c.mid``,
+    good to ``CAP_SLACK / 2``), ``cap`` ``(r, cos r, sin r)`` and ``disc`` ``(reach,
+    cos(reach), sin(reach))``.
+
+    The test, rigorous: for ``q`` outside the cap, the cap's nearest point ``y`` has ``q.y
+    = cos(angle(q, mid) - r) = cos r (q.mid) + sin r sin(angle(q, mid))``, so ``q.v > sin
+    r S`` with ``v = vtx - cos r mid`` and ``S >= max(sin(angle(q, mid)), sin r)`` puts
+    ``q`` nearer to the vertex (and outside the cap: inside, ``q.v <= 1 - cos^2 r = sin^2
+    r``, which fails the test). The least of the linear ``q.v`` over the disc of radius
+    ``reach`` about ``c`` is ``c.v cos(reach) - sqrt(|v|^2 - (c.v)^2) sin(reach)``, with
+    ``c.v = c.vtx - cos r c.mid`` and ``|v|^2 = 1 + cos^2 r - 2 cos r vtx.mid``; and ``S =
+    sin(min(pi / 2, t + reach))``. The rounding of these (a few 1e-16 on values of at
+    most 4) is covered by :data:`DOT_SLACK` and by :data:`SQ_SLACK` under the root.
+    """
+    cm, t, vcos, vm = centre
+    r, cr, sin_r = cap
+    rr, cos_rr, sin_rr = disc
+    cv = vcos - cr * cm
+    vv = 1.0 + cr * cr - 2.0 * cr * vm
+    s2 = np.maximum(vv - cv * cv, 0.0) + SQ_SLACK
+    least = cv * cos_rr - np.sqrt(s2) * sin_rr
+    sin_s = np.sin(np.minimum(t + rr + CAP_SLACK, 0.5 * np.pi))
+    out = least <= sin_r * np.maximum(sin_s, sin_r) + DOT_SLACK
+    # the test holds for caps and discs smaller than a quarter circle only
+    return out | (r >= 1.0) | (rr >= 1.0)

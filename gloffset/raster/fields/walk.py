@@ -2,10 +2,11 @@
 
 A branch and bound over the grid's levels, coarse to fine, every cell with a list of
 candidate nodes of the multiresolution tree (paper Sec. 4.2, Eq. 9 bounds), pruned by
-their bounds (:func:`_bound`) and by a bisector test against the cell's nearest
-boundary vertex (:func:`_maybe_nearer`); nodes are split as the cells shrink, down to
-the original edges at the pixels, each pixel ending with the exact float64 distance of
-its nearest arc (:func:`exact_distances`, the bits of
+their bounds (:func:`_bound`) and by tests against the cell's nearest boundary vertex
+(:mod:`gloffset.raster.fields.dominance`: its bisector with a node's cap, and the bound
+on the difference of two distances over the disc); nodes are split as the cells
+shrink, down to the original edges at the pixels, each pixel ending with the exact
+float64 distance of its nearest arc (:func:`exact_distances`, the bits of
 :func:`~gloffset.geometry.sphere.arc_distance`). :func:`walk_levels` yields the parts of
 any level with their lists: the output level's with the distances (the CPU backend), or
 a coarser one's whose lists hold every arc that can be nearest to one of their pixels
@@ -254,13 +255,14 @@ def _bound(
     upper bound of the cell by more than ``2 reach`` (by nothing at the output level) is
     nearer to no point within ``reach`` than that one (nor within ``m`` of any, beyond
     ``m + reach``). Above the output level a pair kept for that slack alone must also
-    pass the bisector test against the cell's nearest boundary vertex found so far
-    (:func:`_maybe_nearer`). Each pair's bounds are computed once: a round computes
-    those of the halves of the nodes split in the round before, the least upper bounds
-    carried over. At the output level with arcs only (as the level above leaves its
-    lists), every pair's exact distance instead (:func:`_least`). With ``pairs`` at the
-    output level, also the pairs measured, ``(cell, node, exact)`` (see
-    :func:`walk_levels`).
+    pass the tests against the cell's nearest boundary vertex found so far
+    (:mod:`~gloffset.raster.fields.dominance`: ``maybe_nearer``, and ``vertex_dominates``
+    on cells at least ``DEEP`` of their reach from it). Each pair's bounds are computed
+    once: a round computes those of the halves of the nodes split in the round before,
+    the least upper bounds carried over. At the output level with arcs only (as the
+    level above leaves its lists), every pair's exact distance instead (:func:`_least`).
+    With ``pairs`` at the output level, also the pairs measured, ``(cell, node,
+    exact)`` (see :func:`walk_levels`).
 
     Each round's pairs come sorted by cell (the frontier's are, and a split pair's
     halves follow it) and are bounded in pieces of about :data:`_BOUND_PAIRS` pairs cut
@@ -396,42 +398,8 @@ def _round(st: _Cells, tab: _Table, cell, node):
     lo[near] = np.maximum(lo[near], exact - err)
     keep = lo <= _per_pair(runs, st.threshold())
     if not st.final:
-        _nearest_vertices(st.cc, cn, ni, tab, st.vcos, st.vtx)
-        # the pairs kept for the slack alone (a pair that may be the nearest at the
-        # centre stays whatever the test says, nearly always)
-        is_kept = keep & (lo > _per_pair(runs, best))
-        n_kept = np.count_nonzero(is_kept)
-        disc = st.reach, st.cos_reach, st.sin_reach
-        if n_kept > _ALL_KEPT * len(cell):
-            # the test on every pair (no gathers of the kept ones), read where kept
-            vm = column_dots([_per_pair(runs, x) for x in st.vtx], mid)
-            ok = _maybe_nearer(
-                (cm, t, _per_pair(runs, st.vcos), vm),
-                (r, tab.cos_r.take(node), tab.sin_r.take(node)),
-                [_per_pair(runs, x) for x in disc],
-            )
-            keep &= ok | ~is_kept
-        elif n_kept:
-            kept = np.flatnonzero(is_kept)
-            ck, nk = cell.take(kept), node.take(kept)
-            vm = column_dots(st.vtx, [x.take(kept) for x in mid], ck)
-            keep[kept] = _maybe_nearer(
-                (cm.take(kept), t.take(kept), st.vcos.take(ck), vm),
-                (r.take(kept), tab.cos_r.take(nk), tab.sin_r.take(nk)),
-                [x.take(ck) for x in disc],
-            )
-        if dominance.DOMINANCE and n_kept:  # the cell's vertex dominates them
-            deep = keep & is_kept & (lo >= _per_pair(runs, dominance.DEEP * st.reach))
-            kept = np.flatnonzero(deep & (_per_pair(runs, st.vcos) > -1.5))
-            ck = cell.take(kept)
-            keep[kept] = ~dominance.vertex_dominates(
-                [x.take(ck) for x in st.cc],
-                [x.take(ck) for x in st.vtx],
-                [x.take(kept) for x in mid],
-                lo.take(kept),
-                r.take(kept),
-                st.reach.take(ck),
-            )
+        dominance.nearest_vertices(st.cc, cn, ni, tab, st.vcos, st.vtx)
+        _vertex_tests(st, tab, (runs, cell, node), (mid, cm, t, r, lo), best, keep)
     split = tab.cut.take(node)
     split = split > (0.0 if st.bound is None else _per_pair(runs, st.bound))
     split &= keep
@@ -446,6 +414,49 @@ def _round(st: _Cells, tab: _Table, cell, node):
         np.minimum.at(st.dist, cn.compress(on), exact.compress(on))
     s = np.flatnonzero(split)
     return left, (np.repeat(cell[s], 2), tab.child.take(node[s], axis=0).ravel())
+
+
+def _vertex_tests(st: _Cells, tab: _Table, pairs, caps, best, keep) -> None:
+    """Clear ``keep`` where a pair kept for the slack alone fails the tests against its
+    cell's vertex (:mod:`~gloffset.raster.fields.dominance`). ``pairs``: the round's
+    ``(runs, cell, node)``; ``caps``: per pair ``(mid, c.mid, t, r, lo)``."""
+    runs, cell, node = pairs
+    mid, cm, t, r, lo = caps
+    # the pairs kept for the slack alone (a pair that may be the nearest at the
+    # centre stays whatever the test says, nearly always)
+    is_kept = keep & (lo > _per_pair(runs, best))
+    n_kept = np.count_nonzero(is_kept)
+    disc = st.reach, st.cos_reach, st.sin_reach
+    if n_kept > _ALL_KEPT * len(cell):
+        # the test on every pair (no gathers of the kept ones), read where kept
+        vm = column_dots([_per_pair(runs, x) for x in st.vtx], mid)
+        ok = dominance.maybe_nearer(
+            (cm, t, _per_pair(runs, st.vcos), vm),
+            (r, tab.cos_r.take(node), tab.sin_r.take(node)),
+            [_per_pair(runs, x) for x in disc],
+        )
+        keep &= ok | ~is_kept
+    elif n_kept:
+        kept = np.flatnonzero(is_kept)
+        ck, nk = cell.take(kept), node.take(kept)
+        vm = column_dots(st.vtx, [x.take(kept) for x in mid], ck)
+        keep[kept] = dominance.maybe_nearer(
+            (cm.take(kept), t.take(kept), st.vcos.take(ck), vm),
+            (r.take(kept), tab.cos_r.take(nk), tab.sin_r.take(nk)),
+            [x.take(ck) for x in disc],
+        )
+    if dominance.DOMINANCE and n_kept:  # the cell's vertex dominates them
+        deep = keep & is_kept & (lo >= _per_pair(runs, dominance.DEEP * st.reach))
+        kept = np.flatnonzero(deep & (_per_pair(runs, st.vcos) > -1.5))
+        ck = cell.take(kept)
+        keep[kept] = ~dominance.vertex_dominates(
+            [x.take(ck) for x in st.cc],
+            [x.take(ck) for x in st.vtx],
+            [x.take(kept) for x in mid],
+            lo.take(kept),
+            r.take(kept),
+            st.reach.take(ck),
+        )
 
 
 def _cell_runs(cell) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -614,64 +625,6 @@ def _arc_distance(p, ends: _Table, ni) -> np.ndarray:
             to.append(2.0 * np.arctan2(np.sqrt(_dot3(dm, dm)), np.sqrt(_dot3(dp, dp))))
         out[off] = np.minimum(to[0], to[1])
     return out
-
-
-#: Slack on the dot products of :func:`_maybe_nearer` (unit vectors and sums of two: each
-#: computed to a few 1e-16).
-_DOT_SLACK = 1e-12
-#: Slack under the square root of :func:`_maybe_nearer` (its argument is a difference of
-#: values of at most 4, each good to 1e-15).
-_SQ_SLACK = 1e-13
-
-
-def _nearest_vertices(cc, cell, node, tab: _Table, vcos, vtx) -> None:
-    """Update each cell's nearest boundary vertex with the ends of the nodes ``node``.
-
-    ``cc`` the cells' centres, ``vcos`` the cosine of the vertex's angle to the centre,
-    ``vtx`` the point (as coordinate columns); the ends of a boundary node are original
-    vertices of the boundary, bit for bit.
-    """
-    for ends in (tab.a, tab.b):
-        cos = column_dots(cc, ends, cell, node)
-        np.maximum.at(vcos, cell, cos)
-        win = np.flatnonzero(cos == vcos.take(cell))
-        cw, nw = cell.take(win), node.take(win)
-        for k in range(3):
-            vtx[k][cw] = ends[k].take(nw)
-
-
-def _maybe_nearer(centre, cap, disc) -> np.ndarray:
-    """Return whether a node's run can be as near as the cell's vertex to some point.
-
-    Whether it can be as near as the cell's vertex ``vtx`` to some point
-    within ``reach`` of the cell's centre ``c``: False only where every such point is
-    nearer to the vertex than to every point of the node's cap (centre ``mid``, radius
-    ``r`` = ``nodes.reach``, which holds its run), so that the run holds no nearest point.
-    Per pair: ``centre`` is ``(c.mid, t, c.vtx, vtx.mid)`` (``t`` the angle of ``c.mid``,
-    good to ``CAP_SLACK / 2``), ``cap`` ``(r, cos r, sin r)`` and ``disc`` ``(reach,
-    cos(reach), sin(reach))``.
-
-    The test, rigorous: for ``q`` outside the cap, the cap's nearest point ``y`` has ``q.y
-    = cos(angle(q, mid) - r) = cos r (q.mid) + sin r sin(angle(q, mid))``, so ``q.v > sin
-    r S`` with ``v = vtx - cos r mid`` and ``S >= max(sin(angle(q, mid)), sin r)`` puts
-    ``q`` nearer to the vertex (and outside the cap: inside, ``q.v <= 1 - cos^2 r = sin^2
-    r``, which fails the test). The least of the linear ``q.v`` over the disc of radius
-    ``reach`` about ``c`` is ``c.v cos(reach) - sqrt(|v|^2 - (c.v)^2) sin(reach)``, with
-    ``c.v = c.vtx - cos r c.mid`` and ``|v|^2 = 1 + cos^2 r - 2 cos r vtx.mid``; and ``S =
-    sin(min(pi / 2, t + reach))``. The rounding of these (a few 1e-16 on values of at
-    most 4) is covered by :data:`_DOT_SLACK` and by :data:`_SQ_SLACK` under the root.
-    """
-    cm, t, vcos, vm = centre
-    r, cr, sin_r = cap
-    rr, cos_rr, sin_rr = disc
-    cv = vcos - cr * cm
-    vv = 1.0 + cr * cr - 2.0 * cr * vm
-    s2 = np.maximum(vv - cv * cv, 0.0) + _SQ_SLACK
-    least = cv * cos_rr - np.sqrt(s2) * sin_rr
-    sin_s = np.sin(np.minimum(t + rr + CAP_SLACK, 0.5 * np.pi))
-    out = least <= sin_r * np.maximum(sin_s, sin_r) + _DOT_SLACK
-    # the test holds for caps and discs smaller than a quarter circle only
-    return out | (r >= 1.0) | (rr >= 1.0)
 
 
 def _parts(f: Frontier):
