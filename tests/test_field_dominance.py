@@ -183,6 +183,17 @@ def test_the_cut_changes_no_bit(
         assert (a is None and b is None) or np.array_equal(a, b)
 
 
+@pytest.mark.parametrize("grid", [DEEP_TILES[1], POLE], ids=["deep-z9", "pole"])
+def test_the_cpu_backend_keeps_its_bits(countries, fiji_antarctica, monkeypatch, grid):
+    """The CPU backend walks to the pixels with the in-walk cut: the same field (its
+    values and signs) with and without it."""
+    shape = fiji_antarctica if grid is POLE else countries
+    got = gloffset.distance_field(shape, grid, radius=1.0, backend="cpu").values
+    monkeypatch.setattr(dominance, "DOMINANCE", False)
+    want = gloffset.distance_field(shape, grid, radius=1.0, backend="cpu").values
+    assert got.tobytes() == want.tobytes()
+
+
 def _pairs(shape, grid, monkeypatch, cut: bool) -> int:
     n = []
     run = FieldPass.run
