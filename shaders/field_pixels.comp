@@ -81,6 +81,8 @@ uniform float u_prune;        // PRUNE_MARGIN: an arc's cap beyond U + this is d
 uniform float u_same;         // NEAREST_ERR / 8: an undecided arc's two chords, at most
 uniform int u_signed;         // 1: write the sign codes too
 uniform int u_seams;          // seams (rows of Seams)
+uniform uint u_direct;        // lists of at most this many arcs are finished whole in
+                              // double, unranked (field_pass.DIRECT; 0: none)
 #ifdef GRID_CUBE
 uniform vec3 u_face_e;        // the face's axis and the directions of s and t (0, +-1)
 uniform vec3 u_face_u;
@@ -395,13 +397,16 @@ void main() {
             measure(p, pairs[base + b], base + b);
         }
     }
+    bool direct = false;
 #else
-    for (uint k = list.x; k < list.x + list.y; k++) {
+    // a short list of a deep block: its arcs finished in double, unranked (below)
+    bool direct = list.y <= u_direct;
+    for (uint k = list.x; k < list.x + (direct ? 0u : list.y); k++) {
         measure(p, pairs[k], k);
     }
 #endif
     uint at = uint(px.y * u_size.x + px.x);
-    if (w0 == NONE) {
+    if (w0 == NONE && (!direct || list.y == 0u)) {
         dist[at] = double(inf);
         if (u_signed != 0) {
             sign_code[at] = FIELD_UNDECIDED;
@@ -419,12 +424,13 @@ void main() {
     // One loop finishes them (llvmpipe runs a loop's body as often as the most any of
     // its lanes asks, at least once, and the body of every branch): first the six's
     // within reach, then, where more may be, the cell's whole list (arcs whose caps lie
-    // beyond reach skipped). The least finished features are kept (distance, kind,
+    // beyond reach skipped); a direct list (u_direct), its arcs alone (each arc's
+    // distance is the least of its features': the same least value). The least finished features are kept (distance, kind,
     // feature) for the sign, six of them.
-    uint near_n = 1u + uint(m1 <= reach) + uint(m2 <= reach) + uint(m3 <= reach)
-        + uint(m4 <= reach) + uint(m5 <= reach);
-    bool whole = dropped <= reach || unsure <= reach;
-    uint n = w0 == NONE ? 0u : near_n + (whole ? list.y : 0u);  // (returned above)
+    uint near_n = direct ? 0u : 1u + uint(m1 <= reach) + uint(m2 <= reach)
+        + uint(m3 <= reach) + uint(m4 <= reach) + uint(m5 <= reach);
+    bool whole = direct || dropped <= reach || unsure <= reach;
+    uint n = near_n + (whole ? list.y : 0u);
     double dinf = double(inf);
     double d = dinf;
     double e0 = dinf, e1 = dinf, e2 = dinf, e3 = dinf, e4 = dinf, e5 = dinf;

@@ -240,3 +240,31 @@ def test_a_broken_bound_is_caught(countries, monkeypatch, where):
     bad = gloffset.distance_field(countries, tile, radius=1.0).values
     off = np.abs(bad.astype(np.float64) - want) > np.spacing(np.abs(want))
     assert off.sum() > 100
+
+
+@pytest.mark.parametrize("tile", DEEP_TILES[:2], ids=str)
+def test_deep_short_lists_finished_directly_keep_their_bits(countries, tile, monkeypatch, tmp_path):
+    """Deep blocks' short lists are finished whole in double, unranked
+    (``field_pass.DIRECT``): the same values and sign codes as ranked; and the path runs
+    there (a shader that finishes only a direct list's first arc is off the CPU)."""
+    from conftest import broken_field_pass
+
+    from gloffset.gl import field_pass
+
+    direct, direct_codes = _field_and_codes(countries, tile, monkeypatch, True)
+    with monkeypatch.context() as m:
+        m.setattr(field_pass, "DIRECT", 0)
+        ranked, ranked_codes = _field_and_codes(countries, tile, monkeypatch, True)
+    assert direct.tobytes() == ranked.tobytes()
+    for a, b in zip(direct_codes, ranked_codes):
+        assert np.array_equal(a, b)
+    want = gloffset.distance_field(countries, tile, radius=1.0, backend="cpu").values
+    broken_field_pass(
+        monkeypatch,
+        tmp_path,
+        "uint n = near_n + (whole ? list.y : 0u);",
+        "uint n = near_n + (whole ? (direct ? min(list.y, 1u) : list.y) : 0u);",
+    )
+    bad = gloffset.distance_field(countries, tile, radius=1.0).values
+    off = np.abs(bad.astype(np.float64) - want) > np.spacing(np.abs(want))
+    assert off.sum() > 100

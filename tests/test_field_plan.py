@@ -94,3 +94,38 @@ def test_lists_are_the_stable_sort_of_the_walks_pairs(nodes):
     key, val = np.concatenate(keys), np.concatenate(vals)
     assert np.array_equal(lists.node, val[np.argsort(key, kind="stable")])
     assert np.array_equal(lists.count, np.bincount(key, minlength=lists.count.size))
+
+
+@pytest.mark.parametrize(
+    "grid",
+    [
+        gloffset.grids.Tile(6, 15, 29),
+        gloffset.grids.Tile(3, 1, 3),
+        Equirect(512, 512, (-118.0, 14.0, -86.0, 33.0)),
+    ],
+    ids=["z6", "z3", "box"],
+)
+def test_nodes_split_two_levels_at_once_change_no_bit(mexico, grid, monkeypatch):
+    """A split node whose halves would be split too goes down two levels in one round
+    (``walk.DEEPER``): fewer rounds, the same field bits, both backends."""
+    from gloffset.raster.fields import walk
+
+    rounds = []
+    real = walk._round
+
+    def counted(*a):
+        rounds.append(1)
+        return real(*a)
+
+    monkeypatch.setattr(walk, "_round", counted)
+    got = [
+        gloffset.distance_field(mexico, grid, radius=1.0, backend=b).values for b in ("gpu", "cpu")
+    ]
+    n_deeper, rounds[:] = len(rounds), []
+    monkeypatch.setattr(walk, "DEEPER", 0)
+    want = [
+        gloffset.distance_field(mexico, grid, radius=1.0, backend=b).values for b in ("gpu", "cpu")
+    ]
+    assert n_deeper < 0.8 * len(rounds)
+    for g, w in zip(got, want):
+        assert g.tobytes() == w.tobytes()

@@ -413,7 +413,31 @@ def _round(st: _Cells, tab: _Table, cell, node):
         on = stay.take(near)  # the exact distances of the pairs left as they are
         np.minimum.at(st.dist, cn.compress(on), exact.compress(on))
     s = np.flatnonzero(split)
-    return left, (np.repeat(cell[s], 2), tab.child.take(node[s], axis=0).ravel())
+    return left, _halves(st, tab, cell[s], node[s])
+
+
+#: How many more levels a split node goes down at once where its halves would be split
+#: too (their halves replacing them: one round instead of two).
+DEEPER = 1
+
+
+def _halves(st: _Cells, tab: _Table, cell, node):
+    """The pairs that replace the split pairs ``(cell, node)``: each node's two halves,
+    sorted by cell as they are; with :data:`DEEPER`, a half that would be split in the
+    next round (its error above the cell's bound) by its own halves already."""
+    cell, node = np.repeat(cell, 2), tab.child.take(node, axis=0).ravel()
+    for _ in range(DEEPER):
+        if st.final or len(node) == 0:
+            break
+        bound = 0.0 if st.bound is None else st.bound.take(cell)
+        deep = tab.cut.take(node) > bound
+        if not deep.any():
+            break
+        two = np.where(deep[:, None], tab.child.take(node, axis=0), node[:, None])
+        two[:, 1] = np.where(deep, two[:, 1], -1)
+        real = two.ravel() >= 0
+        cell, node = np.repeat(cell, 2).compress(real), two.ravel().compress(real)
+    return cell, node
 
 
 def _vertex_tests(st: _Cells, tab: _Table, pairs, caps, best, keep) -> None:
