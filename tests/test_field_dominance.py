@@ -36,6 +36,11 @@ def fiji_antarctica():
 #: Tiles whose cells lie far from the boundary (hundreds of cells: inland and offshore)
 #: and near it (Mexico's coast at z4).
 DEEP_TILES = [Tile(10, 199, 441), Tile(9, 99, 220), Tile(8, 49, 110)]
+#: The first in the quick suite, the others slow.
+DEEP_PARAMS = [
+    pytest.param(t, id=str(t), marks=[pytest.mark.slow] if k else [])
+    for k, t in enumerate(DEEP_TILES)
+]
 #: Round the south pole: Antarctica's interior and the ocean to 45 S.
 POLE = Equirect(2048, 256, (-180, -90, 180, -45))
 
@@ -104,7 +109,7 @@ def _assert_dropped_are_farther(grid, nodes, f, keep, rng, most: int = 400) -> i
     return len(dropped)
 
 
-@pytest.mark.parametrize("tile", DEEP_TILES, ids=str)
+@pytest.mark.parametrize("tile", DEEP_PARAMS)
 def test_dropped_arcs_are_farther_deep_tiles(countries, tile):
     """The final cut on the uncut lists of deep tiles: what it drops is never nearest."""
     rng = np.random.default_rng(1)
@@ -119,11 +124,12 @@ def test_dropped_arcs_are_farther_deep_tiles(countries, tile):
 @pytest.mark.parametrize(
     "name, grid",
     [
-        ("mexico", Tile(4, 3, 7)),
-        ("fiji_antarctica", POLE),
-        ("fiji_antarctica", Tile(5, 0, 17)),
+        pytest.param("mexico", Tile(4, 3, 7), id="mexico-z4"),
+        pytest.param("fiji_antarctica", POLE, id="antarctica-pole", marks=pytest.mark.slow),
+        pytest.param(
+            "fiji_antarctica", Tile(5, 0, 17), id="fiji-antimeridian", marks=pytest.mark.slow
+        ),
     ],
-    ids=["mexico-z4", "antarctica-pole", "fiji-antimeridian"],
 )
 def test_dropped_arcs_are_farther_near_and_round_the_pole(
     request, mexico_path, fiji_antarctica, name, grid
@@ -160,14 +166,13 @@ def _field_and_codes(shape, grid, monkeypatch, cut: bool):
 @pytest.mark.parametrize(
     "which, grid",
     [
-        ("countries", DEEP_TILES[0]),
-        ("countries", DEEP_TILES[2]),
-        ("countries", Tile(4, 3, 6)),
-        ("mexico", Tile(3, 1, 3)),
-        ("fiji_antarctica", POLE),
-        ("fiji_antarctica", Tile(5, 0, 17)),
+        pytest.param("countries", DEEP_TILES[0], id="deep-z10"),
+        pytest.param("countries", DEEP_TILES[2], id="deep-z8", marks=pytest.mark.slow),
+        pytest.param("countries", Tile(4, 3, 6), id="countries-z4", marks=pytest.mark.slow),
+        pytest.param("mexico", Tile(3, 1, 3), id="mexico-z3", marks=pytest.mark.slow),
+        pytest.param("fiji_antarctica", POLE, id="pole"),
+        pytest.param("fiji_antarctica", Tile(5, 0, 17), id="antimeridian", marks=pytest.mark.slow),
     ],
-    ids=["deep-z10", "deep-z8", "countries-z4", "mexico-z3", "pole", "antimeridian"],
 )
 def test_the_cut_changes_no_bit(
     request, countries, mexico_path, fiji_antarctica, monkeypatch, which, grid
@@ -183,7 +188,13 @@ def test_the_cut_changes_no_bit(
         assert (a is None and b is None) or np.array_equal(a, b)
 
 
-@pytest.mark.parametrize("grid", [DEEP_TILES[1], POLE], ids=["deep-z9", "pole"])
+@pytest.mark.parametrize(
+    "grid",
+    [
+        pytest.param(DEEP_TILES[1], id="deep-z9"),
+        pytest.param(POLE, id="pole", marks=pytest.mark.slow),
+    ],
+)
 def test_the_cpu_backend_keeps_its_bits(countries, fiji_antarctica, monkeypatch, grid):
     """The CPU backend walks to the pixels with the in-walk cut: the same field (its
     values and signs) with and without it."""
@@ -209,7 +220,7 @@ def _pairs(shape, grid, monkeypatch, cut: bool) -> int:
     return sum(n)
 
 
-@pytest.mark.parametrize("tile", DEEP_TILES, ids=str)
+@pytest.mark.parametrize("tile", DEEP_PARAMS)
 def test_deep_lists_get_several_times_shorter(countries, tile, monkeypatch):
     assert 4 * _pairs(countries, tile, monkeypatch, True) < _pairs(
         countries, tile, monkeypatch, False
@@ -242,7 +253,7 @@ def test_a_broken_bound_is_caught(countries, monkeypatch, where):
     assert off.sum() > 100
 
 
-@pytest.mark.parametrize("tile", DEEP_TILES[:2], ids=str)
+@pytest.mark.parametrize("tile", DEEP_PARAMS[:2])
 def test_deep_short_lists_finished_directly_keep_their_bits(countries, tile, monkeypatch, tmp_path):
     """Deep blocks' short lists are finished whole in double, unranked
     (``field_pass.DIRECT``): the same values and sign codes as ranked; and the path runs

@@ -99,11 +99,12 @@ def test_lists_are_the_stable_sort_of_the_walks_pairs(nodes):
 @pytest.mark.parametrize(
     "grid",
     [
-        gloffset.grids.Tile(6, 15, 29),
-        gloffset.grids.Tile(3, 1, 3),
-        Equirect(512, 512, (-118.0, 14.0, -86.0, 33.0)),
+        pytest.param(gloffset.grids.Tile(6, 15, 29), id="z6"),
+        pytest.param(gloffset.grids.Tile(3, 1, 3), id="z3", marks=pytest.mark.slow),
+        pytest.param(
+            Equirect(512, 512, (-118.0, 14.0, -86.0, 33.0)), id="box", marks=pytest.mark.slow
+        ),
     ],
-    ids=["z6", "z3", "box"],
 )
 def test_nodes_split_two_levels_at_once_change_no_bit(mexico, grid, monkeypatch):
     """A split node whose halves would be split too goes down two levels in one round
