@@ -24,7 +24,7 @@ from ...geometry.caps import CAP_SLACK, cap_range, pad
 from ...geometry.sphere import angle, column_dots, cross, dot
 from ..vector.levels import Frontier, children
 from ..vector.node_levels import NodeArcs
-from . import dominance
+from . import dominance, starts
 
 __all__ = [
     "end_distances",
@@ -108,13 +108,30 @@ def root_list(nodes: NodeArcs, m: float, c: np.ndarray, rho: np.ndarray, top):
     reach = float(pad(np.max(angle(c, centre[None, :]) + rho)))
     if not reach < _ROOT_REACH:
         return top
+    canon = starts.canonical_disc(centre, reach) if KEEP_STARTS else None
+    if canon is not None:  # bounded from a kept list of a canonical disc holding it
+        key, cc, cr = canon
+        top = starts.kept_lists(nodes).once(
+            (m, key), lambda: _disc_list(nodes, m, cc, cr, top), keep=starts.KEEP
+        )
+    return _disc_list(nodes, m, centre, reach, top)
+
+
+#: Whether :func:`root_list` bounds from kept lists of canonical discs
+#: (:mod:`gloffset.raster.fields.starts`).
+KEEP_STARTS = True
+
+
+def _disc_list(nodes: NodeArcs, m: float, centre, reach: float, start) -> np.ndarray:
+    """The nodes of ``start`` (or their descendants) that can hold the nearest arc of a
+    point within ``reach`` of ``centre``: one cell bounded by :func:`_bound`."""
     root = Frontier(
         0,
         np.zeros((1, 2), np.int64),
-        centre[None, :],
+        np.asarray(centre, dtype=np.float64)[None, :],
         np.array([reach]),
-        np.zeros(len(top), np.int64),
-        top,
+        np.zeros(len(start), np.int64),
+        np.asarray(start),
         np.zeros((1, 0), np.uint8),
     )
     g, _ = _bound(root, nodes, m, np.array([reach]), final=False)
