@@ -157,7 +157,7 @@ def test_blocks_and_their_halves(mexico, monkeypatch):
         ),
         # every pixel its cell's whole list: the same values
         pytest.param(
-            "bool whole = dropped <= reach || unsure <= reach;",
+            "bool whole = direct || dropped <= reach || unsure <= reach;",
             "bool whole = true;",
             0,
             marks=pytest.mark.slow,
@@ -217,8 +217,8 @@ def test_the_whole_list_where_more_may_tie(monkeypatch, tmp_path):
     broken_field_pass(
         monkeypatch,
         tmp_path,
-        "bool whole = dropped <= reach || unsure <= reach;",
-        "bool whole = false;",
+        "bool whole = direct || dropped <= reach || unsure <= reach;",
+        "bool whole = direct;",
     )
     bad = gloffset.distance_field(shape, grid).values
     assert within_ulp(bad[~np.isin(np.arange(180), j)], want[~np.isin(np.arange(180), j)]).all()
