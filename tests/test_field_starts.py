@@ -19,7 +19,7 @@ def test_every_disc_lies_inside_its_canonical_disc():
     and radii over the keyed range: angle to the canonical centre plus the radius is at
     most the canonical radius; the canonical radius is less than 4 times the radius."""
     rng = np.random.default_rng(4)
-    n = 20000
+    n = 6000
     c = normalize(rng.normal(size=(n, 3)))
     reach = 10.0 ** rng.uniform(-7, np.log10(starts._H_MAX), n)
     for k in range(n // 4):  # centres at the middle of a lattice cube

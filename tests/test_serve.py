@@ -545,7 +545,14 @@ def test_a_tile_not_rendered_in_time_is_503():
             svc.gate.set()
         assert r.status_code == 503 and "within 0.2 s" in r.json()["detail"]
         assert r.headers["retry-after"] == "1"
-        assert c.get("/tiles/tri/100km/4/3/6.png").status_code == 200
+        # the render goes on after the timeout: the tile comes once made (a retry, as the
+        # header asks, where a loaded machine makes it slower than 0.2 s again)
+        for _ in range(100):
+            again = c.get("/tiles/tri/100km/4/3/6.png")
+            if again.status_code != 503:
+                break
+            time.sleep(0.1)
+        assert again.status_code == 200
 
 
 def _free_port() -> int:
