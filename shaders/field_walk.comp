@@ -12,7 +12,8 @@
 // kept where lo <= min(best + 2 reach_c, m + reach_c) + u_sum_err (best: the least upper
 // bound of the cell found so far, from the parent's nodes on, which only falls: the list
 // is a superset of the one kept against the final bound) and, kept for the slack alone,
-// where maybe_nearer (the bisector test against the nearest end of the parent's nodes),
+// where maybe_nearer (the bisector test against the nearest end of the parent's nodes)
+// and, at least u_deep reaches away, where that end does not dominate it (dominated),
 // split (depth first) where err > bound. One walk: each node kept is written as it is
 // found, into chunks of CHUNK slots of the pool reserved with atomicAdd (CHUNK - 1 ids,
 // then the start of the cell's next chunk); the cell's (first chunk, count) is its list.
@@ -62,6 +63,8 @@ uniform float u_dot_err;   // error of c.n, c.(n x a), c.(b x n)
 uniform float u_sum_err;   // the roundings of the sums compared
 uniform float u_bis_abs;   // error of the bisector test's least q.v: absolute ...
 uniform float u_bis_rel;   // ... and relative to |vtx - mid| + 1 - cos r
+uniform float u_deep;      // the dominance test on nodes at least this many reaches away
+                           // (0: none; gloffset/raster/fields/dominance.py's DEEP)
 
 const uint CHUNK = 16u;  // slots a chunk of the pool written (gloffset/gl/walk_pass.py's CHUNK)
 const uint FLAG_POOL = 1u;   // the pool was too small (the host retries with o_total)
@@ -156,6 +159,24 @@ bool maybe_nearer(vec3 c, float R, vec2 cs, vec3 v, Node nd, float chm) {
     return nd.cap.w >= 1.0 || R >= 1.0 || least - err <= sr * max(s, sr) * (1.0 + u_bis_abs);
 }
 
+// Whether the vertex v (chord vch from c) dominates node nd over the disc of radius R
+// about c (gloffset/raster/fields/dominance.py's vertex_dominates, from bounds that hold
+// in float32): D = min(lo, angle(c, v)) - R rounded down, delta = angle(v, mid) + reach
+// rounded up, L = chord(delta) / sin D rounded up (chord(delta) <= min(delta, 2), sin D
+// >= D (1 - D^2 / 6) for D <= pi / 2), and the gap lo - angle(c, v) - R L above twice
+// u_sum_err (its roundings, at most u_sum_err: the true gap then exceeds the float64
+// rule's 1e-12).
+bool dominated(vec3 c, float R, vec3 v, float vch, Node nd, float lo) {
+    float av = ang_hi(vch);
+    float low = min(lo, ang_lo(vch)) - R;
+    float delta = ang_hi(length(v - nd.cap.xyz)) + nd.cap.w;
+    float dd = min(low, HALF_PI);
+    float sin_lo = dd * (1.0 - dd * dd * (1.0 / 6.0)) * (1.0 - 1e-6);
+    float lip = min(delta, 2.0) / max(sin_lo, 1e-30) * (1.0 + 1e-6);
+    bool fits = av + R + delta <= 3.14159 - low;
+    return low > 0.0 && fits && lo - av - R * lip > 2.0 * u_sum_err;
+}
+
 void main() {
     uint inv = gl_GlobalInvocationID.x + u_first;
     if (inv >= u_cells) {
@@ -242,7 +263,9 @@ void main() {
         }
         // kept for the slack alone: the bisector test against vtx too
         if (b.x <= min(best + slack, far) + u_sum_err
-            && (b.x <= best + u_sum_err || !test || maybe_nearer(c, cr.w, cb.yz, vtx, nd, chm))) {
+            && (b.x <= best + u_sum_err || !test || maybe_nearer(c, cr.w, cb.yz, vtx, nd, chm))
+            && (b.x <= best + u_sum_err || !test || u_deep <= 0.0 || b.x < u_deep * cr.w
+                || !dominated(c, cr.w, vtx, vch, nd, b.x))) {
             if (mod(nd.b.w, 2.0) < 1.0 && nd.a.w > bound) {  // split
                 if (sp + 2 > STACK) {
                     atomicOr(o_flags, FLAG_LIMIT);

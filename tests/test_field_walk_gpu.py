@@ -138,8 +138,9 @@ def test_a_broken_bound_loses_nearest_arcs(mexico, monkeypatch):
         ("mexico", Tile(5, 6, 13), {"radius": 1.0}),
         ("mexico", Equirect(300, 170, (-118, 14, -86, 33)), {"max_distance": 200e3}),
         ("edges", Equirect(360, 180), {}),
+        ("mexico", Tile(8, 53, 103), {"radius": 1.0}),  # deep: the dominance test cuts
     ],
-    ids=["z5", "clamped", "fiji"],
+    ids=["z5", "clamped", "fiji", "deep"],
 )
 def test_fields_with_the_gpu_walk_have_the_cpu_bits(request, which, grid, kw, monkeypatch):
     shape = request.getfixturevalue(which)
@@ -271,3 +272,35 @@ def test_each_cells_arcs_come_ascending_to_the_field_pass(world, walk):
     assert same.sum() > 10000 and (np.diff(node)[same] > 0).all()
     key = cell * len(nodes.a)
     assert np.array_equal(node + key, np.sort(lists.node + key))
+
+
+#: North of Mexico's border (New Mexico, Arizona): cells hundreds of reaches from it.
+DEEP = Tile(8, 53, 103)
+
+
+def test_the_dominance_test_shortens_deep_lists_and_keeps_the_nearest(mexico, monkeypatch):
+    """On cells far from the boundary the walk's dominance test (``dominated``, as the
+    float64 walk's) cuts the GPU lists (11,278 pairs to 5,439); every pixel's nearest arc
+    stays."""
+    from gloffset.raster.fields import dominance
+
+    missing, cpu, gpu = _check(mexico, DEEP)
+    assert not missing
+    monkeypatch.setattr(dominance, "DOMINANCE", False)
+    _, _, whole = _check(mexico, DEEP)
+    assert 1.5 * gpu.count.sum() < whole.count.sum()
+
+
+def test_a_broken_dominance_test_loses_nearest_arcs(mexico, monkeypatch):
+    """Its ``R L`` term dropped: nearest arcs go missing, so the test above would see it."""
+    from gloffset.gl.shaders import load_source
+    from gloffset.raster.fields import lists
+
+    src = load_source("field_walk.comp")[0]
+    old = "lo - av - R * lip > 2.0 * u_sum_err"
+    assert src.count(old) == 1
+    wp = walk_pass.WalkPass()
+    wp.prog = wp.ctx.compute_shader(src.replace(old, "lo - av > 2.0 * u_sum_err"))
+    monkeypatch.setattr(lists, "walk_pass", lambda: wp)
+    missing, _, _ = _check(mexico, DEEP)
+    assert len(missing) > 10

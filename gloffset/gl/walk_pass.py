@@ -119,14 +119,15 @@ class WalkPass:
         self._table: list = []  # the node table's buffers of the run
         self._kept: dict = {}  # id of a table's nodes: (weak reference, buffers)
 
-    def run(self, table, parents, levels, m: float):
+    def run(self, table, parents, levels, m: float, deep: float = 0.0):
         """Walk ``levels`` from the ``parents``' lists; return the last level's count per
         cell and its lists' node ids, by cell (row-major), or None where a limit is hit.
 
         ``table``: ``(nodes (n, 4, 4) float32, child (n, 2) int32)`` as
         ``shaders/field_walk.comp`` reads them; ``parents``: ``(start, count)`` (k, 2)
         of the cells above the first level (one row: the root list of every cell of
-        level 0) and their pool of node ids; ``m`` rounded up, at most 4.
+        level 0) and their pool of node ids; ``m`` rounded up, at most 4; ``deep``: the
+        dominance test on the nodes at least this many of a cell's reaches away (0: none).
         """
         ctx = self.ctx
         nodes, child = table
@@ -140,6 +141,8 @@ class WalkPass:
         try:
             self.prog["u_m"] = float(m)
             self.prog["u_bisector"] = int(BISECTOR)
+            if "u_deep" in self.prog:
+                self.prog["u_deep"] = float(deep)
             self.prog["u_max_steps"] = self.max_steps
             for name, v in (
                 ("u_ch_rel", CH_REL),

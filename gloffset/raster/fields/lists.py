@@ -26,6 +26,7 @@ from ...geometry.sphere import dot
 from ...gl.walk_pass import WalkLevel, walk_pass
 from ..vector.levels import Frontier
 from ..vector.node_levels import KAPPA, NodeArcs
+from . import dominance
 from .walk import kids_reach, root_list, walk_levels
 
 __all__ = ["gpu_lists", "up32"]
@@ -77,7 +78,8 @@ def gpu_lists(nodes: NodeArcs, grid, m: float, stop: int):
     parents = _parents(nodes, grid, m, first)
     levels = [_level(grid, lev, stop, last) for lev in range(first, stop + 1)]
     mm = float(up32(min(m, 4.0))) if math.isfinite(m) else 4.0
-    got = walk_pass().run(_table(nodes), parents, levels, mm)
+    deep = dominance.DEEP if dominance.DOMINANCE else 0.0
+    got = walk_pass().run(_table(nodes), parents, levels, mm, deep)
     if got is None:
         return None
     return got[0], got[1].astype(np.int64)
