@@ -31,7 +31,9 @@ where fields are that cheap, those of a seen view's decided tiles
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import math
 import threading
 import time
 from collections import OrderedDict
@@ -81,6 +83,18 @@ COST_WEIGHT = 0.3
 #: a new tile has its field at once, and is answered by its threshold, where a field of
 #: its layer costs at most this many of its renders (the running means): a GPU field
 AT_ONCE = 2.0
+#: weight of the newest request in a layer's running share of tile requests that asked a
+#: place seen before at a new distance (:meth:`TileService.asked`): about the last 16
+SLIDE_WEIGHT = 1 / 16
+#: a layer whose share reaches this is being swept by a distance slider
+#: (:meth:`TileService.sliding`): its fields are bought at first sight, until the share falls
+#: under :data:`SLID` (a slider's new view, 12 new tiles, does not switch it off; a pan's
+#: two views do)
+SLIDING = 0.5
+SLID = 0.2
+#: seconds a decided tile's field queued for a slider (:meth:`TileService.ahead_of`) waits,
+#: at most, unless its view asks for it again (a slider asks a view's tiles at each step)
+STALE = 2.0
 
 #: seconds between two hand-backs of the freed heap to the system (after a render batch:
 #: the RSS then follows the memory in use, not the largest batch so far)
@@ -120,6 +134,14 @@ class TileService:
         #: FieldKey -> None: tiles of views seen before, decided inside or outside at the
         #: distance asked, whose fields are made ahead where fields are cheap (ahead_of)
         self.ahead: OrderedDict = OrderedDict()
+        #: FieldKey -> (margin, when queued): decided tiles of a layer a slider sweeps, their
+        #: fields made before the "ahead" ones, the nearest to the frontier first (margin:
+        #: how far the distance must move, radians, for the tile to reach the frontier)
+        self.soon: dict = {}
+        #: (layer, z, x, y, tms) -> the last distance asked there (the newest LATER places)
+        self.last_d: OrderedDict = OrderedDict()
+        self.slide: dict = {}  # layer -> running share of requests at a new distance
+        self.slider: set = set()  # the layers a distance slider sweeps (sliding)
         self.field_cost: dict = {}  # layer -> running mean of its fields' seconds
         self.render_cost: dict = {}  # layer -> running mean of a rendered tile's seconds
         self.wanted: OrderedDict = OrderedDict()  # FieldKey -> Future, tiles asked again: at once
@@ -229,6 +251,7 @@ class TileService:
             self.closed = True
             self.later.clear()
             self.ahead.clear()
+            self.soon.clear()
             for fut in self.wanted.values():
                 fut.set_result(None)
             self.wanted.clear()
@@ -304,6 +327,40 @@ class TileService:
         distance slider moves; its renders go before those of new views (``urgent``)."""
         with self.lock:
             return key.where() in self.centres or key.field() in self.later
+
+    def asked(self, key: TileKey) -> bool:
+        """:meth:`seen`, for a tile request as it comes: also notes whether the tile's
+        place was asked before at another distance, in the layer's running share of such
+        requests (weight :data:`SLIDE_WEIGHT`), which says a distance slider is being
+        dragged over that layer's map (:meth:`sliding`)."""
+        where = key.where()
+        with self.lock:
+            seen = where in self.centres or key.field() in self.later
+            last = self.last_d.get(where)
+            self.last_d[where] = key.d
+            self.last_d.move_to_end(where)
+            while len(self.last_d) > LATER:
+                self.last_d.popitem(last=False)
+            moved = 1.0 if last is not None and last != key.d else 0.0
+            old = self.slide.get(key.layer, 0.0)
+            share = self.slide[key.layer] = old + SLIDE_WEIGHT * (moved - old)
+            if share >= SLIDING:
+                self.slider.add(key.layer)
+            elif share < SLID:
+                self.slider.discard(key.layer)
+        return seen
+
+    def sliding(self, layer: str) -> bool:
+        """Whether a distance slider is being dragged over ``layer``: :data:`SLIDING` of
+        its recent tile requests asked a place seen before at a new distance
+        (:meth:`asked`), and since then never under :data:`SLID`; panning and zooming ask
+        new places, or the same at the same distance. Then fields are bought at first
+        sight: a tile that is not decided is answered from its field made at once
+        (:meth:`submit_from_field`), and the fields of decided tiles are queued before the
+        "ahead" ones (:meth:`ahead_of`), so that the view's next distances are thresholds,
+        not renders."""
+        with self.lock:
+            return layer in self.slider
 
     def why_rendered(self, key: TileKey, seen: bool) -> str:
         """Why tile ``key`` is rendered rather than answered from a field (the
@@ -388,29 +445,43 @@ class TileService:
         with self.lock:
             if fkey in self.computing:
                 return self.computing[fkey]
-            due = fkey in self.wanted or fkey in self.ahead or self._again(fkey, key.d)
+            due = fkey in self.wanted or fkey in self.ahead or fkey in self.soon
+            due = due or self._again(fkey, key.d)
             if self.closed or not due:
                 return None
             if not self._sooner(fkey.layer):
                 return None
             return self._want(fkey)
 
-    def ahead_of(self, key: TileKey) -> None:
-        """Queue the field of tile ``key`` ahead on the field thread (made while the render
-        thread has nothing to do, :meth:`_next_field`): a tile of a view seen
-        before (a distance slider moves), decided inside or outside at ``key.d``, that may
-        reach the frontier at a later distance, where fields cost at most :data:`AT_ONCE`
-        renders (:meth:`at_once`: a new frontier tile is answered from its field anyway).
-        That distance is then the threshold of a kept field, not a field made while the
-        slider waits. Nothing where fields are dearer (the renders pay, rent or buy), and
-        nothing for styles with an outline (always rendered)."""
-        if key.style.outline is not None or not self.at_once(key.layer):
+    def ahead_of(self, key: TileKey, seen: bool = True) -> None:
+        """Queue the field of tile ``key``, decided inside or outside at ``key.d``, that may
+        reach the frontier at a later distance, on the field thread. Where a slider sweeps
+        the layer (:meth:`sliding`), at first sight (``seen`` or not), before the fields
+        queued ahead and without waiting for an idle render thread, the tile nearest to the
+        frontier first (:meth:`_next_field`). Else, for a tile of a view seen before
+        (``seen``: a distance slider moves) where fields cost at most :data:`AT_ONCE`
+        renders (:meth:`at_once`: a new frontier tile is answered from its field anyway),
+        ahead: made while the render thread has nothing to do. That distance is then the
+        threshold of a kept field, not a field made while the slider waits. Nothing where
+        fields are dearer and no slider is seen (the renders pay, rent or buy), and nothing
+        for styles with an outline (always rendered)."""
+        if key.style.outline is not None:
+            return
+        sliding = self.sliding(key.layer)
+        if not sliding and not (seen and self.at_once(key.layer)):
             return
         fkey = key.field()
         with self.lock:
             if self.closed or fkey in self.fields or fkey in self.computing:
                 return
             if fkey in self.wanted:
+                return
+            if sliding:
+                geo = self.centres.get(key.where())
+                self.soon[fkey] = (_margin(geo, key.d), time.monotonic())
+                if len(self.soon) > LATER:
+                    self.soon.pop(min(self.soon, key=lambda k: self.soon[k][1]))
+                self.wake.notify()
                 return
             self.ahead[fkey] = None
             self.ahead.move_to_end(fkey)
@@ -452,6 +523,7 @@ class TileService:
         """Queue the field of ``fkey`` first (holding the lock); its future."""
         self.later.pop(fkey, None)
         self.ahead.pop(fkey, None)
+        self.soon.pop(fkey, None)
         fut = self.wanted.get(fkey) or self.computing.get(fkey)
         if fut is None:
             fut = Future()
@@ -466,14 +538,21 @@ class TileService:
 
     def _next_field(self) -> tuple[FieldKey, Future] | None:
         """The next field to compute and its future (None once closed): the newest tile
-        asked for again at a new distance, else, while the render thread has nothing to do,
-        the newest tile queued ahead (:meth:`ahead_of`: low priority, so that they never
-        slow the renders a client waits for), else, when no render was asked for in
-        :data:`IDLE` seconds, the newest tile rendered once."""
+        asked for again at a new distance, else the decided tile of a view a slider sweeps
+        nearest to the frontier (:meth:`ahead_of`; those queued over :data:`STALE` seconds
+        ago are dropped: their view was left), else, while the render thread has nothing to
+        do, the newest tile queued ahead (low priority, so that they never slow the renders
+        a client waits for), else, when no render was asked for in :data:`IDLE` seconds, the
+        newest tile rendered once."""
         with self.lock:
             while not self.closed:
+                soon = self._soonest()
                 if self.wanted:
                     fkey, fut = self.wanted.popitem(last=True)
+                elif soon is not None:
+                    fkey, fut = soon, Future()
+                    del self.soon[soon]
+                    fut.set_running_or_notify_cancel()
                 elif self.ahead and not self.busy and self.queue.empty():
                     fkey, fut = self.ahead.popitem(last=True)[0], Future()
                     fut.set_running_or_notify_cancel()
@@ -483,13 +562,23 @@ class TileService:
                 else:  # polled while fields wait for a free render thread or an idle server
                     self.wake.wait(POLL if self.ahead else IDLE if self.later else None)
                     continue
-                if fkey in self.fields:
+                if fkey in self.fields or fkey in self.computing:
                     fut.set_result(None)
                     continue
                 self.computing[fkey] = fut
                 self.started = time.monotonic()
                 return fkey, fut
             return None
+
+    def _soonest(self) -> FieldKey | None:
+        """The tile of :attr:`soon` nearest to the frontier (holding the lock), once those
+        queued over :data:`STALE` seconds ago are dropped; None when there is none."""
+        if not self.soon:
+            return None
+        old = time.monotonic() - STALE
+        for fkey in [k for k, (_, t) in self.soon.items() if t < old]:
+            del self.soon[fkey]
+        return min(self.soon, key=lambda k: self.soon[k][0]) if self.soon else None
 
     def _idle(self) -> bool:
         return not self.busy and self.queue.empty() and time.monotonic() - self.last_put >= IDLE
@@ -552,7 +641,13 @@ class TileService:
             self._from_field(fkey, items)
 
     def _from_field(self, fkey: FieldKey, items) -> None:
-        """Answer tiles of one field from it, computed first where it is not kept."""
+        """Answer tiles of one field from it, computed first where it is not kept (once the
+        field thread's, where it is making that field, is done)."""
+        with self.lock:
+            other = self.computing.get(fkey)
+        if isinstance(other, Future):
+            with contextlib.suppress(Exception):
+                other.result(timeout=60)
         try:
             f = self._field(fkey)
             answers = [self._threshold(key, f) for key, _ in items]
@@ -633,6 +728,17 @@ class _FromField:
     """A render-queue item: the tile ``key`` answered from its field (made if need be)."""
 
     key: TileKey
+
+
+def _margin(geo, d: float) -> float:
+    """How far the distance must move from ``d`` (radians) before the tile whose centre is
+    ``geo`` (a :class:`~gloffset.tiles.tiling.TileCentre`; None: not measured) may reach
+    the frontier, about (the centre's signed distance against ``d`` less the tile's bound):
+    an order for the fields a slider wants, not a decision."""
+    if geo is None:
+        return math.inf
+    signed = -geo.dist if geo.inside else geo.dist
+    return max(0.0, abs(signed - d) - geo.rho)
 
 
 def _done(data) -> Future:
