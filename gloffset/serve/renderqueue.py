@@ -79,9 +79,7 @@ def server_timing(fut, why: str | None = None) -> str:
     """The ``Server-Timing`` header of an answer made on the render thread (``fut``, a
     :class:`Job`): ``queue`` the milliseconds it waited for the
     render thread, ``render`` those from then to the answer (its group's render, or field),
-    and ``why`` a tile was rendered (:meth:`~gloffset.serve.service.TileService.why_rendered`),
-    or ``slider`` for a tile answered from its field made at once because a distance slider
-    sweeps its layer (:meth:`~gloffset.serve.service.TileService.sliding`).
+    and ``why`` a tile was rendered (:meth:`~gloffset.serve.service.TileService.why_rendered`).
     Empty for an answer that was cached by then."""
     if not isinstance(fut, Job) or fut.began is None:
         return ""
