@@ -187,26 +187,24 @@ class _Server:
         """The tile ``key`` (web mercator's or another TileMatrixSet's): cached, decided
         from its centre, the threshold of its kept field, or rendered."""
         seen = self.tiles.asked(key)  # a view asked for before: its renders go first
-        sliding = self.tiles.sliding(key.layer)  # a distance slider: fields at first sight
         found = self.tiles.answer(key, measure=False)  # the cache, a known centre
         if found is UNKNOWN:
             await self._measured(key)
             found = self.tiles.answer(key, measure=False)
         if found is UNKNOWN:  # measured but since forgotten: measure it alone
             found = await asyncio.to_thread(self.tiles.answer, key)
-        if (seen or sliding) and found is not None and found[1] in ("inside", "outside"):
+        if found is not None and found[1] in ("inside", "outside"):
             self.tiles.ahead_of(key, seen)  # a slider's next distance may need its field
         if found is None and await self._field_kept(key):
             thresholded = await asyncio.to_thread(self.tiles.from_field, key)
             found = None if thresholded is None else (thresholded, "field")
         timing = ""
-        cheap = found is None and key.style.outline is None and self.tiles.at_once(key.layer)
-        if cheap or (found is None and key.style.outline is None and sliding):
+        if found is None and key.style.outline is None and self.tiles.at_once(key.layer):
             fut = self._submit(lambda: self.tiles.submit_from_field(key, urgent=seen))
             made = await self._wait(fut, "tile")
             if isinstance(made, Response):
                 return made
-            found, timing = (made, "field"), server_timing(fut, None if cheap else "slider")
+            found, timing = (made, "field"), server_timing(fut)
         if found is not None:
             data, how = found
         else:

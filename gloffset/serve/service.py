@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import math
 import threading
 import time
 from collections import OrderedDict
@@ -92,6 +91,11 @@ SLIDE_WEIGHT = 1 / 16
 #: two views do)
 SLIDING = 0.5
 SLID = 0.2
+#: a decided tile of a layer a slider sweeps has its field queued where it reaches the
+#: frontier within this many of the slider's next steps (the running mean of its moves, in
+#: the way it moves: :meth:`TileService._way`): the fields the next steps need, not every
+#: tile's
+STEPS = 2
 #: seconds a decided tile's field queued for a slider (:meth:`TileService.ahead_of`) waits,
 #: at most, unless its view asks for it again (a slider asks a view's tiles at each step)
 STALE = 2.0
@@ -142,6 +146,8 @@ class TileService:
         self.last_d: OrderedDict = OrderedDict()
         self.slide: dict = {}  # layer -> running share of requests at a new distance
         self.slider: set = set()  # the layers a distance slider sweeps (sliding)
+        self.step: dict = {}  # layer -> running mean of a slider's move (radians)
+        self.heading: dict = {}  # layer -> running mean of its signed move (radians)
         self.field_cost: dict = {}  # layer -> running mean of its fields' seconds
         self.render_cost: dict = {}  # layer -> running mean of a rendered tile's seconds
         self.wanted: OrderedDict = OrderedDict()  # FieldKey -> Future, tiles asked again: at once
@@ -342,6 +348,12 @@ class TileService:
             while len(self.last_d) > LATER:
                 self.last_d.popitem(last=False)
             moved = 1.0 if last is not None and last != key.d else 0.0
+            if last is not None and moved:
+                move = key.d - last
+                old = self.step.get(key.layer, abs(move))
+                self.step[key.layer] = old + SLIDE_WEIGHT * (abs(move) - old)
+                old = self.heading.get(key.layer, move)
+                self.heading[key.layer] = old + SLIDE_WEIGHT * (move - old)
             old = self.slide.get(key.layer, 0.0)
             share = self.slide[key.layer] = old + SLIDE_WEIGHT * (moved - old)
             if share >= SLIDING:
@@ -369,13 +381,17 @@ class TileService:
         place asked for before, decided inside or outside there: no renders yet to pay for a
         field), ``rent`` (rendered before, those renders cost less than a field so far:
         :meth:`_again`), ``busy`` (its field is due but would come later than a render:
-        :meth:`_sooner`), or ``closed`` (the server is stopping)."""
+        :meth:`_sooner`), ``coming`` (its field is queued for a distance slider,
+        :meth:`sliding`, or being made, but not made yet), or ``closed`` (the server is
+        stopping)."""
         if key.style.outline is not None:
             return "outline"
         fkey = key.field()
         with self.lock:
             if self.closed:
                 return "closed"
+            if fkey in self.soon or fkey in self.computing:
+                return "coming"
             if fkey not in self.later:
                 return "frontier" if seen else "new"
             if fkey in self.wanted or self._again(fkey, key.d):
@@ -477,11 +493,10 @@ class TileService:
             if fkey in self.wanted:
                 return
             if sliding:
-                geo = self.centres.get(key.where())
-                self.soon[fkey] = (_margin(geo, key.d), time.monotonic())
-                if len(self.soon) > LATER:
-                    self.soon.pop(min(self.soon, key=lambda k: self.soon[k][1]))
-                self.wake.notify()
+                step, way = self.step.get(key.layer, 0.0), self._way(key.layer)
+                margin = _margin(self.centres.get(key.where()), key.d, step, way)
+                if margin is not None:
+                    self._soon(fkey, margin)
                 return
             self.ahead[fkey] = None
             self.ahead.move_to_end(fkey)
@@ -489,16 +504,31 @@ class TileService:
                 self.ahead.popitem(last=False)
             self.wake.notify()
 
+    def _way(self, layer: str) -> int:
+        """The way a layer's slider moves (holding the lock): 1 (growing distances), -1
+        (shrinking), or 0 (either: its moves' mean is under half their size)."""
+        heading, step = self.heading.get(layer, 0.0), self.step.get(layer, 0.0)
+        return 0 if abs(heading) < 0.5 * step else 1 if heading > 0 else -1
+
+    def _soon(self, fkey: FieldKey, margin: float) -> None:
+        """Queue the field of ``fkey`` for a slider, ``margin`` radians from the frontier
+        (holding the lock; :meth:`_next_field`)."""
+        self.soon[fkey] = (margin, time.monotonic())
+        if len(self.soon) > LATER:
+            self.soon.pop(min(self.soon, key=lambda k: self.soon[k][1]))
+        self.wake.notify()
+
     def _sooner(self, layer: str) -> bool:
         """Whether a field queued first now comes no later than a render (holding the
-        lock): the field being computed (the rest of its expected cost) and this one's
-        cost, against the render queue's tiles and this one at the renders' mean cost.
-        Before both costs are known: when no field is being computed."""
+        lock): the field being computed (the rest of its expected cost), the fields queued
+        first before it and this one's cost, against the render queue's tiles and this one
+        at the renders' mean cost. Before both costs are known: when no field is being
+        computed or waits."""
         cost, render = self.field_cost.get(layer), self.render_cost.get(layer)
         if cost is None or render is None:
-            return not self.computing
+            return not self.computing and not self.wanted
         left = max(0.0, cost - (time.monotonic() - self.started)) if self.computing else 0.0
-        return left + cost <= (self.queue.qsize() + 1) * render
+        return left + (len(self.wanted) + 1) * cost <= (self.queue.qsize() + 1) * render
 
     def _again(self, fkey: FieldKey, d: float) -> bool:
         """Whether the tile, asked for at ``d``, should have its field first (holding the
@@ -537,18 +567,19 @@ class TileService:
         return fut
 
     def _next_field(self) -> tuple[FieldKey, Future] | None:
-        """The next field to compute and its future (None once closed): the newest tile
-        asked for again at a new distance, else the decided tile of a view a slider sweeps
-        nearest to the frontier (:meth:`ahead_of`; those queued over :data:`STALE` seconds
-        ago are dropped: their view was left), else, while the render thread has nothing to
-        do, the newest tile queued ahead (low priority, so that they never slow the renders
-        a client waits for), else, when no render was asked for in :data:`IDLE` seconds, the
-        newest tile rendered once."""
+        """The next field to compute and its future (None once closed): the oldest tile
+        queued first (asked for again at a new distance, :meth:`_want`), else the tile of
+        a view a slider sweeps nearest to the frontier (:meth:`ahead_of`,
+        :meth:`_queue_fields`; those queued over :data:`STALE` seconds ago are dropped:
+        their view was left), else, while the render thread has nothing to do, the newest
+        tile queued ahead (low priority, so that they never slow the renders a client
+        waits for), else, when no render was asked for in :data:`IDLE` seconds, the newest
+        tile rendered once."""
         with self.lock:
             while not self.closed:
                 soon = self._soonest()
-                if self.wanted:
-                    fkey, fut = self.wanted.popitem(last=True)
+                if self.wanted:  # in turn: each waits for those before it (_sooner)
+                    fkey, fut = self.wanted.popitem(last=False)
                 elif soon is not None:
                     fkey, fut = soon, Future()
                     del self.soon[soon]
@@ -560,7 +591,9 @@ class TileService:
                     fkey, fut = self.later.popitem(last=True)[0], Future()
                     fut.set_running_or_notify_cancel()
                 else:  # polled while fields wait for a free render thread or an idle server
-                    self.wake.wait(POLL if self.ahead else IDLE if self.later else None)
+                    self.wake.wait(
+                        POLL if self.ahead or self.soon else IDLE if self.later else None
+                    )
                     continue
                 if fkey in self.fields or fkey in self.computing:
                     fut.set_result(None)
@@ -571,14 +604,20 @@ class TileService:
             return None
 
     def _soonest(self) -> FieldKey | None:
-        """The tile of :attr:`soon` nearest to the frontier (holding the lock), once those
-        queued over :data:`STALE` seconds ago are dropped; None when there is none."""
+        """The next tile of :attr:`soon` (holding the lock), once those queued over
+        :data:`STALE` seconds ago are dropped; None when there is none."""
         if not self.soon:
             return None
         old = time.monotonic() - STALE
         for fkey in [k for k, (_, t) in self.soon.items() if t < old]:
             del self.soon[fkey]
-        return min(self.soon, key=lambda k: self.soon[k][0]) if self.soon else None
+        # at the frontier (rendered, asked again soon) first, then the newest (a view the
+        # slider is on, not one it left); those ahead of the frontier (a guess) only while
+        # no request waits for the render thread
+        ready = self.soon
+        if not self.queue.empty():
+            ready = {k: v for k, v in self.soon.items() if not v[0]}
+        return min(ready, key=lambda k: (ready[k][0] > 0, -ready[k][1]), default=None)
 
     def _idle(self) -> bool:
         return not self.busy and self.queue.empty() and time.monotonic() - self.last_put >= IDLE
@@ -704,7 +743,9 @@ class TileService:
 
     def _queue_fields(self, keys, share: float) -> None:
         """Queue the fields of tiles just rendered (``share`` seconds each): first for a
-        tile whose field is due (:meth:`_again`), else when the server is idle."""
+        tile whose field is due (:meth:`_again`), else for a layer a slider sweeps
+        (:meth:`sliding`) before the other fields (at the frontier: the nearest), else when
+        the server is idle."""
         with self.lock:
             if self.closed:
                 return
@@ -714,6 +755,10 @@ class TileService:
                     continue
                 if fkey in self.wanted or self._again(fkey, key.d):
                     self._want(fkey)
+                    continue
+                if key.layer in self.slider:  # a slider's next step: this tile's threshold
+                    self.later.pop(fkey, None)
+                    self._soon(fkey, 0.0)
                     continue
                 ds, spent = self.later.get(fkey, ((), 0.0))
                 self.later[fkey] = (tuple(dict.fromkeys((*ds, key.d))), spent + share)
@@ -730,15 +775,19 @@ class _FromField:
     key: TileKey
 
 
-def _margin(geo, d: float) -> float:
-    """How far the distance must move from ``d`` (radians) before the tile whose centre is
-    ``geo`` (a :class:`~gloffset.tiles.tiling.TileCentre`; None: not measured) may reach
-    the frontier, about (the centre's signed distance against ``d`` less the tile's bound):
-    an order for the fields a slider wants, not a decision."""
-    if geo is None:
-        return math.inf
-    signed = -geo.dist if geo.inside else geo.dist
-    return max(0.0, abs(signed - d) - geo.rho)
+def _margin(geo, d: float, step: float, way: int) -> float | None:
+    """How far (radians) the distance must move from ``d``, by the slider's ``step`` in its
+    way (``way`` 1: growing, -1: shrinking, 0: either), for the tile whose centre is ``geo``
+    (a :class:`~gloffset.tiles.tiling.TileCentre`) to reach the frontier (its decision
+    :meth:`~gloffset.tiles.tiling.TileCentre.decide` at each of the next :data:`STEPS`
+    steps); None where it does not, or is not measured."""
+    if geo is None or step <= 0:
+        return None
+    for k in range(1, STEPS + 1):
+        for sign in (1, -1) if way == 0 else (way,):
+            if geo.decide(d + sign * k * step) is None:
+                return k * step
+    return None
 
 
 def _done(data) -> Future:
