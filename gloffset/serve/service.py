@@ -27,6 +27,16 @@ where fields are that cheap, those of a seen view's decided tiles
 (:meth:`TileService.ahead_of`); the others when idle. They are kept in a second LRU
 (``field_mb``); a tile whose field is kept is answered at any distance by its threshold
 (:meth:`TileService.from_field`).
+
+A distance slider is seen from the requests (:meth:`TileService.sliding`): the share of a
+layer's recent tile requests that asked a place seen before at a new distance. While it is
+high, fields are bought at first sight, in the render thread's spare time (no request
+waiting for it: a field costs 3-5 renders on a CPU and competes with them): the field of
+each rendered tile at once (at the next step it is still at the frontier), and those of
+the decided tiles that reach the frontier within the slider's next :data:`STEPS` steps
+(its mean step, in the way it moves), before the "ahead" ones. The next distances are then
+thresholds; a tile whose field has not come yet is rendered (``why`` ``coming``). A pan
+(new places, or the same at one distance) switches it off.
 """
 
 from __future__ import annotations
@@ -367,10 +377,10 @@ class TileService:
         its recent tile requests asked a place seen before at a new distance
         (:meth:`asked`), and since then never under :data:`SLID`; panning and zooming ask
         new places, or the same at the same distance. Then fields are bought at first
-        sight: a tile that is not decided is answered from its field made at once
-        (:meth:`submit_from_field`), and the fields of decided tiles are queued before the
-        "ahead" ones (:meth:`ahead_of`), so that the view's next distances are thresholds,
-        not renders."""
+        sight, in the render thread's spare time: a rendered tile's (:meth:`_queue_fields`)
+        and those of decided tiles that the slider's next steps bring to the frontier
+        (:meth:`ahead_of`), so that the view's next distances are thresholds, not
+        renders."""
         with self.lock:
             return layer in self.slider
 
@@ -472,9 +482,10 @@ class TileService:
     def ahead_of(self, key: TileKey, seen: bool = True) -> None:
         """Queue the field of tile ``key``, decided inside or outside at ``key.d``, that may
         reach the frontier at a later distance, on the field thread. Where a slider sweeps
-        the layer (:meth:`sliding`), at first sight (``seen`` or not), before the fields
-        queued ahead and without waiting for an idle render thread, the tile nearest to the
-        frontier first (:meth:`_next_field`). Else, for a tile of a view seen before
+        the layer (:meth:`sliding`), at first sight (``seen`` or not), where the slider's
+        next :data:`STEPS` steps bring it to the frontier (:func:`_margin`): made before the
+        fields queued ahead, while no request waits for the render thread
+        (:meth:`_next_field`). Else, for a tile of a view seen before
         (``seen``: a distance slider moves) where fields cost at most :data:`AT_ONCE`
         renders (:meth:`at_once`: a new frontier tile is answered from its field anyway),
         ahead: made while the render thread has nothing to do. That distance is then the
@@ -568,13 +579,13 @@ class TileService:
 
     def _next_field(self) -> tuple[FieldKey, Future] | None:
         """The next field to compute and its future (None once closed): the oldest tile
-        queued first (asked for again at a new distance, :meth:`_want`), else the tile of
-        a view a slider sweeps nearest to the frontier (:meth:`ahead_of`,
-        :meth:`_queue_fields`; those queued over :data:`STALE` seconds ago are dropped:
-        their view was left), else, while the render thread has nothing to do, the newest
-        tile queued ahead (low priority, so that they never slow the renders a client
-        waits for), else, when no render was asked for in :data:`IDLE` seconds, the newest
-        tile rendered once."""
+        queued first (asked for again at a new distance, :meth:`_want`), else, while no
+        request waits for the render thread, the newest tile of a view a slider sweeps, a
+        rendered one first (:meth:`ahead_of`, :meth:`_queue_fields`; those queued over
+        :data:`STALE` seconds ago are dropped: their view was left), else, while the
+        render thread has nothing to do, the newest tile queued ahead (low priority, so
+        that they never slow the renders a client waits for), else, when no render was
+        asked for in :data:`IDLE` seconds, the newest tile rendered once."""
         with self.lock:
             while not self.closed:
                 soon = self._soonest()
@@ -611,13 +622,12 @@ class TileService:
         old = time.monotonic() - STALE
         for fkey in [k for k, (_, t) in self.soon.items() if t < old]:
             del self.soon[fkey]
-        # at the frontier (rendered, asked again soon) first, then the newest (a view the
-        # slider is on, not one it left); those ahead of the frontier (a guess) only while
-        # no request waits for the render thread
-        ready = self.soon
+        # only while no request waits for the render thread (spare time: a field competes
+        # with the renders for the CPU); at the frontier (rendered, asked again soon) first,
+        # then the newest (a view the slider is on, not one it left)
         if not self.queue.empty():
-            ready = {k: v for k, v in self.soon.items() if not v[0]}
-        return min(ready, key=lambda k: (ready[k][0] > 0, -ready[k][1]), default=None)
+            return None
+        return min(self.soon, key=lambda k: (self.soon[k][0] > 0, -self.soon[k][1]))
 
     def _idle(self) -> bool:
         return not self.busy and self.queue.empty() and time.monotonic() - self.last_put >= IDLE
@@ -743,9 +753,9 @@ class TileService:
 
     def _queue_fields(self, keys, share: float) -> None:
         """Queue the fields of tiles just rendered (``share`` seconds each): first for a
-        tile whose field is due (:meth:`_again`), else for a layer a slider sweeps
-        (:meth:`sliding`) before the other fields (at the frontier: the nearest), else when
-        the server is idle."""
+        tile whose field is due (:meth:`_again`); for a layer a slider sweeps
+        (:meth:`sliding`) also among its first-sight fields, first of those; else when the
+        server is idle."""
         with self.lock:
             if self.closed:
                 return
@@ -757,9 +767,7 @@ class TileService:
                     self._want(fkey)
                     continue
                 if key.layer in self.slider:  # a slider's next step: this tile's threshold
-                    self.later.pop(fkey, None)
                     self._soon(fkey, 0.0)
-                    continue
                 ds, spent = self.later.get(fkey, ((), 0.0))
                 self.later[fkey] = (tuple(dict.fromkeys((*ds, key.d))), spent + share)
                 self.later.move_to_end(fkey)
