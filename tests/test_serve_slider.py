@@ -1,11 +1,10 @@
 """A distance slider seen by ``gloffset serve`` from its requests
-(:meth:`gloffset.serve.service.TileService.sliding`): the share of a layer's tile requests
-that ask a place seen before at a new distance switches it on under a slider and off under
-a pan; under a slider, fields are bought at first sight (a frontier tile answered from its
-field made at once, the decided tiles' fields queued on the field thread), so that a seen
-view's tiles at new distances are thresholds of kept fields, byte-identical to the rendered
-tiles, even those decided at the view's first distance; under a pan no field is bought. On
-Mexico's 1:10m borders."""
+(:mod:`gloffset.serve.slider`): the share of a layer's tile requests that ask a place seen
+before at a new distance switches it on under a slider and off under a pan; under a slider,
+fields are bought at first sight (a rendered tile's, and those of the decided tiles the
+slider's next steps bring to the frontier), so that a seen view's tiles at new distances are
+thresholds of kept fields, byte-identical to the rendered tiles, even those decided at the
+view's first distance; under a pan no field is bought. On Mexico's 1:10m borders."""
 
 from __future__ import annotations
 
@@ -24,6 +23,7 @@ pytest.importorskip("httpx")
 from starlette.testclient import TestClient  # noqa: E402
 
 from gloffset.serve import service as svc  # noqa: E402
+from gloffset.serve import slider  # noqa: E402
 from gloffset.serve.app import create_app  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -53,7 +53,7 @@ def quiet(monkeypatch):
     when idle, and a slider's queued fields wait as long as the test needs."""
     monkeypatch.setattr(svc.TileService, "at_once", lambda self, layer: False)
     monkeypatch.setattr(svc.TileService, "_idle", lambda self: False)
-    monkeypatch.setattr(svc, "STALE", 600.0)
+    monkeypatch.setattr(slider, "STALE", 600.0)
 
 
 def _key(dist: str, z: int, x: int, y: int) -> svc.TileKey:
@@ -151,3 +151,28 @@ def test_under_a_pan_no_field_is_bought_at_first_sight(shape, quiet):
         assert "rendered" in hows and "inside" in hows and "cached" in hows
         assert not tiles.sliding("mexico")
         assert tiles.computed == 0 and not tiles.soon and not tiles.wanted
+
+
+def test_fields_bought_at_first_sight_go_rendered_first_then_newest(monkeypatch):
+    """A rendered tile's field (margin 0) before those ahead of the frontier, the newest
+    first among equals; those queued over ``STALE`` seconds ago are dropped; and the way a
+    slider moves follows its steps."""
+    now = [100.0]
+    monkeypatch.setattr(slider.time, "monotonic", lambda: now[0])
+    q = slider.FirstSight()
+    q.put("ahead-old", 0.01)
+    now[0] += 1
+    q.put("ahead-new", 0.02)
+    q.put("rendered", 0.0)
+    assert [q.take(), q.take(), q.take(), q.take()] == ["rendered", "ahead-new", "ahead-old", None]
+    q.put("left", 0.0)
+    now[0] += slider.STALE + 0.1
+    q.put("on", 0.01)
+    assert q.take() == "on" and q.take() is None
+    s = slider.Sliders()
+    for d in (0.0, 0.01, 0.02, 0.03):
+        s.asked("a", "p", d)
+    assert s.way("a") == 1 and abs(s.step["a"] - 0.01) < 1e-12
+    for d in (0.02, 0.03) * 12:
+        s.asked("a", "p", d)
+    assert s.way("a") == 0  # back and forth: either way

@@ -22,26 +22,15 @@ still rendered when its batch had started; one cancelled before is skipped.
 A new tile is answered from its field, computed on the render thread, where a field costs
 at most :data:`AT_ONCE` renders (:meth:`TileService.submit_from_field`). Else fields are
 computed on a field thread (its own GL context): first for a tile asked for again at a new
-distance once its renders cost a field (rent or buy, :meth:`TileService._again`); then,
-where fields are that cheap, those of a seen view's decided tiles
-(:meth:`TileService.ahead_of`); the others when idle. They are kept in a second LRU
-(``field_mb``); a tile whose field is kept is answered at any distance by its threshold
-(:meth:`TileService.from_field`).
-
-A distance slider is seen from the requests (:meth:`TileService.sliding`): the share of a
-layer's recent tile requests that asked a place seen before at a new distance. While it is
-high, fields are bought at first sight, in the render thread's spare time (no request
-waiting for it: a field costs 3-5 renders on a CPU and competes with them): the field of
-each rendered tile at once (at the next step it is still at the frontier), and those of
-the decided tiles that reach the frontier within the slider's next :data:`STEPS` steps
-(its mean step, in the way it moves), before the "ahead" ones. The next distances are then
-thresholds; a tile whose field has not come yet is rendered (``why`` ``coming``). A pan
-(new places, or the same at one distance) switches it off.
-"""
+distance once its renders cost a field (rent or buy, :meth:`TileService._again`); while a
+distance slider sweeps the layer (:meth:`TileService.sliding`, seen from the requests), in
+the render thread's spare time, those of its rendered tiles and of the decided tiles its
+next steps bring to the frontier; where fields are cheap, those of a seen view's decided
+tiles (:meth:`TileService.ahead_of`); the others when idle. They are kept in a second LRU
+(``field_mb``); a tile whose field is kept is answered at any distance by its threshold."""
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import threading
 import time
@@ -58,6 +47,7 @@ from ..tiles.tiling.malloc import give_back_freed_memory
 from ..tiles.tiling.ondemand import tms_levels
 from ..units import EARTH_RADIUS
 from .renderqueue import Job, RenderQueue
+from .slider import FirstSight, Sliders
 from .tilekeys import EMPTY_PNG, FieldKey, TileKey, empty_tile, etag, full_png, quad_of
 
 __all__ = [
@@ -92,23 +82,6 @@ COST_WEIGHT = 0.3
 #: a new tile has its field at once, and is answered by its threshold, where a field of
 #: its layer costs at most this many of its renders (the running means): a GPU field
 AT_ONCE = 2.0
-#: weight of the newest request in a layer's running share of tile requests that asked a
-#: place seen before at a new distance (:meth:`TileService.asked`): about the last 16
-SLIDE_WEIGHT = 1 / 16
-#: a layer whose share reaches this is being swept by a distance slider
-#: (:meth:`TileService.sliding`): its fields are bought at first sight, until the share falls
-#: under :data:`SLID` (a slider's new view, 12 new tiles, does not switch it off; a pan's
-#: two views do)
-SLIDING = 0.5
-SLID = 0.2
-#: a decided tile of a layer a slider sweeps has its field queued where it reaches the
-#: frontier within this many of the slider's next steps (the running mean of its moves, in
-#: the way it moves: :meth:`TileService._way`): the fields the next steps need, not every
-#: tile's
-STEPS = 2
-#: seconds a decided tile's field queued for a slider (:meth:`TileService.ahead_of`) waits,
-#: at most, unless its view asks for it again (a slider asks a view's tiles at each step)
-STALE = 2.0
 
 #: seconds between two hand-backs of the freed heap to the system (after a render batch:
 #: the RSS then follows the memory in use, not the largest batch so far)
@@ -148,16 +121,8 @@ class TileService:
         #: FieldKey -> None: tiles of views seen before, decided inside or outside at the
         #: distance asked, whose fields are made ahead where fields are cheap (ahead_of)
         self.ahead: OrderedDict = OrderedDict()
-        #: FieldKey -> (margin, when queued): decided tiles of a layer a slider sweeps, their
-        #: fields made before the "ahead" ones, the nearest to the frontier first (margin:
-        #: how far the distance must move, radians, for the tile to reach the frontier)
-        self.soon: dict = {}
-        #: (layer, z, x, y, tms) -> the last distance asked there (the newest LATER places)
-        self.last_d: OrderedDict = OrderedDict()
-        self.slide: dict = {}  # layer -> running share of requests at a new distance
-        self.slider: set = set()  # the layers a distance slider sweeps (sliding)
-        self.step: dict = {}  # layer -> running mean of a slider's move (radians)
-        self.heading: dict = {}  # layer -> running mean of its signed move (radians)
+        self.soon = FirstSight()  # fields bought for a slider (sliding)
+        self.sliders = Sliders()  # the distance sliders seen from the requests
         self.field_cost: dict = {}  # layer -> running mean of its fields' seconds
         self.render_cost: dict = {}  # layer -> running mean of a rendered tile's seconds
         self.wanted: OrderedDict = OrderedDict()  # FieldKey -> Future, tiles asked again: at once
@@ -345,44 +310,17 @@ class TileService:
             return key.where() in self.centres or key.field() in self.later
 
     def asked(self, key: TileKey) -> bool:
-        """:meth:`seen`, for a tile request as it comes: also notes whether the tile's
-        place was asked before at another distance, in the layer's running share of such
-        requests (weight :data:`SLIDE_WEIGHT`), which says a distance slider is being
-        dragged over that layer's map (:meth:`sliding`)."""
-        where = key.where()
+        """:meth:`seen`, as a request comes: also noted for :meth:`sliding`."""
         with self.lock:
-            seen = where in self.centres or key.field() in self.later
-            last = self.last_d.get(where)
-            self.last_d[where] = key.d
-            self.last_d.move_to_end(where)
-            while len(self.last_d) > LATER:
-                self.last_d.popitem(last=False)
-            moved = 1.0 if last is not None and last != key.d else 0.0
-            if last is not None and moved:
-                move = key.d - last
-                old = self.step.get(key.layer, abs(move))
-                self.step[key.layer] = old + SLIDE_WEIGHT * (abs(move) - old)
-                old = self.heading.get(key.layer, move)
-                self.heading[key.layer] = old + SLIDE_WEIGHT * (move - old)
-            old = self.slide.get(key.layer, 0.0)
-            share = self.slide[key.layer] = old + SLIDE_WEIGHT * (moved - old)
-            if share >= SLIDING:
-                self.slider.add(key.layer)
-            elif share < SLID:
-                self.slider.discard(key.layer)
-        return seen
+            self.sliders.asked(key.layer, key.where(), key.d)
+            return key.where() in self.centres or key.field() in self.later
 
     def sliding(self, layer: str) -> bool:
-        """Whether a distance slider is being dragged over ``layer``: :data:`SLIDING` of
-        its recent tile requests asked a place seen before at a new distance
-        (:meth:`asked`), and since then never under :data:`SLID`; panning and zooming ask
-        new places, or the same at the same distance. Then fields are bought at first
-        sight, in the render thread's spare time: a rendered tile's (:meth:`_queue_fields`)
-        and those of decided tiles that the slider's next steps bring to the frontier
-        (:meth:`ahead_of`), so that the view's next distances are thresholds, not
-        renders."""
+        """Whether a distance slider sweeps ``layer`` (:class:`~gloffset.serve.slider.Sliders`:
+        half its recent requests asked a place seen before at a new distance): then fields
+        are bought at first sight (:meth:`_queue_fields`, :meth:`ahead_of`)."""
         with self.lock:
-            return layer in self.slider
+            return self.sliders.sliding(layer)
 
     def why_rendered(self, key: TileKey, seen: bool) -> str:
         """Why tile ``key`` is rendered rather than answered from a field (the
@@ -391,9 +329,8 @@ class TileService:
         place asked for before, decided inside or outside there: no renders yet to pay for a
         field), ``rent`` (rendered before, those renders cost less than a field so far:
         :meth:`_again`), ``busy`` (its field is due but would come later than a render:
-        :meth:`_sooner`), ``coming`` (its field is queued for a distance slider,
-        :meth:`sliding`, or being made, but not made yet), or ``closed`` (the server is
-        stopping)."""
+        :meth:`_sooner`), ``coming`` (its field is bought or being made, not made yet:
+        :meth:`sliding`), or ``closed`` (the server is stopping)."""
         if key.style.outline is not None:
             return "outline"
         fkey = key.field()
@@ -472,26 +409,17 @@ class TileService:
             if fkey in self.computing:
                 return self.computing[fkey]
             due = fkey in self.wanted or fkey in self.ahead or fkey in self.soon
-            due = due or self._again(fkey, key.d)
-            if self.closed or not due:
+            if self.closed or not (due or self._again(fkey, key.d)):
                 return None
-            if not self._sooner(fkey.layer):
-                return None
-            return self._want(fkey)
+            return self._want(fkey) if self._sooner(fkey.layer) else None
 
     def ahead_of(self, key: TileKey, seen: bool = True) -> None:
-        """Queue the field of tile ``key``, decided inside or outside at ``key.d``, that may
-        reach the frontier at a later distance, on the field thread. Where a slider sweeps
-        the layer (:meth:`sliding`), at first sight (``seen`` or not), where the slider's
-        next :data:`STEPS` steps bring it to the frontier (:func:`_margin`): made before the
-        fields queued ahead, while no request waits for the render thread
-        (:meth:`_next_field`). Else, for a tile of a view seen before
-        (``seen``: a distance slider moves) where fields cost at most :data:`AT_ONCE`
-        renders (:meth:`at_once`: a new frontier tile is answered from its field anyway),
-        ahead: made while the render thread has nothing to do. That distance is then the
-        threshold of a kept field, not a field made while the slider waits. Nothing where
-        fields are dearer and no slider is seen (the renders pay, rent or buy), and nothing
-        for styles with an outline (always rendered)."""
+        """Queue the field of tile ``key``, decided at ``key.d``, that a later distance may
+        bring to the frontier (then a threshold, not a render) on the field thread: where a
+        slider sweeps the layer (:meth:`sliding`), at first sight, if its next steps do
+        (:meth:`~gloffset.serve.slider.Sliders.margin`); else for a tile seen before
+        (``seen``) where fields cost at most :data:`AT_ONCE` renders (:meth:`at_once`),
+        made while the render thread is idle. Not for styles with an outline."""
         if key.style.outline is not None:
             return
         sliding = self.sliding(key.layer)
@@ -499,42 +427,24 @@ class TileService:
             return
         fkey = key.field()
         with self.lock:
-            if self.closed or fkey in self.fields or fkey in self.computing:
-                return
-            if fkey in self.wanted:
+            if self.closed or fkey in self.fields or fkey in self.computing or fkey in self.wanted:
                 return
             if sliding:
-                step, way = self.step.get(key.layer, 0.0), self._way(key.layer)
-                margin = _margin(self.centres.get(key.where()), key.d, step, way)
+                margin = self.sliders.margin(key.layer, self.centres.get(key.where()), key.d)
                 if margin is not None:
-                    self._soon(fkey, margin)
-                return
-            self.ahead[fkey] = None
-            self.ahead.move_to_end(fkey)
-            while len(self.ahead) > LATER:
-                self.ahead.popitem(last=False)
+                    self.soon.put(fkey, margin)
+            else:
+                self.ahead[fkey] = None
+                self.ahead.move_to_end(fkey)
+                while len(self.ahead) > LATER:
+                    self.ahead.popitem(last=False)
             self.wake.notify()
-
-    def _way(self, layer: str) -> int:
-        """The way a layer's slider moves (holding the lock): 1 (growing distances), -1
-        (shrinking), or 0 (either: its moves' mean is under half their size)."""
-        heading, step = self.heading.get(layer, 0.0), self.step.get(layer, 0.0)
-        return 0 if abs(heading) < 0.5 * step else 1 if heading > 0 else -1
-
-    def _soon(self, fkey: FieldKey, margin: float) -> None:
-        """Queue the field of ``fkey`` for a slider, ``margin`` radians from the frontier
-        (holding the lock; :meth:`_next_field`)."""
-        self.soon[fkey] = (margin, time.monotonic())
-        if len(self.soon) > LATER:
-            self.soon.pop(min(self.soon, key=lambda k: self.soon[k][1]))
-        self.wake.notify()
 
     def _sooner(self, layer: str) -> bool:
         """Whether a field queued first now comes no later than a render (holding the
-        lock): the field being computed (the rest of its expected cost), the fields queued
-        first before it and this one's cost, against the render queue's tiles and this one
-        at the renders' mean cost. Before both costs are known: when no field is being
-        computed or waits."""
+        lock): the rest of the field being computed, those queued first and this one, at
+        their mean cost, against the render queue's tiles and this one at the renders'.
+        Before both costs are known: when no field is being computed or waits."""
         cost, render = self.field_cost.get(layer), self.render_cost.get(layer)
         if cost is None or render is None:
             return not self.computing and not self.wanted
@@ -579,21 +489,16 @@ class TileService:
 
     def _next_field(self) -> tuple[FieldKey, Future] | None:
         """The next field to compute and its future (None once closed): the oldest tile
-        queued first (asked for again at a new distance, :meth:`_want`), else, while no
-        request waits for the render thread, the newest tile of a view a slider sweeps, a
-        rendered one first (:meth:`ahead_of`, :meth:`_queue_fields`; those queued over
-        :data:`STALE` seconds ago are dropped: their view was left), else, while the
-        render thread has nothing to do, the newest tile queued ahead (low priority, so
-        that they never slow the renders a client waits for), else, when no render was
-        asked for in :data:`IDLE` seconds, the newest tile rendered once."""
+        queued first (:meth:`_want`), else, while no request waits for the render thread,
+        one bought for a slider (:class:`~gloffset.serve.slider.FirstSight`), else, while
+        the render thread has nothing to do, the newest tile queued ahead, else, when no
+        render was asked for in :data:`IDLE` seconds, the newest tile rendered once."""
         with self.lock:
             while not self.closed:
-                soon = self._soonest()
                 if self.wanted:  # in turn: each waits for those before it (_sooner)
                     fkey, fut = self.wanted.popitem(last=False)
-                elif soon is not None:
-                    fkey, fut = soon, Future()
-                    del self.soon[soon]
+                elif self.soon and self.queue.empty() and (soon := self.soon.take()):
+                    fkey, fut = soon, Future()  # no request waits: the CPU is spare
                     fut.set_running_or_notify_cancel()
                 elif self.ahead and not self.busy and self.queue.empty():
                     fkey, fut = self.ahead.popitem(last=True)[0], Future()
@@ -602,9 +507,7 @@ class TileService:
                     fkey, fut = self.later.popitem(last=True)[0], Future()
                     fut.set_running_or_notify_cancel()
                 else:  # polled while fields wait for a free render thread or an idle server
-                    self.wake.wait(
-                        POLL if self.ahead or self.soon else IDLE if self.later else None
-                    )
+                    self.wake.wait(POLL if self.ahead or self.soon else self.later and IDLE or None)
                     continue
                 if fkey in self.fields or fkey in self.computing:
                     fut.set_result(None)
@@ -613,21 +516,6 @@ class TileService:
                 self.started = time.monotonic()
                 return fkey, fut
             return None
-
-    def _soonest(self) -> FieldKey | None:
-        """The next tile of :attr:`soon` (holding the lock), once those queued over
-        :data:`STALE` seconds ago are dropped; None when there is none."""
-        if not self.soon:
-            return None
-        old = time.monotonic() - STALE
-        for fkey in [k for k, (_, t) in self.soon.items() if t < old]:
-            del self.soon[fkey]
-        # only while no request waits for the render thread (spare time: a field competes
-        # with the renders for the CPU); at the frontier (rendered, asked again soon) first,
-        # then the newest (a view the slider is on, not one it left)
-        if not self.queue.empty():
-            return None
-        return min(self.soon, key=lambda k: (self.soon[k][0] > 0, -self.soon[k][1]))
 
     def _idle(self) -> bool:
         return not self.busy and self.queue.empty() and time.monotonic() - self.last_put >= IDLE
@@ -690,13 +578,7 @@ class TileService:
             self._from_field(fkey, items)
 
     def _from_field(self, fkey: FieldKey, items) -> None:
-        """Answer tiles of one field from it, computed first where it is not kept (once the
-        field thread's, where it is making that field, is done)."""
-        with self.lock:
-            other = self.computing.get(fkey)
-        if isinstance(other, Future):
-            with contextlib.suppress(Exception):
-                other.result(timeout=60)
+        """Answer tiles of one field from it, computed first where it is not kept."""
         try:
             f = self._field(fkey)
             answers = [self._threshold(key, f) for key, _ in items]
@@ -753,9 +635,8 @@ class TileService:
 
     def _queue_fields(self, keys, share: float) -> None:
         """Queue the fields of tiles just rendered (``share`` seconds each): first for a
-        tile whose field is due (:meth:`_again`); for a layer a slider sweeps
-        (:meth:`sliding`) also among its first-sight fields, first of those; else when the
-        server is idle."""
+        tile whose field is due (:meth:`_again`); for a slider (:meth:`sliding`) also
+        bought at first sight; else when the server is idle."""
         with self.lock:
             if self.closed:
                 return
@@ -766,8 +647,8 @@ class TileService:
                 if fkey in self.wanted or self._again(fkey, key.d):
                     self._want(fkey)
                     continue
-                if key.layer in self.slider:  # a slider's next step: this tile's threshold
-                    self._soon(fkey, 0.0)
+                if self.sliders.sliding(key.layer):  # the slider's next step: a threshold
+                    self.soon.put(fkey, 0.0)
                 ds, spent = self.later.get(fkey, ((), 0.0))
                 self.later[fkey] = (tuple(dict.fromkeys((*ds, key.d))), spent + share)
                 self.later.move_to_end(fkey)
@@ -781,21 +662,6 @@ class _FromField:
     """A render-queue item: the tile ``key`` answered from its field (made if need be)."""
 
     key: TileKey
-
-
-def _margin(geo, d: float, step: float, way: int) -> float | None:
-    """How far (radians) the distance must move from ``d``, by the slider's ``step`` in its
-    way (``way`` 1: growing, -1: shrinking, 0: either), for the tile whose centre is ``geo``
-    (a :class:`~gloffset.tiles.tiling.TileCentre`) to reach the frontier (its decision
-    :meth:`~gloffset.tiles.tiling.TileCentre.decide` at each of the next :data:`STEPS`
-    steps); None where it does not, or is not measured."""
-    if geo is None or step <= 0:
-        return None
-    for k in range(1, STEPS + 1):
-        for sign in (1, -1) if way == 0 else (way,):
-            if geo.decide(d + sign * k * step) is None:
-                return k * step
-    return None
 
 
 def _done(data) -> Future:
