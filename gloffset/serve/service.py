@@ -488,19 +488,19 @@ class TileService:
         return fut
 
     def _next_field(self) -> tuple[FieldKey, Future] | None:
-        """The next field to compute and its future (None once closed): the oldest tile
-        queued first (:meth:`_want`), else, while no request waits for the render thread,
-        one bought for a slider (:class:`~gloffset.serve.slider.FirstSight`), else, while
-        the render thread has nothing to do, the newest tile queued ahead, else, when no
-        render was asked for in :data:`IDLE` seconds, the newest tile rendered once."""
+        """The next field to compute and its future (None once closed): the oldest queued
+        first (:meth:`_want`); else, while the render thread has nothing to do (a field
+        would slow it), one bought for a slider (``soon``) or the newest queued ahead; else,
+        when no render was asked for in :data:`IDLE` seconds, the newest tile rendered once."""
         with self.lock:
             while not self.closed:
+                spare = not self.busy and self.queue.empty()  # the render thread's CPU
                 if self.wanted:  # in turn: each waits for those before it (_sooner)
                     fkey, fut = self.wanted.popitem(last=False)
-                elif self.soon and self.queue.empty() and (soon := self.soon.take()):
-                    fkey, fut = soon, Future()  # no request waits: the CPU is spare
+                elif self.soon and spare and (soon := self.soon.take()):
+                    fkey, fut = soon, Future()
                     fut.set_running_or_notify_cancel()
-                elif self.ahead and not self.busy and self.queue.empty():
+                elif self.ahead and spare:
                     fkey, fut = self.ahead.popitem(last=True)[0], Future()
                     fut.set_running_or_notify_cancel()
                 elif self.later and self._idle():
