@@ -408,7 +408,7 @@ class TileService:
         with self.lock:
             if fkey in self.computing:
                 return self.computing[fkey]
-            due = fkey in self.wanted or fkey in self.ahead or fkey in self.soon
+            due = fkey in self.wanted or fkey in self.ahead  # not soon: spare time only
             if self.closed or not (due or self._again(fkey, key.d)):
                 return None
             return self._want(fkey) if self._sooner(fkey.layer) else None
