@@ -74,6 +74,7 @@ layout(std430, binding = 10) writeonly buffer Sign {
 
 uniform ivec2 u_size;         // the block's pixels (columns, rows)
 uniform ivec2 u_origin;       // its first pixel in the grid (column, row)
+uniform int u_row0;           // the first row of this dispatch (a band of the block's rows)
 uniform int u_shift;          // output pixels per cell side: 1 << u_shift
 uniform int u_cells_w;        // cells per row of the block
 uniform float u_gap;          // 2 NEAREST_ERR: chords nearer than this to the least one
@@ -367,7 +368,7 @@ uint feature_sign(dvec3 pd, vec3 p, uint w, uint got, uint now, inout bool none)
 }
 
 void main() {
-    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 px = ivec2(gl_GlobalInvocationID.xy) + ivec2(0, u_row0);
     if (px.x >= u_size.x || px.y >= u_size.y) {
         return;
     }

@@ -85,6 +85,12 @@ NONE = 0xFFFFFFFF
 #: vec4 per arc record (``Arcs`` in ``shaders/field_pixels.comp``); doubles per exact one.
 ARC_TEXELS, EXACT_DOUBLES = 5, 16
 _LOCAL = 8  # the work group's side (pixels)
+#: rows of a block run by one dispatch (a multiple of ``_LOCAL``): on a CPU driver
+#: (llvmpipe) a dispatch runs while the calling thread holds Python's GIL, so a block is
+#: run in bands of rows, the GIL free between them (a tile server's field thread then
+#: stalls its other threads for a band's time, a few ms, not a whole 256 px tile's); the
+#: same pixels, the same bits
+BAND = 32
 
 
 @dataclass
@@ -248,7 +254,9 @@ class FieldPass:
                     _set(prog, name, tuple(float(x) for x in row))
             if plan.kind == "glsl":
                 set_grid_constants(prog, plan.constants)
-            prog.run(group_x=-(-w // _LOCAL), group_y=-(-h // _LOCAL))
+            for row0 in range(0, h, BAND):  # bands: the GIL free between them
+                _set(prog, "u_row0", row0)
+                prog.run(group_x=-(-w // _LOCAL), group_y=-(-min(BAND, h - row0) // _LOCAL))
             ctx.memory_barrier()  # the shader's writes, before they are read back
             out = np.frombuffer(bufs[5].read(), dtype=np.float64).reshape(h, w).copy()
             if signed:

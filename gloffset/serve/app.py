@@ -186,15 +186,15 @@ class _Server:
     async def _tile_answer(self, request: Request, key: TileKey) -> Response:
         """The tile ``key`` (web mercator's or another TileMatrixSet's): cached, decided
         from its centre, the threshold of its kept field, or rendered."""
-        seen = self.tiles.seen(key)  # a view asked for before: its renders go first
+        seen = self.tiles.asked(key)  # a view asked for before: its renders go first
         found = self.tiles.answer(key, measure=False)  # the cache, a known centre
         if found is UNKNOWN:
             await self._measured(key)
             found = self.tiles.answer(key, measure=False)
         if found is UNKNOWN:  # measured but since forgotten: measure it alone
             found = await asyncio.to_thread(self.tiles.answer, key)
-        if seen and found is not None and found[1] in ("inside", "outside"):
-            self.tiles.ahead_of(key)  # a slider's next distance may need its field
+        if found is not None and found[1] in ("inside", "outside"):
+            self.tiles.ahead_of(key, seen)  # a slider's next distance may need its field
         if found is None and await self._field_kept(key):
             thresholded = await asyncio.to_thread(self.tiles.from_field, key)
             found = None if thresholded is None else (thresholded, "field")

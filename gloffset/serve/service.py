@@ -22,12 +22,12 @@ still rendered when its batch had started; one cancelled before is skipped.
 A new tile is answered from its field, computed on the render thread, where a field costs
 at most :data:`AT_ONCE` renders (:meth:`TileService.submit_from_field`). Else fields are
 computed on a field thread (its own GL context): first for a tile asked for again at a new
-distance once its renders cost a field (rent or buy, :meth:`TileService._again`); then,
-where fields are that cheap, those of a seen view's decided tiles
-(:meth:`TileService.ahead_of`); the others when idle. They are kept in a second LRU
-(``field_mb``); a tile whose field is kept is answered at any distance by its threshold
-(:meth:`TileService.from_field`).
-"""
+distance once its renders cost a field (rent or buy, :meth:`TileService._again`); while a
+distance slider sweeps the layer (:meth:`TileService.sliding`, seen from the requests), in
+the render thread's spare time, those of its rendered tiles and of the decided tiles its
+next steps bring to the frontier; where fields are cheap, those of a seen view's decided
+tiles (:meth:`TileService.ahead_of`); the others when idle. They are kept in a second LRU
+(``field_mb``); a tile whose field is kept is answered at any distance by its threshold."""
 
 from __future__ import annotations
 
@@ -47,6 +47,7 @@ from ..tiles.tiling.malloc import give_back_freed_memory
 from ..tiles.tiling.ondemand import tms_levels
 from ..units import EARTH_RADIUS
 from .renderqueue import Job, RenderQueue
+from .slider import FirstSight, Sliders
 from .tilekeys import EMPTY_PNG, FieldKey, TileKey, empty_tile, etag, full_png, quad_of
 
 __all__ = [
@@ -120,6 +121,8 @@ class TileService:
         #: FieldKey -> None: tiles of views seen before, decided inside or outside at the
         #: distance asked, whose fields are made ahead where fields are cheap (ahead_of)
         self.ahead: OrderedDict = OrderedDict()
+        self.soon = FirstSight()  # fields bought for a slider (sliding)
+        self.sliders = Sliders()  # the distance sliders seen from the requests
         self.field_cost: dict = {}  # layer -> running mean of its fields' seconds
         self.render_cost: dict = {}  # layer -> running mean of a rendered tile's seconds
         self.wanted: OrderedDict = OrderedDict()  # FieldKey -> Future, tiles asked again: at once
@@ -229,6 +232,7 @@ class TileService:
             self.closed = True
             self.later.clear()
             self.ahead.clear()
+            self.soon.clear()
             for fut in self.wanted.values():
                 fut.set_result(None)
             self.wanted.clear()
@@ -305,6 +309,19 @@ class TileService:
         with self.lock:
             return key.where() in self.centres or key.field() in self.later
 
+    def asked(self, key: TileKey) -> bool:
+        """:meth:`seen`, as a request comes: also noted for :meth:`sliding`."""
+        with self.lock:
+            self.sliders.asked(key.layer, key.where(), key.d)
+            return key.where() in self.centres or key.field() in self.later
+
+    def sliding(self, layer: str) -> bool:
+        """Whether a distance slider sweeps ``layer`` (:class:`~gloffset.serve.slider.Sliders`:
+        half its recent requests asked a place seen before at a new distance): then fields
+        are bought at first sight (:meth:`_queue_fields`, :meth:`ahead_of`)."""
+        with self.lock:
+            return self.sliders.sliding(layer)
+
     def why_rendered(self, key: TileKey, seen: bool) -> str:
         """Why tile ``key`` is rendered rather than answered from a field (the
         ``Server-Timing`` header's ``why``): ``outline`` (a style with an outline: always
@@ -312,13 +329,16 @@ class TileService:
         place asked for before, decided inside or outside there: no renders yet to pay for a
         field), ``rent`` (rendered before, those renders cost less than a field so far:
         :meth:`_again`), ``busy`` (its field is due but would come later than a render:
-        :meth:`_sooner`), or ``closed`` (the server is stopping)."""
+        :meth:`_sooner`), ``coming`` (its field is bought or being made, not made yet:
+        :meth:`sliding`), or ``closed`` (the server is stopping)."""
         if key.style.outline is not None:
             return "outline"
         fkey = key.field()
         with self.lock:
             if self.closed:
                 return "closed"
+            if fkey in self.soon or fkey in self.computing:
+                return "coming"
             if fkey not in self.later:
                 return "frontier" if seen else "new"
             if fkey in self.wanted or self._again(fkey, key.d):
@@ -388,46 +408,48 @@ class TileService:
         with self.lock:
             if fkey in self.computing:
                 return self.computing[fkey]
-            due = fkey in self.wanted or fkey in self.ahead or self._again(fkey, key.d)
-            if self.closed or not due:
+            due = fkey in self.wanted or fkey in self.ahead  # not soon: spare time only
+            if self.closed or not (due or self._again(fkey, key.d)):
                 return None
-            if not self._sooner(fkey.layer):
-                return None
-            return self._want(fkey)
+            return self._want(fkey) if self._sooner(fkey.layer) else None
 
-    def ahead_of(self, key: TileKey) -> None:
-        """Queue the field of tile ``key`` ahead on the field thread (made while the render
-        thread has nothing to do, :meth:`_next_field`): a tile of a view seen
-        before (a distance slider moves), decided inside or outside at ``key.d``, that may
-        reach the frontier at a later distance, where fields cost at most :data:`AT_ONCE`
-        renders (:meth:`at_once`: a new frontier tile is answered from its field anyway).
-        That distance is then the threshold of a kept field, not a field made while the
-        slider waits. Nothing where fields are dearer (the renders pay, rent or buy), and
-        nothing for styles with an outline (always rendered)."""
-        if key.style.outline is not None or not self.at_once(key.layer):
+    def ahead_of(self, key: TileKey, seen: bool = True) -> None:
+        """Queue the field of tile ``key``, decided at ``key.d``, that a later distance may
+        bring to the frontier (then a threshold, not a render) on the field thread: where a
+        slider sweeps the layer (:meth:`sliding`), at first sight, if its next steps do
+        (:meth:`~gloffset.serve.slider.Sliders.margin`); else for a tile seen before
+        (``seen``) where fields cost at most :data:`AT_ONCE` renders (:meth:`at_once`),
+        made while the render thread is idle. Not for styles with an outline."""
+        if key.style.outline is not None:
+            return
+        sliding = self.sliding(key.layer)
+        if not sliding and not (seen and self.at_once(key.layer)):
             return
         fkey = key.field()
         with self.lock:
-            if self.closed or fkey in self.fields or fkey in self.computing:
+            if self.closed or fkey in self.fields or fkey in self.computing or fkey in self.wanted:
                 return
-            if fkey in self.wanted:
-                return
-            self.ahead[fkey] = None
-            self.ahead.move_to_end(fkey)
-            while len(self.ahead) > LATER:
-                self.ahead.popitem(last=False)
+            if sliding:
+                margin = self.sliders.margin(key.layer, self.centres.get(key.where()), key.d)
+                if margin is not None:
+                    self.soon.put(fkey, margin)
+            else:
+                self.ahead[fkey] = None
+                self.ahead.move_to_end(fkey)
+                while len(self.ahead) > LATER:
+                    self.ahead.popitem(last=False)
             self.wake.notify()
 
     def _sooner(self, layer: str) -> bool:
         """Whether a field queued first now comes no later than a render (holding the
-        lock): the field being computed (the rest of its expected cost) and this one's
-        cost, against the render queue's tiles and this one at the renders' mean cost.
-        Before both costs are known: when no field is being computed."""
+        lock): the rest of the field being computed, those queued first and this one, at
+        their mean cost, against the render queue's tiles and this one at the renders'.
+        Before both costs are known: when no field is being computed or waits."""
         cost, render = self.field_cost.get(layer), self.render_cost.get(layer)
         if cost is None or render is None:
-            return not self.computing
+            return not self.computing and not self.wanted
         left = max(0.0, cost - (time.monotonic() - self.started)) if self.computing else 0.0
-        return left + cost <= (self.queue.qsize() + 1) * render
+        return left + (len(self.wanted) + 1) * cost <= (self.queue.qsize() + 1) * render
 
     def _again(self, fkey: FieldKey, d: float) -> bool:
         """Whether the tile, asked for at ``d``, should have its field first (holding the
@@ -452,6 +474,7 @@ class TileService:
         """Queue the field of ``fkey`` first (holding the lock); its future."""
         self.later.pop(fkey, None)
         self.ahead.pop(fkey, None)
+        self.soon.pop(fkey, None)
         fut = self.wanted.get(fkey) or self.computing.get(fkey)
         if fut is None:
             fut = Future()
@@ -465,25 +488,28 @@ class TileService:
         return fut
 
     def _next_field(self) -> tuple[FieldKey, Future] | None:
-        """The next field to compute and its future (None once closed): the newest tile
-        asked for again at a new distance, else, while the render thread has nothing to do,
-        the newest tile queued ahead (:meth:`ahead_of`: low priority, so that they never
-        slow the renders a client waits for), else, when no render was asked for in
-        :data:`IDLE` seconds, the newest tile rendered once."""
+        """The next field to compute and its future (None once closed): the oldest queued
+        first (:meth:`_want`); else, while the render thread has nothing to do (a field
+        would slow it), one bought for a slider (``soon``) or the newest queued ahead; else,
+        when no render was asked for in :data:`IDLE` seconds, the newest tile rendered once."""
         with self.lock:
             while not self.closed:
-                if self.wanted:
-                    fkey, fut = self.wanted.popitem(last=True)
-                elif self.ahead and not self.busy and self.queue.empty():
+                spare = not self.busy and self.queue.empty()  # the render thread's CPU
+                if self.wanted:  # in turn: each waits for those before it (_sooner)
+                    fkey, fut = self.wanted.popitem(last=False)
+                elif self.soon and spare and (soon := self.soon.take()):
+                    fkey, fut = soon, Future()
+                    fut.set_running_or_notify_cancel()
+                elif self.ahead and spare:
                     fkey, fut = self.ahead.popitem(last=True)[0], Future()
                     fut.set_running_or_notify_cancel()
                 elif self.later and self._idle():
                     fkey, fut = self.later.popitem(last=True)[0], Future()
                     fut.set_running_or_notify_cancel()
                 else:  # polled while fields wait for a free render thread or an idle server
-                    self.wake.wait(POLL if self.ahead else IDLE if self.later else None)
+                    self.wake.wait(POLL if self.ahead or self.soon else self.later and IDLE or None)
                     continue
-                if fkey in self.fields:
+                if fkey in self.fields or fkey in self.computing:
                     fut.set_result(None)
                     continue
                 self.computing[fkey] = fut
@@ -609,7 +635,8 @@ class TileService:
 
     def _queue_fields(self, keys, share: float) -> None:
         """Queue the fields of tiles just rendered (``share`` seconds each): first for a
-        tile whose field is due (:meth:`_again`), else when the server is idle."""
+        tile whose field is due (:meth:`_again`); for a slider (:meth:`sliding`) also
+        bought at first sight; else when the server is idle."""
         with self.lock:
             if self.closed:
                 return
@@ -620,6 +647,8 @@ class TileService:
                 if fkey in self.wanted or self._again(fkey, key.d):
                     self._want(fkey)
                     continue
+                if self.sliders.sliding(key.layer):  # the slider's next step: a threshold
+                    self.soon.put(fkey, 0.0)
                 ds, spent = self.later.get(fkey, ((), 0.0))
                 self.later[fkey] = (tuple(dict.fromkeys((*ds, key.d))), spent + share)
                 self.later.move_to_end(fkey)
