@@ -300,3 +300,27 @@ def test_all_countries_within_an_ulp():
     shape = gloffset.read(DATA / "countries_10m.geojson")
     assert_contract(shape, Equirect(1024, 512))
     assert_contract(shape, Cube(96), max_distance=300e3)
+
+
+def test_a_block_runs_in_bands_where_other_threads_wait(mexico, monkeypatch):
+    """With another thread alive, a block is dispatched in bands of ``BAND`` rows (the GIL
+    free between them); alone, in one dispatch; the same bits either way."""
+    import threading
+
+    import moderngl
+
+    from gloffset.gl import field_pass
+
+    grid = Tile(5, 7, 14)
+    runs = []
+    real = moderngl.ComputeShader.run
+    monkeypatch.setattr(
+        moderngl.ComputeShader, "run", lambda self, *a, **k: runs.append(1) or real(self, *a, **k)
+    )
+    monkeypatch.setattr(threading, "active_count", lambda: 1)
+    alone = gloffset.distance_field(mexico, grid, radius=1.0).values
+    n_alone, runs[:] = len(runs), []
+    monkeypatch.setattr(threading, "active_count", lambda: 2)
+    banded = gloffset.distance_field(mexico, grid, radius=1.0).values
+    assert len(runs) >= n_alone + 256 // field_pass.BAND - 1
+    assert alone.tobytes() == banded.tobytes()
