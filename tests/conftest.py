@@ -123,6 +123,28 @@ def assert_cluster_headers(hdr, rec, f, arcs, every: int = 1) -> None:
             assert np.all(np.linalg.norm(pts - f.centers[ci[0]] - q, axis=1) <= rho)
 
 
+def field_and_codes(shape, grid, monkeypatch, *patches):
+    """The field's values (radius 1) and the shader's sign codes of every block, in
+    order; each ``(object, name, value)`` of ``patches`` set meanwhile."""
+    import gloffset
+    from gloffset.gl.field_pass import FieldPass
+
+    codes = []
+    run = FieldPass.run
+
+    def keep(self, plan, probe=False):
+        out = run(self, plan, probe)
+        codes.append(None if plan.codes is None else plan.codes.copy())
+        return out
+
+    with monkeypatch.context() as m:
+        m.setattr(FieldPass, "run", keep)
+        for obj, name, value in patches:
+            m.setattr(obj, name, value)
+        values = gloffset.distance_field(shape, grid, radius=1.0).values
+    return values, codes
+
+
 def broken_field_pass(monkeypatch, tmp_path, old: str, new: str) -> None:
     """Run the field's pass from a copy of ``shaders/field_pixels.comp`` with ``old`` made
     ``new`` (each test's broken shader)."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import DATA, named_countries
+from conftest import DATA, field_and_codes, named_countries
 
 import gloffset
 from gloffset.gl.field_pass import FieldPass
@@ -148,19 +148,7 @@ def test_dropped_arcs_are_farther_near_and_round_the_pole(
 
 
 def _field_and_codes(shape, grid, monkeypatch, cut: bool):
-    codes = []
-    run = FieldPass.run
-
-    def keep(self, plan, probe=False):
-        out = run(self, plan, probe)
-        codes.append(None if plan.codes is None else plan.codes.copy())
-        return out
-
-    with monkeypatch.context() as m:
-        m.setattr(FieldPass, "run", keep)
-        m.setattr(dominance, "DOMINANCE", cut)
-        values = gloffset.distance_field(shape, grid, radius=1.0).values
-    return values, codes
+    return field_and_codes(shape, grid, monkeypatch, (dominance, "DOMINANCE", cut))
 
 
 @pytest.mark.parametrize(

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import DATA, named_countries
+from conftest import DATA, field_and_codes, named_countries
 
 import gloffset
 from gloffset.gl.field_pass import FieldPass
@@ -45,22 +45,6 @@ def pieces():
     return named_countries(
         "United States", "Greece", "Philippines", path=DATA / "countries_10m.geojson"
     )
-
-
-def field_and_codes(shape, grid, monkeypatch):
-    """The field's values and the shader's sign codes of every block, in order."""
-    codes = []
-    run = FieldPass.run
-
-    def keep(self, plan, probe=False):
-        out = run(self, plan, probe)
-        codes.append(None if plan.codes is None else plan.codes.copy())
-        return out
-
-    with monkeypatch.context() as m:
-        m.setattr(FieldPass, "run", keep)
-        values = gloffset.distance_field(shape, grid, radius=1.0).values
-    return values, codes
 
 
 #: Every list pruned, however short (1:110m borders have short lists).
