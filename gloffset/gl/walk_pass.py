@@ -22,7 +22,12 @@ norm); radii (``reach``, ``err``, the cells' reach, ``m``) are rounded up. The b
   that to its great circle and that to its nearest end;
 * the bounds, ``best + 2 reach`` and ``m + reach`` are one float32 sum each of values
   below 16 (half an ulp: 9.5e-7): :data:`SUM_ERR` (4e-6) covers the four;
-* the bisector test: see :data:`BIS_ABS`.
+* the bisector test: see :data:`BIS_ABS`;
+* the dominance test (``dominated`` in the shader, the float64 rule of
+  :mod:`gloffset.raster.fields.dominance`) on nodes at least ``deep`` cell reaches away:
+  the angles from ``ang_lo`` / ``ang_hi`` above, ``chord(delta) <= min(delta, 2)``,
+  ``sin D >= D (1 - D^2 / 6)`` lowered by 1e-6 relative, and the gap (three float32
+  operations on values below 4: 7e-7) asked to exceed ``2 SUM_ERR``.
 
 The float64 rule's own rounding (1e-14) is far below these margins. The slack is about
 4e-6 rad (25 m) absolute: cells much smaller get longer lists, never shorter.
