@@ -22,12 +22,8 @@ norm); radii (``reach``, ``err``, the cells' reach, ``m``) are rounded up. The b
   that to its great circle and that to its nearest end;
 * the bounds, ``best + 2 reach`` and ``m + reach`` are one float32 sum each of values
   below 16 (half an ulp: 9.5e-7): :data:`SUM_ERR` (4e-6) covers the four;
-* the bisector test: see :data:`BIS_ABS`;
-* the dominance test (``dominated`` in the shader, the float64 rule of
-  :mod:`gloffset.raster.fields.dominance`) on nodes at least ``deep`` cell reaches away:
-  the angles from ``ang_lo`` / ``ang_hi`` above, ``chord(delta) <= min(delta, 2)``,
-  ``sin D >= D (1 - D^2 / 6)`` lowered by 1e-6 relative, and the gap (three float32
-  operations on values below 4: 7e-7) asked to exceed ``2 SUM_ERR``.
+* the bisector test: see :data:`BIS_ABS`; the dominance test (``dominated`` in the
+  shader; :mod:`gloffset.raster.fields.dominance`): see :meth:`WalkPass.run`.
 
 The float64 rule's own rounding (1e-14) is far below these margins. The slack is about
 4e-6 rad (25 m) absolute: cells much smaller get longer lists, never shorter.
@@ -132,7 +128,10 @@ class WalkPass:
         ``shaders/field_walk.comp`` reads them; ``parents``: ``(start, count)`` (k, 2)
         of the cells above the first level (one row: the root list of every cell of
         level 0) and their pool of node ids; ``m`` rounded up, at most 4; ``deep``: the
-        dominance test on the nodes at least this many of a cell's reaches away (0: none).
+        dominance test on the nodes at least this many of a cell's reaches away (0: none),
+        its bounds: the angles from ``ang_lo`` / ``ang_hi``, ``chord(delta) <= min(delta,
+        2)``, ``sin D >= D (1 - D^2 / 6)`` lowered by 1e-6 relative, and the gap (three
+        float32 operations on values below 4: 7e-7) above ``2 SUM_ERR``.
         """
         ctx = self.ctx
         nodes, child = table
