@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...geometry.caps import CAP_SLACK, pad
+from ...geometry.caps import CAP_SLACK, angle_of_chord, chord, pad
 from ...geometry.sphere import angle, column_dots
 
 __all__ = ["ETA", "maybe_nearer", "nearest_vertices", "undominated", "vertex_dominates"]
@@ -85,12 +85,24 @@ def undominated(centers, rho, cell, arc, nodes, d: np.ndarray) -> np.ndarray:
     on = np.flatnonzero(deep[cell])
     co, ao = cell[on], arc[on]
     delta = pad(angle(q[co], nodes.mid[ao]) + nodes.reach[ao])
-    lo = low[co]
-    lip = 2.0 * np.sin(np.minimum(0.5 * delta, 0.5 * np.pi)) / np.sin(lo) * (1.0 + 1e-12)
-    fits = best[co] + rho[co] + delta <= np.pi - lo
-    gap = d[on] - best[co] - rho[co] * lip
-    keep[on] = ~(fits & (gap > ETA))
+    keep[on] = ~_dominated(d[on], best[co], rho[co], delta)
     return keep
+
+
+def _dominated(lo, near, reach, delta) -> np.ndarray:
+    """The bound of the module notes, per pair: True where the run (no nearer to the
+    centre than ``lo``) is farther than ``q*`` (at most ``near`` from the centre) at every
+    point of the disc of radius ``reach`` by more than :data:`ETA`; ``delta`` at least the
+    angle from ``q*`` to every point of the run. ``D = min(lo, near) - reach``, ``L =
+    chord(delta) / sin D`` (rounded up), and the angles asked to fit under ``pi - D``."""
+    low = np.minimum(lo, near) - reach
+    lip = chord(delta)
+    lip /= np.sin(np.maximum(low, 1e-300))
+    lip *= 1.0 + 1e-12
+    out = low > 0.0
+    out &= near + reach + delta <= np.pi - low
+    out &= lo - near - reach * lip > ETA
+    return out
 
 
 def _chord(u, v) -> np.ndarray:
@@ -111,17 +123,9 @@ def vertex_dominates(c, v, mid, lo, r, reach) -> np.ndarray:
     angle(v, mid) + r``. True where ``D > 0``, the angles fit under ``pi - D`` and ``lo
     - angle(c, v) - reach L > ETA``: then no point of the run is the nearest of a point
     of the disc (nor within ``ETA`` of it)."""
-    av = 2.0 * np.arctan2(_chord(c, v), np.sqrt(np.maximum(4.0 - _chord(c, v) ** 2, 0.0)))
-    av = pad(av)  # rounded up: it is subtracted
-    low = np.minimum(lo, av) - reach
-    delta = pad(2.0 * np.arcsin(np.minimum(0.5 * _chord(v, mid), 1.0)) + r)
-    lip = 2.0 * np.sin(np.minimum(0.5 * delta, 0.5 * np.pi))
-    lip /= np.sin(np.maximum(low, 1e-300))
-    lip *= 1.0 + 1e-12
-    out = low > 0.0
-    out &= av + reach + delta <= np.pi - low
-    out &= lo - av - reach * lip > ETA
-    return out
+    cv = _chord(c, v)
+    av = pad(2.0 * np.arctan2(cv, np.sqrt(np.maximum(4.0 - cv * cv, 0.0))))  # rounded up
+    return _dominated(lo, av, reach, pad(angle_of_chord(_chord(v, mid)) + r))
 
 
 #: Slack on the dot products of :func:`maybe_nearer` (unit vectors and sums of two: each
