@@ -19,6 +19,15 @@ it prints the device, then
    * five distances (10, 50, 127, 250, 500 km) at once against five single renders of
      Mexico at 4096 x 2048.
 
+3. then the measures of issue 39 ("the GPU does the work"):
+
+   * ``host_share``: :mod:`host_share`'s three workloads of the 234 countries (the render
+     at 4096 x 2048, the distance field at 4096 x 2048, the z0-7 pyramid), each the best
+     of two warm runs, with the time inside GL calls and the host's share;
+   * ``tile_field``: :mod:`tile_field`'s 256 px tiles, one per zoom 3-10 (about a vertex
+     of Mexico's boundary), on Mexico and on the countries: the field, the render and
+     the floor (the field of one point), best of three.
+
 Each timing is skipped (and says so) once ``--budget`` seconds have passed (default 420,
 so that the run stays within 8 minutes on a hardware GPU; 1200 on llvmpipe).
 
@@ -28,7 +37,9 @@ whether they drew the same. On llvmpipe the record is ``benchmarks/results/gpu.j
 reference; on any other device ``gpu_device.json``, and the run then prints, per step, the
 speed-up over the llvmpipe reference and whether each output is the same (masks and tiles
 must be; the field's values may differ within its accuracy contract, which the GL tests of
-step 1 check, its signs must not). The other benchmarks' results are left alone.
+step 1 check, its signs must not). Step 3's speed-ups are against llvmpipe's
+``results/host_share.json`` and ``results/tile_field.json`` (the same workloads and
+tiles). The other benchmarks' results are left alone.
 """
 
 from __future__ import annotations
@@ -172,6 +183,49 @@ def five_distances(mexico) -> dict:
     }
 
 
+def host_share_step() -> dict:
+    """Issue 39's three workloads (:func:`host_share.measure`: the countries' render, field
+    and pyramid), the best of two warm runs each."""
+    import host_share
+
+    return host_share.measure(False, "countries", 2)
+
+
+def tile_field_step(mexico, world) -> dict:
+    """:func:`tile_field.measure_input` on one tile per zoom 3-10 of each input."""
+    import tile_field
+
+    points = tile_field.boundary_points(1)
+    return {
+        name: tile_field.measure_input(name, shape, points, 3)
+        for name, shape in (("mexico_10m", mexico), ("countries_10m", world))
+    }
+
+
+def against_issue39(rec: dict) -> dict:
+    """Step 3's speed-ups over llvmpipe's records of the same measures (``host_share``
+    per workload, ``tile_field`` per tile: field and render), where those exist."""
+    out: dict = {}
+    path = RESULTS / "host_share.json"
+    if path.exists() and isinstance(rec.get("host_share"), dict):
+        ref = json.loads(path.read_text())
+        for name, row in rec["host_share"].items():
+            if isinstance(row, dict) and "wall_s" in row and "wall_s" in ref.get(name, {}):
+                out[f"host_share {name}"] = {"speedup": ref[name]["wall_s"] / row["wall_s"]}
+    path = RESULTS / "tile_field.json"
+    if path.exists() and isinstance(rec.get("tile_field"), dict):
+        ref = json.loads(path.read_text()).get("inputs", {})
+        for name, got in rec["tile_field"].items():
+            theirs = {tuple(r["tile"]): r for r in ref.get(name, {}).get("tiles", [])}
+            for row in got.get("tiles", []):
+                old = theirs.get(tuple(row["tile"]))
+                if old is not None:
+                    out[f"tile_field {name} {'/'.join(map(str, row['tile']))}"] = {
+                        f"speedup_{k}": old[f"{k}_s"] / row[f"{k}_s"] for k in ("field", "render")
+                    }
+    return out
+
+
 def against(rec: dict, ref: dict) -> dict:
     """Per step of ``rec`` (another device's run), the speed-up over the llvmpipe
     reference ``ref`` and whether each output's SHA-256 is the same (None where either
@@ -224,6 +278,8 @@ def main() -> None:
         ("pyramid", lambda: pyramid(mexico)),
         ("field", lambda: field(world, size)),
         ("five_distances", lambda: five_distances(mexico)),
+        ("host_share", host_share_step),
+        ("tile_field", lambda: tile_field_step(mexico, world)),
     ]
     for name, step in steps:
         if time.perf_counter() - t0 > args.budget:
@@ -235,6 +291,7 @@ def main() -> None:
     reference = RESULTS / "gpu.json"
     if not info["software"] and reference.exists():
         rec["against_llvmpipe"] = against(rec, json.loads(reference.read_text()))
+        rec["against_llvmpipe"] |= against_issue39(rec)
         for name, row in rec["against_llvmpipe"].items():
             print(f"against llvmpipe, {name}: {row}", flush=True)
     path = write("gpu" if info["software"] else "gpu_device", rec)

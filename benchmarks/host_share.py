@@ -153,26 +153,16 @@ def workloads(quick: bool, tmp: Path, pick: str):
     return {k: v for k, v in table.items() if pick in k}
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--quick", action="store_true", help="1024x512 images, tiles z0-4")
-    ap.add_argument("-k", default="", help="only the workloads whose name contains this")
-    ap.add_argument("--repeat", type=int, default=3, help="warm runs, the best kept")
-    ap.add_argument(
-        "--walk",
-        choices=("auto", "cpu", "gpu"),
-        default="auto",
-        help="the field's walk (gloffset.raster.fields.gpu.WALK; gpu: a hardware GL's)",
-    )
-    args = ap.parse_args(argv)
-    field_gpu.WALK = args.walk
+def measure(quick: bool, pick: str, repeat: int) -> dict:
+    """Per workload of :func:`workloads` (``quick``, ``pick``): its best wall time of
+    ``repeat`` warm runs, and one more run's GL time, GL calls and host share; printed."""
     timer = GLTimer()
     timer.install()
     rows = {}
     with tempfile.TemporaryDirectory() as tmp:
-        for name, fn in workloads(args.quick, Path(tmp), args.k).items():
+        for name, fn in workloads(quick, Path(tmp), pick).items():
             fn()  # warm: the shape's caches, the GL context, the shaders
-            wall, _ = best_of(fn, args.repeat)
+            wall, _ = best_of(fn, repeat)
             timed, gl, calls = timer.measure(fn)
             share = max(1.0 - gl / timed, 0.0)
             rows[name] = {
@@ -188,6 +178,23 @@ def main(argv=None):
                 f"({calls} calls)  host share {share:.0%}  host {wall * share:7.3f} s",
                 flush=True,
             )
+    return rows
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="1024x512 images, tiles z0-4")
+    ap.add_argument("-k", default="", help="only the workloads whose name contains this")
+    ap.add_argument("--repeat", type=int, default=3, help="warm runs, the best kept")
+    ap.add_argument(
+        "--walk",
+        choices=("auto", "cpu", "gpu"),
+        default="auto",
+        help="the field's walk (gloffset.raster.fields.gpu.WALK; gpu: a hardware GL's)",
+    )
+    args = ap.parse_args(argv)
+    field_gpu.WALK = args.walk
+    rows = measure(args.quick, args.k, args.repeat)
     write(
         "host_share" if args.walk == "auto" else f"host_share_walk_{args.walk}",
         {

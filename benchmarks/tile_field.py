@@ -10,6 +10,13 @@ seeded boundary vertices of Mexico, each timed warm (best of ``--repeat``):
 crosses such a tile at every zoom). Printed and recorded: both times and their ratio,
 per tile, and the largest ratio per input.
 
+The floor beside them: the field of a one-vertex shape (the antipode of the tile's
+centre) on the same tile: one arc in every cell's list, every cell deep, each pixel
+still finished in float64 (a point at the tile's centre, or 20 degrees away, costs as
+much within the noise). No list can make a field cheaper than that on this GL, so ``floor / render``
+is the least ratio the field can reach here whatever its walk (printed and recorded per
+tile, ``floor_s`` and ``floor_ratio``; the largest per input).
+
 ``--walk cpu`` or ``gpu`` sets the fields' walk (``gloffset.raster.fields.gpu.WALK``;
 default ``auto``).
 
@@ -49,6 +56,56 @@ def boundary_points(k: int, seed: int = 0) -> np.ndarray:
     return np.column_stack([np.degrees(np.arctan2(y, x)), np.degrees(np.arcsin(z))])
 
 
+def tile_centre(z: int, x: int, y: int) -> tuple[float, float]:
+    """The (lon, lat) of the centre of web mercator tile ``z/x/y``."""
+    n = 1 << z
+    lon = (x + 0.5) / n * 360.0 - 180.0
+    lat = math.degrees(math.atan(math.sinh(math.pi * (1.0 - 2.0 * (y + 0.5) / n))))
+    return lon, lat
+
+
+def measure_tile(shape, z: int, x: int, y: int, repeat: int) -> dict:
+    """One tile's record: its field, its render at :data:`D` and the floor (the field of
+    the antipode of its centre), each warm, the best of ``repeat``; their ratios."""
+    grid = Tile(z, x, y)
+    lon, lat = tile_centre(z, x, y)
+    antipode = [lon + 180.0 if lon < 0 else lon - 180.0, -lat]
+    point = gloffset.read({"type": "Point", "coordinates": antipode})
+    runs = {
+        "field_s": lambda: gloffset.distance_field(shape, grid),
+        "render_s": lambda: gloffset.render(shape, D, grid),
+        "floor_s": lambda: gloffset.distance_field(point, grid),
+    }
+    row: dict = {"tile": [z, x, y]}
+    for key, fn in runs.items():
+        fn()  # warm: caches, GL, shaders
+        row[key], _ = best_of(fn, repeat)
+    row["ratio"] = row["field_s"] / row["render_s"]
+    row["floor_ratio"] = row["floor_s"] / row["render_s"]
+    return row
+
+
+def measure_input(name: str, shape, points, repeat: int) -> dict:
+    """The tiles of ``points`` (lon, lat) at zooms 3-10 of one input, printed; with the
+    largest ratios."""
+    rows = []
+    for z in range(3, 11):
+        for lon, lat in points:
+            x, y = tile_of(float(lon), float(lat), z)
+            row = measure_tile(shape, z, x, y, repeat)
+            rows.append(row)
+            print(
+                f"{name:14s} {z:2d}/{x}/{y:<6d} field {row['field_s'] * 1e3:7.1f} ms  "
+                f"render {row['render_s'] * 1e3:6.1f} ms  ratio {row['ratio']:5.1f}  "
+                f"floor {row['floor_s'] * 1e3:6.1f} ms ({row['floor_ratio']:4.1f})",
+                flush=True,
+            )
+    worst = max(r["ratio"] for r in rows)
+    floor = max(r["floor_ratio"] for r in rows)
+    print(f"{name}: largest field / render ratio {worst:.1f} (floor {floor:.1f})", flush=True)
+    return {"tiles": rows, "largest_ratio": worst, "largest_floor_ratio": floor}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--tiles", type=int, default=3, help="boundary vertices (tiles) per zoom")
@@ -63,28 +120,7 @@ def main(argv=None):
         if args.k not in name:
             continue
         shape = gloffset.read(DATA / f"{name}.geojson")
-        rows = []
-        for z in range(3, 11):
-            for lon, lat in points:
-                x, y = tile_of(float(lon), float(lat), z)
-                grid = Tile(z, x, y)
-                gloffset.distance_field(shape, grid)  # warm: caches, GL, shaders
-                gloffset.render(shape, D, grid)
-                field, _ = best_of(
-                    lambda s=shape, g=grid: gloffset.distance_field(s, g), args.repeat
-                )
-                render, _ = best_of(lambda s=shape, g=grid: gloffset.render(s, D, g), args.repeat)
-                ratio = field / render
-                rows.append({"tile": [z, x, y], "field_s": field, "render_s": render})
-                rows[-1]["ratio"] = ratio
-                print(
-                    f"{name:14s} {z:2d}/{x}/{y:<6d} field {field * 1e3:7.1f} ms  "
-                    f"render {render * 1e3:6.1f} ms  ratio {ratio:5.1f}",
-                    flush=True,
-                )
-        worst = max(r["ratio"] for r in rows)
-        print(f"{name}: largest field / render ratio {worst:.1f}", flush=True)
-        record["inputs"][name] = {"tiles": rows, "largest_ratio": worst}
+        record["inputs"][name] = measure_input(name, shape, points, args.repeat)
     write("tile_field" if args.walk == "auto" else f"tile_field_walk_{args.walk}", record)
 
 
