@@ -20,8 +20,13 @@ tile, ``floor_s`` and ``floor_ratio``; the largest per input).
 ``--walk cpu`` or ``gpu`` sets the fields' walk (``gloffset.raster.fields.gpu.WALK``;
 default ``auto``).
 
+``--at=LON,LAT`` measures the tiles about that point instead (an inland point: tiles whose
+render is decided at once, while their field still finishes every pixel).
+
 Run: python benchmarks/tile_field.py [--tiles 3] [--repeat 5] [-k mexico] [--walk auto]
-Writes benchmarks/results/tile_field.json (tile_field_walk_WALK.json for another walk).
+     [--at=LON,LAT]
+Writes benchmarks/results/tile_field.json (tile_field_at.json with ``--at``;
+..._walk_WALK.json for another walk).
 """
 
 from __future__ import annotations
@@ -112,16 +117,27 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=5, help="warm runs, the best kept")
     ap.add_argument("-k", default="", help="only the inputs whose name contains this")
     ap.add_argument("--walk", default="auto", choices=("auto", "cpu", "gpu"), help="the walk")
+    ap.add_argument(
+        "--at",
+        default=None,
+        help="LON,LAT: the tiles about this point instead of boundary vertices (written to "
+        "tile_field_at.json)",
+    )
     args = ap.parse_args(argv)
     field_gpu.WALK = args.walk
-    points = boundary_points(args.tiles)
+    if args.at is None:
+        points = boundary_points(args.tiles)
+    else:
+        points = np.array([[float(v) for v in args.at.split(",")]])
     record: dict = {"distance_m": D, "repeat": args.repeat, "walk": args.walk, "inputs": {}}
+    record["points"] = points.tolist()
     for name in ("mexico_10m", "countries_10m"):
         if args.k not in name:
             continue
         shape = gloffset.read(DATA / f"{name}.geojson")
         record["inputs"][name] = measure_input(name, shape, points, args.repeat)
-    write("tile_field" if args.walk == "auto" else f"tile_field_walk_{args.walk}", record)
+    name = "tile_field" if args.at is None else "tile_field_at"
+    write(name if args.walk == "auto" else f"{name}_walk_{args.walk}", record)
 
 
 if __name__ == "__main__":
