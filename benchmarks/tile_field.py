@@ -61,19 +61,12 @@ def boundary_points(k: int, seed: int = 0) -> np.ndarray:
     return np.column_stack([np.degrees(np.arctan2(y, x)), np.degrees(np.arcsin(z))])
 
 
-def tile_centre(z: int, x: int, y: int) -> tuple[float, float]:
-    """The (lon, lat) of the centre of web mercator tile ``z/x/y``."""
-    n = 1 << z
-    lon = (x + 0.5) / n * 360.0 - 180.0
-    lat = math.degrees(math.atan(math.sinh(math.pi * (1.0 - 2.0 * (y + 0.5) / n))))
-    return lon, lat
-
-
 def measure_tile(shape, z: int, x: int, y: int, repeat: int) -> dict:
     """One tile's record: its field, its render at :data:`D` and the floor (the field of
     the antipode of its centre), each warm, the best of ``repeat``; their ratios."""
     grid = Tile(z, x, y)
-    lon, lat = tile_centre(z, x, y)
+    half = grid.size / 2 - 0.5  # the pixel "centre" at the tile's centre
+    lon, lat = (float(v) for v in grid.pixel_lonlat(half, half))
     antipode = [lon + 180.0 if lon < 0 else lon - 180.0, -lat]
     point = gloffset.read({"type": "Point", "coordinates": antipode})
     runs = {
@@ -128,7 +121,11 @@ def main(argv=None):
     if args.at is None:
         points = boundary_points(args.tiles)
     else:
-        points = np.array([[float(v) for v in args.at.split(",")]])
+        try:
+            lon, lat = (float(v) for v in args.at.split(","))
+        except ValueError:
+            ap.error(f"--at wants LON,LAT in degrees (as --at=-99.13,19.43), got {args.at!r}")
+        points = np.array([[lon, lat]])
     record: dict = {"distance_m": D, "repeat": args.repeat, "walk": args.walk, "inputs": {}}
     record["points"] = points.tolist()
     for name in ("mexico_10m", "countries_10m"):
