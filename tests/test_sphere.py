@@ -5,9 +5,12 @@ from hypothesis import strategies as st
 from gloffset.geometry.sphere import (
     angle,
     arc_distance,
+    arc_foot,
     arcs_cross,
     lonlat_to_xyz,
+    nearest_on_arc,
     normalize,
+    robust_cross,
     rotate,
     slerp,
     xyz_to_lonlat,
@@ -73,6 +76,25 @@ def test_arc_distance_matches_dense_sampling():
     d = arc_distance(p, a, b)
     assert np.all(d <= brute + 1e-14)
     assert np.all(brute - d < 1e-3)  # sampling step bound
+
+
+def test_nearest_on_arc_is_on_the_arc_at_its_distance():
+    # random arcs (feet on the arc and beyond either end), points on the arcs, a
+    # degenerate arc: the point lies on the arc and its angle from p is arc_distance's
+    a, b = rand_unit(2000), rand_unit(2000)
+    a[-1] = b[-1]
+    p = np.concatenate([rand_unit(1999), a[-1:]])
+    p[:100] = slerp(a[:100], b[:100], rng.uniform(0, 1, 100))
+    n = normalize(robust_cross(a, b))
+    q = nearest_on_arc(p, a, b, n)
+    assert np.abs(np.linalg.norm(q, axis=1) - 1.0).max() < 1e-15
+    assert np.abs(arc_distance(q, a, b, n)).max() < 1e-14  # on the arc
+    assert np.abs(angle(p, q) - arc_distance(p, a, b, n)).max() < 1e-14
+    # where the foot falls off the arc, the nearer end, bit for bit
+    inside, _, _ = arc_foot(p, a, b, n)
+    off = np.flatnonzero(~inside)
+    nearer = np.where((angle(p, a) <= angle(p, b))[:, None], a, b)
+    assert len(off) > 100 and np.array_equal(q[off], nearer[off])
 
 
 def test_arcs_cross_against_intersection_point():

@@ -32,6 +32,8 @@ __all__ = [
     "pair_equal",
     "cross",
     "norm",
+    "arc_foot",
+    "nearest_on_arc",
     "robust_cross",
     "angle",
     "slerp",
@@ -281,12 +283,31 @@ def arc_distance(p, a, b, n=None) -> np.ndarray:
     if n is None:
         n = normalize(robust_cross(a, b))
     n = np.asarray(n, dtype=np.float64)
-    pn = dot(p, n)
-    inside = (dot(p, cross(n, a)) >= 0.0) & (dot(p, cross(b, n)) >= 0.0) & (dot(n, n) > 0.5)
-    foot = p - pn[..., None] * n
+    inside, pn, foot = arc_foot(p, a, b, n)
     d_line = np.arctan2(np.abs(pn), norm(foot))
     d_ends = np.minimum(angle(p, a), angle(p, b))
     return np.where(inside, d_line, d_ends)
+
+
+def arc_foot(p, a, b, n):
+    """``(inside, p.n, foot)``: whether the foot of ``p`` on the great circle of the arc
+    ``a -> b`` (unit normal ``n``, zero for a point) falls on the arc, as
+    :func:`arc_distance` decides it, ``p.n`` and the foot ``p - (p.n) n`` (not
+    normalised)."""
+    pn = dot(p, n)
+    inside = (dot(p, cross(n, a)) >= 0.0) & (dot(p, cross(b, n)) >= 0.0) & (dot(n, n) > 0.5)
+    return inside, pn, p - pn[..., None] * n
+
+
+def nearest_on_arc(p, a, b, n) -> np.ndarray:
+    """The point of the arc ``a -> b`` (unit normal ``n``) nearest to ``p``: the foot on
+    its great circle, normalised, where :func:`arc_distance` takes it, else the nearer
+    end (the one :func:`arc_distance` measures), each within a few 1e-16."""
+    inside, _, foot = arc_foot(p, a, b, n)
+    size = norm(foot)
+    inside &= size > 0
+    end = np.where((angle(p, a) <= angle(p, b))[..., None], a, b)
+    return np.where(inside[..., None], foot / np.where(size > 0, size, 1.0)[..., None], end)
 
 
 def arcs_cross(p, q, a, b, n=None) -> np.ndarray:

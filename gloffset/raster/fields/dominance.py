@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...geometry.caps import CAP_SLACK, angle_of_chord, chord, pad
-from ...geometry.sphere import angle, column_dots
+from ...geometry.sphere import angle, column_dots, nearest_on_arc
 
 __all__ = ["ETA", "maybe_nearer", "nearest_vertices", "undominated", "vertex_dominates"]
 
@@ -44,21 +44,6 @@ DEEP = 16.0
 #: at every point of the disc: the float64 distances are good to 1e-15, the points ``q*``
 #: to a few 1e-16, and the shader reads its features within 1e-13 of the least.
 ETA = 1e-12
-
-
-def _nearest_points(c: np.ndarray, nodes, arc: np.ndarray) -> np.ndarray:
-    """Return the point of each arc ``arc`` nearest to the point ``c`` (one per row): its
-    foot where it falls on the arc (``arc_distance``'s test), else its nearer end."""
-    a, b, n = nodes.a[arc], nodes.b[arc], nodes.n[arc]
-    cn = np.einsum("ij,ij->i", c, n)
-    foot = c - cn[:, None] * n
-    size = np.linalg.norm(foot, axis=1)
-    on = np.einsum("ij,ij->i", c, np.cross(n, a)) >= 0.0
-    on &= np.einsum("ij,ij->i", c, np.cross(b, n)) >= 0.0
-    on &= np.abs(n).sum(axis=1) > 0
-    on &= size > 0
-    end = np.where((angle(c, a) <= angle(c, b))[:, None], a, b)
-    return np.where(on[:, None], foot / np.where(size > 0, size, 1.0)[:, None], end)
 
 
 def undominated(centers, rho, cell, arc, nodes, d: np.ndarray) -> np.ndarray:
@@ -81,7 +66,8 @@ def undominated(centers, rho, cell, arc, nodes, d: np.ndarray) -> np.ndarray:
     win = win[np.diff(cell[win], prepend=-1) != 0]
     cw = cell[win]
     q = np.zeros((k, 3))
-    q[cw] = _nearest_points(centers[cw], nodes, arc[win])
+    aw = arc[win]
+    q[cw] = nearest_on_arc(centers[cw], nodes.a[aw], nodes.b[aw], nodes.n[aw])
     on = np.flatnonzero(deep[cell])
     co, ao = cell[on], arc[on]
     delta = pad(angle(q[co], nodes.mid[ao]) + nodes.reach[ao])
